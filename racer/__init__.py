@@ -1,0 +1,3 @@
+"""racer: a local, open DeepRacer-compatible training system (MuJoCo + PyTorch PPO + Redis + S3)."""
+
+__version__ = "0.1.0"

@@ -1,0 +1,45 @@
+"""The `racer` command. Subcommands are imported only when run, so `racer --help` stays fast."""
+
+from __future__ import annotations
+
+import importlib
+
+import click
+
+# name -> (module:attribute of a click command, one-line help). Each module owns its command.
+COMMANDS: dict[str, tuple[str, str]] = {
+    "train": ("racer.local_run:train_command", "Train a model: Redis, store, trainer and N rollout workers as local processes."),
+    "trainer": ("racer.trainer.main:trainer_command", "Run the PPO trainer process alone (one per training run)."),
+    "rollout": ("racer.rollout_worker.main:rollout_command", "Run one rollout worker (one world) alone."),
+    "evaluate": ("racer.evaluation_worker.main:evaluate_command", "Evaluate a model: DeepRacer trials or the 4-minute race rule."),
+    "analyze": ("racer.analysis.cli:analyze_command", "Analyse simtrace logs into tables, plots and an HTML report."),
+    "model": ("racer.model_io.cli:model_group", "Validate, import and export models in DeepRacer's layout."),
+    "bench": ("racer.bench:bench_group", "Benchmarks that print one JSON line (sim, ppo, time-to-lap)."),
+    "track": ("racer.shared.sim.track_cli:track_group", "List, inspect and plot tracks."),
+}
+
+
+class LazyGroup(click.Group):
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        return sorted(COMMANDS)
+
+    def get_command(self, ctx: click.Context, name: str) -> click.Command | None:
+        if name not in COMMANDS:
+            return None
+        module_name, attribute = COMMANDS[name][0].split(":")
+        return getattr(importlib.import_module(module_name), attribute)
+
+    def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
+        rows = [(name, COMMANDS[name][1]) for name in self.list_commands(ctx)]
+        with formatter.section("Commands"):
+            formatter.write_dl(rows)
+
+
+@click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 120})
+@click.version_option(package_name="racer")
+def main() -> None:
+    """Train, evaluate and analyse DeepRacer-style models locally (MuJoCo, PyTorch PPO, Redis, S3/MinIO)."""
+
+
+if __name__ == "__main__":
+    main()

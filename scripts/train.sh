@@ -1,0 +1,9 @@
+#!/usr/bin/env bash
+# Sets everything up (idempotent) and trains with the embedded default: local processes, a Redis
+# server, storage in ./racer-data, four rollout workers (base, carpet, concrete, wood).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+./scripts/setup.sh
+export PATH="$PWD/.venv/bin:$PATH"
+export MUJOCO_GL="${MUJOCO_GL:-egl}"
+exec .venv/bin/racer train "$@"

@@ -1,0 +1,19 @@
+"""Maps the repository's top-level folders onto the single `racer` import namespace."""
+
+from setuptools import find_packages, setup
+
+PACKAGE_DIRS = {
+    "racer": "racer",
+    "racer.shared": "shared",
+    "racer.trainer": "trainer",
+    "racer.rollout_worker": "rollout_worker",
+    "racer.evaluation_worker": "evaluation_worker",
+    "racer.tracks": "tracks",
+}
+
+packages = []
+for package, folder in PACKAGE_DIRS.items():
+    packages.append(package)
+    packages += [f"{package}.{sub}" for sub in find_packages(folder)]
+
+setup(packages=packages, package_dir=PACKAGE_DIRS)

@@ -1,0 +1,95 @@
+"""Deployment settings: where Redis and the object store are.
+
+This is the only module that reads environment variables. Everything else receives the
+frozen dataclasses built here, so a test or a subprocess can be configured explicitly.
+
+| variable | meaning | default |
+|---|---|---|
+| `RACER_REDIS_URL` | Redis URL | `redis://127.0.0.1:6379/0` |
+| `RACER_STORE` | `s3://bucket` or a local directory | `./racer-data` |
+| `S3_ENDPOINT_URL` | S3 endpoint (MinIO), as in DeepRacer's `S3_ENDPOINT_URL` | unset (AWS) |
+| `AWS_ACCESS_KEY_ID`, `AWS_SECRET_ACCESS_KEY`, `AWS_DEFAULT_REGION` | S3 credentials and region | boto3's own chain, region `us-east-1` |
+| `RACER_CONNECT_TIMEOUT_S` | how long to try reaching Redis or S3 before giving up | `10` |
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
+DEFAULT_REDIS_URL = "redis://127.0.0.1:6379/0"
+DEFAULT_LOCAL_STORE = "./racer-data"
+
+
+@dataclass(frozen=True)
+class RedisSettings:
+    url: str = DEFAULT_REDIS_URL
+    connect_timeout_s: float = 10.0
+    """Total time budget for reaching the server (retries with backoff inside it)."""
+
+
+@dataclass(frozen=True)
+class S3Settings:
+    bucket: str
+    endpoint_url: str | None = None
+    access_key_id: str | None = None
+    secret_access_key: str | None = None
+    region: str = "us-east-1"
+    connect_timeout_s: float = 10.0
+
+
+@dataclass(frozen=True)
+class LocalStoreSettings:
+    root: Path
+
+
+StoreSettings = S3Settings | LocalStoreSettings
+
+
+@dataclass(frozen=True)
+class ServiceSettings:
+    redis: RedisSettings
+    store: StoreSettings
+
+
+def parse_store_location(location: str, environ: Mapping[str, str], connect_timeout_s: float) -> StoreSettings:
+    """`s3://bucket` selects S3 (credentials and endpoint from the environment); anything else is a directory."""
+    if location.startswith("s3://"):
+        bucket = location.removeprefix("s3://").strip("/")
+        if not bucket or "/" in bucket:
+            raise ValueError(f"RACER_STORE={location!r}: expected s3://<bucket> with no key prefix")
+        return S3Settings(
+            bucket=bucket,
+            endpoint_url=environ.get("S3_ENDPOINT_URL") or None,
+            access_key_id=environ.get("AWS_ACCESS_KEY_ID") or None,
+            secret_access_key=environ.get("AWS_SECRET_ACCESS_KEY") or None,
+            region=environ.get("AWS_DEFAULT_REGION") or environ.get("AWS_REGION") or "us-east-1",
+            connect_timeout_s=connect_timeout_s,
+        )
+    return LocalStoreSettings(root=Path(location).expanduser().resolve())
+
+
+def settings_from_env(environ: Mapping[str, str] | None = None) -> ServiceSettings:
+    env = os.environ if environ is None else environ
+    timeout_s = float(env.get("RACER_CONNECT_TIMEOUT_S", "10"))
+    return ServiceSettings(
+        redis=RedisSettings(url=env.get("RACER_REDIS_URL", DEFAULT_REDIS_URL), connect_timeout_s=timeout_s),
+        store=parse_store_location(env.get("RACER_STORE", DEFAULT_LOCAL_STORE), env, timeout_s),
+    )
+
+
+def env_flag(name: str, default: bool = False, environ: Mapping[str, str] | None = None) -> bool:
+    """A boolean environment variable, accepting DeepRacer's mixed spellings ('True', 'true', '1')."""
+    env = os.environ if environ is None else environ
+    raw = env.get(name)
+    if raw is None or raw == "":
+        return default
+    return raw.strip().lower() in {"1", "true", "yes", "on"}
+
+
+def render_backend(environ: Mapping[str, str] | None = None) -> str | None:
+    """The MuJoCo GL backend the user asked for (`MUJOCO_GL`), if any."""
+    env = os.environ if environ is None else environ
+    return env.get("MUJOCO_GL") or None

@@ -1,0 +1,66 @@
+"""Fixtures shared by the whole suite: real redis-server and MinIO processes, and the shared data folder."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+from racer.shared.config import RedisSettings, S3Settings
+from racer.shared.services import MinioServer, RedisServer
+from racer.shared.store import S3Store
+
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+REPO_ROOT = Path(__file__).resolve().parents[1]
+SHARED_DATA = REPO_ROOT.parent / "shared" / "deepracer-data"
+"""Real DeepRacer files (routes, simtraces, metrics, configs, reward functions), read in place."""
+
+
+@pytest.fixture(scope="session")
+def deepracer_data() -> Path:
+    if not SHARED_DATA.is_dir():
+        raise FileNotFoundError(f"the real DeepRacer data folder is missing: {SHARED_DATA}")
+    return SHARED_DATA
+
+
+@pytest.fixture
+def redis_server(tmp_path_factory):
+    """A fresh redis-server (project redis.conf, loopback, own port and data dir), stopped afterwards.
+
+    Tests may call .restart(), .kill() or .start() on it.
+    """
+    server = RedisServer(tmp_path_factory.mktemp("redis"))
+    server.start()
+    yield server
+    server.stop()
+
+
+@pytest.fixture
+def redis_settings(redis_server) -> RedisSettings:
+    return RedisSettings(url=redis_server.url, connect_timeout_s=5.0)
+
+
+@pytest.fixture(scope="session")
+def minio_server(tmp_path_factory):
+    """One MinIO server for the session (it takes a second or two to start); tests use their own buckets."""
+    server = MinioServer(tmp_path_factory.mktemp("minio"))
+    server.start(timeout_s=60)
+    yield server
+    server.stop()
+
+
+@pytest.fixture
+def s3_settings(minio_server, request) -> S3Settings:
+    """Settings for a new, empty bucket in the session's MinIO."""
+    bucket = "t-" + "".join(c for c in request.node.name.lower() if c.isalnum())[:40] + f"-{os.getpid() % 10000}"
+    settings = S3Settings(
+        bucket=bucket,
+        endpoint_url=minio_server.endpoint_url,
+        access_key_id=minio_server.access_key,
+        secret_access_key=minio_server.secret_key,
+        connect_timeout_s=5.0,
+    )
+    S3Store(settings).ensure_bucket()
+    return settings

@@ -1,0 +1,57 @@
+"""Redis round trip against a real server, restart, and a bounded failure when unreachable."""
+
+from __future__ import annotations
+
+import time
+
+import pytest
+
+from racer.shared.config import RedisSettings
+from racer.shared.redis_connection import RedisUnavailableError, connect_redis
+from racer.shared.services import free_port
+
+
+def test_round_trip(redis_settings):
+    client = connect_redis(redis_settings)
+    client.set("racer:test", b"\x00\x01payload")
+    assert client.get("racer:test") == b"\x00\x01payload"
+    client.xadd("racer:stream", {"field": b"value"})
+    assert client.xlen("racer:stream") == 1
+
+
+def test_project_config_is_applied(redis_settings):
+    client = connect_redis(redis_settings)
+    assert client.config_get("protected-mode")["protected-mode"] == "no"
+    assert client.config_get("maxmemory-policy")["maxmemory-policy"] == "noeviction"
+    assert client.config_get("bind")["bind"] == "127.0.0.1"
+
+
+def test_data_survives_restart(redis_server, redis_settings):
+    client = connect_redis(redis_settings)
+    client.xadd("racer:stream", {"n": 1})
+    client.execute_command("BGREWRITEAOF")
+    time.sleep(0.5)
+    redis_server.restart()
+    client = connect_redis(redis_settings)
+    assert client.xlen("racer:stream") == 1
+
+
+def test_unreachable_redis_fails_within_budget():
+    settings = RedisSettings(url=f"redis://127.0.0.1:{free_port()}/0", connect_timeout_s=1.5)
+    started = time.monotonic()
+    with pytest.raises(RedisUnavailableError, match="cannot reach Redis"):
+        connect_redis(settings)
+    assert time.monotonic() - started < 5
+
+
+def test_waits_for_a_server_that_starts_late(redis_server):
+    import concurrent.futures
+
+    redis_server.stop()
+    with concurrent.futures.ThreadPoolExecutor(1) as pool:
+        connecting = pool.submit(connect_redis, RedisSettings(url=redis_server.url, connect_timeout_s=10))
+        time.sleep(0.7)
+        assert not connecting.done()
+        # Started from the main thread: PR_SET_PDEATHSIG is tied to the thread that spawns the child.
+        redis_server.start()
+        assert connecting.result(timeout=15).ping()

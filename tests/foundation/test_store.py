@@ -1,0 +1,89 @@
+"""The object-store contract, run against a real MinIO and against a local directory."""
+
+from __future__ import annotations
+
+import time
+
+import pytest
+
+from racer.shared.config import S3Settings
+from racer.shared.store import (
+    BucketNotFoundError,
+    LocalStore,
+    ObjectNotFoundError,
+    S3Store,
+    StoreUnavailableError,
+    open_store,
+)
+from racer.shared.services import free_port
+
+
+@pytest.fixture(params=["s3", "local"])
+def store(request, tmp_path):
+    if request.param == "s3":
+        return open_store(request.getfixturevalue("s3_settings"))
+    return LocalStore(tmp_path / "bucket")
+
+
+def test_put_get_overwrite_delete(store):
+    store.put_bytes("model-a/model/.coach_checkpoint", b"0_Step-0.ckpt")
+    assert store.get_bytes("model-a/model/.coach_checkpoint") == b"0_Step-0.ckpt"
+    store.put_bytes("model-a/model/.coach_checkpoint", b"1_Step-519.ckpt")
+    assert store.get_bytes("model-a/model/.coach_checkpoint") == b"1_Step-519.ckpt"
+    assert store.exists("model-a/model/.coach_checkpoint")
+    assert store.size("model-a/model/.coach_checkpoint") == len(b"1_Step-519.ckpt")
+    store.delete("model-a/model/.coach_checkpoint")
+    assert not store.exists("model-a/model/.coach_checkpoint")
+    store.delete("model-a/model/.coach_checkpoint")  # deleting twice is fine
+
+
+def test_list_by_prefix(store):
+    keys = ["m/model/0_Step-0.ckpt.data", "m/model/0_Step-0.ckpt.index", "m/ip/hyperparameters.json", "m2/model/x"]
+    for key in keys:
+        store.put_bytes(key, key.encode())
+    assert store.list_keys("m/model/") == sorted(keys[:2])
+    assert store.list_keys("m/") == sorted(keys[:3])
+    assert store.list_keys("m") == sorted(keys)
+    assert store.list_keys("nothing-here/") == []
+
+
+def test_binary_round_trip(store):
+    payload = bytes(range(256)) * 4096  # 1 MiB with every byte value
+    store.put_bytes("m/blob.bin", payload)
+    assert store.get_bytes("m/blob.bin") == payload
+
+
+def test_missing_key_is_a_clear_error(store):
+    with pytest.raises(ObjectNotFoundError) as caught:
+        store.get_bytes("m/model/missing.json")
+    assert "m/model/missing.json" in str(caught.value)
+    assert store.describe() in str(caught.value)
+
+
+def test_invalid_keys_are_rejected(store):
+    for key in ["/abs", "a//b", "a/../b", ""]:
+        with pytest.raises(ValueError):
+            store.put_bytes(key, b"x")
+
+
+def test_missing_bucket(minio_server):
+    store = S3Store(S3Settings(bucket="no-such-bucket", endpoint_url=minio_server.endpoint_url,
+                               access_key_id=minio_server.access_key, secret_access_key=minio_server.secret_key))
+    with pytest.raises(BucketNotFoundError, match="no-such-bucket"):
+        store.get_bytes("k")
+
+
+def test_unreachable_minio_fails_fast():
+    port = free_port()  # nothing listens here
+    store = S3Store(S3Settings(bucket="b", endpoint_url=f"http://127.0.0.1:{port}", access_key_id="x",
+                               secret_access_key="y", connect_timeout_s=2.0))
+    started = time.monotonic()
+    with pytest.raises(StoreUnavailableError, match=f"127.0.0.1:{port}"):
+        store.put_bytes("k", b"v")
+    assert time.monotonic() - started < 30
+
+
+def test_local_store_has_no_partial_files(tmp_path):
+    store = LocalStore(tmp_path)
+    store.put_bytes("a/b.json", b"{}")
+    assert store.list_keys("") == ["a/b.json"]  # the staging folder never shows
