@@ -48,3 +48,42 @@ def connect_redis(settings: RedisSettings, *, first_backoff_s: float = 0.1, max_
             log.info("Redis at %s not reachable yet (%s); retrying in %.1f s", settings.url, error, backoff_s)
             time.sleep(min(backoff_s, remaining_s))
             backoff_s = min(backoff_s * 2, max_backoff_s)
+
+
+class RedisLink:
+    """A Redis client that survives server restarts: operations are retried after reconnecting.
+
+    `do(operation)` runs `operation(client)`; on a connection error it reconnects with backoff for
+    up to `reconnect_budget_s` and runs the operation again, so use it only for operations that are
+    safe to repeat (reads, XADD of a message the reader de-duplicates, SET, XACK).
+    """
+
+    def __init__(self, settings: RedisSettings, reconnect_budget_s: float = 300.0):
+        self.settings = settings
+        self.reconnect_budget_s = reconnect_budget_s
+        self._client = connect_redis(settings)
+
+    @property
+    def client(self) -> redis.Redis:
+        return self._client
+
+    def do(self, operation):
+        deadline = time.monotonic() + self.reconnect_budget_s
+        while True:
+            try:
+                return operation(self._client)
+            except (redis.ConnectionError, redis.TimeoutError) as error:
+                if time.monotonic() > deadline:
+                    raise RedisUnavailableError(
+                        f"lost Redis at {self.settings.url} and could not reconnect within "
+                        f"{self.reconnect_budget_s:.0f} s: {error}"
+                    ) from error
+                log.warning("Redis connection lost (%s); reconnecting to %s", error, self.settings.url)
+                self._client.close()
+                remaining_s = max(1.0, deadline - time.monotonic())
+                self._client = connect_redis(
+                    RedisSettings(url=self.settings.url, connect_timeout_s=min(remaining_s, self.reconnect_budget_s))
+                )
+
+    def close(self) -> None:
+        self._client.close()

@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from racer.shared.config import RedisSettings, S3Settings
@@ -64,3 +65,27 @@ def s3_settings(minio_server, request) -> S3Settings:
     )
     S3Store(settings).ensure_bucket()
     return settings
+
+
+def make_episode(steps: int, seed: int, continuous: bool = False, worker_id: int = 1, world: str = "carpet",
+                 policy_version: int = 3):
+    """A synthetic episode with camera frames and lidar, for transport and trainer-plumbing tests."""
+    from racer.shared.episode import Episode
+
+    rng = np.random.default_rng(seed)
+    frames = rng.integers(0, 255, size=(steps, 120, 160, 1), dtype=np.uint8)
+    frames[:, :60] = 90  # a flat sky-like area, as rendered frames have
+    actions = rng.uniform(-1, 1, (steps, 2)).astype(np.float32) if continuous else rng.integers(0, 5, steps)
+    return Episode(
+        observations={"FRONT_FACING_CAMERA": frames, "LIDAR": rng.uniform(0.15, 1, (steps, 64)).astype(np.float32)},
+        actions=actions,
+        rewards=rng.uniform(0, 1, steps).astype(np.float32),
+        log_probs=rng.uniform(-2, 0, steps).astype(np.float32),
+        policy_version=policy_version, worker_id=worker_id, world=world, episode_index=seed,
+        final_status="off_track", progress=12.5, info={"lap_time_s": 0.0},
+    )
+
+
+@pytest.fixture
+def episode_factory():
+    return make_episode

@@ -1,0 +1,137 @@
+"""Wire format of an episode batch: msgpack with raw, zlib-compressed numpy buffers. Never pickle.
+
+A batch is the share of one iteration that one worker played (all its episodes), so it is sent as
+one Redis stream entry and arrives whole or not at all. Layout (schema `racer.episodes/1`):
+
+    {"schema": "racer.episodes/1",
+     "iteration": int, "share": int, "worker_id": int, "world": str, "policy_version": int,
+     "episodes": [
+        {"episode_index": int, "final_status": str, "progress": float, "info": {str: scalar},
+         "arrays": {"actions": ARRAY, "rewards": ARRAY, "log_probs": ARRAY,
+                    "obs/<SENSOR_NAME>": ARRAY, ...}}]}
+    ARRAY = {"dtype": "<u1", "shape": [T, 120, 160, 1], "codec": "zlib" | "raw", "data": bytes}
+
+Camera frames are most of the bytes; zlib level 1 shrinks rendered grayscale frames several times
+at a few hundred MB/s, which keeps a 20-episode iteration to a few MB in Redis.
+"""
+
+from __future__ import annotations
+
+import zlib
+from dataclasses import dataclass
+
+import msgpack
+import numpy as np
+
+from racer.shared.episode import Episode
+
+SCHEMA = "racer.episodes/1"
+_COMPRESS_MIN_BYTES = 4096
+_ALLOWED_DTYPES = {"|u1", "<u1", "<i8", "<f4", "<f8", "<i4", "|b1"}
+
+
+class CodecError(ValueError):
+    """A message that is not a valid `racer.episodes/1` batch."""
+
+
+@dataclass(frozen=True)
+class EpisodeBatch:
+    iteration: int
+    share: int
+    worker_id: int
+    world: str
+    policy_version: int
+    episodes: tuple[Episode, ...]
+
+
+def _encode_array(array: np.ndarray) -> dict:
+    array = np.ascontiguousarray(array)
+    raw = array.tobytes()
+    if len(raw) >= _COMPRESS_MIN_BYTES:
+        return {"dtype": array.dtype.str, "shape": list(array.shape), "codec": "zlib", "data": zlib.compress(raw, 1)}
+    return {"dtype": array.dtype.str, "shape": list(array.shape), "codec": "raw", "data": raw}
+
+
+def _decode_array(spec: dict, where: str) -> np.ndarray:
+    dtype = spec.get("dtype")
+    if dtype not in _ALLOWED_DTYPES:
+        raise CodecError(f"{where}: unsupported dtype {dtype!r}")
+    data = spec["data"]
+    if spec.get("codec") == "zlib":
+        data = zlib.decompress(data)
+    elif spec.get("codec") != "raw":
+        raise CodecError(f"{where}: unknown codec {spec.get('codec')!r}")
+    shape = tuple(int(n) for n in spec["shape"])
+    array = np.frombuffer(data, dtype=np.dtype(dtype))
+    if array.size != int(np.prod(shape)):
+        raise CodecError(f"{where}: {array.size} values do not fill shape {shape}")
+    return array.reshape(shape)
+
+
+def encode_batch(batch: EpisodeBatch) -> bytes:
+    episodes = []
+    for episode in batch.episodes:
+        episode.validate()
+        arrays = {
+            "actions": _encode_array(episode.actions),
+            "rewards": _encode_array(episode.rewards.astype(np.float32, copy=False)),
+            "log_probs": _encode_array(episode.log_probs.astype(np.float32, copy=False)),
+        }
+        for name, observation in episode.observations.items():
+            arrays[f"obs/{name}"] = _encode_array(observation)
+        episodes.append({
+            "episode_index": episode.episode_index,
+            "final_status": episode.final_status,
+            "progress": float(episode.progress),
+            "info": dict(episode.info),
+            "arrays": arrays,
+        })
+    message = {
+        "schema": SCHEMA,
+        "iteration": batch.iteration,
+        "share": batch.share,
+        "worker_id": batch.worker_id,
+        "world": batch.world,
+        "policy_version": batch.policy_version,
+        "episodes": episodes,
+    }
+    return msgpack.packb(message, use_bin_type=True)
+
+
+def decode_batch(payload: bytes) -> EpisodeBatch:
+    try:
+        message = msgpack.unpackb(payload, raw=False, strict_map_key=True)
+    except (msgpack.ExtraData, msgpack.FormatError, msgpack.StackError, ValueError) as error:
+        raise CodecError(f"episode batch is not valid msgpack: {error}") from error
+    if not isinstance(message, dict) or message.get("schema") != SCHEMA:
+        raise CodecError(f"expected schema {SCHEMA!r}, got {message.get('schema') if isinstance(message, dict) else type(message)}")
+    episodes = []
+    for number, raw_episode in enumerate(message["episodes"]):
+        where = f"batch worker={message['worker_id']} iteration={message['iteration']} episode #{number}"
+        arrays = {name: _decode_array(spec, f"{where} {name}") for name, spec in raw_episode["arrays"].items()}
+        episode = Episode(
+            observations={name.removeprefix("obs/"): a for name, a in arrays.items() if name.startswith("obs/")},
+            actions=arrays["actions"],
+            rewards=arrays["rewards"],
+            log_probs=arrays["log_probs"],
+            policy_version=int(message["policy_version"]),
+            worker_id=int(message["worker_id"]),
+            world=str(message["world"]),
+            episode_index=int(raw_episode["episode_index"]),
+            final_status=str(raw_episode["final_status"]),
+            progress=float(raw_episode["progress"]),
+            info=dict(raw_episode["info"]),
+        )
+        try:
+            episode.validate()
+        except ValueError as error:
+            raise CodecError(f"{where}: {error}") from error
+        episodes.append(episode)
+    return EpisodeBatch(
+        iteration=int(message["iteration"]),
+        share=int(message["share"]),
+        worker_id=int(message["worker_id"]),
+        world=str(message["world"]),
+        policy_version=int(message["policy_version"]),
+        episodes=tuple(episodes),
+    )
