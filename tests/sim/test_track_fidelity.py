@@ -1,0 +1,73 @@
+"""Re-derive `progress` and `closest_waypoint` of real DeepRacer simtraces from their X, Y (reference §11.10)."""
+
+from __future__ import annotations
+
+import csv
+
+import pytest
+
+from racer.shared.sim.track import Track, compute_progress
+
+ROUND_ROBIN_ADVANCE = 0.05
+
+
+def _simtraces(deepracer_data):
+    folder = deepracer_data / "simtrace"
+    files = sorted(folder.glob("console2022_*.csv")) + sorted(folder.glob("drfc1_*.csv"))
+    assert len(files) >= 7, f"expected the console2022_* and drfc1_* simtraces in {folder}"
+    return files
+
+
+def _start_ndist(episode: int, training: bool) -> float:
+    """Training episode e of a single worker starts at 0.05*e (accumulated as DeepRacer does); evaluation at 0."""
+    start = 0.0
+    if training:
+        for _ in range(episode):
+            start = (start + ROUND_ROBIN_ADVANCE) % 1.0
+    return start
+
+
+def test_progress_and_closest_waypoint_match_real_simtraces(deepracer_data):
+    track = Track.load(deepracer_data / "routes" / "reinvent_base.npy")
+    checked_rows = 0
+    for path in _simtraces(deepracer_data):
+        training = "training" in path.name
+        with path.open(newline="") as handle:
+            rows = list(csv.DictReader(handle))
+        assert rows, path
+        max_error = 0.0
+        mismatches = 0
+        prev_progress = 0.0
+        start_ndist = 0.0
+        for row in rows:
+            if row["steps"] == "1.0":
+                prev_progress = 0.0
+                start_ndist = _start_ndist(int(row["episode"]), training)
+            x, y = float(row["X"]), float(row["Y"])
+            progress = compute_progress(track.project_normalized(x, y), start_ndist, prev_progress)
+            max_error = max(max_error, abs(progress - float(row["progress"])))
+            if track.closest_waypoint_for_simtrace(x, y) != int(row["closest_waypoint"]):
+                mismatches += 1
+            assert track.length_m == pytest.approx(float(row["track_len"]), abs=1e-12)
+            prev_progress = 0.0 if progress == 100 else progress
+            checked_rows += 1
+        assert max_error <= 1e-9, f"{path.name}: max progress error {max_error}"
+        assert mismatches == 0, f"{path.name}: {mismatches} closest_waypoint mismatches"
+    assert checked_rows > 9000
+
+
+def test_point_geometry_matches_simtrace_too(deepracer_data):
+    """The env's single-pass `point_geometry` gives the same values as the individual methods."""
+    track = Track.load(deepracer_data / "routes" / "reinvent_base.npy")
+    path = deepracer_data / "simtrace" / "console2022_training_0-iteration.csv"
+    with path.open(newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    for row in rows[:300]:
+        x, y = float(row["X"]), float(row["Y"])
+        geometry = track.point_geometry(x, y)
+        assert geometry.ndist == track.project_normalized(x, y)
+        assert geometry.closest_waypoint_for_simtrace == int(row["closest_waypoint"])
+        assert geometry.closest_waypoints == track.closest_waypoints(x, y)
+        assert geometry.distance_from_center_m == pytest.approx(track.distance_from_center(x, y), abs=1e-12)
+        assert geometry.track_width_m == pytest.approx(track.track_width_at(x, y), abs=1e-12)
+        assert geometry.is_left_of_center == track.is_left_of_center(x, y)
