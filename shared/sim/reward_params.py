@@ -1,0 +1,193 @@
+"""The reward-function `params` dict, key for key and type for type as DeepRacer builds it (reference §1).
+
+Independent of MuJoCo on purpose: the analysis tools rebuild params from simtrace rows with the same function.
+"""
+
+from __future__ import annotations
+
+import bisect
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from shapely.geometry import LinearRing, LineString, Point, Polygon
+
+from racer.shared.sim.track import PointGeometry, Track
+
+FRONT_OF_CAR_M = 0.14
+"""DeepRacer's model point: the car origin moved 0.14 m forward along the heading."""
+
+CAMERA_HORIZONTAL_FOV_RAD = 1.13
+CAMERA_OFFSET_M = 0.14529
+"""Camera optical centre ahead of the car origin; used by the (2-D) object-in-camera test."""
+CAMERA_NEAR_M = 0.2
+
+PARAM_KEYS: tuple[str, ...] = (
+    "all_wheels_on_track",
+    "x",
+    "y",
+    "heading",
+    "distance_from_center",
+    "is_left_of_center",
+    "projection_distance",
+    "progress",
+    "steps",
+    "speed",
+    "steering_angle",
+    "track_width",
+    "track_length",
+    "waypoints",
+    "closest_waypoints",
+    "is_reversed",
+    "is_crashed",
+    "is_offtrack",
+    "closest_objects",
+    "objects_location",
+    "objects_left_of_center",
+    "object_in_camera",
+    "objects_speed",
+    "objects_heading",
+    "objects_distance_from_center",
+    "objects_distance",
+    "sim_time",
+)
+"""Every key of the params dict; all are always present."""
+
+
+@dataclass(frozen=True)
+class TrackObject:
+    """A non-agent model on the track (obstacle box or bot car)."""
+
+    x: float
+    y: float
+    heading_rad: float = 0.0
+    speed_mps: float = 0.0
+    is_bot_car: bool = False
+
+
+def front_of_car(x_m: float, y_m: float, yaw_rad: float) -> tuple[float, float]:
+    """The model point DeepRacer reports as x, y: car origin + R(yaw)·[0.14, 0]."""
+    return x_m + FRONT_OF_CAR_M * math.cos(yaw_rad), y_m + FRONT_OF_CAR_M * math.sin(yaw_rad)
+
+
+def make_reward_params(
+    track: Track,
+    *,
+    x: float,
+    y: float,
+    heading_deg: float,
+    speed_mps: float,
+    steering_angle_deg: float,
+    steps: float,
+    progress: float,
+    all_wheels_on_track: bool,
+    is_offtrack: bool,
+    is_crashed: bool = False,
+    is_reversed: bool | None = None,
+    sim_time_s: float = 0.0,
+    objects: Sequence[TrackObject] = (),
+    geometry: PointGeometry | None = None,
+) -> dict:
+    """Build the complete params dict for one step.
+
+    `x`, `y` are the front-of-car point (as in the simtrace X, Y). `speed_mps` / `steering_angle_deg` are the
+    commanded (unclipped) action values. `is_reversed` defaults to the track's direction flag. `geometry` may pass
+    a `track.point_geometry(x, y)` already computed by the caller (the env does, for progress).
+    """
+    if geometry is None:
+        geometry = track.point_geometry(x, y)
+    params = {
+        "all_wheels_on_track": bool(all_wheels_on_track),
+        "x": float(x),
+        "y": float(y),
+        "heading": float(heading_deg),
+        "distance_from_center": geometry.distance_from_center_m,
+        "is_left_of_center": bool(geometry.is_left_of_center),
+        "projection_distance": geometry.ndist * track.length_m,
+        "progress": progress,
+        "steps": float(steps),
+        "speed": float(speed_mps),
+        "steering_angle": float(steering_angle_deg),
+        "track_width": geometry.track_width_m,
+        "track_length": track.length_m,
+        "waypoints": track.waypoint_tuples,
+        "closest_waypoints": list(geometry.closest_waypoints),
+        "is_reversed": bool(track.direction_reversed if is_reversed is None else is_reversed),
+        "is_crashed": bool(is_crashed),
+        "is_offtrack": bool(is_offtrack),
+        "sim_time": float(sim_time_s),
+    }
+    params.update(object_params(track, objects, x=x, y=y, heading_deg=heading_deg, car_ndist=geometry.ndist))
+    return {key: params[key] for key in PARAM_KEYS}
+
+
+def object_params(
+    track: Track, objects: Sequence[TrackObject], *, x: float, y: float, heading_deg: float, car_ndist: float
+) -> dict:
+    """The `objects_*` keys; DeepRacer's defaults when there are no objects."""
+    if not objects:
+        return {
+            "closest_objects": [0, 0],
+            "objects_location": [],
+            "objects_left_of_center": [],
+            "object_in_camera": False,
+            "objects_speed": [],
+            "objects_heading": [],
+            "objects_distance_from_center": [],
+            "objects_distance": [],
+        }
+    line_cls = LinearRing if track.is_loop else LineString
+    center = line_cls(track.center_line)
+    inner_poly = Polygon(track.center_line, [track.inner_border]) if track.is_loop else None
+    points = [Point(o.x, o.y) for o in objects]
+    distances = [float(center.project(p)) for p in points]
+    order = sorted(range(len(objects)), key=lambda i: distances[i])
+    sorted_distances = [distances[i] for i in order]
+    next_pos = bisect.bisect_right(sorted_distances, car_ndist * track.length_m)
+    prev_pos = next_pos - 1
+    if next_pos == len(order):
+        next_pos = 0
+    if prev_pos == -1:
+        prev_pos = len(order) - 1
+    prev_idx, next_idx = order[prev_pos], order[next_pos]
+    any_bot = any(o.is_bot_car for o in objects)
+    if inner_poly is not None:
+        left = [bool(inner_poly.contains(p)) ^ (not track.is_ccw) for p in points]
+    else:
+        left = [track.is_left_of_center(o.x, o.y) for o in objects]
+    return {
+        "closest_objects": [prev_idx, next_idx],
+        "objects_location": [[float(o.x), float(o.y)] for o in objects],
+        "objects_left_of_center": left,
+        "object_in_camera": _in_camera(objects[next_idx], x, y, heading_deg),
+        "objects_speed": [float(o.speed_mps) if any_bot else 0.0 for o in objects],
+        "objects_heading": [float(o.heading_rad) if any_bot else 0.0 for o in objects],
+        "objects_distance_from_center": [float(center.distance(p)) for p in points],
+        "objects_distance": distances,
+    }
+
+
+def _in_camera(obj: TrackObject, x: float, y: float, heading_deg: float) -> bool:
+    """Whether an object lies in the camera's horizontal field of view (a 2-D simplification of the frustum)."""
+    yaw = math.radians(heading_deg)
+    origin_x = x - FRONT_OF_CAR_M * math.cos(yaw)
+    origin_y = y - FRONT_OF_CAR_M * math.sin(yaw)
+    cam_x = origin_x + CAMERA_OFFSET_M * math.cos(yaw)
+    cam_y = origin_y + CAMERA_OFFSET_M * math.sin(yaw)
+    dx, dy = obj.x - cam_x, obj.y - cam_y
+    forward = dx * math.cos(yaw) + dy * math.sin(yaw)
+    if forward < CAMERA_NEAR_M:
+        return False
+    bearing = math.atan2(dy, dx) - yaw
+    bearing = (bearing + math.pi) % (2 * math.pi) - math.pi
+    return abs(bearing) <= CAMERA_HORIZONTAL_FOV_RAD / 2
+
+
+def copy_params(params: dict) -> dict:
+    """A copy a reward function may mutate freely (DeepRacer deep-copies; tuples and scalars are immutable)."""
+    copied = {}
+    for key, value in params.items():
+        if isinstance(value, list):
+            value = [list(item) if isinstance(item, list) else item for item in value]
+        copied[key] = value
+    return copied
