@@ -1,0 +1,325 @@
+"""`racer train`: the whole system as local processes (the embedded default).
+
+One command starts a redis-server with the project's redis.conf (loopback only), optionally a MinIO
+server, the trainer and N rollout workers, then shows live progress until training ends or Ctrl-C.
+Every child dies with this process (PR_SET_PDEATHSIG), so nothing is left behind.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from dataclasses import dataclass
+from datetime import datetime
+from pathlib import Path
+
+import click
+
+from racer.shared.config import LocalStoreSettings, RedisSettings, S3Settings, ServiceSettings, settings_from_env
+from racer.shared.redis_connection import RedisLink
+from racer.shared.run_layout import DEFAULT_TRACK, WORLDS
+from racer.shared.services import PROJECT_ROOT, MinioServer, RedisServer, _die_with_parent
+from racer.shared.store import S3Store, open_store
+from racer.shared.transport.channels import RunChannel
+
+
+@dataclass(frozen=True)
+class LocalRunPlan:
+    model_prefix: str
+    custom_files: Path
+    num_workers: int
+    worlds: tuple[str, ...]
+    track: str
+    max_episodes: int | None
+    max_minutes: float | None
+    use_minio: bool
+    log_dir: Path
+    seed: int = 0
+    pretrained_prefix: str | None = None
+    pretrained_checkpoint: str = "last"
+
+
+def service_environment(settings: ServiceSettings) -> dict[str, str]:
+    """The environment that gives a child process these service settings (read back by shared/config.py)."""
+    env = dict(os.environ)
+    env["RACER_REDIS_URL"] = settings.redis.url
+    env["RACER_CONNECT_TIMEOUT_S"] = str(settings.redis.connect_timeout_s)
+    if isinstance(settings.store, S3Settings):
+        env["RACER_STORE"] = f"s3://{settings.store.bucket}"
+        if settings.store.endpoint_url:
+            env["S3_ENDPOINT_URL"] = settings.store.endpoint_url
+        if settings.store.access_key_id:
+            env["AWS_ACCESS_KEY_ID"] = settings.store.access_key_id
+        if settings.store.secret_access_key:
+            env["AWS_SECRET_ACCESS_KEY"] = settings.store.secret_access_key
+        env["AWS_DEFAULT_REGION"] = settings.store.region
+    else:
+        env["RACER_STORE"] = str(settings.store.root)
+    env.setdefault("MUJOCO_GL", "egl")
+    return env
+
+
+class LocalRun:
+    """Owns the processes of one local training run."""
+
+    def __init__(self, plan: LocalRunPlan, base_settings: ServiceSettings):
+        self.plan = plan
+        self.base_settings = base_settings
+        self.redis: RedisServer | None = None
+        self.minio: MinioServer | None = None
+        self.children: dict[str, subprocess.Popen] = {}
+        self.settings: ServiceSettings | None = None
+
+    def start_services(self) -> ServiceSettings:
+        self.plan.log_dir.mkdir(parents=True, exist_ok=True)
+        self.redis = RedisServer(self.plan.log_dir / "redis")
+        self.redis.start()
+        store = self.base_settings.store
+        if self.plan.use_minio:
+            self.minio = MinioServer(self.plan.log_dir / "minio")
+            self.minio.start(timeout_s=60)
+            store = S3Settings(bucket="racer", endpoint_url=self.minio.endpoint_url,
+                               access_key_id=self.minio.access_key, secret_access_key=self.minio.secret_key)
+            S3Store(store).ensure_bucket()
+        self.settings = ServiceSettings(redis=RedisSettings(url=self.redis.url, connect_timeout_s=10), store=store)
+        return self.settings
+
+    def _spawn(self, name: str, args: list[str]) -> None:
+        log_path = self.plan.log_dir / f"{name}.log"
+        with open(log_path, "ab") as log:
+            self.children[name] = subprocess.Popen(
+                [sys.executable, "-m", "racer.cli", *args], stdout=log, stderr=subprocess.STDOUT,
+                env=service_environment(self.settings), preexec_fn=_die_with_parent,
+            )
+
+    def start_processes(self) -> None:
+        plan = self.plan
+        trainer_args = ["trainer", "--model-prefix", plan.model_prefix, "--custom-files", str(plan.custom_files),
+                        "--workers", str(plan.num_workers), "--track", plan.track,
+                        "--worlds", ",".join(plan.worlds), "--seed", str(plan.seed)]
+        if plan.max_episodes is not None:
+            trainer_args += ["--max-episodes", str(plan.max_episodes)]
+        if plan.max_minutes is not None:
+            trainer_args += ["--max-minutes", str(plan.max_minutes)]
+        if plan.pretrained_prefix:
+            trainer_args += ["--pretrained-prefix", plan.pretrained_prefix,
+                             "--pretrained-checkpoint", plan.pretrained_checkpoint]
+        self._spawn("trainer", trainer_args)
+        for worker_id in range(plan.num_workers):
+            self._spawn(f"worker-{worker_id}", ["rollout", "--model-prefix", plan.model_prefix,
+                                                "--worker-id", str(worker_id), "--seed", str(plan.seed + worker_id)])
+
+    def stop(self, grace_s: float = 60.0) -> None:
+        """Ask the trainer to finish (final checkpoint, .finished), then stop everything that is left."""
+        trainer = self.children.get("trainer")
+        if trainer is not None and trainer.poll() is None:
+            trainer.send_signal(signal.SIGTERM)
+            try:
+                trainer.wait(grace_s)
+            except subprocess.TimeoutExpired:
+                trainer.kill()
+        deadline = time.monotonic() + 15
+        for child in self.children.values():
+            if child.poll() is None:
+                try:
+                    child.wait(max(0.1, deadline - time.monotonic()))
+                except subprocess.TimeoutExpired:
+                    child.terminate()
+        for child in self.children.values():
+            if child.poll() is None:
+                try:
+                    child.wait(5)
+                except subprocess.TimeoutExpired:
+                    child.kill()
+                    child.wait()
+        if self.minio:
+            self.minio.stop()
+        if self.redis:
+            self.redis.stop()
+
+
+class ProgressDisplay:
+    """Prints one line per finished iteration and per evaluation, plus a status line while waiting."""
+
+    def __init__(self, channel: RunChannel, num_workers: int, started: float, echo=click.echo):
+        self.channel = channel
+        self.num_workers = num_workers
+        self.started = started
+        self.echo = echo
+        self.iteration_id = "0"
+        self.evaluation_id = "0"
+        self.last_status = 0.0
+
+    def poll(self) -> list[dict]:
+        """Print what is new; return the new evaluation records (benchmarks watch them)."""
+        for stream_id, record in self.channel.read_records("iterations", self.iteration_id):
+            self.iteration_id = stream_id
+            worlds = "  ".join(
+                f"{world}: R={stats['mean_reward']:.1f} P={stats['mean_progress']:.0f}%"
+                for world, stats in sorted(record["worlds"].items())
+            )
+            self.echo(
+                f"[{self._elapsed()}] iteration {record['iteration']:>3}  episodes {record['episodes']:>3}  "
+                f"steps {record['env_steps_total']:>8}  reward {record['mean_reward']:7.2f}  "
+                f"progress {record['mean_progress']:5.1f}%  complete {record['completion_rate']:4.0%}  "
+                f"{record['experience_steps_per_s']:6.0f} steps/s  | {worlds}"
+            )
+        evaluations = []
+        for stream_id, record in self.channel.read_records("evaluations", self.evaluation_id):
+            self.evaluation_id = stream_id
+            evaluations.append(record)
+            self.echo(
+                f"[{self._elapsed()}] evaluation of {record['checkpoint']}: {record['laps_completed']}/{record['trials']} laps, "
+                f"mean progress {record['mean_progress']:.1f}%"
+                + (f", best lap {record['best_lap_time_s']:.2f} s" if record.get("best_lap_time_s") else "")
+            )
+        if time.monotonic() - self.last_status > 30:
+            self.last_status = time.monotonic()
+            live = self.channel.live_workers()
+            states = ", ".join(f"w{i}:{live[i].get('state', '?')}" if i in live else f"w{i}:DOWN"
+                               for i in range(self.num_workers))
+            self.echo(f"[{self._elapsed()}] workers {states}", err=True)
+        return evaluations
+
+    def _elapsed(self) -> str:
+        seconds = int(time.monotonic() - self.started)
+        return f"{seconds // 60:02d}:{seconds % 60:02d}"
+
+
+def run_local_training(plan: LocalRunPlan, base_settings: ServiceSettings, on_evaluation=None) -> int:
+    """Run until the trainer exits; returns its exit status. `on_evaluation(record)` may return True to stop early."""
+    run = LocalRun(plan, base_settings)
+    started = time.monotonic()
+    interrupted = False
+
+    def request_stop(signum, frame):
+        nonlocal interrupted
+        interrupted = True
+
+    previous = {sig: signal.signal(sig, request_stop) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        settings = run.start_services()
+        click.echo(f"racer train: model {plan.model_prefix!r} in {open_store(settings.store).describe()}, "
+                   f"{plan.num_workers} workers ({', '.join(plan.worlds[:plan.num_workers])}) on track {plan.track}; "
+                   f"logs in {plan.log_dir}")
+        run.start_processes()
+        channel = RunChannel(RedisLink(settings.redis), plan.model_prefix)
+        display = ProgressDisplay(channel, plan.num_workers, started)
+        trainer = run.children["trainer"]
+        while trainer.poll() is None and not interrupted:
+            for record in display.poll():
+                if on_evaluation is not None and on_evaluation(record):
+                    interrupted = True
+            crashed = [name for name, child in run.children.items()
+                       if name != "trainer" and child.poll() not in (None, 0)]
+            for name in crashed:
+                click.echo(f"{name} exited with status {run.children[name].returncode}; restarting it "
+                           f"(see {plan.log_dir / (name + '.log')})", err=True)
+                worker_id = int(name.split("-")[1])
+                run._spawn(name, ["rollout", "--model-prefix", plan.model_prefix, "--worker-id", str(worker_id),
+                                  "--seed", str(plan.seed + worker_id + 1000)])
+            time.sleep(1.0)
+        if interrupted:
+            click.echo("stopping: the trainer writes a final checkpoint and .finished ...", err=True)
+        run.stop()
+        display.poll()
+        status = run.children["trainer"].returncode
+        if status not in (0, None) and not interrupted:
+            click.echo(f"trainer exited with status {status}; see {plan.log_dir / 'trainer.log'}:", err=True)
+            click.echo((plan.log_dir / "trainer.log").read_text(errors="replace")[-3000:], err=True)
+        return 0 if interrupted else (status or 0)
+    finally:
+        run.stop(grace_s=5)
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+
+
+@click.command(name="train")
+@click.option("--model-prefix", default=None, help="Model name (store prefix). Default: racer-<date>-<time>.")
+@click.option("--custom-files", type=click.Path(exists=True, file_okay=False, path_type=Path),
+              default=PROJECT_ROOT / "custom_files", show_default=True,
+              help="Folder with reward_function.py, model_metadata.json, hyperparameters.json.")
+@click.option("--workers", "num_workers", type=click.IntRange(1, 32), default=4, show_default=True)
+@click.option("--worlds", default=",".join(WORLDS), show_default=True, help="Worlds given to workers in turn.")
+@click.option("--track", default=DEFAULT_TRACK, show_default=True, help="Track name in tracks/ or a .npy route path.")
+@click.option("--max-episodes", type=int, default=None, help="Stop after this many training episodes "
+              "(default: hyperparameters' term_cond_max_episodes).")
+@click.option("--max-minutes", type=float, default=None, help="Stop after this much wall time.")
+@click.option("--minio", "use_minio", is_flag=True, help="Store in a local MinIO server instead of a directory.")
+@click.option("--pretrained-prefix", default=None, help="Clone: start from this model's checkpoint.")
+@click.option("--pretrained-checkpoint", type=click.Choice(["last", "best"]), default="last", show_default=True)
+@click.option("--seed", type=int, default=0, show_default=True)
+def train_command(model_prefix, custom_files, num_workers, worlds, track, max_episodes, max_minutes, use_minio,
+                  pretrained_prefix, pretrained_checkpoint, seed) -> None:
+    """Train with the embedded default: Redis, store, trainer and rollout workers as local processes."""
+    base_settings = settings_from_env()
+    model_prefix = model_prefix or datetime.now().strftime("racer-%Y%m%d-%H%M%S")
+    store_root = base_settings.store.root if isinstance(base_settings.store, LocalStoreSettings) else Path("racer-data")
+    plan = LocalRunPlan(
+        model_prefix=model_prefix, custom_files=custom_files.resolve(), num_workers=num_workers,
+        worlds=tuple(w.strip() for w in worlds.split(",") if w.strip()), track=track, max_episodes=max_episodes,
+        max_minutes=max_minutes, use_minio=use_minio, log_dir=Path(store_root) / ".runs" / model_prefix,
+        seed=seed, pretrained_prefix=pretrained_prefix, pretrained_checkpoint=pretrained_checkpoint,
+    )
+    sys.exit(run_local_training(plan, base_settings))
+
+
+@click.command(name="time-to-lap")
+@click.option("--track", required=True, help="Route name or .npy path (reference: reinvent_base.npy).")
+@click.option("--reward-function", type=click.Path(exists=True, dir_okay=False, path_type=Path), default=None,
+              help="Default: the AWS 'follow the centre line' example from ../shared/deepracer-data.")
+@click.option("--speed", type=float, default=1.0, show_default=True, help="The one speed (m/s) of the 5 actions.")
+@click.option("--workers", "num_workers", type=int, default=4, show_default=True)
+@click.option("--time-limit-minutes", type=float, default=30.0, show_default=True)
+@click.option("--episodes-per-iteration", type=int, default=20, show_default=True)
+@click.option("--seed", type=int, default=0, show_default=True)
+def time_to_lap_command(track, reward_function, speed, num_workers, time_limit_minutes, episodes_per_iteration, seed):
+    """Train from scratch until greedy evaluation completes 3 of 3 laps; print one JSON line."""
+    import tempfile
+
+    reward_function = reward_function or PROJECT_ROOT.parent / "shared/deepracer-data/reward_functions/awsdoc_example_1.py"
+    if not Path(reward_function).is_file():
+        raise click.UsageError(f"reward function not found: {reward_function}; pass --reward-function")
+    workdir = Path(tempfile.mkdtemp(prefix="racer-time-to-lap-"))
+    custom = workdir / "custom_files"
+    custom.mkdir()
+    (custom / "reward_function.py").write_bytes(Path(reward_function).read_bytes())
+    actions = [{"steering_angle": angle, "speed": speed, "index": i} for i, angle in enumerate([-30, -15, 0, 15, 30])]
+    (custom / "model_metadata.json").write_text(json.dumps({
+        "action_space": actions, "action_space_type": "discrete", "sensor": ["FRONT_FACING_CAMERA"],
+        "neural_network": "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW", "training_algorithm": "clipped_ppo", "version": "5"}))
+    (custom / "hyperparameters.json").write_text(json.dumps({"num_episodes_between_training": episodes_per_iteration}))
+    (custom / "workers.json").write_text(json.dumps({"MIN_EVAL_TRIALS": 3}))
+    plan = LocalRunPlan(model_prefix="time-to-lap", custom_files=custom, num_workers=num_workers,
+                        worlds=WORLDS, track=str(track), max_episodes=None, max_minutes=time_limit_minutes,
+                        use_minio=False, log_dir=workdir / "logs", seed=seed)
+    result = {"minutes": None, "env_steps": None, "iterations": None}
+    started = time.monotonic()
+    rates: list[float] = []
+
+    def on_evaluation(record: dict) -> bool:
+        if record["trials"] >= 3 and record["laps_completed"] >= 3 and result["minutes"] is None:
+            result.update(minutes=round((time.monotonic() - started) / 60, 2), env_steps=record["env_steps_total"],
+                          iterations=record["iteration"])
+            return True
+        return False
+
+    base = ServiceSettings(redis=RedisSettings(), store=LocalStoreSettings(root=workdir / "store"))
+    run_local_training(plan, base, on_evaluation=on_evaluation)
+    channel_records = _read_iteration_records(workdir / "store", plan)
+    rates = [r["experience_steps_per_s"] for r in channel_records]
+    result["experience_steps_per_s"] = round(sum(rates) / len(rates), 1) if rates else None
+    result["track"] = str(track)
+    click.echo(json.dumps(result))
+
+
+def _read_iteration_records(store_root: Path, plan: LocalRunPlan) -> list[dict]:
+    """Iteration summaries the trainer also writes to the store (Redis is gone once the run stops)."""
+    path = store_root / plan.model_prefix / "metrics" / "iterations.jsonl"
+    if not path.is_file():
+        return []
+    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]

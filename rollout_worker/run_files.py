@@ -1,0 +1,70 @@
+"""What a rollout worker reads from the store before it can play: the run's files, validated.
+
+The trainer uploads them (model/model_metadata.json, ip/hyperparameters.json, reward_function.py,
+training_params[_<i>].yaml); every worker reads the same copies, so all of them play the same model.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import yaml
+
+from racer.shared.deepracer.hyperparameters import Hyperparameters, parse_hyperparameters
+from racer.shared.deepracer.model_metadata import ModelMetadata, parse_model_metadata
+from racer.shared.run_layout import RunLayout, WorkerSettings
+from racer.shared.store import ObjectNotFoundError, ObjectStore
+
+
+@dataclass(frozen=True)
+class RunFiles:
+    layout: RunLayout
+    model_metadata: ModelMetadata
+    hyperparameters: Hyperparameters
+    reward_function_path: Path
+    """A local copy of the run's reward_function.py (the env imports it once; module state persists)."""
+    worker: WorkerSettings
+
+
+def read_training_params(store: ObjectStore, layout: RunLayout, worker_id: int) -> tuple[dict[str, str], str]:
+    """Worker i's training_params_<i>.yaml, or the shared training_params.yaml when the workers do not differ."""
+    for key in (layout.training_params(worker_id), layout.training_params(0)):
+        try:
+            text = store.get_bytes(key).decode("utf-8")
+        except ObjectNotFoundError:
+            continue
+        try:
+            data = yaml.safe_load(text) or {}
+        except yaml.YAMLError as error:
+            raise ValueError(f"{store.describe()}/{key}: not valid YAML: {error}") from error
+        if not isinstance(data, dict):
+            raise ValueError(f"{store.describe()}/{key}: expected a mapping of DeepRacer keys")
+        return {str(k): str(v) for k, v in data.items()}, key
+    raise ObjectNotFoundError(store.describe(), layout.training_params(0))
+
+
+def load_run_files(store: ObjectStore, model_prefix: str, worker_id: int, workdir: Path,
+                   world_override: str | None = None, track_override: str | None = None) -> RunFiles:
+    layout = RunLayout(model_prefix)
+    metadata_source = f"{store.describe()}/{layout.model_metadata}"
+    try:
+        metadata_json = json.loads(store.get_bytes(layout.model_metadata))
+    except json.JSONDecodeError as error:
+        raise ValueError(f"{metadata_source}: not valid JSON: {error}") from error
+    metadata = parse_model_metadata(metadata_json, source=metadata_source)
+    hyper_source = f"{store.describe()}/{layout.hyperparameters}"
+    try:
+        hyper_json = json.loads(store.get_bytes(layout.hyperparameters))
+    except json.JSONDecodeError as error:
+        raise ValueError(f"{hyper_source}: not valid JSON: {error}") from error
+    hyperparameters, _unknown = parse_hyperparameters(hyper_json, source=hyper_source)
+    workdir.mkdir(parents=True, exist_ok=True)
+    reward_path = workdir / "reward_function.py"
+    reward_path.write_bytes(store.get_bytes(layout.reward_function))
+    params, params_key = read_training_params(store, layout, worker_id)
+    worker = WorkerSettings.from_training_params(params, source=f"{store.describe()}/{params_key}")
+    worker = worker.replace(world=world_override, track=track_override)
+    return RunFiles(layout=layout, model_metadata=metadata, hyperparameters=hyperparameters,
+                    reward_function_path=reward_path, worker=worker)

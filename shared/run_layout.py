@@ -1,0 +1,149 @@
+"""Where a training run keeps its files in the store: DeepRacer's key layout under a model prefix.
+
+    <prefix>/model/model_metadata.json          the action space, sensors and network (copied verbatim)
+    <prefix>/model/...ckpt..., .coach_checkpoint  checkpoints (racer.shared.policy.checkpoints)
+    <prefix>/model/.ready, .finished            trainer ready / training ended
+    <prefix>/ip/hyperparameters.json            resolved hyperparameters (json indent 2, sorted keys)
+    <prefix>/ip/done                            DeepRacer's "trainer is up" marker
+    <prefix>/reward_function.py                 the user's reward function
+    <prefix>/training_params.yaml               worker 0's settings; training_params_<i>.yaml for worker i
+                                                when the workers differ (DeepRacer-for-Cloud multi-config)
+    <prefix>/training-simtrace/<n>-iteration.csv           one worker
+    <prefix>/<i>/training-simtrace/<n>-iteration.csv       several workers
+    <prefix>/metrics/TrainingMetrics.json, TrainingMetrics_<i>.json
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+
+from racer.shared.store import join_key
+
+WORLDS = ("base", "carpet", "concrete", "wood")
+DEFAULT_TRACK = "racer_loop"
+"""The quick-start track shipped in tracks/."""
+
+
+@dataclass(frozen=True)
+class RunLayout:
+    prefix: str
+
+    def key(self, *parts: str) -> str:
+        return join_key(self.prefix, *parts)
+
+    @property
+    def model_metadata(self) -> str:
+        return self.key("model", "model_metadata.json")
+
+    @property
+    def hyperparameters(self) -> str:
+        return self.key("ip", "hyperparameters.json")
+
+    @property
+    def ip_done(self) -> str:
+        return self.key("ip", "done")
+
+    @property
+    def reward_function(self) -> str:
+        return self.key("reward_function.py")
+
+    @property
+    def ready(self) -> str:
+        return self.key("model", ".ready")
+
+    @property
+    def finished(self) -> str:
+        return self.key("model", ".finished")
+
+    def training_params(self, worker_id: int) -> str:
+        return self.key("training_params.yaml" if worker_id == 0 else f"training_params_{worker_id}.yaml")
+
+    def training_simtrace(self, worker_id: int, iteration: int, num_workers: int) -> str:
+        name = f"{iteration}-iteration.csv"
+        if num_workers > 1:
+            return self.key(str(worker_id), "training-simtrace", name)
+        return self.key("training-simtrace", name)
+
+    def training_metrics(self, worker_id: int) -> str:
+        return self.key("metrics", "TrainingMetrics.json" if worker_id == 0 else f"TrainingMetrics_{worker_id}.json")
+
+
+@dataclass(frozen=True)
+class WorkerSettings:
+    """One rollout worker's world and episode settings (DeepRacer-for-Cloud's worker-N.env)."""
+
+    world: str = "base"
+    """Surface and look: base, carpet, concrete or wood."""
+    track: str = DEFAULT_TRACK
+    """Route name (looked up in tracks/) or a path to a DeepRacer .npy route file."""
+    reverse_dir: bool = False
+    alternate_driving_direction: bool = False
+    change_start_position: bool = True
+    round_robin_advance_dist: float = 0.05
+    start_position_offset: float = 0.0
+    min_eval_trials: int = 5
+    """Greedy evaluation episodes per checkpoint (worker 0 only)."""
+    best_model_metric: str = "progress"
+    """progress, reward or laptime: how deepracer_checkpoints.json picks the best checkpoint."""
+
+    def __post_init__(self) -> None:
+        if self.world not in WORLDS:
+            raise ValueError(f"world {self.world!r} is not one of {', '.join(WORLDS)}")
+        if self.best_model_metric not in {"progress", "reward", "laptime"}:
+            raise ValueError(f"BEST_MODEL_METRIC {self.best_model_metric!r} is not progress, reward or laptime")
+        if not 0.0 <= self.round_robin_advance_dist <= 1.0:
+            raise ValueError(f"ROUND_ROBIN_ADVANCE_DIST {self.round_robin_advance_dist} is outside [0, 1]")
+
+    def to_training_params(self, model_prefix: str, num_workers: int) -> dict[str, str]:
+        """DeepRacer's training_params.yaml keys, all values strings as DeepRacer-for-Cloud writes them."""
+        return {
+            "JOB_TYPE": "TRAINING",
+            "WORLD_NAME": self.track,
+            "RACER_WORLD": self.world,
+            "RACE_TYPE": "TIME_TRIAL",
+            "SAGEMAKER_SHARED_S3_PREFIX": model_prefix,
+            "NUM_WORKERS": str(num_workers),
+            "REVERSE_DIR": str(self.reverse_dir),
+            "ALTERNATE_DRIVING_DIRECTION": str(self.alternate_driving_direction),
+            "CHANGE_START_POSITION": str(self.change_start_position),
+            "ROUND_ROBIN_ADVANCE_DIST": str(self.round_robin_advance_dist),
+            "START_POSITION_OFFSET": str(self.start_position_offset),
+            "MIN_EVAL_TRIALS": str(self.min_eval_trials),
+            "BEST_MODEL_METRIC": self.best_model_metric,
+            "NUMBER_OF_RESETS": "0",
+        }
+
+    @classmethod
+    def from_training_params(cls, params: dict[str, str], source: str) -> WorkerSettings:
+        def flag(name: str, default: bool) -> bool:
+            raw = str(params.get(name, default)).strip().lower()
+            if raw not in {"true", "false", "1", "0"}:
+                raise ValueError(f"{source}: {name}: {params[name]!r} is not True or False")
+            return raw in {"true", "1"}
+
+        defaults = cls()
+        try:
+            return cls(
+                world=str(params.get("RACER_WORLD", defaults.world)),
+                track=str(params.get("WORLD_NAME", defaults.track)),
+                reverse_dir=flag("REVERSE_DIR", defaults.reverse_dir),
+                alternate_driving_direction=flag("ALTERNATE_DRIVING_DIRECTION", defaults.alternate_driving_direction),
+                change_start_position=flag("CHANGE_START_POSITION", defaults.change_start_position),
+                round_robin_advance_dist=float(params.get("ROUND_ROBIN_ADVANCE_DIST", defaults.round_robin_advance_dist)),
+                start_position_offset=float(params.get("START_POSITION_OFFSET", defaults.start_position_offset)),
+                min_eval_trials=int(params.get("MIN_EVAL_TRIALS", defaults.min_eval_trials)),
+                best_model_metric=str(params.get("BEST_MODEL_METRIC", defaults.best_model_metric)).lower(),
+            )
+        except ValueError as error:
+            raise ValueError(f"{source}: {error}") from error
+
+    def replace(self, **changes) -> WorkerSettings:
+        values = {f.name: getattr(self, f.name) for f in fields(self)}
+        values.update({k: v for k, v in changes.items() if v is not None})
+        return WorkerSettings(**values)
+
+
+def default_worker_settings(num_workers: int, track: str = DEFAULT_TRACK,
+                            worlds: tuple[str, ...] = WORLDS) -> list[WorkerSettings]:
+    """Worker i gets world i (cycling through `worlds`) on the same track."""
+    return [WorkerSettings(world=worlds[i % len(worlds)], track=track) for i in range(num_workers)]
