@@ -1,0 +1,112 @@
+"""`racer analyze SOURCE`: simtrace logs -> terminal tables, CSVs, PNGs and one HTML report."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import click
+import pandas as pd
+
+from racer.analysis import aggregate, plots, whatif
+from racer.analysis.pipeline import Analysis, analyze, build_report
+from racer.analysis.report import format_table
+from racer.analysis.sources import TRAINING, SourceError
+from racer.analysis.track_sections import TrackError
+from racer.shared.sim.reward import RewardFunctionError
+from racer.shared.store import StoreError
+
+try:
+    from racer.shared.deepracer.simtrace import SimtraceError
+except ImportError:  # the shared reader is being written in parallel
+    from racer.analysis._interim_simtrace import SimtraceError
+
+TERMINAL_ITERATIONS = 15
+"""The terminal shows the last iterations only; the report and iterations.csv have all of them."""
+
+
+def default_out_dir(source: str) -> Path:
+    name = re.sub(r"[^A-Za-z0-9._-]+", "_", source.removeprefix("s3://").rstrip("/").split("/")[-1]) or "run"
+    return Path("analysis") / re.sub(r"\.(tar\.gz|tgz|tar|csv)$", "", name)
+
+
+def _echo_table(title: str, table: pd.DataFrame, columns: list[str]) -> None:
+    if len(table) == 0:
+        return
+    click.secho(f"\n{title}", bold=True)
+    shown = format_table(table[[c for c in columns if c in table.columns]])
+    click.echo(shown.to_string(index=False, na_rep="-"))
+
+
+def print_summary(analysis: Analysis) -> None:
+    episodes = analysis.episodes
+    training = episodes[episodes["phase"] == TRAINING]
+    click.echo(
+        f"{len(analysis.files.simtraces)} simtrace files, {len(analysis.steps)} steps: "
+        f"{len(training)} training episodes in {len(analysis.iterations)} iterations "
+        f"({training['worker'].nunique()} worker(s)), {len(analysis.evaluation_laps)} evaluation laps "
+        f"in {len(analysis.evaluations)} evaluation(s)."
+    )
+    for note in analysis.notes:
+        click.secho(f"note: {note}", fg="yellow")
+    _echo_table(
+        f"Training iterations (last {TERMINAL_ITERATIONS})" if len(analysis.iterations) > TERMINAL_ITERATIONS
+        else "Training iterations",
+        analysis.iterations.tail(TERMINAL_ITERATIONS),
+        ["iteration", "episodes", "reward_mean", "reward_std", "progress_mean_pct", "progress_std_pct",
+         "completion_rate", "best_lap_time_s", "mean_lap_time_s"],
+    )
+    if analysis.workers["worker"].nunique() > 1:
+        _echo_table("Training by worker", analysis.workers,
+                    ["worker", "episodes", "reward_mean", "progress_mean_pct", "completion_rate", "best_lap_time_s"])
+    _echo_table("Fastest training laps", aggregate.best_laps(episodes, TRAINING, 5)[lambda t: t["lap_complete"]],
+                ["iteration", "worker", "episode", "start_waypoint", "lap_time_s", "speed_mps", "throttle_mps",
+                 "reward", "steps"])
+    _echo_table("Evaluation laps", analysis.evaluation_laps,
+                ["run", "lap", "lap_time_s", "progress_pct", "status", "resets", "off_track", "crashed", "penalty_s"])
+
+
+@click.command("analyze")
+@click.argument("source")
+@click.option("--track", "track", metavar="NAME|PATH",
+              help="Route by name (tracks/) or .npy path. Default: the WORLD_NAME of the run, if installed.")
+@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path),
+              help="Folder for report.html, PNGs and CSVs [default: ./analysis/<source name>].")
+@click.option("--reward-function", "reward_path", type=click.Path(exists=True, dir_okay=False, path_type=Path),
+              help="Candidate reward_function.py to replay over the logged training steps (needs the track).")
+@click.option("--sections", default=10, show_default=True, type=click.IntRange(2, 50),
+              help="Number of equal-length track sections for the action-usage picture.")
+@click.option("--top", "top_laps", default=4, show_default=True, type=click.IntRange(1, 12),
+              help="How many of the fastest laps to draw.")
+@click.option("--no-pictures", is_flag=True, help="Tables and CSVs only (faster).")
+def analyze_command(source: str, track: str | None, out_dir: Path | None, reward_path: Path | None, sections: int,
+                    top_laps: int, no_pictures: bool) -> None:
+    """Analyse DeepRacer/racer simtrace logs: SOURCE is a folder, a .csv, a .tar.gz export, s3://bucket/prefix,
+    or a model prefix in RACER_STORE.
+
+    Reads training and evaluation simtraces of any layout (DRfC single/multi-worker, console export, evaluations)
+    and 15-19 column variants. Prints the key tables, writes CSVs, PNGs and a self-contained report.html.
+    """
+    out_dir = out_dir or default_out_dir(source)
+    try:
+        analysis = analyze(source, out_dir, track=track, sections=sections, top_laps=top_laps,
+                           pictures=not no_pictures)
+        if reward_path is not None:
+            if analysis.track is None:
+                raise click.UsageError("--reward-function needs the track: give --track NAME|PATH")
+            new_reward = whatif.replay_reward(analysis.steps, analysis.track, reward_path)
+            compared, by_iteration = whatif.compare(analysis.steps, new_reward, analysis.episodes)
+            analysis.reward_comparison = by_iteration
+            by_iteration.to_csv(out_dir / "reward_whatif.csv", index=False)
+            if not no_pictures:
+                analysis.pictures["reward_comparison"] = plots.reward_comparison(
+                    whatif.lap_steps(analysis.steps, new_reward, analysis.episodes), compared,
+                    out_dir / "reward_whatif.png", reward_path.name)
+        report_path = build_report(analysis, out_dir)
+    except (SourceError, SimtraceError, TrackError, StoreError, RewardFunctionError) as error:
+        raise click.ClickException(str(error)) from error
+    print_summary(analysis)
+    if analysis.reward_comparison is not None:
+        _echo_table(f"Reward what-if: {reward_path}", analysis.reward_comparison,
+                    ["iteration", "episodes", "reward_mean", "new_reward_mean", "episode_reward_correlation"])
+    click.echo(f"\nreport: {report_path}  (tables: {', '.join(p.name for p in analysis.tables_written.values())})")

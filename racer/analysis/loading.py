@@ -1,0 +1,61 @@
+"""All simtrace rows of a run in one DataFrame, each row tagged with phase, run, worker, iteration and file."""
+
+from __future__ import annotations
+
+import sys
+
+import numpy as np
+import pandas as pd
+
+from racer.analysis.sources import RunFiles, SimtraceFile
+
+try:
+    from racer.shared.deepracer.simtrace import read_simtrace
+except ImportError:  # the shared reader is being written in parallel; this import goes away when it lands
+    from racer.analysis._interim_simtrace import read_simtrace
+
+PLACEMENT_COLUMNS = ["phase", "run", "worker", "iteration"]
+EPISODE_KEY = ["phase", "run", "worker", "episode"]
+"""Training episode numbers count per worker across iterations; evaluation episode numbers count laps per run."""
+
+
+def read_one(file: SimtraceFile) -> pd.DataFrame:
+    frame = read_simtrace(file.read_bytes(), source=file.name)
+    frame.insert(0, "file", file.name)
+    for position, column in enumerate(PLACEMENT_COLUMNS, start=1):
+        frame.insert(position, column, getattr(file, column))
+    return frame
+
+
+def load_steps(files: RunFiles, *, progress: bool = True) -> pd.DataFrame:
+    """Read every CSV (showing a counter on stderr for long runs) and derive the per-step columns analysis needs."""
+    frames = []
+    total = len(files.simtraces)
+    for index, file in enumerate(files.simtraces, start=1):
+        if progress and (index == total or index % 10 == 0):
+            print(f"\rread {index}/{total} simtrace files", end="\n" if index == total else "", file=sys.stderr)
+        frames.append(read_one(file))
+    return add_step_deltas(pd.concat(frames, ignore_index=True))
+
+
+def add_step_deltas(steps: pd.DataFrame) -> pd.DataFrame:
+    """Time and distance of each step, as deepracer-utils' simulation_agg counts them.
+
+    dt_s = tstamp minus the previous row's tstamp in the same file, 0 on `prepare` rows (the episode has not
+    started yet). Continuous evaluations have no prepare row between laps, so a lap's first step counts the time
+    since the previous lap's last step, which is how the EvaluationMetrics file times those laps too.
+    distance_m = the straight line from the previous row, 0 on `prepare` and `pause` rows (after an off-track
+    reset the car is teleported back onto the track; that jump is not driven distance).
+    """
+    steps = steps.copy()
+    by_file = steps.groupby("file", sort=False)
+    steps["dt_s"] = (steps["tstamp"] - by_file["tstamp"].shift(1)).fillna(0.0)
+    dx = steps["X"] - by_file["X"].shift(1)
+    dy = steps["Y"] - by_file["Y"].shift(1)
+    steps["distance_m"] = np.hypot(dx, dy).fillna(0.0)
+    not_driving = steps["episode_status"].isin(["prepare"])
+    steps.loc[not_driving, "dt_s"] = 0.0
+    steps.loc[not_driving | (steps["episode_status"] == "pause"), "distance_m"] = 0.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        steps["speed_mps"] = np.where(steps["dt_s"] > 0, steps["distance_m"] / steps["dt_s"], np.nan)
+    return steps

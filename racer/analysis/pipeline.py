@@ -1,0 +1,159 @@
+"""From a source to tables, pictures and the HTML report; the CLI is a thin shell around `analyze`."""
+
+from __future__ import annotations
+
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import pandas as pd
+import yaml
+
+from racer.analysis import aggregate, plots
+from racer.analysis.loading import load_steps
+from racer.analysis.report import Report, write_html
+from racer.analysis.sources import EVALUATION, TRAINING, RunFiles, open_source
+from racer.analysis.track_sections import Track, TrackError, load_track
+
+
+@dataclass
+class Analysis:
+    files: RunFiles
+    steps: pd.DataFrame
+    episodes: pd.DataFrame
+    iterations: pd.DataFrame
+    iterations_by_worker: pd.DataFrame
+    workers: pd.DataFrame
+    evaluation_laps: pd.DataFrame
+    evaluations: pd.DataFrame
+    track: Track | None
+    notes: list[str] = field(default_factory=list)
+    pictures: dict[str, Path] = field(default_factory=dict)
+    tables_written: dict[str, Path] = field(default_factory=dict)
+    report_path: Path | None = None
+    reward_comparison: pd.DataFrame | None = None
+
+
+def world_names(files: RunFiles) -> list[str]:
+    """WORLD_NAME values of the training/evaluation params yaml files found with the simtraces."""
+    names = []
+    for name, data in files.params_yaml.items():
+        try:
+            params = yaml.safe_load(data)
+        except yaml.YAMLError as error:
+            print(f"warning: {name}: not readable yaml ({error}); ignored", file=sys.stderr)
+            continue
+        world = params.get("WORLD_NAME") if isinstance(params, dict) else None
+        if world and world not in names:
+            names.append(str(world))
+    return names
+
+
+def resolve_track(files: RunFiles, track_arg: str | None, notes: list[str]) -> Track | None:
+    """--track wins; otherwise the WORLD_NAME of the run, if a route of that name is installed."""
+    if track_arg:
+        return load_track(track_arg)  # an explicit track that cannot be loaded is an error, not a note
+    for world in world_names(files):
+        try:
+            return load_track(world)
+        except TrackError:
+            notes.append(f"The run was on track {world!r}, which is not installed here; give its route with --track.")
+            return None
+    notes.append("No track given (--track NAME|PATH.npy) and none named by the run: tables only, no track pictures.")
+    return None
+
+
+def build_tables(files: RunFiles, track_arg: str | None = None, *, show_progress: bool = True) -> Analysis:
+    steps = load_steps(files, progress=show_progress)
+    episodes = aggregate.episodes(steps)
+    notes: list[str] = []
+    track = resolve_track(files, track_arg, notes)
+    return Analysis(
+        files=files,
+        steps=steps,
+        episodes=episodes,
+        iterations=aggregate.iterations(episodes),
+        iterations_by_worker=aggregate.iterations(episodes, per_worker=True),
+        workers=aggregate.workers(episodes),
+        evaluation_laps=aggregate.evaluation_laps(episodes),
+        evaluations=aggregate.evaluations(episodes),
+        track=track,
+        notes=notes,
+    )
+
+
+def draw_pictures(analysis: Analysis, out_dir: Path, *, sections: int, top_laps: int) -> None:
+    training_steps = analysis.steps[analysis.steps["phase"] == TRAINING]
+    if len(analysis.iterations):
+        analysis.pictures["training_progress"] = plots.training_progress(
+            analysis.iterations, analysis.iterations_by_worker, out_dir / "training_progress.png"
+        )
+    if analysis.track is None:
+        return
+    track = analysis.track
+    best_training = aggregate.best_laps(analysis.episodes, TRAINING, top_laps)
+    if len(best_training):
+        analysis.pictures["best_laps"] = plots.laps_by_speed(
+            analysis.steps, best_training, track, out_dir / "best_laps.png", "Fastest training laps (speed colour)"
+        )
+        analysis.pictures["reward_heatmap"] = plots.reward_heatmap(training_steps, track, out_dir / "reward_heatmap.png")
+        picture, _ = plots.action_usage(training_steps, track, sections, out_dir / "action_usage.png")
+        analysis.pictures["action_usage"] = picture
+    evaluation = analysis.episodes[analysis.episodes["phase"] == EVALUATION]
+    if len(evaluation):
+        shown = evaluation.sort_values(["run", "start_tstamp_s"]).head(6)
+        analysis.pictures["evaluation_laps"] = plots.laps_by_speed(
+            analysis.steps, shown, track, out_dir / "evaluation_laps.png", "Evaluation laps (speed colour)"
+        )
+
+
+def write_tables(analysis: Analysis, out_dir: Path) -> None:
+    """CSV copies of every table, for spreadsheets and notebooks."""
+    for name in ("episodes", "iterations", "iterations_by_worker", "workers", "evaluation_laps", "evaluations"):
+        table = getattr(analysis, name)
+        if len(table):
+            path = out_dir / f"{name}.csv"
+            table.to_csv(path, index=False)
+            analysis.tables_written[name] = path
+
+
+_PICTURE_TEXT = {
+    "training_progress": ("Training progress", "Mean ± std of episode reward and progress per iteration, share of "
+                          "episodes that completed a lap, best lap time."),
+    "best_laps": ("Fastest training laps", "Driven path coloured by speed (distance / time over 1/3 s); green dot = start."),
+    "evaluation_laps": ("Evaluation laps", "Driven path coloured by speed; green dot = start of the lap."),
+    "reward_heatmap": ("Reward heatmap", "Mean step reward of all training steps in each cell of the track."),
+    "action_usage": ("Action usage per track section", "Share of the steps in each section that used each action."),
+    "reward_comparison": ("Reward what-if", "Logged reward against the candidate reward function, per step and per episode."),
+}
+
+
+def build_report(analysis: Analysis, out_dir: Path) -> Path:
+    report = Report(title="racer analysis", source=analysis.files.description, notes=list(analysis.notes))
+    for key, path in analysis.pictures.items():
+        heading, caption = _PICTURE_TEXT[key]
+        report.pictures.append((heading, path, caption))
+    tables = [
+        ("Evaluations", analysis.evaluations, "One row per evaluation run."),
+        ("Evaluation laps", analysis.evaluation_laps, "Per lap: time, progress, resets and penalty time."),
+        ("Training iterations", analysis.iterations, "All workers together."),
+        ("Training by worker", analysis.workers, "One row per worker (world)."),
+        ("Fastest training laps", aggregate.best_laps(analysis.episodes, TRAINING, 10), "Complete laps, fastest first."),
+        ("Training episodes", analysis.episodes[analysis.episodes["phase"] == TRAINING], "Every training episode."),
+    ]
+    if analysis.reward_comparison is not None:
+        tables.insert(0, ("Reward what-if by iteration", analysis.reward_comparison, "Logged and candidate reward."))
+    report.tables += [(heading, table, caption) for heading, table, caption in tables if len(table)]
+    analysis.report_path = write_html(report, out_dir / "report.html")
+    return analysis.report_path
+
+
+def analyze(source: str, out_dir: Path, *, track: str | None = None, sections: int = 10, top_laps: int = 4,
+            pictures: bool = True, show_progress: bool = True) -> Analysis:
+    files = open_source(source)
+    analysis = build_tables(files, track, show_progress=show_progress)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    write_tables(analysis, out_dir)
+    if pictures:
+        draw_pictures(analysis, out_dir, sections=sections, top_laps=top_laps)
+    return analysis

@@ -1,0 +1,172 @@
+"""Find the simtrace CSVs of a run, wherever they are: a folder, a tar.gz, s3://bucket/prefix or a model prefix.
+
+DeepRacer and its tools scatter simtraces over several layouts (reference §4, deepracer-utils "folder zoo"):
+
+| layout | where the CSVs are |
+|---|---|
+| DRfC, one worker / racer | `<prefix>/training-simtrace/<n>-iteration.csv` |
+| DRfC, several workers | `<prefix>/<worker>/training-simtrace/<n>-iteration.csv` |
+| console export | `sim-trace/training/training-simtrace/<n>-iteration.csv`, `sim-trace/evaluation/<ts>-<id>/evaluation-simtrace/0-iteration.csv` |
+| DRfC / racer evaluation | `<prefix>/evaluation-<ts>/evaluation-simtrace/0-iteration.csv` |
+
+Every layout is recognised from the key alone, so the same rules serve folders, archives and buckets.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import tarfile
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path, PurePosixPath
+
+from racer.shared.config import settings_from_env
+from racer.shared.store import ObjectStore, open_store
+
+TRAINING = "training"
+EVALUATION = "evaluation"
+
+_ITERATION_FILE = re.compile(r"^(\d+)-iteration\.csv$")
+_PARAMS_FILE = re.compile(r"^(training_params.*|eval_params.*|evaluation_params.*)\.ya?ml$")
+
+
+class SourceError(Exception):
+    """The source does not exist or holds no simtrace CSV; the message says what was looked at."""
+
+
+@dataclass(frozen=True)
+class SimtraceFile:
+    """One simtrace CSV and where it sits in the run."""
+
+    name: str
+    """Where the file came from (path, archive member or s3 URL), used in every error message."""
+    phase: str
+    """`training` or `evaluation`."""
+    run: str
+    """The folder that identifies one evaluation (or one training run when several are side by side)."""
+    worker: int
+    iteration: int
+    read_bytes: Callable[[], bytes]
+
+
+@dataclass(frozen=True)
+class RunFiles:
+    description: str
+    simtraces: list[SimtraceFile]
+    params_yaml: dict[str, bytes]
+    """training/evaluation params yaml files found next to the simtraces, by name (they name the track)."""
+
+
+def classify(key: str) -> tuple[str, str, int, int] | None:
+    """(phase, run, worker, iteration) for a simtrace key in any known layout, None for other files."""
+    parts = PurePosixPath(key).parts
+    match = _ITERATION_FILE.match(parts[-1]) if parts else None
+    if match is None:
+        return None
+    iteration = int(match.group(1))
+    folder = parts[-2] if len(parts) >= 2 else ""
+    if folder == "training-simtrace":
+        phase = TRAINING
+    elif folder == "evaluation-simtrace":
+        phase = EVALUATION
+    else:
+        return None
+    above = list(parts[:-2])
+    worker = 0
+    if phase == TRAINING and above and above[-1].isdigit():
+        worker = int(above.pop())
+    if phase == TRAINING and above[-2:] == ["sim-trace", "training"]:
+        above = above[:-2]
+    run = "/".join(above) if above else "."
+    return phase, run, worker, iteration
+
+
+def classify_loose_csv(path: Path) -> tuple[str, str, int, int]:
+    """A CSV given on its own: the phase and iteration are guessed from its name (`..._evaluation_0-iteration.csv`)."""
+    phase = EVALUATION if "evaluation" in path.name.lower() else TRAINING
+    match = re.search(r"(\d+)-iteration\.csv$", path.name)
+    return phase, path.stem, 0, int(match.group(1)) if match else 0
+
+
+def _from_keys(keys: list[str], name_of: Callable[[str], str], read: Callable[[str], bytes]) -> tuple[list, dict]:
+    simtraces: list[SimtraceFile] = []
+    params: dict[str, bytes] = {}
+    for key in keys:
+        found = classify(key)
+        if found is not None:
+            phase, run, worker, iteration = found
+            simtraces.append(
+                SimtraceFile(name_of(key), phase, run, worker, iteration, read_bytes=lambda key=key: read(key))
+            )
+        elif _PARAMS_FILE.match(PurePosixPath(key).name):
+            params[name_of(key)] = read(key)
+    simtraces.sort(key=lambda f: (f.phase, f.run, f.worker, f.iteration))
+    return simtraces, params
+
+
+def from_folder(folder: Path) -> RunFiles:
+    keys = sorted(p.relative_to(folder).as_posix() for p in folder.rglob("*") if p.is_file())
+    simtraces, params = _from_keys(keys, lambda k: str(folder / k), lambda k: (folder / k).read_bytes())
+    return RunFiles(str(folder), simtraces, params)
+
+
+def from_csv(path: Path) -> RunFiles:
+    phase, run, worker, iteration = classify(path.as_posix()) or classify_loose_csv(path)
+    return RunFiles(str(path), [SimtraceFile(str(path), phase, run, worker, iteration, path.read_bytes)], {})
+
+
+def from_tar(path: Path) -> RunFiles:
+    """A console "Download logs" archive or any tar.gz of a model folder; read in memory, nothing is extracted."""
+    try:
+        with tarfile.open(path, "r:*") as archive:
+            contents = {
+                member.name.removeprefix("./"): archive.extractfile(member).read()
+                for member in archive.getmembers()
+                if member.isfile()
+                and (classify(member.name) is not None or _PARAMS_FILE.match(PurePosixPath(member.name).name))
+            }
+    except tarfile.TarError as error:
+        raise SourceError(f"{path}: not a readable tar archive ({error})") from error
+    simtraces, params = _from_keys(sorted(contents), lambda k: f"{path}!{k}", contents.__getitem__)
+    return RunFiles(str(path), simtraces, params)
+
+
+def from_store(store: ObjectStore, prefix: str, url: str) -> RunFiles:
+    prefix = prefix.strip("/")
+    listed = store.list_keys(f"{prefix}/" if prefix else "")
+    relative = [key[len(prefix) + 1 :] if prefix else key for key in listed]
+    simtraces, params = _from_keys(
+        relative,
+        lambda k: f"{url.rstrip('/')}/{k}",
+        lambda k: store.get_bytes(f"{prefix}/{k}" if prefix else k),
+    )
+    return RunFiles(url, simtraces, params)
+
+
+def open_source(source: str) -> RunFiles:
+    """Resolve the command-line SOURCE: an existing path first, then s3://bucket/prefix, then a model prefix in RACER_STORE."""
+    path = Path(source).expanduser()
+    if path.is_dir():
+        found = from_folder(path)
+    elif path.is_file() and path.suffix == ".csv":
+        found = from_csv(path)
+    elif path.is_file() and (path.name.endswith((".tar.gz", ".tgz", ".tar"))):
+        found = from_tar(path)
+    elif path.exists():
+        raise SourceError(f"{source}: expected a folder, a .csv, a .tar.gz or s3://bucket/prefix")
+    elif source.startswith("s3://"):
+        bucket, _, prefix = source.removeprefix("s3://").partition("/")
+        # Endpoint and credentials come from the environment exactly as for RACER_STORE (S3_ENDPOINT_URL, AWS_*).
+        settings = settings_from_env({**os.environ, "RACER_STORE": f"s3://{bucket}"}).store
+        found = from_store(open_store(settings), prefix, source)
+    else:
+        settings = settings_from_env()
+        store = open_store(settings.store)
+        found = from_store(store, source, f"{store.describe()}: {source}")
+    if not found.simtraces:
+        raise SourceError(
+            f"{found.description}: no simtrace CSV found (looked for */training-simtrace/<n>-iteration.csv and "
+            "*/evaluation-simtrace/<n>-iteration.csv)"
+        )
+    return found

@@ -1,0 +1,74 @@
+"""Reward what-if: run a candidate reward_function.py over logged training steps and compare with the logged reward.
+
+Params are rebuilt from each simtrace row and the track with the simulator's own `make_reward_params`, so the
+candidate sees what it would have seen in training (x, y = front of car; speed and steering = the commanded action).
+What a row cannot tell is filled with DeepRacer's defaults: no objects, the track's direction, and the simtrace
+`episode_status` for is_offtrack / is_crashed. Rows are replayed in logged order because reward functions may keep
+module-level state; as in DeepRacer, `prepare` and `pause` rows get reward 0 without calling the function.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from racer.analysis import aggregate
+from racer.analysis.loading import EPISODE_KEY
+from racer.analysis.sources import TRAINING
+from racer.shared.sim.reward import load_reward_function
+from racer.shared.sim.reward_params import make_reward_params
+from racer.shared.sim.track import Track
+
+NOT_CALLED_STATUSES = ("prepare", "pause")
+
+
+def replay_reward(steps: pd.DataFrame, track: Track, reward_path: str | Path, *, show_progress: bool = True) -> pd.Series:
+    """The candidate's reward for every training step (index aligned with `steps`)."""
+    reward_function = load_reward_function(reward_path)
+    training = steps[steps["phase"] == TRAINING]
+    columns = ["X", "Y", "yaw", "throttle", "steer", "steps", "progress", "all_wheels_on_track", "episode_status", "tstamp"]
+    new_reward = np.zeros(len(training))
+    total = len(training)
+    for position, row in enumerate(training[columns].itertuples(index=False, name=None)):
+        x, y, yaw, throttle, steer, step, progress, on_track, status, tstamp = row
+        if show_progress and position % 5000 == 0:
+            print(f"\rreward what-if: {position}/{total} steps", end="", file=sys.stderr)
+        if status in NOT_CALLED_STATUSES:
+            continue
+        params = make_reward_params(
+            track, x=x, y=y, heading_deg=yaw, speed_mps=throttle, steering_angle_deg=steer, steps=step,
+            progress=progress, all_wheels_on_track=bool(on_track), is_offtrack=status == "off_track",
+            is_crashed=status == "crashed", sim_time_s=tstamp,
+        )
+        new_reward[position] = reward_function(params)
+    if show_progress:
+        print(f"\rreward what-if: {total}/{total} steps", file=sys.stderr)
+    return pd.Series(new_reward, index=training.index, name="new_reward")
+
+
+def compare(steps: pd.DataFrame, new_reward: pd.Series, episode_table: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """(episodes with logged and new reward totals, per-iteration summary with their correlation)."""
+    replayed = steps.loc[new_reward.index].assign(new_reward=new_reward)
+    totals = replayed.groupby(EPISODE_KEY, sort=False)["new_reward"].sum().rename("new_reward").reset_index()
+    episodes = episode_table.merge(totals, on=EPISODE_KEY, how="inner")
+    by_iteration = episodes.groupby(["run", "iteration"]).agg(
+        episodes=("episode", "size"),
+        reward_mean=("reward", "mean"),
+        new_reward_mean=("new_reward", "mean"),
+        progress_mean_pct=("progress_pct", "mean"),
+    )
+    by_iteration["episode_reward_correlation"] = episodes.groupby(["run", "iteration"])[["reward", "new_reward"]].apply(
+        lambda group: group["reward"].corr(group["new_reward"])
+    )
+    return episodes, by_iteration.reset_index()
+
+
+def lap_steps(steps: pd.DataFrame, new_reward: pd.Series, episode_table: pd.DataFrame) -> pd.DataFrame:
+    """The steps, with both rewards, of the fastest complete training lap (or the furthest episode)."""
+    best = aggregate.best_laps(episode_table, TRAINING, 1).iloc[0]
+    replayed = steps.loc[new_reward.index].assign(new_reward=new_reward)
+    chosen = (replayed[EPISODE_KEY] == best[EPISODE_KEY].to_numpy()).all(axis=1)
+    return replayed[chosen]
