@@ -1,0 +1,39 @@
+"""`racer trainer`: the trainer process alone (the embedded `racer train` and docker compose both run it)."""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+
+import click
+
+from racer.shared.config import settings_from_env
+from racer.shared.run_layout import DEFAULT_TRACK, WORLDS
+
+
+@click.command(name="trainer")
+@click.option("--model-prefix", required=True, help="Model name: the store prefix of this training run.")
+@click.option("--custom-files", type=click.Path(exists=True, file_okay=False, path_type=Path), required=True,
+              help="Folder with reward_function.py, model_metadata.json, hyperparameters.json [, workers.json].")
+@click.option("--workers", "num_workers", type=click.IntRange(1, 64), default=4, show_default=True,
+              help="Number of rollout workers that share each iteration's episodes.")
+@click.option("--track", default=DEFAULT_TRACK, show_default=True)
+@click.option("--worlds", default=",".join(WORLDS), show_default=True)
+@click.option("--max-episodes", type=int, default=None, help="Default: term_cond_max_episodes.")
+@click.option("--max-minutes", type=float, default=None)
+@click.option("--pretrained-prefix", default=None, help="Clone the weights of this model's checkpoint.")
+@click.option("--pretrained-checkpoint", type=click.Choice(["last", "best"]), default="last", show_default=True)
+@click.option("--seed", type=int, default=0, show_default=True)
+def trainer_command(model_prefix, custom_files, num_workers, track, worlds, max_episodes, max_minutes,
+                    pretrained_prefix, pretrained_checkpoint, seed) -> None:
+    """Run the clipped-PPO trainer: Redis and the store come from RACER_REDIS_URL / RACER_STORE."""
+    from racer.trainer.training_loop import TrainerOptions, run_trainer
+
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    options = TrainerOptions(
+        model_prefix=model_prefix, custom_files=custom_files, num_workers=num_workers, track=track,
+        worlds=tuple(w.strip() for w in worlds.split(",") if w.strip()), max_episodes=max_episodes,
+        max_minutes=max_minutes, seed=seed, pretrained_prefix=pretrained_prefix,
+        pretrained_checkpoint=pretrained_checkpoint,
+    )
+    run_trainer(settings_from_env(), options)

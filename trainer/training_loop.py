@@ -1,0 +1,318 @@
+"""The trainer process: iteration after iteration, collect every worker's share, update PPO, publish a checkpoint.
+
+One iteration k, top to bottom:
+1. announce checkpoint k on the control stream (it is already complete in the store);
+2. collect one batch per share from the episode stream (consumer group `trainer`): batches of an older
+   policy are dropped (strictly on-policy), a second batch for the same share is dropped (a restarted or
+   replaying worker), and a share whose worker has no heartbeat is re-assigned to a live worker;
+3. print DeepRacer's `Training>` line per episode, run the clipped-PPO update, print `Policy training>` lines;
+4. save checkpoint k+1 to the store (files first, then `.coach_checkpoint`), then acknowledge the batches.
+A trainer killed at any point restarts from the newest checkpoint: unacknowledged batches are read again.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import signal
+import threading
+import time
+from collections import defaultdict
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import torch
+import yaml
+
+from racer.shared.config import ServiceSettings
+from racer.shared.deepracer.hyperparameters import Hyperparameters, hyperparameters_to_json_bytes, load_hyperparameters
+from racer.shared.deepracer.model_metadata import ModelMetadata, load_model_metadata
+from racer.shared.episode import Episode
+from racer.shared.policy.checkpoints import CheckpointStore
+from racer.shared.policy.networks import build_actor_critic
+from racer.shared.redis_connection import RedisLink
+from racer.shared.run_layout import RunLayout, WorkerSettings, default_worker_settings
+from racer.shared.sim.reward import load_reward_function
+from racer.shared.store import ObjectNotFoundError, open_store
+from racer.shared.transport.channels import ReceivedBatch, RunChannel, share_sizes
+from racer.trainer.ppo import PPOTrainer, format_policy_training_line, format_training_episode_line
+
+log = logging.getLogger(__name__)
+
+
+class StopRequested(Exception):
+    """SIGTERM / Ctrl-C / a stop condition: finish cleanly."""
+
+
+@dataclass(frozen=True)
+class TrainerOptions:
+    model_prefix: str
+    custom_files: Path
+    num_workers: int
+    track: str
+    worlds: tuple[str, ...]
+    max_episodes: int | None = None
+    """Training episodes to consume before stopping (default: hyperparameters' term_cond_max_episodes)."""
+    max_minutes: float | None = None
+    seed: int = 0
+    pretrained_prefix: str | None = None
+    pretrained_checkpoint: str = "last"
+    share_timeout_s: float = 3600.0
+    """Longest wait for the episodes of one iteration before giving up with an error."""
+    dead_worker_grace_s: float = 20.0
+    """How long a share may have no live worker before it is re-assigned."""
+
+
+def load_worker_settings(custom_files: Path, num_workers: int, track: str, worlds: tuple[str, ...]) -> list[WorkerSettings]:
+    """Defaults (world i to worker i, one track) plus the optional custom_files/workers.json.
+
+    workers.json holds DeepRacer training_params keys applied to every worker, and optionally
+    `"workers": [{...}, {...}]` with per-worker overrides (like DeepRacer-for-Cloud's worker-N.env).
+    """
+    settings = default_worker_settings(num_workers, track, worlds)
+    path = custom_files / "workers.json"
+    if not path.is_file():
+        return settings
+    try:
+        data = json.loads(path.read_text())
+    except json.JSONDecodeError as error:
+        raise ValueError(f"{path}: line {error.lineno} column {error.colno}: {error.msg}") from error
+    if not isinstance(data, dict):
+        raise ValueError(f"{path}: expected a JSON object of training_params keys")
+    per_worker = data.pop("workers", [])
+    if not isinstance(per_worker, list):
+        raise ValueError(f"{path}: workers: expected a list with one object per worker")
+    result = []
+    for worker_id, base in enumerate(settings):
+        params = base.to_training_params("", num_workers)
+        params.update({k: str(v) for k, v in data.items()})
+        if worker_id < len(per_worker):
+            params.update({k: str(v) for k, v in per_worker[worker_id].items()})
+        result.append(WorkerSettings.from_training_params(params, source=f"{path} (worker {worker_id})"))
+    return result
+
+
+class Trainer:
+    def __init__(self, settings: ServiceSettings, options: TrainerOptions):
+        self.options = options
+        self.store = open_store(settings.store)
+        self.layout = RunLayout(options.model_prefix)
+        self.channel = RunChannel(RedisLink(settings.redis), options.model_prefix)
+        self.checkpoints = CheckpointStore(self.store, options.model_prefix)
+        self.stop_event = threading.Event()
+        self.consumer = "trainer-0"
+        self.started = time.monotonic()
+        self.episodes_consumed = 0
+        self.env_steps = 0
+
+    # ---- set-up ----------------------------------------------------------------------------------
+    def _read_custom_files(self) -> tuple[ModelMetadata, Hyperparameters, bytes, list[WorkerSettings]]:
+        folder = self.options.custom_files
+        metadata = load_model_metadata(folder / "model_metadata.json")
+        hyperparameters, warnings = load_hyperparameters(folder / "hyperparameters.json")
+        for warning in warnings:
+            log.warning(warning)
+        load_reward_function(folder / "reward_function.py")  # fail now, with the file and line, not in a worker
+        workers = load_worker_settings(folder, self.options.num_workers, self.options.track, self.options.worlds)
+        return metadata, hyperparameters, (folder / "reward_function.py").read_bytes(), workers
+
+    def _upload_run_files(self, metadata_bytes: bytes, hyperparameters: Hyperparameters, metadata: ModelMetadata,
+                          reward_bytes: bytes, workers: list[WorkerSettings]) -> None:
+        self.store.put_bytes(self.layout.model_metadata, metadata_bytes)
+        self.store.put_bytes(self.layout.hyperparameters,
+                             hyperparameters_to_json_bytes(hyperparameters, metadata.training_algorithm))
+        self.store.put_bytes(self.layout.reward_function, reward_bytes)
+        params = [w.to_training_params(self.options.model_prefix, len(workers)) for w in workers]
+        for worker_id, worker_params in enumerate(params):
+            if worker_id == 0 or worker_params != params[0]:
+                self.store.put_bytes(self.layout.training_params(worker_id),
+                                     yaml.safe_dump(worker_params, sort_keys=False).encode())
+        self.store.put_bytes(self.layout.ip_done, b"done")
+
+    def setup(self) -> int:
+        """Upload the run's files, restore or create the newest checkpoint; returns its number."""
+        torch.manual_seed(self.options.seed)
+        metadata, hyperparameters, reward_bytes, workers = self._read_custom_files()
+        self.metadata, self.hyperparameters = metadata, hyperparameters
+        self.network = build_actor_critic(metadata)
+        self.ppo = PPOTrainer(self.network, hyperparameters, seed=self.options.seed)
+        latest = self.checkpoints.latest_name()
+        if latest is not None:
+            iteration, self.env_steps = self.checkpoints.restore(latest, self.network, self.ppo)
+            log.info("resuming %s from checkpoint %s", self.options.model_prefix, latest)
+            self.episodes_consumed = iteration * hyperparameters.num_episodes_between_training
+        else:
+            self.channel.delete_run_keys()
+            metadata_bytes = (self.options.custom_files / "model_metadata.json").read_bytes()
+            self._upload_run_files(metadata_bytes, hyperparameters, metadata, reward_bytes, workers)
+            if self.options.pretrained_prefix:
+                self._clone_from_pretrained()
+            iteration = 0
+            self._save(iteration)
+            self.store.put_bytes(self.layout.ready, b"")
+        self.channel.ensure_trainer_group()
+        return iteration
+
+    def _clone_from_pretrained(self) -> None:
+        source = CheckpointStore(self.store, self.options.pretrained_prefix)
+        name = source.select(self.options.pretrained_checkpoint)
+        source.restore_weights_only(name, self.network)
+        print(f"Cloned weights from {self.options.pretrained_prefix}/model/{name}", flush=True)
+
+    def _save(self, iteration: int) -> str:
+        name = self.checkpoints.save(iteration, self.env_steps, self.network, self.ppo, self.metadata,
+                                     self.hyperparameters)
+        print(f"Checkpoint> Saving in path=['{self.layout.key('model', name)}']", flush=True)
+        return name
+
+    # ---- one iteration -----------------------------------------------------------------------------
+    def collect(self, iteration: int) -> dict[int, ReceivedBatch]:
+        sizes = share_sizes(self.hyperparameters.num_episodes_between_training, self.options.num_workers)
+        expected = {share for share, size in enumerate(sizes) if size > 0}
+        got: dict[int, ReceivedBatch] = {}
+        replays: dict[int, tuple[int, float]] = {}
+        waiting_since = time.monotonic()
+        next_notice = waiting_since + 60
+
+        def consider(received: ReceivedBatch) -> None:
+            batch = received.batch
+            if batch.iteration != iteration or batch.policy_version != iteration:
+                log.info("dropping a stale batch (iteration %d, policy %d) while training iteration %d",
+                         batch.iteration, batch.policy_version, iteration)
+                self.channel.ack(received.stream_id)
+            elif batch.share in got or batch.share not in expected:
+                log.info("dropping a duplicate batch for share %d of iteration %d from worker %d",
+                         batch.share, iteration, batch.worker_id)
+                self.channel.ack(received.stream_id)
+            else:
+                got[batch.share] = received
+                self.channel.mark_received(iteration, batch.share)
+
+        for received in self.channel.read_batches(self.consumer, 0, pending=True):
+            consider(received)
+        while expected - got.keys():
+            if self.stop_event.is_set():
+                raise StopRequested()
+            for received in self.channel.read_batches(self.consumer, block_s=2.0):
+                consider(received)
+            missing = sorted(expected - got.keys())
+            if not missing:
+                break
+            now = time.monotonic()
+            live = self.channel.live_workers()
+            if now - waiting_since > self.options.dead_worker_grace_s:
+                for share in missing:
+                    target, _since = replays.get(share, (share, waiting_since))
+                    if target in live:
+                        continue
+                    busy = {t for t, _ in replays.values()}
+                    candidates = [w for w in sorted(live) if w not in busy] or sorted(live)
+                    if not candidates:
+                        continue
+                    replays[share] = (candidates[0], now)
+                    log.warning("worker %d (share %d of iteration %d) has no heartbeat; worker %d replays it",
+                                share, share, iteration, candidates[0])
+                    self.channel.request_replay(iteration, share, candidates[0])
+            if now > next_notice:
+                log.info("iteration %d: waiting for the episodes of shares %s (live workers %s)",
+                         iteration, missing, sorted(live))
+                next_notice = now + 60
+            if now - waiting_since > self.options.share_timeout_s:
+                raise TimeoutError(
+                    f"iteration {iteration}: no episodes for shares {missing} after "
+                    f"{self.options.share_timeout_s:.0f} s (live workers: {sorted(live) or 'none'}); "
+                    f"are the rollout workers running against {self.channel.key('episodes')}?")
+        return got
+
+    def train_iteration(self, iteration: int, batches: dict[int, ReceivedBatch], rollout_wall_s: float) -> dict:
+        episodes: list[Episode] = []
+        for share in sorted(batches):
+            episodes.extend(batches[share].batch.episodes)
+        for episode in episodes:
+            self.episodes_consumed += 1
+            self.env_steps += episode.steps
+            print(format_training_episode_line(episode.worker_id, self.episodes_consumed, episode.total_reward,
+                                               self.env_steps, iteration), flush=True)
+        epoch_stats = self.ppo.update(episodes)
+        for stats in epoch_stats:
+            print(format_policy_training_line(stats), flush=True)
+        return self._summary(iteration, episodes, rollout_wall_s)
+
+    def _summary(self, iteration: int, episodes: list[Episode], rollout_wall_s: float) -> dict:
+        by_world = defaultdict(list)
+        for episode in episodes:
+            by_world[episode.world].append(episode)
+        steps = sum(e.steps for e in episodes)
+        return {
+            "iteration": iteration,
+            "episodes": len(episodes),
+            "env_steps_total": self.env_steps,
+            "mean_reward": float(np.mean([e.total_reward for e in episodes])),
+            "mean_progress": float(np.mean([e.progress for e in episodes])),
+            "completion_rate": float(np.mean([e.final_status == "lap_complete" for e in episodes])),
+            "experience_steps_per_s": steps / max(rollout_wall_s, 1e-6),
+            "elapsed_s": time.monotonic() - self.started,
+            "worlds": {
+                world: {"episodes": len(items), "mean_reward": float(np.mean([e.total_reward for e in items])),
+                        "mean_progress": float(np.mean([e.progress for e in items])),
+                        "completion_rate": float(np.mean([e.final_status == "lap_complete" for e in items]))}
+                for world, items in by_world.items()
+            },
+        }
+
+    def _record_summary(self, summary: dict) -> None:
+        self.channel.publish("iterations", summary)
+        key = self.layout.key("metrics", "iterations.jsonl")
+        try:
+            existing = self.store.get_bytes(key)
+        except ObjectNotFoundError:
+            existing = b""
+        self.store.put_bytes(key, existing + json.dumps(summary).encode() + b"\n")
+
+    def _should_stop(self) -> bool:
+        max_episodes = self.options.max_episodes or self.hyperparameters.term_cond_max_episodes
+        if self.episodes_consumed >= max_episodes:
+            log.info("stopping: %d training episodes reached (limit %d)", self.episodes_consumed, max_episodes)
+            return True
+        if self.options.max_minutes is not None and time.monotonic() - self.started > 60 * self.options.max_minutes:
+            log.info("stopping: wall-time limit of %.1f minutes reached", self.options.max_minutes)
+            return True
+        return self.stop_event.is_set()
+
+    def run(self) -> None:
+        iteration = self.setup()
+        try:
+            while True:
+                name = self.checkpoints.latest_name()
+                self.channel.announce_iteration(iteration, name, self.hyperparameters.num_episodes_between_training,
+                                                self.options.num_workers)
+                announced = time.monotonic()
+                try:
+                    batches = self.collect(iteration)
+                except StopRequested:
+                    break
+                summary = self.train_iteration(iteration, batches, time.monotonic() - announced)
+                self._save(iteration + 1)
+                self.channel.ack(*[b.stream_id for b in batches.values()])
+                self._record_summary(summary)
+                iteration += 1
+                if self._should_stop():
+                    break
+        finally:
+            self.store.put_bytes(self.layout.finished, b"")
+            self.channel.announce_finished(iteration)
+            print(f"Training finished at checkpoint {iteration} ({self.episodes_consumed} episodes, "
+                  f"{self.env_steps} steps)", flush=True)
+
+
+def run_trainer(settings: ServiceSettings, options: TrainerOptions) -> None:
+    trainer = Trainer(settings, options)
+
+    def request_stop(signum, frame):
+        log.info("signal %d: finishing the current step, then writing .finished", signum)
+        trainer.stop_event.set()
+
+    signal.signal(signal.SIGTERM, request_stop)
+    signal.signal(signal.SIGINT, request_stop)
+    trainer.run()
