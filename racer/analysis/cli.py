@@ -16,10 +16,7 @@ from racer.analysis.track_sections import TrackError
 from racer.shared.sim.reward import RewardFunctionError
 from racer.shared.store import StoreError
 
-try:
-    from racer.shared.deepracer.simtrace import SimtraceError
-except ImportError:  # the shared reader is being written in parallel
-    from racer.analysis._interim_simtrace import SimtraceError
+from racer.shared.deepracer.simtrace import SimtraceError
 
 TERMINAL_ITERATIONS = 15
 """The terminal shows the last iterations only; the report and iterations.csv have all of them."""
@@ -69,7 +66,9 @@ def print_summary(analysis: Analysis) -> None:
 @click.command("analyze")
 @click.argument("source")
 @click.option("--track", "track", metavar="NAME|PATH",
-              help="Route by name (tracks/) or .npy path. Default: the WORLD_NAME of the run, if installed.")
+              help="Route by name or .npy path. Default: the run's WORLD_NAME, if that route is in the tracks folder.")
+@click.option("--tracks-dir", type=click.Path(exists=True, file_okay=False, path_type=Path),
+              help="Folder of route .npy files to find track names in [default: the project's tracks/].")
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path),
               help="Folder for report.html, PNGs and CSVs [default: ./analysis/<source name>].")
 @click.option("--reward-function", "reward_path", type=click.Path(exists=True, dir_okay=False, path_type=Path),
@@ -79,7 +78,7 @@ def print_summary(analysis: Analysis) -> None:
 @click.option("--top", "top_laps", default=4, show_default=True, type=click.IntRange(1, 12),
               help="How many of the fastest laps to draw.")
 @click.option("--no-pictures", is_flag=True, help="Tables and CSVs only (faster).")
-def analyze_command(source: str, track: str | None, out_dir: Path | None, reward_path: Path | None, sections: int,
+def analyze_command(source: str, track: str | None, tracks_dir: Path | None, out_dir: Path | None, reward_path: Path | None, sections: int,
                     top_laps: int, no_pictures: bool) -> None:
     """Analyse DeepRacer/racer simtrace logs: SOURCE is a folder, a .csv, a .tar.gz export, s3://bucket/prefix,
     or a model prefix in RACER_STORE.
@@ -89,7 +88,7 @@ def analyze_command(source: str, track: str | None, out_dir: Path | None, reward
     """
     out_dir = out_dir or default_out_dir(source)
     try:
-        analysis = analyze(source, out_dir, track=track, sections=sections, top_laps=top_laps,
+        analysis = analyze(source, out_dir, track=track, tracks_dir=tracks_dir, sections=sections, top_laps=top_laps,
                            pictures=not no_pictures)
         if reward_path is not None:
             if analysis.track is None:

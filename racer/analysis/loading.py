@@ -8,11 +8,7 @@ import numpy as np
 import pandas as pd
 
 from racer.analysis.sources import RunFiles, SimtraceFile
-
-try:
-    from racer.shared.deepracer.simtrace import read_simtrace
-except ImportError:  # the shared reader is being written in parallel; this import goes away when it lands
-    from racer.analysis._interim_simtrace import read_simtrace
+from racer.shared.deepracer.simtrace import read_simtrace
 
 PLACEMENT_COLUMNS = ["phase", "run", "worker", "iteration"]
 EPISODE_KEY = ["phase", "run", "worker", "episode"]
@@ -20,11 +16,21 @@ EPISODE_KEY = ["phase", "run", "worker", "episode"]
 
 
 def read_one(file: SimtraceFile) -> pd.DataFrame:
-    frame = read_simtrace(file.read_bytes(), source=file.name)
+    frame = fill_missing_status(read_simtrace(file.read_bytes(), source=file.name))
     frame.insert(0, "file", file.name)
     for position, column in enumerate(PLACEMENT_COLUMNS, start=1):
         frame.insert(position, column, getattr(file, column))
     return frame
+
+
+def fill_missing_status(frame: pd.DataFrame) -> pd.DataFrame:
+    """15-column files (2019) have no episode_status/pause_duration: every row counts as driving, and the last
+    row of an episode is `lap_complete` at 100 % progress, else `unknown` (the file does not say why it ended)."""
+    if "episode_status" in frame.columns:
+        return frame
+    last_row = frame["episode"].ne(frame["episode"].shift(-1))
+    status = np.where(last_row, np.where(frame["progress"] >= 100.0, "lap_complete", "unknown"), "in_progress")
+    return frame.assign(episode_status=status, pause_duration=0.0)
 
 
 def load_steps(files: RunFiles, *, progress: bool = True) -> pd.DataFrame:

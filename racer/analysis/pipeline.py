@@ -49,25 +49,29 @@ def world_names(files: RunFiles) -> list[str]:
     return names
 
 
-def resolve_track(files: RunFiles, track_arg: str | None, notes: list[str]) -> Track | None:
-    """--track wins; otherwise the WORLD_NAME of the run, if a route of that name is installed."""
+def resolve_track(files: RunFiles, track_arg: str | None, tracks_dir: Path | None, notes: list[str]) -> Track | None:
+    """--track wins; otherwise the WORLD_NAME of the run, if a route of that name is in the tracks folder."""
     if track_arg:
-        return load_track(track_arg)  # an explicit track that cannot be loaded is an error, not a note
+        return load_track(track_arg, tracks_dir)  # an explicit track that cannot be loaded is an error, not a note
     for world in world_names(files):
         try:
-            return load_track(world)
+            track = load_track(world, tracks_dir)
         except TrackError:
-            notes.append(f"The run was on track {world!r}, which is not installed here; give its route with --track.")
+            notes.append(f"The run was on track {world!r}, which is not in the tracks folder; give its route with "
+                         "--track PATH.npy (or --tracks-dir): tables only, no track pictures.")
             return None
+        notes.append(f"Track {world!r} taken from the run's params yaml.")
+        return track
     notes.append("No track given (--track NAME|PATH.npy) and none named by the run: tables only, no track pictures.")
     return None
 
 
-def build_tables(files: RunFiles, track_arg: str | None = None, *, show_progress: bool = True) -> Analysis:
+def build_tables(files: RunFiles, track_arg: str | None = None, tracks_dir: Path | None = None, *,
+                 show_progress: bool = True) -> Analysis:
+    notes: list[str] = []
+    track = resolve_track(files, track_arg, tracks_dir, notes)  # first: a wrong --track fails before the long read
     steps = load_steps(files, progress=show_progress)
     episodes = aggregate.episodes(steps)
-    notes: list[str] = []
-    track = resolve_track(files, track_arg, notes)
     return Analysis(
         files=files,
         steps=steps,
@@ -148,10 +152,10 @@ def build_report(analysis: Analysis, out_dir: Path) -> Path:
     return analysis.report_path
 
 
-def analyze(source: str, out_dir: Path, *, track: str | None = None, sections: int = 10, top_laps: int = 4,
-            pictures: bool = True, show_progress: bool = True) -> Analysis:
+def analyze(source: str, out_dir: Path, *, track: str | None = None, tracks_dir: Path | None = None,
+            sections: int = 10, top_laps: int = 4, pictures: bool = True, show_progress: bool = True) -> Analysis:
     files = open_source(source)
-    analysis = build_tables(files, track, show_progress=show_progress)
+    analysis = build_tables(files, track, tracks_dir, show_progress=show_progress)
     out_dir.mkdir(parents=True, exist_ok=True)
     write_tables(analysis, out_dir)
     if pictures:

@@ -2,14 +2,16 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 from racer.shared.sim.track import Track, TrackError
 
 
-def load_track(name_or_path: str) -> Track:
-    """A route by name (from tracks/) or by .npy path; TrackError names the file when it cannot be used."""
-    return Track.load(name_or_path)
+def load_track(name_or_path: str, tracks_dir: Path | None = None) -> Track:
+    """A route by name (from `tracks_dir`, default tracks/) or by .npy path; TrackError names the file."""
+    return Track.load(name_or_path, tracks_dir)
 
 
 def waypoint_distance_m(track: Track) -> np.ndarray:
