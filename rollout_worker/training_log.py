@@ -1,0 +1,114 @@
+"""What a rollout worker writes to the store as it plays: DeepRacer's simtrace, TrainingMetrics and best/last.
+
+- `<prefix>[/<worker>]/training-simtrace/<k>-iteration.csv`: every training step of iteration k (19 columns).
+- `<prefix>/metrics/TrainingMetrics[_<worker>].json`: one entry per training episode, plus worker 0's
+  evaluation episodes (rewritten whole after each iteration, as DeepRacer does after each episode).
+- `<prefix>/model/deepracer_checkpoints.json` (worker 0): best checkpoint by BEST_MODEL_METRIC and the last
+  evaluated one (reference §5.3: progress/reward: new best if mean >= best; laptime: <=, 999999 ms for no lap).
+"""
+
+from __future__ import annotations
+
+import logging
+import re
+
+import numpy as np
+
+from racer.rollout_worker.run_files import RunFiles
+from racer.shared.deepracer.metrics import TrainingMetrics, TrainingMetricsEntry
+from racer.shared.deepracer.simtrace import EpisodeStatus, SimtraceWriter
+from racer.shared.episode_runner import PlayedEpisode
+from racer.shared.store import ObjectNotFoundError, ObjectStore
+
+log = logging.getLogger(__name__)
+
+UNFINISHED_LAP_MS = 999_999
+_STEPS_IN_NAME = re.compile(r"_Step-(\d+)\.ckpt")
+
+
+class WorkerLog:
+    def __init__(self, store: ObjectStore, run: RunFiles, worker_id: int):
+        self.store = store
+        self.run = run
+        self.worker_id = worker_id
+        self.simtrace = SimtraceWriter()
+        self.metrics_key = run.layout.training_metrics(worker_id)
+        self.metrics = self._load_metrics()
+        self.training_steps = 0
+        self._episode = max((e.episode for e in self.metrics.entries), default=0)
+        self._trial = 0
+        self._trial_iteration = -1
+
+    def _load_metrics(self) -> TrainingMetrics:
+        try:
+            return TrainingMetrics.from_json_bytes(self.store.get_bytes(self.metrics_key),
+                                                   source=f"{self.store.describe()}/{self.metrics_key}")
+        except ObjectNotFoundError:
+            return TrainingMetrics(best_model_metric=self.run.worker.best_model_metric)
+
+    @staticmethod
+    def _entry(played: PlayedEpisode, episode: int, trial: int, phase: str) -> TrainingMetricsEntry:
+        start_ms = int(played.start_time_s * 1000)
+        end_ms = int(played.end_time_s * 1000)
+        return TrainingMetricsEntry(
+            reward_score=int(round(played.total_reward)),
+            metric_time=end_ms,
+            start_time=start_ms,
+            elapsed_time_in_milliseconds=end_ms - start_ms,
+            episode=episode,
+            trial=trial,
+            phase=phase,
+            completion_percentage=int(played.progress),
+            episode_status=EpisodeStatus(played.final_status).label,
+        )
+
+    def record_training_episode(self, played: PlayedEpisode, iteration: int) -> None:
+        if iteration != self._trial_iteration:
+            self._trial_iteration, self._trial = iteration, 0
+        self._episode += 1
+        self._trial += 1
+        self.training_steps += played.steps
+        self.simtrace.extend(played.simtrace_rows)
+        self.metrics.entries.append(self._entry(played, self._episode, self._trial, "training"))
+
+    def finish_iteration(self, iteration: int, num_workers: int) -> None:
+        """Upload this iteration's simtrace (then start a new one) and the metrics so far."""
+        if len(self.simtrace):
+            key = self.run.layout.training_simtrace(self.worker_id, iteration, num_workers)
+            self.store.put_bytes(key, self.simtrace.to_bytes())
+            self.simtrace.clear()
+        self.store.put_bytes(self.metrics_key, self.metrics.to_json_bytes())
+
+    def record_evaluation(self, announcement, results: list[PlayedEpisode], checkpoints, channel) -> None:
+        """Worker 0: log the greedy evaluation of checkpoint k and update best/last."""
+        for played in results:
+            self.metrics.entries.append(self._entry(played, self._episode, self._trial, "evaluation"))
+        self.store.put_bytes(self.metrics_key, self.metrics.to_json_bytes())
+        metric_name = self.run.worker.best_model_metric
+        if metric_name == "progress":
+            value = float(np.mean([p.progress for p in results]))
+        elif metric_name == "reward":
+            value = float(np.mean([p.total_reward for p in results]))
+        else:
+            value = float(np.mean([p.lap_time_s * 1000 if p.lap_completed and p.lap_time_s else UNFINISHED_LAP_MS
+                                   for p in results]))
+        time_stamp = max(p.end_time_s for p in results)
+        best = checkpoints.update_best_and_last(announcement.checkpoint, value, time_stamp,
+                                                lower_is_better=(metric_name == "laptime"))
+        laps = [p for p in results if p.lap_completed]
+        steps = _STEPS_IN_NAME.search(announcement.checkpoint)
+        record = {
+            "iteration": announcement.iteration,
+            "checkpoint": announcement.checkpoint,
+            "trials": len(results),
+            "laps_completed": len(laps),
+            "mean_progress": float(np.mean([p.progress for p in results])),
+            "avg_eval_metric": value,
+            "best_model_metric": metric_name,
+            "best_checkpoint": best,
+            "best_lap_time_s": min((p.lap_time_s for p in laps if p.lap_time_s), default=None),
+            "env_steps_total": int(steps.group(1)) if steps else None,
+        }
+        channel.publish("evaluations", record)
+        log.info("evaluation of %s: %d/%d laps, %s %.2f (best: %s)", announcement.checkpoint, len(laps),
+                 len(results), metric_name, value, best)
