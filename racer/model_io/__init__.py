@@ -1,0 +1,50 @@
+"""Validate, import and export models in DeepRacer's S3 layout, with the console's import error codes.
+
+`racer model validate|import|export` (racer.model_io.cli) are thin wrappers over:
+`validate_location` / `validate_model` -> ValidationReport (ValidationProblem(code, path, message, fix)),
+`import_model`, `export_model` -> TransferResult.
+"""
+
+from racer.model_io.codes import CODE_INFO, ProblemCode
+from racer.model_io.problems import (
+    DEFAULT_LIMITS,
+    CheckpointSelection,
+    ImportPlan,
+    SizeLimits,
+    ValidationProblem,
+    ValidationReport,
+)
+from racer.model_io.sources import FolderSource, ModelSource, StoreSource, TarSource, open_source
+from racer.model_io.transfer import (
+    FolderDestination,
+    ModelExistsError,
+    StoreDestination,
+    TransferResult,
+    export_model,
+    import_model,
+)
+from racer.model_io.validate import validate_location, validate_model
+
+__all__ = [
+    "CODE_INFO",
+    "CheckpointSelection",
+    "DEFAULT_LIMITS",
+    "FolderDestination",
+    "FolderSource",
+    "ImportPlan",
+    "ModelExistsError",
+    "ModelSource",
+    "ProblemCode",
+    "SizeLimits",
+    "StoreDestination",
+    "StoreSource",
+    "TarSource",
+    "TransferResult",
+    "ValidationProblem",
+    "ValidationReport",
+    "export_model",
+    "import_model",
+    "open_source",
+    "validate_location",
+    "validate_model",
+]

@@ -1,0 +1,156 @@
+"""`racer model validate | import | export`.
+
+Exit status: 0 when the model is fine / the copy succeeded, 1 when problems were printed (each with the
+DeepRacer console's code and a fix), 2 for usage errors.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+
+import click
+
+from racer.model_io.problems import ValidationProblem, ValidationReport
+from racer.model_io.sources import split_s3_location
+from racer.model_io.transfer import (
+    Destination,
+    FolderDestination,
+    ModelExistsError,
+    StoreDestination,
+    TransferResult,
+    export_model,
+    import_model,
+)
+from racer.model_io.validate import validate_location
+from racer.shared.config import S3Settings, parse_store_location, settings_from_env
+from racer.shared.store import ObjectStore, S3Store, open_store
+
+STORE_HELP = "This system's store: s3://bucket (endpoint and keys from S3_ENDPOINT_URL, AWS_*) or a folder. Default: RACER_STORE."
+
+
+def _open_store(location: str | None) -> ObjectStore:
+    settings = settings_from_env()
+    if location is None:
+        return open_store(settings.store)
+    try:
+        return open_store(parse_store_location(location, os.environ, settings.redis.connect_timeout_s))
+    except ValueError as error:
+        raise click.BadParameter(str(error), param_hint="--store") from None
+
+
+def _print_problems(problems: tuple[ValidationProblem, ...]) -> None:
+    for problem in problems:
+        click.echo(problem.render())
+
+
+def _print_report(report: ValidationReport) -> None:
+    _print_problems(report.problems)
+    for note in report.notes:
+        click.echo(f"note: {note}")
+    if report.plan is not None:
+        selection = report.plan.selection
+        click.echo(f"OK  {report.source}: import-ready. Checkpoints {', '.join(selection.checkpoints)} "
+                   f"(chosen by {selection.source}); best {selection.best}, last {selection.pointer}; "
+                   f"{report.plan.total_bytes} bytes to copy.")
+    elif report.problems:
+        count = len(report.problems)
+        click.echo(f"{count} problem{'s' if count != 1 else ''}: {report.source} cannot be imported as it is.")
+
+
+@click.group("model")
+def model_group() -> None:
+    """Validate, import and export models in DeepRacer's layout, with the console's import error codes."""
+
+
+@model_group.command("validate")
+@click.argument("location")
+@click.option("--json", "as_json", is_flag=True, help="Print the report as JSON.")
+def validate_command(location: str, as_json: bool) -> None:
+    """Check LOCATION (a folder, a .tar.gz, or s3://bucket/prefix) the way the DeepRacer importer did.
+
+    Prints every problem with its console code (e.g. COACH_CHECKPOINT_DOES_NOT_EXIST) and a fix.
+    """
+    report, _ = validate_location(location)
+    if as_json:
+        click.echo(report.to_json())
+    else:
+        _print_report(report)
+    sys.exit(0 if report.ok else 1)
+
+
+@model_group.command("import")
+@click.argument("source")
+@click.argument("model_name")
+@click.option("--store", "store_location", default=None, help=STORE_HELP)
+@click.option("--overwrite", is_flag=True, help="Replace a model of the same name.")
+def import_command(source: str, model_name: str, store_location: str | None, overwrite: bool) -> None:
+    """Validate SOURCE and copy it into the store as MODEL_NAME (training can clone it, evaluation can run it).
+
+    Copies best and last checkpoints when model/deepracer_checkpoints.json exists, otherwise the checkpoint
+    named by model/.coach_checkpoint and the one before it (the console's logic).
+    """
+    report, opened = validate_location(source)
+    if opened is None or not report.ok:
+        _print_report(report)
+        sys.exit(1)
+    store = _open_store(store_location)
+    try:
+        result = import_model(opened, store, model_name, overwrite=overwrite)
+    except ValueError as error:
+        raise click.BadParameter(str(error), param_hint="MODEL_NAME") from None
+    except ModelExistsError as error:
+        raise click.ClickException(str(error)) from None
+    _finish(result, f"imported {source} as {result.destination}")
+
+
+@model_group.command("export")
+@click.argument("model")
+@click.argument("dest")
+@click.option("--store", "store_location", default=None, help=STORE_HELP)
+@click.option("--overwrite", is_flag=True, help="Write into DEST even if it already holds files.")
+def export_command(model: str, dest: str, store_location: str | None, overwrite: bool) -> None:
+    """Write MODEL (its prefix in the store) to DEST (a folder or s3://bucket/prefix), ready to import.
+
+    DEST gets ip/, model/, reward_function.py, training_params.yaml, model_metadata.json, metrics/ and the
+    car bundle model.tar.gz (model_metadata.json + agent/model.onnx). The result is validated.
+    """
+    store = _open_store(store_location)
+    destination = _destination(dest, overwrite)
+    result = export_model(store, model, destination)
+    _finish(result, f"exported {model} to {result.destination}"
+            + (f" (car bundle model.tar.gz: model_metadata.json + {result.car_bundle_model})"
+               if result.car_bundle_model else " (no inference model for the best checkpoint: no model.tar.gz)"))
+
+
+def _destination(dest: str, overwrite: bool) -> Destination:
+    if dest.startswith("s3://"):
+        bucket, prefix = split_s3_location(dest)
+        settings = parse_store_location(f"s3://{bucket}", os.environ, settings_from_env().redis.connect_timeout_s)
+        assert isinstance(settings, S3Settings)
+        store = S3Store(settings)
+        if not overwrite and store.list_keys(prefix + "/" if prefix else ""):
+            raise click.ClickException(f"{dest} already holds files; choose an empty prefix or pass --overwrite")
+        return StoreDestination(store, prefix)
+    path = Path(dest).expanduser()
+    if path.exists() and (not path.is_dir() or (any(path.iterdir()) and not overwrite)):
+        raise click.ClickException(f"{path} exists and is not an empty folder; choose another or pass --overwrite")
+    return FolderDestination(path)
+
+
+def _finish(result: TransferResult, success: str) -> None:
+    if not result.report.ok:
+        _print_report(result.report)
+        sys.exit(1)
+    if result.problems:
+        _print_problems(result.problems)
+        click.echo(f"nothing usable was written to {result.destination}")
+        sys.exit(1)
+    for note in result.report.notes:
+        click.echo(f"note: {note}")
+    if result.check is not None and not result.check.ok:
+        click.echo(f"the written copy does not validate ({result.destination}):")
+        _print_problems(result.check.problems)
+        sys.exit(1)
+    click.echo(f"{success}: {len(result.written)} files")

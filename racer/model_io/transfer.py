@@ -1,0 +1,261 @@
+"""Import a validated model into this system's store, and export a stored model in DeepRacer's layout.
+
+Import copies what the console importer copied (reference §5.1, seed 000 "Checkpoint logic"): the
+selected checkpoints with their inference graphs, model_metadata.json, hyperparameters, reward function,
+training_params.yaml, metrics and deepracer_checkpoints.json; `model/.coach_checkpoint` is written last so
+a reader never sees a pointer to a half-copied model.
+
+Export writes the import-ready prefix (ip/, model/, reward_function.py, training_params.yaml, metrics/,
+model_metadata.json at the root as DeepRacer-on-AWS expects) plus the car bundle `model.tar.gz`:
+`model_metadata.json` and the inference model. DeepRacer's bundle holds the TensorFlow graph at
+`agent/model.pb` (reference §5.4); this system's inference model is ONNX, so it goes to
+`agent/model.onnx`, the same folder a car-side loader already opens, with the extension telling it
+which runtime to use. An imported TensorFlow model keeps `agent/model.pb`.
+"""
+
+from __future__ import annotations
+
+import io
+import re
+import tarfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Protocol
+
+import botocore.exceptions
+
+from racer.model_io import checkpoints as ck
+from racer.model_io.codes import ProblemCode
+from racer.model_io.problems import DEFAULT_LIMITS, ImportPlan, SizeLimits, ValidationProblem, ValidationReport
+from racer.model_io.sources import FolderSource, ModelSource, StoreSource
+from racer.model_io.validate import CAR_BUNDLE_KEY, problem_for_source_error, validate_model
+from racer.shared.store import (
+    AccessDeniedError,
+    BucketNotFoundError,
+    ObjectNotFoundError,
+    ObjectStore,
+    StoreError,
+    StoreUnavailableError,
+    join_key,
+)
+
+MODEL_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9-]{0,63}$")
+"""The console's rule for model names: 1-64 characters, letters, digits and hyphens."""
+
+METADATA_TARGET = "model/model_metadata.json"
+HYPERPARAMETERS_TARGET = "ip/hyperparameters.json"
+CAR_BUNDLE_ONNX = "agent/model.onnx"
+CAR_BUNDLE_PB = "agent/model.pb"
+
+_SOURCE_ERRORS = (OSError, botocore.exceptions.BotoCoreError, botocore.exceptions.ClientError, AccessDeniedError,
+                  BucketNotFoundError, ObjectNotFoundError, StoreUnavailableError)
+
+
+class Destination(Protocol):
+    def describe(self) -> str: ...
+
+    def put_bytes(self, key: str, data: bytes) -> None: ...
+
+
+class FolderDestination:
+    """Plain files under a folder (no staging folder inside it, unlike LocalStore)."""
+
+    def __init__(self, root: Path):
+        self.root = Path(root)
+
+    def describe(self) -> str:
+        return str(self.root)
+
+    def put_bytes(self, key: str, data: bytes) -> None:
+        target = self.root / key
+        target.parent.mkdir(parents=True, exist_ok=True)
+        partial = target.with_name(target.name + ".partial")
+        partial.write_bytes(data)
+        partial.replace(target)
+
+
+class StoreDestination:
+    def __init__(self, store: ObjectStore, prefix: str):
+        self.store = store
+        self.prefix = prefix.strip("/")
+
+    def describe(self) -> str:
+        return StoreSource(self.store, self.prefix).describe()
+
+    def put_bytes(self, key: str, data: bytes) -> None:
+        self.store.put_bytes(join_key(self.prefix, key), data)
+
+
+class ModelExistsError(Exception):
+    """Import or export would overwrite a model; pass overwrite=True (--overwrite) to replace it."""
+
+
+@dataclass(frozen=True)
+class TransferResult:
+    """What import or export did: the files written (keys relative to the destination prefix) or why not."""
+
+    destination: str
+    report: ValidationReport
+    """Validation of the source (import) or of the stored model being exported."""
+    written: tuple[str, ...] = ()
+    problems: tuple[ValidationProblem, ...] = ()
+    """Copy failures (S3_COPY_ERROR, or source read errors during the copy)."""
+    car_bundle_model: str | None = None
+    """Export only: the path of the inference model inside model.tar.gz, or None if none was written."""
+    check: ValidationReport | None = None
+    """Export only: validation of what was written."""
+
+    @property
+    def ok(self) -> bool:
+        return self.report.ok and not self.problems and (self.check is None or self.check.ok)
+
+
+class _CopyFailed(Exception):
+    def __init__(self, problem: ValidationProblem):
+        super().__init__(problem.message)
+        self.problem = problem
+
+
+def _copy_plan(source: ModelSource, plan: ImportPlan, destination: Destination, *,
+               metadata_targets: tuple[str, ...], deepracer_checkpoints: bytes | None) -> list[str]:
+    """Copy the planned files; `.coach_checkpoint` last. Raises _CopyFailed with the problem on the first failure."""
+    copies: list[tuple[str, str]] = [(key, key) for key in plan.checkpoint_files]
+    copies += [(plan.metadata_key, target) for target in metadata_targets]
+    copies += [(plan.hyperparameters_key, HYPERPARAMETERS_TARGET), (plan.reward_function_key, plan.reward_function_key),
+               (plan.training_params_key, plan.training_params_key)]
+    copies += [(key, key) for key in plan.metrics_keys]
+    written: list[str] = []
+
+    def put(target: str, data: bytes) -> None:
+        try:
+            destination.put_bytes(target, data)
+        except (StoreError, OSError, botocore.exceptions.BotoCoreError, botocore.exceptions.ClientError) as error:
+            raise _CopyFailed(ValidationProblem(
+                ProblemCode.S3_COPY_ERROR, target, f"writing to {destination.describe()} failed: {error}",
+                "check that the destination store is reachable and writable (bucket exists, credentials may "
+                "s3:PutObject), then run the command again")) from error
+        written.append(target)
+
+    cache: dict[str, bytes] = {}
+    for source_key, target in copies:
+        if source_key not in cache:
+            try:
+                cache = {source_key: source.read(source_key)}
+            except _SOURCE_ERRORS as error:
+                raise _CopyFailed(problem_for_source_error(error, source.describe(), source_key)) from error
+        put(target, cache[source_key])
+    if deepracer_checkpoints is not None:
+        put(ck.DEEPRACER_CHECKPOINTS, deepracer_checkpoints)
+    put(ck.COACH_CHECKPOINT, plan.selection.pointer.encode())
+    return written
+
+
+def _source_deepracer_checkpoints(source: ModelSource, plan: ImportPlan) -> bytes:
+    """The source's own file when it had one (keeps avg_eval_metric); otherwise one naming the pointer as both."""
+    if plan.deepracer_checkpoints_key is not None:
+        return source.read(plan.deepracer_checkpoints_key)
+    pointer = ck.parse_checkpoint_name(plan.selection.pointer)
+    assert pointer is not None  # validation accepted it
+    return ck.render_deepracer_checkpoints(pointer, pointer)
+
+
+def import_model(source: ModelSource, store: ObjectStore, model_name: str, *, overwrite: bool = False,
+                 limits: SizeLimits = DEFAULT_LIMITS, checkpoint_suffixes: frozenset[str] = frozenset()) -> TransferResult:
+    """Validate `source` and copy it to `<model_name>/` in `store` with the console's checkpoint logic."""
+    if not MODEL_NAME.match(model_name):
+        raise ValueError(f"model name {model_name!r}: use 1-64 letters, digits and hyphens, starting with a letter "
+                         "or digit (the console's rule)")
+    destination = StoreDestination(store, model_name)
+    report = validate_model(source, limits, checkpoint_suffixes)
+    if report.plan is None:
+        return TransferResult(destination.describe(), report)
+    try:
+        existing = store.list_keys(model_name + "/")
+        if existing and not overwrite:
+            raise ModelExistsError(f"{destination.describe()} already holds a model ({len(existing)} files); "
+                                   "choose another name or pass --overwrite")
+        for key in existing:
+            store.delete(key)
+    except (StoreError, botocore.exceptions.BotoCoreError, botocore.exceptions.ClientError) as error:
+        return TransferResult(destination.describe(), report, problems=(ValidationProblem(
+            ProblemCode.S3_COPY_ERROR, "", f"can't prepare {destination.describe()}: {error}",
+            "check that the destination store is reachable, the bucket exists and the credentials may list, "
+            "write and delete there"),))
+    try:
+        deepracer_checkpoints = source.read(report.plan.deepracer_checkpoints_key) \
+            if report.plan.deepracer_checkpoints_key else None
+        written = _copy_plan(source, report.plan, destination, metadata_targets=(METADATA_TARGET,),
+                             deepracer_checkpoints=deepracer_checkpoints)
+    except _CopyFailed as failure:
+        _remove_partial(store, model_name)
+        return TransferResult(destination.describe(), report, problems=(failure.problem,))
+    except _SOURCE_ERRORS as error:
+        _remove_partial(store, model_name)
+        return TransferResult(destination.describe(), report,
+                              problems=(problem_for_source_error(error, source.describe()),))
+    return TransferResult(destination.describe(), report, written=tuple(written))
+
+
+def _remove_partial(store: ObjectStore, prefix: str) -> None:
+    """Best effort: a failed import must not leave a model that looks usable (its pointer was never written)."""
+    try:
+        for key in store.list_keys(prefix + "/"):
+            store.delete(key)
+    except (StoreError, botocore.exceptions.BotoCoreError, botocore.exceptions.ClientError):
+        return
+
+
+def car_bundle(metadata: bytes, inference_key: str, inference_model: bytes) -> tuple[bytes, str]:
+    """`model.tar.gz` for the car: model_metadata.json + agent/model.onnx (or .pb). Byte-reproducible."""
+    member = CAR_BUNDLE_ONNX if inference_key.endswith(".onnx") else CAR_BUNDLE_PB
+    buffer = io.BytesIO()
+    with tarfile.open(fileobj=buffer, mode="w:gz", format=tarfile.PAX_FORMAT) as bundle:
+        for name, data in (("model_metadata.json", metadata), (member, inference_model)):
+            info = tarfile.TarInfo(name)
+            info.size = len(data)
+            info.mode = 0o644
+            info.mtime = 0
+            bundle.addfile(info, io.BytesIO(data))
+    return buffer.getvalue(), member
+
+
+def export_model(store: ObjectStore, model_prefix: str, destination: Destination, *,
+                 limits: SizeLimits = DEFAULT_LIMITS, checkpoint_suffixes: frozenset[str] = frozenset(),
+                 check: bool = True) -> TransferResult:
+    """Write `model_prefix` from `store` to `destination` in the import-ready layout plus model.tar.gz."""
+    source = StoreSource(store, model_prefix)
+    report = validate_model(source, limits, checkpoint_suffixes)
+    if report.plan is None:
+        return TransferResult(destination.describe(), report)
+    plan = report.plan
+    try:
+        written = _copy_plan(source, plan, destination, metadata_targets=(METADATA_TARGET, "model_metadata.json"),
+                             deepracer_checkpoints=_source_deepracer_checkpoints(source, plan))
+        best = ck.parse_checkpoint_name(plan.selection.best)
+        assert best is not None
+        inference = ck.inference_model_files(best, plan.checkpoint_files)
+        inference_key = next((key for key in inference if key.endswith(".onnx")), inference[0] if inference else None)
+        car_model = None
+        if inference_key is not None:
+            bundle, car_model = car_bundle(source.read(plan.metadata_key), inference_key, source.read(inference_key))
+            destination.put_bytes(CAR_BUNDLE_KEY, bundle)
+            written.append(CAR_BUNDLE_KEY)
+    except _CopyFailed as failure:
+        return TransferResult(destination.describe(), report, problems=(failure.problem,))
+    except (StoreError, OSError, botocore.exceptions.BotoCoreError, botocore.exceptions.ClientError) as error:
+        return TransferResult(destination.describe(), report, problems=(ValidationProblem(
+            ProblemCode.S3_COPY_ERROR, CAR_BUNDLE_KEY, f"writing the car bundle failed: {error}",
+            "check that the destination is writable, then export again"),))
+    checked = None
+    if check:
+        checked = validate_model(_source_for(destination), limits, checkpoint_suffixes)
+    return TransferResult(destination.describe(), report, written=tuple(written), car_bundle_model=car_model,
+                          check=checked)
+
+
+def _source_for(destination: Destination) -> ModelSource:
+    if isinstance(destination, FolderDestination):
+        return FolderSource(destination.root)
+    if isinstance(destination, StoreDestination):
+        return StoreSource(destination.store, destination.prefix)
+    raise TypeError(f"don't know how to read back {destination!r}")

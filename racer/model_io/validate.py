@@ -1,0 +1,450 @@
+"""Check a model prefix the way the DeepRacer console importer did, and say what to fix.
+
+Every problem is reported (not just the first), each with the console's code. When there are none the
+report carries an ImportPlan: the files an import copies, chosen by the console's checkpoint logic:
+`model/deepracer_checkpoints.json` first (best and last), else `model/.coach_checkpoint` (the named
+checkpoint and the one before it).
+"""
+
+from __future__ import annotations
+
+import ast
+import io
+import json
+import re
+import tarfile
+from pathlib import Path
+
+import botocore.exceptions
+import yaml
+
+from racer.model_io import checkpoints as ck
+from racer.model_io.codes import ProblemCode
+from racer.model_io.problems import (
+    DEFAULT_LIMITS,
+    CheckpointSelection,
+    ImportPlan,
+    SizeLimits,
+    ValidationProblem,
+    ValidationReport,
+)
+from racer.model_io.sources import ModelSource, SourceFormatError, SourceMissingError, TarSource, open_source
+from racer.shared.deepracer.hyperparameters import parse_hyperparameters
+from racer.shared.deepracer.model_metadata import ModelMetadata, ModelMetadataError, parse_model_metadata
+from racer.shared.store import (
+    AccessDeniedError,
+    BucketNotFoundError,
+    ObjectNotFoundError,
+    StoreUnavailableError,
+)
+
+METADATA_KEYS = ("model/model_metadata.json", "model_metadata.json")
+"""Trainer layout (reference §5.1) first, then the prefix root (DeepRacer-on-AWS export)."""
+HYPERPARAMETER_KEYS = ("ip/hyperparameters.json", "hyperparameters.json")
+"""Console / trainer layout first, then the prefix root (DeepRacer-on-AWS export)."""
+REWARD_FUNCTION_KEY = "reward_function.py"
+TRAINING_PARAMS_KEY = "training_params.yaml"
+CAR_BUNDLE_KEY = "model.tar.gz"
+CAR_BUNDLE_MODELS = ("agent/model.onnx", "agent/model.pb")
+_METRICS = re.compile(r"^(metrics/.+\.json|(Training|Evaluation)Metrics[^/]*\.json)$")
+
+_CHECKPOINT_FIX = ("restore the missing files from your copy of the model, or point model/.coach_checkpoint "
+                   "(and model/deepracer_checkpoints.json) at a checkpoint whose files are all present")
+
+
+class _Collector:
+    """Accumulates problems and notes while the checks run, and reads files without raising."""
+
+    def __init__(self, source: ModelSource, files: dict[str, int]):
+        self.source = source
+        self.files = files
+        self.problems: list[ValidationProblem] = []
+        self.notes: list[str] = []
+        self.oversized: set[str] = set()
+
+    def add(self, code: ProblemCode, path: str, message: str, fix: str) -> None:
+        self.problems.append(ValidationProblem(code, path, message, fix))
+
+    def read(self, key: str) -> bytes | None:
+        """The file's bytes, or None (with a problem recorded) if it is too big or can't be read."""
+        if key in self.oversized:
+            return None
+        try:
+            return self.source.read(key)
+        except (OSError, SourceFormatError, botocore.exceptions.BotoCoreError, botocore.exceptions.ClientError,
+                AccessDeniedError, BucketNotFoundError, ObjectNotFoundError, StoreUnavailableError) as error:
+            self.problems.append(problem_for_source_error(error, self.source.describe(), key))
+            return None
+
+
+def problem_for_source_error(error: BaseException, where: str, key: str = "") -> ValidationProblem:
+    """Translate a failure to reach or read the source into the console's code for it."""
+    if isinstance(error, SourceMissingError):
+        return ValidationProblem(ProblemCode.FILE_DOES_NOT_EXIST, key, str(error),
+                                 "check the path; give a model folder, a .tar.gz of one, or s3://bucket/prefix")
+    if isinstance(error, SourceFormatError):
+        return ValidationProblem(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, key, str(error),
+                                 "re-create the archive from the model folder: tar czf model.tar.gz -C <folder> .")
+    if isinstance(error, BucketNotFoundError):
+        return ValidationProblem(ProblemCode.SRC_BUCKET_DOES_NOT_EXIST, key, f"{where}: {error}",
+                                 "check the bucket name and S3_ENDPOINT_URL; if the bucket was deleted, upload "
+                                 "your copy of the model to an existing bucket and validate that location")
+    if isinstance(error, AccessDeniedError):
+        cause = error.__cause__
+        cause_code = cause.response.get("Error", {}).get("Code", "") if isinstance(
+            cause, botocore.exceptions.ClientError) else ""
+        if cause_code == "InvalidAccessKeyId":
+            return _unknown_credentials(where, key, f"the S3 server does not know access key in use ({error})")
+        return ValidationProblem(ProblemCode.ACCESS_DENIED_TO_BUCKET, key, f"{where}: {error}",
+                                 "give the credentials in use s3:ListBucket and s3:GetObject on the bucket and "
+                                 "prefix (bucket policy or user policy), or use credentials that have them")
+    if isinstance(error, botocore.exceptions.NoCredentialsError):
+        return _unknown_credentials(where, key, "no S3 credentials were found")
+    if isinstance(error, ObjectNotFoundError):
+        return ValidationProblem(ProblemCode.FILE_DOES_NOT_EXIST, key, f"{error} (it was deleted while reading)",
+                                 "restore the file and validate again")
+    if isinstance(error, StoreUnavailableError | botocore.exceptions.BotoCoreError | botocore.exceptions.ClientError):
+        return ValidationProblem(ProblemCode.SERVICE_ERROR, key, f"{where}: {error}",
+                                 "check that the S3 endpoint (S3_ENDPOINT_URL) is up and reachable, then retry")
+    if isinstance(error, PermissionError):
+        return ValidationProblem(ProblemCode.ACCESS_DENIED_TO_BUCKET, key, f"{where}: {error}",
+                                 "make the model files readable by this user (chmod / chown)")
+    return ValidationProblem(ProblemCode.SERVICE_ERROR, key, f"{where}: {error}", "check the file system, then retry")
+
+
+def _unknown_credentials(where: str, key: str, detail: str) -> ValidationProblem:
+    return ValidationProblem(ProblemCode.ACCOUNT_RESOURCE_DOES_NOT_EXIST, key, f"{where}: {detail}",
+                             "set AWS_ACCESS_KEY_ID and AWS_SECRET_ACCESS_KEY to a user that exists on this S3 "
+                             "server (for MinIO: MINIO_ROOT_USER or a user created with `mc admin user add`)")
+
+
+def _decode_json(data: bytes, key: str) -> object:
+    """JSON with the byte-order mark some editors add; ValueError naming line and column."""
+    try:
+        return json.loads(data.decode("utf-8-sig"))
+    except UnicodeDecodeError as error:
+        raise ValueError(f"{key}: not UTF-8 text (byte {error.start})") from None
+    except json.JSONDecodeError as error:
+        raise ValueError(f"{key}: invalid JSON at line {error.lineno}, column {error.colno}: {error.msg}") from None
+
+
+def _check_sizes(run: _Collector, limits: SizeLimits) -> None:
+    for key, size in run.files.items():
+        in_checkpoint = key.startswith(ck.MODEL_DIR) and ck.checkpoint_name_of_file(key.removeprefix(ck.MODEL_DIR)) is not None
+        if in_checkpoint or ck.is_inference_model(key):
+            if size > limits.checkpoint_file_bytes:
+                run.oversized.add(key)
+                run.add(ProblemCode.CHECKPOINT_FILE_SIZE_LIMIT_EXCEEDED, key,
+                        f"{size} bytes; the limit for one checkpoint file is {limits.checkpoint_file_bytes} bytes",
+                        "this is not a checkpoint DeepRacer or racer writes; restore the file from the training run")
+        elif key.endswith((".json", ".yaml", ".yml")) or key == ck.COACH_CHECKPOINT:
+            if size > limits.json_yaml_bytes:
+                run.oversized.add(key)
+                run.add(ProblemCode.JSON_YAML_FILE_SIZE_LIMIT_EXCEEDED, key,
+                        f"{size} bytes; the limit for a JSON/YAML file is {limits.json_yaml_bytes} bytes",
+                        "restore the original file (real ones are a few kB); metrics files can be left out")
+        elif key == CAR_BUNDLE_KEY and size > limits.model_bytes:
+            run.oversized.add(key)
+            run.add(ProblemCode.MODEL_TAR_FILE_SIZE_LIMIT_EXCEEDED, key,
+                    f"{size} bytes; the limit for the model archive is {limits.model_bytes} bytes",
+                    "rebuild model.tar.gz with only model_metadata.json and agent/model.* (racer model export)")
+
+
+def _select_checkpoints(run: _Collector, required_suffixes: frozenset[str]) -> CheckpointSelection | None:
+    """The console's order: deepracer_checkpoints.json, then .coach_checkpoint, else the model can't be imported."""
+    if ck.DEEPRACER_CHECKPOINTS in run.files:
+        if ck.COACH_CHECKPOINT in run.files:
+            run.notes.append(f"{ck.COACH_CHECKPOINT} ignored: {ck.DEEPRACER_CHECKPOINTS} takes precedence (as in the console)")
+        return _select_from_deepracer_checkpoints(run, required_suffixes)
+    if ck.COACH_CHECKPOINT in run.files:
+        return _select_from_coach_checkpoint(run, required_suffixes)
+    newest = [name for name in ck.all_checkpoint_names(run.files) if not ck.missing_parts(name, run.files, required_suffixes)]
+    hint = f" (the newest complete one here is {newest[-1]})" if newest else ""
+    run.add(ProblemCode.COACH_CHECKPOINT_DOES_NOT_EXIST, ck.COACH_CHECKPOINT,
+            f"neither {ck.DEEPRACER_CHECKPOINTS} nor {ck.COACH_CHECKPOINT} exists, so no checkpoint is named",
+            f"restore model/.coach_checkpoint: one line holding the checkpoint name, e.g. 13_Step-25173.ckpt{hint}")
+    return None
+
+
+def _named_checkpoint(run: _Collector, pointer_key: str, field: str, text: str) -> ck.CheckpointName | None:
+    name = ck.parse_checkpoint_name(text)
+    if name is None:
+        run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, pointer_key,
+                f"{field}: {text!r} does not follow the naming convention <N>_Step-<M>.ckpt",
+                "restore the original pointer file; it names a checkpoint like 13_Step-25173.ckpt")
+    return name
+
+
+def _require_complete(run: _Collector, pointer_key: str, name: ck.CheckpointName,
+                      required_suffixes: frozenset[str]) -> bool:
+    missing = ck.missing_parts(name, run.files, required_suffixes)
+    if missing:
+        run.add(ProblemCode.CHECKPOINT_FILES_DOES_NOT_EXIST, pointer_key,
+                f"names checkpoint {name}, but these files are missing: {', '.join(missing)}", _CHECKPOINT_FIX)
+    return not missing
+
+
+def _select_from_deepracer_checkpoints(run: _Collector, required_suffixes: frozenset[str]) -> CheckpointSelection | None:
+    data = run.read(ck.DEEPRACER_CHECKPOINTS)
+    if data is None:
+        return None
+    try:
+        pointers = ck.parse_deepracer_checkpoints(data)
+    except ValueError as error:
+        run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, ck.DEEPRACER_CHECKPOINTS, str(error),
+                'restore the original file: {"best_checkpoint": {"name": "<N>_Step-<M>.ckpt", ...}, '
+                '"last_checkpoint": {"name": ...}}, or delete it to fall back to model/.coach_checkpoint')
+        return None
+    best = _named_checkpoint(run, ck.DEEPRACER_CHECKPOINTS, "best_checkpoint.name", pointers.best)
+    last = _named_checkpoint(run, ck.DEEPRACER_CHECKPOINTS, "last_checkpoint.name", pointers.last)
+    if best is None or last is None:
+        return None
+    missing = {name: ck.missing_parts(name, run.files, required_suffixes) for name in sorted({best, last})}
+    if any(missing.values()):
+        described = "; ".join(f"{name}: {', '.join(parts)}" for name, parts in missing.items() if parts)
+        run.add(ProblemCode.CHECKPOINT_FILES_DOES_NOT_EXIST, ck.DEEPRACER_CHECKPOINTS,
+                f"names best {best} and last {last}, but files are missing ({described})", _CHECKPOINT_FIX)
+        return None
+    return CheckpointSelection(checkpoints=tuple(name.name for name in sorted({best, last})), pointer=last.name,
+                               best=best.name, source=ck.DEEPRACER_CHECKPOINTS)
+
+
+def _select_from_coach_checkpoint(run: _Collector, required_suffixes: frozenset[str]) -> CheckpointSelection | None:
+    data = run.read(ck.COACH_CHECKPOINT)
+    if data is None:
+        return None
+    try:
+        text = ck.parse_coach_checkpoint(data)
+    except ValueError as error:
+        run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, ck.COACH_CHECKPOINT, str(error),
+                "restore the original file: one line holding the checkpoint name, e.g. 13_Step-25173.ckpt")
+        return None
+    name = _named_checkpoint(run, ck.COACH_CHECKPOINT, "checkpoint name", text)
+    if name is None or not _require_complete(run, ck.COACH_CHECKPOINT, name, required_suffixes):
+        return None
+    previous = ck.previous_checkpoint(name, run.files, required_suffixes)
+    chosen = (previous, name) if previous is not None else (name,)
+    if previous is None:
+        run.notes.append(f"{ck.COACH_CHECKPOINT}: no complete checkpoint before {name}; only {name} is imported")
+    return CheckpointSelection(checkpoints=tuple(item.name for item in chosen), pointer=name.name, best=name.name,
+                               source=ck.COACH_CHECKPOINT)
+
+
+def _check_metadata(run: _Collector) -> tuple[str | None, ModelMetadata | None]:
+    present = [key for key in METADATA_KEYS if key in run.files]
+    if not present:
+        run.add(ProblemCode.FILE_DOES_NOT_EXIST, "model_metadata.json",
+                "neither model/model_metadata.json nor model_metadata.json (prefix root) exists",
+                "restore model_metadata.json (action space, sensors, network) from the training run")
+        return None, None
+    documents: dict[str, object] = {}
+    parsed: ModelMetadata | None = None
+    for key in present:
+        data = run.read(key)
+        if data is None:
+            continue
+        try:
+            document = _decode_json(data, key)
+            metadata = parse_model_metadata(document, source=key)
+        except (ModelMetadataError, ValueError) as error:
+            run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, key, _without_source(str(error), key),
+                    "restore the model_metadata.json the model was trained with; the network's outputs depend on it")
+            continue
+        documents[key] = document
+        parsed = parsed or metadata
+    if len(documents) == 2 and documents[METADATA_KEYS[0]] != documents[METADATA_KEYS[1]]:
+        run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, METADATA_KEYS[1],
+                f"differs from {METADATA_KEYS[0]}; the two copies must describe the same model",
+                f"copy {METADATA_KEYS[0]} (what the trainer used) over {METADATA_KEYS[1]}")
+        return present[0], None
+    return present[0], parsed
+
+
+def _without_source(message: str, key: str) -> str:
+    """Parser messages start with the file name; the problem already shows it."""
+    return message.removeprefix(f"{key}: ")
+
+
+def _check_hyperparameters(run: _Collector) -> str | None:
+    present = [key for key in HYPERPARAMETER_KEYS if key in run.files]
+    if not present:
+        run.add(ProblemCode.FILE_DOES_NOT_EXIST, HYPERPARAMETER_KEYS[0], "ip/hyperparameters.json is missing",
+                "restore ip/hyperparameters.json from the training run (or write the hyperparameters you trained with)")
+        return None
+    key = present[0]
+    data = run.read(key)
+    if data is None:
+        return key
+    try:
+        _, warnings = parse_hyperparameters(_decode_json(data, key), source=key)
+    except ValueError as error:
+        run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, key, _without_source(str(error), key),
+                "restore the original hyperparameters.json; values must be within the console's ranges")
+        return key
+    run.notes.extend(warnings)
+    return key
+
+
+def _check_reward_function(run: _Collector) -> None:
+    if REWARD_FUNCTION_KEY not in run.files:
+        run.add(ProblemCode.FILE_DOES_NOT_EXIST, REWARD_FUNCTION_KEY, "reward_function.py is missing",
+                "put the reward function the model was trained with at the prefix root as reward_function.py")
+        return
+    data = run.read(REWARD_FUNCTION_KEY)
+    if data is None:
+        return
+    try:
+        tree = ast.parse(data.decode("utf-8-sig"), filename=REWARD_FUNCTION_KEY)
+    except (SyntaxError, UnicodeDecodeError, ValueError) as error:
+        run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, REWARD_FUNCTION_KEY, f"is not valid Python: {error}",
+                "restore the reward function file the model was trained with")
+        return
+    if not any(isinstance(node, ast.FunctionDef) and node.name == "reward_function" for node in tree.body):
+        run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, REWARD_FUNCTION_KEY,
+                "defines no top-level function reward_function(params)",
+                "restore the reward function file; DeepRacer calls reward_function(params)")
+
+
+def _check_training_params(run: _Collector) -> None:
+    if TRAINING_PARAMS_KEY not in run.files:
+        run.add(ProblemCode.FILE_DOES_NOT_EXIST, TRAINING_PARAMS_KEY, "training_params.yaml is missing",
+                "restore training_params.yaml (track, race type, ...) at the prefix root")
+        return
+    data = run.read(TRAINING_PARAMS_KEY)
+    if data is None:
+        return
+    try:
+        document = yaml.safe_load(data.decode("utf-8-sig"))
+    except (yaml.YAMLError, UnicodeDecodeError) as error:
+        run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, TRAINING_PARAMS_KEY, f"is not valid YAML: {error}",
+                "restore the original training_params.yaml")
+        return
+    if not isinstance(document, dict):
+        run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, TRAINING_PARAMS_KEY,
+                f"must be a YAML mapping of KEY: value, got {type(document).__name__}",
+                "restore the original training_params.yaml")
+
+
+def _check_inference_models(run: _Collector, keys: list[str], metadata: ModelMetadata | None) -> None:
+    """This system's `model_<N>.onnx`: a valid ONNX graph whose output size matches the action space."""
+    import onnx  # only needed when there is an ONNX file; keeps `racer model --help` fast
+    from google.protobuf.message import DecodeError
+
+    for key in keys:
+        if not key.endswith(".onnx"):
+            continue
+        data = run.read(key)
+        if data is None:
+            continue
+        try:
+            graph = onnx.load_from_string(data)
+            onnx.checker.check_model(graph)
+        except (DecodeError, onnx.checker.ValidationError, ValueError) as error:
+            run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, key, f"is not a valid ONNX model: {error}",
+                    "restore the file from the training run (racer writes model_<N>.onnx with every checkpoint)")
+            continue
+        if metadata is None or not graph.graph.output:
+            continue
+        dims = graph.graph.output[0].type.tensor_type.shape.dim
+        width = dims[-1].dim_value if dims else 0
+        if width and width != metadata.num_actions:
+            run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, key,
+                    f"outputs {width} values per observation but model_metadata.json's action space has "
+                    f"{metadata.num_actions}", "restore the model_metadata.json the model was trained with")
+
+
+def _check_car_bundle(run: _Collector) -> None:
+    if CAR_BUNDLE_KEY not in run.files:
+        return
+    data = run.read(CAR_BUNDLE_KEY)
+    if data is None:
+        return
+    try:
+        with tarfile.open(fileobj=io.BytesIO(data), mode="r:*") as bundle:
+            names = {member.name.removeprefix("./") for member in bundle.getmembers() if member.isfile()}
+    except (tarfile.TarError, EOFError, OSError) as error:
+        run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, CAR_BUNDLE_KEY, f"is not a readable tar.gz ({error})",
+                "rebuild it with racer model export, or delete it (imports don't need it)")
+        return
+    missing = ["model_metadata.json"] if "model_metadata.json" not in names else []
+    if not names.intersection(CAR_BUNDLE_MODELS):
+        missing.append(" or ".join(CAR_BUNDLE_MODELS))
+    if missing:
+        run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, CAR_BUNDLE_KEY, f"lacks {', '.join(missing)}",
+                "rebuild it with racer model export, or delete it (imports don't need it)")
+
+
+def validate_model(source: ModelSource, limits: SizeLimits = DEFAULT_LIMITS,
+                   checkpoint_suffixes: frozenset[str] = frozenset()) -> ValidationReport:
+    """Run every check on one model prefix; never raises for a bad model, only reports."""
+    where = source.describe()
+    try:
+        files = source.list_files()
+    except (OSError, botocore.exceptions.BotoCoreError, botocore.exceptions.ClientError, AccessDeniedError,
+            BucketNotFoundError, ObjectNotFoundError, StoreUnavailableError) as error:
+        return ValidationReport(where, (problem_for_source_error(error, where),))
+    if not files:
+        return ValidationReport(where, (ValidationProblem(
+            ProblemCode.FILE_DOES_NOT_EXIST, "", f"{where}: there are no files here",
+            "check the prefix (it is the folder holding model/ and ip/); if the model was deleted, upload your copy"),))
+    run = _Collector(source, files)
+    if isinstance(source, TarSource):
+        unpacked = sum(files.values())
+        if source.archive_bytes > limits.model_bytes or unpacked > limits.model_bytes:
+            run.add(ProblemCode.MODEL_TAR_FILE_SIZE_LIMIT_EXCEEDED, "",
+                    f"archive {source.archive_bytes} bytes, {unpacked} bytes unpacked; the limit is "
+                    f"{limits.model_bytes} bytes", "leave out old checkpoints, videos and simtraces; keep the files "
+                    "the import needs (racer model export writes exactly those)")
+            return ValidationReport(where, tuple(run.problems))
+    _check_sizes(run, limits)
+    selection = _select_checkpoints(run, checkpoint_suffixes)
+    metadata_key, metadata = _check_metadata(run)
+    hyperparameters_key = _check_hyperparameters(run)
+    _check_reward_function(run)
+    _check_training_params(run)
+    _check_car_bundle(run)
+    ignored = sorted({key.removeprefix(ck.MODEL_DIR).partition(".ckpt.")[0] + ".ckpt" for key in files
+                      if key.startswith(ck.MODEL_DIR) and ".ckpt." in key
+                      and ck.checkpoint_name_of_file(key.removeprefix(ck.MODEL_DIR)) is None})
+    if ignored:
+        run.notes.append(f"ignored (not named <N>_Step-<M>.ckpt): {', '.join(ignored)}")
+
+    plan = None
+    if selection is not None:
+        names = [ck.parse_checkpoint_name(name) for name in selection.checkpoints]
+        checkpoint_keys = sorted({key for name in names if name for key in
+                                  ck.checkpoint_files(name, files) + ck.inference_model_files(name, files)})
+        _check_inference_models(run, checkpoint_keys, metadata)
+        metrics = tuple(key for key in files if _METRICS.match(key))
+        copied = [*checkpoint_keys, *metrics, REWARD_FUNCTION_KEY, TRAINING_PARAMS_KEY, ck.DEEPRACER_CHECKPOINTS,
+                  *(key for key in (metadata_key, hyperparameters_key) if key)]
+        total = sum(files.get(key, 0) for key in set(copied))
+        if total > limits.model_bytes:
+            run.add(ProblemCode.MODEL_TAR_FILE_SIZE_LIMIT_EXCEEDED, "",
+                    f"the files an import copies total {total} bytes; the limit is {limits.model_bytes} bytes",
+                    "leave out metrics you don't need, or check for checkpoint files that don't belong to the model")
+        if not run.problems and metadata_key and hyperparameters_key:
+            plan = ImportPlan(
+                selection=selection, checkpoint_files=tuple(checkpoint_keys), metadata_key=metadata_key,
+                hyperparameters_key=hyperparameters_key, reward_function_key=REWARD_FUNCTION_KEY,
+                training_params_key=TRAINING_PARAMS_KEY, metrics_keys=metrics,
+                deepracer_checkpoints_key=ck.DEEPRACER_CHECKPOINTS if ck.DEEPRACER_CHECKPOINTS in files else None,
+                total_bytes=total)
+    return ValidationReport(where, tuple(run.problems), tuple(run.notes), plan)
+
+
+def validate_location(location: str, limits: SizeLimits = DEFAULT_LIMITS,
+                      checkpoint_suffixes: frozenset[str] = frozenset()) -> tuple[ValidationReport, ModelSource | None]:
+    """Open a folder, archive or s3://bucket/prefix and validate it; the source is returned for import."""
+    path = Path(location).expanduser()
+    if not location.startswith("s3://") and path.is_file() and path.stat().st_size > limits.model_bytes:
+        # Checked before opening: listing a tar.gz means decompressing all of it.
+        return ValidationReport(location, (ValidationProblem(
+            ProblemCode.MODEL_TAR_FILE_SIZE_LIMIT_EXCEEDED, "",
+            f"archive is {path.stat().st_size} bytes; the limit is {limits.model_bytes} bytes",
+            "leave out old checkpoints, videos and simtraces (racer model export writes only what's needed)"),)), None
+    try:
+        source = open_source(location)
+    except (SourceMissingError, SourceFormatError) as error:
+        return ValidationReport(location, (problem_for_source_error(error, location),)), None
+    return validate_model(source, limits, checkpoint_suffixes), source
