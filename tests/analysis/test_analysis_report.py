@@ -1,0 +1,136 @@
+"""The command end to end: pictures, HTML report, terminal tables, the reward what-if, track handling and s3://."""
+
+from __future__ import annotations
+
+import base64
+import io
+import re
+
+import numpy as np
+import pandas as pd
+import pytest
+from click.testing import CliRunner
+from PIL import Image
+
+from racer.analysis import aggregate, whatif
+from racer.analysis.cli import analyze_command
+from racer.analysis.loading import load_steps
+from racer.analysis.sources import open_source
+from racer.analysis.track_sections import load_track
+from racer.shared.store import S3Store
+
+TRACK_PICTURES = {"best_laps.png", "reward_heatmap.png", "action_usage.png", "evaluation_laps.png"}
+
+
+def run(*args: str):
+    result = CliRunner().invoke(analyze_command, [str(a) for a in args])
+    assert result.exit_code == 0, result.output
+    return result
+
+
+def assert_real_picture(data: bytes, name: str) -> None:
+    """Decodes as PNG, is reasonably large, and is not one flat colour (a blank or failed plot)."""
+    image = Image.open(io.BytesIO(data))
+    assert image.format == "PNG", name
+    image.load()
+    assert image.width >= 400 and image.height >= 300, (name, image.size)
+    pixels = np.asarray(image.convert("RGB")).reshape(-1, 3)
+    colours = np.unique(pixels[:: max(1, len(pixels) // 200_000)], axis=0)
+    assert len(colours) > 50, f"{name}: only {len(colours)} colours"
+    background = np.all(pixels == [255, 255, 255], axis=1).mean()
+    assert background < 0.97, f"{name}: {background:.1%} white"
+
+
+def test_report_with_track_and_reward_whatif(console_export, reinvent_route, deepracer_data, tmp_path):
+    out = tmp_path / "report"
+    reward = deepracer_data / "reward_functions/dpr401_prevent_zig_zag.py"
+    result = run(console_export, "--track", reinvent_route, "--out", out, "--reward-function", reward)
+
+    pngs = {p.name for p in out.glob("*.png")}
+    assert pngs == TRACK_PICTURES | {"training_progress.png", "reward_whatif.png"}
+    for png in pngs:
+        assert_real_picture((out / png).read_bytes(), png)
+
+    html = (out / "report.html").read_text()
+    embedded = re.findall(r"src='data:image/png;base64,([A-Za-z0-9+/=]+)'", html)
+    assert len(embedded) == len(pngs)
+    for data in embedded:
+        assert_real_picture(base64.b64decode(data), "embedded")
+    assert "Training iterations" in html and "Evaluation laps" in html and "Reward what-if" in html
+
+    # The terminal shows the key tables with numbers that match the CSVs written next to the report.
+    iterations = pd.read_csv(out / "iterations.csv")
+    assert list(iterations["iteration"]) == [0, 1, 27]
+    assert "Training iterations" in result.output and "Fastest training laps" in result.output
+    assert f"{iterations['best_lap_time_s'].min():.3f}" in result.output
+    laps = pd.read_csv(out / "evaluation_laps.csv")
+    assert len(laps) == 3 and f"{laps['lap_time_s'].min():.3f}" in result.output
+
+
+def test_without_a_track_gives_tables_and_a_clear_note(drfc_single, tmp_path):
+    out = tmp_path / "report"
+    result = run(drfc_single, "--out", out)
+    assert "no track pictures" in result.output
+    assert {p.name for p in out.glob("*.png")} == {"training_progress.png"}
+    assert_real_picture((out / "training_progress.png").read_bytes(), "training_progress.png")
+    assert "no track pictures" in (out / "report.html").read_text()
+    assert (out / "episodes.csv").is_file() and (out / "evaluation_laps.csv").is_file()
+
+
+def test_track_by_name_from_the_runs_params_yaml(drfc_single, deepracer_data, tmp_path):
+    (drfc_single / "training_params.yaml").write_text("WORLD_NAME: reinvent_base\nNUMBER_OF_TRIALS: '3'\n")
+    out = tmp_path / "report"
+    result = run(drfc_single, "--tracks-dir", deepracer_data / "routes", "--out", out, "--top", 2)
+    assert "Track 'reinvent_base' taken from the run's params yaml" in result.output
+    assert TRACK_PICTURES <= {p.name for p in out.glob("*.png")}
+    # Without the route installed, the same run falls back to tables with a note naming the track.
+    result = run(drfc_single, "--out", tmp_path / "r2", "--no-pictures")
+    assert "'reinvent_base', which is not in the tracks folder" in result.output
+
+
+def test_unknown_track_is_an_error_naming_it(drfc_single, tmp_path):
+    result = CliRunner().invoke(analyze_command, [str(drfc_single), "--track", "no_such_track", "--out", str(tmp_path)])
+    assert result.exit_code == 1
+    assert "no_such_track" in result.output
+
+
+def test_reward_whatif_reproduces_the_logged_reward(drfc_single, reinvent_route, deepracer_data):
+    """DRfC's sample run was trained with follow_center_line: replaying it on the logged steps gives the logged
+    reward on every step; another function gives a different one."""
+    steps = load_steps(open_source(str(drfc_single)), progress=False)
+    track = load_track(str(reinvent_route))
+    logged = steps.loc[steps["phase"] == "training", "reward"]
+    same = whatif.replay_reward(steps, track, deepracer_data / "reward_functions/drfc1_follow_center_line.py",
+                                show_progress=False)
+    assert len(same) == len(logged) > 3000
+    assert np.allclose(same, logged, rtol=0, atol=1e-12)
+    other = whatif.replay_reward(steps, track, deepracer_data / "reward_functions/dpr401_prevent_zig_zag.py",
+                                 show_progress=False)
+    assert not np.allclose(other, logged)
+    episodes, by_iteration = whatif.compare(steps, other, aggregate.episodes(steps))
+    assert len(episodes) == (steps["phase"] == "training").groupby([steps["worker"], steps["episode"]]).any().sum()
+    assert (by_iteration["new_reward_mean"] < by_iteration["reward_mean"]).all()  # zig-zag penalty only lowers
+
+
+def test_s3_source_on_minio(s3_settings, drfc_multi, console_export, monkeypatch, tmp_path):
+    """A DRfC multi-worker prefix and a console export uploaded to a real MinIO, analysed by s3:// URL."""
+    store = S3Store(s3_settings)
+    for root, prefix in ((drfc_multi, "rl-model"), (console_export, "console/model-a")):
+        for path in root.rglob("*.csv"):
+            store.put_bytes(f"{prefix}/{path.relative_to(root).as_posix()}", path.read_bytes())
+    store.put_bytes("rl-model-other/training-simtrace/0-iteration.csv", b"not even a header\n")  # a sibling prefix
+    monkeypatch.setenv("S3_ENDPOINT_URL", s3_settings.endpoint_url)
+    monkeypatch.setenv("AWS_ACCESS_KEY_ID", s3_settings.access_key_id)
+    monkeypatch.setenv("AWS_SECRET_ACCESS_KEY", s3_settings.secret_access_key)
+
+    for root, prefix in ((drfc_multi, "rl-model"), (console_export, "console/model-a")):
+        out = tmp_path / prefix.replace("/", "_")
+        run(f"s3://{s3_settings.bucket}/{prefix}", "--out", out, "--no-pictures")
+        local = aggregate.episodes(load_steps(open_source(str(root)), progress=False))
+        remote = pd.read_csv(out / "episodes.csv")
+        assert len(remote) == len(local)
+        assert remote["lap_time_s"].min() == pytest.approx(local["lap_time_s"].min())
+        assert sorted(remote["worker"].unique()) == sorted(local["worker"].unique())
+
+    result = CliRunner().invoke(analyze_command, [f"s3://{s3_settings.bucket}/nothing-here", "--out", str(tmp_path)])
+    assert result.exit_code == 1 and "no simtrace CSV found" in result.output

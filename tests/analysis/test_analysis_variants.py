@@ -1,0 +1,119 @@
+"""Column variants (15/17/18/19), continuous actions, evaluation resets and malformed files."""
+
+from __future__ import annotations
+
+import csv
+import io
+
+import pytest
+from click.testing import CliRunner
+
+from racer.analysis import aggregate
+from racer.analysis.cli import analyze_command
+from racer.analysis.loading import load_steps
+from racer.analysis.sources import open_source
+from racer.shared.deepracer.simtrace import SIMTRACE_COLUMNS, SimtraceError
+
+
+def read_rows(path):
+    with open(path, newline="") as handle:
+        return list(csv.reader(handle))
+
+
+def write_rows(path, rows):
+    path.parent.mkdir(parents=True, exist_ok=True)
+    buffer = io.StringIO()
+    csv.writer(buffer, lineterminator="\n").writerows(rows)
+    path.write_text(buffer.getvalue())
+    return path
+
+
+def with_columns(rows, count):
+    """A real file cut or extended to `count` columns (obstacle_crash_counter 0, wall_clock = tstamp + an offset)."""
+    out = [list(SIMTRACE_COLUMNS[:count])]
+    for row in rows[1:]:
+        full = row[:17] + [row[17] if len(row) > 17 else "0", str(1.7e9 + float(row[14]))]
+        out.append(full[:count])
+    return out
+
+
+def episode_table(folder):
+    return aggregate.episodes(load_steps(open_source(str(folder)), progress=False))
+
+
+@pytest.mark.parametrize("count", [15, 17, 18, 19])
+def test_every_column_variant_parses_with_the_same_episodes(tmp_path, deepracer_data, count):
+    source = deepracer_data / "simtrace/drfc1_training_26-iteration.csv"
+    rows = read_rows(source)
+    reference = episode_table(write_rows(tmp_path / "ref/training-simtrace/26-iteration.csv", rows).parents[1])
+    variant = episode_table(write_rows(tmp_path / f"v{count}/training-simtrace/26-iteration.csv", with_columns(rows, count)).parents[1])
+    assert len(variant) == len(reference) == len({r[0] for r in rows[1:]})
+    assert variant["progress_pct"].tolist() == reference["progress_pct"].tolist()
+    assert variant["reward"].tolist() == pytest.approx(reference["reward"].tolist())
+    assert variant["lap_complete"].sum() == reference["lap_complete"].sum() > 0
+    if count >= 17:
+        assert variant["time_s"].tolist() == pytest.approx(reference["time_s"].tolist())
+        assert variant["status"].tolist() == reference["status"].tolist()
+    else:  # 2019 files carry no status: nothing is a prepare row, and unfinished episodes end as "unknown"
+        assert set(variant.loc[~variant["lap_complete"], "status"]) == {"unknown"}
+        assert (variant["time_s"] >= reference["time_s"] - 1e-9).all()
+
+
+def test_evaluation_resets_and_penalties(tmp_path, deepracer_data):
+    """An off-track reset inserted into a real evaluation lap: the pause rows are counted as one reset and their time
+    as penalty; the reset jump is not counted as driven distance."""
+    rows = read_rows(deepracer_data / "simtrace/console2022_evaluation_0-iteration.csv")
+    header = rows[0]
+    status, pause = header.index("episode_status"), header.index("pause_duration")
+    lap2 = [i for i, row in enumerate(rows) if row[0] == "1"]
+    off = lap2[60]
+    rows[off][status] = "off_track"
+    rows[off][pause] = "2.0"
+    pause_rows = lap2[61:91]
+    for i in pause_rows:
+        rows[i][status] = "pause"
+    folder = write_rows(tmp_path / "e/evaluation-1/evaluation-simtrace/0-iteration.csv", rows).parents[2]
+    laps = aggregate.evaluation_laps(episode_table(folder)).set_index("lap")
+    expected_penalty_s = sum(float(rows[i][14]) - float(rows[i - 1][14]) for i in pause_rows)
+    assert laps.loc[2, "resets"] == 1
+    assert laps.loc[2, "off_track"] == 1
+    assert laps.loc[2, "penalty_s"] == pytest.approx(expected_penalty_s)
+    assert laps.loc[2, "lap_time_s"] == pytest.approx(
+        sum(float(rows[i][14]) - float(rows[i - 1][14]) for i in lap2 if rows[i][status] != "prepare")
+    )
+    assert laps.loc[1, "resets"] == laps.loc[3, "resets"] == 0
+
+
+def test_continuous_action_files_draw_action_usage(tmp_path, deepracer_data, reinvent_route):
+    rows = read_rows(deepracer_data / "simtrace/console2022_training_27-iteration.csv")
+    action = rows[0].index("action")
+    for row in rows[1:]:
+        row[action] = f"[{float(row[5]):.1f} {float(row[6]):.1f}]"
+    folder = write_rows(tmp_path / "c/training-simtrace/0-iteration.csv", rows).parents[1]
+    out = tmp_path / "out"
+    result = CliRunner().invoke(analyze_command, [str(folder), "--track", str(reinvent_route), "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    assert (out / "action_usage.png").stat().st_size > 10_000
+
+
+@pytest.mark.parametrize(
+    ("line", "column", "bad"), [(57, "X", "abc"), (1200, "done", "maybe"), (3, "episode_status", "flying")]
+)
+def test_malformed_csv_names_file_and_line(tmp_path, deepracer_data, line, column, bad):
+    rows = read_rows(deepracer_data / "simtrace/console2022_training_27-iteration.csv")
+    rows[line - 1][rows[0].index(column)] = bad
+    path = write_rows(tmp_path / "m/training-simtrace/27-iteration.csv", rows)
+    with pytest.raises(SimtraceError, match=rf"{path}.*line {line}\b"):
+        load_steps(open_source(str(tmp_path / "m")), progress=False)
+    result = CliRunner().invoke(analyze_command, [str(tmp_path / "m"), "--out", str(tmp_path / "out"), "--no-pictures"])
+    assert result.exit_code == 1
+    assert str(path) in result.output and f"line {line}" in result.output
+
+
+def test_truncated_row_names_file_and_line(tmp_path, deepracer_data):
+    rows = read_rows(deepracer_data / "simtrace/drfc1_training_0-iteration.csv")
+    rows[99] = rows[99][:10]
+    path = write_rows(tmp_path / "t/training-simtrace/0-iteration.csv", rows)
+    result = CliRunner().invoke(analyze_command, [str(tmp_path / "t"), "--out", str(tmp_path / "out")])
+    assert result.exit_code == 1
+    assert f"{path}: line 100" in result.output
