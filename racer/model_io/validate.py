@@ -61,19 +61,22 @@ class _Collector:
         self.problems: list[ValidationProblem] = []
         self.notes: list[str] = []
         self.oversized: set[str] = set()
+        self.cut_off = False
+        """Set after the source refused a read for a reason other than a missing file: one problem is enough."""
 
     def add(self, code: ProblemCode, path: str, message: str, fix: str) -> None:
         self.problems.append(ValidationProblem(code, path, message, fix))
 
     def read(self, key: str) -> bytes | None:
         """The file's bytes, or None (with a problem recorded) if it is too big or can't be read."""
-        if key in self.oversized:
+        if key in self.oversized or self.cut_off:
             return None
         try:
             return self.source.read(key)
         except (OSError, SourceFormatError, botocore.exceptions.BotoCoreError, botocore.exceptions.ClientError,
                 AccessDeniedError, BucketNotFoundError, ObjectNotFoundError, StoreUnavailableError) as error:
             self.problems.append(problem_for_source_error(error, self.source.describe(), key))
+            self.cut_off = not isinstance(error, ObjectNotFoundError | FileNotFoundError)
             return None
 
 

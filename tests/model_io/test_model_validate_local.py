@@ -5,121 +5,24 @@ from __future__ import annotations
 import io
 import json
 import tarfile
-from collections.abc import Callable
 from pathlib import Path
 
-import numpy as np
-import onnx
 import pytest
-from onnx import TensorProto, helper, numpy_helper
 
 from racer.model_io import ProblemCode, SizeLimits, validate_location
-from tests.model_io.model_io_builders import deepracer_model, tf_checkpoint, write
+from tests.model_io.model_io_builders import (
+    BROKEN,
+    deepracer_model,
+    edit_metadata_speed,
+    pack,
+    remove,
+    seed_coach_example,
+    tf_checkpoint,
+    tiny_onnx,
+    write,
+)
 
 Code = ProblemCode
-
-
-def tiny_onnx(num_outputs: int) -> bytes:
-    """An inference graph shaped like racer's: raw grayscale [1,120,160,1] in, action probabilities out."""
-    weights = np.random.default_rng(0).normal(size=(120 * 160, num_outputs)).astype(np.float32) * 1e-3
-    graph = helper.make_graph(
-        [helper.make_node("Reshape", ["observation", "shape"], ["flat"]),
-         helper.make_node("MatMul", ["flat", "weights"], ["logits"]),
-         helper.make_node("Softmax", ["logits"], ["probabilities"], axis=-1)],
-        "policy",
-        [helper.make_tensor_value_info("observation", TensorProto.FLOAT, [1, 120, 160, 1])],
-        [helper.make_tensor_value_info("probabilities", TensorProto.FLOAT, [1, num_outputs])],
-        [numpy_helper.from_array(np.array([1, 120 * 160], dtype=np.int64), "shape"),
-         numpy_helper.from_array(weights, "weights")],
-    )
-    return helper.make_model(graph, opset_imports=[helper.make_opsetid("", 17)]).SerializeToString()
-
-
-def remove(key: str) -> Callable[[Path], None]:
-    return lambda root: (root / key).unlink()
-
-
-def replace(key: str, data: bytes | str) -> Callable[[Path], None]:
-    return lambda root: write(root, key, data)
-
-
-def edit_metadata_speed(root: Path) -> None:
-    document = json.loads((root / "model/model_metadata.json").read_bytes())
-    document["action_space"][3]["speed"] = 7.0
-    write(root, "model/model_metadata.json", json.dumps(document))
-
-
-def second_metadata_differs(root: Path) -> None:
-    document = json.loads((root / "model/model_metadata.json").read_bytes())
-    document["action_space"] = document["action_space"][:5]
-    write(root, "model_metadata.json", json.dumps(document))
-
-
-def seed_coach_example(root: Path) -> None:
-    """The seed's failing example: pointer 13_Step-25173.ckpt, files only for 13_Step-25174/5 and 14_Step-3456."""
-    for name in ("3_Step-124.ckpt", "4_Step-162.ckpt"):
-        for part in ("data-00000-of-00001", "index", "meta"):
-            (root / f"model/{name}.{part}").unlink()
-    for name in ("13_Step-25174.ckpt", "13_Step-25175.ckpt", "14_Step-3456.ckpt"):
-        tf_checkpoint(root, name)
-    write(root, "model/.coach_checkpoint", "13_Step-25173.ckpt\n")
-
-
-def seed_deepracer_checkpoints_example(root: Path) -> None:
-    """The seed's failing example: best 319_Step-43282 / last 20_Step-43482, files only for 320..322."""
-    for name in ("320_Step-43278.ckpt", "321_Step-43280.ckpt", "322_Step-43282.ckpt"):
-        tf_checkpoint(root, name)
-    write(root, "model/deepracer_checkpoints.json", json.dumps(
-        {"best_checkpoint": {"name": "319_Step-43282.ckpt"}, "last_checkpoint": {"name": "20_Step-43482.ckpt"}}))
-
-
-def car_bundle_without_model(root: Path) -> None:
-    buffer = io.BytesIO()
-    with tarfile.open(fileobj=buffer, mode="w:gz") as bundle:
-        data = (root / "model/model_metadata.json").read_bytes()
-        info = tarfile.TarInfo("model_metadata.json")
-        info.size = len(data)
-        bundle.addfile(info, io.BytesIO(data))
-    write(root, "model.tar.gz", buffer.getvalue())
-
-
-BROKEN: dict[str, tuple[Callable[[Path], None], ProblemCode]] = {
-    "no reward_function.py": (remove("reward_function.py"), Code.FILE_DOES_NOT_EXIST),
-    "no training_params.yaml": (remove("training_params.yaml"), Code.FILE_DOES_NOT_EXIST),
-    "no ip/hyperparameters.json": (remove("ip/hyperparameters.json"), Code.FILE_DOES_NOT_EXIST),
-    "no model_metadata.json": (remove("model/model_metadata.json"), Code.FILE_DOES_NOT_EXIST),
-    "no pointer at all": (remove("model/.coach_checkpoint"), Code.COACH_CHECKPOINT_DOES_NOT_EXIST),
-    "pointer names a missing checkpoint (seed)": (seed_coach_example, Code.CHECKPOINT_FILES_DOES_NOT_EXIST),
-    "deepracer_checkpoints.json names missing checkpoints (seed)":
-        (seed_deepracer_checkpoints_example, Code.CHECKPOINT_FILES_DOES_NOT_EXIST),
-    "named checkpoint lacks its data file": (remove("model/4_Step-162.ckpt.data-00000-of-00001"),
-                                             Code.CHECKPOINT_FILES_DOES_NOT_EXIST),
-    "named checkpoint lacks its index": (remove("model/4_Step-162.ckpt.index"), Code.CHECKPOINT_FILES_DOES_NOT_EXIST),
-    "metadata speed out of range": (edit_metadata_speed, Code.MODEL_VALIDATION_SERVICE_ERROR),
-    "metadata is not JSON": (replace("model/model_metadata.json", "{\"action_space\": ["),
-                             Code.MODEL_VALIDATION_SERVICE_ERROR),
-    "two metadata copies differ": (second_metadata_differs, Code.MODEL_VALIDATION_SERVICE_ERROR),
-    "pointer does not follow <N>_Step-<M>.ckpt": (replace("model/.coach_checkpoint", "model.ckpt"),
-                                                  Code.MODEL_VALIDATION_SERVICE_ERROR),
-    "pointer holds two lines": (replace("model/.coach_checkpoint", "4_Step-162.ckpt\n3_Step-124.ckpt\n"),
-                                Code.MODEL_VALIDATION_SERVICE_ERROR),
-    "deepracer_checkpoints.json without last_checkpoint": (
-        replace("model/deepracer_checkpoints.json", json.dumps({"best_checkpoint": {"name": "4_Step-162.ckpt"}})),
-        Code.MODEL_VALIDATION_SERVICE_ERROR),
-    "hyperparameter out of the console's range": (
-        replace("ip/hyperparameters.json", json.dumps({"batch_size": 64, "lr": 5.0})), Code.MODEL_VALIDATION_SERVICE_ERROR),
-    "training_params.yaml is not YAML": (replace("training_params.yaml", "WORLD_NAME: [unclosed\n"),
-                                         Code.MODEL_VALIDATION_SERVICE_ERROR),
-    "reward function has no reward_function": (replace("reward_function.py", "def reward(params):\n    return 1.0\n"),
-                                               Code.MODEL_VALIDATION_SERVICE_ERROR),
-    "reward function is not Python": (replace("reward_function.py", "def reward_function(params)\n  return 1\n"),
-                                      Code.MODEL_VALIDATION_SERVICE_ERROR),
-    "inference model outputs the wrong number of actions": (replace("model/model_4.onnx", tiny_onnx(5)),
-                                                             Code.MODEL_VALIDATION_SERVICE_ERROR),
-    "inference model is not ONNX": (replace("model/model_4.onnx", b"not a protobuf at all"),
-                                    Code.MODEL_VALIDATION_SERVICE_ERROR),
-    "car bundle without the inference model": (car_bundle_without_model, Code.MODEL_VALIDATION_SERVICE_ERROR),
-}
 
 
 @pytest.fixture
@@ -220,15 +123,6 @@ def test_nothing_there(tmp_path):
 
 
 # --- archives ---------------------------------------------------------------------------------------------------
-
-def pack(folder: Path, archive: Path, wrapper: str | None = None) -> Path:
-    with tarfile.open(archive, "w:gz") as tar:
-        for path in sorted(folder.rglob("*")):
-            if path.is_file():
-                relative = path.relative_to(folder).as_posix()
-                tar.add(path, arcname=f"{wrapper}/{relative}" if wrapper else relative)
-    return archive
-
 
 @pytest.mark.parametrize("wrapper", [None, "my-model"])
 def test_a_tar_gz_of_a_valid_model_passes(model_dir, tmp_path, wrapper):
