@@ -9,6 +9,7 @@ import pandas as pd
 from matplotlib.collections import LineCollection
 from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
+from matplotlib.ticker import MaxNLocator
 
 from racer.analysis.loading import EPISODE_KEY
 from racer.analysis.track_sections import Track, section_of_waypoint
@@ -53,14 +54,15 @@ def training_progress(iteration_table: pd.DataFrame, worker_table: pd.DataFrame,
             lap_ax.set_ylabel("best lap time (s)", color="tab:red")
     if several_workers:
         for worker, rows in worker_table.groupby("worker"):
-            reward_ax.plot(rows["iteration"], rows["reward_mean"], linewidth=0.8, alpha=0.7, label=f"worker {worker}")
-            progress_ax.plot(rows["iteration"], rows["progress_mean_pct"], linewidth=0.8, alpha=0.7,
-                             label=f"worker {worker}")
+            style = {"linewidth": 0.8, "alpha": 0.8, "marker": "x", "markersize": 4, "label": f"worker {worker}"}
+            reward_ax.plot(rows["iteration"], rows["reward_mean"], **style)
+            progress_ax.plot(rows["iteration"], rows["progress_mean_pct"], **style)
     reward_ax.set_ylabel("episode reward")
     progress_ax.set_ylabel("progress (%)")
     completion_ax.set_ylabel("episodes completing a lap (%)")
     completion_ax.set_ylim(-2, 102)
     completion_ax.set_xlabel("iteration")
+    completion_ax.xaxis.set_major_locator(MaxNLocator(integer=True))
     for ax in (reward_ax, progress_ax, completion_ax):
         ax.grid(alpha=0.3)
         ax.legend(loc="upper left", fontsize=8)
@@ -119,7 +121,8 @@ def reward_heatmap(steps: pd.DataFrame, track: Track, path: Path) -> Path:
 
 
 def _action_labels(steps: pd.DataFrame) -> pd.Series:
-    """Discrete action index -> 'steer° / speed'; continuous actions binned into steering and speed ranges."""
+    """Discrete action index -> 'steer° / speed' (every action, used or not); continuous actions binned into
+    steering and speed ranges (only the bins that occur)."""
     action = pd.to_numeric(steps["action"], errors="coerce")
     if action.notna().all():
         names = steps.groupby(action)[["steer", "throttle"]].agg(lambda s: s.mode().iloc[0])
@@ -134,7 +137,8 @@ def _action_labels(steps: pd.DataFrame) -> pd.Series:
     combined = [
         f"{s.left:+.0f}..{s.right:+.0f}° {v.left:.1f}..{v.right:.1f} m/s" for s, v in zip(steer_bins, speed_bins, strict=True)
     ]
-    return pd.Series(combined, index=steps.index, dtype=pd.CategoricalDtype(labels, ordered=True))
+    used = [label for label in labels if label in set(combined)]
+    return pd.Series(combined, index=steps.index, dtype=pd.CategoricalDtype(used, ordered=True))
 
 
 def action_usage(steps: pd.DataFrame, track: Track, sections: int, path: Path) -> tuple[Path, pd.DataFrame]:

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 
 from racer.shared.config import settings_from_env
-from racer.shared.store import ObjectStore, open_store
+from racer.shared.store import ObjectStore, S3Store, open_store
 
 TRAINING = "training"
 EVALUATION = "evaluation"
@@ -132,16 +132,22 @@ def from_tar(path: Path) -> RunFiles:
     return RunFiles(str(path), simtraces, params)
 
 
-def from_store(store: ObjectStore, prefix: str, url: str) -> RunFiles:
+def store_url(store: ObjectStore, key: str) -> str:
+    """How a key is named in messages: s3://bucket/key for S3, the file path for a local store."""
+    if isinstance(store, S3Store):
+        return f"s3://{store.bucket}/{key}"
+    return str(Path(store.describe()) / key)
+
+
+def from_store(store: ObjectStore, prefix: str) -> RunFiles:
     prefix = prefix.strip("/")
     listed = store.list_keys(f"{prefix}/" if prefix else "")
     relative = [key[len(prefix) + 1 :] if prefix else key for key in listed]
+    full_key = lambda k: f"{prefix}/{k}" if prefix else k  # noqa: E731
     simtraces, params = _from_keys(
-        relative,
-        lambda k: f"{url.rstrip('/')}/{k}",
-        lambda k: store.get_bytes(f"{prefix}/{k}" if prefix else k),
+        relative, lambda k: store_url(store, full_key(k)), lambda k: store.get_bytes(full_key(k))
     )
-    return RunFiles(url, simtraces, params)
+    return RunFiles(f"{store_url(store, prefix)} ({store.describe()})", simtraces, params)
 
 
 def open_source(source: str) -> RunFiles:
@@ -159,11 +165,9 @@ def open_source(source: str) -> RunFiles:
         bucket, _, prefix = source.removeprefix("s3://").partition("/")
         # Endpoint and credentials come from the environment exactly as for RACER_STORE (S3_ENDPOINT_URL, AWS_*).
         settings = settings_from_env({**os.environ, "RACER_STORE": f"s3://{bucket}"}).store
-        found = from_store(open_store(settings), prefix, source)
+        found = from_store(open_store(settings), prefix)
     else:
-        settings = settings_from_env()
-        store = open_store(settings.store)
-        found = from_store(store, source, f"{store.describe()}: {source}")
+        found = from_store(open_store(settings_from_env().store), source)
     if not found.simtraces:
         raise SourceError(
             f"{found.description}: no simtrace CSV found (looked for */training-simtrace/<n>-iteration.csv and "

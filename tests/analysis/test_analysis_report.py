@@ -132,5 +132,13 @@ def test_s3_source_on_minio(s3_settings, drfc_multi, console_export, monkeypatch
         assert remote["lap_time_s"].min() == pytest.approx(local["lap_time_s"].min())
         assert sorted(remote["worker"].unique()) == sorted(local["worker"].unique())
 
+    # A model prefix with RACER_STORE pointing at the bucket reads the same files.
+    monkeypatch.setenv("RACER_STORE", f"s3://{s3_settings.bucket}")
+    run("rl-model", "--out", tmp_path / "by-prefix", "--no-pictures")
+    assert pd.read_csv(tmp_path / "by-prefix/episodes.csv").equals(pd.read_csv(tmp_path / "rl-model/episodes.csv"))
+
     result = CliRunner().invoke(analyze_command, [f"s3://{s3_settings.bucket}/nothing-here", "--out", str(tmp_path)])
     assert result.exit_code == 1 and "no simtrace CSV found" in result.output
+    result = CliRunner().invoke(analyze_command, ["rl-model-other", "--out", str(tmp_path)])
+    assert result.exit_code == 1
+    assert f"s3://{s3_settings.bucket}/rl-model-other/training-simtrace/0-iteration.csv: line 1" in result.output
