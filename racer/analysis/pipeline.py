@@ -16,6 +16,10 @@ from racer.analysis.sources import EVALUATION, TRAINING, RunFiles, open_source
 from racer.analysis.track_sections import Track, TrackError, load_track
 
 
+HTML_EPISODES = 200
+"""Episode rows shown in the report; a long run has thousands, the CSV has them all."""
+
+
 @dataclass
 class Analysis:
     files: RunFiles
@@ -143,7 +147,8 @@ def build_report(analysis: Analysis, out_dir: Path) -> Path:
         ("Training iterations", analysis.iterations, "All workers together."),
         ("Training by worker", analysis.workers, "One row per worker (world)."),
         ("Fastest training laps", aggregate.best_laps(analysis.episodes, TRAINING, 10), "Complete laps, fastest first."),
-        ("Training episodes", analysis.episodes[analysis.episodes["phase"] == TRAINING], "Every training episode."),
+        ("Training episodes (latest)", analysis.episodes[analysis.episodes["phase"] == TRAINING].tail(HTML_EPISODES),
+         f"The last {HTML_EPISODES} training episodes; every episode is in episodes.csv."),
     ]
     if analysis.reward_comparison is not None:
         tables.insert(0, ("Reward what-if by iteration", analysis.reward_comparison, "Logged and candidate reward."))
