@@ -8,7 +8,8 @@ import numpy as np
 import pandas as pd
 
 from racer.analysis.sources import RunFiles, SimtraceFile
-from racer.shared.deepracer.simtrace import read_simtrace
+from racer.analysis.robomaker_log import relabel_error, simtrace_csv_from_log
+from racer.shared.deepracer.simtrace import SimtraceError, read_simtrace
 
 PLACEMENT_COLUMNS = ["phase", "run", "worker", "iteration"]
 EPISODE_KEY = ["phase", "run", "worker", "episode"]
@@ -16,7 +17,16 @@ EPISODE_KEY = ["phase", "run", "worker", "episode"]
 
 
 def read_one(file: SimtraceFile) -> pd.DataFrame:
-    frame = fill_missing_status(read_simtrace(file.read_bytes(), source=file.name))
+    if file.from_log:
+        text = file.read_bytes().decode("utf-8", errors="replace")
+        data, line_numbers = simtrace_csv_from_log(text, file.name)
+        try:
+            frame = read_simtrace(data, source=file.name)
+        except SimtraceError as error:
+            raise relabel_error(error, file.name, line_numbers) from error
+    else:
+        frame = read_simtrace(file.read_bytes(), source=file.name)
+    frame = fill_missing_status(frame)
     frame.insert(0, "file", file.name)
     for position, column in enumerate(PLACEMENT_COLUMNS, start=1):
         frame.insert(position, column, getattr(file, column))

@@ -48,6 +48,8 @@ class SimtraceFile:
     worker: int
     iteration: int
     read_bytes: Callable[[], bytes]
+    from_log: bool = False
+    """The bytes are a robomaker log with SIM_TRACE_LOG lines, not a CSV."""
 
 
 @dataclass(frozen=True)
@@ -116,6 +118,13 @@ def from_csv(path: Path) -> RunFiles:
     return RunFiles(str(path), [SimtraceFile(str(path), phase, run, worker, iteration, path.read_bytes)], {})
 
 
+def from_log(path: Path) -> RunFiles:
+    """A simulation log given on its own; iterations are not in the log, so every episode counts as iteration 0."""
+    phase = TRAINING if "training" in path.name.lower() else EVALUATION
+    file = SimtraceFile(str(path), phase, path.stem, 0, 0, path.read_bytes, from_log=True)
+    return RunFiles(str(path), [file], {})
+
+
 def from_tar(path: Path) -> RunFiles:
     """A console "Download logs" archive or any tar.gz of a model folder; read in memory, nothing is extracted."""
     try:
@@ -159,8 +168,10 @@ def open_source(source: str) -> RunFiles:
         found = from_csv(path)
     elif path.is_file() and (path.name.endswith((".tar.gz", ".tgz", ".tar"))):
         found = from_tar(path)
+    elif path.is_file() and path.suffix == ".log":
+        found = from_log(path)
     elif path.exists():
-        raise SourceError(f"{source}: expected a folder, a .csv, a .tar.gz or s3://bucket/prefix")
+        raise SourceError(f"{source}: expected a folder, a .csv, a .log, a .tar.gz or s3://bucket/prefix")
     elif source.startswith("s3://"):
         bucket, _, prefix = source.removeprefix("s3://").partition("/")
         # Endpoint and credentials come from the environment exactly as for RACER_STORE (S3_ENDPOINT_URL, AWS_*).

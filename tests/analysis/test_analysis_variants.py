@@ -117,3 +117,23 @@ def test_truncated_row_names_file_and_line(tmp_path, deepracer_data):
     result = CliRunner().invoke(analyze_command, [str(tmp_path / "t"), "--out", str(tmp_path / "out")])
     assert result.exit_code == 1
     assert f"{path}: line 100" in result.output
+
+
+def test_robomaker_log_gives_the_evaluation_of_the_csv(deepracer_data, console_export):
+    """The console's simulation log carries the same steps as SIM_TRACE_LOG lines (fewer decimals)."""
+    from_log = aggregate.evaluation_laps(episode_table(deepracer_data / "logs/console2022_evaluation_robomaker.log"))
+    from_csv = aggregate.evaluation_laps(episode_table(console_export))
+    assert len(from_log) == len(from_csv) == 3
+    assert from_log["lap_time_s"].tolist() == pytest.approx(from_csv["lap_time_s"].tolist(), abs=1e-9)
+    assert from_log["progress_pct"].tolist() == from_csv["progress_pct"].tolist()
+
+
+def test_malformed_robomaker_log_line_names_the_log_line(tmp_path, deepracer_data):
+    lines = (deepracer_data / "logs/console2022_evaluation_robomaker.log").read_text().splitlines(keepends=True)
+    trace_lines = [number for number, line in enumerate(lines, start=1) if "SIM_TRACE_LOG:" in line]
+    broken = trace_lines[123]
+    lines[broken - 1] = lines[broken - 1].replace(",in_progress,", ",in_progresss,")
+    log = tmp_path / "evaluation-robomaker.log"
+    log.write_text("".join(lines))
+    with pytest.raises(SimtraceError, match=rf"{log}: line {broken}: episode_status"):
+        episode_table(log)
