@@ -47,14 +47,14 @@ def _print_problems(problems: tuple[ValidationProblem, ...]) -> None:
 
 def _print_report(report: ValidationReport) -> None:
     _print_problems(report.problems)
-    for note in report.notes:
-        click.echo(f"note: {note}")
     if report.plan is not None:
         selection = report.plan.selection
         click.echo(f"OK  {report.source}: import-ready. Checkpoints {', '.join(selection.checkpoints)} "
                    f"(chosen by {selection.source}); best {selection.best}, last {selection.pointer}; "
                    f"{report.plan.total_bytes} bytes to copy.")
-    elif report.problems:
+    for note in report.notes:
+        click.echo(f"note: {note}")
+    if report.problems:
         count = len(report.problems)
         click.echo(f"{count} problem{'s' if count != 1 else ''}: {report.source} cannot be imported as it is.")
 

@@ -15,6 +15,8 @@ which runtime to use. An imported TensorFlow model keeps `agent/model.pb`.
 
 from __future__ import annotations
 
+import dataclasses
+import gzip
 import io
 import re
 import tarfile
@@ -209,7 +211,9 @@ def car_bundle(metadata: bytes, inference_key: str, inference_model: bytes) -> t
     """`model.tar.gz` for the car: model_metadata.json + agent/model.onnx (or .pb). Byte-reproducible."""
     member = CAR_BUNDLE_ONNX if inference_key.endswith(".onnx") else CAR_BUNDLE_PB
     buffer = io.BytesIO()
-    with tarfile.open(fileobj=buffer, mode="w:gz", format=tarfile.PAX_FORMAT) as bundle:
+    # gzip stamps the time into its header unless told otherwise; 0 keeps the bytes reproducible.
+    with gzip.GzipFile(fileobj=buffer, mode="wb", mtime=0) as compressed, \
+            tarfile.open(fileobj=compressed, mode="w", format=tarfile.PAX_FORMAT) as bundle:
         for name, data in (("model_metadata.json", metadata), (member, inference_model)):
             info = tarfile.TarInfo(name)
             info.size = len(data)
@@ -227,7 +231,7 @@ def export_model(store: ObjectStore, model_prefix: str, destination: Destination
     report = validate_model(source, limits, checkpoint_suffixes)
     if report.plan is None:
         return TransferResult(destination.describe(), report)
-    plan = report.plan
+    plan = _exported_plan(report.plan)
     try:
         written = _copy_plan(source, plan, destination, metadata_targets=(METADATA_TARGET, "model_metadata.json"),
                              deepracer_checkpoints=_source_deepracer_checkpoints(source, plan))
@@ -251,6 +255,18 @@ def export_model(store: ObjectStore, model_prefix: str, destination: Destination
         checked = validate_model(_source_for(destination), limits, checkpoint_suffixes)
     return TransferResult(destination.describe(), report, written=tuple(written), car_bundle_model=car_model,
                           check=checked)
+
+
+def _exported_plan(plan: ImportPlan) -> ImportPlan:
+    """Without deepracer_checkpoints.json export writes one naming the pointer as best and last, so only
+    that checkpoint goes out: a later import then copies exactly what was exported."""
+    if plan.deepracer_checkpoints_key is not None:
+        return plan
+    pointer = ck.parse_checkpoint_name(plan.selection.pointer)
+    assert pointer is not None  # validation accepted it
+    files = tuple(ck.checkpoint_files(pointer, plan.checkpoint_files) + ck.inference_model_files(pointer, plan.checkpoint_files))
+    selection = dataclasses.replace(plan.selection, checkpoints=(pointer.name,))
+    return dataclasses.replace(plan, selection=selection, checkpoint_files=files)
 
 
 def _source_for(destination: Destination) -> ModelSource:

@@ -156,9 +156,13 @@ def _check_sizes(run: _Collector, limits: SizeLimits) -> None:
 def _select_checkpoints(run: _Collector, required_suffixes: frozenset[str]) -> CheckpointSelection | None:
     """The console's order: deepracer_checkpoints.json, then .coach_checkpoint, else the model can't be imported."""
     if ck.DEEPRACER_CHECKPOINTS in run.files:
-        if ck.COACH_CHECKPOINT in run.files:
-            run.notes.append(f"{ck.COACH_CHECKPOINT} ignored: {ck.DEEPRACER_CHECKPOINTS} takes precedence (as in the console)")
-        return _select_from_deepracer_checkpoints(run, required_suffixes)
+        selection = _select_from_deepracer_checkpoints(run, required_suffixes)
+        if selection is not None and ck.COACH_CHECKPOINT in run.files:
+            coach = run.read(ck.COACH_CHECKPOINT)
+            if coach is not None and coach.decode("utf-8", "replace").strip() != selection.pointer:
+                run.notes.append(f"{ck.COACH_CHECKPOINT} ignored: {ck.DEEPRACER_CHECKPOINTS} takes precedence "
+                                 f"(as in the console); after import the pointer names {selection.pointer}")
+        return selection
     if ck.COACH_CHECKPOINT in run.files:
         return _select_from_coach_checkpoint(run, required_suffixes)
     newest = [name for name in ck.all_checkpoint_names(run.files) if not ck.missing_parts(name, run.files, required_suffixes)]
