@@ -64,13 +64,15 @@ def model_group() -> None:
     """Validate, import and export models in DeepRacer's layout, with the console's import error codes."""
 
 
-@model_group.command("validate")
+@model_group.command("validate", short_help="Check a model folder, .tar.gz or s3://bucket/prefix like the console importer.")
 @click.argument("location")
 @click.option("--json", "as_json", is_flag=True, help="Print the report as JSON.")
 def validate_command(location: str, as_json: bool) -> None:
     """Check LOCATION (a folder, a .tar.gz, or s3://bucket/prefix) the way the DeepRacer importer did.
 
     Prints every problem with its console code (e.g. COACH_CHECKPOINT_DOES_NOT_EXIST) and a fix.
+    Size limits: 1 GiB for the model (archive, model.tar.gz, files an import copies) and 10 MiB per JSON/YAML
+    file (DeepRacer-on-AWS's published limits); 512 MiB per checkpoint file (racer's choice).
     """
     report, _ = validate_location(location)
     if as_json:
@@ -80,7 +82,7 @@ def validate_command(location: str, as_json: bool) -> None:
     sys.exit(0 if report.ok else 1)
 
 
-@model_group.command("import")
+@model_group.command("import", short_help="Copy a valid model into this system's store under a new name.")
 @click.argument("source")
 @click.argument("model_name")
 @click.option("--store", "store_location", default=None, help=STORE_HELP)
@@ -105,7 +107,7 @@ def import_command(source: str, model_name: str, store_location: str | None, ove
     _finish(result, f"imported {source} as {result.destination}")
 
 
-@model_group.command("export")
+@model_group.command("export", short_help="Write a stored model in the import-ready layout plus the car's model.tar.gz.")
 @click.argument("model")
 @click.argument("dest")
 @click.option("--store", "store_location", default=None, help=STORE_HELP)
