@@ -422,6 +422,9 @@ def validate_model(source: ModelSource, limits: SizeLimits = DEFAULT_LIMITS,
         checkpoint_keys = sorted({key for name in names if name for key in
                                   ck.checkpoint_files(name, files) + ck.inference_model_files(name, files)})
         _check_inference_models(run, checkpoint_keys, metadata)
+        if any(key.endswith(".ckpt.index") for key in checkpoint_keys):
+            run.notes.append("TensorFlow checkpoints (DeepRacer console / SimApp): they import and export as they are, "
+                             "but racer's trainer and evaluator run racer's own (PyTorch) checkpoints")
         metrics = tuple(key for key in files if _METRICS.match(key))
         copied = [*checkpoint_keys, *metrics, REWARD_FUNCTION_KEY, TRAINING_PARAMS_KEY, ck.DEEPRACER_CHECKPOINTS,
                   *(key for key in (metadata_key, hyperparameters_key) if key)]
