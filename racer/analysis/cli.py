@@ -93,7 +93,8 @@ def analyze_command(source: str, track: str | None, tracks_dir: Path | None, out
         if reward_path is not None:
             if analysis.track is None:
                 raise click.UsageError("--reward-function needs the track: give --track NAME|PATH")
-            new_reward = whatif.replay_reward(analysis.steps, analysis.track, reward_path)
+            new_reward = whatif.replay_reward(analysis.steps, analysis.track, reward_path,
+                                              reversed_by_episode=analysis.reversed_episodes)
             compared, by_iteration = whatif.compare(analysis.steps, new_reward, analysis.episodes)
             analysis.reward_comparison = by_iteration
             by_iteration.to_csv(out_dir / "reward_whatif.csv", index=False)

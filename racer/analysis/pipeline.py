@@ -13,7 +13,7 @@ from racer.analysis import aggregate, plots
 from racer.analysis.loading import load_steps
 from racer.analysis.report import Report, write_html
 from racer.analysis.sources import EVALUATION, TRAINING, RunFiles, open_source
-from racer.analysis.track_sections import Track, TrackError, load_track
+from racer.analysis.track_sections import Track, TrackError, forward_waypoint, load_track, reversed_episodes
 
 
 HTML_EPISODES = 200
@@ -36,6 +36,8 @@ class Analysis:
     tables_written: dict[str, Path] = field(default_factory=dict)
     report_path: Path | None = None
     reward_comparison: pd.DataFrame | None = None
+    reversed_episodes: pd.Series | None = None
+    """Per episode, whether it was driven on the reversed route (only known with a track)."""
 
 
 def world_names(files: RunFiles) -> list[str]:
@@ -76,7 +78,14 @@ def build_tables(files: RunFiles, track_arg: str | None = None, tracks_dir: Path
     track = resolve_track(files, track_arg, tracks_dir, notes)  # first: a wrong --track fails before the long read
     steps = load_steps(files, progress=show_progress)
     episodes = aggregate.episodes(steps)
+    reversed_by_episode = None
+    if track is not None:
+        reversed_by_episode = reversed_episodes(steps, track)
+        if reversed_by_episode.any():
+            notes.append(f"{int(reversed_by_episode.sum())} of {len(reversed_by_episode)} episodes were driven in the "
+                         "reverse direction of the route (told by their closest_waypoint).")
     return Analysis(
+        reversed_episodes=reversed_by_episode,
         files=files,
         steps=steps,
         episodes=episodes,
@@ -105,7 +114,8 @@ def draw_pictures(analysis: Analysis, out_dir: Path, *, sections: int, top_laps:
             analysis.steps, best_training, track, out_dir / "best_laps.png", "Fastest training laps (speed colour)"
         )
         analysis.pictures["reward_heatmap"] = plots.reward_heatmap(training_steps, track, out_dir / "reward_heatmap.png")
-        picture, _ = plots.action_usage(training_steps, track, sections, out_dir / "action_usage.png")
+        waypoint = forward_waypoint(training_steps, analysis.reversed_episodes, track)
+        picture, _ = plots.action_usage(training_steps, waypoint, track, sections, out_dir / "action_usage.png")
         analysis.pictures["action_usage"] = picture
     evaluation = analysis.episodes[analysis.episodes["phase"] == EVALUATION]
     if len(evaluation):

@@ -141,11 +141,15 @@ def _action_labels(steps: pd.DataFrame) -> pd.Series:
     return pd.Series(combined, index=steps.index, dtype=pd.CategoricalDtype(used, ordered=True))
 
 
-def action_usage(steps: pd.DataFrame, track: Track, sections: int, path: Path) -> tuple[Path, pd.DataFrame]:
-    """Share of each action per track section: e.g. whether the car brakes before a corner or steers on a straight."""
+def action_usage(steps: pd.DataFrame, waypoint: pd.Series, track: Track, sections: int,
+                 path: Path) -> tuple[Path, pd.DataFrame]:
+    """Share of each action per track section: e.g. whether the car brakes before a corner or steers on a straight.
+
+    `waypoint` is each step's closest waypoint in the route file's order (see track_sections.forward_waypoint).
+    """
     waypoint_section = section_of_waypoint(track, sections)
     driving = steps[steps["episode_status"] != "prepare"]
-    waypoint = driving["closest_waypoint"].clip(0, len(waypoint_section) - 1).astype(int)
+    waypoint = waypoint.loc[driving.index].clip(0, len(waypoint_section) - 1).astype(int)
     section = pd.Series(waypoint_section[waypoint.to_numpy()] + 1, index=driving.index, name="section")
     usage = pd.crosstab(section, _action_labels(driving), normalize="index", dropna=False).fillna(0.0)
     usage = usage.reindex(range(1, sections + 1), fill_value=0.0)

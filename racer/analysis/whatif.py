@@ -25,21 +25,32 @@ from racer.shared.sim.track import Track
 NOT_CALLED_STATUSES = ("prepare", "pause")
 
 
-def replay_reward(steps: pd.DataFrame, track: Track, reward_path: str | Path, *, show_progress: bool = True) -> pd.Series:
-    """The candidate's reward for every training step (index aligned with `steps`)."""
+def replay_reward(steps: pd.DataFrame, track: Track, reward_path: str | Path, *,
+                  reversed_by_episode: pd.Series | None = None, show_progress: bool = True) -> pd.Series:
+    """The candidate's reward for every training step (index aligned with `steps`).
+
+    Episodes marked in `reversed_by_episode` (track_sections.reversed_episodes) see the reversed route, as in
+    DeepRacer (waypoints, closest_waypoints, is_reversed follow the driving direction).
+    """
     reward_function = load_reward_function(reward_path)
     training = steps[steps["phase"] == TRAINING]
+    if reversed_by_episode is not None:
+        is_reversed = training.join(reversed_by_episode, on=EPISODE_KEY)["reversed"].fillna(False).astype(bool)
+    else:
+        is_reversed = pd.Series(False, index=training.index)
+    tracks = {False: track, True: track.reversed() if is_reversed.any() else track}
     columns = ["X", "Y", "yaw", "throttle", "steer", "steps", "progress", "all_wheels_on_track", "episode_status", "tstamp"]
     new_reward = np.zeros(len(training))
     total = len(training)
-    for position, row in enumerate(training[columns].itertuples(index=False, name=None)):
+    rows = zip(training[columns].itertuples(index=False, name=None), is_reversed.to_numpy(), strict=True)
+    for position, (row, backwards) in enumerate(rows):
         x, y, yaw, throttle, steer, step, progress, on_track, status, tstamp = row
         if show_progress and position % 5000 == 0:
             print(f"\rreward what-if: {position}/{total} steps", end="", file=sys.stderr)
         if status in NOT_CALLED_STATUSES:
             continue
         params = make_reward_params(
-            track, x=x, y=y, heading_deg=yaw, speed_mps=throttle, steering_angle_deg=steer, steps=step,
+            tracks[bool(backwards)], x=x, y=y, heading_deg=yaw, speed_mps=throttle, steering_angle_deg=steer, steps=step,
             progress=progress, all_wheels_on_track=bool(on_track), is_offtrack=status == "off_track",
             is_crashed=status == "crashed", sim_time_s=tstamp,
         )

@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import io
 
+import numpy as np
 import pytest
 from click.testing import CliRunner
 
@@ -137,3 +138,48 @@ def test_malformed_robomaker_log_line_names_the_log_line(tmp_path, deepracer_dat
     log.write_text("".join(lines))
     with pytest.raises(SimtraceError, match=rf"{log}: line {broken}: episode_status"):
         episode_table(log)
+
+
+def test_reverse_direction_episodes_are_detected_and_replayed_reversed(tmp_path, deepracer_data, reinvent_route):
+    """A real lap driven backwards (rows in reverse order, closest_waypoint indexed on the reversed route, as DeepRacer
+    logs REVERSE_DIR runs) among forward episodes: only it is marked reversed, and the reward replay tells the
+    reward function is_reversed=True exactly on its steps."""
+    from racer.analysis import whatif
+    from racer.analysis.track_sections import forward_waypoint, load_track, reversed_episodes
+
+    track = load_track(str(reinvent_route))
+    backwards = track.reversed()
+    rows = read_rows(deepracer_data / "simtrace/drfc1_training_26-iteration.csv")
+    header, body = rows[0], rows[1:]
+    col = {name: header.index(name) for name in header}
+    lap = [r for r in body if r[0] == "530"]
+    assert lap[-1][col["episode_status"]] == "lap_complete"
+    driven_back = []
+    for step, (row, clock) in enumerate(zip(reversed(lap), lap, strict=True), start=1):
+        new = list(row)
+        new[col["episode"]] = "999"
+        new[col["steps"]] = f"{float(step)}"
+        new[col["yaw"]] = str((float(row[col["yaw"]]) + 360) % 360 - 180)
+        new[col["tstamp"]] = str(float(clock[col["tstamp"]]) + 10_000)
+        new[col["episode_status"]] = "prepare" if step == 1 else "in_progress"
+        x, y = float(row[col["X"]]), float(row[col["Y"]])
+        new[col["closest_waypoint"]] = str(backwards.closest_waypoint_for_simtrace(x, y))
+        driven_back.append(new)
+    folder = write_rows(tmp_path / "r/training-simtrace/26-iteration.csv", [header, *body, *driven_back]).parents[1]
+    steps = load_steps(open_source(str(folder)), progress=False)
+
+    verdict = reversed_episodes(steps, track)
+    assert verdict.sum() == 1
+    assert verdict.xs(999, level="episode").all()
+    # In the route file's order, the backwards lap visits the same waypoints as the forward one.
+    waypoints = forward_waypoint(steps, verdict, track)
+    forward_lap = waypoints[steps["episode"] == 530].to_numpy()
+    backward_lap = waypoints[steps["episode"] == 999].to_numpy()[::-1]
+    assert np.mean(forward_lap == backward_lap) > 0.9
+
+    reward_file = tmp_path / "reward_function.py"
+    reward_file.write_text("def reward_function(params):\n    return 1.0 if params['is_reversed'] else 0.5\n")
+    new_reward = whatif.replay_reward(steps, track, reward_file, reversed_by_episode=verdict, show_progress=False)
+    running = steps["episode_status"] != "prepare"
+    assert (new_reward[running & (steps["episode"] == 999)] == 1.0).all()
+    assert (new_reward[running & (steps["episode"] != 999)] == 0.5).all()
