@@ -8,8 +8,8 @@ from pathlib import Path
 import click
 import pandas as pd
 
-from racer.analysis import aggregate, plots, whatif
-from racer.analysis.pipeline import Analysis, analyze, build_report
+from racer.analysis import aggregate
+from racer.analysis.pipeline import Analysis, analyze
 from racer.analysis.report import format_table
 from racer.analysis.sources import TRAINING, SourceError
 from racer.analysis.track_sections import TrackError
@@ -78,35 +78,22 @@ def print_summary(analysis: Analysis) -> None:
 @click.option("--top", "top_laps", default=4, show_default=True, type=click.IntRange(1, 12),
               help="How many of the fastest laps to draw.")
 @click.option("--no-pictures", is_flag=True, help="Tables and CSVs only (faster).")
-def analyze_command(source: str, track: str | None, tracks_dir: Path | None, out_dir: Path | None, reward_path: Path | None, sections: int,
-                    top_laps: int, no_pictures: bool) -> None:
-    """Analyse DeepRacer/racer simtrace logs: SOURCE is a folder, a .csv, a .tar.gz export, s3://bucket/prefix,
-    or a model prefix in RACER_STORE.
+def analyze_command(source: str, track: str | None, tracks_dir: Path | None, out_dir: Path | None,
+                    reward_path: Path | None, sections: int, top_laps: int, no_pictures: bool) -> None:
+    """Analyse DeepRacer/racer simtrace logs. SOURCE is a model folder, a .tar.gz export, s3://bucket/prefix,
+    a model prefix in RACER_STORE, one simtrace .csv, or a simulation .log with SIM_TRACE_LOG lines.
 
     Reads training and evaluation simtraces of any layout (DRfC single/multi-worker, console export, evaluations)
     and 15-19 column variants. Prints the key tables, writes CSVs, PNGs and a self-contained report.html.
     """
     out_dir = out_dir or default_out_dir(source)
     try:
-        analysis = analyze(source, out_dir, track=track, tracks_dir=tracks_dir, sections=sections, top_laps=top_laps,
-                           pictures=not no_pictures)
-        if reward_path is not None:
-            if analysis.track is None:
-                raise click.UsageError("--reward-function needs the track: give --track NAME|PATH")
-            new_reward = whatif.replay_reward(analysis.steps, analysis.track, reward_path,
-                                              reversed_by_episode=analysis.reversed_episodes)
-            compared, by_iteration = whatif.compare(analysis.steps, new_reward, analysis.episodes)
-            analysis.reward_comparison = by_iteration
-            by_iteration.to_csv(out_dir / "reward_whatif.csv", index=False)
-            if not no_pictures:
-                analysis.pictures["reward_comparison"] = plots.reward_comparison(
-                    whatif.lap_steps(analysis.steps, new_reward, analysis.episodes), compared,
-                    out_dir / "reward_whatif.png", reward_path.name)
-        report_path = build_report(analysis, out_dir)
+        analysis = analyze(source, out_dir, track=track, tracks_dir=tracks_dir, reward_function=reward_path,
+                           sections=sections, top_laps=top_laps, pictures=not no_pictures)
     except (SourceError, SimtraceError, TrackError, StoreError, RewardFunctionError) as error:
         raise click.ClickException(str(error)) from error
     print_summary(analysis)
     if analysis.reward_comparison is not None:
         _echo_table(f"Reward what-if: {reward_path}", analysis.reward_comparison,
                     ["iteration", "episodes", "reward_mean", "new_reward_mean", "episode_reward_correlation"])
-    click.echo(f"\nreport: {report_path}  (tables: {', '.join(p.name for p in analysis.tables_written.values())})")
+    click.echo(f"\nreport: {analysis.report_path}  (tables: {', '.join(p.name for p in analysis.tables_written.values())})")

@@ -9,13 +9,14 @@ from pathlib import Path
 import pandas as pd
 import yaml
 
-from racer.analysis import aggregate, plots
+from racer.analysis import aggregate, plots, whatif
 from racer.analysis.loading import load_steps
 from racer.analysis.report import Report, write_html
 from racer.analysis.sources import EVALUATION, TRAINING, RunFiles, open_source
 from racer.analysis.track_sections import Track, TrackError, forward_waypoint, load_track, reversed_episodes
 
 
+NEEDS_TRACK = "the reward what-if rebuilds params from the track: give --track NAME|PATH.npy"
 HTML_EPISODES = 200
 """Episode rows shown in the report; a long run has thousands, the CSV has them all."""
 
@@ -73,9 +74,11 @@ def resolve_track(files: RunFiles, track_arg: str | None, tracks_dir: Path | Non
 
 
 def build_tables(files: RunFiles, track_arg: str | None = None, tracks_dir: Path | None = None, *,
-                 show_progress: bool = True) -> Analysis:
+                 track_required: bool = False, show_progress: bool = True) -> Analysis:
     notes: list[str] = []
     track = resolve_track(files, track_arg, tracks_dir, notes)  # first: a wrong --track fails before the long read
+    if track is None and track_required:
+        raise TrackError(NEEDS_TRACK)
     steps = load_steps(files, progress=show_progress)
     episodes = aggregate.episodes(steps)
     reversed_by_episode = None
@@ -85,7 +88,6 @@ def build_tables(files: RunFiles, track_arg: str | None = None, tracks_dir: Path
             notes.append(f"{int(reversed_by_episode.sum())} of {len(reversed_by_episode)} episodes were driven in the "
                          "reverse direction of the route (told by their closest_waypoint).")
     return Analysis(
-        reversed_episodes=reversed_by_episode,
         files=files,
         steps=steps,
         episodes=episodes,
@@ -96,10 +98,12 @@ def build_tables(files: RunFiles, track_arg: str | None = None, tracks_dir: Path
         evaluations=aggregate.evaluations(episodes),
         track=track,
         notes=notes,
+        reversed_episodes=reversed_by_episode,
     )
 
 
 def draw_pictures(analysis: Analysis, out_dir: Path, *, sections: int, top_laps: int) -> None:
+    print("drawing pictures", file=sys.stderr)
     training_steps = analysis.steps[analysis.steps["phase"] == TRAINING]
     if len(analysis.iterations):
         analysis.pictures["training_progress"] = plots.training_progress(
@@ -142,7 +146,8 @@ _PICTURE_TEXT = {
     "evaluation_laps": ("Evaluation laps", "Driven path coloured by speed; green dot = start of the lap."),
     "reward_heatmap": ("Reward heatmap", "Mean step reward of all training steps in each cell of the track."),
     "action_usage": ("Action usage per track section", "Share of the steps in each section that used each action."),
-    "reward_comparison": ("Reward what-if", "Logged reward against the candidate reward function, per step and per episode."),
+    "reward_comparison": ("Reward what-if", "Logged reward and the candidate's along the fastest lap, and episode "
+                          "totals of both for every training episode."),
 }
 
 
@@ -156,7 +161,8 @@ def build_report(analysis: Analysis, out_dir: Path) -> Path:
         ("Evaluation laps", analysis.evaluation_laps, "Per lap: time, progress, resets and penalty time."),
         ("Training iterations", analysis.iterations, "All workers together."),
         ("Training by worker", analysis.workers, "One row per worker (world)."),
-        ("Fastest training laps", aggregate.best_laps(analysis.episodes, TRAINING, 10), "Complete laps, fastest first."),
+        ("Fastest training laps", aggregate.best_laps(analysis.episodes, TRAINING, 10),
+         "Complete laps, fastest first (when no lap was completed: the episodes that got furthest)."),
         ("Training episodes (latest)", analysis.episodes[analysis.episodes["phase"] == TRAINING].tail(HTML_EPISODES),
          f"The last {HTML_EPISODES} training episodes; every episode is in episodes.csv."),
     ]
@@ -167,12 +173,36 @@ def build_report(analysis: Analysis, out_dir: Path) -> Path:
     return analysis.report_path
 
 
+def compare_reward(analysis: Analysis, reward_path: Path, out_dir: Path, *, picture: bool,
+                   show_progress: bool = True) -> None:
+    """The reward what-if: table (and CSV), plus its picture."""
+    if analysis.track is None:
+        raise TrackError(NEEDS_TRACK)
+    new_reward = whatif.replay_reward(analysis.steps, analysis.track, reward_path,
+                                      reversed_by_episode=analysis.reversed_episodes, show_progress=show_progress)
+    compared, by_iteration = whatif.compare(analysis.steps, new_reward, analysis.episodes)
+    analysis.reward_comparison = by_iteration
+    by_iteration.to_csv(out_dir / "reward_whatif.csv", index=False)
+    analysis.tables_written["reward_whatif"] = out_dir / "reward_whatif.csv"
+    if picture:
+        analysis.pictures["reward_comparison"] = plots.reward_comparison(
+            whatif.lap_steps(analysis.steps, new_reward, analysis.episodes), compared, out_dir / "reward_whatif.png",
+            Path(reward_path).name,
+        )
+
+
 def analyze(source: str, out_dir: Path, *, track: str | None = None, tracks_dir: Path | None = None,
-            sections: int = 10, top_laps: int = 4, pictures: bool = True, show_progress: bool = True) -> Analysis:
+            reward_function: Path | None = None, sections: int = 10, top_laps: int = 4, pictures: bool = True,
+            show_progress: bool = True) -> Analysis:
+    """Everything `racer analyze` writes: CSV tables, PNGs, the optional reward what-if and report.html."""
     files = open_source(source)
-    analysis = build_tables(files, track, tracks_dir, show_progress=show_progress)
+    analysis = build_tables(files, track, tracks_dir, track_required=reward_function is not None,
+                            show_progress=show_progress)
     out_dir.mkdir(parents=True, exist_ok=True)
     write_tables(analysis, out_dir)
     if pictures:
         draw_pictures(analysis, out_dir, sections=sections, top_laps=top_laps)
+    if reward_function is not None:
+        compare_reward(analysis, reward_function, out_dir, picture=pictures, show_progress=show_progress)
+    build_report(analysis, out_dir)
     return analysis

@@ -142,3 +142,15 @@ def test_s3_source_on_minio(s3_settings, drfc_multi, console_export, monkeypatch
     result = CliRunner().invoke(analyze_command, ["rl-model-other", "--out", str(tmp_path)])
     assert result.exit_code == 1
     assert f"s3://{s3_settings.bucket}/rl-model-other/training-simtrace/0-iteration.csv: line 1" in result.output
+
+
+def test_reward_function_errors_are_clear(drfc_single, reinvent_route, tmp_path):
+    broken = tmp_path / "broken_reward.py"
+    broken.write_text("def reward_function(params):\n    return params['no_such_key']\n")
+    result = CliRunner().invoke(analyze_command, [str(drfc_single), "--track", str(reinvent_route), "--no-pictures",
+                                                  "--out", str(tmp_path / "o"), "--reward-function", str(broken)])
+    assert result.exit_code == 1
+    assert str(broken) in result.output and "line 2" in result.output and "no_such_key" in result.output
+    result = CliRunner().invoke(analyze_command, [str(drfc_single), "--no-pictures", "--out", str(tmp_path / "o"),
+                                                  "--reward-function", str(broken)])
+    assert result.exit_code == 1 and "--track" in result.output
