@@ -17,11 +17,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass, fields
 
+from racer.shared.sim.config import DEFAULT_TRACK
+from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
 from racer.shared.store import join_key
 
-WORLDS = ("base", "carpet", "concrete", "wood")
-DEFAULT_TRACK = "racer_loop"
-"""The quick-start track shipped in tracks/."""
+__all__ = ["DEFAULT_TRACK", "WORLDS", "RunLayout", "WorkerSettings", "default_worker_settings"]
 
 
 @dataclass(frozen=True)

@@ -25,7 +25,7 @@ from racer.shared.transport.channels import RunChannel
 
 pytestmark = pytest.mark.slow
 
-TRACK = "racer_loop"
+TRACK = "racer_oval"
 CHECKPOINT_NAME = re.compile(r"^(\d+)_Step-(\d+)\.ckpt$")
 
 
