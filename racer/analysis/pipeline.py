@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -39,51 +40,79 @@ class Analysis:
     reward_comparison: pd.DataFrame | None = None
     reversed_episodes: pd.Series | None = None
     """Per episode, whether it was driven on the reversed route (only known with a track)."""
+    track_workers: set[int] | None = None
+    """Training workers that drove `track` (None = all of them)."""
 
 
-def world_names(files: RunFiles) -> list[str]:
-    """WORLD_NAME values of the training/evaluation params yaml files found with the simtraces."""
-    names = []
-    for name, data in files.params_yaml.items():
+def run_tracks(files: RunFiles) -> dict[int | str, str]:
+    """WORLD_NAME by who used it: worker i (training_params.yaml = worker 0, training_params_<i>.yaml = worker i)
+    or "evaluation" (eval_params*.yaml, evaluation_params*.yaml)."""
+    tracks: dict[int | str, str] = {}
+    for name, data in sorted(files.params_yaml.items()):
         try:
             params = yaml.safe_load(data)
         except yaml.YAMLError as error:
             print(f"warning: {name}: not readable yaml ({error}); ignored", file=sys.stderr)
             continue
         world = params.get("WORLD_NAME") if isinstance(params, dict) else None
-        if world and world not in names:
-            names.append(str(world))
-    return names
+        if not world:
+            continue
+        filename = Path(name).name
+        worker = re.match(r"training_params(?:_(\d+))?\.ya?ml$", filename)
+        role = (int(worker.group(1) or 0)) if worker else EVALUATION
+        tracks.setdefault(role, str(world))
+    return tracks
 
 
-def resolve_track(files: RunFiles, track_arg: str | None, tracks_dir: Path | None, notes: list[str]) -> Track | None:
-    """--track wins; otherwise the WORLD_NAME of the run, if a route of that name is in the tracks folder."""
+def resolve_track(files: RunFiles, track_arg: str | None, tracks_dir: Path | None,
+                  notes: list[str]) -> tuple[Track | None, set[int] | None]:
+    """(track, training workers that drove it; None = all).
+
+    --track wins and is used for every worker. Otherwise the run's own WORLD_NAME (worker 0's first), if a route
+    of that name is in the tracks folder; workers that trained on another track are left out of the pictures.
+    """
+    tracks = run_tracks(files)
+    by_worker = {role: name for role, name in tracks.items() if isinstance(role, int)}
+    several = len(set(by_worker.values())) > 1
     if track_arg:
-        return load_track(track_arg, tracks_dir)  # an explicit track that cannot be loaded is an error, not a note
-    for world in world_names(files):
-        try:
-            track = load_track(world, tracks_dir)
-        except TrackError:
-            notes.append(f"The run was on track {world!r}, which is not in the tracks folder; give its route with "
-                         "--track PATH.npy (or --tracks-dir): tables only, no track pictures.")
-            return None
-        notes.append(f"Track {world!r} taken from the run's params yaml.")
-        return track
-    notes.append("No track given (--track NAME|PATH.npy) and none named by the run: tables only, no track pictures.")
-    return None
+        if several:
+            notes.append(f"The workers trained on several tracks ({_listing(by_worker)}); all are drawn on {track_arg}.")
+        return load_track(track_arg, tracks_dir), None  # an explicit track that cannot be loaded is an error
+    if not tracks:
+        notes.append("No track given (--track NAME|PATH.npy) and none named by the run: tables only, no track pictures.")
+        return None, None
+    world = by_worker[min(by_worker)] if by_worker else tracks[EVALUATION]
+    try:
+        track = load_track(world, tracks_dir)
+    except TrackError:
+        notes.append(f"The run was on track {world!r}, which is not in the tracks folder; give its route with "
+                     "--track PATH.npy (or --tracks-dir): tables only, no track pictures.")
+        return None, None
+    notes.append(f"Track {world!r} taken from the run's params yaml.")
+    if not several:
+        return track, None
+    others = {worker: name for worker, name in by_worker.items() if name != world}
+    notes.append(f"Workers on other tracks ({_listing(others)}) are left out of the track pictures and the reward "
+                 "what-if; analyse them with --track.")
+    return track, {worker for worker, name in by_worker.items() if name == world}
+
+
+def _listing(by_worker: dict[int, str]) -> str:
+    return ", ".join(f"worker {worker}: {name}" for worker, name in sorted(by_worker.items()))
 
 
 def build_tables(files: RunFiles, track_arg: str | None = None, tracks_dir: Path | None = None, *,
                  track_required: bool = False, show_progress: bool = True) -> Analysis:
     notes: list[str] = []
-    track = resolve_track(files, track_arg, tracks_dir, notes)  # first: a wrong --track fails before the long read
+    # The track first: a wrong --track fails before the long read.
+    track, track_workers = resolve_track(files, track_arg, tracks_dir, notes)
     if track is None and track_required:
         raise TrackError(NEEDS_TRACK)
     steps = load_steps(files, progress=show_progress)
     episodes = aggregate.episodes(steps)
     reversed_by_episode = None
     if track is not None:
-        reversed_by_episode = reversed_episodes(steps, track)
+        reversed_by_episode = reversed_episodes(on_track(steps, track_workers), track)
         if reversed_by_episode.any():
             notes.append(f"{int(reversed_by_episode.sum())} of {len(reversed_by_episode)} episodes were driven in the "
                          "reverse direction of the route (told by their closest_waypoint).")
@@ -99,12 +128,19 @@ def build_tables(files: RunFiles, track_arg: str | None = None, tracks_dir: Path
         track=track,
         notes=notes,
         reversed_episodes=reversed_by_episode,
+        track_workers=track_workers,
     )
+
+
+def on_track(table: pd.DataFrame, track_workers: set[int] | None) -> pd.DataFrame:
+    """Rows (steps or episodes) driven on the analysis track: evaluations, and training workers on that track."""
+    if track_workers is None:
+        return table
+    return table[(table["phase"] != TRAINING) | table["worker"].isin(track_workers)]
 
 
 def draw_pictures(analysis: Analysis, out_dir: Path, *, sections: int, top_laps: int) -> None:
     print("drawing pictures", file=sys.stderr)
-    training_steps = analysis.steps[analysis.steps["phase"] == TRAINING]
     if len(analysis.iterations):
         analysis.pictures["training_progress"] = plots.training_progress(
             analysis.iterations, analysis.iterations_by_worker, out_dir / "training_progress.png"
@@ -112,7 +148,9 @@ def draw_pictures(analysis: Analysis, out_dir: Path, *, sections: int, top_laps:
     if analysis.track is None:
         return
     track = analysis.track
-    best_training = aggregate.best_laps(analysis.episodes, TRAINING, top_laps)
+    steps = on_track(analysis.steps, analysis.track_workers)
+    training_steps = steps[steps["phase"] == TRAINING]
+    best_training = aggregate.best_laps(on_track(analysis.episodes, analysis.track_workers), TRAINING, top_laps)
     if len(best_training):
         analysis.pictures["best_laps"] = plots.laps_by_speed(
             analysis.steps, best_training, track, out_dir / "best_laps.png", "Fastest training laps (speed colour)"
@@ -178,7 +216,7 @@ def compare_reward(analysis: Analysis, reward_path: Path, out_dir: Path, *, pict
     """The reward what-if: table (and CSV), plus its picture."""
     if analysis.track is None:
         raise TrackError(NEEDS_TRACK)
-    new_reward = whatif.replay_reward(analysis.steps, analysis.track, reward_path,
+    new_reward = whatif.replay_reward(on_track(analysis.steps, analysis.track_workers), analysis.track, reward_path,
                                       reversed_by_episode=analysis.reversed_episodes, show_progress=show_progress)
     compared, by_iteration = whatif.compare(analysis.steps, new_reward, analysis.episodes)
     analysis.reward_comparison = by_iteration

@@ -78,8 +78,9 @@ def compare(steps: pd.DataFrame, new_reward: pd.Series, episode_table: pd.DataFr
 
 
 def lap_steps(steps: pd.DataFrame, new_reward: pd.Series, episode_table: pd.DataFrame) -> pd.DataFrame:
-    """The steps, with both rewards, of the fastest complete training lap (or the furthest episode)."""
-    best = aggregate.best_laps(episode_table, TRAINING, 1).iloc[0]
+    """The steps, with both rewards, of the fastest complete replayed lap (or the furthest replayed episode)."""
     replayed = steps.loc[new_reward.index].assign(new_reward=new_reward)
+    candidates = episode_table.merge(replayed[EPISODE_KEY].drop_duplicates(), on=EPISODE_KEY)
+    best = aggregate.best_laps(candidates, TRAINING, 1).iloc[0]
     chosen = (replayed[EPISODE_KEY] == best[EPISODE_KEY].to_numpy()).all(axis=1)
     return replayed[chosen]

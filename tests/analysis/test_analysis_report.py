@@ -154,3 +154,18 @@ def test_reward_function_errors_are_clear(drfc_single, reinvent_route, tmp_path)
     result = CliRunner().invoke(analyze_command, [str(drfc_single), "--no-pictures", "--out", str(tmp_path / "o"),
                                                   "--reward-function", str(broken)])
     assert result.exit_code == 1 and "--track" in result.output
+
+
+def test_workers_on_another_track_are_left_out_of_track_pictures(drfc_multi, deepracer_data, reinvent_route, tmp_path):
+    """Multi-config training (training_params_<i>.yaml): worker 1 on another track must not be drawn on worker 0's."""
+    (drfc_multi / "training_params.yaml").write_text("WORLD_NAME: reinvent_base\n")
+    (drfc_multi / "training_params_1.yaml").write_text("WORLD_NAME: Vegas_track\n")
+    out = tmp_path / "o"
+    result = run(drfc_multi, "--tracks-dir", deepracer_data / "routes", "--out", out,
+                 "--reward-function", deepracer_data / "reward_functions/drfc1_follow_center_line.py")
+    assert "worker 1: Vegas_track" in result.output and "left out of the track pictures" in result.output
+    whatif_table = pd.read_csv(out / "reward_whatif.csv")
+    episodes = pd.read_csv(out / "episodes.csv")
+    assert whatif_table["episodes"].sum() == (episodes["worker"] == 0).sum() < len(episodes)
+    assert np.allclose(whatif_table["new_reward_mean"], whatif_table["reward_mean"])
+    assert {"best_laps.png", "reward_heatmap.png", "action_usage.png"} <= {p.name for p in out.glob("*.png")}
