@@ -185,9 +185,8 @@ def _in_camera(obj: TrackObject, x: float, y: float, heading_deg: float) -> bool
 
 def copy_params(params: dict) -> dict:
     """A copy a reward function may mutate freely (DeepRacer deep-copies; tuples and scalars are immutable)."""
-    copied = {}
-    for key, value in params.items():
+    copied = dict(params)
+    for key, value in copied.items():
         if isinstance(value, list):
-            value = [list(item) if isinstance(item, list) else item for item in value]
-        copied[key] = value
+            copied[key] = [list(item) for item in value] if value and isinstance(value[0], list) else list(value)
     return copied

@@ -93,6 +93,36 @@ class _Polyline:
         return float(self.ax[i] + factor * self.dx[i]), float(self.ay[i] + factor * self.dy[i])
 
 
+class _BorderPair:
+    """Inner and outer border stacked, so both nearest points come from one vectorised pass (same maths)."""
+
+    def __init__(self, inner: _Polyline, outer: _Polyline) -> None:
+        self.ax = np.stack([inner.ax, outer.ax])
+        self.ay = np.stack([inner.ay, outer.ay])
+        self.dx = np.stack([inner.dx, outer.dx])
+        self.dy = np.stack([inner.dy, outer.dy])
+        self.len2 = np.stack([inner.len2, outer.len2])
+        self.seg_len = np.stack([inner.seg_len, outer.seg_len])
+        self._rows = np.arange(2)
+
+    def nearest_points(self, x: float, y: float) -> tuple[float, float, float, float]:
+        """(inner x, inner y, outer x, outer y) nearest to (x, y)."""
+        px = x - self.ax
+        py = y - self.ay
+        r = (px * self.dx + py * self.dy) / self.len2
+        s = np.abs((-py) * self.dx - (-px) * self.dy) / self.len2 * self.seg_len
+        dist_a = np.sqrt(px * px + py * py)
+        bx = px - self.dx
+        by = py - self.dy
+        dist_b = np.sqrt(bx * bx + by * by)
+        dist = np.where(r <= 0.0, dist_a, np.where(r >= 1.0, dist_b, s))
+        i = np.argmin(dist, axis=1)
+        factor = np.clip(r[self._rows, i], 0.0, 1.0)
+        qx = self.ax[self._rows, i] + factor * self.dx[self._rows, i]
+        qy = self.ay[self._rows, i] + factor * self.dy[self._rows, i]
+        return float(qx[0]), float(qy[0]), float(qx[1]), float(qy[1])
+
+
 @dataclass(frozen=True)
 class PointGeometry:
     """Everything DeepRacer derives from one point's projection on the centre line (one projection pass)."""
@@ -121,6 +151,7 @@ class Track:
         self._center = _Polyline(self.center_line)
         self._inner = _Polyline(self.inner_border)
         self._outer = _Polyline(self.outer_border)
+        self._borders = _BorderPair(self._inner, self._outer)
         line_cls = LinearRing if self.is_loop else LineString
         self.length_m = float(line_cls(self.center_line).length)
         if self.is_loop:
@@ -272,8 +303,7 @@ class Track:
 
     def _border_distances(self, cx: float, cy: float, x: float, y: float) -> tuple[float, float, float]:
         """Distances from (x, y) to the inner/outer border points nearest to the centre point, and their spacing."""
-        ix, iy = self._inner.nearest_point(cx, cy)
-        ox, oy = self._outer.nearest_point(cx, cy)
+        ix, iy, ox, oy = self._borders.nearest_points(cx, cy)
         return math.hypot(x - ix, y - iy), math.hypot(x - ox, y - oy), math.hypot(ix - ox, iy - oy)
 
 

@@ -1,0 +1,178 @@
+"""The DeepRacer car in MuJoCo: its geometry (reference §9.1), its MJCF, and reading/commanding it.
+
+Frame: the car origin (DeepRacer's `base_link`) sits on the ground between the axles, x forward, y left, z up.
+All four wheels get the same angular velocity `speed / 0.035` and both steering hinges the same angle
+(no Ackermann), as DeepRacer's `send_action`. Commands are clipped to 0.1–4 m/s and ±30° before being sent;
+the zero command of the `prepare` step is sent unclipped.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from racer.shared.sim._mujoco import mujoco
+
+WHEEL_RADIUS_M = 0.035
+REAR_AXLE_X_M = -0.081663
+FRONT_AXLE_X_M = 0.082311
+REAR_HALF_TRACK_M = 0.08105
+FRONT_HALF_TRACK_M = 0.079601
+WHEELBASE_M = FRONT_AXLE_X_M - REAR_AXLE_X_M
+WHEEL_MASS_KG = 0.34055
+HINGE_MASS_KG = 0.1
+TOTAL_MASS_KG = 5.7
+CHASSIS_MASS_KG = TOTAL_MASS_KG - 4 * WHEEL_MASS_KG - 2 * HINGE_MASS_KG
+STEERING_LIMIT_RAD = 1.0
+"""Joint limit of the steering hinges (URDF)."""
+
+MIN_SPEED_MPS = 0.1
+MAX_SPEED_MPS = 4.0
+MAX_STEERING_DEG = 30.0
+
+CAMERA_POS_M = (0.14529, 0.0, 0.13033)
+CAMERA_PITCH_DOWN_RAD = 0.2618
+CAMERA_HORIZONTAL_FOV_RAD = 1.13
+CAMERA_ASPECT = 4.0 / 3.0
+STEREO_HALF_BASELINE_M = 0.03
+LIDAR_POS_M = (0.02, 0.0, 0.16)
+"""[chosen] The LIDAR sits on top of the car, above the camera mount."""
+
+WHEEL_NAMES = ("left_rear_wheel", "left_front_wheel", "right_rear_wheel", "right_front_wheel")
+"""DeepRacer's wheel link names, in its order."""
+STEERING_JOINTS = ("left_steering_hinge_joint", "right_steering_hinge_joint")
+CAR_GEOM_GROUP = 3
+"""Car geoms live in a group the camera does not draw and the LIDAR does not see."""
+
+WHEEL_MAX_TORQUE_NM = 0.6
+WHEEL_VELOCITY_GAIN = 0.08
+STEERING_KP = 8.0
+STEERING_KV = 0.25
+
+
+def vertical_fov_deg(horizontal_fov_rad: float = CAMERA_HORIZONTAL_FOV_RAD, aspect: float = CAMERA_ASPECT) -> float:
+    """MuJoCo's `fovy` for a camera with the given horizontal field of view and width/height aspect."""
+    return math.degrees(2.0 * math.atan(math.tan(horizontal_fov_rad / 2.0) / aspect))
+
+
+def clip_command(speed_mps: float, steering_deg: float) -> tuple[float, float]:
+    """What the SimApp actually sends: speed in [0.1, 4] m/s, steering in [-30, 30] degrees."""
+    return min(max(speed_mps, MIN_SPEED_MPS), MAX_SPEED_MPS), min(max(steering_deg, -MAX_STEERING_DEG), MAX_STEERING_DEG)
+
+
+def car_mjcf(friction: float, camera_names: tuple[tuple[str, float], ...]) -> str:
+    """The car body (free joint at the origin) with wheels, steering hinges, cameras and the LIDAR site."""
+    fovy = vertical_fov_deg()
+    s, c = math.sin(CAMERA_PITCH_DOWN_RAD), math.cos(CAMERA_PITCH_DOWN_RAD)
+    # Camera looks along its -z with +y up: x = car right (-y), up tilted forward by the pitch.
+    cam_axes = f"0 -1 0 {s:.9f} 0 {c:.9f}"
+    cameras = "\n".join(
+        f'      <camera name="{name}" pos="{CAMERA_POS_M[0]} {y:.4f} {CAMERA_POS_M[2]}" xyaxes="{cam_axes}" fovy="{fovy:.9f}"/>'
+        for name, y in camera_names
+    )
+    r = WHEEL_RADIUS_M
+    wheel_geom = (
+        f'<geom type="sphere" size="{r}" mass="{WHEEL_MASS_KG}" friction="{friction} 0.005 0.0001" '
+        f'contype="2" conaffinity="1" group="{CAR_GEOM_GROUP}" condim="3" rgba="0.1 0.1 0.1 1"/>'
+    )
+    rear = "\n".join(
+        f'      <body name="{name}" pos="{REAR_AXLE_X_M} {side * REAR_HALF_TRACK_M} {r}">\n'
+        f'        <joint name="{name}_joint" type="hinge" axis="0 1 0" damping="0.0005"/>\n        {wheel_geom}\n      </body>'
+        for name, side in (("left_rear_wheel", 1), ("right_rear_wheel", -1))
+    )
+    front = "\n".join(
+        f'      <body name="{side_name}_steering_hinge" pos="{FRONT_AXLE_X_M} {side * FRONT_HALF_TRACK_M} {r}">\n'
+        f'        <joint name="{side_name}_steering_hinge_joint" type="hinge" axis="0 0 1" range="-{STEERING_LIMIT_RAD} {STEERING_LIMIT_RAD}" '
+        f'damping="0.02" armature="0.0005"/>\n'
+        f'        <geom type="sphere" size="0.008" mass="{HINGE_MASS_KG}" contype="0" conaffinity="0" group="{CAR_GEOM_GROUP}"/>\n'
+        f'        <body name="{side_name}_front_wheel">\n'
+        f'          <joint name="{side_name}_front_wheel_joint" type="hinge" axis="0 1 0" damping="0.0005"/>\n          {wheel_geom}\n'
+        f"        </body>\n      </body>"
+        for side_name, side in (("left", 1), ("right", -1))
+    )
+    return f"""
+    <body name="car" pos="0 0 0">
+      <freejoint name="car_free"/>
+      <geom name="chassis" type="box" size="0.15 0.07 0.025" pos="0 0 0.075" mass="{CHASSIS_MASS_KG:.6f}"
+            contype="2" conaffinity="1" group="{CAR_GEOM_GROUP}" rgba="0.2 0.2 0.25 1"/>
+{cameras}
+      <site name="lidar" pos="{LIDAR_POS_M[0]} {LIDAR_POS_M[1]} {LIDAR_POS_M[2]}" size="0.01" group="{CAR_GEOM_GROUP}"/>
+{rear}
+{front}
+    </body>"""
+
+
+def car_actuators_mjcf() -> str:
+    wheels = "\n".join(
+        f'    <velocity name="{name}_motor" joint="{name}_joint" kv="{WHEEL_VELOCITY_GAIN}" '
+        f'forcelimited="true" forcerange="-{WHEEL_MAX_TORQUE_NM} {WHEEL_MAX_TORQUE_NM}"/>'
+        for name in WHEEL_NAMES
+    )
+    steering = "\n".join(
+        f'    <position name="{joint}_servo" joint="{joint}" kp="{STEERING_KP}" kv="{STEERING_KV}" '
+        f'ctrllimited="true" ctrlrange="-{STEERING_LIMIT_RAD} {STEERING_LIMIT_RAD}"/>'
+        for joint in STEERING_JOINTS
+    )
+    return f"  <actuator>\n{wheels}\n{steering}\n  </actuator>"
+
+
+@dataclass(frozen=True)
+class CarPose:
+    """What DeepRacer reads from the car each step."""
+
+    origin_x_m: float
+    origin_y_m: float
+    yaw_rad: float
+    model_point: tuple[float, float]
+    """Front of car: origin + R(q)·[0.14, 0, 0] (x, y)."""
+    wheel_xs: np.ndarray
+    wheel_ys: np.ndarray
+
+
+class Car:
+    """Index bookkeeping for the car inside a compiled model: teleport, command, read the pose."""
+
+    FRONT_OF_CAR_M = 0.14
+
+    def __init__(self, model: mujoco.MjModel) -> None:
+        self.body_id = model.body("car").id
+        joint = model.joint("car_free")
+        self.qpos_adr = int(joint.qposadr[0])
+        self.dof_adr = int(joint.dofadr[0])
+        self.wheel_body_ids = np.array([model.body(name).id for name in WHEEL_NAMES])
+        self.wheel_actuators = np.array([model.actuator(f"{name}_motor").id for name in WHEEL_NAMES])
+        self.steering_actuators = np.array([model.actuator(f"{joint}_servo").id for joint in STEERING_JOINTS])
+        self.car_dofs = np.arange(model.body_dofadr[self.body_id], model.nv)
+        """The car's dofs are the last ones of the model (its body is the last subtree)."""
+        self.car_qpos = np.arange(self.qpos_adr, model.nq)
+
+    def teleport(self, model: mujoco.MjModel, data: mujoco.MjData, x_m: float, y_m: float, yaw_rad: float) -> None:
+        """Put the car at rest on the ground at (x, y) with heading yaw; wheels and hinges straight."""
+        data.qpos[self.car_qpos] = model.qpos0[self.car_qpos]
+        data.qpos[self.qpos_adr : self.qpos_adr + 3] = (x_m, y_m, 0.0)
+        data.qpos[self.qpos_adr + 3 : self.qpos_adr + 7] = (math.cos(yaw_rad / 2), 0.0, 0.0, math.sin(yaw_rad / 2))
+        data.qvel[self.car_dofs] = 0.0
+        data.qacc_warmstart[self.car_dofs] = 0.0
+        data.ctrl[:] = 0.0
+        mujoco.mj_forward(model, data)
+
+    def command(self, data: mujoco.MjData, speed_mps: float, steering_deg: float) -> None:
+        """Same wheel angular velocity on all four wheels, same angle on both hinges."""
+        data.ctrl[self.wheel_actuators] = speed_mps / WHEEL_RADIUS_M
+        data.ctrl[self.steering_actuators] = math.radians(steering_deg)
+
+    def pose(self, data: mujoco.MjData) -> CarPose:
+        pos = data.xpos[self.body_id]
+        mat = data.xmat[self.body_id]
+        # Heading = yaw of the body's x axis (scipy 'zyx' euler yaw for a near-level car).
+        yaw = math.atan2(mat[3], mat[0])
+        model_point = (float(pos[0] + self.FRONT_OF_CAR_M * mat[0]), float(pos[1] + self.FRONT_OF_CAR_M * mat[3]))
+        wheels = data.xpos[self.wheel_body_ids]
+        return CarPose(float(pos[0]), float(pos[1]), yaw, model_point, wheels[:, 0].copy(), wheels[:, 1].copy())
+
+    def speed_mps(self, data: mujoco.MjData) -> float:
+        """Measured planar speed of the car origin (for tests and diagnostics; DeepRacer reports commands)."""
+        vel = data.qvel[self.dof_adr : self.dof_adr + 2]
+        return float(math.hypot(vel[0], vel[1]))

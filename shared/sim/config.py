@@ -1,0 +1,102 @@
+"""`EnvConfig`: everything one DeepRacer environment instance depends on, with the SimApp's defaults."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from racer.shared.deepracer.model_metadata import ModelMetadata, parse_model_metadata
+from racer.shared.sim.worlds import WORLD_NAMES
+
+DEFAULT_TRACK = "racer_oval"
+"""The short quick-start track shipped in `tracks/`."""
+
+STEPS_PER_SECOND = 15
+"""DeepRacer's camera rate: one env step per camera frame."""
+MAX_EPISODE_STEPS = 100_000
+
+DEFAULT_MODEL_METADATA: ModelMetadata = parse_model_metadata(
+    {
+        "action_space": [
+            {"steering_angle": steering, "speed": speed}
+            for speed in (1.0, 2.0)
+            for steering in (-30.0, -15.0, 0.0, 15.0, 30.0)
+        ],
+        "sensor": ["FRONT_FACING_CAMERA"],
+        "neural_network": "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW",
+        "training_algorithm": "clipped_ppo",
+        "action_space_type": "discrete",
+        "version": "5",
+    },
+    source="racer default model_metadata",
+)
+"""10 discrete actions (5 steering angles × 1 and 2 m/s), front camera."""
+
+
+@dataclass(frozen=True)
+class EnvConfig:
+    """Configuration of `DeepRacerEnv`. Field names follow the SimApp's yaml keys where one exists."""
+
+    track: str | Path = DEFAULT_TRACK
+    """Track name (looked up in `tracks_dir`) or path to a route `.npy` (WORLD_NAME)."""
+    tracks_dir: Path | None = None
+    """Where track names are looked up; None = the repository's `tracks/` folder."""
+    world: str = "base"
+    """One of `worlds.WORLD_NAMES`: base, carpet, concrete, wood."""
+    model_metadata: ModelMetadata = DEFAULT_MODEL_METADATA
+    """Action space and sensors (model_metadata.json)."""
+    reward_function_path: Path | None = None
+    """The user's reward file; None = DeepRacer's default evaluation reward."""
+    reverse_dir: bool = False
+    """REVERSE_DIR: drive the route in the opposite direction."""
+    alternate_driving_direction: bool = False
+    """ALTERNATE_DRIVING_DIRECTION: flip the direction after every training episode."""
+    change_start_position: bool = True
+    """CHANGE_START_POSITION: round-robin start; advance after every training episode."""
+    round_robin_advance_dist: float = 0.05
+    """ROUND_ROBIN_ADVANCE_DIST: fraction of a lap the start moves per training episode."""
+    start_position_offset: float = 0.0
+    """START_POSITION_OFFSET: initial start position, fraction of a lap."""
+    number_of_resets: int = 0
+    """NUMBER_OF_RESETS: pause-and-reset events allowed per episode before a rule ends it (0 in training)."""
+    off_track_penalty_s: float = 2.0
+    collision_penalty_s: float = 5.0
+    reverse_penalty_s: float | None = None
+    """None = the off-track penalty, as the SimApp."""
+    immobilized_penalty_s: float = 0.0
+    number_of_reverse_counts: int = 15
+    """NUMBER_OF_REVERSE_COUNTS: consecutive steps of decreasing progress that mean `reversed`."""
+    immobilized_steps: int = 15
+    immobilized_distance_m: float = 0.0003
+    max_steps: int = MAX_EPISODE_STEPS
+    physics_substeps: int = 16
+    """MuJoCo steps per env step (timestep = 1 / (15 · substeps) s)."""
+    image_width_px: int = 160
+    image_height_px: int = 120
+
+    def __post_init__(self) -> None:
+        if self.world not in WORLD_NAMES:
+            raise ValueError(f"EnvConfig.world: unknown world {self.world!r}; choose one of {', '.join(WORLD_NAMES)}")
+        if not 0.0 <= self.round_robin_advance_dist < 1.0:
+            raise ValueError(f"EnvConfig.round_robin_advance_dist must be in [0, 1), got {self.round_robin_advance_dist}")
+        if self.number_of_resets < 0:
+            raise ValueError(f"EnvConfig.number_of_resets must be >= 0, got {self.number_of_resets}")
+        for name in ("off_track_penalty_s", "collision_penalty_s", "immobilized_penalty_s"):
+            if getattr(self, name) < 0:
+                raise ValueError(f"EnvConfig.{name} must be >= 0, got {getattr(self, name)}")
+        if self.number_of_reverse_counts < 1 or self.immobilized_steps < 1:
+            raise ValueError("EnvConfig.number_of_reverse_counts and immobilized_steps must be >= 1")
+        if self.max_steps < 2:
+            raise ValueError(f"EnvConfig.max_steps must be >= 2, got {self.max_steps}")
+        if self.physics_substeps < 1:
+            raise ValueError(f"EnvConfig.physics_substeps must be >= 1, got {self.physics_substeps}")
+        if self.image_width_px < 8 or self.image_height_px < 8 or self.image_width_px > 640 or self.image_height_px > 480:
+            raise ValueError("EnvConfig image size must be within 8x8 .. 640x480")
+
+    @property
+    def step_duration_s(self) -> float:
+        return 1.0 / STEPS_PER_SECOND
+
+    @property
+    def effective_reverse_penalty_s(self) -> float:
+        return self.off_track_penalty_s if self.reverse_penalty_s is None else self.reverse_penalty_s

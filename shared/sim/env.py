@@ -1,0 +1,430 @@
+"""`DeepRacerEnv`: the MuJoCo DeepRacer simulator as a Gymnasium environment, with the SimApp's episode semantics."""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from racer.shared.sim import lidar as lidar_sensor
+from racer.shared.sim import rules
+from racer.shared.sim._mujoco import mujoco
+from racer.shared.sim.camera import CENTER_CAMERA, LEFT_CAMERA, RIGHT_CAMERA, CameraRenderer, rgb_to_l, rgb_to_y
+from racer.shared.sim.car import STEREO_HALF_BASELINE_M, Car, clip_command
+from racer.shared.sim.config import STEPS_PER_SECOND, EnvConfig
+from racer.shared.sim.reward import RewardFunction, default_evaluation_reward, load_reward_function
+from racer.shared.sim.reward_params import make_reward_params
+from racer.shared.sim.scene import SceneSpec, build_model
+from racer.shared.sim.track import Track, compute_progress
+from racer.shared.sim.worlds import get_world
+
+SIMTRACE_COLUMNS: tuple[str, ...] = (
+    "episode", "steps", "X", "Y", "yaw", "steer", "throttle", "action", "reward", "done", "all_wheels_on_track",
+    "progress", "closest_waypoint", "track_len", "tstamp", "episode_status", "pause_duration",
+    "obstacle_crash_counter", "wall_clock",
+)
+"""DeepRacer's 19 simtrace columns, in order (reference §4)."""
+
+_PENALTY_STATUSES = (rules.CRASHED, rules.OFF_TRACK, rules.IMMOBILIZED, rules.REVERSED)
+
+
+class DeepRacerEnv(gym.Env):
+    """AWS DeepRacer's time-trial simulation in MuJoCo.
+
+    ## Description
+    A 1/18 car (DeepRacer geometry, reference §9) drives on a route (`tracks/*.npy` or a DeepRacer route file)
+    in one of four worlds (base, carpet, concrete, wood). Episode rules, reward params and simtrace rows follow
+    the SimApp exactly (reference §1, §2, §4). 15 steps per simulated second.
+
+    ## Action space
+    From `model_metadata`: `Discrete(n)` over the discrete action list, or `Box(-1, 1, (2,), float32)` =
+    [steering, speed] for a continuous space (clipped to [-1, 1], then scaled linearly onto the metadata ranges).
+    The car receives the command clipped to 0.1–4 m/s and ±30°; the reward params see the unclipped values.
+
+    ## Observation space
+    `Dict` keyed by the metadata's `sensor` names:
+    camera (`FRONT_FACING_CAMERA`, `LEFT_CAMERA`, `observation`) `Box(0, 255, (120, 160, 1), uint8)`,
+    `STEREO_CAMERAS` `(120, 160, 2)` (left, right); `LIDAR` `(64,)` float32 in [0.15, 1];
+    `SECTOR_LIDAR` `(8,)` float32 bits; `DISCRETIZED_SECTOR_LIDAR` `(num_sectors·num_values_per_sector,)` bits.
+
+    ## Step ordering (reference §2.1)
+    `step(a_t)` reads the pose first (where observation o_t was taken), computes params, rules and reward from it,
+    then drives the car with a_t for 1/15 s and returns o_{t+1}. The first step of every episode is the
+    `prepare` step: the car gets a zero command whatever the action, reward 0.
+
+    ## Rewards
+    The user's `reward_function(params)` (every params key present) on RUN steps, including the terminal one;
+    0 on `prepare` and `pause` steps. Without a reward file, DeepRacer's evaluation reward.
+
+    ## Episode end
+    terminated on `lap_complete` (progress ≥ 100) and on `off_track` (no wheel centre on the road), `immobilized`
+    (≤ 0.3 mm of movement for 15 steps), `reversed` (progress decreasing for 15 steps) or `crashed` once the
+    `number_of_resets` pause-and-resets are used up; truncated after `max_steps` (100000) steps.
+    With resets left, the car is paused for the penalty time, then respawned on the nearer lane at the last
+    progress, and the episode continues.
+
+    ## Start position
+    Training episodes start at `start_position_offset` and advance by `round_robin_advance_dist` of a lap after
+    each finished training episode (`change_start_position`); `alternate_driving_direction` flips the direction
+    after each. `reset(options={"evaluation": True})` plays an evaluation episode, which changes neither.
+
+    ## Reproducibility
+    `reset(seed=s)` seeds the LIDAR noise and restarts the simulation clock; physics and rendering are
+    deterministic, so two envs given the same seed and actions produce the same observations and rewards.
+    The simtrace `wall_clock` comes from the `wall_clock` callable (default `time.time`).
+
+    ## Info
+    Every step: `simtrace` (dict of the 19 simtrace columns, in order), `params` (the reward params of the step),
+    `episode_status`, `progress`, `evaluation`; `lap_time_s` (simulated) on a completed lap.
+    """
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": STEPS_PER_SECOND}
+
+    def __init__(
+        self, config: EnvConfig | None = None, render_mode: str | None = None, wall_clock: Callable[[], float] = time.time
+    ) -> None:
+        self.config = config or EnvConfig()
+        self._wall_clock = wall_clock
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
+        self.render_mode = render_mode
+        cfg = self.config
+        self._metadata = cfg.model_metadata
+        self._base_track = Track.load(cfg.track, cfg.tracks_dir)
+        self._tracks = {False: self._base_track, True: self._base_track.reversed()}
+        self._reward: RewardFunction | None = (
+            load_reward_function(cfg.reward_function_path) if cfg.reward_function_path is not None else None
+        )
+
+        self._camera_key = self._metadata.camera_sensor
+        self._lidar_key = self._metadata.lidar_sensor
+        if self._camera_key == "STEREO_CAMERAS":
+            cameras = ((LEFT_CAMERA, STEREO_HALF_BASELINE_M), (RIGHT_CAMERA, -STEREO_HALF_BASELINE_M))
+            self._render_cameras: tuple[str, ...] = (LEFT_CAMERA, RIGHT_CAMERA)
+        elif self._camera_key == "LEFT_CAMERA":
+            cameras = ((LEFT_CAMERA, STEREO_HALF_BASELINE_M),)
+            self._render_cameras = (LEFT_CAMERA,)
+        else:
+            cameras = ((CENTER_CAMERA, 0.0),)
+            self._render_cameras = (CENTER_CAMERA,)
+        if self.render_mode == "rgb_array" and CENTER_CAMERA not in dict(cameras):
+            cameras = cameras + ((CENTER_CAMERA, 0.0),)
+
+        self._substeps = cfg.physics_substeps
+        self._model = build_model(
+            SceneSpec(self._base_track, get_world(cfg.world), 1.0 / (STEPS_PER_SECOND * self._substeps), cameras)
+        )
+        self._data = mujoco.MjData(self._model)
+        self._car = Car(self._model)
+        self._camera = CameraRenderer(self._model, cfg.image_width_px, cfg.image_height_px)
+        self._lidar = lidar_sensor.Lidar(self._model, self._car.body_id) if self._lidar_key else None
+        self._last_rgb: np.ndarray | None = None
+
+        self.action_space = self._make_action_space()
+        self.observation_space = self._make_observation_space()
+
+        self._counters = rules.RuleCounters(
+            rules.RuleLimits(cfg.immobilized_steps, cfg.immobilized_distance_m, cfg.number_of_reverse_counts)
+        )
+        # Round-robin state carried across episodes (per env = per rollout worker, as in the SimApp).
+        self._start_ndist = cfg.start_position_offset % 1.0
+        self._reverse_dir = cfg.reverse_dir
+        self._training_episodes_done = 0
+        self._evaluation_episodes_done = 0
+        self._episode_open = False
+        self._init_episode_state(evaluation=False)
+
+    # ----- spaces --------------------------------------------------------------------------------------------
+
+    def _make_action_space(self) -> spaces.Space:
+        if self._metadata.is_continuous:
+            return spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
+        return spaces.Discrete(len(self._metadata.discrete_actions))
+
+    def _make_observation_space(self) -> spaces.Dict:
+        cfg = self.config
+        channels = 2 if self._camera_key == "STEREO_CAMERAS" else 1
+        entries: dict[str, spaces.Space] = {
+            self._camera_key: spaces.Box(0, 255, shape=(cfg.image_height_px, cfg.image_width_px, channels), dtype=np.uint8)
+        }
+        if self._lidar_key == "LIDAR":
+            entries["LIDAR"] = spaces.Box(
+                lidar_sensor.MIN_RANGE_M, lidar_sensor.LIDAR_CLIP_HIGH_M, shape=(lidar_sensor.NUM_RAYS,), dtype=np.float32
+            )
+        elif self._lidar_key == "SECTOR_LIDAR":
+            entries["SECTOR_LIDAR"] = spaces.Box(0.0, 1.0, shape=(lidar_sensor.SECTOR_LIDAR_SECTORS,), dtype=np.float32)
+        elif self._lidar_key == "DISCRETIZED_SECTOR_LIDAR":
+            lc = self._metadata.lidar_config
+            entries["DISCRETIZED_SECTOR_LIDAR"] = spaces.Box(
+                0.0, 1.0, shape=(lc.num_sectors * lc.num_values_per_sector,), dtype=np.float32
+            )
+        return spaces.Dict(entries)
+
+    # ----- public properties ---------------------------------------------------------------------------------
+
+    @property
+    def track(self) -> Track:
+        """The route in the current episode's driving direction."""
+        return self._track
+
+    @property
+    def base_track(self) -> Track:
+        return self._base_track
+
+    @property
+    def model(self) -> mujoco.MjModel:
+        return self._model
+
+    @property
+    def data(self) -> mujoco.MjData:
+        return self._data
+
+    @property
+    def car(self) -> Car:
+        return self._car
+
+    @property
+    def start_ndist(self) -> float:
+        """Normalised start position of the next (or current, before its first step) training episode."""
+        return self._start_ndist
+
+    @property
+    def sim_time_s(self) -> float:
+        return float(self._data.time)
+
+    # ----- episode lifecycle ---------------------------------------------------------------------------------
+
+    def _init_episode_state(self, evaluation: bool) -> None:
+        self._evaluation = evaluation
+        self._track = self._tracks[self._reverse_dir]
+        self._episode_start_ndist = self._start_ndist
+        self._phase = rules.PREPARE
+        self._steps = 0.0
+        self._prev_progress = 0.0
+        self._reset_count = 0
+        self._pause_remaining_s = 0.0
+        self._respawn_pose: tuple[float, float, float] | None = None
+        self._episode_index = self._evaluation_episodes_done if evaluation else self._training_episodes_done
+        self._episode_start_time_s = float(self._data.time)
+        self._counters.clear()
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        super().reset(seed=seed)
+        if seed is not None:
+            # A seeded reset restarts the simulation clock too, so seeded runs are reproducible row for row.
+            self._data.time = 0.0
+        options = options or {}
+        unknown = set(options) - {"evaluation"}
+        if unknown:
+            raise ValueError(f"unknown reset option(s) {sorted(unknown)}; supported: 'evaluation'")
+        self._init_episode_state(evaluation=bool(options.get("evaluation", False)))
+        x, y, yaw = self._track.pose_at(self._episode_start_ndist, "center")
+        self._car.teleport(self._model, self._data, x, y, yaw)
+        if self._lidar is not None:
+            self._lidar.reset()
+        self._episode_open = True
+        observation = self._observe()
+        info = {
+            "episode": self._episode_index,
+            "start_ndist": self._episode_start_ndist,
+            "is_reversed": self._track.direction_reversed,
+            "evaluation": self._evaluation,
+        }
+        return observation, info
+
+    def _finish_episode(self) -> None:
+        """End-of-episode bookkeeping: only training episodes move the start and flip the direction."""
+        self._episode_open = False
+        if self._evaluation:
+            self._evaluation_episodes_done += 1
+            return
+        self._training_episodes_done += 1
+        if self.config.change_start_position:
+            self._start_ndist = (self._start_ndist + self.config.round_robin_advance_dist) % 1.0
+        if self.config.alternate_driving_direction:
+            self._reverse_dir = not self._reverse_dir
+
+    # ----- stepping ------------------------------------------------------------------------------------------
+
+    def _decode_action(self, action: Any) -> tuple[float, float, int | str]:
+        """(steering_deg, speed_mps, simtrace action field) of the chosen action (unclipped)."""
+        if self._metadata.is_continuous:
+            values = np.asarray(action, dtype=np.float64).reshape(-1)
+            if values.shape != (2,):
+                raise ValueError(f"a continuous action is [steering, speed] in [-1, 1], got {action!r}")
+            steering, speed = self._metadata.scale_continuous_action(values)
+            return steering, speed, f"[{steering} {speed}]"
+        index = int(action)
+        if not 0 <= index < len(self._metadata.discrete_actions):
+            raise ValueError(f"action index {index} is outside 0..{len(self._metadata.discrete_actions) - 1}")
+        chosen = self._metadata.discrete_actions[index]
+        return chosen.steering_angle_deg, chosen.speed_mps, index
+
+    def step(self, action: Any):
+        if not self._episode_open:
+            raise RuntimeError("step() called before reset() or after the episode ended; call reset()")
+        steering_deg, speed_mps, action_field = self._decode_action(action)
+        cfg = self.config
+        track = self._track
+        self._steps += 1.0
+        pose = self._car.pose(self._data)
+        mx, my = pose.model_point
+        geometry = track.point_geometry(mx, my)
+        progress = compute_progress(geometry.ndist, self._episode_start_ndist, self._prev_progress)
+        on_track = track.contains_points(pose.wheel_xs, pose.wheel_ys)
+        all_on, any_on = bool(on_track.all()), bool(on_track.any())
+        now_s = float(self._data.time)
+
+        phase = self._phase
+        reward = 0.0
+        terminated = False
+        status = phase
+        lap_time_s: float | None = None
+        params = make_reward_params(
+            track, x=mx, y=my, heading_deg=math.degrees(pose.yaw_rad), speed_mps=speed_mps,
+            steering_angle_deg=steering_deg, steps=self._steps, progress=progress, all_wheels_on_track=all_on,
+            is_offtrack=not any_on, is_crashed=False, sim_time_s=now_s, geometry=geometry,
+        )
+        command = (0.0, 0.0)
+        if phase == rules.PREPARE:
+            self._counters.clear((pose.origin_x_m, pose.origin_y_m))
+            self._phase = rules.IN_PROGRESS
+        elif phase == rules.PAUSE:
+            self._pause_remaining_s -= cfg.step_duration_s
+            if self._pause_remaining_s <= 1e-9:
+                self._pause_remaining_s = 0.0
+                self._phase = rules.IN_PROGRESS
+                self._counters.clear((pose.origin_x_m, pose.origin_y_m))
+        else:
+            status = self._counters.judge(
+                progress=progress, prev_progress=self._prev_progress,
+                origin=(pose.origin_x_m, pose.origin_y_m), any_wheel_on_track=any_on,
+            )
+            reward = self._reward(params) if self._reward is not None else default_evaluation_reward(params)
+            command = clip_command(speed_mps, steering_deg)
+            if status == rules.LAP_COMPLETE:
+                terminated = True
+                lap_time_s = now_s - self._episode_start_time_s
+            elif status in _PENALTY_STATUSES:
+                if self._reset_count < cfg.number_of_resets:
+                    self._reset_count += 1
+                    self._start_pause(status, pose)
+                else:
+                    terminated = True
+        self._prev_progress = 0.0 if progress == 100 else progress
+
+        # Physics: the chosen command acts for one camera period (held in place while paused).
+        if self._phase == rules.PAUSE:
+            x, y, yaw = self._respawn_pose  # type: ignore[misc]
+            self._car.teleport(self._model, self._data, x, y, yaw)
+            command = (0.0, 0.0)
+        self._car.command(self._data, command[0], command[1])
+        mujoco.mj_step(self._model, self._data, self._substeps)
+
+        truncated = not terminated and self._steps >= cfg.max_steps
+        done = terminated or truncated
+        simtrace = {
+            "episode": self._episode_index,
+            "steps": self._steps,
+            "X": mx,
+            "Y": my,
+            "yaw": params["heading"],
+            "steer": steering_deg,
+            "throttle": speed_mps,
+            "action": action_field,
+            "reward": reward,
+            "done": done,
+            "all_wheels_on_track": all_on,
+            "progress": progress,
+            "closest_waypoint": geometry.closest_waypoint_for_simtrace,
+            "track_len": track.length_m,
+            "tstamp": now_s,
+            "episode_status": status,
+            "pause_duration": self._pause_remaining_s if status in (rules.PAUSE, *_PENALTY_STATUSES) else 0.0,
+            "obstacle_crash_counter": 0,
+            "wall_clock": self._wall_clock(),
+        }
+        info: dict[str, Any] = {
+            "simtrace": simtrace,
+            "params": params,
+            "episode_status": status,
+            "progress": progress,
+            "evaluation": self._evaluation,
+        }
+        if lap_time_s is not None:
+            info["lap_time_s"] = lap_time_s
+        if done:
+            self._finish_episode()
+        return self._observe(), reward, terminated, truncated, info
+
+    def _start_pause(self, status: str, pose) -> None:
+        """Pause for the rule's penalty, then continue from the last progress on the nearer lane (§2.4)."""
+        cfg = self.config
+        penalty_s = {
+            rules.OFF_TRACK: cfg.off_track_penalty_s,
+            rules.CRASHED: cfg.collision_penalty_s,
+            rules.REVERSED: cfg.effective_reverse_penalty_s,
+            rules.IMMOBILIZED: cfg.immobilized_penalty_s,
+        }[status]
+        lane = self._track.nearer_lane(*pose.model_point)
+        ndist = self._episode_start_ndist + self._prev_progress / 100.0
+        self._respawn_pose = self._track.pose_at(ndist, lane)
+        self._pause_remaining_s = penalty_s
+        self._phase = rules.PAUSE if penalty_s > 0 else rules.IN_PROGRESS
+        if penalty_s <= 0:
+            x, y, yaw = self._respawn_pose
+            self._car.teleport(self._model, self._data, x, y, yaw)
+            self._counters.clear((x, y))
+
+    # ----- observations --------------------------------------------------------------------------------------
+
+    def _observe(self) -> dict[str, np.ndarray]:
+        data = self._data
+        if self._camera_key == "STEREO_CAMERAS":
+            left = rgb_to_l(self._camera.rgb(data, LEFT_CAMERA))
+            right = rgb_to_l(self._camera.rgb(data, RIGHT_CAMERA))
+            image = np.stack((left, right), axis=-1)
+        else:
+            rgb = self._camera.rgb(data, self._render_cameras[0])
+            if self.render_mode == "rgb_array" and self._render_cameras[0] == CENTER_CAMERA:
+                self._last_rgb = rgb.copy()
+            image = rgb_to_y(rgb)[:, :, None]
+        observation = {self._camera_key: image}
+        if self._lidar is not None:
+            ranges = self._lidar.scan(self._model, data, self.np_random)
+            observation[self._lidar_key] = self._lidar_observation(ranges)
+        return observation
+
+    def _lidar_observation(self, ranges: np.ndarray) -> np.ndarray:
+        if self._lidar_key == "LIDAR":
+            return np.clip(ranges, lidar_sensor.MIN_RANGE_M, lidar_sensor.LIDAR_CLIP_HIGH_M).astype(np.float32)
+        if self._lidar_key == "SECTOR_LIDAR":
+            return lidar_sensor.sector_bits(ranges, lidar_sensor.SECTOR_LIDAR_SECTORS, 1, lidar_sensor.SECTOR_LIDAR_CLIP_M)
+        lc = self._metadata.lidar_config
+        return lidar_sensor.sector_bits(ranges, lc.num_sectors, lc.num_values_per_sector, lc.clipping_dist_m)
+
+    def render(self) -> np.ndarray | None:
+        """`rgb_array`: the front camera's RGB frame of the latest observation."""
+        if self.render_mode != "rgb_array":
+            return None
+        if self._last_rgb is None or self._render_cameras[0] != CENTER_CAMERA:
+            return self._camera.rgb(self._data, CENTER_CAMERA).copy()
+        return self._last_rgb
+
+    def close(self) -> None:
+        camera = getattr(self, "_camera", None)
+        if camera is not None:
+            camera.close()
+            self._camera = None  # type: ignore[assignment]
+
+    # ----- test and tooling hooks ----------------------------------------------------------------------------
+
+    def teleport(self, x_m: float, y_m: float, yaw_rad: float) -> None:
+        """Put the car (origin) at rest at a pose; the next step judges that pose. For tests and tools."""
+        self._car.teleport(self._model, self._data, x_m, y_m, yaw_rad)
+

@@ -1,0 +1,83 @@
+"""DeepRacer's reset rules (reference §2.3): which status a RUN step ends in, from the pose before the action.
+
+Priority as the SimApp: lap_complete (checked first: a car may go off track on the finish line), crashed,
+then off_track, immobilized, reversed.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+IN_PROGRESS = "in_progress"
+PREPARE = "prepare"
+PAUSE = "pause"
+LAP_COMPLETE = "lap_complete"
+CRASHED = "crashed"
+OFF_TRACK = "off_track"
+IMMOBILIZED = "immobilized"
+REVERSED = "reversed"
+
+STATUS_LABELS = {
+    IN_PROGRESS: "In progress",
+    PREPARE: "Prepare",
+    PAUSE: "Pause",
+    LAP_COMPLETE: "Lap complete",
+    CRASHED: "Crashed",
+    OFF_TRACK: "Off track",
+    IMMOBILIZED: "Immobilized",
+    REVERSED: "Reversed",
+    "park": "Park",
+    "time_up": "Time Up",
+}
+"""Simtrace status string → metrics label."""
+
+
+@dataclass(frozen=True)
+class RuleLimits:
+    immobilized_steps: int = 15
+    immobilized_distance_m: float = 0.0003
+    reverse_steps: int = 15
+
+
+class RuleCounters:
+    """The consecutive-step counters behind `immobilized` and `reversed`."""
+
+    def __init__(self, limits: RuleLimits) -> None:
+        self.limits = limits
+        self.immobilized_count = 0
+        self.reverse_count = 0
+        self._last_origin: tuple[float, float] | None = None
+
+    def clear(self, origin: tuple[float, float] | None = None) -> None:
+        self.immobilized_count = 0
+        self.reverse_count = 0
+        self._last_origin = origin
+
+    def judge(
+        self,
+        *,
+        progress: float,
+        prev_progress: float,
+        origin: tuple[float, float],
+        any_wheel_on_track: bool,
+        crashed: bool = False,
+    ) -> str:
+        """Update the counters with one RUN step and return its status."""
+        if self._last_origin is not None and math.dist(origin, self._last_origin) <= self.limits.immobilized_distance_m:
+            self.immobilized_count += 1
+        else:
+            self.immobilized_count = 0
+        self._last_origin = origin
+        self.reverse_count = self.reverse_count + 1 if progress < prev_progress else 0
+        if progress >= 100.0:
+            return LAP_COMPLETE
+        if crashed:
+            return CRASHED
+        if not any_wheel_on_track:
+            return OFF_TRACK
+        if self.immobilized_count >= self.limits.immobilized_steps:
+            return IMMOBILIZED
+        if self.reverse_count >= self.limits.reverse_steps:
+            return REVERSED
+        return IN_PROGRESS
