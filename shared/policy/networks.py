@@ -388,6 +388,11 @@ class ActorCritic(nn.Module):
         nn.init.zeros_(self.policy_head.bias)
         self.to(memory_format=torch.channels_last)
 
+    @property
+    def input_names(self) -> tuple[str, ...]:
+        """Observation keys the network reads, sorted."""
+        return tuple(spec.name for spec in self.config.inputs)
+
     # -- batched, differentiable: what the trainer uses ---------------------------------------------------------------
 
     def distribution(self, observations: Mapping[str, torch.Tensor]) -> ActionDistribution:
