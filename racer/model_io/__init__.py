@@ -16,6 +16,7 @@ from racer.model_io.problems import (
 )
 from racer.model_io.sources import FolderSource, ModelSource, StoreSource, TarSource, open_source
 from racer.model_io.transfer import (
+    ArchiveDestination,
     FolderDestination,
     ModelExistsError,
     StoreDestination,
@@ -26,6 +27,7 @@ from racer.model_io.transfer import (
 from racer.model_io.validate import validate_location, validate_model
 
 __all__ = [
+    "ArchiveDestination",
     "CODE_INFO",
     "CheckpointSelection",
     "DEFAULT_LIMITS",

@@ -15,6 +15,7 @@ import click
 from racer.model_io.problems import ValidationProblem, ValidationReport
 from racer.model_io.sources import split_s3_location
 from racer.model_io.transfer import (
+    ArchiveDestination,
     Destination,
     FolderDestination,
     ModelExistsError,
@@ -113,7 +114,7 @@ def import_command(source: str, model_name: str, store_location: str | None, ove
 @click.option("--store", "store_location", default=None, help=STORE_HELP)
 @click.option("--overwrite", is_flag=True, help="Write into DEST even if it already holds files.")
 def export_command(model: str, dest: str, store_location: str | None, overwrite: bool) -> None:
-    """Write MODEL (its prefix in the store) to DEST (a folder or s3://bucket/prefix), ready to import.
+    """Write MODEL (its prefix in the store) to DEST (a folder, s3://bucket/prefix or a .tar.gz), ready to import.
 
     DEST gets ip/, model/, reward_function.py, training_params.yaml, model_metadata.json, metrics/ and the
     car bundle model.tar.gz (model_metadata.json + agent/model.onnx). The result is validated.
@@ -136,6 +137,10 @@ def _destination(dest: str, overwrite: bool) -> Destination:
             raise click.ClickException(f"{dest} already holds files; choose an empty prefix or pass --overwrite")
         return StoreDestination(store, prefix)
     path = Path(dest).expanduser()
+    if dest.endswith((".tar.gz", ".tgz")):
+        if path.exists() and not overwrite:
+            raise click.ClickException(f"{path} exists; choose another name or pass --overwrite")
+        return ArchiveDestination(path)
     if path.exists() and (not path.is_dir() or (any(path.iterdir()) and not overwrite)):
         raise click.ClickException(f"{path} exists and is not an empty folder; choose another or pass --overwrite")
     return FolderDestination(path)

@@ -29,7 +29,7 @@ import botocore.exceptions
 from racer.model_io import checkpoints as ck
 from racer.model_io.codes import ProblemCode
 from racer.model_io.problems import DEFAULT_LIMITS, ImportPlan, SizeLimits, ValidationProblem, ValidationReport
-from racer.model_io.sources import FolderSource, ModelSource, StoreSource
+from racer.model_io.sources import FolderSource, ModelSource, StoreSource, TarSource
 from racer.model_io.validate import CAR_BUNDLE_KEY, problem_for_source_error, validate_model
 from racer.shared.store import (
     AccessDeniedError,
@@ -76,6 +76,44 @@ class FolderDestination:
         partial.replace(target)
 
 
+class ArchiveDestination:
+    """A .tar.gz holding the layout at its root (DeepRacer-on-AWS's portable "virtual model" bundle).
+
+    The archive is created on the first file and finished by `close()`; `discard()` removes a partial one.
+    Byte-reproducible like the car bundle."""
+
+    def __init__(self, path: Path):
+        self.path = Path(path)
+        self._file: io.BufferedWriter | None = None
+        self._gzip: gzip.GzipFile | None = None
+        self._tar: tarfile.TarFile | None = None
+
+    def describe(self) -> str:
+        return str(self.path)
+
+    def put_bytes(self, key: str, data: bytes) -> None:
+        if self._tar is None:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            self._file = open(self.path, "wb")
+            self._gzip = gzip.GzipFile(fileobj=self._file, mode="wb", mtime=0)
+            self._tar = tarfile.open(fileobj=self._gzip, mode="w", format=tarfile.PAX_FORMAT)
+        info = tarfile.TarInfo(key)
+        info.size = len(data)
+        info.mode = 0o644
+        info.mtime = 0
+        self._tar.addfile(info, io.BytesIO(data))
+
+    def close(self) -> None:
+        for part in (self._tar, self._gzip, self._file):
+            if part is not None:
+                part.close()
+        self._tar = self._gzip = self._file = None
+
+    def discard(self) -> None:
+        self.close()
+        self.path.unlink(missing_ok=True)
+
+
 class StoreDestination:
     def __init__(self, store: ObjectStore, prefix: str):
         self.store = store
@@ -119,14 +157,22 @@ class _CopyFailed(Exception):
 
 
 def _copy_plan(source: ModelSource, plan: ImportPlan, destination: Destination, *,
-               metadata_targets: tuple[str, ...], deepracer_checkpoints: bytes | None) -> list[str]:
-    """Copy the planned files; `.coach_checkpoint` last. Raises _CopyFailed with the problem on the first failure."""
+               metadata_targets: tuple[str, ...], deepracer_checkpoints: bytes | None,
+               car_bundle_from: str | None = None) -> list[str]:
+    """Copy the planned files, then the car bundle built from `car_bundle_from` (an inference model key) if
+    given, then `.coach_checkpoint` last. Raises _CopyFailed with the problem on the first failure."""
     copies: list[tuple[str, str]] = [(key, key) for key in plan.checkpoint_files]
     copies += [(plan.metadata_key, target) for target in metadata_targets]
     copies += [(plan.hyperparameters_key, HYPERPARAMETERS_TARGET), (plan.reward_function_key, plan.reward_function_key),
                (plan.training_params_key, plan.training_params_key)]
     copies += [(key, key) for key in plan.metrics_keys]
     written: list[str] = []
+
+    def read(key: str) -> bytes:
+        try:
+            return source.read(key)
+        except _SOURCE_ERRORS as error:
+            raise _CopyFailed(problem_for_source_error(error, source.describe(), key)) from error
 
     def put(target: str, data: bytes) -> None:
         try:
@@ -138,16 +184,15 @@ def _copy_plan(source: ModelSource, plan: ImportPlan, destination: Destination, 
                 "s3:PutObject), then run the command again")) from error
         written.append(target)
 
-    cache: dict[str, bytes] = {}
+    last_read: tuple[str, bytes] | None = None  # the metadata is written twice on export: read it once
     for source_key, target in copies:
-        if source_key not in cache:
-            try:
-                cache = {source_key: source.read(source_key)}
-            except _SOURCE_ERRORS as error:
-                raise _CopyFailed(problem_for_source_error(error, source.describe(), source_key)) from error
-        put(target, cache[source_key])
+        if last_read is None or last_read[0] != source_key:
+            last_read = (source_key, read(source_key))
+        put(target, last_read[1])
     if deepracer_checkpoints is not None:
         put(ck.DEEPRACER_CHECKPOINTS, deepracer_checkpoints)
+    if car_bundle_from is not None:
+        put(CAR_BUNDLE_KEY, car_bundle(read(plan.metadata_key), car_bundle_from, read(car_bundle_from))[0])
     put(ck.COACH_CHECKPOINT, plan.selection.pointer.encode())
     return written
 
@@ -232,29 +277,34 @@ def export_model(store: ObjectStore, model_prefix: str, destination: Destination
     if report.plan is None:
         return TransferResult(destination.describe(), report)
     plan = _exported_plan(report.plan)
+    inference_key = _car_inference_model(plan)
     try:
         written = _copy_plan(source, plan, destination, metadata_targets=(METADATA_TARGET, "model_metadata.json"),
-                             deepracer_checkpoints=_source_deepracer_checkpoints(source, plan))
-        best = ck.parse_checkpoint_name(plan.selection.best)
-        assert best is not None
-        inference = ck.inference_model_files(best, plan.checkpoint_files)
-        inference_key = next((key for key in inference if key.endswith(".onnx")), inference[0] if inference else None)
-        car_model = None
-        if inference_key is not None:
-            bundle, car_model = car_bundle(source.read(plan.metadata_key), inference_key, source.read(inference_key))
-            destination.put_bytes(CAR_BUNDLE_KEY, bundle)
-            written.append(CAR_BUNDLE_KEY)
+                             deepracer_checkpoints=_source_deepracer_checkpoints(source, plan),
+                             car_bundle_from=inference_key)
     except _CopyFailed as failure:
+        if isinstance(destination, ArchiveDestination):
+            destination.discard()
         return TransferResult(destination.describe(), report, problems=(failure.problem,))
-    except (StoreError, OSError, botocore.exceptions.BotoCoreError, botocore.exceptions.ClientError) as error:
-        return TransferResult(destination.describe(), report, problems=(ValidationProblem(
-            ProblemCode.S3_COPY_ERROR, CAR_BUNDLE_KEY, f"writing the car bundle failed: {error}",
-            "check that the destination is writable, then export again"),))
-    checked = None
-    if check:
-        checked = validate_model(_source_for(destination), limits, checkpoint_suffixes)
+    except _SOURCE_ERRORS as error:
+        if isinstance(destination, ArchiveDestination):
+            destination.discard()
+        return TransferResult(destination.describe(), report,
+                              problems=(problem_for_source_error(error, source.describe()),))
+    if isinstance(destination, ArchiveDestination):
+        destination.close()
+    checked = validate_model(_source_for(destination), limits, checkpoint_suffixes) if check else None
+    car_model = None if inference_key is None else (CAR_BUNDLE_ONNX if inference_key.endswith(".onnx") else CAR_BUNDLE_PB)
     return TransferResult(destination.describe(), report, written=tuple(written), car_bundle_model=car_model,
                           check=checked)
+
+
+def _car_inference_model(plan: ImportPlan) -> str | None:
+    """The best checkpoint's inference model: racer's ONNX if there is one, else a TensorFlow frozen graph."""
+    best = ck.parse_checkpoint_name(plan.selection.best)
+    assert best is not None  # validation accepted it
+    candidates = ck.inference_model_files(best, plan.checkpoint_files)
+    return next((key for key in candidates if key.endswith(".onnx")), candidates[0] if candidates else None)
 
 
 def _exported_plan(plan: ImportPlan) -> ImportPlan:
@@ -274,4 +324,6 @@ def _source_for(destination: Destination) -> ModelSource:
         return FolderSource(destination.root)
     if isinstance(destination, StoreDestination):
         return StoreSource(destination.store, destination.prefix)
+    if isinstance(destination, ArchiveDestination):
+        return TarSource(destination.path)
     raise TypeError(f"don't know how to read back {destination!r}")

@@ -103,7 +103,7 @@ def problem_for_source_error(error: BaseException, where: str, key: str = "") ->
                                  "prefix (bucket policy or user policy), or use credentials that have them")
     if isinstance(error, botocore.exceptions.NoCredentialsError):
         return _unknown_credentials(where, key, "no S3 credentials were found")
-    if isinstance(error, ObjectNotFoundError):
+    if isinstance(error, ObjectNotFoundError | FileNotFoundError):
         return ValidationProblem(ProblemCode.FILE_DOES_NOT_EXIST, key, f"{error} (it was deleted while reading)",
                                  "restore the file and validate again")
     if isinstance(error, StoreUnavailableError | botocore.exceptions.BotoCoreError | botocore.exceptions.ClientError):

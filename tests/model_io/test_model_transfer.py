@@ -12,6 +12,7 @@ from click.testing import CliRunner
 
 from racer.cli import main
 from racer.model_io import (
+    ArchiveDestination,
     FolderDestination,
     FolderSource,
     ModelExistsError,
@@ -159,6 +160,30 @@ def test_export_is_reproducible(tmp_path, store):
     time.sleep(1.1)  # gzip headers carry a time stamp in seconds unless it is pinned
     export_model(store, "m", FolderDestination(tmp_path / "two"))
     assert (tmp_path / "one/model.tar.gz").read_bytes() == (tmp_path / "two/model.tar.gz").read_bytes()
+
+
+def test_export_to_a_tar_gz_that_validates_and_imports(tmp_path, store):
+    source = deepracer_model(tmp_path / "m", best="3_Step-124.ckpt", last="4_Step-162.ckpt")
+    write(source, "model/model_3.onnx", tiny_onnx(14))
+    assert import_model(FolderSource(source), store, "m").ok
+    archive = tmp_path / "virtualmodel-m.tar.gz"
+    result = export_model(store, "m", ArchiveDestination(archive))
+    assert result.ok, (result.problems, result.check)
+    report, opened = validate_location(str(archive))
+    assert report.ok and report.plan.selection.checkpoints == ("3_Step-124.ckpt", "4_Step-162.ckpt")
+    with tarfile.open(archive) as outer:
+        inner = outer.extractfile("model.tar.gz").read()
+    assert read_bundle(inner)["agent/model.onnx"] == (source / "model/model_3.onnx").read_bytes()
+    assert import_model(opened, store, "m-from-archive").ok
+
+
+def test_a_failed_export_leaves_no_archive(tmp_path, store):
+    assert import_model(FolderSource(deepracer_model(tmp_path / "m")), store, "m").ok
+    store.delete("m/model/4_Step-162.ckpt.index")
+    archive = tmp_path / "broken.tar.gz"
+    result = export_model(store, "m", ArchiveDestination(archive))
+    assert result.report.codes == [ProblemCode.CHECKPOINT_FILES_DOES_NOT_EXIST]
+    assert not archive.exists()
 
 
 def test_export_of_an_incomplete_stored_model_reports_its_problems(tmp_path, store):
