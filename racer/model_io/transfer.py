@@ -5,8 +5,8 @@ selected checkpoints with their inference graphs, model_metadata.json, hyperpara
 training_params.yaml, metrics and deepracer_checkpoints.json; `model/.coach_checkpoint` is written last so
 a reader never sees a pointer to a half-copied model.
 
-Export writes the import-ready prefix (ip/, model/, reward_function.py, training_params.yaml, metrics/,
-model_metadata.json at the root as DeepRacer-on-AWS expects) plus the car bundle `model.tar.gz`:
+Export writes the import-ready prefix (ip/, model/, reward_function.py, training_params.yaml, metrics/, and
+model_metadata.json + hyperparameters.json also at the root, where DeepRacer-on-AWS's importer looks) plus the car bundle `model.tar.gz`:
 `model_metadata.json` and the inference model. DeepRacer's bundle holds the TensorFlow graph at
 `agent/model.pb` (reference §5.4); this system's inference model is ONNX, so it goes to
 `agent/model.onnx`, the same folder a car-side loader already opens, with the extension telling it
@@ -157,13 +157,15 @@ class _CopyFailed(Exception):
 
 
 def _copy_plan(source: ModelSource, plan: ImportPlan, destination: Destination, *,
-               metadata_targets: tuple[str, ...], deepracer_checkpoints: bytes | None,
+               metadata_targets: tuple[str, ...], hyperparameters_targets: tuple[str, ...],
+               deepracer_checkpoints: bytes | None,
                car_bundle_from: str | None = None) -> list[str]:
     """Copy the planned files, then the car bundle built from `car_bundle_from` (an inference model key) if
     given, then `.coach_checkpoint` last. Raises _CopyFailed with the problem on the first failure."""
     copies: list[tuple[str, str]] = [(key, key) for key in plan.checkpoint_files]
     copies += [(plan.metadata_key, target) for target in metadata_targets]
-    copies += [(plan.hyperparameters_key, HYPERPARAMETERS_TARGET), (plan.reward_function_key, plan.reward_function_key),
+    copies += [(plan.hyperparameters_key, target) for target in hyperparameters_targets]
+    copies += [(plan.reward_function_key, plan.reward_function_key),
                (plan.training_params_key, plan.training_params_key)]
     copies += [(key, key) for key in plan.metrics_keys]
     written: list[str] = []
@@ -232,7 +234,7 @@ def import_model(source: ModelSource, store: ObjectStore, model_name: str, *, ov
         deepracer_checkpoints = source.read(report.plan.deepracer_checkpoints_key) \
             if report.plan.deepracer_checkpoints_key else None
         written = _copy_plan(source, report.plan, destination, metadata_targets=(METADATA_TARGET,),
-                             deepracer_checkpoints=deepracer_checkpoints)
+                             hyperparameters_targets=(HYPERPARAMETERS_TARGET,), deepracer_checkpoints=deepracer_checkpoints)
     except _CopyFailed as failure:
         _remove_partial(store, model_name)
         return TransferResult(destination.describe(), report, problems=(failure.problem,))
@@ -280,6 +282,7 @@ def export_model(store: ObjectStore, model_prefix: str, destination: Destination
     inference_key = _car_inference_model(plan)
     try:
         written = _copy_plan(source, plan, destination, metadata_targets=(METADATA_TARGET, "model_metadata.json"),
+                             hyperparameters_targets=(HYPERPARAMETERS_TARGET, "hyperparameters.json"),
                              deepracer_checkpoints=_source_deepracer_checkpoints(source, plan),
                              car_bundle_from=inference_key)
     except _CopyFailed as failure:

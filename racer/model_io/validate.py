@@ -13,7 +13,9 @@ import io
 import json
 import re
 import tarfile
+from collections.abc import Callable
 from pathlib import Path
+from typing import TypeVar
 
 import botocore.exceptions
 import yaml
@@ -30,7 +32,7 @@ from racer.model_io.problems import (
 )
 from racer.model_io.sources import ModelSource, SourceFormatError, SourceMissingError, TarSource, open_source
 from racer.shared.deepracer.hyperparameters import parse_hyperparameters
-from racer.shared.deepracer.model_metadata import ModelMetadata, ModelMetadataError, parse_model_metadata
+from racer.shared.deepracer.model_metadata import ModelMetadata, parse_model_metadata
 from racer.shared.store import (
     AccessDeniedError,
     BucketNotFoundError,
@@ -47,6 +49,8 @@ TRAINING_PARAMS_KEY = "training_params.yaml"
 CAR_BUNDLE_KEY = "model.tar.gz"
 CAR_BUNDLE_MODELS = ("agent/model.onnx", "agent/model.pb")
 _METRICS = re.compile(r"^(metrics/.+\.json|(Training|Evaluation)Metrics[^/]*\.json)$")
+
+T = TypeVar("T")
 
 _CHECKPOINT_FIX = ("restore the missing files from your copy of the model, or point model/.coach_checkpoint "
                    "(and model/deepracer_checkpoints.json) at a checkpoint whose files are all present")
@@ -237,34 +241,42 @@ def _select_from_coach_checkpoint(run: _Collector, required_suffixes: frozenset[
                                source=ck.COACH_CHECKPOINT)
 
 
-def _check_metadata(run: _Collector) -> tuple[str | None, ModelMetadata | None]:
-    present = [key for key in METADATA_KEYS if key in run.files]
+def _check_json_copies(run: _Collector, keys: tuple[str, ...], parse: Callable[[object, str], T],
+                       missing: str, fix_missing: str, fix_invalid: str) -> tuple[str | None, T | None]:
+    """A JSON file that may sit in two places (trainer layout, DeepRacer-on-AWS root): each copy present must
+    parse, and two copies must hold the same document. Returns the key to use and the parsed value."""
+    present = [key for key in keys if key in run.files]
     if not present:
-        run.add(ProblemCode.FILE_DOES_NOT_EXIST, "model_metadata.json",
-                "neither model/model_metadata.json nor model_metadata.json (prefix root) exists",
-                "restore model_metadata.json (action space, sensors, network) from the training run")
+        run.add(ProblemCode.FILE_DOES_NOT_EXIST, keys[0], missing, fix_missing)
         return None, None
     documents: dict[str, object] = {}
-    parsed: ModelMetadata | None = None
+    parsed: T | None = None
     for key in present:
         data = run.read(key)
         if data is None:
             continue
         try:
             document = _decode_json(data, key)
-            metadata = parse_model_metadata(document, source=key)
-        except (ModelMetadataError, ValueError) as error:
-            run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, key, _without_source(str(error), key),
-                    "restore the model_metadata.json the model was trained with; the network's outputs depend on it")
+            value = parse(document, key)
+        except ValueError as error:  # ModelMetadataError and HyperparametersError are ValueErrors
+            run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, key, _without_source(str(error), key), fix_invalid)
             continue
         documents[key] = document
-        parsed = parsed or metadata
-    if len(documents) == 2 and documents[METADATA_KEYS[0]] != documents[METADATA_KEYS[1]]:
-        run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, METADATA_KEYS[1],
-                f"differs from {METADATA_KEYS[0]}; the two copies must describe the same model",
-                f"copy {METADATA_KEYS[0]} (what the trainer used) over {METADATA_KEYS[1]}")
+        parsed = value if parsed is None else parsed
+    if len(documents) == 2 and documents[keys[0]] != documents[keys[1]]:
+        run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, keys[1],
+                f"differs from {keys[0]}; the two copies must describe the same model",
+                f"copy {keys[0]} (what the trainer used) over {keys[1]}")
         return present[0], None
     return present[0], parsed
+
+
+def _check_metadata(run: _Collector) -> tuple[str | None, ModelMetadata | None]:
+    return _check_json_copies(
+        run, METADATA_KEYS, lambda document, key: parse_model_metadata(document, source=key),
+        "neither model/model_metadata.json nor model_metadata.json (prefix root) exists",
+        "restore model_metadata.json (action space, sensors, network) from the training run",
+        "restore the model_metadata.json the model was trained with; the network's outputs depend on it")
 
 
 def _without_source(message: str, key: str) -> str:
@@ -273,22 +285,13 @@ def _without_source(message: str, key: str) -> str:
 
 
 def _check_hyperparameters(run: _Collector) -> str | None:
-    present = [key for key in HYPERPARAMETER_KEYS if key in run.files]
-    if not present:
-        run.add(ProblemCode.FILE_DOES_NOT_EXIST, HYPERPARAMETER_KEYS[0], "ip/hyperparameters.json is missing",
-                "restore ip/hyperparameters.json from the training run (or write the hyperparameters you trained with)")
-        return None
-    key = present[0]
-    data = run.read(key)
-    if data is None:
-        return key
-    try:
-        _, warnings = parse_hyperparameters(_decode_json(data, key), source=key)
-    except ValueError as error:
-        run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, key, _without_source(str(error), key),
-                "restore the original hyperparameters.json; values must be within the console's ranges")
-        return key
-    run.notes.extend(warnings)
+    key, parsed = _check_json_copies(
+        run, HYPERPARAMETER_KEYS, lambda document, key: parse_hyperparameters(document, source=key),
+        "neither ip/hyperparameters.json nor hyperparameters.json (prefix root) exists",
+        "restore ip/hyperparameters.json from the training run (or write the hyperparameters you trained with)",
+        "restore the original hyperparameters.json; values must be within the console's ranges")
+    if parsed is not None:
+        run.notes.extend(parsed[1])
     return key
 
 

@@ -164,6 +164,8 @@ BROKEN: dict[str, tuple[Callable[[Path], None], ProblemCode]] = {
     "metadata is not JSON": (replace("model/model_metadata.json", "{\"action_space\": ["),
                              Code.MODEL_VALIDATION_SERVICE_ERROR),
     "two metadata copies differ": (second_metadata_differs, Code.MODEL_VALIDATION_SERVICE_ERROR),
+    "two hyperparameters copies differ": (replace("hyperparameters.json", json.dumps({"batch_size": 32})),
+                                          Code.MODEL_VALIDATION_SERVICE_ERROR),
     "pointer does not follow <N>_Step-<M>.ckpt": (replace("model/.coach_checkpoint", "model.ckpt"),
                                                   Code.MODEL_VALIDATION_SERVICE_ERROR),
     "pointer holds two lines": (replace("model/.coach_checkpoint", "4_Step-162.ckpt\n3_Step-124.ckpt\n"),

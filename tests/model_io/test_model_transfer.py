@@ -126,7 +126,8 @@ def test_export_writes_the_import_ready_layout_and_a_car_bundle(tmp_path, store)
     result = export_model(store, "racer-model", FolderDestination(dest))
     assert result.ok, (result.problems, result.check)
     for key in ("ip/hyperparameters.json", "model/.coach_checkpoint", "model/deepracer_checkpoints.json",
-                "model/model_metadata.json", "model_metadata.json", "reward_function.py", "training_params.yaml",
+                "model/model_metadata.json", "model_metadata.json", "hyperparameters.json", "reward_function.py",
+                "training_params.yaml",
                 "metrics/TrainingMetrics.json", "model/4_Step-162.ckpt.index", "model/model_4.onnx", "model.tar.gz"):
         assert (dest / key).is_file(), key
     bundle = read_bundle((dest / "model.tar.gz").read_bytes())
