@@ -28,7 +28,6 @@ def episodes(steps: pd.DataFrame) -> pd.DataFrame:
         is_crashed=steps["episode_status"] == "crashed",
     )
     table = steps.groupby(EPISODE_KEY, sort=False).agg(
-        iteration=("iteration", "first"),
         steps=("steps", "size"),
         start_waypoint=("closest_waypoint", "first"),
         start_tstamp_s=("tstamp", "first"),

@@ -12,8 +12,9 @@ from racer.analysis.robomaker_log import relabel_error, simtrace_csv_from_log
 from racer.shared.deepracer.simtrace import SimtraceError, read_simtrace
 
 PLACEMENT_COLUMNS = ["phase", "run", "worker", "iteration"]
-EPISODE_KEY = ["phase", "run", "worker", "episode"]
-"""Training episode numbers count per worker across iterations; evaluation episode numbers count laps per run."""
+EPISODE_KEY = ["phase", "run", "worker", "iteration", "episode"]
+"""One episode never spans files. Training episode numbers count per worker across iterations (but restart when a
+worker restarts); evaluation episode numbers count laps per run."""
 
 
 def read_one(file: SimtraceFile) -> pd.DataFrame:

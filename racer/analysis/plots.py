@@ -80,7 +80,7 @@ def laps_by_speed(steps: pd.DataFrame, laps: pd.DataFrame, track: Track, path: P
     keyed = steps.set_index(EPISODE_KEY).sort_index()
     traces = []
     for lap in laps.itertuples(index=False):
-        trace = keyed.loc[(lap.phase, lap.run, lap.worker, lap.episode)]
+        trace = keyed.loc[tuple(getattr(lap, column) for column in EPISODE_KEY)]
         traces.append(trace[trace["episode_status"] != "pause"])
     speeds = pd.concat(traces)["speed_mps"]
     norm = Normalize(float(np.nanpercentile(speeds, 1)), max(0.5, float(np.nanpercentile(speeds, 99))))
