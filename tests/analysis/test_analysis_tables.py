@@ -153,3 +153,13 @@ def test_a_source_without_simtraces_is_a_clear_error(tmp_path):
     (tmp_path / "empty" / "model").mkdir(parents=True)
     with pytest.raises(SourceError, match="no simtrace CSV found"):
         open_source(str(tmp_path / "empty"))
+
+
+def test_a_single_csv_is_placed_from_its_name(deepracer_data, read_csv_episodes):
+    training = deepracer_data / "simtrace/console2022_training_27-iteration.csv"
+    files, episodes = tables(training)
+    assert [(f.phase, f.iteration) for f in files.simtraces] == [("training", 27)]
+    assert len(episodes) == len(read_csv_episodes(training))
+    files, episodes = tables(deepracer_data / "simtrace/drfc1_evaluation_0-iteration.csv")
+    assert files.simtraces[0].phase == "evaluation"
+    assert len(aggregate.evaluation_laps(episodes)) == 3
