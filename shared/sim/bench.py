@@ -1,0 +1,100 @@
+"""`racer bench sim`: environment steps per second against the raw MuJoCo bound, measured in the same run.
+
+env: `DeepRacerEnv` with the front camera at 160×120 on the default track, a real reward function (the DeepRacer
+centre-line example, written to a temporary file) and uniformly random discrete actions.
+raw bound: the same compiled scene, the same physics substeps and one 160×120 render per step, no env code.
+The two are measured in alternating blocks so that load from other processes hits both alike.
+"""
+
+from __future__ import annotations
+
+import json
+import tempfile
+import time
+from pathlib import Path
+
+import click
+import numpy as np
+
+from racer.shared.sim._mujoco import mujoco
+from racer.shared.sim.camera import CENTER_CAMERA
+from racer.shared.sim.config import EnvConfig
+from racer.shared.sim.env import DeepRacerEnv
+
+RAW_EPISODE_STEPS = 25
+"""About the length of a random-policy episode on the default track."""
+
+BENCH_REWARD = '''
+def reward_function(params):
+    width = params["track_width"]
+    distance = params["distance_from_center"]
+    if distance <= 0.1 * width:
+        return 1.0
+    if distance <= 0.25 * width:
+        return 0.5
+    if distance <= 0.5 * width:
+        return 0.1
+    return 1e-3
+'''
+
+
+def _env_block(env: DeepRacerEnv, rng: np.random.Generator, steps: int) -> float:
+    start = time.perf_counter()
+    for _ in range(steps):
+        _, _, terminated, truncated, _ = env.step(int(rng.integers(env.action_space.n)))
+        if terminated or truncated:
+            env.reset()
+    return time.perf_counter() - start
+
+
+def _raw_block(env: DeepRacerEnv, data: mujoco.MjData, renderer: mujoco.Renderer, starts: list, commands: np.ndarray) -> float:
+    """Physics + render only. The car restarts every `RAW_EPISODE_STEPS` from round-robin poses with pre-drawn
+    random commands, so the camera sees the road as often as the env's random-policy car does."""
+    model, car, substeps = env.model, env.car, env.config.physics_substeps
+    start = time.perf_counter()
+    for step, (speed_mps, steering_deg) in enumerate(commands):
+        if step % RAW_EPISODE_STEPS == 0:
+            car.teleport(model, data, *starts[(step // RAW_EPISODE_STEPS) % len(starts)])
+        car.command(data, speed_mps, steering_deg)
+        mujoco.mj_step(model, data, substeps)
+        renderer.update_scene(data, CENTER_CAMERA)
+        renderer.render()
+    return time.perf_counter() - start
+
+
+def run_benchmark(steps: int = 3000, blocks: int = 6, seed: int = 0) -> dict[str, float]:
+    with tempfile.TemporaryDirectory() as folder:
+        reward_path = Path(folder) / "reward.py"
+        reward_path.write_text(BENCH_REWARD)
+        env = DeepRacerEnv(EnvConfig(reward_function_path=reward_path))
+        try:
+            env.reset(seed=seed)
+            rng = np.random.default_rng(seed)
+            raw_data = mujoco.MjData(env.model)
+            renderer = mujoco.Renderer(env.model, height=env.config.image_height_px, width=env.config.image_width_px)
+            starts = [env.track.pose_at(i / 20.0) for i in range(20)]
+            actions = env.config.model_metadata.discrete_actions
+            per_block = max(steps // blocks, 1)
+            picks = rng.integers(len(actions), size=per_block)
+            commands = np.array([(actions[i].speed_mps, actions[i].steering_angle_deg) for i in picks])
+            _env_block(env, rng, 30)
+            _raw_block(env, raw_data, renderer, starts, commands[:30])
+            env_s = raw_s = 0.0
+            for _ in range(blocks):
+                env_s += _env_block(env, rng, per_block)
+                raw_s += _raw_block(env, raw_data, renderer, starts, commands)
+            renderer.close()
+        finally:
+            env.close()
+    total = per_block * blocks
+    env_rate = total / env_s
+    raw_rate = total / raw_s
+    return {"env_steps_per_s": round(env_rate, 1), "raw_bound_steps_per_s": round(raw_rate, 1), "ratio": round(env_rate / raw_rate, 3)}
+
+
+@click.command("sim")
+@click.option("--steps", default=3000, show_default=True, help="Steps measured for each of env and raw bound.")
+@click.option("--seed", default=0, show_default=True)
+def sim_bench_command(steps: int, seed: int) -> None:
+    """Measure simulator throughput; prints one JSON line."""
+    click.echo(json.dumps(run_benchmark(steps=steps, seed=seed)))

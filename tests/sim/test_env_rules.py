@@ -1,0 +1,206 @@
+"""Episode rules by teleporting the car (reference §2): prepare step, off track, lap, reversed, immobilized, resets."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from racer.shared.sim.env import SIMTRACE_COLUMNS
+from racer.shared.sim.reward_params import PARAM_KEYS
+
+from .conftest import place_far_off_track, place_front_at
+
+STRAIGHT = 2  # default metadata: index 2 = steering 0°, 1 m/s
+
+
+def test_prepare_step_has_reward_zero_and_zero_command(make_env, recording_reward):
+    env = make_env(reward_function_path=recording_reward)
+    env.reset(seed=1)
+    start = env.car.pose(env.data)
+    _, reward, terminated, truncated, info = env.step(9)  # 30°, 2 m/s chosen but not sent
+    row = info["simtrace"]
+    assert reward == 0.0 and not terminated and not truncated
+    assert row["episode_status"] == "prepare" and row["steps"] == 1.0
+    assert row["steer"] == 30.0 and row["throttle"] == 2.0 and row["action"] == 9
+    moved = math.dist((start.origin_x_m, start.origin_y_m), (env.car.pose(env.data).origin_x_m, env.car.pose(env.data).origin_y_m))
+    assert moved < 0.002
+    assert tuple(row) == SIMTRACE_COLUMNS
+    assert tuple(info["params"]) == PARAM_KEYS
+    # First RUN step: reward function called with every key; steps is a float 2.0.
+    _, reward, *_ , info = env.step(STRAIGHT)
+    assert info["episode_status"] == "in_progress" and reward == 1.0
+    assert info["params"]["steps"] == 2.0 and isinstance(info["params"]["steps"], float)
+
+
+def test_first_row_progress_is_front_of_car_offset(make_env):
+    env = make_env()
+    env.reset(seed=0)
+    *_, info = env.step(STRAIGHT)
+    expected = 0.14 / env.track.length_m * 100
+    assert info["progress"] == pytest.approx(expected, abs=0.01)
+
+
+def test_centre_line_gives_zero_distance_from_center(make_env):
+    env = make_env()
+    env.reset(seed=0)
+    env.step(STRAIGHT)
+    for ndist in (0.13, 0.42, 0.77):
+        x, y = place_front_at(env, ndist)
+        *_, info = env.step(STRAIGHT)
+        params = info["params"]
+        assert params["x"] == pytest.approx(x, abs=1e-9) and params["y"] == pytest.approx(y, abs=1e-9)
+        assert params["distance_from_center"] == pytest.approx(0.0, abs=1e-9)
+        assert params["all_wheels_on_track"] is True
+    place_front_at(env, 0.3, lateral_m=0.2)
+    *_, info = env.step(STRAIGHT)
+    assert info["params"]["distance_from_center"] == pytest.approx(0.2, abs=0.005)  # yaw is towards the next waypoint, not the local normal
+    assert info["params"]["is_left_of_center"] is True
+
+
+def test_beyond_the_border_is_off_track_and_reward_still_called(make_env, recording_reward):
+    env = make_env(reward_function_path=recording_reward)
+    env.reset(seed=0)
+    env.step(STRAIGHT)
+    width = env.track.track_width_at(*env.track.pose_at(0.25)[:2])
+    place_front_at(env, 0.25, lateral_m=-(width / 2 + 0.6))
+    _, reward, terminated, truncated, info = env.step(STRAIGHT)
+    assert terminated and not truncated
+    assert info["episode_status"] == "off_track" and info["simtrace"]["done"] is True
+    assert info["params"]["is_offtrack"] is True and info["params"]["all_wheels_on_track"] is False
+    assert reward == 0.25  # the user's function decided, no hidden off-track reward
+    with pytest.raises(RuntimeError, match="reset"):
+        env.step(STRAIGHT)
+
+
+def test_some_wheels_off_is_not_off_track(make_env):
+    env = make_env()
+    env.reset(seed=0)
+    env.step(STRAIGHT)
+    width = env.track.track_width_at(*env.track.pose_at(0.25)[:2])
+    place_front_at(env, 0.25, lateral_m=width / 2)  # left wheels beyond the border, right wheels on the road
+    _, _, terminated, _, info = env.step(STRAIGHT)
+    assert not terminated and info["episode_status"] == "in_progress"
+    assert info["params"]["all_wheels_on_track"] is False and info["params"]["is_offtrack"] is False
+
+
+def test_crossing_the_line_after_a_loop_completes_the_lap(make_env):
+    env = make_env()
+    env.reset(seed=0)
+    env.step(STRAIGHT)
+    progress = []
+    for ndist in [*np.arange(0.05, 1.0, 0.05), 0.995, 0.004, 0.02]:
+        place_front_at(env, float(ndist) % 1.0)
+        _, _, terminated, _, info = env.step(STRAIGHT)
+        progress.append(info["progress"])
+        if terminated:
+            break
+    assert info["episode_status"] == "lap_complete" and terminated
+    assert info["progress"] == 100
+    assert progress[-2] > 99.0 and all(b > a for a, b in zip(progress, progress[1:]))
+    assert info["lap_time_s"] == pytest.approx((len(progress)) / 15.0, abs=1e-6)
+
+
+def test_driving_backwards_is_reversed(make_env):
+    env = make_env()
+    env.reset(seed=0)
+    env.step(STRAIGHT)
+    place_front_at(env, 0.5, backwards=True)
+    statuses = []
+    progress = []
+    for _ in range(40):
+        _, _, terminated, _, info = env.step(STRAIGHT)
+        statuses.append(info["episode_status"])
+        progress.append(info["progress"])
+        if terminated:
+            break
+    assert statuses[-1] == "reversed"
+    decreasing = sum(1 for a, b in zip(progress, progress[1:]) if b < a)
+    assert decreasing == 15 and all(s == "in_progress" for s in statuses[:-1])
+
+
+def test_standing_still_is_immobilized(make_env):
+    env = make_env()
+    env.reset(seed=0)
+    env.step(STRAIGHT)
+    statuses = []
+    for _ in range(30):
+        place_front_at(env, 0.4)
+        _, _, terminated, _, info = env.step(STRAIGHT)
+        statuses.append(info["episode_status"])
+        if terminated:
+            break
+    assert statuses == ["in_progress"] * 15 + ["immobilized"]
+
+
+def test_resets_pause_respawn_and_continue_progress(make_env):
+    env = make_env(number_of_resets=2, off_track_penalty_s=0.2)
+    env.reset(seed=0)
+    env.step(STRAIGHT)
+    place_front_at(env, 0.3)
+    *_, info = env.step(STRAIGHT)
+    before = info["progress"]
+    place_far_off_track(env)
+    _, _, terminated, _, info = env.step(STRAIGHT)
+    assert info["episode_status"] == "off_track" and not terminated
+    assert info["simtrace"]["pause_duration"] == pytest.approx(0.2)
+    pause_rows = []
+    while True:
+        _, reward, terminated, _, info = env.step(STRAIGHT)
+        if info["episode_status"] != "pause":
+            break
+        pause_rows.append((reward, info["simtrace"]["pause_duration"]))
+    assert len(pause_rows) == 3 and all(r == 0.0 for r, _ in pause_rows)
+    assert [d for _, d in pause_rows] == sorted((d for _, d in pause_rows), reverse=True)
+    assert info["episode_status"] == "in_progress"
+    assert info["progress"] == pytest.approx(before, abs=1.0)
+    assert info["params"]["all_wheels_on_track"] is True
+    # Two resets allowed: the third off-track ends the episode.
+    for expected_done in (False, True):
+        place_far_off_track(env)
+        _, _, terminated, _, info = env.step(STRAIGHT)
+        assert info["episode_status"] == "off_track" and terminated == expected_done
+        while not terminated and info["episode_status"] in ("off_track", "pause"):
+            _, _, terminated, _, info = env.step(STRAIGHT)
+
+
+def test_round_robin_start_evaluation_and_alternate_direction(make_env):
+    env = make_env(alternate_driving_direction=True)
+    starts, reversed_flags = [], []
+    for episode in range(3):
+        _, info = env.reset()
+        starts.append(info["start_ndist"])
+        reversed_flags.append(info["is_reversed"])
+        env.step(STRAIGHT)
+        place_far_off_track(env)
+        *_, terminated, _, step_info = env.step(STRAIGHT)
+        assert terminated and step_info["simtrace"]["episode"] == episode
+    assert starts == pytest.approx([0.0, 0.05, 0.1])
+    assert reversed_flags == [False, True, False]
+    _, info = env.reset(options={"evaluation": True})
+    env.step(STRAIGHT)
+    place_far_off_track(env)
+    env.step(STRAIGHT)
+    _, after_eval = env.reset()
+    assert info["start_ndist"] == pytest.approx(0.15) and after_eval["start_ndist"] == pytest.approx(0.15)
+    assert after_eval["is_reversed"] is True
+
+
+def test_fixed_start_when_change_start_position_is_off(make_env):
+    env = make_env(change_start_position=False, start_position_offset=0.3, reverse_dir=True)
+    for _ in range(2):
+        _, info = env.reset()
+        assert info["start_ndist"] == pytest.approx(0.3) and info["is_reversed"] is True
+        *_, step_info = env.step(STRAIGHT)
+        assert step_info["params"]["is_reversed"] is True
+        place_far_off_track(env)
+        env.step(STRAIGHT)
+
+
+def test_step_cap_truncates(make_env):
+    env = make_env(max_steps=5)
+    env.reset(seed=0)
+    for step in range(5):
+        _, _, terminated, truncated, info = env.step(STRAIGHT)
+    assert truncated and not terminated and info["simtrace"]["done"] is True
