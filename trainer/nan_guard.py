@@ -1,0 +1,85 @@
+"""Never abort on NaN: detect non-finite numbers during an update and return to the last good state.
+
+DeepRacer stops the whole training job on a NaN loss. Here the PPO update checks its losses and gradients every
+minibatch and the weights after every epoch; on the first non-finite value it raises `NonFiniteError`, and the
+trainer restores the `LastGoodState` (the network and optimiser as they were before this update, i.e. the weights of
+the last published checkpoint), halves the learning rate and tries again.
+
+`LastGoodState` keeps an in-memory copy instead of re-reading the checkpoint from the store: it holds the same numbers,
+works before checkpoint 0 is uploaded and does not depend on the store being reachable at that moment.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+
+import torch
+from torch import nn
+
+__all__ = ["LastGoodState", "NonFiniteError", "check_finite", "first_non_finite_parameter", "gradient_norm"]
+
+
+class NonFiniteError(ArithmeticError):
+    """A loss, gradient or weight became NaN or infinite; `what` says which, for the log line."""
+
+    def __init__(self, what: str):
+        super().__init__(what)
+        self.what = what
+
+
+def check_finite(value: float, what: str) -> None:
+    if not math.isfinite(value):
+        raise NonFiniteError(f"{what} is {value}")
+
+
+def gradient_norm(parameters: Iterable[nn.Parameter]) -> float:
+    """L2 norm over all gradients (non-finite if any gradient element is); one fused pass, no clipping."""
+    grads = [p.grad for p in parameters if p.grad is not None]
+    if not grads:
+        return 0.0
+    return float(torch.nn.utils.get_total_norm(grads, norm_type=2.0))
+
+
+def first_non_finite_parameter(network: nn.Module) -> str | None:
+    """Name of the first parameter holding a NaN or infinity, or None when all weights are finite."""
+    for name, parameter in network.named_parameters():
+        if not bool(torch.isfinite(parameter).all()):
+            return name
+    return None
+
+
+def _clone(value):
+    if isinstance(value, torch.Tensor):
+        return value.detach().clone(memory_format=torch.preserve_format)
+    if isinstance(value, dict):
+        return {key: _clone(item) for key, item in value.items()}
+    if isinstance(value, list):
+        return [_clone(item) for item in value]
+    return value
+
+
+class LastGoodState:
+    """A copy of a network's weights and its optimiser's state, taken when both were known to be finite."""
+
+    def __init__(self, network: nn.Module, optimizer: torch.optim.Optimizer):
+        self.network = network
+        self.optimizer = optimizer
+        self._weights: dict[str, torch.Tensor] = {}
+        self._optimizer_state: dict = {}
+        self.capture()
+
+    def capture(self) -> None:
+        name = first_non_finite_parameter(self.network)
+        if name is not None:
+            raise NonFiniteError(f"weight {name} is not finite; refusing to keep it as the last good state")
+        self._weights = _clone(self.network.state_dict())
+        self._optimizer_state = _clone(self.optimizer.state_dict())
+
+    def restore(self) -> None:
+        """Put the saved weights and optimiser moments back; the learning rate is left to the caller."""
+        learning_rates = [group["lr"] for group in self.optimizer.param_groups]
+        self.network.load_state_dict(self._weights)
+        self.optimizer.load_state_dict(_clone(self._optimizer_state))
+        for group, learning_rate in zip(self.optimizer.param_groups, learning_rates, strict=True):
+            group["lr"] = learning_rate
