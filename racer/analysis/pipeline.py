@@ -10,10 +10,11 @@ from pathlib import Path
 import pandas as pd
 import yaml
 
-from racer.analysis import aggregate, plots, whatif
+from racer.analysis import aggregate, plots, training_metrics, whatif
 from racer.analysis.loading import load_steps
 from racer.analysis.report import Report, write_html
 from racer.analysis.sources import EVALUATION, TRAINING, RunFiles, open_source
+from racer.shared.deepracer.metrics import MetricsError
 from racer.analysis.track_sections import Track, TrackError, forward_waypoint, load_track, reversed_episodes
 
 
@@ -42,6 +43,8 @@ class Analysis:
     """Per episode, whether it was driven on the reversed route (only known with a track)."""
     track_workers: set[int] | None = None
     """Training workers that drove `track` (None = all of them)."""
+    metrics_iterations: pd.DataFrame | None = None
+    """Per iteration from TrainingMetrics JSON (training and in-training evaluation), when the source has it."""
 
 
 def run_tracks(files: RunFiles) -> dict[int | str, str]:
@@ -110,6 +113,7 @@ def build_tables(files: RunFiles, track_arg: str | None = None, tracks_dir: Path
         raise TrackError(NEEDS_TRACK)
     steps = load_steps(files, progress=show_progress)
     episodes = aggregate.episodes(steps)
+    metrics_iterations = read_metrics(files, notes)
     reversed_by_episode = None
     if track is not None:
         reversed_by_episode = reversed_episodes(on_track(steps, track_workers), track)
@@ -129,7 +133,20 @@ def build_tables(files: RunFiles, track_arg: str | None = None, tracks_dir: Path
         notes=notes,
         reversed_episodes=reversed_by_episode,
         track_workers=track_workers,
+        metrics_iterations=metrics_iterations,
     )
+
+
+def read_metrics(files: RunFiles, notes: list[str]) -> pd.DataFrame | None:
+    """The TrainingMetrics iteration tables of the source (one `source` per file); unreadable files become notes,
+    since the simtrace analysis stands without them."""
+    tables = []
+    for name, data in sorted(files.training_metrics.items()):
+        try:
+            tables.append(training_metrics.read_iteration_table(data, name).assign(source=name))
+        except MetricsError as error:
+            notes.append(f"TrainingMetrics left out: {error}")
+    return pd.concat(tables, ignore_index=True) if tables else None
 
 
 def on_track(table: pd.DataFrame, track_workers: set[int] | None) -> pd.DataFrame:
@@ -143,7 +160,8 @@ def draw_pictures(analysis: Analysis, out_dir: Path, *, sections: int, top_laps:
     print("drawing pictures", file=sys.stderr)
     if len(analysis.iterations):
         analysis.pictures["training_progress"] = plots.training_progress(
-            analysis.iterations, analysis.iterations_by_worker, out_dir / "training_progress.png"
+            analysis.iterations, analysis.iterations_by_worker, out_dir / "training_progress.png",
+            metrics_table=analysis.metrics_iterations,
         )
     if analysis.track is None:
         return
@@ -169,9 +187,10 @@ def draw_pictures(analysis: Analysis, out_dir: Path, *, sections: int, top_laps:
 
 def write_tables(analysis: Analysis, out_dir: Path) -> None:
     """CSV copies of every table, for spreadsheets and notebooks."""
-    for name in ("episodes", "iterations", "iterations_by_worker", "workers", "evaluation_laps", "evaluations"):
+    for name in ("episodes", "iterations", "iterations_by_worker", "workers", "evaluation_laps", "evaluations",
+                 "metrics_iterations"):
         table = getattr(analysis, name)
-        if len(table):
+        if table is not None and len(table):
             path = out_dir / f"{name}.csv"
             table.to_csv(path, index=False)
             analysis.tables_written[name] = path
@@ -179,7 +198,8 @@ def write_tables(analysis: Analysis, out_dir: Path) -> None:
 
 _PICTURE_TEXT = {
     "training_progress": ("Training progress", "Mean ± std of episode reward and progress per iteration, share of "
-                          "episodes that completed a lap, best lap time."),
+                          "episodes that completed a lap, best lap time; dashed: the in-training evaluations of "
+                          "TrainingMetrics, when present."),
     "best_laps": ("Fastest training laps", "Driven path coloured by speed (distance / time over 1/3 s); green dot = start."),
     "evaluation_laps": ("Evaluation laps", "Driven path coloured by speed; green dot = start of the lap."),
     "reward_heatmap": ("Reward heatmap", "Mean step reward of all training steps in each cell of the track."),
@@ -199,6 +219,9 @@ def build_report(analysis: Analysis, out_dir: Path) -> Path:
         ("Evaluation laps", analysis.evaluation_laps, "Per lap: time, progress, resets and penalty time."),
         ("Training iterations", analysis.iterations, "All workers together."),
         ("Training by worker", analysis.workers, "One row per worker (world)."),
+        ("TrainingMetrics by iteration", analysis.metrics_iterations if analysis.metrics_iterations is not None
+         else pd.DataFrame(), "From DeepRacer's TrainingMetrics JSON (worker 0): training episodes and the greedy "
+         "evaluation episodes run after each checkpoint; times include the prepare step."),
         ("Fastest training laps", aggregate.best_laps(analysis.episodes, TRAINING, 10),
          "Complete laps, fastest first (when no lap was completed: the episodes that got furthest)."),
         ("Training episodes (latest)", analysis.episodes[analysis.episodes["phase"] == TRAINING].tail(HTML_EPISODES),

@@ -33,8 +33,12 @@ def _draw_track(ax, track: Track, *, centre: bool = True) -> None:
     ax.set_yticks([])
 
 
-def training_progress(iteration_table: pd.DataFrame, worker_table: pd.DataFrame, path: Path) -> Path:
-    """Reward, progress and completion per iteration: is training still improving?"""
+def training_progress(iteration_table: pd.DataFrame, worker_table: pd.DataFrame, path: Path, *,
+                      metrics_table: pd.DataFrame | None = None) -> Path:
+    """Reward, progress and completion per iteration: is training still improving?
+
+    `metrics_table` (training_metrics.iteration_table) adds the greedy in-training evaluations, as the console did.
+    """
     figure = Figure(figsize=(9, 9))
     reward_ax, progress_ax, completion_ax = figure.subplots(3, 1, sharex=True)
     several_workers = worker_table["worker"].nunique() > 1
@@ -57,6 +61,17 @@ def training_progress(iteration_table: pd.DataFrame, worker_table: pd.DataFrame,
             style = {"linewidth": 0.8, "alpha": 0.8, "marker": "x", "markersize": 4, "label": f"worker {worker}"}
             reward_ax.plot(rows["iteration"], rows["reward_mean"], **style)
             progress_ax.plot(rows["iteration"], rows["progress_mean_pct"], **style)
+    if metrics_table is not None:
+        for source, rows in metrics_table.groupby("source"):
+            rows = rows[rows["evaluation_episodes"] > 0]
+            label = "evaluation" if metrics_table["source"].nunique() == 1 else f"evaluation ({Path(source).name})"
+            style = {"linestyle": "--", "marker": "D", "markersize": 3, "color": "tab:green"}
+            progress_ax.plot(rows["iteration"], rows["evaluation_progress_mean_pct"], label=label, **style)
+            training = metrics_table[(metrics_table["source"] == source) & (metrics_table["training_episodes"] > 0)]
+            if not set(training["iteration"]) <= set(iteration_table["iteration"]):  # simtraces of some are missing
+                progress_ax.plot(training["iteration"], training["training_progress_mean_pct"], linestyle=":",
+                                 color="0.4", label=label.replace("evaluation", "training, TrainingMetrics"))
+            completion_ax.plot(rows["iteration"], 100 * rows["evaluation_completion_rate"], label=label, **style)
     reward_ax.set_ylabel("episode reward")
     progress_ax.set_ylabel("progress (%)")
     completion_ax.set_ylabel("episodes completing a lap (%)")

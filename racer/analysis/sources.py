@@ -18,7 +18,7 @@ import os
 import re
 import tarfile
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from pathlib import Path, PurePosixPath
 
 from racer.shared.config import settings_from_env
@@ -29,6 +29,14 @@ EVALUATION = "evaluation"
 
 _ITERATION_FILE = re.compile(r"^(\d+)-iteration\.csv$")
 _PARAMS_FILE = re.compile(r"^(training_params.*|eval_params.*|evaluation_params.*)\.ya?ml$")
+
+
+def is_training_metrics(key: str) -> bool:
+    """Worker 0's TrainingMetrics.json (DRfC, racer) or the console's metrics/training/<job>.json."""
+    parts = PurePosixPath(key).parts
+    return parts[-1] == "TrainingMetrics.json" or (
+        len(parts) >= 3 and parts[-3:-1] == ("metrics", "training") and parts[-1].endswith(".json")
+    )
 
 
 class SourceError(Exception):
@@ -58,6 +66,8 @@ class RunFiles:
     simtraces: list[SimtraceFile]
     params_yaml: dict[str, bytes]
     """training/evaluation params yaml files found next to the simtraces, by name (they name the track)."""
+    training_metrics: dict[str, bytes] = field(default_factory=dict)
+    """Worker 0's TrainingMetrics JSON files, by name (they hold the in-training evaluations)."""
 
 
 def classify(key: str) -> tuple[str, str, int, int] | None:
@@ -91,9 +101,10 @@ def classify_loose_csv(path: Path) -> tuple[str, str, int, int]:
     return phase, path.stem, 0, int(match.group(1)) if match else 0
 
 
-def _from_keys(keys: list[str], name_of: Callable[[str], str], read: Callable[[str], bytes]) -> tuple[list, dict]:
+def _from_keys(keys: list[str], name_of: Callable[[str], str], read: Callable[[str], bytes]) -> RunFiles:
     simtraces: list[SimtraceFile] = []
     params: dict[str, bytes] = {}
+    metrics: dict[str, bytes] = {}
     for key in keys:
         found = classify(key)
         if found is not None:
@@ -103,14 +114,16 @@ def _from_keys(keys: list[str], name_of: Callable[[str], str], read: Callable[[s
             )
         elif _PARAMS_FILE.match(PurePosixPath(key).name):
             params[name_of(key)] = read(key)
+        elif is_training_metrics(key):
+            metrics[name_of(key)] = read(key)
     simtraces.sort(key=lambda f: (f.phase, f.run, f.worker, f.iteration))
-    return simtraces, params
+    return RunFiles("", simtraces, params, metrics)
 
 
 def from_folder(folder: Path) -> RunFiles:
     keys = sorted(p.relative_to(folder).as_posix() for p in folder.rglob("*") if p.is_file())
-    simtraces, params = _from_keys(keys, lambda k: str(folder / k), lambda k: (folder / k).read_bytes())
-    return RunFiles(str(folder), simtraces, params)
+    found = _from_keys(keys, lambda k: str(folder / k), lambda k: (folder / k).read_bytes())
+    return replace(found, description=str(folder))
 
 
 def from_csv(path: Path) -> RunFiles:
@@ -133,12 +146,13 @@ def from_tar(path: Path) -> RunFiles:
                 member.name.removeprefix("./"): archive.extractfile(member).read()
                 for member in archive.getmembers()
                 if member.isfile()
-                and (classify(member.name) is not None or _PARAMS_FILE.match(PurePosixPath(member.name).name))
+                and (classify(member.name) is not None or _PARAMS_FILE.match(PurePosixPath(member.name).name)
+                     or is_training_metrics(member.name))
             }
     except tarfile.TarError as error:
         raise SourceError(f"{path}: not a readable tar archive ({error})") from error
-    simtraces, params = _from_keys(sorted(contents), lambda k: f"{path}!{k}", contents.__getitem__)
-    return RunFiles(str(path), simtraces, params)
+    found = _from_keys(sorted(contents), lambda k: f"{path}!{k}", contents.__getitem__)
+    return replace(found, description=str(path))
 
 
 def store_url(store: ObjectStore, key: str) -> str:
@@ -153,10 +167,8 @@ def from_store(store: ObjectStore, prefix: str) -> RunFiles:
     listed = store.list_keys(f"{prefix}/" if prefix else "")
     relative = [key[len(prefix) + 1 :] if prefix else key for key in listed]
     full_key = lambda k: f"{prefix}/{k}" if prefix else k  # noqa: E731
-    simtraces, params = _from_keys(
-        relative, lambda k: store_url(store, full_key(k)), lambda k: store.get_bytes(full_key(k))
-    )
-    return RunFiles(f"{store_url(store, prefix)} ({store.describe()})", simtraces, params)
+    found = _from_keys(relative, lambda k: store_url(store, full_key(k)), lambda k: store.get_bytes(full_key(k)))
+    return replace(found, description=f"{store_url(store, prefix)} ({store.describe()})")
 
 
 def open_source(source: str) -> RunFiles:

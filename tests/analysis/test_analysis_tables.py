@@ -163,3 +163,39 @@ def test_a_single_csv_is_placed_from_its_name(deepracer_data, read_csv_episodes)
     files, episodes = tables(deepracer_data / "simtrace/drfc1_evaluation_0-iteration.csv")
     assert files.simtraces[0].phase == "evaluation"
     assert len(aggregate.evaluation_laps(episodes)) == 3
+
+
+def test_training_metrics_give_the_in_training_evaluations(console_export, deepracer_data):
+    """The console export's metrics/training/<job>.json: iterations and their greedy evaluation episodes.
+    Checked by an independent rule: this run has 20 training episodes per iteration, and evaluation entries repeat
+    the number of the last training episode before them."""
+    from racer.analysis.pipeline import build_tables
+
+    raw = (deepracer_data / "metrics/console2022_TrainingMetrics.json").read_bytes()
+    target = console_export / "metrics/training/training-20220611205309.json"
+    target.parent.mkdir(parents=True)
+    target.write_bytes(raw)
+    analysis = build_tables(open_source(str(console_export)), show_progress=False)
+    table = analysis.metrics_iterations.set_index("iteration")
+
+    expected: dict[tuple[int, str], list[int]] = {}
+    for entry in json.loads(raw)["metrics"]:
+        expected.setdefault(((entry["episode"] - 1) // 20, entry["phase"]), []).append(entry["completion_percentage"])
+    assert list(table.index) == sorted({iteration for iteration, _ in expected})
+    for (iteration, phase), progress in expected.items():
+        assert table.loc[iteration, f"{phase}_episodes"] == len(progress)
+        assert table.loc[iteration, f"{phase}_progress_mean_pct"] == pytest.approx(sum(progress) / len(progress))
+    # Where simtraces exist, both sources count the same training episodes.
+    for row in analysis.iterations.itertuples():
+        assert table.loc[row.iteration, "training_episodes"] == row.episodes
+
+
+def test_unreadable_training_metrics_become_a_note(drfc_single):
+    from racer.analysis.pipeline import build_tables
+
+    (drfc_single / "metrics").mkdir()
+    (drfc_single / "metrics/TrainingMetrics.json").write_text('{"metrics": [{"phase": "training"}]}')
+    analysis = build_tables(open_source(str(drfc_single)), show_progress=False)
+    assert analysis.metrics_iterations is None
+    assert any("TrainingMetrics left out" in note and "TrainingMetrics.json" in note for note in analysis.notes)
+    assert len(analysis.iterations) == 2
