@@ -53,6 +53,11 @@ def print_summary(analysis: Analysis) -> None:
         ["iteration", "episodes", "reward_mean", "reward_std", "progress_mean_pct", "progress_std_pct",
          "completion_rate", "best_lap_time_s", "mean_lap_time_s"],
     )
+    if analysis.metrics_iterations is not None:
+        _echo_table("In-training evaluations (TrainingMetrics, last iterations)",
+                    analysis.metrics_iterations.tail(TERMINAL_ITERATIONS),
+                    ["iteration", "training_episodes", "training_progress_mean_pct", "evaluation_episodes",
+                     "evaluation_progress_mean_pct", "evaluation_completion_rate", "evaluation_best_lap_time_s"])
     if analysis.workers["worker"].nunique() > 1:
         _echo_table("Training by worker", analysis.workers,
                     ["worker", "episodes", "reward_mean", "progress_mean_pct", "completion_rate", "best_lap_time_s"])

@@ -38,9 +38,9 @@ def format_table(table: pd.DataFrame) -> pd.DataFrame:
         if pd.api.types.is_float_dtype(shown[column]):
             decimals = 1 if column.endswith(("_pct", "reward", "reward_mean", "reward_std")) else 3
             shown[column] = shown[column].round(decimals)
-        if column == "completion_rate":
+        if column.endswith("completion_rate"):
             shown[column] = (100 * table[column]).round(1)
-    return shown.rename(columns={"completion_rate": "completion_pct"})
+    return shown.rename(columns=lambda c: c.replace("completion_rate", "completion_pct"))
 
 
 def render_html(report: Report) -> str:
