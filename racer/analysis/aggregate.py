@@ -15,8 +15,6 @@ import pandas as pd
 from racer.analysis.loading import EPISODE_KEY
 from racer.analysis.sources import EVALUATION, TRAINING
 
-RESET_STATUSES = ("off_track", "crashed", "immobilized", "reversed")
-
 
 def episodes(steps: pd.DataFrame) -> pd.DataFrame:
     """One row per episode (a training episode, or one evaluation lap/trial)."""
@@ -46,7 +44,8 @@ def episodes(steps: pd.DataFrame) -> pd.DataFrame:
     table["lap_complete"] = table["progress_pct"] >= 100.0
     with np.errstate(divide="ignore", invalid="ignore"):
         table["speed_mps"] = table["distance_m"] / table["time_s"].where(table["time_s"] > 0)
-        table["projected_lap_time_s"] = table["time_s"] * 100.0 / table["progress_pct"].where(table["progress_pct"] > 0)
+        progress_pct = table["progress_pct"].where(table["progress_pct"] > 0)
+        table["projected_lap_time_s"] = table["time_s"] * 100.0 / progress_pct
     table["lap_time_s"] = table["time_s"].where(table["lap_complete"])
     order = ["phase", "run", "worker", "iteration", "episode", "steps", "start_waypoint", "progress_pct", "time_s",
              "distance_m", "speed_mps", "throttle_mps", "reward", "status", "lap_complete", "lap_time_s",
@@ -83,10 +82,11 @@ def workers(episode_table: pd.DataFrame) -> pd.DataFrame:
 
 
 def evaluation_laps(episode_table: pd.DataFrame) -> pd.DataFrame:
+    """One row per evaluation lap (trial), numbered from 1 per evaluation run like EvaluationMetrics' `trial`."""
     laps = episode_table[episode_table["phase"] == EVALUATION].copy()
     laps["lap"] = laps.groupby("run").cumcount() + 1
-    columns = ["run", "lap", "lap_time_s", "time_s", "progress_pct", "lap_complete", "status", "resets", "off_track", "crashed",
-               "penalty_s", "steps", "speed_mps"]
+    columns = ["run", "lap", "lap_time_s", "time_s", "progress_pct", "lap_complete", "status", "resets", "off_track",
+               "crashed", "penalty_s", "steps", "speed_mps"]
     return laps[columns].reset_index(drop=True)
 
 

@@ -7,8 +7,8 @@ import sys
 import numpy as np
 import pandas as pd
 
-from racer.analysis.sources import RunFiles, SimtraceFile
 from racer.analysis.robomaker_log import relabel_error, simtrace_csv_from_log
+from racer.analysis.sources import RunFiles, SimtraceFile
 from racer.shared.deepracer.simtrace import SimtraceError, read_simtrace
 
 PLACEMENT_COLUMNS = ["phase", "run", "worker", "iteration"]

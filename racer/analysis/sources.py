@@ -6,10 +6,13 @@ DeepRacer and its tools scatter simtraces over several layouts (reference §4, d
 |---|---|
 | DRfC, one worker / racer | `<prefix>/training-simtrace/<n>-iteration.csv` |
 | DRfC, several workers | `<prefix>/<worker>/training-simtrace/<n>-iteration.csv` |
-| console export | `sim-trace/training/training-simtrace/<n>-iteration.csv`, `sim-trace/evaluation/<ts>-<id>/evaluation-simtrace/0-iteration.csv` |
+| console export | `sim-trace/training/training-simtrace/<n>-iteration.csv`, |
+|  | `sim-trace/evaluation/<ts>-<id>/evaluation-simtrace/0-iteration.csv` |
 | DRfC / racer evaluation | `<prefix>/evaluation-<ts>/evaluation-simtrace/0-iteration.csv` |
 
-Every layout is recognised from the key alone, so the same rules serve folders, archives and buckets.
+Every layout is recognised from the key alone, so the same rules serve folders, archives and buckets. Next to the
+CSVs, the params yaml files (they name the track) and worker 0's TrainingMetrics JSON are picked up. A single CSV
+or a simulation log (SIM_TRACE_LOG lines) can also be given on its own.
 """
 
 from __future__ import annotations
@@ -127,7 +130,7 @@ def from_folder(folder: Path) -> RunFiles:
 
 
 def from_csv(path: Path) -> RunFiles:
-    phase, run, worker, iteration = classify(path.as_posix()) or classify_loose_csv(path)
+    phase, run, worker, iteration = classify("/".join(path.parts[-4:])) or classify_loose_csv(path)
     return RunFiles(str(path), [SimtraceFile(str(path), phase, run, worker, iteration, path.read_bytes)], {})
 
 
@@ -172,7 +175,7 @@ def from_store(store: ObjectStore, prefix: str) -> RunFiles:
 
 
 def open_source(source: str) -> RunFiles:
-    """Resolve the command-line SOURCE: an existing path first, then s3://bucket/prefix, then a model prefix in RACER_STORE."""
+    """Resolve the command-line SOURCE: an existing path, else s3://bucket/prefix, else a model prefix in RACER_STORE."""
     path = Path(source).expanduser()
     if path.is_dir():
         found = from_folder(path)
