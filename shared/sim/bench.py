@@ -21,9 +21,6 @@ from racer.shared.sim.camera import CENTER_CAMERA
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
 
-RAW_EPISODE_STEPS = 25
-"""About the length of a random-policy episode on the default track."""
-
 BENCH_REWARD = '''
 def reward_function(params):
     width = params["track_width"]
@@ -48,13 +45,18 @@ def _env_block(env: DeepRacerEnv, rng: np.random.Generator, steps: int) -> float
 
 
 def _raw_block(env: DeepRacerEnv, data: mujoco.MjData, renderer: mujoco.Renderer, starts: list, commands: np.ndarray) -> float:
-    """Physics + render only. The car restarts every `RAW_EPISODE_STEPS` from round-robin poses with pre-drawn
-    random commands, so the camera sees the road as often as the env's random-policy car does."""
-    model, car, substeps = env.model, env.car, env.config.physics_substeps
+    """Physics + render only, with pre-drawn random commands. Like the env's random-policy car, the car restarts
+    (round-robin poses) when its origin leaves the road, so the camera sees comparable views."""
+    model, car, substeps, track = env.model, env.car, env.config.physics_substeps, env.track
+    body = car.body_id
+    restarts = 0
+    car.teleport(model, data, *starts[0])
     start = time.perf_counter()
-    for step, (speed_mps, steering_deg) in enumerate(commands):
-        if step % RAW_EPISODE_STEPS == 0:
-            car.teleport(model, data, *starts[(step // RAW_EPISODE_STEPS) % len(starts)])
+    for speed_mps, steering_deg in commands:
+        x, y = data.xpos[body, 0], data.xpos[body, 1]
+        if not track.contains(x, y):
+            restarts += 1
+            car.teleport(model, data, *starts[restarts % len(starts)])
         car.command(data, speed_mps, steering_deg)
         mujoco.mj_step(model, data, substeps)
         renderer.update_scene(data, CENTER_CAMERA)

@@ -28,10 +28,23 @@ def rgb_to_y(rgb: np.ndarray) -> np.ndarray:
 
     Table look-ups give the very same float64 products, summed in the same order, at a third of the cost.
     """
-    y = _R.take(rgb[..., 0])
-    y += _G.take(rgb[..., 1])
-    y += _B.take(rgb[..., 2])
-    return y.astype(np.uint8)
+    return GrayConverter(rgb.shape[:2]).to_y(rgb)
+
+
+class GrayConverter:
+    """`rgb_to_y` with preallocated work buffers (the env converts one frame per step)."""
+
+    def __init__(self, shape: tuple[int, ...]) -> None:
+        self._sum = np.empty(shape, dtype=np.float64)
+        self._term = np.empty(shape, dtype=np.float64)
+
+    def to_y(self, rgb: np.ndarray) -> np.ndarray:
+        _R.take(rgb[..., 0], out=self._sum)
+        _G.take(rgb[..., 1], out=self._term)
+        self._sum += self._term
+        _B.take(rgb[..., 2], out=self._term)
+        self._sum += self._term
+        return self._sum.astype(np.uint8)
 
 
 def rgb_to_l(rgb: np.ndarray) -> np.ndarray:

@@ -14,7 +14,7 @@ from gymnasium import spaces
 from racer.shared.sim import lidar as lidar_sensor
 from racer.shared.sim import rules
 from racer.shared.sim._mujoco import mujoco
-from racer.shared.sim.camera import CENTER_CAMERA, LEFT_CAMERA, RIGHT_CAMERA, CameraRenderer, rgb_to_l, rgb_to_y
+from racer.shared.sim.camera import CENTER_CAMERA, LEFT_CAMERA, RIGHT_CAMERA, CameraRenderer, GrayConverter, rgb_to_l
 from racer.shared.sim.car import STEREO_HALF_BASELINE_M, Car, clip_command
 from racer.shared.sim.config import STEPS_PER_SECOND, EnvConfig
 from racer.shared.sim.reward import RewardFunction, default_evaluation_reward, load_reward_function
@@ -122,6 +122,7 @@ class DeepRacerEnv(gym.Env):
         self._data = mujoco.MjData(self._model)
         self._car = Car(self._model)
         self._camera = CameraRenderer(self._model, cfg.image_width_px, cfg.image_height_px)
+        self._gray = GrayConverter((cfg.image_height_px, cfg.image_width_px))
         self._lidar = lidar_sensor.Lidar(self._model, self._car.body_id) if self._lidar_key else None
         self._last_rgb: np.ndarray | None = None
 
@@ -393,7 +394,7 @@ class DeepRacerEnv(gym.Env):
             rgb = self._camera.rgb(data, self._render_cameras[0])
             if self.render_mode == "rgb_array" and self._render_cameras[0] == CENTER_CAMERA:
                 self._last_rgb = rgb.copy()
-            image = rgb_to_y(rgb)[:, :, None]
+            image = self._gray.to_y(rgb)[:, :, None]
         observation = {self._camera_key: image}
         if self._lidar is not None:
             ranges = self._lidar.scan(self._model, data, self.np_random)

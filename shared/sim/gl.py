@@ -11,7 +11,7 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
-from collections.abc import MutableMapping
+from collections.abc import Callable, Collection, MutableMapping
 
 HEADLESS_BACKENDS = ("egl", "osmesa")
 PROBE_TIMEOUT_S = 60.0
@@ -37,19 +37,23 @@ def probe_backend(backend: str) -> str | None:
     return (result.stderr.strip().splitlines() or ["exit code %d" % result.returncode])[-1]
 
 
-def ensure_gl_backend(environ: MutableMapping[str, str] = os.environ) -> str:
+def ensure_gl_backend(
+    environ: MutableMapping[str, str] = os.environ,
+    imported_modules: Collection[str] = sys.modules,
+    probe: Callable[[str], str | None] = probe_backend,
+) -> str:
     """The backend MuJoCo will use; picks egl, else osmesa, when MUJOCO_GL is unset (call before importing mujoco)."""
     requested = environ.get("MUJOCO_GL", "").strip().lower()
     if requested:
         return requested
-    if "mujoco" in sys.modules:
+    if "mujoco" in imported_modules:
         raise GLBackendError(
             "mujoco was imported before MUJOCO_GL was set, so it cannot render headless; "
             "set MUJOCO_GL=egl (or osmesa) in the environment"
         )
     failures = []
     for backend in HEADLESS_BACKENDS:
-        problem = probe_backend(backend)
+        problem = probe(backend)
         if problem is None:
             environ["MUJOCO_GL"] = backend
             return backend

@@ -1,8 +1,10 @@
 """Generating the MuJoCo model (MJCF) of one route in one world: floor, road, markings, light, sky and the car.
 
 The road, its white border lines and the dashed centre line are flat visual meshes built from the route's rows
-(no collision: the tyres roll on the floor plane, whose friction is the world's). Shadows are off and
-multisampling is disabled: with software (llvmpipe) rendering they cost 30-60x the frame time.
+(no collision: the tyres roll on the floor plane, whose friction is the world's).
+Rendering cost matters (software OpenGL, one frame per env step), so: no shadows and no multisampling (with
+llvmpipe they cost 30-60x the frame), no skybox (walls instead), and the floor plane is drawn as one quad
+(MuJoCo subdivides planes by their third size value for lighting; a 0.1 m grid made the frame twice as slow).
 """
 
 from __future__ import annotations
@@ -163,7 +165,7 @@ def scene_mjcf(spec: SceneSpec) -> str:
   <worldbody>
     <light name="sun" directional="true" castshadow="false" pos="{mid[0]:.3f} {mid[1]:.3f} 10" dir="{_floats(light.direction)}"
            diffuse="{_floats(light.diffuse)}" ambient="{_floats(light.ambient)}" specular="0 0 0"/>
-    <geom name="floor" type="plane" pos="{mid[0]:.4f} {mid[1]:.4f} 0" size="{half[0]:.3f} {half[1]:.3f} 0.1" material="ground"
+    <geom name="floor" type="plane" pos="{mid[0]:.4f} {mid[1]:.4f} 0" size="{half[0]:.3f} {half[1]:.3f} {2 * max(half):.3f}" material="ground"
           friction="{mu} 0.005 0.0001" contype="1" conaffinity="2" group="1"/>
     <geom name="road" type="mesh" mesh="road" material="road" contype="0" conaffinity="0" group="1"/>
     <geom name="inner_line" type="mesh" mesh="inner_line" material="border" contype="0" conaffinity="0" group="1"/>

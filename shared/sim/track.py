@@ -55,22 +55,26 @@ class _Polyline:
         # GEOS accumulates segment lengths one after another; cumsum does the same (np.sum would not).
         self.start_measure = np.concatenate(([0.0], np.cumsum(self.seg_len)[:-1]))
         self.length = float(np.cumsum(self.seg_len)[-1])
+        # Python-float copies for the scalar arithmetic after the vectorised search.
+        self.start_measure_list = self.start_measure.tolist()
+        self.seg_len_list = self.seg_len.tolist()
+        self.ax_list, self.ay_list = self.ax.tolist(), self.ay.tolist()
+        self.dx_list, self.dy_list = self.dx.tolist(), self.dy.tolist()
 
     def locate(self, x: float, y: float) -> tuple[int, float]:
-        """(segment index, clamped projection factor) of the nearest point, as GEOS LengthIndexOfPoint."""
+        """(segment index, clamped projection factor) of the nearest point, as GEOS LengthIndexOfPoint.
+
+        GEOS takes the first segment of minimum distance; comparing squared distances of the clamped foot points
+        selects the same segment (up to sub-ulp ties, where both candidates give the same measure).
+        """
         px = x - self.ax
         py = y - self.ay
         r = (px * self.dx + py * self.dy) / self.len2
-        # GEOS Distance::pointToSegment: endpoint distance outside [0, 1], perpendicular distance inside.
-        s = np.abs((-py) * self.dx - (-px) * self.dy) / self.len2 * self.seg_len
-        dist_a = np.sqrt(px * px + py * py)
-        bx = px - self.dx
-        by = py - self.dy
-        dist_b = np.sqrt(bx * bx + by * by)
-        dist = np.where(r <= 0.0, dist_a, np.where(r >= 1.0, dist_b, s))
-        i = int(np.argmin(dist))
-        factor = float(r[i])
-        return i, min(max(factor, 0.0), 1.0)
+        np.clip(r, 0.0, 1.0, out=r)
+        qx = px - r * self.dx
+        qy = py - r * self.dy
+        i = int(np.argmin(qx * qx + qy * qy))
+        return i, float(r[i])
 
     def project(self, x: float, y: float) -> float:
         """Distance along the line of the nearest point (shapely `project`)."""
@@ -102,25 +106,26 @@ class _BorderPair:
         self.dx = np.stack([inner.dx, outer.dx])
         self.dy = np.stack([inner.dy, outer.dy])
         self.len2 = np.stack([inner.len2, outer.len2])
-        self.seg_len = np.stack([inner.seg_len, outer.seg_len])
-        self._rows = np.arange(2)
+        self._lists = (self.ax.tolist(), self.ay.tolist(), self.dx.tolist(), self.dy.tolist())
 
     def nearest_points(self, x: float, y: float) -> tuple[float, float, float, float]:
         """(inner x, inner y, outer x, outer y) nearest to (x, y)."""
         px = x - self.ax
         py = y - self.ay
         r = (px * self.dx + py * self.dy) / self.len2
-        s = np.abs((-py) * self.dx - (-px) * self.dy) / self.len2 * self.seg_len
-        dist_a = np.sqrt(px * px + py * py)
-        bx = px - self.dx
-        by = py - self.dy
-        dist_b = np.sqrt(bx * bx + by * by)
-        dist = np.where(r <= 0.0, dist_a, np.where(r >= 1.0, dist_b, s))
-        i = np.argmin(dist, axis=1)
-        factor = np.clip(r[self._rows, i], 0.0, 1.0)
-        qx = self.ax[self._rows, i] + factor * self.dx[self._rows, i]
-        qy = self.ay[self._rows, i] + factor * self.dy[self._rows, i]
-        return float(qx[0]), float(qy[0]), float(qx[1]), float(qy[1])
+        np.clip(r, 0.0, 1.0, out=r)
+        qx = px - r * self.dx
+        qy = py - r * self.dy
+        i_in, i_out = (qx * qx + qy * qy).argmin(axis=1).tolist()
+        f_in = float(r[0, i_in])
+        f_out = float(r[1, i_out])
+        ax, ay, dx, dy = self._lists
+        return (
+            ax[0][i_in] + f_in * dx[0][i_in],
+            ay[0][i_in] + f_in * dy[0][i_in],
+            ax[1][i_out] + f_out * dx[1][i_out],
+            ay[1][i_out] + f_out * dy[1][i_out],
+        )
 
 
 @dataclass(frozen=True)
@@ -242,10 +247,10 @@ class Track:
         """All projection-derived quantities of a point with a single centre-line projection (the env's hot path)."""
         i, factor = self._center.locate(x, y)
         c = self._center
-        measure = float(c.start_measure[i]) if factor <= 0.0 else float(c.start_measure[i] + factor * c.seg_len[i])
+        measure = c.start_measure_list[i] if factor <= 0.0 else c.start_measure_list[i] + factor * c.seg_len_list[i]
         ndist = measure / c.length
-        cx = float(c.ax[i] + factor * c.dx[i])
-        cy = float(c.ay[i] + factor * c.dy[i])
+        cx = c.ax_list[i] + factor * c.dx_list[i]
+        cy = c.ay_list[i] + factor * c.dy_list[i]
         d_inner, d_outer, width = self._border_distances(cx, cy, x, y)
         prev_idx, next_idx = self._prev_next(ndist)
         return PointGeometry(
@@ -297,8 +302,8 @@ class Track:
         return prev_idx, next_idx
 
     def _nearer_of(self, x: float, y: float, prev_idx: int, next_idx: int) -> int:
-        px, py = self.center_line[prev_idx]
-        nx, ny = self.center_line[next_idx]
+        px, py = self._waypoint_tuples[prev_idx]
+        nx, ny = self._waypoint_tuples[next_idx]
         return next_idx if math.hypot(x - nx, y - ny) < math.hypot(x - px, y - py) else prev_idx
 
     def _border_distances(self, cx: float, cy: float, x: float, y: float) -> tuple[float, float, float]:
