@@ -200,8 +200,8 @@ _PICTURE_TEXT = {
     "training_progress": ("Training progress", "Mean ± std of episode reward and progress per iteration, share of "
                           "episodes that completed a lap, best lap time; dashed: the in-training evaluations of "
                           "TrainingMetrics, when present."),
-    "best_laps": ("Fastest training laps", "Driven path coloured by speed (distance / time over 1/3 s); green dot = start."),
-    "evaluation_laps": ("Evaluation laps", "Driven path coloured by speed; green dot = start of the lap."),
+    "best_laps": ("Fastest training laps on the track", "Driven path coloured by speed (distance / time over 1/3 s); green dot = start."),
+    "evaluation_laps": ("Evaluation laps on the track", "Driven path coloured by speed; green dot = start of the lap."),
     "reward_heatmap": ("Reward heatmap", "Mean step reward of all training steps in each cell of the track."),
     "action_usage": ("Action usage per track section", "Share of the steps in each section that used each action."),
     "reward_comparison": ("Reward what-if", "Logged reward and the candidate's along the fastest lap, and episode "
@@ -210,26 +210,38 @@ _PICTURE_TEXT = {
 
 
 def build_report(analysis: Analysis, out_dir: Path) -> Path:
+    """report.html: each picture next to the table it summarises, the long tables last."""
     report = Report(title="racer analysis", source=analysis.files.description, notes=list(analysis.notes))
-    for key, path in analysis.pictures.items():
-        heading, caption = _PICTURE_TEXT[key]
-        report.pictures.append((heading, path, caption))
-    tables = [
-        ("Evaluations", analysis.evaluations, "One row per evaluation run."),
-        ("Evaluation laps", analysis.evaluation_laps, "Per lap: time, progress, resets and penalty time."),
-        ("Training iterations", analysis.iterations, "All workers together."),
-        ("Training by worker", analysis.workers, "One row per worker (world)."),
-        ("TrainingMetrics by iteration", analysis.metrics_iterations if analysis.metrics_iterations is not None
-         else pd.DataFrame(), "From DeepRacer's TrainingMetrics JSON (worker 0): training episodes and the greedy "
-         "evaluation episodes run after each checkpoint; times include the prepare step."),
-        ("Fastest training laps", aggregate.best_laps(analysis.episodes, TRAINING, 10),
+    metrics = analysis.metrics_iterations if analysis.metrics_iterations is not None else pd.DataFrame()
+    training = analysis.episodes[analysis.episodes["phase"] == TRAINING]
+    comparison = analysis.reward_comparison if analysis.reward_comparison is not None else pd.DataFrame()
+    sections = [
+        ("table", "Training iterations", analysis.iterations, "All workers together."),
+        ("picture", "training_progress"),
+        ("table", "Training by worker", analysis.workers if analysis.workers["worker"].nunique() > 1 else pd.DataFrame(),
+         "One row per worker (world)."),
+        ("table", "In-training evaluations (TrainingMetrics)", metrics,
+         "From DeepRacer's TrainingMetrics JSON (worker 0): training episodes and the greedy evaluation episodes run "
+         "after each checkpoint; its times include the prepare step."),
+        ("table", "Fastest training laps", aggregate.best_laps(training, TRAINING, 10),
          "Complete laps, fastest first (when no lap was completed: the episodes that got furthest)."),
-        ("Training episodes (latest)", analysis.episodes[analysis.episodes["phase"] == TRAINING].tail(HTML_EPISODES),
+        ("picture", "best_laps"),
+        ("picture", "reward_heatmap"),
+        ("picture", "action_usage"),
+        ("table", "Evaluations", analysis.evaluations, "One row per evaluation run."),
+        ("table", "Evaluation laps", analysis.evaluation_laps, "Per lap: time, progress, resets and penalty time."),
+        ("picture", "evaluation_laps"),
+        ("table", "Reward what-if by iteration", comparison, "Logged reward and the candidate's, per iteration."),
+        ("picture", "reward_comparison"),
+        ("table", "Training episodes (latest)", training.tail(HTML_EPISODES),
          f"The last {HTML_EPISODES} training episodes; every episode is in episodes.csv."),
     ]
-    if analysis.reward_comparison is not None:
-        tables.insert(0, ("Reward what-if by iteration", analysis.reward_comparison, "Logged and candidate reward."))
-    report.tables += [(heading, table, caption) for heading, table, caption in tables if len(table)]
+    for kind, key, *rest in sections:
+        if kind == "picture" and key in analysis.pictures:
+            heading, caption = _PICTURE_TEXT[key]
+            report.add_picture(heading, analysis.pictures[key], caption)
+        elif kind == "table" and len(rest[0]):
+            report.add_table(key, rest[0], rest[1])
     analysis.report_path = write_html(report, out_dir / "report.html")
     return analysis.report_path
 

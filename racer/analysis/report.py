@@ -15,10 +15,14 @@ class Report:
     title: str
     source: str
     notes: list[str] = field(default_factory=list)
-    pictures: list[tuple[str, Path, str]] = field(default_factory=list)
-    """(heading, PNG path, one-line caption)."""
-    tables: list[tuple[str, pd.DataFrame, str]] = field(default_factory=list)
-    """(heading, table, one-line caption)."""
+    sections: list[tuple[str, str, Path | pd.DataFrame]] = field(default_factory=list)
+    """(heading, one-line caption, PNG path or table), in reading order."""
+
+    def add_picture(self, heading: str, path: Path, caption: str) -> None:
+        self.sections.append((heading, caption, Path(path)))
+
+    def add_table(self, heading: str, table: pd.DataFrame, caption: str) -> None:
+        self.sections.append((heading, caption, table))
 
 
 _STYLE = """
@@ -51,19 +55,13 @@ def render_html(report: Report) -> str:
         f"<p class='source'>source: {html.escape(report.source)}</p>",
     ]
     parts += [f"<div class='note'>{html.escape(note)}</div>" for note in report.notes]
-    for heading, path, caption in report.pictures:
-        encoded = base64.b64encode(Path(path).read_bytes()).decode("ascii")
-        parts += [
-            f"<h2>{html.escape(heading)}</h2>",
-            f"<p class='caption'>{html.escape(caption)}</p>",
-            f"<img alt='{html.escape(heading)}' src='data:image/png;base64,{encoded}'>",
-        ]
-    for heading, table, caption in report.tables:
-        parts += [
-            f"<h2>{html.escape(heading)}</h2>",
-            f"<p class='caption'>{html.escape(caption)}</p>",
-            format_table(table).to_html(index=False, na_rep="–", border=0),
-        ]
+    for heading, caption, content in report.sections:
+        parts += [f"<h2>{html.escape(heading)}</h2>", f"<p class='caption'>{html.escape(caption)}</p>"]
+        if isinstance(content, Path):
+            encoded = base64.b64encode(content.read_bytes()).decode("ascii")
+            parts.append(f"<img alt='{html.escape(heading)}' src='data:image/png;base64,{encoded}'>")
+        else:
+            parts.append(format_table(content).to_html(index=False, na_rep="–", border=0))
     parts.append("</body></html>")
     return "\n".join(parts)
 
