@@ -52,6 +52,17 @@ STEERING_KP = 8.0
 STEERING_KV = 0.25
 
 
+def command_wheel_radius_m(simapp_version: float) -> float:
+    """The radius the SimApp divides speed by to get wheel rad/s: 0.035 m for models of version ≥ 3, 0.0277 m for
+    version 2, 0.1 m for version 1 (reference §6). The simulated wheel is always 0.035 m, so old models drive
+    at 0.035/r of their nominal speed, as they do in DeepRacer."""
+    if simapp_version >= 3.0:
+        return WHEEL_RADIUS_M
+    if simapp_version >= 2.0:
+        return 0.0277
+    return 0.1
+
+
 def vertical_fov_deg(horizontal_fov_rad: float = CAMERA_HORIZONTAL_FOV_RAD, aspect: float = CAMERA_ASPECT) -> float:
     """MuJoCo's `fovy` for a camera with the given horizontal field of view and width/height aspect."""
     return math.degrees(2.0 * math.atan(math.tan(horizontal_fov_rad / 2.0) / aspect))
@@ -136,7 +147,8 @@ class Car:
 
     FRONT_OF_CAR_M = 0.14
 
-    def __init__(self, model: mujoco.MjModel) -> None:
+    def __init__(self, model: mujoco.MjModel, command_wheel_radius: float = WHEEL_RADIUS_M) -> None:
+        self.command_wheel_radius = command_wheel_radius
         self.body_id = model.body("car").id
         joint = model.joint("car_free")
         self.qpos_adr = int(joint.qposadr[0])
@@ -160,7 +172,7 @@ class Car:
 
     def command(self, data: mujoco.MjData, speed_mps: float, steering_deg: float) -> None:
         """Same wheel angular velocity on all four wheels, same angle on both hinges."""
-        data.ctrl[self.wheel_actuators] = speed_mps / WHEEL_RADIUS_M
+        data.ctrl[self.wheel_actuators] = speed_mps / self.command_wheel_radius
         data.ctrl[self.steering_actuators] = math.radians(steering_deg)
 
     def pose(self, data: mujoco.MjData) -> CarPose:

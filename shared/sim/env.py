@@ -15,7 +15,7 @@ from racer.shared.sim import lidar as lidar_sensor
 from racer.shared.sim import rules
 from racer.shared.sim._mujoco import mujoco
 from racer.shared.sim.camera import CENTER_CAMERA, LEFT_CAMERA, RIGHT_CAMERA, CameraRenderer, GrayConverter, rgb_to_l
-from racer.shared.sim.car import STEREO_HALF_BASELINE_M, Car, clip_command
+from racer.shared.sim.car import STEREO_HALF_BASELINE_M, Car, clip_command, command_wheel_radius_m
 from racer.shared.sim.config import STEPS_PER_SECOND, EnvConfig
 from racer.shared.sim.reward import RewardFunction, default_evaluation_reward, load_reward_function
 from racer.shared.sim.reward_params import make_reward_params
@@ -120,7 +120,7 @@ class DeepRacerEnv(gym.Env):
             SceneSpec(self._base_track, get_world(cfg.world), 1.0 / (STEPS_PER_SECOND * self._substeps), cameras)
         )
         self._data = mujoco.MjData(self._model)
-        self._car = Car(self._model)
+        self._car = Car(self._model, command_wheel_radius_m(self._metadata.version))
         self._camera = CameraRenderer(self._model, cfg.image_width_px, cfg.image_height_px)
         self._gray = GrayConverter((cfg.image_height_px, cfg.image_width_px))
         self._lidar = lidar_sensor.Lidar(self._model, self._car.body_id) if self._lidar_key else None

@@ -1,0 +1,107 @@
+"""The MuJoCo car follows commands like DeepRacer's: speed tracking, steering, grip per world, version units."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from racer.shared.deepracer.model_metadata import parse_model_metadata
+from racer.shared.sim._mujoco import mujoco
+from racer.shared.sim.car import WHEELBASE_M, Car, clip_command, command_wheel_radius_m, vertical_fov_deg
+from racer.shared.sim.config import EnvConfig
+from racer.shared.sim.env import DeepRacerEnv
+
+
+def _drive(env: DeepRacerEnv, speed_mps: float, steering_deg: float, seconds: float) -> tuple[float, float]:
+    """(planar speed, yaw rate) after driving a command from rest, far from the track (flat floor everywhere)."""
+    model, data, car = env.model, env.data, env.car
+    car.teleport(model, data, 0.0, -20.0, 0.0)
+    car.command(data, speed_mps, steering_deg)
+    mujoco.mj_step(model, data, int(seconds * 15) * env.config.physics_substeps)
+    return car.speed_mps(data), float(data.qvel[car.dof_adr + 5])
+
+
+@pytest.fixture(scope="module")
+def envs():
+    created = {world: DeepRacerEnv(EnvConfig(world=world)) for world in ("carpet", "wood")}
+    yield created
+    for env in created.values():
+        env.close()
+
+
+def test_geometry_and_mass():
+    env = DeepRacerEnv(EnvConfig())
+    try:
+        model = env.model
+        assert model.body_subtreemass[model.body("car").id] == pytest.approx(5.7, abs=1e-6)
+        wheels = {name: model.body(name).pos for name in ("left_rear_wheel", "right_rear_wheel")}
+        hinge = model.body("left_steering_hinge").pos
+        assert hinge[0] - wheels["left_rear_wheel"][0] == pytest.approx(WHEELBASE_M, abs=1e-9)
+        assert wheels["left_rear_wheel"][1] - wheels["right_rear_wheel"][1] == pytest.approx(0.1621, abs=1e-4)
+        camera = model.camera("front_camera")
+        assert tuple(camera.pos) == pytest.approx((0.14529, 0.0, 0.13033))
+        assert camera.fovy[0] == pytest.approx(vertical_fov_deg())
+        assert math.tan(math.radians(camera.fovy[0]) / 2) * 4 / 3 == pytest.approx(math.tan(1.13 / 2))
+        assert 1.0 / (model.opt.timestep * env.config.physics_substeps) == pytest.approx(15.0)
+    finally:
+        env.close()
+
+
+@pytest.mark.parametrize("speed_mps", [0.5, 1.5, 4.0])
+def test_straight_line_speed_tracks_the_command(envs, speed_mps):
+    speed, yaw_rate = _drive(envs["carpet"], speed_mps, 0.0, 1.5)
+    assert speed == pytest.approx(speed_mps, rel=0.03)
+    assert abs(yaw_rate) < 1e-3
+
+
+def test_steering_turns_left_for_positive_angles(envs):
+    speed, yaw_rate = _drive(envs["carpet"], 0.5, 30.0, 1.0)
+    radius = speed / yaw_rate
+    kinematic = WHEELBASE_M / math.tan(math.radians(30.0))
+    assert yaw_rate > 0
+    assert kinematic * 0.9 < radius < kinematic * 2.0  # all four wheels at one speed scrub: some understeer
+    _, right = _drive(envs["carpet"], 0.5, -30.0, 1.0)
+    assert right == pytest.approx(-yaw_rate, rel=0.02)
+
+
+def _heading_change_in_turn(env: DeepRacerEnv, speed_mps: float, steering_deg: float, turn_s: float = 0.4) -> float:
+    """Yaw change during a turn entered at steady speed: less tyre grip, less rotation."""
+    model, data, car = env.model, env.data, env.car
+    car.teleport(model, data, 0.0, -20.0, 0.0)
+    car.command(data, speed_mps, 0.0)
+    mujoco.mj_step(model, data, 15 * env.config.physics_substeps)
+    yaw_before = car.pose(data).yaw_rad
+    car.command(data, speed_mps, steering_deg)
+    mujoco.mj_step(model, data, int(turn_s * 15) * env.config.physics_substeps)
+    return car.pose(data).yaw_rad - yaw_before
+
+
+def test_less_grip_on_wood_than_carpet_in_a_fast_turn(envs):
+    for speed_mps, steering_deg in ((2.0, 20.0), (3.0, 30.0)):
+        carpet = _heading_change_in_turn(envs["carpet"], speed_mps, steering_deg)
+        wood = _heading_change_in_turn(envs["wood"], speed_mps, steering_deg)
+        assert 0 < wood < carpet
+
+
+def test_commands_are_clipped_and_old_models_use_their_wheel_radius():
+    assert clip_command(5.0, 45.0) == (4.0, 30.0)
+    assert clip_command(0.0, -45.0) == (0.1, -30.0)
+    assert command_wheel_radius_m(5.0) == 0.035 and command_wheel_radius_m(2.0) == 0.0277
+    assert command_wheel_radius_m(1.0) == 0.1
+    v1 = parse_model_metadata({"action_space": [{"steering_angle": 0, "speed": 1.0}, {"steering_angle": 10, "speed": 1.0}]})
+    env = DeepRacerEnv(EnvConfig(model_metadata=v1))
+    try:
+        speed, _ = _drive(env, 1.0, 0.0, 1.5)
+        assert speed == pytest.approx(0.35, rel=0.05)
+    finally:
+        env.close()
+
+
+def test_car_indices_cover_the_free_joint_and_wheels():
+    env = DeepRacerEnv(EnvConfig())
+    try:
+        car = Car(env.model)
+        assert len(car.car_dofs) == 6 + 4 + 2 and len(car.wheel_actuators) == 4
+    finally:
+        env.close()
