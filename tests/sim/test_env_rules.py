@@ -204,3 +204,16 @@ def test_step_cap_truncates(make_env):
     for step in range(5):
         _, _, terminated, truncated, info = env.step(STRAIGHT)
     assert truncated and not terminated and info["simtrace"]["done"] is True
+
+
+def test_real_deepracer_route_first_row_matches_real_simtrace(make_env, deepracer_data):
+    """Same start as the AWS console 2022 training episode 0 on reinvent_base: first row X, Y, progress, waypoint."""
+    env = make_env(track=deepracer_data / "routes" / "reinvent_base.npy")
+    env.reset(seed=0)
+    *_, info = env.step(STRAIGHT)
+    row = info["simtrace"]
+    # console2022_training_0-iteration.csv, row 1: X 3.19990, Y 0.68312, progress 0.79148, closest_waypoint 1
+    assert row["X"] == pytest.approx(3.19990, abs=0.003) and row["Y"] == pytest.approx(0.68312, abs=0.003)
+    assert row["progress"] == pytest.approx(0.79148, abs=0.003)
+    assert row["closest_waypoint"] == 1 and row["track_len"] == pytest.approx(17.709159380834848, abs=1e-12)
+    assert info["params"]["track_width"] == pytest.approx(0.762, abs=0.01)
