@@ -1,0 +1,291 @@
+#!/usr/bin/env bash
+# Compose smoke test: builds every image without a container registry, runs `docker compose up`
+# for two training iterations with two workers in two worlds (base, carpet) on the short
+# racer_oval track, checks what the run left in MinIO and the trainer's log, then `down -v`.
+#
+#   scripts/compose-smoke-test.sh          # exit 0: passed; non-zero: failed (the reason is printed last)
+#
+# On a machine without a running Docker engine it installs docker.io (+ docker-compose when no
+# compose is available) and starts dockerd, when run as root; a dockerd it started is stopped at
+# the end. Images are built from a local Debian base image (docker/build-base-image.sh), so only the
+# Debian and PyPI package registries are needed. A fresh machine takes about 10 minutes (the torch
+# download dominates); with cached images about 2-3 minutes.
+#
+# Environment (all optional):
+#   SMOKE_BASE_IMAGE     base image for every build (default racer-base:bookworm, built here when missing)
+#   SMOKE_PIP_CERT       CA bundle inside the build for pip (default /etc/ssl/certs/host-ca-bundle.crt,
+#                        which build-base-image.sh puts in the local base image; empty with an official base)
+#   MINIO_BINARY         MinIO server binary for the local MinIO image (default: `minio` on PATH,
+#                        ~/go/bin/minio or .venv/bin/minio; built with `go install` when none is found)
+#   SMOKE_MINIO_PORT     host port (loopback) the test publishes MinIO's API on (default 19000)
+#   SMOKE_TRAIN_TIMEOUT_S  longest wait for the training run (default 900)
+#   SMOKE_KEEP=1         leave the compose project up after the test (for debugging)
+#   SMOKE_KEEP_DOCKERD=1 leave a dockerd this script started running
+set -euo pipefail
+cd "$(dirname "$0")/.."
+ROOT="$PWD"
+
+PROJECT=racersmoke
+PREFIX=smoke-model
+BUCKET=racer-smoke
+BASE_IMAGE="${SMOKE_BASE_IMAGE:-racer-base:bookworm}"
+PIP_CERT_IN_BUILD="${SMOKE_PIP_CERT-/etc/ssl/certs/host-ca-bundle.crt}"
+RACER_IMAGE=racer:local
+REDIS_IMAGE=racer-redis:local
+MINIO_IMAGE=racer-minio:local
+MINIO_PORT="${SMOKE_MINIO_PORT:-19000}"
+TRAIN_TIMEOUT_S="${SMOKE_TRAIN_TIMEOUT_S:-900}"
+
+T0=$SECONDS
+STEP_T0=$SECONDS
+WORK="$(mktemp -d /tmp/racer-compose-smoke.XXXXXX)"
+STARTED_DOCKERD_PID=""
+COMPOSE=()
+
+say() { printf '[smoke %4ds] %s\n' "$((SECONDS - T0))" "$*"; }
+step() { STEP_T0=$SECONDS; say "$*"; }
+done_step() { say "  done in $((SECONDS - STEP_T0)) s${1:+: $1}"; }
+fail() {
+  printf '\n[smoke] FAILED after %d s: %s\n' "$((SECONDS - T0))" "$*" >&2
+  exit 1
+}
+
+# Values from the caller's environment would override the test's env file in compose: drop them.
+for name in $(compgen -v | grep -E '^(RACER_|MINIO_(ROOT|IMAGE|PUBLISH|API|CONSOLE)|REDIS_IMAGE$|S3_ENDPOINT_URL$|AWS_DEFAULT_REGION$|MUJOCO_GL$|COMPOSE_)' || true); do
+  unset "$name"
+done
+
+compose() { "${COMPOSE[@]}" --project-name "$PROJECT" --env-file "$WORK/smoke.env" \
+  -f "$ROOT/docker-compose.yml" -f "$ROOT/docker/compose.ports.yml" "$@"; }
+
+cleanup() {
+  local status=$?
+  if [ ${#COMPOSE[@]} -gt 0 ] && [ -f "$WORK/smoke.env" ]; then
+    if [ "$status" -ne 0 ]; then
+      say "--- last compose logs (trainer, rollout-0, rollout-1, minio-setup) ---"
+      compose logs --no-color --tail=40 trainer rollout-0 rollout-1 minio-setup 2>&1 | sed 's/^/    /' || true
+    fi
+    if [ "${SMOKE_KEEP:-0}" = 1 ]; then
+      say "SMOKE_KEEP=1: project $PROJECT left up (env file $WORK/smoke.env)"
+    else
+      compose down -v --remove-orphans >"$WORK/down.log" 2>&1 || say "warning: compose down failed (see $WORK/down.log)"
+    fi
+  fi
+  if [ -n "$STARTED_DOCKERD_PID" ] && [ "${SMOKE_KEEP_DOCKERD:-0}" != 1 ] && [ "${SMOKE_KEEP:-0}" != 1 ]; then
+    kill "$STARTED_DOCKERD_PID" 2>/dev/null || true
+    wait "$STARTED_DOCKERD_PID" 2>/dev/null || true
+  fi
+  [ "${SMOKE_KEEP:-0}" = 1 ] || [ "$status" -ne 0 ] || rm -rf "$WORK"
+  [ "$status" -eq 0 ] || say "work files kept in $WORK"
+}
+trap cleanup EXIT
+
+as_root_install() {
+  [ "$(id -u)" -eq 0 ] || fail "$1 is missing and this script is not root: install it (apt-get install $2)"
+  say "installing $2 (apt-get)"
+  apt-get update -qq >/dev/null
+  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "$2" >"$WORK/apt-$2.log" 2>&1 \
+    || { tail -20 "$WORK/apt-$2.log" >&2; fail "apt-get install $2 failed"; }
+}
+
+# --- 1. Docker engine and compose --------------------------------------------------------------------
+step "checking the Docker engine"
+command -v dockerd >/dev/null 2>&1 || as_root_install dockerd docker.io
+command -v docker >/dev/null 2>&1 || as_root_install docker docker.io
+if ! docker info >/dev/null 2>&1; then
+  [ "$(id -u)" -eq 0 ] || fail "no Docker engine answers and this script is not root to start dockerd"
+  say "starting dockerd (log: $WORK/dockerd.log)"
+  dockerd >"$WORK/dockerd.log" 2>&1 &
+  STARTED_DOCKERD_PID=$!
+  for _ in $(seq 1 60); do  # engine start-up: up to 30 s
+    docker info >/dev/null 2>&1 && break
+    kill -0 "$STARTED_DOCKERD_PID" 2>/dev/null || { tail -20 "$WORK/dockerd.log" >&2; fail "dockerd exited at start"; }
+    sleep 0.5
+  done
+  docker info >/dev/null 2>&1 || { tail -20 "$WORK/dockerd.log" >&2; fail "dockerd did not answer within 30 s"; }
+fi
+if docker compose version >/dev/null 2>&1; then
+  COMPOSE=(docker compose)
+else
+  command -v docker-compose >/dev/null 2>&1 || as_root_install docker-compose docker-compose
+  COMPOSE=(docker-compose)
+fi
+done_step "engine $(docker version -f '{{.Server.Version}}'), compose: ${COMPOSE[*]} ($("${COMPOSE[@]}" version --short 2>/dev/null || echo '?'))"
+
+# --- 2. Images --------------------------------------------------------------------------------------
+build_image() {  # build_image LOG_NAME docker-build-args...
+  local log="$WORK/build-$1.log"; shift
+  if ! docker build "$@" >"$log" 2>&1; then
+    tail -40 "$log" >&2
+    fail "docker build $* failed (full log: $log)"
+  fi
+}
+
+if [ "$BASE_IMAGE" = racer-base:bookworm ]; then
+  step "base image $BASE_IMAGE (debootstrap + docker import when missing)"
+  docker/build-base-image.sh "$BASE_IMAGE" >"$WORK/base-image.log" 2>&1 || { tail -30 "$WORK/base-image.log" >&2; fail "building the base image failed"; }
+  done_step
+fi
+
+step "racer image $RACER_IMAGE from docker/Dockerfile (torch download the first time)"
+build_image racer -f docker/Dockerfile --build-arg BASE_IMAGE="$BASE_IMAGE" \
+  --build-arg PIP_CERT="$PIP_CERT_IN_BUILD" -t "$RACER_IMAGE" .
+done_step "$(docker image inspect -f '{{.Size}}' "$RACER_IMAGE" | awk '{printf "%.2f GB", $1/1e9}')"
+
+step "redis and minio images from docker/services.Dockerfile"
+minio_bin="${MINIO_BINARY:-}"
+if [ -z "$minio_bin" ]; then
+  for candidate in "$(command -v minio 2>/dev/null || true)" "$HOME/go/bin/minio" "$ROOT/.venv/bin/minio"; do
+    if [ -n "$candidate" ] && [ -x "$candidate" ]; then minio_bin="$(readlink -f "$candidate")"; break; fi
+  done
+fi
+if [ -z "$minio_bin" ]; then
+  command -v go >/dev/null 2>&1 || fail "no MinIO binary (set MINIO_BINARY) and no Go to build one"
+  module="$(grep -o 'github.com/minio/minio@[^"]*' scripts/setup.sh | head -1)"
+  say "building MinIO with go install $module (about 3 minutes, once)"
+  (cd /tmp && go install "$module") || fail "go install $module failed"
+  minio_bin="$(go env GOPATH)/bin/minio"
+fi
+mkdir -p "$WORK/minio-context" "$WORK/empty-context"
+cp "$minio_bin" "$WORK/minio-context/minio"
+chmod 0755 "$WORK/minio-context/minio"
+build_image redis -f docker/services.Dockerfile --target redis --build-arg BASE_IMAGE="$BASE_IMAGE" -t "$REDIS_IMAGE" "$WORK/empty-context"
+build_image minio -f docker/services.Dockerfile --target minio --build-arg BASE_IMAGE="$BASE_IMAGE" -t "$MINIO_IMAGE" "$WORK/minio-context"
+rm -f "$WORK/minio-context/minio"
+done_step
+
+# --- 3. Training run -----------------------------------------------------------------------------
+# The user's folder: the project's defaults, with a tiny iteration (2 episodes: one per worker) and
+# one evaluation trial per checkpoint, so that two iterations take about a minute.
+mkdir -p "$WORK/custom_files"
+cp custom_files/reward_function.py custom_files/model_metadata.json "$WORK/custom_files/"
+cat >"$WORK/custom_files/hyperparameters.json" <<'EOF'
+{"num_episodes_between_training": 2, "batch_size": 32, "num_epochs": 3}
+EOF
+echo '{"MIN_EVAL_TRIALS": 1}' >"$WORK/custom_files/workers.json"
+chmod -R a+rX "$WORK/custom_files"
+
+cat >"$WORK/smoke.env" <<EOF
+MINIO_ROOT_USER=smoke-user
+MINIO_ROOT_PASSWORD=smoke-$(od -An -N8 -tx1 /dev/urandom | tr -d ' \n')
+RACER_MODEL_PREFIX=$PREFIX
+RACER_BUCKET=$BUCKET
+RACER_CUSTOM_FILES=$WORK/custom_files
+RACER_WORKERS=2
+RACER_TRACK=racer_oval
+RACER_WORLDS=base,carpet
+RACER_TRAINER_ARGS=--max-episodes 4
+RACER_ROLLOUT_ARGS=--wait-timeout-s 600
+RACER_IMAGE=$RACER_IMAGE
+REDIS_IMAGE=$REDIS_IMAGE
+MINIO_IMAGE=$MINIO_IMAGE
+MINIO_PUBLISH_ADDRESS=127.0.0.1
+MINIO_API_PORT=$MINIO_PORT
+MINIO_CONSOLE_PORT=$((MINIO_PORT + 1))
+EOF
+
+step "removing what an earlier smoke run may have left (project $PROJECT)"
+compose down -v --remove-orphans >"$WORK/down-before.log" 2>&1 || true
+done_step
+
+step "docker compose up -d trainer rollout-0 rollout-1 (2 workers: base, carpet; 2 iterations of 2 episodes)"
+compose up -d --no-build trainer rollout-0 rollout-1 >"$WORK/up.log" 2>&1 || { cat "$WORK/up.log" >&2; fail "docker compose up failed"; }
+compose ps
+for service in redis minio; do
+  health="$(docker inspect -f '{{.State.Health.Status}}' "$(compose ps -q "$service")")"
+  [ "$health" = healthy ] || fail "$service is $health after up (up waits for healthy)"
+done
+setup_exit="$(docker inspect -f '{{.State.ExitCode}}' "$(compose ps -q minio-setup)")"
+[ "$setup_exit" = 0 ] || fail "minio-setup exited with $setup_exit"
+# Published only through docker/compose.ports.yml, on loopback: check that MinIO answers there.
+exec 3<>"/dev/tcp/127.0.0.1/$MINIO_PORT" || fail "MinIO is not reachable on the published port 127.0.0.1:$MINIO_PORT"
+printf 'GET /minio/health/live HTTP/1.1\r\nHost: localhost\r\nConnection: close\r\n\r\n' >&3
+head -n1 <&3 | grep -q ' 200 ' || fail "MinIO on 127.0.0.1:$MINIO_PORT did not answer its health check"
+exec 3<&-
+# Redis must not be published.
+[ -z "$(docker port "$(compose ps -q redis)")" ] || fail "redis has a published port: $(docker port "$(compose ps -q redis)")"
+done_step "redis, minio healthy; bucket set up; MinIO published on 127.0.0.1:$MINIO_PORT only"
+
+step "waiting for the trainer to finish (at most $TRAIN_TIMEOUT_S s)"
+trainer_id="$(compose ps -q trainer)"
+trainer_exit="$(timeout "$TRAIN_TIMEOUT_S" docker wait "$trainer_id" || echo timeout)"
+compose logs --no-color trainer >"$WORK/trainer.log" 2>&1 || true
+[ "$trainer_exit" != timeout ] || fail "the trainer did not finish within $TRAIN_TIMEOUT_S s (log: $WORK/trainer.log)"
+[ "$trainer_exit" = 0 ] || fail "the trainer exited with status $trainer_exit (log: $WORK/trainer.log)"
+done_step
+step "waiting for the rollout workers to exit after the run (at most 120 s)"
+for service in rollout-0 rollout-1; do
+  worker_exit="$(timeout 120 docker wait "$(compose ps -q "$service")" || echo timeout)"
+  compose logs --no-color "$service" >"$WORK/$service.log" 2>&1 || true
+  [ "$worker_exit" = 0 ] || fail "$service exited with status $worker_exit after the run (log: $WORK/$service.log)"
+done
+done_step
+
+# --- 4. Checks ----------------------------------------------------------------------------------
+step "checking the trainer log and the store"
+for worker in 0 1; do
+  grep -Eq "Training> Name=main_level/agent, Worker=$worker, Episode=[0-9]+, Total reward=[-0-9.e]+, Steps=[0-9]+, Training iteration=[0-9]+" "$WORK/trainer.log" \
+    || fail "the trainer log has no 'Training> ... Worker=$worker' episode line (log: $WORK/trainer.log)"
+done
+say "  trainer log: $(grep -c 'Training> Name=main_level/agent' "$WORK/trainer.log") episode lines, workers 0 (base) and 1 (carpet)"
+
+# The store is read from inside the compose network with the racer image's boto3 (no host Python needed).
+network="$(docker inspect -f '{{range $name, $_ := .NetworkSettings.Networks}}{{$name}} {{end}}' "$(compose ps -q minio)" | awk '{print $1}')"
+# shellcheck disable=SC1090
+creds_user="$(grep '^MINIO_ROOT_USER=' "$WORK/smoke.env" | cut -d= -f2-)"
+creds_password="$(grep '^MINIO_ROOT_PASSWORD=' "$WORK/smoke.env" | cut -d= -f2-)"
+docker run --rm -i --network "$network" --entrypoint python3 \
+  -e S3_ENDPOINT_URL=http://minio:9000 -e AWS_ACCESS_KEY_ID="$creds_user" -e AWS_SECRET_ACCESS_KEY="$creds_password" \
+  -e AWS_DEFAULT_REGION=us-east-1 -e BUCKET="$BUCKET" -e PREFIX="$PREFIX" \
+  "$RACER_IMAGE" - >"$WORK/store-check.log" 2>&1 <<'PY' || { cat "$WORK/store-check.log" >&2; fail "the store does not hold what a two-iteration run must leave"; }
+import os, re, sys
+import boto3
+
+s3 = boto3.client("s3", endpoint_url=os.environ["S3_ENDPOINT_URL"])
+bucket, prefix = os.environ["BUCKET"], os.environ["PREFIX"]
+keys = set()
+for page in s3.get_paginator("list_objects_v2").paginate(Bucket=bucket, Prefix=prefix + "/"):
+    keys.update(item["Key"] for item in page.get("Contents", []))
+problems = []
+def need(key, why):
+    if key not in keys:
+        problems.append(f"missing {key} ({why})")
+checkpoint = re.compile(r"^(\d+)_Step-(\d+)\.ckpt")
+numbers = sorted({int(m.group(1)) for k in keys if k.startswith(f"{prefix}/model/")
+                  for m in [checkpoint.match(k.rsplit("/", 1)[1])] if m})
+if numbers[-1:] != [2]:
+    problems.append(f"checkpoints {numbers}: expected the last to be 2 (checkpoint 0 + two iterations)")
+need(f"{prefix}/model/.coach_checkpoint", "the checkpoint pointer")
+if f"{prefix}/model/.coach_checkpoint" in keys:
+    pointer = s3.get_object(Bucket=bucket, Key=f"{prefix}/model/.coach_checkpoint")["Body"].read().decode().strip()
+    match = checkpoint.match(pointer)
+    if not match or match.group(1) != "2":
+        problems.append(f".coach_checkpoint names {pointer!r}, expected checkpoint 2")
+    else:
+        print(f"pointer: {pointer}")
+need(f"{prefix}/model/.finished", "written at the end of training")
+need(f"{prefix}/model/model_metadata.json", "the action space")
+need(f"{prefix}/reward_function.py", "uploaded from custom_files")
+need(f"{prefix}/ip/hyperparameters.json", "uploaded from custom_files")
+for worker, world in ((0, "base"), (1, "carpet")):
+    for iteration in (0, 1):
+        need(f"{prefix}/{worker}/training-simtrace/{iteration}-iteration.csv", f"simtrace of worker {worker} ({world})")
+params = {0: "training_params.yaml", 1: "training_params_1.yaml"}
+for worker, world in ((0, "base"), (1, "carpet")):
+    key = f"{prefix}/{params[worker]}"
+    if key in keys:
+        text = s3.get_object(Bucket=bucket, Key=key)["Body"].read().decode()
+        if world not in text:
+            problems.append(f"{key} does not name world {world}")
+    else:
+        problems.append(f"missing {key} (worker {worker}'s settings)")
+need(f"{prefix}/metrics/TrainingMetrics.json", "worker 0 metrics")
+print(f"{len(keys)} objects under s3://{bucket}/{prefix}/; checkpoints {numbers}")
+if problems:
+    print("\n".join(problems), file=sys.stderr)
+    sys.exit(1)
+PY
+sed 's/^/  /' "$WORK/store-check.log"
+done_step
+
+say "PASSED in $((SECONDS - T0)) s: docker compose trained 2 iterations with workers in worlds base and carpet; checkpoints, pointer and simtraces are in MinIO"
