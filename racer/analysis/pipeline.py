@@ -170,8 +170,10 @@ def draw_pictures(analysis: Analysis, out_dir: Path, *, sections: int, top_laps:
     training_steps = steps[steps["phase"] == TRAINING]
     best_training = aggregate.best_laps(on_track(analysis.episodes, analysis.track_workers), TRAINING, top_laps)
     if len(best_training):
+        title = ("Fastest training laps" if best_training["lap_complete"].all()
+                 else "Furthest training episodes (no lap completed)")
         analysis.pictures["best_laps"] = plots.laps_by_speed(
-            analysis.steps, best_training, track, out_dir / "best_laps.png", "Fastest training laps (speed colour)"
+            analysis.steps, best_training, track, out_dir / "best_laps.png", f"{title} (speed colour)"
         )
         analysis.pictures["reward_heatmap"] = plots.reward_heatmap(training_steps, track, out_dir / "reward_heatmap.png")
         waypoint = forward_waypoint(training_steps, analysis.reversed_episodes, track)
@@ -200,8 +202,9 @@ _PICTURE_TEXT = {
     "training_progress": ("Training progress", "Mean ± std of episode reward and progress per iteration, share of "
                           "episodes that completed a lap, best lap time; dashed: the in-training evaluations of "
                           "TrainingMetrics, when present."),
-    "best_laps": ("Fastest training laps on the track", "Driven path coloured by speed (distance / time over 1/3 s); green dot = start."),
-    "evaluation_laps": ("Evaluation laps on the track", "Driven path coloured by speed; green dot = start of the lap."),
+    "best_laps": ("Fastest training laps on the track", "Driven path coloured by speed (distance / time over 1/3 s); green dot = start, red cross = off track, crash, "
+                  "immobilized or reversed."),
+    "evaluation_laps": ("Evaluation laps on the track", "Driven path coloured by speed; green dot = start of the lap, red cross = where a reset happened."),
     "reward_heatmap": ("Reward heatmap", "Mean step reward of all training steps in each cell of the track."),
     "action_usage": ("Action usage per track section", "Share of the steps in each section that used each action."),
     "reward_comparison": ("Reward what-if", "Logged reward and the candidate's along the fastest lap, and episode "

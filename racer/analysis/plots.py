@@ -15,6 +15,8 @@ from racer.analysis.loading import EPISODE_KEY
 from racer.analysis.track_sections import Track, section_of_waypoint
 
 DPI = 110
+INCIDENT_STATUSES = ("off_track", "crashed", "immobilized", "reversed")
+"""Statuses marked with a red cross on the lap maps (where a reset or the end of the episode happened)."""
 
 
 def _save(figure: Figure, path: Path) -> Path:
@@ -110,6 +112,8 @@ def laps_by_speed(steps: pd.DataFrame, laps: pd.DataFrame, track: Track, path: P
         collection.set_array(smooth_mps.to_numpy()[1:])
         ax.add_collection(collection)
         ax.plot(*points[0], "o", color="green", markersize=5, zorder=3)
+        incidents = trace[trace["episode_status"].isin(INCIDENT_STATUSES)]
+        ax.plot(incidents["X"], incidents["Y"], "x", color="red", markersize=8, markeredgewidth=2, zorder=4)
         time_text = f"{lap.lap_time_s:.2f} s" if lap.lap_complete else f"{lap.progress_pct:.0f} % in {lap.time_s:.1f} s"
         where = f"iteration {lap.iteration}, episode {lap.episode}" if lap.phase == "training" else f"lap {lap.episode + 1}"
         ax.set_title(f"{where}: {time_text}", fontsize=10)

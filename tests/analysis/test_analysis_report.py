@@ -169,3 +169,36 @@ def test_workers_on_another_track_are_left_out_of_track_pictures(drfc_multi, dee
     assert whatif_table["episodes"].sum() == (episodes["worker"] == 0).sum() < len(episodes)
     assert np.allclose(whatif_table["new_reward_mean"], whatif_table["reward_mean"])
     assert {"best_laps.png", "reward_heatmap.png", "action_usage.png"} <= {p.name for p in out.glob("*.png")}
+
+
+@pytest.mark.parametrize("sections", [4, 13])
+def test_action_usage_shares_add_up_to_the_logged_action_counts(console_export, reinvent_route, tmp_path, sections):
+    """Per section the shares sum to 1, and weighted by each section's step count they give back the action counts
+    of the file (counted here with the csv module)."""
+    import csv
+    from collections import Counter
+
+    from racer.analysis import plots
+    from racer.analysis.track_sections import forward_waypoint, reversed_episodes, section_of_waypoint
+
+    steps = load_steps(open_source(str(console_export)), progress=False)
+    training = steps[steps["phase"] == "training"]
+    track = load_track(str(reinvent_route))
+    waypoint = forward_waypoint(training, reversed_episodes(training, track), track)
+    path, usage = plots.action_usage(training, waypoint, track, sections, tmp_path / "a.png")
+    assert_real_picture(path.read_bytes(), "a.png")
+    assert list(usage.index) == list(range(1, sections + 1))
+    assert np.allclose(usage.sum(axis=1), 1.0)
+
+    counts: Counter = Counter()
+    for csv_path in sorted((console_export / "sim-trace/training/training-simtrace").glob("*.csv")):
+        with open(csv_path, newline="") as handle:
+            counts.update(int(row["action"]) for row in csv.DictReader(handle) if row["episode_status"] != "prepare")
+    section = section_of_waypoint(track, sections)[waypoint[training["episode_status"] != "prepare"].to_numpy()]
+    steps_per_section = np.bincount(section, minlength=sections)
+    recovered = (usage.to_numpy() * steps_per_section[:, None]).sum(axis=0)
+    labels = [int(label.split(":")[0]) for label in usage.columns]
+    assert dict(zip(labels, np.round(recovered).astype(int).tolist(), strict=True)) == {
+        action: counts.get(action, 0) for action in labels
+    }
+    assert set(counts) <= set(labels)
