@@ -3,7 +3,8 @@
 env: `DeepRacerEnv` with the front camera at 160×120 on the default track, a real reward function (the DeepRacer
 centre-line example, written to a temporary file) and uniformly random discrete actions.
 raw bound: the same compiled scene, the same physics substeps and one 160×120 render per step, no env code.
-The two are measured in alternating blocks so that load from other processes hits both alike.
+The two are measured in alternating blocks so that load from other processes hits both alike; process CPU
+time per step is reported too, since wall-clock rates on a shared 2-core machine move with everyone's load.
 """
 
 from __future__ import annotations
@@ -35,23 +36,26 @@ def reward_function(params):
 '''
 
 
-def _env_block(env: DeepRacerEnv, rng: np.random.Generator, steps: int) -> float:
-    start = time.perf_counter()
+def _env_block(env: DeepRacerEnv, rng: np.random.Generator, steps: int) -> tuple[float, float]:
+    """(wall seconds, process CPU seconds) for `steps` env steps."""
+    start, cpu_start = time.perf_counter(), time.process_time()
     for _ in range(steps):
         _, _, terminated, truncated, _ = env.step(int(rng.integers(env.action_space.n)))
         if terminated or truncated:
             env.reset()
-    return time.perf_counter() - start
+    return time.perf_counter() - start, time.process_time() - cpu_start
 
 
-def _raw_block(env: DeepRacerEnv, data: mujoco.MjData, renderer: mujoco.Renderer, starts: list, commands: np.ndarray) -> float:
+def _raw_block(
+    env: DeepRacerEnv, data: mujoco.MjData, renderer: mujoco.Renderer, starts: list, commands: np.ndarray
+) -> tuple[float, float]:
     """Physics + render only, with pre-drawn random commands. Like the env's random-policy car, the car restarts
     (round-robin poses) when its origin leaves the road, so the camera sees comparable views."""
     model, car, substeps, track = env.model, env.car, env.config.physics_substeps, env.track
     body = car.body_id
     restarts = 0
     car.teleport(model, data, *starts[0])
-    start = time.perf_counter()
+    start, cpu_start = time.perf_counter(), time.process_time()
     for speed_mps, steering_deg in commands:
         x, y = data.xpos[body, 0], data.xpos[body, 1]
         if not track.contains(x, y):
@@ -61,7 +65,7 @@ def _raw_block(env: DeepRacerEnv, data: mujoco.MjData, renderer: mujoco.Renderer
         mujoco.mj_step(model, data, substeps)
         renderer.update_scene(data, CENTER_CAMERA)
         renderer.render()
-    return time.perf_counter() - start
+    return time.perf_counter() - start, time.process_time() - cpu_start
 
 
 def run_benchmark(steps: int = 3000, blocks: int = 6, seed: int = 0) -> dict[str, float]:
@@ -81,17 +85,27 @@ def run_benchmark(steps: int = 3000, blocks: int = 6, seed: int = 0) -> dict[str
             commands = np.array([(actions[i].speed_mps, actions[i].steering_angle_deg) for i in picks])
             _env_block(env, rng, 30)
             _raw_block(env, raw_data, renderer, starts, commands[:30])
-            env_s = raw_s = 0.0
+            env_s = raw_s = env_cpu_s = raw_cpu_s = 0.0
             for _ in range(blocks):
-                env_s += _env_block(env, rng, per_block)
-                raw_s += _raw_block(env, raw_data, renderer, starts, commands)
+                wall_s, cpu_s = _env_block(env, rng, per_block)
+                env_s, env_cpu_s = env_s + wall_s, env_cpu_s + cpu_s
+                wall_s, cpu_s = _raw_block(env, raw_data, renderer, starts, commands)
+                raw_s, raw_cpu_s = raw_s + wall_s, raw_cpu_s + cpu_s
             renderer.close()
         finally:
             env.close()
     total = per_block * blocks
     env_rate = total / env_s
     raw_rate = total / raw_s
-    return {"env_steps_per_s": round(env_rate, 1), "raw_bound_steps_per_s": round(raw_rate, 1), "ratio": round(env_rate / raw_rate, 3)}
+    return {
+        "env_steps_per_s": round(env_rate, 1),
+        "raw_bound_steps_per_s": round(raw_rate, 1),
+        "ratio": round(env_rate / raw_rate, 3),
+        # Process CPU time (includes llvmpipe's render threads): comparable across runs on a busy machine.
+        "env_cpu_ms_per_step": round(1e3 * env_cpu_s / total, 3),
+        "raw_cpu_ms_per_step": round(1e3 * raw_cpu_s / total, 3),
+        "steps": total,
+    }
 
 
 @click.command("sim")
