@@ -116,3 +116,17 @@ def test_lidar_rays_hit_group_zero_geoms_only():
     assert ranges[middle] == pytest.approx(0.75, abs=0.05)
     assert np.isinf(ranges[0]) and np.isinf(ranges[-1])  # the backdrop behind is not seen
     assert np.isfinite(ranges).sum() >= 2
+
+
+def test_grayscale_is_exact_for_every_colour():
+    """All 16.7M colours: the fast converter equals RL Coach's float64 formula (256 slices of 256×256)."""
+    from racer.shared.sim.camera import GrayConverter
+
+    converter = GrayConverter((256, 256))
+    g, b = np.meshgrid(np.arange(256), np.arange(256), indexing="ij")
+    rgb = np.empty((256, 256, 3), dtype=np.uint8)
+    rgb[..., 1], rgb[..., 2] = g, b
+    for r in range(256):
+        rgb[..., 0] = r
+        expected = (0.2989 * rgb[..., 0] + 0.5870 * rgb[..., 1] + 0.1140 * rgb[..., 2]).astype(np.uint8)
+        np.testing.assert_array_equal(converter.to_y(rgb), expected, err_msg=f"R={r}")
