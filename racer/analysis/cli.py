@@ -27,6 +27,20 @@ def default_out_dir(source: str) -> Path:
     return Path("analysis") / re.sub(r"\.(tar\.gz|tgz|tar|csv)$", "", name)
 
 
+def parse_range(value: str | None) -> tuple[int, int | None] | None:
+    """'27' -> (27, 27), '20-27' -> (20, 27), '20-' -> (20, None)."""
+    if value is None:
+        return None
+    match = re.fullmatch(r"\s*(\d+)\s*(-\s*(\d*)\s*)?", value)
+    if match is None:
+        raise click.BadParameter(f"{value!r}: expected A, A-B or A- (iteration numbers)")
+    first = int(match.group(1))
+    last = first if match.group(2) is None else (int(match.group(3)) if match.group(3) else None)
+    if last is not None and last < first:
+        raise click.BadParameter(f"{value!r}: the range ends before it starts")
+    return first, last
+
+
 def _echo_table(title: str, table: pd.DataFrame, columns: list[str]) -> None:
     if len(table) == 0:
         return
@@ -78,13 +92,17 @@ def print_summary(analysis: Analysis) -> None:
               help="Folder for report.html, PNGs and CSVs [default: ./analysis/<source name>].")
 @click.option("--reward-function", "reward_path", type=click.Path(exists=True, dir_okay=False, path_type=Path),
               help="Candidate reward_function.py to replay over the logged training steps (needs the track).")
+@click.option("--iterations", "iterations", metavar="A[-B]", callback=lambda ctx, param, value: parse_range(value),
+              help="Training iterations for the track pictures and the what-if: '27', '20-27' or '20-' "
+                   "(default: all; tables always show all).")
 @click.option("--sections", default=10, show_default=True, type=click.IntRange(2, 50),
               help="Number of equal-length track sections for the action-usage picture.")
 @click.option("--top", "top_laps", default=4, show_default=True, type=click.IntRange(1, 12),
               help="How many of the fastest laps to draw.")
 @click.option("--no-pictures", is_flag=True, help="Tables and CSVs only (faster).")
 def analyze_command(source: str, track: str | None, tracks_dir: Path | None, out_dir: Path | None,
-                    reward_path: Path | None, sections: int, top_laps: int, no_pictures: bool) -> None:
+                    reward_path: Path | None, iterations: tuple[int, int | None] | None, sections: int, top_laps: int,
+                    no_pictures: bool) -> None:
     """Analyse DeepRacer/racer simtrace logs. SOURCE is a model folder, a .tar.gz export, s3://bucket/prefix,
     a model prefix in RACER_STORE, one simtrace .csv, or a simulation .log with SIM_TRACE_LOG lines.
 
@@ -94,7 +112,7 @@ def analyze_command(source: str, track: str | None, tracks_dir: Path | None, out
     out_dir = out_dir or default_out_dir(source)
     try:
         analysis = analyze(source, out_dir, track=track, tracks_dir=tracks_dir, reward_function=reward_path,
-                           sections=sections, top_laps=top_laps, pictures=not no_pictures)
+                           iterations=iterations, sections=sections, top_laps=top_laps, pictures=not no_pictures)
     except (SourceError, SimtraceError, TrackError, StoreError, RewardFunctionError) as error:
         raise click.ClickException(str(error)) from error
     print_summary(analysis)

@@ -45,6 +45,8 @@ class Analysis:
     """Training workers that drove `track` (None = all of them)."""
     metrics_iterations: pd.DataFrame | None = None
     """Per iteration from TrainingMetrics JSON (training and in-training evaluation), when the source has it."""
+    picture_iterations: tuple[int, int | None] | None = None
+    """(first, last or None = to the end): training iterations the track pictures and the what-if use."""
 
 
 def run_tracks(files: RunFiles) -> dict[int | str, str]:
@@ -156,6 +158,16 @@ def on_track(table: pd.DataFrame, track_workers: set[int] | None) -> pd.DataFram
     return table[(table["phase"] != TRAINING) | table["worker"].isin(track_workers)]
 
 
+def for_pictures(table: pd.DataFrame, analysis: Analysis) -> pd.DataFrame:
+    """Rows the track pictures and the reward what-if use: on the track, and in the chosen training iterations."""
+    table = on_track(table, analysis.track_workers)
+    if analysis.picture_iterations is None:
+        return table
+    first, last = analysis.picture_iterations
+    chosen = table["iteration"].between(first, last if last is not None else table["iteration"].max())
+    return table[(table["phase"] != TRAINING) | chosen]
+
+
 def draw_pictures(analysis: Analysis, out_dir: Path, *, sections: int, top_laps: int) -> None:
     print("drawing pictures", file=sys.stderr)
     if len(analysis.iterations):
@@ -166,9 +178,9 @@ def draw_pictures(analysis: Analysis, out_dir: Path, *, sections: int, top_laps:
     if analysis.track is None:
         return
     track = analysis.track
-    steps = on_track(analysis.steps, analysis.track_workers)
+    steps = for_pictures(analysis.steps, analysis)
     training_steps = steps[steps["phase"] == TRAINING]
-    best_training = aggregate.best_laps(on_track(analysis.episodes, analysis.track_workers), TRAINING, top_laps)
+    best_training = aggregate.best_laps(for_pictures(analysis.episodes, analysis), TRAINING, top_laps)
     if len(best_training):
         title = ("Fastest training laps" if best_training["lap_complete"].all()
                  else "Furthest training episodes (no lap completed)")
@@ -254,7 +266,7 @@ def compare_reward(analysis: Analysis, reward_path: Path, out_dir: Path, *, pict
     """The reward what-if: table (and CSV), plus its picture."""
     if analysis.track is None:
         raise TrackError(NEEDS_TRACK)
-    new_reward = whatif.replay_reward(on_track(analysis.steps, analysis.track_workers), analysis.track, reward_path,
+    new_reward = whatif.replay_reward(for_pictures(analysis.steps, analysis), analysis.track, reward_path,
                                       reversed_by_episode=analysis.reversed_episodes, show_progress=show_progress)
     compared, by_iteration = whatif.compare(analysis.steps, new_reward, analysis.episodes)
     analysis.reward_comparison = by_iteration
@@ -268,12 +280,17 @@ def compare_reward(analysis: Analysis, reward_path: Path, out_dir: Path, *, pict
 
 
 def analyze(source: str, out_dir: Path, *, track: str | None = None, tracks_dir: Path | None = None,
-            reward_function: Path | None = None, sections: int = 10, top_laps: int = 4, pictures: bool = True,
-            show_progress: bool = True) -> Analysis:
+            reward_function: Path | None = None, iterations: tuple[int, int | None] | None = None,
+            sections: int = 10, top_laps: int = 4, pictures: bool = True, show_progress: bool = True) -> Analysis:
     """Everything `racer analyze` writes: CSV tables, PNGs, the optional reward what-if and report.html."""
     files = open_source(source)
     analysis = build_tables(files, track, tracks_dir, track_required=reward_function is not None,
                             show_progress=show_progress)
+    if iterations is not None:
+        analysis.picture_iterations = iterations
+        last = "the last" if iterations[1] is None else str(iterations[1])
+        analysis.notes.append(f"Track pictures and the reward what-if use training iterations {iterations[0]} to "
+                              f"{last}; the tables use all of them.")
     out_dir.mkdir(parents=True, exist_ok=True)
     write_tables(analysis, out_dir)
     if pictures:

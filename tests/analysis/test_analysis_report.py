@@ -202,3 +202,17 @@ def test_action_usage_shares_add_up_to_the_logged_action_counts(console_export, 
         action: counts.get(action, 0) for action in labels
     }
     assert set(counts) <= set(labels)
+
+
+def test_iterations_option_limits_pictures_and_whatif_not_tables(console_export, reinvent_route, deepracer_data, tmp_path):
+    from racer.analysis.cli import parse_range
+
+    assert parse_range("27") == (27, 27) and parse_range("20-27") == (20, 27) and parse_range("3-") == (3, None)
+    out = tmp_path / "o"
+    result = run(console_export, "--track", reinvent_route, "--out", out, "--no-pictures", "--iterations", "1-",
+                 "--reward-function", deepracer_data / "reward_functions/drfc1_follow_center_line.py")
+    assert "training iterations 1 to the last" in result.output
+    assert list(pd.read_csv(out / "reward_whatif.csv")["iteration"]) == [1, 27]
+    assert list(pd.read_csv(out / "iterations.csv")["iteration"]) == [0, 1, 27]
+    bad = CliRunner().invoke(analyze_command, [str(console_export), "--iterations", "9-2"])
+    assert bad.exit_code == 2 and "ends before it starts" in bad.output
