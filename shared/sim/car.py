@@ -33,6 +33,8 @@ MAX_SPEED_MPS = 4.0
 MAX_STEERING_DEG = 30.0
 
 CAMERA_POS_M = (0.14529, 0.0, 0.13033)
+LEGACY_CAMERA_POS_M = (0.2, 0.0, 0.164)
+"""Camera mount of SimApp models older than version 3 (reference §9.2)."""
 CAMERA_PITCH_DOWN_RAD = 0.2618
 CAMERA_HORIZONTAL_FOV_RAD = 1.13
 CAMERA_ASPECT = 4.0 / 3.0
@@ -73,14 +75,21 @@ def clip_command(speed_mps: float, steering_deg: float) -> tuple[float, float]:
     return min(max(speed_mps, MIN_SPEED_MPS), MAX_SPEED_MPS), min(max(steering_deg, -MAX_STEERING_DEG), MAX_STEERING_DEG)
 
 
-def car_mjcf(friction: float, camera_names: tuple[tuple[str, float], ...]) -> str:
+def camera_mount_m(simapp_version: float) -> tuple[float, float, float]:
+    """Camera position on the car for a model's SimApp version."""
+    return CAMERA_POS_M if simapp_version >= 3.0 else LEGACY_CAMERA_POS_M
+
+
+def car_mjcf(
+    friction: float, camera_names: tuple[tuple[str, float], ...], camera_pos_m: tuple[float, float, float] = CAMERA_POS_M
+) -> str:
     """The car body (free joint at the origin) with wheels, steering hinges, cameras and the LIDAR site."""
     fovy = vertical_fov_deg()
     s, c = math.sin(CAMERA_PITCH_DOWN_RAD), math.cos(CAMERA_PITCH_DOWN_RAD)
     # Camera looks along its -z with +y up: x = car right (-y), up tilted forward by the pitch.
     cam_axes = f"0 -1 0 {s:.9f} 0 {c:.9f}"
     cameras = "\n".join(
-        f'      <camera name="{name}" pos="{CAMERA_POS_M[0]} {y:.4f} {CAMERA_POS_M[2]}" xyaxes="{cam_axes}" fovy="{fovy:.9f}"/>'
+        f'      <camera name="{name}" pos="{camera_pos_m[0]} {y:.4f} {camera_pos_m[2]}" xyaxes="{cam_axes}" fovy="{fovy:.9f}"/>'
         for name, y in camera_names
     )
     r = WHEEL_RADIUS_M

@@ -15,7 +15,7 @@ from racer.shared.sim import lidar as lidar_sensor
 from racer.shared.sim import rules
 from racer.shared.sim._mujoco import mujoco
 from racer.shared.sim.camera import CENTER_CAMERA, LEFT_CAMERA, RIGHT_CAMERA, CameraRenderer, GrayConverter, rgb_to_l
-from racer.shared.sim.car import STEREO_HALF_BASELINE_M, Car, clip_command, command_wheel_radius_m
+from racer.shared.sim.car import STEREO_HALF_BASELINE_M, Car, CarPose, camera_mount_m, clip_command, command_wheel_radius_m
 from racer.shared.sim.config import STEPS_PER_SECOND, EnvConfig
 from racer.shared.sim.reward import RewardFunction, default_evaluation_reward, load_reward_function
 from racer.shared.sim.reward_params import make_reward_params
@@ -117,7 +117,13 @@ class DeepRacerEnv(gym.Env):
 
         self._substeps = cfg.physics_substeps
         self._model = build_model(
-            SceneSpec(self._base_track, get_world(cfg.world), 1.0 / (STEPS_PER_SECOND * self._substeps), cameras)
+            SceneSpec(
+                self._base_track,
+                get_world(cfg.world),
+                1.0 / (STEPS_PER_SECOND * self._substeps),
+                cameras,
+                camera_mount_m(self._metadata.version),
+            )
         )
         self._data = mujoco.MjData(self._model)
         self._car = Car(self._model, command_wheel_radius_m(self._metadata.version))
@@ -363,7 +369,7 @@ class DeepRacerEnv(gym.Env):
             self._finish_episode()
         return self._observe(), reward, terminated, truncated, info
 
-    def _start_pause(self, status: str, pose) -> None:
+    def _start_pause(self, status: str, pose: CarPose) -> None:
         """Pause for the rule's penalty, then continue from the last progress on the nearer lane (§2.4)."""
         cfg = self.config
         penalty_s = {

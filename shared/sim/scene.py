@@ -38,6 +38,8 @@ class SceneSpec:
     timestep_s: float
     camera_names: tuple[tuple[str, float], ...]
     """(camera name, lateral offset y in metres) per camera to mount on the car."""
+    camera_pos_m: tuple[float, float, float] = car_geometry.CAMERA_POS_M
+    """Camera mount (x, z used; y per camera) on the car."""
 
 
 def _floats(values: np.ndarray) -> str:
@@ -172,7 +174,7 @@ def scene_mjcf(spec: SceneSpec) -> str:
     <geom name="outer_line" type="mesh" mesh="outer_line" material="border" contype="0" conaffinity="0" group="1"/>
     <geom name="center_line" type="mesh" mesh="center_line" material="center" contype="0" conaffinity="0" group="1"/>
 {_backdrop_xml(mid, half)}
-{car_geometry.car_mjcf(mu, spec.camera_names)}
+{car_geometry.car_mjcf(mu, spec.camera_names, spec.camera_pos_m)}
   </worldbody>
 {car_geometry.car_actuators_mjcf()}
 </mujoco>

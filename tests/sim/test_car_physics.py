@@ -94,6 +94,7 @@ def test_commands_are_clipped_and_old_models_use_their_wheel_radius():
     try:
         speed, _ = _drive(env, 1.0, 0.0, 1.5)
         assert speed == pytest.approx(0.35, rel=0.05)
+        assert tuple(env.model.camera("front_camera").pos) == pytest.approx((0.2, 0.0, 0.164))  # pre-v3 mount
     finally:
         env.close()
 
