@@ -86,15 +86,23 @@ def test_evaluation_resets_and_penalties(tmp_path, deepracer_data):
 
 
 def test_continuous_action_files_draw_action_usage(tmp_path, deepracer_data, reinvent_route):
+    """Continuous actions ('[steer speed]' strings) are binned by steering and speed; only bins that occur are shown."""
+    from racer.analysis import plots
+    from racer.analysis.track_sections import load_track
+
     rows = read_rows(deepracer_data / "simtrace/console2022_training_27-iteration.csv")
     action = rows[0].index("action")
     for row in rows[1:]:
         row[action] = f"[{float(row[5]):.1f} {float(row[6]):.1f}]"
     folder = write_rows(tmp_path / "c/training-simtrace/0-iteration.csv", rows).parents[1]
-    out = tmp_path / "out"
-    result = CliRunner().invoke(analyze_command, [str(folder), "--track", str(reinvent_route), "--out", str(out)])
-    assert result.exit_code == 0, result.output
-    assert (out / "action_usage.png").stat().st_size > 10_000
+    steps = load_steps(open_source(str(folder)), progress=False)
+    assert steps["action"].str.startswith("[").all()
+    path, usage = plots.action_usage(steps, steps["closest_waypoint"], load_track(str(reinvent_route)), 6,
+                                     tmp_path / "actions.png")
+    assert path.stat().st_size > 10_000
+    assert np.allclose(usage.sum(axis=1), 1.0)
+    assert (usage.sum(axis=0) > 0).all()  # no column for a steering/speed bin nobody used
+    assert "°" in usage.columns[0] and "m/s" in usage.columns[0]
 
 
 @pytest.mark.parametrize(
