@@ -1,9 +1,13 @@
 """DeepRacer checkpoint names, pointer files and the console importer's choice of checkpoints.
 
 Names follow `<N>_Step-<M>.ckpt` (N = checkpoint number, M = total environment steps; reference §5.1).
-A checkpoint is the group of files in `model/` whose names start with `<name>.`:
-TensorFlow (real DeepRacer): `.index`, `.data-0000i-of-0000K` shards, `.meta` (optional for restoring);
-this system's PyTorch checkpoints: whatever `racer.shared.policy.checkpoints` writes under the same name.
+A checkpoint is the group of files in `model/` whose names start with `<name>.`, in one of two formats:
+
+* TensorFlow (DeepRacer console / SimApp): `.index` and every `.data-0000i-of-0000K` shard (`.meta` is
+  optional for restoring and not required).
+* racer (`racer.shared.policy.checkpoints`): `.weights.safetensors` and the `.json` manifest (written last,
+  it lists every file with size and sha256); `.optimizer.safetensors` / `.optimizer.json` when saved with
+  the optimiser. The manifest's own list is checked by validation (validate.py).
 """
 
 from __future__ import annotations
@@ -14,6 +18,10 @@ from dataclasses import dataclass
 
 CHECKPOINT_NAME = re.compile(r"^(?P<number>\d+)_Step-(?P<steps>\d+)\.ckpt$")
 _TF_DATA_SHARD = re.compile(r"^data-(?P<index>\d+)-of-(?P<count>\d+)$")
+RACER_WEIGHTS = "weights.safetensors"
+RACER_MANIFEST = "json"
+RACER_PARTS = frozenset({RACER_WEIGHTS, RACER_MANIFEST, "optimizer.safetensors", "optimizer.json"})
+"""Suffixes racer's CheckpointStore writes after `<name>.` (its WEIGHTS_SUFFIX, MANIFEST_SUFFIX, OPTIMIZER_*)."""
 _INFERENCE_MODEL = re.compile(r"^model_(?P<number>\d+)\.(?P<ext>pb|onnx)$")
 
 MODEL_DIR = "model/"
@@ -65,32 +73,34 @@ def is_inference_model(key: str) -> bool:
     return key.startswith(MODEL_DIR) and _INFERENCE_MODEL.match(key.removeprefix(MODEL_DIR)) is not None
 
 
-def missing_parts(name: CheckpointName, files: set[str] | dict[str, int],
-                  required_suffixes: frozenset[str] = frozenset()) -> list[str]:
+def is_racer_checkpoint(name: CheckpointName, files: set[str] | dict[str, int]) -> bool:
+    present = {key.removeprefix(f"{MODEL_DIR}{name.name}.") for key in checkpoint_files(name, files)}
+    return bool(present & RACER_PARTS)
+
+
+def missing_parts(name: CheckpointName, files: set[str] | dict[str, int]) -> list[str]:
     """Files checkpoint `name` needs but lacks; `[]` means complete.
 
-    If none of its files exist the answer is the bare checkpoint name. TensorFlow checkpoints need the
-    `.index` and every `.data-i-of-K` shard. `required_suffixes` are the parts this system's own format
-    needs (from the PPO checkpoint module), checked when any of them is present.
+    If none of its files exist the answer is `model/<name>.*`. TensorFlow checkpoints need the `.index` and
+    every `.data-i-of-K` shard; racer checkpoints need the weights and the manifest.
     """
     present = {key.removeprefix(f"{MODEL_DIR}{name.name}.") for key in checkpoint_files(name, files)}
     if not present:
         return [f"{MODEL_DIR}{name.name}.*"]
     missing: list[str] = []
+    if present & RACER_PARTS:
+        return [f"{MODEL_DIR}{name.name}.{suffix}" for suffix in (RACER_WEIGHTS, RACER_MANIFEST) if suffix not in present]
     shards = [_TF_DATA_SHARD.match(suffix) for suffix in present]
     shard_counts = {int(match["count"]) for match in shards if match}
-    if "index" in present or shard_counts:
-        if "index" not in present:
-            missing.append(f"{MODEL_DIR}{name.name}.index")
-        if not shard_counts:
-            missing.append(f"{MODEL_DIR}{name.name}.data-00000-of-00001")
-        for count in shard_counts:
-            for index in range(count):
-                suffix = f"data-{index:05d}-of-{count:05d}"
-                if suffix not in present:
-                    missing.append(f"{MODEL_DIR}{name.name}.{suffix}")
-    elif required_suffixes & present:
-        missing += [f"{MODEL_DIR}{name.name}.{suffix}" for suffix in sorted(required_suffixes - present)]
+    if "index" not in present:
+        missing.append(f"{MODEL_DIR}{name.name}.index")
+    if not shard_counts:
+        missing.append(f"{MODEL_DIR}{name.name}.data-00000-of-00001")
+    for count in shard_counts:
+        for index in range(count):
+            suffix = f"data-{index:05d}-of-{count:05d}"
+            if suffix not in present:
+                missing.append(f"{MODEL_DIR}{name.name}.{suffix}")
     return missing
 
 
@@ -99,11 +109,10 @@ def all_checkpoint_names(files: set[str] | dict[str, int]) -> list[CheckpointNam
     return sorted(name for name in names if name is not None)
 
 
-def previous_checkpoint(name: CheckpointName, files: set[str] | dict[str, int],
-                        required_suffixes: frozenset[str] = frozenset()) -> CheckpointName | None:
+def previous_checkpoint(name: CheckpointName, files: set[str] | dict[str, int]) -> CheckpointName | None:
     """The complete checkpoint with the highest number below `name`'s (the console's "second from the last")."""
     earlier = [other for other in all_checkpoint_names(files)
-               if other.number < name.number and not missing_parts(other, files, required_suffixes)]
+               if other.number < name.number and not missing_parts(other, files)]
     return max(earlier, default=None)
 
 

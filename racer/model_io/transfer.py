@@ -209,13 +209,13 @@ def _source_deepracer_checkpoints(source: ModelSource, plan: ImportPlan) -> byte
 
 
 def import_model(source: ModelSource, store: ObjectStore, model_name: str, *, overwrite: bool = False,
-                 limits: SizeLimits = DEFAULT_LIMITS, checkpoint_suffixes: frozenset[str] = frozenset()) -> TransferResult:
+                 limits: SizeLimits = DEFAULT_LIMITS) -> TransferResult:
     """Validate `source` and copy it to `<model_name>/` in `store` with the console's checkpoint logic."""
     if not MODEL_NAME.match(model_name):
         raise ValueError(f"model name {model_name!r}: use 1-64 letters, digits and hyphens, starting with a letter "
                          "or digit (the console's rule)")
     destination = StoreDestination(store, model_name)
-    report = validate_model(source, limits, checkpoint_suffixes)
+    report = validate_model(source, limits)
     if report.plan is None:
         return TransferResult(destination.describe(), report)
     try:
@@ -271,11 +271,11 @@ def car_bundle(metadata: bytes, inference_key: str, inference_model: bytes) -> t
 
 
 def export_model(store: ObjectStore, model_prefix: str, destination: Destination, *,
-                 limits: SizeLimits = DEFAULT_LIMITS, checkpoint_suffixes: frozenset[str] = frozenset(),
+                 limits: SizeLimits = DEFAULT_LIMITS,
                  check: bool = True) -> TransferResult:
     """Write `model_prefix` from `store` to `destination` in the import-ready layout plus model.tar.gz."""
     source = StoreSource(store, model_prefix)
-    report = validate_model(source, limits, checkpoint_suffixes)
+    report = validate_model(source, limits)
     if report.plan is None:
         return TransferResult(destination.describe(), report)
     plan = _exported_plan(report.plan)
@@ -296,7 +296,7 @@ def export_model(store: ObjectStore, model_prefix: str, destination: Destination
                               problems=(problem_for_source_error(error, source.describe()),))
     if isinstance(destination, ArchiveDestination):
         destination.close()
-    checked = validate_model(_source_for(destination), limits, checkpoint_suffixes) if check else None
+    checked = validate_model(_source_for(destination), limits) if check else None
     car_model = None if inference_key is None else (CAR_BUNDLE_ONNX if inference_key.endswith(".onnx") else CAR_BUNDLE_PB)
     return TransferResult(destination.describe(), report, written=tuple(written), car_bundle_model=car_model,
                           check=checked)

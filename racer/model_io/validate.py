@@ -9,6 +9,7 @@ checkpoint and the one before it).
 from __future__ import annotations
 
 import ast
+import hashlib
 import io
 import json
 import re
@@ -157,10 +158,10 @@ def _check_sizes(run: _Collector, limits: SizeLimits) -> None:
                     "rebuild model.tar.gz with only model_metadata.json and agent/model.* (racer model export)")
 
 
-def _select_checkpoints(run: _Collector, required_suffixes: frozenset[str]) -> CheckpointSelection | None:
+def _select_checkpoints(run: _Collector) -> CheckpointSelection | None:
     """The console's order: deepracer_checkpoints.json, then .coach_checkpoint, else the model can't be imported."""
     if ck.DEEPRACER_CHECKPOINTS in run.files:
-        selection = _select_from_deepracer_checkpoints(run, required_suffixes)
+        selection = _select_from_deepracer_checkpoints(run)
         if selection is not None and ck.COACH_CHECKPOINT in run.files:
             coach = run.read(ck.COACH_CHECKPOINT)
             if coach is not None and coach.decode("utf-8", "replace").strip() != selection.pointer:
@@ -168,8 +169,8 @@ def _select_checkpoints(run: _Collector, required_suffixes: frozenset[str]) -> C
                                  f"(as in the console); after import the pointer names {selection.pointer}")
         return selection
     if ck.COACH_CHECKPOINT in run.files:
-        return _select_from_coach_checkpoint(run, required_suffixes)
-    newest = [name for name in ck.all_checkpoint_names(run.files) if not ck.missing_parts(name, run.files, required_suffixes)]
+        return _select_from_coach_checkpoint(run)
+    newest = [name for name in ck.all_checkpoint_names(run.files) if not ck.missing_parts(name, run.files)]
     hint = f" (the newest complete one here is {newest[-1]})" if newest else ""
     run.add(ProblemCode.COACH_CHECKPOINT_DOES_NOT_EXIST, ck.COACH_CHECKPOINT,
             f"neither {ck.DEEPRACER_CHECKPOINTS} nor {ck.COACH_CHECKPOINT} exists, so no checkpoint is named",
@@ -186,16 +187,15 @@ def _named_checkpoint(run: _Collector, pointer_key: str, field: str, text: str) 
     return name
 
 
-def _require_complete(run: _Collector, pointer_key: str, name: ck.CheckpointName,
-                      required_suffixes: frozenset[str]) -> bool:
-    missing = ck.missing_parts(name, run.files, required_suffixes)
+def _require_complete(run: _Collector, pointer_key: str, name: ck.CheckpointName) -> bool:
+    missing = ck.missing_parts(name, run.files)
     if missing:
         run.add(ProblemCode.CHECKPOINT_FILES_DOES_NOT_EXIST, pointer_key,
                 f"names checkpoint {name}, but these files are missing: {', '.join(missing)}", _CHECKPOINT_FIX)
     return not missing
 
 
-def _select_from_deepracer_checkpoints(run: _Collector, required_suffixes: frozenset[str]) -> CheckpointSelection | None:
+def _select_from_deepracer_checkpoints(run: _Collector) -> CheckpointSelection | None:
     data = run.read(ck.DEEPRACER_CHECKPOINTS)
     if data is None:
         return None
@@ -210,7 +210,7 @@ def _select_from_deepracer_checkpoints(run: _Collector, required_suffixes: froze
     last = _named_checkpoint(run, ck.DEEPRACER_CHECKPOINTS, "last_checkpoint.name", pointers.last)
     if best is None or last is None:
         return None
-    missing = {name: ck.missing_parts(name, run.files, required_suffixes) for name in sorted({best, last})}
+    missing = {name: ck.missing_parts(name, run.files) for name in sorted({best, last})}
     if any(missing.values()):
         described = "; ".join(f"{name}: {', '.join(parts)}" for name, parts in missing.items() if parts)
         run.add(ProblemCode.CHECKPOINT_FILES_DOES_NOT_EXIST, ck.DEEPRACER_CHECKPOINTS,
@@ -220,7 +220,7 @@ def _select_from_deepracer_checkpoints(run: _Collector, required_suffixes: froze
                                best=best.name, source=ck.DEEPRACER_CHECKPOINTS)
 
 
-def _select_from_coach_checkpoint(run: _Collector, required_suffixes: frozenset[str]) -> CheckpointSelection | None:
+def _select_from_coach_checkpoint(run: _Collector) -> CheckpointSelection | None:
     data = run.read(ck.COACH_CHECKPOINT)
     if data is None:
         return None
@@ -231,9 +231,9 @@ def _select_from_coach_checkpoint(run: _Collector, required_suffixes: frozenset[
                 "restore the original file: one line holding the checkpoint name, e.g. 13_Step-25173.ckpt")
         return None
     name = _named_checkpoint(run, ck.COACH_CHECKPOINT, "checkpoint name", text)
-    if name is None or not _require_complete(run, ck.COACH_CHECKPOINT, name, required_suffixes):
+    if name is None or not _require_complete(run, ck.COACH_CHECKPOINT, name):
         return None
-    previous = ck.previous_checkpoint(name, run.files, required_suffixes)
+    previous = ck.previous_checkpoint(name, run.files)
     chosen = (previous, name) if previous is not None else (name,)
     if previous is None:
         run.notes.append(f"{ck.COACH_CHECKPOINT}: no complete checkpoint before {name}; only {name} is imported")
@@ -363,6 +363,63 @@ def _check_inference_models(run: _Collector, keys: list[str], metadata: ModelMet
                     f"{metadata.num_actions}", "restore the model_metadata.json the model was trained with")
 
 
+def _check_racer_checkpoints(run: _Collector, names: list[ck.CheckpointName], metadata_key: str | None,
+                             metadata: ModelMetadata | None) -> bool:
+    """racer checkpoints carry a manifest with every file's size and sha256 and the network they were saved
+    from: a file that doesn't match, or a model_metadata.json asking for another network, is an edited model.
+    Returns True when the metadata disagrees with a checkpoint (the ONNX width check would repeat it)."""
+    racer_names = [name for name in names if ck.is_racer_checkpoint(name, run.files)]
+    if not racer_names:
+        return False
+    # torch comes with these imports; only models that hold racer checkpoints pay for it.
+    from racer.shared.policy.checkpoints import CheckpointError, CheckpointInfo
+    from racer.shared.policy.networks import policy_config_from_metadata
+
+    disagreeing: list[str] = []
+    saved = None
+    wanted_text = ""
+    for name in racer_names:
+        manifest_key = f"{ck.MODEL_DIR}{name}.{ck.RACER_MANIFEST}"
+        data = run.read(manifest_key)
+        if data is None:
+            continue
+        try:
+            info = CheckpointInfo.from_dict(_decode_json(data, manifest_key))
+        except (CheckpointError, ValueError, KeyError, TypeError) as error:
+            run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, manifest_key, f"is not a racer checkpoint manifest: {error}",
+                    "restore the file from the training run; racer writes it last, after the checkpoint's files")
+            continue
+        for file_name, expected in sorted(info.files.items()):
+            key = ck.MODEL_DIR + file_name
+            if key not in run.files:
+                run.add(ProblemCode.CHECKPOINT_FILES_DOES_NOT_EXIST, key,
+                        f"listed by {manifest_key} but missing", _CHECKPOINT_FIX)
+                continue
+            content = run.read(key)
+            if content is None:
+                continue
+            if len(content) != expected.get("size_bytes") or hashlib.sha256(content).hexdigest() != expected.get("sha256"):
+                run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, key,
+                        f"does not match the size and sha256 recorded in {manifest_key} (the file was changed)",
+                        "restore the checkpoint files exactly as the trainer wrote them")
+        if metadata is not None:
+            try:
+                wanted = policy_config_from_metadata(metadata)
+                wanted_text = f"{wanted.num_actions} {wanted.action_space_type} actions, {wanted.neural_network}"
+            except ValueError as error:
+                wanted, wanted_text = None, str(error)
+            if wanted != info.policy_config:
+                disagreeing.append(name.name)
+                saved = info.policy_config
+    if disagreeing and saved is not None:
+        run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, metadata_key or METADATA_KEYS[0],
+                f"asks for {wanted_text}, but checkpoint {', '.join(disagreeing)} was trained with "
+                f"{saved.num_actions} {saved.action_space_type} actions, {saved.neural_network}",
+                "restore the model_metadata.json the model was trained with (each racer checkpoint manifest "
+                "model/<N>_Step-<M>.ckpt.json holds a copy under model_metadata)")
+    return bool(disagreeing)
+
+
 def _check_car_bundle(run: _Collector) -> None:
     if CAR_BUNDLE_KEY not in run.files:
         return
@@ -384,8 +441,7 @@ def _check_car_bundle(run: _Collector) -> None:
                 "rebuild it with racer model export, or delete it (imports don't need it)")
 
 
-def validate_model(source: ModelSource, limits: SizeLimits = DEFAULT_LIMITS,
-                   checkpoint_suffixes: frozenset[str] = frozenset()) -> ValidationReport:
+def validate_model(source: ModelSource, limits: SizeLimits = DEFAULT_LIMITS) -> ValidationReport:
     """Run every check on one model prefix; never raises for a bad model, only reports."""
     where = source.describe()
     try:
@@ -407,7 +463,7 @@ def validate_model(source: ModelSource, limits: SizeLimits = DEFAULT_LIMITS,
                     "the import needs (racer model export writes exactly those)")
             return ValidationReport(where, tuple(run.problems))
     _check_sizes(run, limits)
-    selection = _select_checkpoints(run, checkpoint_suffixes)
+    selection = _select_checkpoints(run)
     metadata_key, metadata = _check_metadata(run)
     hyperparameters_key = _check_hyperparameters(run)
     _check_reward_function(run)
@@ -424,7 +480,8 @@ def validate_model(source: ModelSource, limits: SizeLimits = DEFAULT_LIMITS,
         names = [ck.parse_checkpoint_name(name) for name in selection.checkpoints]
         checkpoint_keys = sorted({key for name in names if name for key in
                                   ck.checkpoint_files(name, files) + ck.inference_model_files(name, files)})
-        _check_inference_models(run, checkpoint_keys, metadata)
+        metadata_disagrees = _check_racer_checkpoints(run, [name for name in names if name], metadata_key, metadata)
+        _check_inference_models(run, checkpoint_keys, None if metadata_disagrees else metadata)
         if any(key.endswith(".ckpt.index") for key in checkpoint_keys):
             run.notes.append("TensorFlow checkpoints (DeepRacer console / SimApp): they import and export as they are, "
                              "but racer's trainer and evaluator run racer's own (PyTorch) checkpoints")
@@ -446,8 +503,7 @@ def validate_model(source: ModelSource, limits: SizeLimits = DEFAULT_LIMITS,
     return ValidationReport(where, tuple(run.problems), tuple(run.notes), plan)
 
 
-def validate_location(location: str, limits: SizeLimits = DEFAULT_LIMITS,
-                      checkpoint_suffixes: frozenset[str] = frozenset()) -> tuple[ValidationReport, ModelSource | None]:
+def validate_location(location: str, limits: SizeLimits = DEFAULT_LIMITS) -> tuple[ValidationReport, ModelSource | None]:
     """Open a folder, archive or s3://bucket/prefix and validate it; the source is returned for import."""
     path = Path(location).expanduser()
     if not location.startswith("s3://") and path.is_file() and path.stat().st_size > limits.model_bytes:
@@ -460,4 +516,4 @@ def validate_location(location: str, limits: SizeLimits = DEFAULT_LIMITS,
         source = open_source(location)
     except (SourceMissingError, SourceFormatError) as error:
         return ValidationReport(location, (problem_for_source_error(error, location),)), None
-    return validate_model(source, limits, checkpoint_suffixes), source
+    return validate_model(source, limits), source
