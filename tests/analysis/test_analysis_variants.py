@@ -191,3 +191,27 @@ def test_reverse_direction_episodes_are_detected_and_replayed_reversed(tmp_path,
     running = steps["episode_status"] != "prepare"
     assert (new_reward[running & (steps["episode"] == 999)] == 1.0).all()
     assert (new_reward[running & (steps["episode"] != 999)] == 0.5).all()
+
+
+def test_simtraces_written_by_racer_itself(tmp_path, deepracer_data, read_csv_episodes):
+    """racer's rollout workers write 19 columns with the shared SimtraceWriter into <prefix>/<worker>/training-simtrace:
+    the same real steps re-written that way give the same episodes."""
+    from racer.shared.deepracer.simtrace import SimtraceWriter, read_simtrace
+
+    source = deepracer_data / "simtrace/drfc1_training_26-iteration.csv"
+    writer = SimtraceWriter()
+    for row in read_simtrace(source).to_dict(orient="records"):
+        writer.add_row({**row, "obstacle_crash_counter": 0, "wall_clock": 1.7e9 + row["tstamp"]})
+    prefix = tmp_path / "racer-model"
+    for worker in (0, 1):
+        target = prefix / str(worker) / "training-simtrace/26-iteration.csv"
+        target.parent.mkdir(parents=True)
+        target.write_bytes(writer.to_bytes())
+    assert target.read_text().splitlines()[0] == ",".join(SIMTRACE_COLUMNS)
+    episodes = episode_table(prefix)
+    expected = read_csv_episodes(source)
+    for worker in (0, 1):
+        mine = episodes[episodes["worker"] == worker].set_index("episode")
+        assert sorted(mine.index) == sorted(expected)
+        assert mine["lap_complete"].sum() == sum(e.complete for e in expected.values())
+        assert mine["lap_time_s"].min() == pytest.approx(min(e.time_s for e in expected.values() if e.complete))
