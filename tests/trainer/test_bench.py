@@ -1,0 +1,50 @@
+"""The fast trainer path learns the same thing as the plain fp32 baseline; `racer bench ppo` prints one JSON line."""
+
+from __future__ import annotations
+
+import copy
+import json
+
+import pytest
+import torch
+from click.testing import CliRunner
+
+from racer.shared.deepracer.hyperparameters import Hyperparameters
+from racer.trainer.bench import bench_network, plain_ppo_update, ppo_bench_command, synthetic_episodes
+from racer.trainer.ppo import PPOSettings, PPOTrainer
+
+
+def test_fast_path_gives_the_same_learning_result_as_the_plain_baseline():
+    hp = Hyperparameters(batch_size=32, num_epochs=3, lr=3e-4, beta_entropy=0.01, discount_factor=0.999,
+                         loss_type="huber")
+    initial = bench_network(num_actions=5, seed=1)
+    episodes = synthetic_episodes(200, num_actions=5, seed=1)  # 2 episodes, 6 minibatches per epoch
+    fast, plain = copy.deepcopy(initial), copy.deepcopy(initial)
+    fast_stats = PPOTrainer(fast, hp, PPOSettings(seed=3)).update(episodes)
+    plain_stats = plain_ppo_update(plain, hp, episodes, seed=3)
+
+    for mine, theirs in zip(fast_stats, plain_stats, strict=True):
+        assert mine.surrogate_loss == pytest.approx(theirs["surrogate"], rel=1e-3, abs=1e-5)
+        assert mine.kl_divergence == pytest.approx(theirs["kl"], rel=1e-2, abs=1e-6)
+        assert mine.entropy == pytest.approx(theirs["entropy"], rel=1e-5)
+        assert mine.value_loss == pytest.approx(theirs["value"], rel=1e-4)
+    moved = max((fast.state_dict()[k] - initial.state_dict()[k]).abs().max().item() for k in initial.state_dict())
+    differ = max((fast.state_dict()[k] - plain.state_dict()[k]).abs().max().item() for k in initial.state_dict())
+    assert moved > 1e-3  # 18 Adam steps of lr 3e-4 moved the weights ...
+    assert differ < moved * 0.05  # ... and both paths moved them to the same place (measured ratio ~0.006)
+    batch = {"FRONT_FACING_CAMERA": torch.from_numpy(episodes[0].observations["FRONT_FACING_CAMERA"][:16])}
+    with torch.no_grad():
+        torch.testing.assert_close(fast.distribution(batch).probs, plain.distribution(batch).probs, rtol=1e-3, atol=1e-5)
+        torch.testing.assert_close(fast.value(batch), plain.value(batch), rtol=1e-3, atol=1e-4)
+
+
+def test_bench_command_prints_one_json_line():
+    result = CliRunner().invoke(ppo_bench_command, ["--transitions", "64", "--epochs", "1", "--batch-size", "32",
+                                                    "--threads", "1"])
+    assert result.exit_code == 0, result.output
+    lines = [line for line in result.stdout.splitlines() if line.startswith("{")]
+    assert len(lines) == 1
+    report = json.loads(lines[0])
+    assert report["transitions"] == 64 and report["epochs"] == 1
+    assert report["samples_per_s"] > 0 and report["baseline_samples_per_s"] > 0
+    assert report["speedup"] == pytest.approx(report["samples_per_s"] / report["baseline_samples_per_s"], rel=0.01)
