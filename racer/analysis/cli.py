@@ -13,10 +13,9 @@ from racer.analysis.pipeline import Analysis, analyze
 from racer.analysis.report import format_table
 from racer.analysis.sources import TRAINING, SourceError
 from racer.analysis.track_sections import TrackError
+from racer.shared.deepracer.simtrace import SimtraceError
 from racer.shared.sim.reward import RewardFunctionError
 from racer.shared.store import StoreError
-
-from racer.shared.deepracer.simtrace import SimtraceError
 
 TERMINAL_ITERATIONS = 15
 """The terminal shows the last iterations only; the report and iterations.csv have all of them."""
@@ -24,7 +23,7 @@ TERMINAL_ITERATIONS = 15
 
 def default_out_dir(source: str) -> Path:
     name = re.sub(r"[^A-Za-z0-9._-]+", "_", source.removeprefix("s3://").rstrip("/").split("/")[-1]) or "run"
-    return Path("analysis") / re.sub(r"\.(tar\.gz|tgz|tar|csv)$", "", name)
+    return Path("analysis") / re.sub(r"\.(tar\.gz|tgz|tar|csv|log)$", "", name)
 
 
 def parse_range(value: str | None) -> tuple[int, int | None] | None:

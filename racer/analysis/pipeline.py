@@ -14,9 +14,8 @@ from racer.analysis import aggregate, plots, training_metrics, whatif
 from racer.analysis.loading import load_steps
 from racer.analysis.report import Report, write_html
 from racer.analysis.sources import EVALUATION, TRAINING, RunFiles, open_source
-from racer.shared.deepracer.metrics import MetricsError
 from racer.analysis.track_sections import Track, TrackError, forward_waypoint, load_track, reversed_episodes
-
+from racer.shared.deepracer.metrics import MetricsError
 
 NEEDS_TRACK = "the reward what-if rebuilds params from the track: give --track NAME|PATH.npy"
 HTML_EPISODES = 200
