@@ -12,6 +12,7 @@ from pathlib import Path
 
 import click
 
+from racer.model_io.checkpoints import COACH_CHECKPOINT, DEEPRACER_CHECKPOINTS
 from racer.model_io.problems import ValidationProblem, ValidationReport
 from racer.model_io.sources import split_s3_location
 from racer.model_io.transfer import (
@@ -50,8 +51,11 @@ def _print_report(report: ValidationReport) -> None:
     _print_problems(report.problems)
     if report.plan is not None:
         selection = report.plan.selection
-        click.echo(f"OK  {report.source}: import-ready. Checkpoints {', '.join(selection.checkpoints)} "
-                   f"(chosen by {selection.source}); best {selection.best}, last {selection.pointer}; "
+        if selection.source == COACH_CHECKPOINT:
+            chosen = f"{COACH_CHECKPOINT} names {selection.pointer}"
+        else:
+            chosen = f"{DEEPRACER_CHECKPOINTS}: best {selection.best}, last {selection.pointer}"
+        click.echo(f"OK  {report.source}: import-ready. Checkpoints {', '.join(selection.checkpoints)} ({chosen}); "
                    f"{report.plan.total_bytes} bytes to copy.")
     for note in report.notes:
         click.echo(f"note: {note}")
@@ -106,6 +110,8 @@ def import_command(source: str, model_name: str, store_location: str | None, ove
     except ModelExistsError as error:
         raise click.ClickException(str(error)) from None
     _finish(result, f"imported {source} as {result.destination}")
+    click.echo(f"model prefix {model_name!r}: clone it with `racer trainer --pretrained-prefix {model_name}`, "
+               "or give it as the model prefix to evaluate")
 
 
 @model_group.command("export", short_help="Write a stored model in the import-ready layout plus the car's model.tar.gz.")

@@ -187,11 +187,17 @@ def _named_checkpoint(run: _Collector, pointer_key: str, field: str, text: str) 
     return name
 
 
+def _present_checkpoints(run: _Collector) -> str:
+    names = ck.all_checkpoint_names(run.files)
+    return f" (checkpoints here: {', '.join(map(str, names))})" if names else " (no checkpoint files at all)"
+
+
 def _require_complete(run: _Collector, pointer_key: str, name: ck.CheckpointName) -> bool:
     missing = ck.missing_parts(name, run.files)
     if missing:
         run.add(ProblemCode.CHECKPOINT_FILES_DOES_NOT_EXIST, pointer_key,
-                f"names checkpoint {name}, but these files are missing: {', '.join(missing)}", _CHECKPOINT_FIX)
+                f"names checkpoint {name}, but these files are missing: {', '.join(missing)}{_present_checkpoints(run)}",
+                _CHECKPOINT_FIX)
     return not missing
 
 
@@ -214,7 +220,8 @@ def _select_from_deepracer_checkpoints(run: _Collector) -> CheckpointSelection |
     if any(missing.values()):
         described = "; ".join(f"{name}: {', '.join(parts)}" for name, parts in missing.items() if parts)
         run.add(ProblemCode.CHECKPOINT_FILES_DOES_NOT_EXIST, ck.DEEPRACER_CHECKPOINTS,
-                f"names best {best} and last {last}, but files are missing ({described})", _CHECKPOINT_FIX)
+                f"names best {best} and last {last}, but files are missing ({described}){_present_checkpoints(run)}",
+                _CHECKPOINT_FIX)
         return None
     return CheckpointSelection(checkpoints=tuple(name.name for name in sorted({best, last})), pointer=last.name,
                                best=best.name, source=ck.DEEPRACER_CHECKPOINTS)
