@@ -110,8 +110,9 @@ def import_command(source: str, model_name: str, store_location: str | None, ove
     except ModelExistsError as error:
         raise click.ClickException(str(error)) from None
     _finish(result, f"imported {source} as {result.destination}")
-    click.echo(f"model prefix {model_name!r}: clone it with `racer trainer --pretrained-prefix {model_name}`, "
-               "or give it as the model prefix to evaluate")
+    if any(key.endswith(".ckpt.weights.safetensors") for key in result.written):
+        click.echo(f"model prefix {model_name!r}: clone it with `racer trainer --pretrained-prefix {model_name}`, "
+                   "or give it as the model prefix to evaluate")
 
 
 @model_group.command("export", short_help="Write a stored model in the import-ready layout plus the car's model.tar.gz.")

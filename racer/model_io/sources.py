@@ -129,6 +129,15 @@ class StoreSource:
 
     def list_files(self) -> dict[str, int]:
         listing_prefix = self.prefix + "/" if self.prefix else ""
+        if isinstance(self.store, S3Store):
+            # One paginated listing carries every size; a training prefix can hold thousands of simtrace files,
+            # and asking for each size separately would cost a request per file.
+            files: dict[str, int] = {}
+            paginator = self.store.client.get_paginator("list_objects_v2")
+            for page in paginator.paginate(Bucket=self.store.bucket, Prefix=listing_prefix):
+                for item in page.get("Contents", []):
+                    files[item["Key"].removeprefix(listing_prefix)] = int(item["Size"])
+            return dict(sorted(files.items()))
         keys = self.store.list_keys(listing_prefix)
         return {key.removeprefix(listing_prefix): self.store.size(key) for key in keys}
 

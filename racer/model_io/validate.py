@@ -53,6 +53,9 @@ _METRICS = re.compile(r"^(metrics/.+\.json|(Training|Evaluation)Metrics[^/]*\.js
 
 T = TypeVar("T")
 
+_ACCESS_FIX = ("give the credentials in use s3:ListBucket and s3:GetObject on the bucket and prefix (bucket policy "
+               "or user policy), or use credentials that have them")
+
 _CHECKPOINT_FIX = ("restore the missing files from your copy of the model, or point model/.coach_checkpoint "
                    "(and model/deepracer_checkpoints.json) at a checkpoint whose files are all present")
 
@@ -102,10 +105,19 @@ def problem_for_source_error(error: BaseException, where: str, key: str = "") ->
         cause_code = cause.response.get("Error", {}).get("Code", "") if isinstance(
             cause, botocore.exceptions.ClientError) else ""
         if cause_code == "InvalidAccessKeyId":
-            return _unknown_credentials(where, key, f"the S3 server does not know access key in use ({error})")
-        return ValidationProblem(ProblemCode.ACCESS_DENIED_TO_BUCKET, key, f"{where}: {error}",
-                                 "give the credentials in use s3:ListBucket and s3:GetObject on the bucket and "
-                                 "prefix (bucket policy or user policy), or use credentials that have them")
+            return _unknown_credentials(where, key, f"the S3 server does not know the access key in use ({error})")
+        return ValidationProblem(ProblemCode.ACCESS_DENIED_TO_BUCKET, key, f"{where}: {error}", _ACCESS_FIX)
+    if isinstance(error, botocore.exceptions.ClientError):  # straight from boto3 (the source's own listing)
+        code = error.response.get("Error", {}).get("Code", "")
+        if code == "NoSuchBucket":
+            return ValidationProblem(ProblemCode.SRC_BUCKET_DOES_NOT_EXIST, key, f"{where}: the bucket does not exist",
+                                     "check the bucket name and S3_ENDPOINT_URL; if the bucket was deleted, upload "
+                                     "your copy of the model to an existing bucket and validate that location")
+        if code == "InvalidAccessKeyId":
+            return _unknown_credentials(where, key, f"the S3 server does not know the access key in use ({code})")
+        if code in {"AccessDenied", "403", "SignatureDoesNotMatch"}:
+            return ValidationProblem(ProblemCode.ACCESS_DENIED_TO_BUCKET, key, f"{where}: access denied ({code})",
+                                     _ACCESS_FIX)
     if isinstance(error, botocore.exceptions.NoCredentialsError):
         return _unknown_credentials(where, key, "no S3 credentials were found")
     if isinstance(error, ObjectNotFoundError | FileNotFoundError):
