@@ -105,17 +105,21 @@ def laps_by_speed(steps: pd.DataFrame, laps: pd.DataFrame, track: Track, path: P
     for ax, lap, trace in zip(axes, laps.itertuples(index=False), traces, strict=False):
         _draw_track(ax, track, centre=False)
         points = trace[["X", "Y"]].to_numpy()
-        segments = np.stack([points[:-1], points[1:]], axis=1)
+        # No segment out of an off-track/crash row: after it the car was put back on the track (a reset).
+        driven = ~trace["episode_status"].isin(INCIDENT_STATUSES).to_numpy()[:-1]
+        segments = np.stack([points[:-1], points[1:]], axis=1)[driven]
         collection = LineCollection(segments, cmap="plasma", norm=norm, linewidth=2.5, zorder=2)
         # A 5-step (1/3 s) centred mean: one 15 Hz step's displacement is too noisy to read as a speed.
         smooth_mps = trace["speed_mps"].rolling(5, center=True, min_periods=1).mean()
-        collection.set_array(smooth_mps.to_numpy()[1:])
+        collection.set_array(smooth_mps.to_numpy()[1:][driven])
         ax.add_collection(collection)
         ax.plot(*points[0], "o", color="green", markersize=5, zorder=3)
         incidents = trace[trace["episode_status"].isin(INCIDENT_STATUSES)]
         ax.plot(incidents["X"], incidents["Y"], "x", color="red", markersize=8, markeredgewidth=2, zorder=4)
         time_text = f"{lap.lap_time_s:.2f} s" if lap.lap_complete else f"{lap.progress_pct:.0f} % in {lap.time_s:.1f} s"
         where = f"iteration {lap.iteration}, episode {lap.episode}" if lap.phase == "training" else f"lap {lap.episode + 1}"
+        if lap.resets:
+            time_text += f" ({lap.resets} reset{'s' if lap.resets > 1 else ''}, {lap.penalty_s:.1f} s penalty)"
         ax.set_title(f"{where}: {time_text}", fontsize=10)
     for ax in axes[count:]:
         ax.set_visible(False)
