@@ -68,16 +68,17 @@ def _raw_block(
     return time.perf_counter() - start, time.process_time() - cpu_start
 
 
-def run_benchmark(steps: int = 3000, blocks: int = 6, seed: int = 0) -> dict[str, float]:
+def run_benchmark(steps: int = 3000, blocks: int = 6, seed: int = 0, full_resolution: bool = False) -> dict[str, float]:
     with tempfile.TemporaryDirectory() as folder:
         reward_path = Path(folder) / "reward.py"
         reward_path.write_text(BENCH_REWARD)
-        env = DeepRacerEnv(EnvConfig(reward_function_path=reward_path))
+        env = DeepRacerEnv(EnvConfig(reward_function_path=reward_path, render_full_resolution=full_resolution))
         try:
             env.reset(seed=seed)
             rng = np.random.default_rng(seed)
             raw_data = mujoco.MjData(env.model)
-            renderer = mujoco.Renderer(env.model, height=env.config.image_height_px, width=env.config.image_width_px)
+            size = (480, 640) if full_resolution else (env.config.image_height_px, env.config.image_width_px)
+            renderer = mujoco.Renderer(env.model, height=size[0], width=size[1])
             starts = [env.track.pose_at(i / 20.0) for i in range(20)]
             actions = env.config.model_metadata.discrete_actions
             per_block = max(steps // blocks, 1)
@@ -111,6 +112,7 @@ def run_benchmark(steps: int = 3000, blocks: int = 6, seed: int = 0) -> dict[str
 @click.command("sim")
 @click.option("--steps", default=3000, show_default=True, help="Steps measured for each of env and raw bound.")
 @click.option("--seed", default=0, show_default=True)
-def sim_bench_command(steps: int, seed: int) -> None:
+@click.option("--full-resolution", is_flag=True, help="Render 640x480 and resize, as DeepRacer (default: 160x120 directly).")
+def sim_bench_command(steps: int, seed: int, full_resolution: bool) -> None:
     """Measure simulator throughput; prints one JSON line."""
-    click.echo(json.dumps(run_benchmark(steps=steps, seed=seed)))
+    click.echo(json.dumps(run_benchmark(steps=steps, seed=seed, full_resolution=full_resolution)))

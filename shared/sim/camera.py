@@ -8,12 +8,16 @@ and the picture differs only in anti-aliasing of thin lines.
 from __future__ import annotations
 
 import numpy as np
+from PIL import Image
 
 from racer.shared.sim._mujoco import mujoco
 from racer.shared.sim.gl import GLBackendError
 
 IMAGE_WIDTH_PX = 160
 IMAGE_HEIGHT_PX = 120
+FULL_WIDTH_PX = 640
+FULL_HEIGHT_PX = 480
+"""Gazebo's camera resolution in DeepRacer."""
 CENTER_CAMERA = "front_camera"
 LEFT_CAMERA = "left_camera"
 RIGHT_CAMERA = "right_camera"
@@ -55,11 +59,23 @@ def rgb_to_l(rgb: np.ndarray) -> np.ndarray:
 
 
 class CameraRenderer:
-    """One offscreen renderer shared by the car's cameras."""
+    """One offscreen renderer shared by the car's cameras.
 
-    def __init__(self, model: mujoco.MjModel, width_px: int = IMAGE_WIDTH_PX, height_px: int = IMAGE_HEIGHT_PX) -> None:
+    With `full_resolution`, frames are rendered at DeepRacer's 640×480 and bilinear-resized with PIL
+    (`resize(..., resample=BILINEAR)`, as the SimApp's camera sensor) to the requested size.
+    """
+
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        width_px: int = IMAGE_WIDTH_PX,
+        height_px: int = IMAGE_HEIGHT_PX,
+        full_resolution: bool = False,
+    ) -> None:
+        self._resize_to = (width_px, height_px) if full_resolution else None
+        render_w, render_h = (FULL_WIDTH_PX, FULL_HEIGHT_PX) if full_resolution else (width_px, height_px)
         try:
-            self._renderer = mujoco.Renderer(model, height=height_px, width=width_px)
+            self._renderer = mujoco.Renderer(model, height=render_h, width=render_w)
         except (RuntimeError, ImportError, OSError, ValueError) as exc:
             import os
 
@@ -67,13 +83,14 @@ class CameraRenderer:
                 f"cannot create an offscreen OpenGL context with MUJOCO_GL={os.environ.get('MUJOCO_GL', '')!r}: {exc}. "
                 "Use MUJOCO_GL=egl or MUJOCO_GL=osmesa (set before mujoco is imported)"
             ) from exc
-        self.width_px = width_px
-        self.height_px = height_px
 
     def rgb(self, data: mujoco.MjData, camera: str) -> np.ndarray:
         """(H, W, 3) uint8 image of a named camera."""
         self._renderer.update_scene(data, camera)
-        return self._renderer.render()
+        rgb = self._renderer.render()
+        if self._resize_to is not None:
+            rgb = np.asarray(Image.fromarray(rgb).resize(self._resize_to, resample=Image.BILINEAR))
+        return rgb
 
     def close(self) -> None:
         self._renderer.close()

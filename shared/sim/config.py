@@ -73,6 +73,9 @@ class EnvConfig:
     """MuJoCo steps per env step (timestep = 1 / (15 · substeps) s)."""
     image_width_px: int = 160
     image_height_px: int = 120
+    render_full_resolution: bool = False
+    """True = DeepRacer's path: render 640×480, bilinear-resize to the image size (PIL, as the SimApp).
+    False (default) = render the image size directly, about 5-8x cheaper with software GL."""
 
     def __post_init__(self) -> None:
         if self.world not in WORLD_NAMES:

@@ -127,7 +127,7 @@ class DeepRacerEnv(gym.Env):
         )
         self._data = mujoco.MjData(self._model)
         self._car = Car(self._model, command_wheel_radius_m(self._metadata.version))
-        self._camera = CameraRenderer(self._model, cfg.image_width_px, cfg.image_height_px)
+        self._camera = CameraRenderer(self._model, cfg.image_width_px, cfg.image_height_px, cfg.render_full_resolution)
         self._gray = GrayConverter((cfg.image_height_px, cfg.image_width_px))
         self._lidar = lidar_sensor.Lidar(self._model, self._car.body_id) if self._lidar_key else None
         self._last_rgb: np.ndarray | None = None

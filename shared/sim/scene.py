@@ -51,7 +51,15 @@ def _ring_rows(track: Track) -> np.ndarray:
     return track.waypoints[:-1] if track.is_loop else track.waypoints
 
 
-def _strip_mesh(name: str, left: np.ndarray, right: np.ndarray, z: float, closed: bool, quads: np.ndarray | None = None, uv_scale: float = 1.0) -> str:
+def _strip_mesh(
+    name: str,
+    left: np.ndarray,
+    right: np.ndarray,
+    z: float,
+    closed: bool,
+    quads: np.ndarray | None = None,
+    uv_scale: float = 1.0,
+) -> str:
     """A flat triangle strip between two polylines of equal length; `quads` selects which quads to emit."""
     n = len(left)
     vertices = np.empty((2 * n, 3))
@@ -65,7 +73,6 @@ def _strip_mesh(name: str, left: np.ndarray, right: np.ndarray, z: float, closed
     for i in quads:
         j = (i + 1) % n
         a, b, c, d = 2 * i, 2 * i + 1, 2 * j, 2 * j + 1
-        # Counter-clockwise seen from above (+z) whichever side `left` is on: emit both windings' orientation check.
         faces.append((a, b, d))
         faces.append((a, d, c))
     faces_arr = np.asarray(faces, dtype=np.int64)

@@ -52,3 +52,22 @@ def test_rgb_array_render(make_env):
         np.testing.assert_array_equal(gray, obs["FRONT_FACING_CAMERA"][..., 0])
     finally:
         env.close()
+
+
+def test_full_resolution_path_gives_a_similar_picture():
+    """DeepRacer's 640x480 + bilinear resize and the direct 160x120 render show the same scene."""
+    from racer.shared.sim.config import EnvConfig
+    from racer.shared.sim.env import DeepRacerEnv
+
+    images = []
+    for full in (False, True):
+        env = DeepRacerEnv(EnvConfig(render_full_resolution=full))
+        try:
+            obs, _ = env.reset(seed=0)
+            images.append(obs["FRONT_FACING_CAMERA"][..., 0].astype(np.int32))
+        finally:
+            env.close()
+    direct, resized = images
+    assert direct.shape == resized.shape == (120, 160)
+    assert np.abs(direct - resized).mean() < 6.0
+    assert not np.array_equal(direct, resized)
