@@ -25,6 +25,11 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 ROOT="$PWD"
 
+# Values from the caller's environment would override the test's env file in compose: drop them.
+for name in $(compgen -v | grep -E '^(RACER_|MINIO_(ROOT|IMAGE|PUBLISH|API|CONSOLE)|REDIS_IMAGE$|S3_ENDPOINT_URL$|AWS_DEFAULT_REGION$|MUJOCO_GL$|COMPOSE_)' || true); do
+  unset "$name"
+done
+
 PROJECT=racersmoke
 PREFIX=smoke-model
 BUCKET=racer-smoke
@@ -50,10 +55,6 @@ fail() {
   exit 1
 }
 
-# Values from the caller's environment would override the test's env file in compose: drop them.
-for name in $(compgen -v | grep -E '^(RACER_|MINIO_(ROOT|IMAGE|PUBLISH|API|CONSOLE)|REDIS_IMAGE$|S3_ENDPOINT_URL$|AWS_DEFAULT_REGION$|MUJOCO_GL$|COMPOSE_)' || true); do
-  unset "$name"
-done
 
 compose() { "${COMPOSE[@]}" --project-name "$PROJECT" --env-file "$WORK/smoke.env" \
   -f "$ROOT/docker-compose.yml" -f "$ROOT/docker/compose.ports.yml" "$@"; }
