@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -13,10 +15,13 @@ from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import SIMTRACE_COLUMNS, DeepRacerEnv
 
 
-def test_registered_env_passes_check_env():
-    env = gym.make(ENV_ID, wall_clock=lambda: 0.0)
+def test_registered_env_passes_check_env_without_warnings():
+    env = gym.make(ENV_ID, wall_clock=lambda: 0.0, render_mode="rgb_array")
     try:
-        check_env(env.unwrapped, skip_render_check=True)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            check_env(env.unwrapped)
+        assert [str(w.message) for w in caught] == []
         assert isinstance(env.unwrapped, DeepRacerEnv)
     finally:
         env.close()
