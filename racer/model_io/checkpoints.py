@@ -66,7 +66,8 @@ def checkpoint_files(name: CheckpointName, files: set[str] | dict[str, int]) -> 
 
 def inference_model_files(name: CheckpointName, files: set[str] | dict[str, int]) -> list[str]:
     """`model/model_<N>.pb` (TensorFlow frozen graph) and/or `model/model_<N>.onnx` (this system) for checkpoint N."""
-    return sorted(key for key in (f"{MODEL_DIR}model_{name.number}.pb", f"{MODEL_DIR}model_{name.number}.onnx") if key in files)
+    candidates = (f"{MODEL_DIR}model_{name.number}.pb", f"{MODEL_DIR}model_{name.number}.onnx")
+    return sorted(key for key in candidates if key in files)
 
 
 def is_inference_model(key: str) -> bool:

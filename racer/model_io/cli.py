@@ -29,7 +29,8 @@ from racer.model_io.validate import validate_location
 from racer.shared.config import S3Settings, parse_store_location, settings_from_env
 from racer.shared.store import ObjectStore, S3Store, open_store
 
-STORE_HELP = "This system's store: s3://bucket (endpoint and keys from S3_ENDPOINT_URL, AWS_*) or a folder. Default: RACER_STORE."
+STORE_HELP = ("This system's store: s3://bucket (endpoint and keys from S3_ENDPOINT_URL, AWS_*) or a folder. "
+              "Default: RACER_STORE.")
 
 
 def _open_store(location: str | None) -> ObjectStore:

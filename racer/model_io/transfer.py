@@ -6,8 +6,8 @@ training_params.yaml, metrics and deepracer_checkpoints.json; `model/.coach_chec
 a reader never sees a pointer to a half-copied model.
 
 Export writes the import-ready prefix (ip/, model/, reward_function.py, training_params.yaml, metrics/, and
-model_metadata.json + hyperparameters.json also at the root, where DeepRacer-on-AWS's importer looks) plus the car bundle `model.tar.gz`:
-`model_metadata.json` and the inference model. DeepRacer's bundle holds the TensorFlow graph at
+model_metadata.json + hyperparameters.json also at the root, where DeepRacer-on-AWS's importer looks) plus the
+car bundle `model.tar.gz`: `model_metadata.json` and the inference model. DeepRacer's bundle holds the TensorFlow graph at
 `agent/model.pb` (reference §5.4); this system's inference model is ONNX, so it goes to
 `agent/model.onnx`, the same folder a car-side loader already opens, with the extension telling it
 which runtime to use. An imported TensorFlow model keeps `agent/model.pb`.
@@ -317,7 +317,8 @@ def _exported_plan(plan: ImportPlan) -> ImportPlan:
         return plan
     pointer = ck.parse_checkpoint_name(plan.selection.pointer)
     assert pointer is not None  # validation accepted it
-    files = tuple(ck.checkpoint_files(pointer, plan.checkpoint_files) + ck.inference_model_files(pointer, plan.checkpoint_files))
+    files = tuple(ck.checkpoint_files(pointer, plan.checkpoint_files)
+                  + ck.inference_model_files(pointer, plan.checkpoint_files))
     selection = dataclasses.replace(plan.selection, checkpoints=(pointer.name,))
     return dataclasses.replace(plan, selection=selection, checkpoint_files=files)
 

@@ -150,7 +150,8 @@ def _decode_json(data: bytes, key: str) -> object:
 
 def _check_sizes(run: _Collector, limits: SizeLimits) -> None:
     for key, size in run.files.items():
-        in_checkpoint = key.startswith(ck.MODEL_DIR) and ck.checkpoint_name_of_file(key.removeprefix(ck.MODEL_DIR)) is not None
+        in_model_dir = key.startswith(ck.MODEL_DIR)
+        in_checkpoint = in_model_dir and ck.checkpoint_name_of_file(key.removeprefix(ck.MODEL_DIR)) is not None
         if in_checkpoint or ck.is_inference_model(key):
             if size > limits.checkpoint_file_bytes:
                 run.oversized.add(key)

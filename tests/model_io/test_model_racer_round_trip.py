@@ -152,8 +152,10 @@ def test_the_car_bundle_runs_the_best_checkpoint(trained):
     (model_input,) = session.get_inputs()
     assert model_input.name == "FRONT_FACING_CAMERA" and list(model_input.shape) == [1, 120, 160, 1]
     batch = observations(12, seed=11)
-    car_actions = [int(np.argmax(session.run(None, {"FRONT_FACING_CAMERA": obs["FRONT_FACING_CAMERA"][None].astype(np.float32)})[0]))
-                   for obs in batch]
+    car_actions = []
+    for frame in batch:
+        (probabilities,) = session.run(None, {"FRONT_FACING_CAMERA": frame["FRONT_FACING_CAMERA"][None].astype(np.float32)})
+        car_actions.append(int(np.argmax(probabilities)))
     assert car_actions == greedy_actions(network_with(trained.states["1_Step-500.ckpt"]), batch)
 
 
@@ -179,7 +181,8 @@ def flip_one_byte(path: Path) -> None:
 EDITS = {
     "weights changed": (lambda root: flip_one_byte(root / "model/2_Step-1000.ckpt.weights.safetensors"),
                         Code.MODEL_VALIDATION_SERVICE_ERROR),
-    "inference model changed": (lambda root: flip_one_byte(root / "model/model_1.onnx"), Code.MODEL_VALIDATION_SERVICE_ERROR),
+    "inference model changed": (lambda root: flip_one_byte(root / "model/model_1.onnx"),
+                                Code.MODEL_VALIDATION_SERVICE_ERROR),
     "manifest is not a manifest": (lambda root: (root / "model/1_Step-500.ckpt.json").write_text('{"format": "x"}'),
                                    Code.MODEL_VALIDATION_SERVICE_ERROR),
     "optimiser state deleted": (lambda root: (root / "model/2_Step-1000.ckpt.optimizer.safetensors").unlink(),

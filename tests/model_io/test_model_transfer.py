@@ -51,7 +51,8 @@ def test_import_with_only_coach_checkpoint_copies_the_named_and_the_previous(tmp
         "console-model/metrics/TrainingMetrics.json"}
     assert set(store.list_keys("console-model/")) == expected
     assert store.get_bytes("console-model/model/.coach_checkpoint") == b"4_Step-162.ckpt"
-    assert store.get_bytes("console-model/model/4_Step-162.ckpt.index") == (source / "model/4_Step-162.ckpt.index").read_bytes()
+    index = "model/4_Step-162.ckpt.index"
+    assert store.get_bytes(f"console-model/{index}") == (source / index).read_bytes()
     assert store.get_bytes("console-model/reward_function.py") == real_files().reward_function
     # The pointer is written last: nothing after it.
     assert result.written[-1] == "model/.coach_checkpoint"
