@@ -117,6 +117,10 @@ def build_tables(files: RunFiles, track_arg: str | None = None, tracks_dir: Path
     metrics_iterations = read_metrics(files, notes)
     reversed_by_episode = None
     if track is not None:
+        logged_length_m = float(on_track(steps, track_workers)["track_len"].median())
+        if abs(logged_length_m - track.length_m) > 0.005 * track.length_m:
+            notes.append(f"The simtraces say the track is {logged_length_m:.2f} m long, but {track.name} is "
+                         f"{track.length_m:.2f} m: probably the wrong track for this run.")
         reversed_by_episode = reversed_episodes(on_track(steps, track_workers), track)
         if reversed_by_episode.any():
             notes.append(f"{int(reversed_by_episode.sum())} of {len(reversed_by_episode)} episodes were driven in the "

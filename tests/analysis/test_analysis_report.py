@@ -215,3 +215,11 @@ def test_iterations_option_limits_pictures_and_whatif_not_tables(console_export,
     assert list(pd.read_csv(out / "iterations.csv")["iteration"]) == [0, 1, 27]
     bad = CliRunner().invoke(analyze_command, [str(console_export), "--iterations", "9-2"])
     assert bad.exit_code == 2 and "ends before it starts" in bad.output
+
+
+def test_a_track_that_does_not_fit_the_run_is_flagged(drfc_single, reinvent_route, deepracer_data, tmp_path):
+    result = run(drfc_single, "--track", deepracer_data / "routes/Vegas_track.npy", "--out", tmp_path / "a",
+                 "--no-pictures")
+    assert "probably the wrong track" in result.output and "17.71 m" in result.output
+    result = run(drfc_single, "--track", reinvent_route, "--out", tmp_path / "b", "--no-pictures")
+    assert "wrong track" not in result.output
