@@ -48,6 +48,7 @@ HYPERPARAMETER_KEYS = ("ip/hyperparameters.json", "hyperparameters.json")
 REWARD_FUNCTION_KEY = "reward_function.py"
 TRAINING_PARAMS_KEY = "training_params.yaml"
 CAR_BUNDLE_KEY = "model.tar.gz"
+TF_POINTER_KEY = "model/checkpoint"
 CAR_BUNDLE_MODELS = ("agent/model.onnx", "agent/model.pb")
 _METRICS = re.compile(r"^(metrics/.+\.json|(Training|Evaluation)Metrics[^/]*\.json)$")
 
@@ -185,6 +186,9 @@ def _select_checkpoints(run: _Collector) -> CheckpointSelection | None:
         return _select_from_coach_checkpoint(run)
     newest = [name for name in ck.all_checkpoint_names(run.files) if not ck.missing_parts(name, run.files)]
     hint = f" (the newest complete one here is {newest[-1]})" if newest else ""
+    if TF_POINTER_KEY in run.files:
+        hint += (f"; {TF_POINTER_KEY} is TensorFlow's own pointer (models older than SimApp 2.0 had only that): "
+                 "its model_checkpoint_path names the checkpoint to write there")
     run.add(ProblemCode.COACH_CHECKPOINT_DOES_NOT_EXIST, ck.COACH_CHECKPOINT,
             f"neither {ck.DEEPRACER_CHECKPOINTS} nor {ck.COACH_CHECKPOINT} exists, so no checkpoint is named",
             f"restore model/.coach_checkpoint: one line holding the checkpoint name, e.g. 13_Step-25173.ckpt{hint}")

@@ -14,7 +14,9 @@ import numpy as np
 import onnxruntime
 import pytest
 import torch
+from click.testing import CliRunner
 
+from racer.cli import main
 from racer.model_io import (
     FolderDestination,
     FolderSource,
@@ -218,3 +220,24 @@ def test_metadata_edited_to_another_action_space_is_caught(exported_copy):
     report, _ = validate_location(str(exported_copy))
     assert report.codes == [Code.MODEL_VALIDATION_SERVICE_ERROR], [problem.render() for problem in report.problems]
     assert "5 discrete actions" in report.problems[0].message and "3 discrete actions" in report.problems[0].message
+
+
+def test_command_line_round_trip_through_a_bucket(trained, s3_settings, tmp_path):
+    """racer model export -> s3://bucket/prefix -> racer model validate -> racer model import, all as a user would."""
+    runner = CliRunner()
+    env = {"S3_ENDPOINT_URL": s3_settings.endpoint_url, "AWS_ACCESS_KEY_ID": s3_settings.access_key_id,
+           "AWS_SECRET_ACCESS_KEY": s3_settings.secret_access_key, "RACER_CONNECT_TIMEOUT_S": "5"}
+    location = f"s3://{s3_settings.bucket}/exports/trained"
+    result = runner.invoke(main, ["model", "export", "trained", location, "--store", str(trained.store.root)], env=env)
+    assert result.exit_code == 0, result.output
+    assert "agent/model.onnx" in result.output
+    result = runner.invoke(main, ["model", "validate", location], env=env)
+    assert result.exit_code == 0, result.output
+    assert "best 1_Step-500.ckpt, last 2_Step-1000.ckpt" in result.output
+    other = tmp_path / "other-store"
+    result = runner.invoke(main, ["model", "import", location, "from-bucket", "--store", str(other)], env=env)
+    assert result.exit_code == 0, result.output
+    assert "--pretrained-prefix from-bucket" in result.output
+    batch = observations(6, seed=3)
+    policy = CheckpointStore(LocalStore(other), "from-bucket").load_policy("1_Step-500.ckpt")
+    assert greedy_actions(policy, batch) == greedy_actions(network_with(trained.states["1_Step-500.ckpt"]), batch)

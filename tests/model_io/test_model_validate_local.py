@@ -209,3 +209,11 @@ def test_default_limits_on_real_sized_files(model_dir):
     assert sorted(report.codes) == sorted([Code.JSON_YAML_FILE_SIZE_LIMIT_EXCEEDED,
                                            Code.CHECKPOINT_FILE_SIZE_LIMIT_EXCEEDED,
                                            Code.MODEL_TAR_FILE_SIZE_LIMIT_EXCEEDED])
+
+
+def test_an_old_tensorflow_pointer_is_pointed_out(model_dir):
+    remove("model/.coach_checkpoint")(model_dir)
+    write(model_dir, "model/checkpoint", 'model_checkpoint_path: "4_Step-162.ckpt"\n')
+    report, _ = validate_location(str(model_dir))
+    assert report.codes == [Code.COACH_CHECKPOINT_DOES_NOT_EXIST]
+    assert "model/checkpoint" in report.problems[0].fix and "4_Step-162.ckpt" in report.problems[0].fix
