@@ -75,7 +75,9 @@ class ImportPlan:
     hyperparameters_key: str
     reward_function_key: str
     training_params_key: str
-    metrics_keys: tuple[str, ...]
+    optional_keys: tuple[str, ...]
+    """Copied when present: metrics JSON (`metrics/...`, `TrainingMetrics*.json`, `EvaluationMetrics*.json`) and
+    the per-worker `training_params_<i>.yaml` of multi-world runs."""
     deepracer_checkpoints_key: str | None
     total_bytes: int
 

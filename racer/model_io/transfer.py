@@ -167,7 +167,7 @@ def _copy_plan(source: ModelSource, plan: ImportPlan, destination: Destination, 
     copies += [(plan.hyperparameters_key, target) for target in hyperparameters_targets]
     copies += [(plan.reward_function_key, plan.reward_function_key),
                (plan.training_params_key, plan.training_params_key)]
-    copies += [(key, key) for key in plan.metrics_keys]
+    copies += [(key, key) for key in plan.optional_keys]
     written: list[str] = []
 
     def read(key: str) -> bytes:

@@ -50,7 +50,9 @@ TRAINING_PARAMS_KEY = "training_params.yaml"
 CAR_BUNDLE_KEY = "model.tar.gz"
 TF_POINTER_KEY = "model/checkpoint"
 CAR_BUNDLE_MODELS = ("agent/model.onnx", "agent/model.pb")
-_METRICS = re.compile(r"^(metrics/.+\.json|(Training|Evaluation)Metrics[^/]*\.json)$")
+_OPTIONAL = re.compile(r"^(metrics/.+\.json|(Training|Evaluation)Metrics[^/]*\.json|training_params_\d+\.yaml)$")
+"""Metrics the console showed, and the per-worker training_params_<i>.yaml of a multi-world run."""
+_WORKER_PARAMS = re.compile(r"^training_params_\d+\.yaml$")
 
 T = TypeVar("T")
 
@@ -340,23 +342,23 @@ def _check_reward_function(run: _Collector) -> None:
 
 
 def _check_training_params(run: _Collector) -> None:
+    """training_params.yaml (required) and any per-worker training_params_<i>.yaml: YAML mappings."""
     if TRAINING_PARAMS_KEY not in run.files:
         run.add(ProblemCode.FILE_DOES_NOT_EXIST, TRAINING_PARAMS_KEY, "training_params.yaml is missing",
                 "restore training_params.yaml (track, race type, ...) at the prefix root")
-        return
-    data = run.read(TRAINING_PARAMS_KEY)
-    if data is None:
-        return
-    try:
-        document = yaml.safe_load(data.decode("utf-8-sig"))
-    except (yaml.YAMLError, UnicodeDecodeError) as error:
-        run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, TRAINING_PARAMS_KEY, f"is not valid YAML: {error}",
-                "restore the original training_params.yaml")
-        return
-    if not isinstance(document, dict):
-        run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, TRAINING_PARAMS_KEY,
-                f"must be a YAML mapping of KEY: value, got {type(document).__name__}",
-                "restore the original training_params.yaml")
+    for key in sorted(key for key in run.files if key == TRAINING_PARAMS_KEY or _WORKER_PARAMS.match(key)):
+        data = run.read(key)
+        if data is None:
+            continue
+        try:
+            document = yaml.safe_load(data.decode("utf-8-sig"))
+        except (yaml.YAMLError, UnicodeDecodeError) as error:
+            run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, key, f"is not valid YAML: {error}",
+                    f"restore the original {key}")
+            continue
+        if not isinstance(document, dict):
+            run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, key,
+                    f"must be a YAML mapping of KEY: value, got {type(document).__name__}", f"restore the original {key}")
 
 
 def _check_inference_models(run: _Collector, keys: list[str], metadata: ModelMetadata | None) -> None:
@@ -509,8 +511,8 @@ def validate_model(source: ModelSource, limits: SizeLimits = DEFAULT_LIMITS) -> 
         if any(key.endswith(".ckpt.index") for key in checkpoint_keys):
             run.notes.append("TensorFlow checkpoints (DeepRacer console / SimApp): they import and export as they are, "
                              "but racer's trainer and evaluator run racer's own (PyTorch) checkpoints")
-        metrics = tuple(key for key in files if _METRICS.match(key))
-        copied = [*checkpoint_keys, *metrics, REWARD_FUNCTION_KEY, TRAINING_PARAMS_KEY, ck.DEEPRACER_CHECKPOINTS,
+        optional = tuple(key for key in files if _OPTIONAL.match(key))
+        copied = [*checkpoint_keys, *optional, REWARD_FUNCTION_KEY, TRAINING_PARAMS_KEY, ck.DEEPRACER_CHECKPOINTS,
                   *(key for key in (metadata_key, hyperparameters_key) if key)]
         total = sum(files.get(key, 0) for key in set(copied))
         if total > limits.model_bytes:
@@ -521,7 +523,7 @@ def validate_model(source: ModelSource, limits: SizeLimits = DEFAULT_LIMITS) -> 
             plan = ImportPlan(
                 selection=selection, checkpoint_files=tuple(checkpoint_keys), metadata_key=metadata_key,
                 hyperparameters_key=hyperparameters_key, reward_function_key=REWARD_FUNCTION_KEY,
-                training_params_key=TRAINING_PARAMS_KEY, metrics_keys=metrics,
+                training_params_key=TRAINING_PARAMS_KEY, optional_keys=optional,
                 deepracer_checkpoints_key=ck.DEEPRACER_CHECKPOINTS if ck.DEEPRACER_CHECKPOINTS in files else None,
                 total_bytes=total)
     return ValidationReport(where, tuple(run.problems), tuple(run.notes), plan)

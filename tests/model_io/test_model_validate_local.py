@@ -38,7 +38,7 @@ def test_the_valid_model_passes_with_the_console_checkpoint_logic(model_dir):
     assert report.plan.selection.checkpoints == ("3_Step-124.ckpt", "4_Step-162.ckpt")
     assert report.plan.selection.source == "model/.coach_checkpoint"
     assert "model/model_4.pb" in report.plan.checkpoint_files
-    assert "metrics/TrainingMetrics.json" in report.plan.metrics_keys
+    assert "metrics/TrainingMetrics.json" in report.plan.optional_keys
 
 
 def test_a_valid_onnx_inference_model_passes(model_dir):
@@ -217,3 +217,12 @@ def test_an_old_tensorflow_pointer_is_pointed_out(model_dir):
     report, _ = validate_location(str(model_dir))
     assert report.codes == [Code.COACH_CHECKPOINT_DOES_NOT_EXIST]
     assert "model/checkpoint" in report.problems[0].fix and "4_Step-162.ckpt" in report.problems[0].fix
+
+
+def test_per_worker_training_params_are_checked_and_copied(model_dir):
+    write(model_dir, "training_params_1.yaml", "WORLD_NAME: reinvent_base\n")
+    report, _ = validate_location(str(model_dir))
+    assert "training_params_1.yaml" in report.plan.optional_keys
+    write(model_dir, "training_params_1.yaml", "- just\n- a list\n")
+    report, _ = validate_location(str(model_dir))
+    assert report.codes == [Code.MODEL_VALIDATION_SERVICE_ERROR] and report.problems[0].path == "training_params_1.yaml"
