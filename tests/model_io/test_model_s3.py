@@ -138,12 +138,13 @@ def test_broken_models_in_a_bucket_give_the_same_codes(s3_settings, tmp_path, ca
 def test_size_limits_in_a_bucket(s3_model):
     store = S3Store(s3_model)
     store.put_bytes(f"{PREFIX}/model/4_Step-162.ckpt.data-00000-of-00001", bytes(5000))
-    store.put_bytes(f"{PREFIX}/model/deepracer_checkpoints.json", json.dumps(
-        {"best_checkpoint": {"name": "3_Step-124.ckpt"}, "last_checkpoint": {"name": "4_Step-162.ckpt"}})
-        .encode() + b" " * 200_001)
-    report = validate_model(StoreSource(store, PREFIX), SizeLimits(checkpoint_file_bytes=4999, json_yaml_bytes=200_000))
+    store.put_bytes(f"{PREFIX}/metrics/TrainingMetrics.json", b'{"metrics": []}' + b" " * 200_001)
+    limits = SizeLimits(checkpoint_file_bytes=4999, json_yaml_bytes=200_000, model_bytes=150_000)
+    report = validate_model(StoreSource(store, PREFIX), limits)
     assert sorted(report.codes) == sorted([Code.CHECKPOINT_FILE_SIZE_LIMIT_EXCEEDED,
-                                           Code.JSON_YAML_FILE_SIZE_LIMIT_EXCEEDED])
+                                           Code.JSON_YAML_FILE_SIZE_LIMIT_EXCEEDED,
+                                           Code.MODEL_TAR_FILE_SIZE_LIMIT_EXCEEDED])
+    assert validate_model(StoreSource(store, PREFIX), SizeLimits()).ok  # the same files pass the default limits
 
 
 def test_import_from_a_bucket_into_a_local_store(s3_model, tmp_path):
