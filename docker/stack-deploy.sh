@@ -22,11 +22,13 @@ ENV_FILE="${ENV_FILE:-.env}"
 if docker compose version >/dev/null 2>&1; then compose=(docker compose); else compose=(docker-compose); fi
 image="$(grep -E '^RACER_IMAGE=' "$ENV_FILE" | tail -1 | cut -d= -f2-)"
 image="${image:-racer:latest}"
+workers="$(grep -E '^RACER_WORKERS=' "$ENV_FILE" | tail -1 | cut -d= -f2-)"
+workers="${workers:-4}"
 docker image inspect "$image" >/dev/null 2>&1 || { echo "stack-deploy: image $image not found: docker compose build first" >&2; exit 1; }
 
 args=()
 for file in ${COMPOSE_FILES:-docker-compose.yml}; do args+=(-f "$file"); done
 "${compose[@]}" --env-file "$ENV_FILE" "${args[@]}" config \
-  | docker run --rm -i --entrypoint racer-stack-filter "$image" \
+  | docker run --rm -i --entrypoint racer-stack-filter "$image" --workers "$workers" \
   | docker stack deploy --compose-file - "$STACK"
 echo "stack-deploy: deployed stack $STACK; watch it with: docker stack ps $STACK; docker service logs -f ${STACK}_trainer"

@@ -2,6 +2,7 @@
 # Compose smoke test: builds every image without a container registry, runs `docker compose up`
 # for two training iterations with two workers in two worlds (base, carpet) on the short
 # racer_oval track, checks what the run left in MinIO and the trainer's log, then `down -v`.
+# Then the same run with the same file on a single-node swarm (`docker stack deploy`), same checks.
 #
 #   scripts/compose-smoke-test.sh          # exit 0: passed; non-zero: failed (the reason is printed last)
 #
@@ -19,7 +20,9 @@
 #                        ~/go/bin/minio or .venv/bin/minio; built with `go install` when none is found)
 #   SMOKE_MINIO_PORT     host port (loopback) the test publishes MinIO's API on (default 19000)
 #   SMOKE_TRAIN_TIMEOUT_S  longest wait for the training run (default 900)
-#   SMOKE_KEEP=1         leave the compose project up after the test (for debugging)
+#   SMOKE_SWARM=0        skip the second part: the same run on a single-node swarm (docker stack deploy);
+#                        it runs only on an engine that is not in a swarm yet, and leaves the swarm after
+#   SMOKE_KEEP=1         leave the compose project (or the stack) up after the test (for debugging)
 #   SMOKE_KEEP_DOCKERD=1 leave a dockerd this script started running
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -31,6 +34,7 @@ for name in $(compgen -v | grep -E '^(RACER_|MINIO_(ROOT|IMAGE|PUBLISH|API|CONSO
 done
 
 PROJECT=racersmoke
+STACK=racersmokestack
 PREFIX=smoke-model
 BUCKET=racer-smoke
 BASE_IMAGE="${SMOKE_BASE_IMAGE:-racer-base:bookworm}"
@@ -45,6 +49,9 @@ T0=$SECONDS
 STEP_T0=$SECONDS
 WORK="$(mktemp -d /tmp/racer-compose-smoke.XXXXXX)"
 STARTED_DOCKERD_PID=""
+STARTED_SWARM=""
+SWARM_PASSED=""
+COMPOSE_DOWN_DONE=""
 COMPOSE=()
 
 say() { printf '[smoke %4ds] %s\n' "$((SECONDS - T0))" "$*"; }
@@ -59,9 +66,30 @@ fail() {
 compose() { "${COMPOSE[@]}" --project-name "$PROJECT" --env-file "$WORK/smoke.env" \
   -f "$ROOT/docker-compose.yml" -f "$ROOT/docker/compose.ports.yml" "$@"; }
 
+remove_swarm() {  # the stack, its volume, and the single-node swarm this test created
+  docker stack rm "$STACK" >/dev/null 2>&1 || true
+  for _ in $(seq 1 120); do  # stack rm returns at once; its containers stop within a few seconds
+    [ -z "$(docker ps -aq --filter "label=com.docker.stack.namespace=$STACK")" ] && break
+    sleep 0.5
+  done
+  docker volume rm "${STACK}_minio-data" >/dev/null 2>&1 || true
+  docker swarm leave --force >/dev/null 2>&1 || true
+  STARTED_SWARM=""
+  SWARM_PASSED=1
+}
+
 cleanup() {
   local status=$?
-  if [ ${#COMPOSE[@]} -gt 0 ] && [ -f "$WORK/smoke.env" ]; then
+  if [ -n "$STARTED_SWARM" ]; then
+    if [ "$status" -ne 0 ]; then
+      say "--- last swarm logs (trainer, rollout-0) ---"
+      for service in trainer rollout-0; do
+        docker service logs --raw --tail 40 "${STACK}_$service" 2>&1 | sed 's/^/    /' || true
+      done
+    fi
+    [ "${SMOKE_KEEP:-0}" = 1 ] && say "SMOKE_KEEP=1: stack $STACK and the swarm left up" || remove_swarm
+  fi
+  if [ -z "$COMPOSE_DOWN_DONE" ] && [ ${#COMPOSE[@]} -gt 0 ] && [ -f "$WORK/smoke.env" ]; then
     if [ "$status" -ne 0 ]; then
       say "--- last compose logs (trainer, rollout-0, rollout-1, minio-setup) ---"
       compose logs --no-color --tail=40 trainer rollout-0 rollout-1 minio-setup 2>&1 | sed 's/^/    /' || true
@@ -222,23 +250,24 @@ for service in rollout-0 rollout-1; do
 done
 done_step
 
-# --- 4. Checks ----------------------------------------------------------------------------------
-step "checking the trainer log and the store"
-for worker in 0 1; do
-  grep -Eq "Training> Name=main_level/agent, Worker=$worker, Episode=[0-9]+, Total reward=[-0-9.e]+, Steps=[0-9]+, Training iteration=[0-9]+" "$WORK/trainer.log" \
-    || fail "the trainer log has no 'Training> ... Worker=$worker' episode line (log: $WORK/trainer.log)"
-done
-say "  trainer log: $(grep -c 'Training> Name=main_level/agent' "$WORK/trainer.log") episode lines, workers 0 (base) and 1 (carpet)"
+# --- 4. Checks (shared by the compose and the swarm run) -------------------------------------------
+check_trainer_log() {  # check_trainer_log LOGFILE
+  for worker in 0 1; do
+    grep -Eq "Training> Name=main_level/agent, Worker=$worker, Episode=[0-9]+, Total reward=[-0-9.e]+, Steps=[0-9]+, Training iteration=[0-9]+" "$1" \
+      || fail "the trainer log has no 'Training> ... Worker=$worker' episode line (log: $1)"
+  done
+  say "  trainer log: $(grep -c 'Training> Name=main_level/agent' "$1") episode lines, from workers 0 (base) and 1 (carpet)"
+}
 
-# The store is read from inside the compose network with the racer image's boto3 (no host Python needed).
-network="$(docker inspect -f '{{range $name, $_ := .NetworkSettings.Networks}}{{$name}} {{end}}' "$(compose ps -q minio)" | awk '{print $1}')"
-# shellcheck disable=SC1090
-creds_user="$(grep '^MINIO_ROOT_USER=' "$WORK/smoke.env" | cut -d= -f2-)"
-creds_password="$(grep '^MINIO_ROOT_PASSWORD=' "$WORK/smoke.env" | cut -d= -f2-)"
-docker run --rm -i --network "$network" --entrypoint python3 \
-  -e S3_ENDPOINT_URL=http://minio:9000 -e AWS_ACCESS_KEY_ID="$creds_user" -e AWS_SECRET_ACCESS_KEY="$creds_password" \
-  -e AWS_DEFAULT_REGION=us-east-1 -e BUCKET="$BUCKET" -e PREFIX="$PREFIX" \
-  "$RACER_IMAGE" - >"$WORK/store-check.log" 2>&1 <<'PY' || { cat "$WORK/store-check.log" >&2; fail "the store does not hold what a two-iteration run must leave"; }
+check_store() {  # check_store NETWORK ENV_FILE: reads MinIO from inside that network with the image's boto3
+  local env_file="$2" log="$WORK/store-check-$1.log"
+  docker run --rm -i --network "$1" --entrypoint python3 \
+    -e S3_ENDPOINT_URL=http://minio:9000 -e AWS_DEFAULT_REGION=us-east-1 \
+    -e AWS_ACCESS_KEY_ID="$(grep '^MINIO_ROOT_USER=' "$env_file" | cut -d= -f2-)" \
+    -e AWS_SECRET_ACCESS_KEY="$(grep '^MINIO_ROOT_PASSWORD=' "$env_file" | cut -d= -f2-)" \
+    -e BUCKET="$(grep '^RACER_BUCKET=' "$env_file" | cut -d= -f2-)" \
+    -e PREFIX="$(grep '^RACER_MODEL_PREFIX=' "$env_file" | cut -d= -f2-)" \
+    "$RACER_IMAGE" - >"$log" 2>&1 <<'PY' || { cat "$log" >&2; fail "the store does not hold what a two-iteration run must leave"; }
 import os, re, sys
 import boto3
 
@@ -286,7 +315,62 @@ if problems:
     print("\n".join(problems), file=sys.stderr)
     sys.exit(1)
 PY
-sed 's/^/  /' "$WORK/store-check.log"
+  sed 's/^/  /' "$log"
+}
+
+step "checking the trainer log and the store"
+check_trainer_log "$WORK/trainer.log"
+network="$(docker inspect -f '{{range $name, $_ := .NetworkSettings.Networks}}{{$name}} {{end}}' "$(compose ps -q minio)" | awk '{print $1}')"
+check_store "$network" "$WORK/smoke.env"
 done_step
 
-say "PASSED in $((SECONDS - T0)) s: docker compose trained 2 iterations with workers in worlds base and carpet; checkpoints, pointer and simtraces are in MinIO"
+step "docker compose down -v"
+compose down -v --remove-orphans >"$WORK/down.log" 2>&1 || { cat "$WORK/down.log" >&2; fail "docker compose down -v failed"; }
+COMPOSE_DOWN_DONE=1
+done_step
+COMPOSE_SECONDS=$((SECONDS - T0))
+
+# --- 5. The same file on a single-node swarm (docker stack deploy) ------------------------------------
+# Only on an engine that is not in a swarm yet (the test makes it a single-node swarm and leaves it
+# afterwards); an engine already in a swarm is left alone. SMOKE_SWARM=0 skips this part.
+swarm_state="$(docker info -f '{{.Swarm.LocalNodeState}}')"
+if [ "${SMOKE_SWARM:-1}" = 0 ]; then
+  say "swarm part skipped (SMOKE_SWARM=0)"
+elif [ "$swarm_state" != inactive ]; then
+  say "swarm part skipped: this engine is already in a swarm (state $swarm_state); the test does not deploy on a real swarm"
+else
+  step "single-node swarm: docker swarm init, label racer.trainer=true, docker/stack-deploy.sh $STACK"
+  docker swarm init --advertise-addr 127.0.0.1 >"$WORK/swarm-init.log" 2>&1 || { cat "$WORK/swarm-init.log" >&2; fail "docker swarm init failed"; }
+  STARTED_SWARM=1
+  docker node update --label-add racer.trainer=true "$(docker info -f '{{.Swarm.NodeID}}')" >/dev/null
+  sed -e "s/^RACER_MODEL_PREFIX=.*/RACER_MODEL_PREFIX=$PREFIX-swarm/" -e '/^MINIO_PUBLISH_ADDRESS=/d' \
+    -e '/^MINIO_API_PORT=/d' -e '/^MINIO_CONSOLE_PORT=/d' "$WORK/smoke.env" >"$WORK/swarm.env"
+  ENV_FILE="$WORK/swarm.env" docker/stack-deploy.sh "$STACK" >"$WORK/stack-deploy.log" 2>&1 \
+    || { cat "$WORK/stack-deploy.log" >&2; fail "docker/stack-deploy.sh failed"; }
+  services="$(docker stack services "$STACK" --format '{{.Name}}' | sort | tr '\n' ' ')"
+  [ "$services" = "${STACK}_minio ${STACK}_minio-setup ${STACK}_redis ${STACK}_rollout-0 ${STACK}_rollout-1 ${STACK}_trainer " ] \
+    || fail "the stack has services '$services', expected minio, minio-setup, redis, rollout-0, rollout-1, trainer"
+  done_step "services: $services"
+
+  step "waiting for the swarm trainer to finish (at most $TRAIN_TIMEOUT_S s)"
+  deadline=$((SECONDS + TRAIN_TIMEOUT_S))
+  trainer_id=""
+  while [ -z "$trainer_id" ]; do  # the task's container appears once the image is scheduled
+    trainer_id="$(docker ps -aq --filter "label=com.docker.swarm.service.name=${STACK}_trainer" | tail -1)"
+    [ -n "$trainer_id" ] || { [ $SECONDS -lt $deadline ] || fail "the swarm trainer task never started"; sleep 1; }
+  done
+  trainer_exit="$(timeout $((deadline - SECONDS)) docker wait "$trainer_id" || echo timeout)"
+  docker service logs --raw "${STACK}_trainer" >"$WORK/swarm-trainer.log" 2>&1 || true
+  [ "$trainer_exit" != timeout ] || fail "the swarm trainer did not finish within $TRAIN_TIMEOUT_S s (log: $WORK/swarm-trainer.log)"
+  [ "$trainer_exit" = 0 ] || fail "the swarm trainer exited with status $trainer_exit (log: $WORK/swarm-trainer.log)"
+  done_step
+  step "checking the swarm run's trainer log and store"
+  check_trainer_log "$WORK/swarm-trainer.log"
+  check_store "${STACK}_default" "$WORK/swarm.env"
+  done_step
+  step "removing the stack and leaving the swarm"
+  remove_swarm
+  done_step
+fi
+
+say "PASSED in $((SECONDS - T0)) s (compose part: ${COMPOSE_SECONDS} s): docker compose trained 2 iterations with workers in worlds base and carpet; checkpoints, pointer and simtraces are in MinIO${SWARM_PASSED:+; the same on a single-node swarm with docker stack deploy}"
