@@ -90,6 +90,7 @@ def test_nothing_under_the_prefix(s3_model):
                                 env=cli_env(s3_model))
     assert result.exit_code == 1
     assert result.output.startswith("FILE_DOES_NOT_EXIST")
+    assert result.output.count("fix:") == 1
 
 
 def test_unknown_access_key(s3_model):
@@ -97,6 +98,7 @@ def test_unknown_access_key(s3_model):
     result = CliRunner().invoke(main, ["model", "validate", f"s3://{s3_model.bucket}/{PREFIX}"], env=env)
     assert result.exit_code == 1
     assert result.output.startswith("ACCOUNT_RESOURCE_DOES_NOT_EXIST"), result.output
+    assert result.output.count("fix:") == 1
 
 
 def test_unreachable_endpoint(s3_model):
@@ -104,6 +106,7 @@ def test_unreachable_endpoint(s3_model):
     result = CliRunner().invoke(main, ["model", "validate", f"s3://{s3_model.bucket}/{PREFIX}"], env=env)
     assert result.exit_code == 1
     assert result.output.startswith("SERVICE_ERROR"), result.output
+    assert result.output.count("fix:") == 1
 
 
 @pytest.mark.parametrize("denied", [["s3:ListBucket"], ["s3:GetObject"]])
