@@ -1,0 +1,111 @@
+"""What an evaluation run is asked to do: which rules, which car, which outputs. Frozen, validated on creation."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from racer.shared.sim.config import DEFAULT_TRACK
+from racer.shared.sim.worlds import WORLD_NAMES
+
+MODES: tuple[str, ...] = ("deepracer", "race")
+MIN_RESET_COUNT = 2
+"""The SimApp accepts NUMBER_OF_RESETS = 0 or >= 2 (evaluation_worker MIN_RESET_COUNT)."""
+
+
+class EvaluationConfigError(ValueError):
+    """An evaluation setting that cannot work; the message names the option."""
+
+
+@dataclass(frozen=True)
+class DeepRacerRules:
+    """The SimApp evaluation job's parameters (reference §3.1), defaults as the AWS console sends them."""
+
+    number_of_trials: int = 3
+    """NUMBER_OF_TRIALS: laps (trials) to evaluate."""
+    is_continuous: bool = False
+    """IS_CONTINUOUS: all trials in one run without stopping at the line (reset budget shared by the run)."""
+    number_of_resets: int = 0
+    """NUMBER_OF_RESETS: pause-and-reset events allowed per run before a rule ends it (0 = first exit ends it)."""
+    off_track_penalty_s: float = 2.0
+    """OFF_TRACK_PENALTY: seconds the car waits after being put back (also used for `reversed`)."""
+    collision_penalty_s: float = 5.0
+    immobilized_penalty_s: float = 0.0
+
+    def __post_init__(self) -> None:
+        if self.number_of_trials < 1:
+            raise EvaluationConfigError(f"--trials (NUMBER_OF_TRIALS) must be >= 1, got {self.number_of_trials}")
+        if self.number_of_resets != 0 and self.number_of_resets < MIN_RESET_COUNT:
+            raise EvaluationConfigError(
+                f"--resets (NUMBER_OF_RESETS) must be 0 or >= {MIN_RESET_COUNT} as in the SimApp, got {self.number_of_resets}"
+            )
+        for name in ("off_track_penalty_s", "collision_penalty_s", "immobilized_penalty_s"):
+            if getattr(self, name) < 0:
+                raise EvaluationConfigError(f"{name} must be >= 0, got {getattr(self, name)}")
+
+
+@dataclass(frozen=True)
+class RaceRules:
+    """The AWS Summit physical-track rule: race for a fixed time, up to 3 put-backs per lap."""
+
+    race_duration_s: float = 240.0
+    """Simulated seconds from the first start to the end of the race (4 minutes)."""
+    resets_per_lap: int = 3
+    """Put-backs allowed in one lap; leaving the track once more ends the lap attempt."""
+    reset_penalty_s: float = 0.0
+    """Seconds the car is held after being put back (the marshal's time); the clock keeps running."""
+    continuous: bool = True
+    """Completed laps run straight into the next one (as on a physical track); False = restart each lap at the line."""
+
+    def __post_init__(self) -> None:
+        if not self.race_duration_s > 0:
+            raise EvaluationConfigError(f"--race-minutes must be > 0, got {self.race_duration_s / 60.0} min")
+        if self.resets_per_lap < 0:
+            raise EvaluationConfigError(f"--race-resets-per-lap must be >= 0, got {self.resets_per_lap}")
+        if self.reset_penalty_s < 0:
+            raise EvaluationConfigError(f"--race-reset-penalty must be >= 0, got {self.reset_penalty_s}")
+
+
+@dataclass(frozen=True)
+class VideoOptions:
+    enabled: bool = True
+    width_px: int = 480
+    """Size of the top view and the 45-degree follow view (the in-car view is the car camera, upscaled x2)."""
+    height_px: int = 360
+    follow_distance_m: float = 1.2
+    follow_elevation_deg: float = -45.0
+
+    def __post_init__(self) -> None:
+        if not (16 <= self.width_px <= 640 and 16 <= self.height_px <= 480):
+            raise EvaluationConfigError(
+                f"--video-size must be within 16x16 .. 640x480 (the scene's offscreen buffer), got {self.width_px}x{self.height_px}"
+            )
+        if self.width_px % 2 or self.height_px % 2:
+            raise EvaluationConfigError(f"--video-size needs even sizes (H.264 yuv420p), got {self.width_px}x{self.height_px}")
+
+
+@dataclass(frozen=True)
+class EvaluationConfig:
+    """One evaluation: the model, the rules, the world and the outputs."""
+
+    model_prefix: str
+    mode: str = "deepracer"
+    checkpoint: str = "best"
+    """`best`, `last` or a checkpoint name such as `3_Step-1234.ckpt` (EVAL_CHECKPOINT)."""
+    track: str | Path = DEFAULT_TRACK
+    world: str = "base"
+    reverse_dir: bool = False
+    deepracer: DeepRacerRules = field(default_factory=DeepRacerRules)
+    race: RaceRules = field(default_factory=RaceRules)
+    video: VideoOptions = field(default_factory=VideoOptions)
+    mcap: bool = True
+    seed: int = 0
+    """Seeds the LIDAR noise; the sim clock starts at 0."""
+
+    def __post_init__(self) -> None:
+        if self.mode not in MODES:
+            raise EvaluationConfigError(f"--mode must be one of {', '.join(MODES)}, got {self.mode!r}")
+        if self.world not in WORLD_NAMES:
+            raise EvaluationConfigError(f"--world must be one of {', '.join(WORLD_NAMES)}, got {self.world!r}")
+        if not self.model_prefix.strip("/"):
+            raise EvaluationConfigError("--model-prefix must not be empty")

@@ -1,0 +1,97 @@
+"""`racer evaluate`: evaluate a stored model with DeepRacer's evaluation rules or the 4-minute race rule.
+
+The store comes from RACER_STORE (a directory or s3://bucket with S3_ENDPOINT_URL for MinIO), as for every racer
+process. Output layout: see `racer.evaluation_worker.outputs`.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from racer.evaluation_worker.config import MODES
+from racer.shared.sim.config import DEFAULT_TRACK
+from racer.shared.sim.worlds import WORLD_NAMES
+
+
+def _video_size(text: str) -> tuple[int, int]:
+    try:
+        width, height = (int(part) for part in text.lower().split("x"))
+    except ValueError:
+        raise click.BadParameter(f"expected WIDTHxHEIGHT such as 480x360, got {text!r}", param_hint="--video-size") from None
+    return width, height
+
+
+@click.command(name="evaluate")
+@click.option("--model-prefix", required=True, help="The model's prefix in the store (the training run's name).")
+@click.option("--checkpoint", default="best", show_default=True,
+              help="best, last, or a checkpoint name such as 3_Step-1234.ckpt (EVAL_CHECKPOINT).")
+@click.option("--mode", type=click.Choice(MODES), default="deepracer", show_default=True,
+              help="deepracer: NUMBER_OF_TRIALS laps with DeepRacer's rules; race: the 4-minute, 3-resets-per-lap rule.")
+@click.option("--track", default=DEFAULT_TRACK, show_default=True, help="Track name in tracks/ or a route .npy path.")
+@click.option("--world", type=click.Choice(WORLD_NAMES), default="base", show_default=True)
+@click.option("--reverse/--no-reverse", default=False, show_default=True, help="Drive the route the other way (REVERSE_DIR).")
+@click.option("--trials", type=click.IntRange(min=1), default=3, show_default=True, help="NUMBER_OF_TRIALS (deepracer mode).")
+@click.option("--continuous/--no-continuous", default=None,
+              help="IS_CONTINUOUS: laps run into each other. Default: off in deepracer mode, on in race mode.")
+@click.option("--resets", type=click.IntRange(min=0), default=0, show_default=True,
+              help="NUMBER_OF_RESETS (deepracer mode): put-backs before a rule ends the run; 0 or >= 2.")
+@click.option("--off-track-penalty", type=click.FloatRange(min=0.0), default=2.0, show_default=True,
+              help="OFF_TRACK_PENALTY seconds (deepracer mode; also the reversed penalty).")
+@click.option("--race-minutes", type=click.FloatRange(min=0.0, min_open=True), default=4.0, show_default=True,
+              help="Race duration in simulated minutes (race mode).")
+@click.option("--race-resets-per-lap", type=click.IntRange(min=0), default=3, show_default=True,
+              help="Put-backs allowed per lap; the next exit ends the lap attempt (race mode).")
+@click.option("--race-reset-penalty", type=click.FloatRange(min=0.0), default=0.0, show_default=True,
+              help="Seconds the car is held after a put-back (race mode); the race clock keeps running.")
+@click.option("--video/--no-video", default=True, show_default=True, help="MP4s: in-car, top view, 45-degree follow.")
+@click.option("--video-size", default="480x360", show_default=True, help="Top and follow video size, WIDTHxHEIGHT (<= 640x480).")
+@click.option("--mcap/--no-mcap", default=True, show_default=True, help="An MCAP recording for Foxglove.")
+@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=None,
+              help="Also keep a local copy of the outputs here (same layout as under the model prefix).")
+@click.option("--seed", type=int, default=0, show_default=True, help="Seeds sensor noise; the sim clock starts at 0.")
+def evaluate_command(model_prefix, checkpoint, mode, track, world, reverse, trials, continuous, resets, off_track_penalty,
+                     race_minutes, race_resets_per_lap, race_reset_penalty, video, video_size, mcap, out_dir, seed) -> None:
+    """Evaluate a model from the store (RACER_STORE) and write metrics, simtrace, videos and an MCAP next to it."""
+    from racer.evaluation_worker.config import (
+        DeepRacerRules,
+        EvaluationConfig,
+        EvaluationConfigError,
+        RaceRules,
+        VideoOptions,
+    )
+    from racer.evaluation_worker.driver import EnvCompatibilityError
+    from racer.evaluation_worker.runner import EvaluationSession
+    from racer.evaluation_worker.video import VideoError
+    from racer.shared.config import settings_from_env
+    from racer.shared.policy.checkpoints import CheckpointError
+    from racer.shared.store import open_store
+    from racer.shared.user_errors import user_error_types
+
+    width_px, height_px = _video_size(video_size)
+    try:
+        config = EvaluationConfig(
+            model_prefix=model_prefix, mode=mode, checkpoint=checkpoint, track=track, world=world, reverse_dir=reverse,
+            deepracer=DeepRacerRules(number_of_trials=trials, is_continuous=bool(continuous), number_of_resets=resets,
+                                     off_track_penalty_s=off_track_penalty),
+            race=RaceRules(race_duration_s=race_minutes * 60.0, resets_per_lap=race_resets_per_lap,
+                           reset_penalty_s=race_reset_penalty, continuous=True if continuous is None else continuous),
+            video=VideoOptions(enabled=video, width_px=width_px, height_px=height_px),
+            mcap=mcap, seed=seed,
+        )
+        store = open_store(settings_from_env().store)
+        session = EvaluationSession(store, config, out_dir=out_dir)
+        report = session.run(log=click.echo)
+    except (EvaluationConfigError, CheckpointError, VideoError, EnvCompatibilityError, *user_error_types()) as error:
+        raise click.ClickException(str(error)) from error
+    click.echo("")
+    click.echo(report.table)
+    timings = report.summary["timings"]
+    click.echo(f"{timings['steps']} steps, {timings['sim_time_s']:.1f} s simulated in {timings['wall_time_s']:.1f} s "
+               f"({timings['steps_per_s']} steps/s)")
+    click.echo(f"files in {store.describe()}:")
+    for name, key in report.keys.items():
+        click.echo(f"  {name:<16} {key}")
+    if report.local_dir is not None:
+        click.echo(f"local copy: {report.local_dir}")

@@ -1,0 +1,181 @@
+"""Where an evaluation's files go and what they contain: layout, simtrace, EvaluationMetrics, summary, table.
+
+Layout under the model prefix (DeepRacer-for-Cloud's evaluation layout, reference §4/§5):
+
+    <prefix>/metrics/EvaluationMetrics-<ts>.json                 DeepRacer's schema (§3.2), one entry per lap
+    <prefix>/evaluation-<ts>/evaluation-simtrace/0-iteration.csv  19-column simtrace of every step
+    <prefix>/evaluation-<ts>/summary.json                         what ran and its laps (race rule: laps, best lap,
+                                                                  resets per lap, total progress), timings, file keys
+    <prefix>/evaluation-<ts>/camera-incar/0-video.mp4             videos (DeepRacer's camera-<view>/<n>-video.mp4 names)
+    <prefix>/evaluation-<ts>/camera-topview/0-video.mp4
+    <prefix>/evaluation-<ts>/camera-45degree/0-video.mp4
+    <prefix>/evaluation-<ts>/evaluation.mcap                      Foxglove recording
+
+`<ts>` is the UTC start time `YYYYmmddHHMMSS`; a second evaluation started within the same second gets `-2`, `-3`.
+Videos and the recording sit in the evaluation folder (not `<prefix>/mp4/`) so that one evaluation's files stay
+together and several evaluations of one model never overwrite each other's `0-video.mp4`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from typing import Any
+
+from racer.evaluation_worker.driver import StepRecord
+from racer.evaluation_worker.laps import LapResult
+from racer.evaluation_worker.race_rule import RaceResult
+from racer.shared.deepracer.metrics import EvaluationMetrics, EvaluationMetricsEntry
+from racer.shared.deepracer.simtrace import EpisodeStatus, SimtraceWriter
+from racer.shared.sim.env import DeepRacerEnv
+from racer.shared.store import ObjectStore, join_key
+
+
+@dataclass(frozen=True)
+class EvaluationLayout:
+    """Keys of one evaluation, relative to the model prefix (`relative`) and absolute in the store (`key`)."""
+
+    model_prefix: str
+    run_name: str
+    """`evaluation-<ts>` (possibly with a `-<n>` suffix)."""
+
+    @property
+    def timestamp(self) -> str:
+        return self.run_name.removeprefix("evaluation-")
+
+    def relative(self, name: str) -> str:
+        if name == "metrics":
+            return f"metrics/EvaluationMetrics-{self.timestamp}.json"
+        files = {
+            "simtrace": "evaluation-simtrace/0-iteration.csv",
+            "summary": "summary.json",
+            "mcap": "evaluation.mcap",
+        }
+        return f"{self.run_name}/{files.get(name, name)}"
+
+    def video(self, view: str) -> str:
+        return f"{self.run_name}/{view}/0-video.mp4"
+
+    def key(self, relative: str) -> str:
+        return join_key(self.model_prefix, relative)
+
+
+def choose_run_name(store: ObjectStore, model_prefix: str, timestamp: str) -> str:
+    """`evaluation-<ts>`, or with `-2`, `-3` ... when that folder already has files."""
+    name = f"evaluation-{timestamp}"
+    suffix = 1
+    while store.list_keys(join_key(model_prefix, name) + "/"):
+        suffix += 1
+        name = f"evaluation-{timestamp}-{suffix}"
+    return name
+
+
+class SimtraceRecorder:
+    """A StepObserver collecting the evaluation simtrace (all steps; DeepRacer uploads it once at the end)."""
+
+    def __init__(self) -> None:
+        self.writer = SimtraceWriter()
+
+    def before_step(self, env: DeepRacerEnv) -> None:
+        """Nothing to capture before the step."""
+
+    def on_step(self, record: StepRecord) -> None:
+        self.writer.add_row(record.row)
+
+    def close(self) -> None:
+        """The rows stay in memory until written."""
+
+
+def evaluation_metrics(laps: list[LapResult] | tuple[LapResult, ...]) -> EvaluationMetrics:
+    return EvaluationMetrics(
+        EvaluationMetricsEntry.from_lap(
+            progress_pct=lap.progress_pct, start_time_s=lap.start_time_s, end_time_s=lap.end_time_s,
+            status=EpisodeStatus(lap.status), trial=lap.trial, crash_count=lap.crash_count,
+            immobilized_count=lap.immobilized_count, off_track_count=lap.off_track_count,
+            reversed_count=lap.reversed_count,
+        )
+        for lap in laps
+    )
+
+
+def _round(value: float | None, digits: int = 3) -> float | None:
+    return None if value is None else round(float(value), digits)
+
+
+def lap_dict(lap: LapResult) -> dict[str, Any]:
+    return {
+        "lap": lap.lap_index + 1,
+        "trial": lap.trial,
+        "status": lap.status,
+        "label": lap.label,
+        "completed": lap.completed,
+        "lap_time_s": _round(lap.lap_time_s),
+        "elapsed_s": _round(lap.elapsed_s),
+        "progress_pct": _round(lap.progress_pct),
+        "put_backs": lap.put_backs,
+        "off_track_count": lap.off_track_count,
+        "crash_count": lap.crash_count,
+        "immobilized_count": lap.immobilized_count,
+        "reversed_count": lap.reversed_count,
+        "reset_count": lap.reset_count,
+        "start_time_s": _round(lap.start_time_s),
+        "end_time_s": _round(lap.end_time_s),
+        "steps": lap.steps,
+    }
+
+
+def lap_statistics(laps: list[LapResult] | tuple[LapResult, ...], track_length_m: float) -> dict[str, Any]:
+    """Numbers both modes report: completed laps, best/average lap time, total progress and distance."""
+    times = [lap.lap_time_s for lap in laps if lap.lap_time_s is not None]
+    total_progress = sum(min(lap.progress_pct, 100.0) for lap in laps)
+    return {
+        "laps_completed": len(times),
+        "best_lap_time_s": _round(min(times)) if times else None,
+        "average_lap_time_s": _round(sum(times) / len(times)) if times else None,
+        "total_progress_pct": _round(total_progress),
+        "total_distance_m": _round(total_progress / 100.0 * track_length_m),
+        "put_backs": sum(lap.put_backs for lap in laps),
+    }
+
+
+def summary_dict(
+    *,
+    mode: str,
+    header: dict[str, Any],
+    rules: Any,
+    laps: list[LapResult] | tuple[LapResult, ...],
+    race: RaceResult | None,
+    track_length_m: float,
+    timings: dict[str, Any],
+    files: dict[str, Any],
+) -> dict[str, Any]:
+    summary: dict[str, Any] = {"mode": mode, **header, "rules": asdict(rules)}
+    summary.update(lap_statistics(laps, track_length_m))
+    if race is not None:
+        summary["race"] = {
+            "race_start_s": _round(race.race_start_s),
+            "race_end_s": _round(race.race_end_s),
+            "ended_by": "time_up" if race.laps and race.laps[-1].status == "time_up" else "no time left for another attempt",
+        }
+    summary["laps"] = [lap_dict(lap) for lap in laps]
+    summary["timings"] = timings
+    summary["files"] = files
+    return summary
+
+
+def format_table(laps: list[LapResult] | tuple[LapResult, ...], track_length_m: float) -> str:
+    """The table printed at the end: lap, time, resets, progress, status; then the totals."""
+    header = f"{'lap':>4}  {'time (s)':>9}  {'resets':>6}  {'progress':>9}  status"
+    lines = [header, "-" * (len(header) + 8)]
+    for lap in laps:
+        time_text = f"{lap.lap_time_s:9.3f}" if lap.lap_time_s is not None else f"{'(' + format(lap.elapsed_s, '.3f') + ')':>9}"
+        lines.append(f"{lap.lap_index + 1:>4}  {time_text}  {lap.put_backs:>6}  {lap.progress_pct:>8.2f}%  {lap.label}")
+    stats = lap_statistics(laps, track_length_m)
+    best = stats["best_lap_time_s"]
+    lines.append("-" * (len(header) + 8))
+    lines.append(
+        f"laps completed {stats['laps_completed']}, best lap {'-' if best is None else format(best, '.3f') + ' s'}, "
+        f"total progress {stats['total_progress_pct']:.2f}% ({stats['total_distance_m']:.2f} m), "
+        f"put back {stats['put_backs']} times"
+    )
+    return "\n".join(lines)
+
