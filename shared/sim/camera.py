@@ -7,6 +7,8 @@ and the picture differs only in anti-aliasing of thin lines.
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 from PIL import Image
 
@@ -59,10 +61,12 @@ def rgb_to_l(rgb: np.ndarray) -> np.ndarray:
 
 
 class CameraRenderer:
-    """One offscreen renderer shared by the car's cameras.
+    """One offscreen GL context, scene and frame buffer shared by the car's cameras.
 
-    With `full_resolution`, frames are rendered at DeepRacer's 640×480 and bilinear-resized with PIL
-    (`resize(..., resample=BILINEAR)`, as the SimApp's camera sensor) to the requested size.
+    A thin version of `mujoco.Renderer` for the hot path: fixed cameras resolved once, a preallocated pixel
+    buffer, a scene sized for this model. The returned RGB array is that buffer: it is overwritten by the next
+    call, so callers copy what they keep. With `full_resolution`, frames are rendered at DeepRacer's 640×480
+    and bilinear-resized with PIL (`resize(..., resample=BILINEAR)`, as the SimApp's camera sensor).
     """
 
     def __init__(
@@ -72,25 +76,61 @@ class CameraRenderer:
         height_px: int = IMAGE_HEIGHT_PX,
         full_resolution: bool = False,
     ) -> None:
+        self._model = model
         self._resize_to = (width_px, height_px) if full_resolution else None
         render_w, render_h = (FULL_WIDTH_PX, FULL_HEIGHT_PX) if full_resolution else (width_px, height_px)
+        if render_w > model.vis.global_.offwidth or render_h > model.vis.global_.offheight:
+            raise ValueError(f"render size {render_w}x{render_h} exceeds the model's offscreen buffer")
+        self._gl = None
+        self._context = None
         try:
-            self._renderer = mujoco.Renderer(model, height=render_h, width=render_w)
-        except (RuntimeError, ImportError, OSError, ValueError) as exc:
-            import os
-
+            self._gl = mujoco.GLContext(render_w, render_h)
+            self._gl.make_current()
+            self._context = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_150.value)
+        except (RuntimeError, ImportError, OSError, AttributeError) as exc:
+            self.close()
             raise GLBackendError(
                 f"cannot create an offscreen OpenGL context with MUJOCO_GL={os.environ.get('MUJOCO_GL', '')!r}: {exc}. "
                 "Use MUJOCO_GL=egl or MUJOCO_GL=osmesa (set before mujoco is imported)"
             ) from exc
+        mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN.value, self._context)
+        self._scene = mujoco.MjvScene(model=model, maxgeom=max(64, 2 * model.ngeom))
+        self._option = mujoco.MjvOption()
+        self._rect = mujoco.MjrRect(0, 0, render_w, render_h)
+        self._rgb = np.empty((render_h, render_w, 3), dtype=np.uint8)
+        self._cameras: dict[str, mujoco.MjvCamera] = {}
+        self._category = mujoco.mjtCatBit.mjCAT_ALL.value
+
+    def _camera(self, name: str) -> mujoco.MjvCamera:
+        camera = self._cameras.get(name)
+        if camera is None:
+            camera_id = mujoco.mj_name2id(self._model, mujoco.mjtObj.mjOBJ_CAMERA.value, name)
+            if camera_id < 0:
+                raise ValueError(f"the model has no camera named {name!r}")
+            camera = mujoco.MjvCamera()
+            camera.type = mujoco.mjtCamera.mjCAMERA_FIXED.value
+            camera.fixedcamid = camera_id
+            self._cameras[name] = camera
+        return camera
 
     def rgb(self, data: mujoco.MjData, camera: str) -> np.ndarray:
-        """(H, W, 3) uint8 image of a named camera."""
-        self._renderer.update_scene(data, camera)
-        rgb = self._renderer.render()
+        """(H, W, 3) uint8 image of a named camera (the shared buffer; see the class note)."""
+        if self._context is None:
+            raise RuntimeError("the camera renderer is closed")
+        self._gl.make_current()
+        mujoco.mjv_updateScene(self._model, data, self._option, None, self._camera(camera), self._category, self._scene)
+        mujoco.mjr_render(self._rect, self._scene, self._context)
+        mujoco.mjr_readPixels(self._rgb, None, self._rect, self._context)
+        image = self._rgb[::-1]  # OpenGL rows start at the bottom
         if self._resize_to is not None:
-            rgb = np.asarray(Image.fromarray(rgb).resize(self._resize_to, resample=Image.BILINEAR))
-        return rgb
+            return np.asarray(Image.fromarray(np.ascontiguousarray(image)).resize(self._resize_to, resample=Image.BILINEAR))
+        return image
 
     def close(self) -> None:
-        self._renderer.close()
+        if self._context is not None and self._gl is not None:
+            self._gl.make_current()
+            self._context.free()
+        self._context = None
+        if self._gl is not None:
+            self._gl.free()
+        self._gl = None

@@ -71,3 +71,22 @@ def test_full_resolution_path_gives_a_similar_picture():
     assert direct.shape == resized.shape == (120, 160)
     assert np.abs(direct - resized).mean() < 6.0
     assert not np.array_equal(direct, resized)
+
+
+def test_camera_renderer_matches_mujoco_renderer():
+    """The lean renderer draws exactly what `mujoco.Renderer` draws for the same camera."""
+    from racer.shared.sim._mujoco import mujoco
+    from racer.shared.sim.config import EnvConfig
+    from racer.shared.sim.env import DeepRacerEnv
+
+    env = DeepRacerEnv(EnvConfig())
+    reference = mujoco.Renderer(env.model, height=120, width=160)
+    try:
+        env.reset(seed=0)
+        for action in (2, 7, 9):
+            env.step(action)
+            reference.update_scene(env.data, "front_camera")
+            np.testing.assert_array_equal(env._camera.rgb(env.data, "front_camera"), reference.render())
+    finally:
+        reference.close()
+        env.close()

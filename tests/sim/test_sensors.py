@@ -58,6 +58,7 @@ def test_observation_shapes(world, sensors):
         camera = next(k for k in sensors if k in ("FRONT_FACING_CAMERA", "STEREO_CAMERAS", "LEFT_CAMERA", "observation"))
         image = obs[camera]
         assert image.std() > 5.0  # the road, its markings and the floor are visible
+        assert image[:15].mean() > image[-15:].mean() + 20  # upright: bright horizon on top, dark road below
         if camera == "STEREO_CAMERAS":
             assert not np.array_equal(image[..., 0], image[..., 1])
     finally:
