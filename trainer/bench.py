@@ -5,11 +5,14 @@ actions; default 4000 transitions, 10 epochs, batch 64), from the same initial w
 order. `samples_per_s` = transitions x epochs / wall seconds of `PPOTrainer.update` (GAE, the old-policy pass and
 the epochs, everything the trainer does per iteration); `baseline_samples_per_s` is the same for
 `plain_ppo_update`, the textbook implementation: a deep-copied old network evaluated per minibatch, the default
-single-tensor Adam loop, no NaN checks. Both use the same network module (channels-last), so the speedup counts only
-what the update does differently: the fused Adam kernel and one old-policy pass per update instead of one per
-minibatch. Neither path is compiled (torch.compile measured ~20 % slower here) nor uses bf16 (no AVX-512/AMX on
-this CPU: ~20x slower). A small untimed warm-up update runs first on each path (oneDNN primitive creation).
-With `--repeats` > 1 the two paths alternate and medians are reported.
+single-tensor Adam loop, no NaN checks, the towers one after the other with `--threads` intra-op threads. Both get
+the same cores and use the same network module (channels-last), so the speedup counts only what the update does
+differently: policy and value towers on one core each (`PPOSettings.threads_per_tower`), the fused Adam kernel, and
+one old-policy pass per update instead of one per minibatch. Neither path is compiled (torch.compile measured ~20 %
+slower here, so there is no compile time to amortise) nor uses bf16 (no AVX-512/AMX on this CPU: ~20x slower).
+A small untimed warm-up update runs first on each path (oneDNN primitive creation). With `--repeats` > 1 the two
+paths alternate and medians are reported; `*_cpu_s` are process CPU seconds (OpenMP spin-waits included), less
+sensitive than wall time to other processes on the same cores.
 """
 
 from __future__ import annotations
@@ -127,17 +130,21 @@ def plain_ppo_update(network: ActorCritic, hyperparameters: Hyperparameters, epi
     return stats
 
 
-def _time_trainer(network: ActorCritic, hp: Hyperparameters, episodes: list[Episode], seed: int) -> float:
-    trainer = PPOTrainer(network, hp, PPOSettings(seed=seed))
-    start = time.perf_counter()
+def _time_trainer(network: ActorCritic, hp: Hyperparameters, episodes: list[Episode], seed: int,
+                  threads: int) -> tuple[float, float]:
+    """(wall s, CPU s) of one PPOTrainer.update; the two towers share the `threads` cores."""
+    trainer = PPOTrainer(network, hp, PPOSettings(seed=seed, threads_per_tower=max(1, threads // 2)))
+    start, cpu_start = time.perf_counter(), time.process_time()
     trainer.update(episodes)
-    return time.perf_counter() - start
+    return time.perf_counter() - start, time.process_time() - cpu_start
 
 
-def _time_baseline(network: ActorCritic, hp: Hyperparameters, episodes: list[Episode], seed: int) -> float:
-    start = time.perf_counter()
+def _time_baseline(network: ActorCritic, hp: Hyperparameters, episodes: list[Episode], seed: int,
+                   threads: int) -> tuple[float, float]:
+    torch.set_num_threads(threads)
+    start, cpu_start = time.perf_counter(), time.process_time()
     plain_ppo_update(network, hp, episodes, seed)
-    return time.perf_counter() - start
+    return time.perf_counter() - start, time.process_time() - cpu_start
 
 
 @click.command(name="ppo")
@@ -151,7 +158,6 @@ def _time_baseline(network: ActorCritic, hp: Hyperparameters, episodes: list[Epi
 def ppo_bench_command(transitions: int, epochs: int, batch_size: int, num_actions: int, threads: int, repeats: int,
                       seed: int) -> None:
     """One PPO update: samples/s of the project trainer vs a plain fp32 eager baseline, as one JSON line."""
-    torch.set_num_threads(threads)
     hp = Hyperparameters(batch_size=batch_size, num_epochs=epochs, lr=3e-4, beta_entropy=0.01, discount_factor=0.999,
                          loss_type="huber")
     initial = bench_network(num_actions, seed)
@@ -159,16 +165,18 @@ def ppo_bench_command(transitions: int, epochs: int, batch_size: int, num_action
     warm_up = synthetic_episodes(2 * batch_size, num_actions, seed + 1)
     warm_hp = Hyperparameters(batch_size=batch_size, num_epochs=1, lr=3e-4, loss_type="huber")
     print("ppo bench: warming up both paths", file=sys.stderr)
-    _time_trainer(copy.deepcopy(initial), warm_hp, warm_up, seed)
-    _time_baseline(copy.deepcopy(initial), warm_hp, warm_up, seed)
+    _time_trainer(copy.deepcopy(initial), warm_hp, warm_up, seed, threads)
+    _time_baseline(copy.deepcopy(initial), warm_hp, warm_up, seed, threads)
 
-    trainer_s, baseline_s = [], []
+    trainer_runs, baseline_runs = [], []
     for repeat in range(repeats):
-        baseline_s.append(_time_baseline(copy.deepcopy(initial), hp, episodes, seed))
-        print(f"ppo bench: run {repeat + 1}/{repeats} baseline {baseline_s[-1]:.1f} s", file=sys.stderr)
-        trainer_s.append(_time_trainer(copy.deepcopy(initial), hp, episodes, seed))
-        print(f"ppo bench: run {repeat + 1}/{repeats} trainer {trainer_s[-1]:.1f} s", file=sys.stderr)
+        baseline_runs.append(_time_baseline(copy.deepcopy(initial), hp, episodes, seed, threads))
+        print(f"ppo bench: run {repeat + 1}/{repeats} baseline {baseline_runs[-1][0]:.1f} s", file=sys.stderr)
+        trainer_runs.append(_time_trainer(copy.deepcopy(initial), hp, episodes, seed, threads))
+        print(f"ppo bench: run {repeat + 1}/{repeats} trainer {trainer_runs[-1][0]:.1f} s", file=sys.stderr)
     samples = transitions * epochs
+    trainer_s, trainer_cpu_s = zip(*trainer_runs, strict=True)
+    baseline_s, baseline_cpu_s = zip(*baseline_runs, strict=True)
     trainer_median, baseline_median = statistics.median(trainer_s), statistics.median(baseline_s)
     print(json.dumps({
         "benchmark": "ppo",
@@ -184,8 +192,11 @@ def ppo_bench_command(transitions: int, epochs: int, batch_size: int, num_action
         "speedup": round(baseline_median / trainer_median, 3),
         "trainer_s": [round(s, 2) for s in trainer_s],
         "baseline_s": [round(s, 2) for s in baseline_s],
+        "trainer_cpu_s": [round(s, 2) for s in trainer_cpu_s],
+        "baseline_cpu_s": [round(s, 2) for s in baseline_cpu_s],
         "cpu_capability": torch.backends.cpu.get_cpu_capability(),
         "machine": platform.machine(),
         "torch": torch.__version__,
-        "fast_path": "fused Adam; old policy evaluated once per update; channels-last in both paths; no compile, no bf16",
+        "fast_path": "policy/value towers on one core each, fused Adam, old policy once per update; "
+                     "channels-last in both paths; no torch.compile, no bf16",
     }), flush=True)

@@ -27,10 +27,12 @@ One update, as DeepRacer's `ClippedPPOAgent.train()` does it:
    then one Adam step (lr = `lr`, betas 0.9/0.999, eps 1e-5) on both towers. No gradient clipping, no KL penalty,
    no value clipping.
 
-Speed (see `racer bench ppo`): Adam runs as one fused kernel (`fused=True`, same arithmetic as the textbook loop),
-the network is channels-last, and step 2 replaces the per-minibatch old-policy pass. bf16 autocast and
-torch.compile were measured and are *not* used: this machine has AVX2 but no AVX-512/AMX, where bf16 was ~20x
-slower and compiled graphs ~20 % slower than eager.
+Speed (see `racer bench ppo`): the value tower's forward and backward run on a second thread while the policy
+tower runs on the calling one (the towers share no weight, so the gradients are exactly those of the summed loss),
+each with `threads_per_tower` intra-op threads for the duration of the update; Adam runs as one fused kernel
+(`fused=True`, same arithmetic as the textbook loop); the network is channels-last; step 2 replaces the
+per-minibatch old-policy pass. bf16 autocast and torch.compile were measured and are *not* used: this machine has
+AVX2 but no AVX-512/AMX, where bf16 was ~20x slower and compiled graphs ~20 % slower than eager.
 
 Non-finite numbers never abort training (`racer.trainer.nan_guard`): a NaN/inf loss, gradient or weight rolls the
 network and optimiser back to their state before the update, halves the learning rate, logs one plain warning and
@@ -41,7 +43,9 @@ from __future__ import annotations
 
 import logging
 import math
+import os
 from collections.abc import Mapping, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -90,6 +94,10 @@ class PPOSettings:
     """Rollback-and-halve attempts per update before the iteration's data is skipped."""
     seed: int | None = None
     """Seeds the minibatch shuffling; None draws a fresh seed."""
+    threads_per_tower: int | None = None
+    """torch intra-op threads while an update runs (restored afterwards). The policy and value towers run
+    concurrently on two threads, so the update uses 2 x this many cores; None = half the CPUs available to the
+    process (1 on a 2-core machine, where one thread per tower beat two threads per op by ~1.5x, more under load)."""
 
 
 @dataclass(frozen=True)
@@ -255,22 +263,44 @@ class PPOTrainer:
     # -- the algorithm -----------------------------------------------------------------------------------------------
 
     @torch.no_grad()
-    def _evaluate_old_policy(self, batch: TrainingBatch) -> tuple[ActionDistribution, torch.Tensor]:
-        """The frozen old policy and V(s) for every transition, in chunks."""
-        distributions, values = [], []
-        for start in range(0, batch.size, self.settings.inference_chunk_size):
-            chunk = torch.arange(start, min(start + self.settings.inference_chunk_size, batch.size))
-            observations = batch.select(chunk)
-            distributions.append(self.network.distribution(observations))
-            values.append(self.network.value(observations))
-        return _cat_distributions(distributions), torch.cat(values)
+    def _evaluate_old_policy(self, batch: TrainingBatch, towers: ThreadPoolExecutor) -> tuple[ActionDistribution, torch.Tensor]:
+        """The frozen old policy and V(s) for every transition, in chunks; the value tower on the second thread."""
+        chunks = [torch.arange(start, min(start + self.settings.inference_chunk_size, batch.size))
+                  for start in range(0, batch.size, self.settings.inference_chunk_size)]
+        values = towers.submit(self._values, batch, chunks)  # grad mode is per thread: _values has its own no_grad
+        distributions = [self.network.distribution(batch.select(chunk)) for chunk in chunks]
+        return _cat_distributions(distributions), values.result()
+
+    @torch.no_grad()
+    def _values(self, batch: TrainingBatch, chunks: list[torch.Tensor]) -> torch.Tensor:
+        return torch.cat([self.network.value(batch.select(chunk)) for chunk in chunks])
+
+    def _value_loss_backward(self, observations: Mapping[str, torch.Tensor], targets: torch.Tensor) -> torch.Tensor:
+        """Value loss of one minibatch, back-propagated into the value tower (runs on the second thread)."""
+        value = self.network.value(observations)
+        if self.hyperparameters.loss_type == "huber":
+            value_loss = nn.functional.huber_loss(value, targets, delta=HUBER_DELTA)
+        else:
+            value_loss = nn.functional.mse_loss(value, targets)
+        value_loss.backward()
+        return value_loss.detach()
 
     def _train(self, batch: TrainingBatch) -> list[EpochStats]:
+        threads = self.settings.threads_per_tower or max(1, len(os.sched_getaffinity(0)) // 2)
+        previous_threads = torch.get_num_threads()
+        torch.set_num_threads(threads)
+        try:
+            with ThreadPoolExecutor(max_workers=1, thread_name_prefix="value-tower") as towers:
+                return self._epochs(batch, towers)
+        finally:
+            torch.set_num_threads(previous_threads)
+
+    def _epochs(self, batch: TrainingBatch, towers: ThreadPoolExecutor) -> list[EpochStats]:
         hp = self.hyperparameters
         clip = self.settings.clip_epsilon
 
         # Old policy and values, frozen before the first step.
-        old_policy, values = self._evaluate_old_policy(batch)
+        old_policy, values = self._evaluate_old_policy(batch, towers)
         check_finite(float(values.sum()), "V(s) of the rollout")
 
         # GAE with zero bootstrap after every episode, then advantages standardised over the iteration.
@@ -288,30 +318,29 @@ class PPOTrainer:
             minibatches = shuffled_minibatches(batch.size, minibatch_size, self.generator)
             for number, indices in enumerate(minibatches):
                 observations = batch.select(indices)
+                self.optimizer.zero_grad(set_to_none=True)
+
+                # Value loss against the GAE targets: forward and backward on the second thread, while the policy
+                # tower works here. The towers share no weight, so these are exactly the gradients of the summed loss.
+                value_loss_job = towers.submit(self._value_loss_backward, observations, value_targets[indices])
+
+                # Clipped surrogate objective, against the frozen old policy.
                 old = _slice_distribution(old_policy, indices)
                 new = self.network.distribution(observations)
+                actions = batch.actions[indices]
+                ratio = torch.exp(new.log_prob(actions) - old.log_prob(actions))
                 advantage = advantages[indices]
-
-                # Clipped surrogate objective.
-                ratio = torch.exp(new.log_prob(batch.actions[indices]) - old.log_prob(batch.actions[indices]))
                 surrogate = -torch.min(ratio * advantage, ratio.clamp(1 - clip, 1 + clip) * advantage).mean()
-
-                # Value loss against the GAE targets.
-                value = self.network.value(observations)
-                if hp.loss_type == "huber":
-                    value_loss = nn.functional.huber_loss(value, value_targets[indices], delta=HUBER_DELTA)
-                else:
-                    value_loss = nn.functional.mse_loss(value, value_targets[indices])
 
                 # Entropy bonus.
                 entropy = new.entropy().mean()
 
-                loss = value_loss + surrogate - hp.beta_entropy * entropy
+                # loss = value loss + surrogate - beta * entropy; one Adam step for both towers.
+                (surrogate - hp.beta_entropy * entropy).backward()
+                value_loss = value_loss_job.result()
+                loss = value_loss + surrogate.detach() - hp.beta_entropy * entropy.detach()
                 where = f"epoch {epoch}, minibatch {number}"
                 check_finite(loss.item(), f"loss at {where}")
-
-                self.optimizer.zero_grad(set_to_none=True)
-                loss.backward()
                 grad_norm = gradient_norm(self.network.parameters())
                 check_finite(grad_norm, f"gradient at {where}")
                 self.optimizer.step()
