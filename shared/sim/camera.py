@@ -127,10 +127,11 @@ class CameraRenderer:
         return image
 
     def close(self) -> None:
-        if self._context is not None and self._gl is not None:
+        """Free the GL resources (idempotent); the MjrContext must be freed with its context current."""
+        if getattr(self, "_context", None) is not None and self._gl is not None:
             self._gl.make_current()
             self._context.free()
         self._context = None
-        if self._gl is not None:
+        if getattr(self, "_gl", None) is not None:
             self._gl.free()
         self._gl = None
