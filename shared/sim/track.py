@@ -173,6 +173,10 @@ class Track:
         # The orientation of the driven direction: ring orientation of the rows as stored here.
         self._is_ccw = bool(LinearRing(self.center_line).is_ccw)
 
+    def __repr__(self) -> str:
+        direction = "reversed" if self.direction_reversed else "forward"
+        return f"Track({self.name!r}, {self.num_waypoints} waypoints, {self.length_m:.3f} m, {direction})"
+
     # ----- loading -------------------------------------------------------------------------------------------
 
     @classmethod
