@@ -40,6 +40,7 @@ from racer.shared.deepracer.metrics import EvaluationMetrics
 from racer.shared.deepracer.model_metadata import ModelMetadata, ModelMetadataError, parse_model_metadata
 from racer.shared.policy.checkpoints import CheckpointError, CheckpointStore
 from racer.shared.policy.networks import ActorCritic
+from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
 from racer.shared.store import ObjectNotFoundError, ObjectStore, join_key
 
@@ -116,17 +117,18 @@ class EvaluationSession:
         self.model_metadata = model_metadata
         timestamp = (now or dt.datetime.now(dt.UTC)).strftime("%Y%m%d%H%M%S")
         self.layout = EvaluationLayout(prefix, choose_run_name(store, prefix, timestamp))
-        self._keep_dir = out_dir is not None
-        self.workdir = Path(out_dir) if out_dir is not None else Path(tempfile.mkdtemp(prefix="racer-eval-"))
-        self.workdir.mkdir(parents=True, exist_ok=True)
-
         self.env = DeepRacerEnv(self._env_config(), render_mode="rgb_array" if (config.video.enabled or config.mcap) else None)
-        _check_policy_inputs(policy, self.env, self.checkpoint)
+        self._keep_dir = out_dir is not None
         self.simtrace = SimtraceRecorder()
         observers: list[StepObserver] = [self.simtrace]
         self.video: VideoRecorder | None = None
         self.mcap: McapRecorder | None = None
+        workdir: Path | None = None
         try:
+            _check_policy_inputs(policy, self.env, self.checkpoint)
+            workdir = Path(out_dir) if out_dir is not None else Path(tempfile.mkdtemp(prefix="racer-eval-"))
+            workdir.mkdir(parents=True, exist_ok=True)
+            self.workdir = workdir
             if config.video.enabled:
                 self.video = VideoRecorder(self.env, self.workdir / self.layout.run_name, config.video)
                 observers.append(self.video)
@@ -137,10 +139,12 @@ class EvaluationSession:
             for observer in observers:
                 observer.close()
             self.env.close()
+            if workdir is not None and not self._keep_dir:
+                shutil.rmtree(workdir, ignore_errors=True)
             raise
         self.driver = EvaluationDriver(self.env, policy, observers, seed=config.seed)
 
-    def _env_config(self):
+    def _env_config(self) -> EnvConfig:
         config = self.config
         if config.mode == "race":
             penalty = config.race.reset_penalty_s

@@ -1,0 +1,56 @@
+"""Helpers for the evaluation-worker tests: a session driven by the scripted policy, on a local store."""
+
+from __future__ import annotations
+
+import datetime as dt
+from pathlib import Path
+
+import pytest
+import torch
+
+from racer.evaluation_worker.config import DeepRacerRules, EvaluationConfig, RaceRules, VideoOptions
+from racer.evaluation_worker.runner import EvaluationReport, EvaluationSession
+from racer.shared.deepracer.simtrace import read_simtrace
+from racer.shared.store import LocalStore
+from tests.evaluation.scripted import CONTINUOUS_METADATA, ScriptedPolicy
+
+NO_VIDEO = VideoOptions(enabled=False)
+
+
+@pytest.fixture(autouse=True)
+def one_torch_thread():
+    previous = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(previous)
+
+
+def run_scripted(
+    store_root: Path,
+    *,
+    mode: str = "deepracer",
+    exits: dict[int, list[float]] | None = None,
+    speed_mps: float = 2.0,
+    deepracer: DeepRacerRules | None = None,
+    race: RaceRules | None = None,
+    video: VideoOptions = NO_VIDEO,
+    mcap: bool = False,
+    track: str = "racer_oval",
+    reverse_dir: bool = False,
+    out_dir: Path | None = None,
+    now: dt.datetime | None = None,
+    model_prefix: str = "scripted-model",
+) -> tuple[EvaluationReport, ScriptedPolicy]:
+    policy = ScriptedPolicy(speed_mps, exits)
+    config = EvaluationConfig(
+        model_prefix=model_prefix, mode=mode, track=track, reverse_dir=reverse_dir,
+        deepracer=deepracer or DeepRacerRules(), race=race or RaceRules(), video=video, mcap=mcap,
+    )
+    session = EvaluationSession(LocalStore(store_root), config, policy=policy, model_metadata=CONTINUOUS_METADATA,
+                                out_dir=out_dir, now=now)
+    policy.attach(session.driver)
+    return session.run(), policy
+
+
+def simtrace_of(store_root: Path, report: EvaluationReport):
+    return read_simtrace((store_root / report.keys["simtrace"]).read_bytes(), source=report.keys["simtrace"])

@@ -1,0 +1,111 @@
+"""`racer evaluate` on a stored model (a freshly initialised network), against a local folder and a real MinIO."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import torch
+from click.testing import CliRunner
+
+from racer.evaluation_worker.main import evaluate_command
+from racer.shared.deepracer.metrics import read_evaluation_metrics
+from racer.shared.deepracer.simtrace import read_simtrace
+from racer.shared.policy.checkpoints import CheckpointRecord, CheckpointStore
+from racer.shared.policy.networks import build_actor_critic
+from racer.shared.sim.config import DEFAULT_MODEL_METADATA
+from racer.shared.store import LocalStore, ObjectStore, S3Store
+
+PREFIX = "cli-model"
+
+
+def save_model(store: ObjectStore, count: int = 1) -> list[str]:
+    checkpoints = CheckpointStore(store, PREFIX)
+    checkpoints.put_model_metadata(DEFAULT_MODEL_METADATA)
+    names = []
+    for number in range(count):
+        torch.manual_seed(number)
+        names.append(checkpoints.save(number, 100 * number, build_actor_critic(DEFAULT_MODEL_METADATA),
+                                      model_metadata=DEFAULT_MODEL_METADATA))
+    return names
+
+
+def invoke(store_location: str, *args: str, extra_env: dict[str, str] | None = None):
+    env = {"RACER_STORE": store_location, **(extra_env or {})}
+    return CliRunner().invoke(evaluate_command, ["--model-prefix", PREFIX, *args], env=env, catch_exceptions=False)
+
+
+def files_of(store: ObjectStore, output: str) -> dict[str, str]:
+    keys = {}
+    for line in output.splitlines():
+        parts = line.split()
+        if len(parts) == 2 and parts[1].startswith(PREFIX + "/"):
+            keys[parts[0]] = parts[1]
+    assert keys, output
+    for key in keys.values():
+        assert store.exists(key), key
+    return keys
+
+
+def test_race_on_a_local_store_prints_the_table_and_writes_every_file(tmp_path):
+    store = LocalStore(tmp_path / "store")
+    save_model(store)
+    result = invoke(str(tmp_path / "store"), "--mode", "race", "--race-minutes", "0.15", "--video-size", "160x120",
+                    "--out", str(tmp_path / "out"))
+    assert result.exit_code == 0, result.output
+    lines = result.output.splitlines()
+    assert any(line.startswith("lap   1:") for line in lines)  # per-lap progress lines
+    header = next(index for index, line in enumerate(lines) if line.split()[:5] == ["lap", "time", "(s)", "resets", "progress"])
+    assert "Time Up" in result.output.split("\n", header + 1)[-1]
+    keys = files_of(store, result.output)
+    assert set(keys) == {"metrics", "simtrace", "summary", "camera-incar", "camera-topview", "camera-45degree", "mcap"}
+    summary = json.loads(store.get_bytes(keys["summary"]))
+    assert summary["mode"] == "race" and summary["checkpoint"] == "0_Step-0.ckpt"
+    assert summary["rules"]["race_duration_s"] == 9.0 and summary["rules"]["resets_per_lap"] == 3
+    rows = read_simtrace(store.get_bytes(keys["simtrace"]), source="simtrace")
+    assert rows.episode_status.iloc[-1] == "time_up"
+    assert summary["timings"]["video_frames"]["camera-45degree"] == len(rows)
+    assert (tmp_path / "out" / keys["summary"].removeprefix(PREFIX + "/")).is_file()
+
+
+def test_deepracer_evaluation_against_minio(s3_settings):
+    store = S3Store(s3_settings)
+    save_model(store)
+    extra = {"S3_ENDPOINT_URL": s3_settings.endpoint_url, "AWS_ACCESS_KEY_ID": s3_settings.access_key_id,
+             "AWS_SECRET_ACCESS_KEY": s3_settings.secret_access_key}
+    result = invoke(f"s3://{s3_settings.bucket}", "--trials", "2", "--no-video", "--mcap", "--checkpoint", "last",
+                    extra_env=extra)
+    assert result.exit_code == 0, result.output
+    keys = files_of(store, result.output)
+    assert set(keys) == {"metrics", "simtrace", "summary", "mcap"}
+    metrics = read_evaluation_metrics(store.get_bytes(keys["metrics"]), source=keys["metrics"])
+    assert [entry.trial for entry in metrics.entries] == [1, 2]
+    rows = read_simtrace(store.get_bytes(keys["simtrace"]), source="simtrace")
+    assert sorted(rows.episode.unique()) == [0, 1]
+    assert store.size(keys["mcap"]) > 1000
+
+
+def test_best_checkpoint_comes_from_deepracer_checkpoints_json(tmp_path):
+    store = LocalStore(tmp_path / "store")
+    names = save_model(store, count=2)
+    CheckpointStore(store, PREFIX).write_best_and_last(CheckpointRecord(names[0], 50.0, 1.0), CheckpointRecord(names[1], 10.0, 2.0))
+    result = invoke(str(tmp_path / "store"), "--trials", "1", "--no-video", "--no-mcap")
+    assert result.exit_code == 0, result.output
+    summary = json.loads(store.get_bytes(files_of(store, result.output)["summary"]))
+    assert (summary["checkpoint"], summary["checkpoint_requested"]) == (names[0], "best")
+
+
+def test_bad_input_gives_one_clear_line(tmp_path):
+    store = LocalStore(tmp_path / "store")
+    save_model(store)
+    missing = invoke(str(tmp_path / "store"), "--checkpoint", "7_Step-700.ckpt", "--no-video", "--no-mcap")
+    assert missing.exit_code == 1 and "7_Step-700.ckpt" in missing.output and "Traceback" not in missing.output
+    resets = invoke(str(tmp_path / "store"), "--resets", "1")
+    assert resets.exit_code == 1 and "NUMBER_OF_RESETS" in resets.output
+    empty = invoke(str(tmp_path / "empty"), "--no-video")
+    assert empty.exit_code == 1 and ".coach_checkpoint" in empty.output
+    track = invoke(str(tmp_path / "store"), "--track", "no_such_track", "--no-video", "--no-mcap")
+    assert track.exit_code == 1 and "no_such_track" in track.output
+    size = invoke(str(tmp_path / "store"), "--video-size", "big")
+    assert size.exit_code == 2 and "WIDTHxHEIGHT" in size.output
+    assert not list(Path(tmp_path / "store").glob(f"{PREFIX}/evaluation-*"))
