@@ -71,3 +71,37 @@ def test_point_geometry_matches_simtrace_too(deepracer_data):
         assert geometry.distance_from_center_m == pytest.approx(track.distance_from_center(x, y), abs=1e-12)
         assert geometry.track_width_m == pytest.approx(track.track_width_at(x, y), abs=1e-12)
         assert geometry.is_left_of_center == track.is_left_of_center(x, y)
+
+
+def test_wheel_geometry_reproduces_all_wheels_on_track_and_off_track(deepracer_data):
+    """Wheel centres placed from X, Y, yaw with the car's geometry (flat car) give DeepRacer's on-track flags."""
+    import math
+
+    import numpy as np
+
+    from racer.shared.sim import car
+
+    track = Track.load(deepracer_data / "routes" / "reinvent_base.npy")
+    local = np.array([
+        [car.REAR_AXLE_X_M, car.REAR_HALF_TRACK_M], [car.FRONT_AXLE_X_M, car.FRONT_HALF_TRACK_M],
+        [car.REAR_AXLE_X_M, -car.REAR_HALF_TRACK_M], [car.FRONT_AXLE_X_M, -car.FRONT_HALF_TRACK_M],
+    ])
+    rows_checked = mismatches = off_track_rows = 0
+    for path in _simtraces(deepracer_data):
+        with path.open(newline="") as handle:
+            for row in csv.DictReader(handle):
+                yaw = math.radians(float(row["yaw"]))
+                cos, sin = math.cos(yaw), math.sin(yaw)
+                origin_x = float(row["X"]) - 0.14 * cos
+                origin_y = float(row["Y"]) - 0.14 * sin
+                inside = track.contains_points(origin_x + local[:, 0] * cos - local[:, 1] * sin,
+                                               origin_y + local[:, 0] * sin + local[:, 1] * cos)
+                rows_checked += 1
+                mismatches += bool(inside.all()) != (row["all_wheels_on_track"] == "True")
+                if row["episode_status"] == "off_track":
+                    off_track_rows += 1
+                    assert not inside.any(), (path.name, row["episode"], row["steps"])
+                elif row["episode_status"] == "in_progress":
+                    assert inside.any(), (path.name, row["episode"], row["steps"])
+    assert off_track_rows > 50
+    assert mismatches <= rows_checked // 1000, f"{mismatches} all_wheels_on_track mismatches in {rows_checked} rows"
