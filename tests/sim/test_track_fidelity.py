@@ -105,3 +105,43 @@ def test_wheel_geometry_reproduces_all_wheels_on_track_and_off_track(deepracer_d
                     assert inside.any(), (path.name, row["episode"], row["steps"])
     assert off_track_rows > 50
     assert mismatches <= rows_checked // 1000, f"{mismatches} all_wheels_on_track mismatches in {rows_checked} rows"
+
+
+def test_reset_rules_reproduce_real_episode_statuses(deepracer_data):
+    """Replaying real rows through the rule counters gives DeepRacer's status on every RUN row (training
+    files and the console evaluation; DRfC's continuous evaluation reports intermediate laps as in_progress)."""
+    import math
+
+    import numpy as np
+
+    from racer.shared.sim import car, rules
+
+    track = Track.load(deepracer_data / "routes" / "reinvent_base.npy")
+    local = np.array([
+        [car.REAR_AXLE_X_M, car.REAR_HALF_TRACK_M], [car.FRONT_AXLE_X_M, car.FRONT_HALF_TRACK_M],
+        [car.REAR_AXLE_X_M, -car.REAR_HALF_TRACK_M], [car.FRONT_AXLE_X_M, -car.FRONT_HALF_TRACK_M],
+    ])
+    seen = set()
+    for path in _simtraces(deepracer_data):
+        if path.name.startswith("drfc1_evaluation"):
+            continue
+        counters = rules.RuleCounters(rules.RuleLimits())
+        prev_progress = 0.0
+        with path.open(newline="") as handle:
+            for row in csv.DictReader(handle):
+                yaw = math.radians(float(row["yaw"]))
+                cos, sin = math.cos(yaw), math.sin(yaw)
+                origin = (float(row["X"]) - 0.14 * cos, float(row["Y"]) - 0.14 * sin)
+                progress = float(row["progress"])
+                if row["episode_status"] == "prepare":
+                    counters.clear(origin)
+                    prev_progress = progress
+                    continue
+                inside = track.contains_points(origin[0] + local[:, 0] * cos - local[:, 1] * sin,
+                                               origin[1] + local[:, 0] * sin + local[:, 1] * cos)
+                status = counters.judge(progress=progress, prev_progress=prev_progress, origin=origin,
+                                        any_wheel_on_track=bool(inside.any()))
+                assert status == row["episode_status"], (path.name, row["episode"], row["steps"])
+                seen.add(status)
+                prev_progress = 0.0 if progress == 100 else progress
+    assert seen == {"in_progress", "off_track", "lap_complete"}
