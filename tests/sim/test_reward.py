@@ -184,3 +184,26 @@ def test_default_evaluation_reward_reproduces_real_evaluation_simtraces(track, d
                 progress=float(row["progress"]), all_wheels_on_track=row["all_wheels_on_track"] == "True",
                 is_offtrack=False)
             assert default_evaluation_reward(params) == float(row["reward"]), (name, row["steps"])
+
+
+@pytest.mark.parametrize(
+    ("simtrace", "reward_file"),
+    [
+        ("console2022_training_0-iteration.csv", "awsdoc_example_1.py"),
+        ("console2022_training_27-iteration.csv", "awsdoc_example_1.py"),
+        ("drfc1_training_26-iteration.csv", "drfc1_follow_center_line.py"),
+    ],
+)
+def test_centre_line_reward_reproduces_real_training_rewards(track, deepracer_data, simtrace, reward_file):
+    """These runs trained with the centre-line reward: params rebuilt from X, Y give every logged reward."""
+    function = load_reward_function(deepracer_data / "reward_functions" / reward_file)
+    with (deepracer_data / "simtrace" / simtrace).open(newline="") as handle:
+        rows = [r for r in csv.DictReader(handle) if r["episode_status"] != "prepare"]
+    assert len(rows) > 400
+    for row in rows:
+        params = make_reward_params(
+            track, x=float(row["X"]), y=float(row["Y"]), heading_deg=float(row["yaw"]),
+            speed_mps=float(row["throttle"]), steering_angle_deg=float(row["steer"]), steps=float(row["steps"]),
+            progress=float(row["progress"]), all_wheels_on_track=row["all_wheels_on_track"] == "True",
+            is_offtrack=row["episode_status"] == "off_track", sim_time_s=float(row["tstamp"]))
+        assert function(params) == pytest.approx(float(row["reward"]), abs=1e-12), (simtrace, row["episode"], row["steps"])
