@@ -8,6 +8,7 @@ import signal
 import click
 
 from racer.shared.config import settings_from_env
+from racer.shared.user_errors import user_error_types
 from racer.shared.run_layout import WORLDS
 
 
@@ -24,9 +25,12 @@ def rollout_command(model_prefix, worker_id, world, track, seed, wait_timeout_s)
     from racer.rollout_worker.worker import RolloutOptions, RolloutWorker
 
     logging.basicConfig(level=logging.INFO, format=f"%(asctime)s %(levelname)s worker-{worker_id}: %(message)s")
-    worker = RolloutWorker(settings_from_env(), RolloutOptions(
-        model_prefix=model_prefix, worker_id=worker_id, seed=seed, wait_timeout_s=wait_timeout_s,
-        world_override=world, track_override=track))
-    signal.signal(signal.SIGTERM, lambda signum, frame: worker.stop())
-    signal.signal(signal.SIGINT, lambda signum, frame: worker.stop())
-    worker.run_forever()
+    try:
+        worker = RolloutWorker(settings_from_env(), RolloutOptions(
+            model_prefix=model_prefix, worker_id=worker_id, seed=seed, wait_timeout_s=wait_timeout_s,
+            world_override=world, track_override=track))
+        signal.signal(signal.SIGTERM, lambda signum, frame: worker.stop())
+        signal.signal(signal.SIGINT, lambda signum, frame: worker.stop())
+        worker.run_forever()
+    except user_error_types() as error:
+        raise click.ClickException(str(error)) from error

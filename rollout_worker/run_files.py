@@ -10,10 +10,9 @@ import json
 from dataclasses import dataclass
 from pathlib import Path
 
-import yaml
-
 from racer.shared.deepracer.hyperparameters import Hyperparameters, parse_hyperparameters
 from racer.shared.deepracer.model_metadata import ModelMetadata, parse_model_metadata
+from racer.shared.deepracer.training_params import parse_training_params
 from racer.shared.run_layout import RunLayout, WorkerSettings
 from racer.shared.store import ObjectNotFoundError, ObjectStore
 
@@ -35,13 +34,8 @@ def read_training_params(store: ObjectStore, layout: RunLayout, worker_id: int) 
             text = store.get_bytes(key).decode("utf-8")
         except ObjectNotFoundError:
             continue
-        try:
-            data = yaml.safe_load(text) or {}
-        except yaml.YAMLError as error:
-            raise ValueError(f"{store.describe()}/{key}: not valid YAML: {error}") from error
-        if not isinstance(data, dict):
-            raise ValueError(f"{store.describe()}/{key}: expected a mapping of DeepRacer keys")
-        return {str(k): str(v) for k, v in data.items()}, key
+        params = parse_training_params(text, source=f"{store.describe()}/{key}")
+        return {name: str(value) for name, value in params.values.items()}, key
     raise ObjectNotFoundError(store.describe(), layout.training_params(0))
 
 

@@ -15,7 +15,7 @@ import re
 import numpy as np
 
 from racer.rollout_worker.run_files import RunFiles
-from racer.shared.deepracer.metrics import TrainingMetrics, TrainingMetricsEntry
+from racer.shared.deepracer.metrics import TrainingMetrics, TrainingMetricsEntry, read_training_metrics
 from racer.shared.deepracer.simtrace import EpisodeStatus, SimtraceWriter
 from racer.shared.episode_runner import PlayedEpisode
 from racer.shared.store import ObjectNotFoundError, ObjectStore
@@ -41,26 +41,17 @@ class WorkerLog:
 
     def _load_metrics(self) -> TrainingMetrics:
         try:
-            return TrainingMetrics.from_json_bytes(self.store.get_bytes(self.metrics_key),
-                                                   source=f"{self.store.describe()}/{self.metrics_key}")
+            return read_training_metrics(self.store.get_bytes(self.metrics_key),
+                                         source=f"{self.store.describe()}/{self.metrics_key}")
         except ObjectNotFoundError:
             return TrainingMetrics(best_model_metric=self.run.worker.best_model_metric)
 
     @staticmethod
     def _entry(played: PlayedEpisode, episode: int, trial: int, phase: str) -> TrainingMetricsEntry:
-        start_ms = int(played.start_time_s * 1000)
-        end_ms = int(played.end_time_s * 1000)
-        return TrainingMetricsEntry(
-            reward_score=int(round(played.total_reward)),
-            metric_time=end_ms,
-            start_time=start_ms,
-            elapsed_time_in_milliseconds=end_ms - start_ms,
-            episode=episode,
-            trial=trial,
-            phase=phase,
-            completion_percentage=int(played.progress),
-            episode_status=EpisodeStatus(played.final_status).label,
-        )
+        return TrainingMetricsEntry.from_episode(
+            total_reward=played.total_reward, start_time_s=played.start_time_s, end_time_s=played.end_time_s,
+            episode=episode, trial=trial, phase=phase, progress_pct=played.progress,
+            status=EpisodeStatus(played.final_status))
 
     def record_training_episode(self, played: PlayedEpisode, iteration: int) -> None:
         if iteration != self._trial_iteration:
@@ -69,7 +60,7 @@ class WorkerLog:
         self._trial += 1
         self.training_steps += played.steps
         self.simtrace.extend(played.simtrace_rows)
-        self.metrics.entries.append(self._entry(played, self._episode, self._trial, "training"))
+        self.metrics.append(self._entry(played, self._episode, self._trial, "training"))
 
     def finish_iteration(self, iteration: int, num_workers: int) -> None:
         """Upload this iteration's simtrace (then start a new one) and the metrics so far."""
@@ -77,13 +68,13 @@ class WorkerLog:
             key = self.run.layout.training_simtrace(self.worker_id, iteration, num_workers)
             self.store.put_bytes(key, self.simtrace.to_bytes())
             self.simtrace.clear()
-        self.store.put_bytes(self.metrics_key, self.metrics.to_json_bytes())
+        self.store.put_bytes(self.metrics_key, self.metrics.to_bytes())
 
     def record_evaluation(self, announcement, results: list[PlayedEpisode], checkpoints, channel) -> None:
         """Worker 0: log the greedy evaluation of checkpoint k and update best/last."""
         for played in results:
-            self.metrics.entries.append(self._entry(played, self._episode, self._trial, "evaluation"))
-        self.store.put_bytes(self.metrics_key, self.metrics.to_json_bytes())
+            self.metrics.append(self._entry(played, self._episode, self._trial, "evaluation"))
+        self.store.put_bytes(self.metrics_key, self.metrics.to_bytes())
         metric_name = self.run.worker.best_model_metric
         if metric_name == "progress":
             value = float(np.mean([p.progress for p in results]))
@@ -93,8 +84,9 @@ class WorkerLog:
             value = float(np.mean([p.lap_time_s * 1000 if p.lap_completed and p.lap_time_s else UNFINISHED_LAP_MS
                                    for p in results]))
         time_stamp = max(p.end_time_s for p in results)
-        best = checkpoints.update_best_and_last(announcement.checkpoint, value, time_stamp,
-                                                lower_is_better=(metric_name == "laptime"))
+        best_and_last = checkpoints.record_evaluation(announcement.checkpoint, value, time_stamp,
+                                                      higher_is_better=(metric_name != "laptime"))
+        best = best_and_last.best.name if best_and_last.best else None
         laps = [p for p in results if p.lap_completed]
         steps = _STEPS_IN_NAME.search(announcement.checkpoint)
         record = {

@@ -206,6 +206,7 @@ class RolloutWorker:
         if count == 0:
             return
         self.state.status = "playing"
+        self._beat()  # at once: a short share can finish between two periodic beats
         hp = self.run.hyperparameters
         played: list[PlayedEpisode] = []
         started = time.monotonic()

@@ -8,6 +8,7 @@ from pathlib import Path
 import click
 
 from racer.shared.config import settings_from_env
+from racer.shared.user_errors import user_error_types
 from racer.shared.run_layout import DEFAULT_TRACK, WORLDS
 
 
@@ -36,4 +37,7 @@ def trainer_command(model_prefix, custom_files, num_workers, track, worlds, max_
         max_minutes=max_minutes, seed=seed, pretrained_prefix=pretrained_prefix,
         pretrained_checkpoint=pretrained_checkpoint,
     )
-    run_trainer(settings_from_env(), options)
+    try:
+        run_trainer(settings_from_env(), options)
+    except user_error_types() as error:
+        raise click.ClickException(str(error)) from error

@@ -23,11 +23,11 @@ from pathlib import Path
 
 import numpy as np
 import torch
-import yaml
 
 from racer.shared.config import ServiceSettings
 from racer.shared.deepracer.hyperparameters import Hyperparameters, hyperparameters_to_json_bytes, load_hyperparameters
-from racer.shared.deepracer.model_metadata import ModelMetadata, load_model_metadata
+from racer.shared.deepracer.training_params import training_params_to_yaml
+from racer.shared.deepracer.model_metadata import ModelMetadata, load_model_metadata, parse_model_metadata
 from racer.shared.episode import Episode
 from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.policy.networks import build_actor_critic
@@ -36,7 +36,8 @@ from racer.shared.run_layout import RunLayout, WorkerSettings, default_worker_se
 from racer.shared.sim.reward import load_reward_function
 from racer.shared.store import ObjectNotFoundError, open_store
 from racer.shared.transport.channels import ReceivedBatch, RunChannel, share_sizes
-from racer.trainer.ppo import PPOTrainer, format_policy_training_line, format_training_episode_line
+from racer.shared.user_errors import CloneError, RunConfigError
+from racer.trainer.ppo import PPOSettings, PPOTrainer, format_policy_training_line, format_training_episode_line
 
 log = logging.getLogger(__name__)
 
@@ -77,19 +78,22 @@ def load_worker_settings(custom_files: Path, num_workers: int, track: str, world
     try:
         data = json.loads(path.read_text())
     except json.JSONDecodeError as error:
-        raise ValueError(f"{path}: line {error.lineno} column {error.colno}: {error.msg}") from error
+        raise RunConfigError(f"{path}: line {error.lineno} column {error.colno}: {error.msg}") from error
     if not isinstance(data, dict):
-        raise ValueError(f"{path}: expected a JSON object of training_params keys")
+        raise RunConfigError(f"{path}: expected a JSON object of training_params keys")
     per_worker = data.pop("workers", [])
     if not isinstance(per_worker, list):
-        raise ValueError(f"{path}: workers: expected a list with one object per worker")
+        raise RunConfigError(f"{path}: workers: expected a list with one object per worker")
     result = []
     for worker_id, base in enumerate(settings):
         params = base.to_training_params("", num_workers)
         params.update({k: str(v) for k, v in data.items()})
         if worker_id < len(per_worker):
             params.update({k: str(v) for k, v in per_worker[worker_id].items()})
-        result.append(WorkerSettings.from_training_params(params, source=f"{path} (worker {worker_id})"))
+        try:
+            result.append(WorkerSettings.from_training_params(params, source=f"{path} (worker {worker_id})"))
+        except ValueError as error:
+            raise RunConfigError(str(error)) from error
     return result
 
 
@@ -127,7 +131,7 @@ class Trainer:
         for worker_id, worker_params in enumerate(params):
             if worker_id == 0 or worker_params != params[0]:
                 self.store.put_bytes(self.layout.training_params(worker_id),
-                                     yaml.safe_dump(worker_params, sort_keys=False).encode())
+                                     training_params_to_yaml(worker_params).encode())
         self.store.put_bytes(self.layout.ip_done, b"done")
 
     def setup(self) -> int:
@@ -136,18 +140,18 @@ class Trainer:
         metadata, hyperparameters, reward_bytes, workers = self._read_custom_files()
         self.metadata, self.hyperparameters = metadata, hyperparameters
         self.network = build_actor_critic(metadata)
-        self.ppo = PPOTrainer(self.network, hyperparameters, seed=self.options.seed)
+        self.ppo = PPOTrainer(self.network, hyperparameters, PPOSettings(seed=self.options.seed))
         latest = self.checkpoints.latest_name()
         if latest is not None:
-            iteration, self.env_steps = self.checkpoints.restore(latest, self.network, self.ppo)
+            iteration, self.env_steps = self.checkpoints.restore(latest, self.network, self.ppo.optimizer)
             log.info("resuming %s from checkpoint %s", self.options.model_prefix, latest)
             self.episodes_consumed = iteration * hyperparameters.num_episodes_between_training
         else:
+            if self.options.pretrained_prefix:
+                self._clone_from_pretrained()  # checked first: a refused clone leaves nothing behind
             self.channel.delete_run_keys()
             metadata_bytes = (self.options.custom_files / "model_metadata.json").read_bytes()
             self._upload_run_files(metadata_bytes, hyperparameters, metadata, reward_bytes, workers)
-            if self.options.pretrained_prefix:
-                self._clone_from_pretrained()
             iteration = 0
             self._save(iteration)
             self.store.put_bytes(self.layout.ready, b"")
@@ -155,13 +159,34 @@ class Trainer:
         return iteration
 
     def _clone_from_pretrained(self) -> None:
-        source = CheckpointStore(self.store, self.options.pretrained_prefix)
+        """Start from another model's weights. Action values may change; the number of actions may not."""
+        source_prefix = self.options.pretrained_prefix
+        source_layout = RunLayout(source_prefix)
+        try:
+            source_metadata = parse_model_metadata(json.loads(self.store.get_bytes(source_layout.model_metadata)),
+                                                   source=f"{self.store.describe()}/{source_layout.model_metadata}")
+        except ObjectNotFoundError as error:
+            raise CloneError(f"cannot clone {source_prefix!r}: it has no model/model_metadata.json in "
+                             f"{self.store.describe()}") from error
+        ours = f"{self.options.custom_files / 'model_metadata.json'}"
+        if source_metadata.action_space_type != self.metadata.action_space_type:
+            raise CloneError(f"cannot clone {source_prefix!r}: its action space is {source_metadata.action_space_type}, "
+                             f"{ours} is {self.metadata.action_space_type}")
+        if source_metadata.num_actions != self.metadata.num_actions:
+            raise CloneError(f"cannot clone {source_prefix!r}: it has {source_metadata.num_actions} actions, "
+                             f"{ours} has {self.metadata.num_actions} actions; the number of actions must match "
+                             f"(their values may change)")
+        if (source_metadata.sensors, source_metadata.neural_network) != (self.metadata.sensors, self.metadata.neural_network):
+            raise CloneError(f"cannot clone {source_prefix!r}: sensors/network {source_metadata.sensors} "
+                             f"{source_metadata.neural_network} differ from {ours}: {self.metadata.sensors} "
+                             f"{self.metadata.neural_network}")
+        source = CheckpointStore(self.store, source_prefix)
         name = source.select(self.options.pretrained_checkpoint)
-        source.restore_weights_only(name, self.network)
-        print(f"Cloned weights from {self.options.pretrained_prefix}/model/{name}", flush=True)
+        source.restore(name, self.network)  # weights only: a clone starts a fresh optimiser
+        print(f"Cloned weights from {source_prefix}/model/{name}", flush=True)
 
     def _save(self, iteration: int) -> str:
-        name = self.checkpoints.save(iteration, self.env_steps, self.network, self.ppo, self.metadata,
+        name = self.checkpoints.save(iteration, self.env_steps, self.network, self.ppo.optimizer, self.metadata,
                                      self.hyperparameters)
         print(f"Checkpoint> Saving in path=['{self.layout.key('model', name)}']", flush=True)
         return name

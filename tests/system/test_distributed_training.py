@@ -41,7 +41,7 @@ def custom_files(tmp_path: Path) -> Path:
         "action_space": actions, "sensor": ["FRONT_FACING_CAMERA"], "version": "5",
         "neural_network": "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW", "training_algorithm": "clipped_ppo"}))
     (folder / "hyperparameters.json").write_text(json.dumps({
-        "num_episodes_between_training": 2, "batch_size": 32, "num_epochs": 2}))
+        "num_episodes_between_training": 2, "batch_size": 32, "num_epochs": 3}))
     (folder / "workers.json").write_text(json.dumps({"MIN_EVAL_TRIALS": 1}))
     return folder
 
@@ -146,7 +146,7 @@ def test_two_workers_two_worlds_two_iterations(system):
     for worker_id in (0, 1):
         assert re.search(rf"Training> Name=main_level/agent, Worker={worker_id}, Episode=\d+, Total reward=[-\d.e]+, "
                          r"Steps=\d+, Training iteration=\d+", trainer_log)
-    assert len(re.findall(r"Policy training> Surrogate loss=", trainer_log)) == 2 * 2  # 2 iterations x 2 epochs
+    assert len(re.findall(r"Policy training> Surrogate loss=", trainer_log)) == 2 * 3  # 2 iterations x 3 epochs
     metrics = json.loads(store.get_bytes(f"{prefix}/metrics/TrainingMetrics_1.json"))
     assert {e["phase"] for e in metrics["metrics"]} == {"training"}  # only worker 0 evaluates
     for process in system.processes.values():
@@ -156,7 +156,10 @@ def test_two_workers_two_worlds_two_iterations(system):
 def test_worker_killed_mid_iteration(system):
     """kill -9 one worker while it plays: the other replays its share; every iteration uses exactly E episodes."""
     store = open_store(system.settings.store)
-    system.start_trainer(max_episodes=6)
+    hyperparameters = json.loads((system.custom_files / "hyperparameters.json").read_text())
+    (system.custom_files / "hyperparameters.json").write_text(json.dumps({**hyperparameters,
+                                                                          "num_episodes_between_training": 6}))
+    system.start_trainer(max_episodes=18)
     system.start_worker(0)
     victim = system.start_worker(1)
     channel = RunChannel(RedisLink(system.settings.redis), system.prefix)
@@ -165,13 +168,13 @@ def test_worker_killed_mid_iteration(system):
         beat = channel.live_workers().get(1, {})
         if beat.get("state") == "playing" and beat.get("iteration", -1) >= 1:
             break
-        time.sleep(0.2)
+        time.sleep(0.05)
     else:
         raise AssertionError("worker 1 never started playing iteration 1:\n" + system.log_text("worker-1")[-3000:])
     victim.send_signal(signal.SIGKILL)
     assert system.wait_trainer(600) == 0, system.log_text("trainer")[-3000:]
     records = iteration_records(store, system.prefix)
-    assert [r["episodes"] for r in records] == [2, 2, 2]
+    assert [r["episodes"] for r in records] == [6, 6, 6]
     assert "replays it" in system.log_text("trainer")
     assert checkpoint_numbers(store, system.prefix)[-1] == 3
 

@@ -1,0 +1,30 @@
+"""Errors caused by the user's files or services, shown as one clear message instead of a traceback.
+
+Each names the file and field (or the service URL) already; a traceback would only hide that line.
+Reward functions that raise keep their own traceback inside the message (file and line of the user's code).
+"""
+
+from __future__ import annotations
+
+
+def user_error_types() -> tuple[type[Exception], ...]:
+    from racer.shared.deepracer.hyperparameters import HyperparametersError
+    from racer.shared.deepracer.model_metadata import ModelMetadataError
+    from racer.shared.deepracer.simtrace import SimtraceError
+    from racer.shared.policy.checkpoints import CheckpointError
+    from racer.shared.redis_connection import RedisUnavailableError
+    from racer.shared.sim.gl import GLBackendError
+    from racer.shared.sim.reward import RewardFunctionError
+    from racer.shared.sim.track import TrackError
+    from racer.shared.store import StoreError
+
+    return (HyperparametersError, ModelMetadataError, SimtraceError, RedisUnavailableError, GLBackendError,
+            RewardFunctionError, TrackError, StoreError, CloneError, RunConfigError, CheckpointError)
+
+
+class CloneError(ValueError):
+    """A model cannot continue from another one (different number of actions, sensors or network)."""
+
+
+class RunConfigError(ValueError):
+    """A run setting (workers.json, training_params.yaml) that cannot work."""

@@ -1,0 +1,82 @@
+"""`racer train`, the embedded default: it runs everything as local processes and leaves nothing behind."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+pytestmark = pytest.mark.slow
+
+
+def processes_mentioning(text: str) -> list[str]:
+    """Live processes whose command line or environment mentions `text` (our temp folder), except this one."""
+    found = []
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit() or int(entry.name) == os.getpid():
+            continue
+        try:
+            cmdline = (entry / "cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace")
+            environ = (entry / "environ").read_bytes().decode(errors="replace")
+            state = (entry / "stat").read_text().split()[2]
+        except (FileNotFoundError, ProcessLookupError, PermissionError):
+            continue
+        if (text in cmdline or text in environ) and state != "Z":
+            found.append(cmdline)
+    return found
+
+
+@pytest.fixture
+def small_custom_files(tmp_path: Path) -> Path:
+    folder = tmp_path / "custom_files"
+    folder.mkdir()
+    (folder / "reward_function.py").write_text("def reward_function(params):\n    return 1.0\n")
+    (folder / "model_metadata.json").write_text(json.dumps({
+        "action_space": [{"steering_angle": a, "speed": 1.0} for a in (-30, 0, 30)],
+        "sensor": ["FRONT_FACING_CAMERA"], "neural_network": "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW", "version": "5"}))
+    (folder / "hyperparameters.json").write_text(json.dumps({
+        "num_episodes_between_training": 2, "batch_size": 32, "num_epochs": 3}))
+    (folder / "workers.json").write_text(json.dumps({"MIN_EVAL_TRIALS": 1}))
+    return folder
+
+
+def racer_train(tmp_path: Path, custom_files: Path, *args: str) -> subprocess.Popen:
+    env = dict(os.environ, RACER_STORE=str(tmp_path / "store"), MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"))
+    return subprocess.Popen(
+        [sys.executable, "-m", "racer.cli", "train", "--custom-files", str(custom_files), "--workers", "2",
+         "--worlds", "base,wood", "--model-prefix", "local-model", *args],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env, cwd=tmp_path)
+
+
+def test_train_runs_to_the_episode_limit_and_cleans_up(tmp_path, small_custom_files):
+    process = racer_train(tmp_path, small_custom_files, "--max-episodes", "4")
+    output, _ = process.communicate(timeout=600)
+    assert process.returncode == 0, output[-4000:]
+    assert "iteration   0" in output and "iteration   1" in output, output[-3000:]
+    model = tmp_path / "store" / "local-model" / "model"
+    assert (model / ".coach_checkpoint").read_text().startswith("2_Step-")
+    assert (model / ".finished").is_file()
+    time.sleep(1)
+    assert processes_mentioning(str(tmp_path)) == []
+
+
+def test_ctrl_c_writes_a_final_checkpoint_and_leaves_no_process(tmp_path, small_custom_files):
+    process = racer_train(tmp_path, small_custom_files, "--max-episodes", "1000")
+    model = tmp_path / "store" / "local-model" / "model"
+    deadline = time.monotonic() + 300
+    while time.monotonic() < deadline and not (model / ".coach_checkpoint").is_file():
+        time.sleep(0.5)
+    assert (model / ".coach_checkpoint").is_file(), "training never wrote checkpoint 0"
+    time.sleep(3)
+    process.send_signal(signal.SIGINT)
+    output, _ = process.communicate(timeout=180)
+    assert process.returncode == 0, output[-4000:]
+    assert (model / ".finished").is_file()
+    time.sleep(1)
+    assert processes_mentioning(str(tmp_path)) == [], output[-2000:]
