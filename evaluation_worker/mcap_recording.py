@@ -6,6 +6,8 @@ simtrace `tstamp`):
     /camera/<SENSOR>[/<i>]  foxglove.RawImage        what the network saw: the 160x120 mono8 observation
                                                      (stereo: one channel per eye, /0 = left, /1 = right)
     /camera/rgb             foxglove.CompressedImage the car camera's RGB frame, JPEG
+    /lidar/LIDAR            foxglove.LaserScan       LIDAR models: the 64 clipped ranges, placed at the car in "track"
+    /sensors/<SENSOR>       JSON                     sector-LIDAR models: the observation's bits
     /car/pose               foxglove.PoseInFrame     car origin and heading in frame "track" (metres, world frame)
     /car/action             JSON                     chosen action and its steering/speed
     /car/reward             JSON                     reward and progress of the step
@@ -28,6 +30,7 @@ import cv2
 import numpy as np
 from foxglove_schemas_protobuf.Color_pb2 import Color
 from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
+from foxglove_schemas_protobuf.LaserScan_pb2 import LaserScan
 from foxglove_schemas_protobuf.LinePrimitive_pb2 import LinePrimitive
 from foxglove_schemas_protobuf.Point3_pb2 import Point3
 from foxglove_schemas_protobuf.Pose_pb2 import Pose
@@ -43,6 +46,7 @@ from mcap_protobuf.schema import register_schema
 
 from racer.evaluation_worker.driver import StepRecord
 from racer.shared.sim.env import DeepRacerEnv
+from racer.shared.sim.lidar import MAX_ANGLE_RAD, MIN_ANGLE_RAD
 
 FRAME_ID = "track"
 JPEG_QUALITY = 85
@@ -69,6 +73,10 @@ _JSON_SCHEMAS: dict[str, dict[str, Any]] = {
         },
     },
     "/simtrace": {"title": "racer.SimtraceRow", "type": "object", "description": "DeepRacer's simtrace columns"},
+    "/sensors": {
+        "title": "racer.SensorVector", "type": "object",
+        "properties": {"lap": {"type": "integer"}, "values": {"type": "array", "items": _NUMBER}},
+    },
 }
 
 
@@ -114,8 +122,9 @@ class McapRecorder:
 
     def _json_channel(self, topic: str) -> int:
         if topic not in self._channels:
-            schema = json.dumps(_JSON_SCHEMAS[topic]).encode()
-            schema_id = self._writer.register_schema(name=_JSON_SCHEMAS[topic]["title"], encoding="jsonschema", data=schema)
+            definition = _JSON_SCHEMAS["/sensors" if topic.startswith("/sensors/") else topic]
+            schema = json.dumps(definition).encode()
+            schema_id = self._writer.register_schema(name=definition["title"], encoding="jsonschema", data=schema)
             self._channels[topic] = self._writer.register_channel(topic=topic, message_encoding="json", schema_id=schema_id)
         return self._channels[topic]
 
@@ -142,9 +151,14 @@ class McapRecorder:
         if not self._track_written:
             self._write_protobuf("/track", self._track_scene(stamp), time_ns)
             self._track_written = True
+        car = record.car
+        half_yaw = car.yaw_rad / 2.0
+        car_pose = Pose(position=Vector3(x=car.origin_x_m, y=car.origin_y_m, z=0.0),
+                        orientation=Quaternion(x=0.0, y=0.0, z=math.sin(half_yaw), w=math.cos(half_yaw)))
         for sensor, value in record.observation.items():
             image = np.asarray(value)
-            if image.ndim != 3:
+            if image.ndim == 1:
+                self._write_vector(sensor, image, record.lap_index, car_pose, stamp, time_ns)
                 continue
             for index in range(image.shape[2]):
                 topic = f"/camera/{sensor}" if image.shape[2] == 1 else f"/camera/{sensor}/{index}"
@@ -157,12 +171,7 @@ class McapRecorder:
             if ok:
                 self._write_protobuf("/camera/rgb", CompressedImage(timestamp=stamp, frame_id="camera", data=jpeg.tobytes(), format="jpeg"), time_ns)
             self._rgb = None
-        car = record.car
-        half_yaw = car.yaw_rad / 2.0
-        self._write_protobuf("/car/pose", PoseInFrame(
-            timestamp=stamp, frame_id=FRAME_ID,
-            pose=Pose(position=Vector3(x=car.origin_x_m, y=car.origin_y_m, z=0.0),
-                      orientation=Quaternion(x=0.0, y=0.0, z=math.sin(half_yaw), w=math.cos(half_yaw)))), time_ns)
+        self._write_protobuf("/car/pose", PoseInFrame(timestamp=stamp, frame_id=FRAME_ID, pose=car_pose), time_ns)
         lap = record.lap_index
         self._write_json("/car/action", {"lap": lap, "step": row["steps"], "action": _plain(record.action),
                                          "steering_angle_deg": row["steer"], "speed_mps": row["throttle"]}, time_ns)
@@ -171,6 +180,14 @@ class McapRecorder:
                                          "all_wheels_on_track": bool(row["all_wheels_on_track"]),
                                          "lap_resets": record.lap_resets, "pause_duration_s": row["pause_duration"]}, time_ns)
         self._write_json("/simtrace", {key: _plain(value) for key, value in row.items()}, time_ns)
+
+    def _write_vector(self, sensor: str, values: np.ndarray, lap: int, car_pose: Pose, stamp: Timestamp, time_ns: int) -> None:
+        if sensor == "LIDAR":
+            self._write_protobuf("/lidar/LIDAR", LaserScan(
+                timestamp=stamp, frame_id=FRAME_ID, pose=car_pose, start_angle=MIN_ANGLE_RAD, end_angle=MAX_ANGLE_RAD,
+                ranges=[float(v) for v in values]), time_ns)
+        else:
+            self._write_json(f"/sensors/{sensor}", {"lap": lap, "values": [float(v) for v in values]}, time_ns)
 
     def _track_scene(self, stamp: Timestamp) -> SceneUpdate:
         track = self._env.base_track

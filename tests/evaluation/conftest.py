@@ -10,6 +10,7 @@ import torch
 
 from racer.evaluation_worker.config import DeepRacerRules, EvaluationConfig, RaceRules, VideoOptions
 from racer.evaluation_worker.runner import EvaluationReport, EvaluationSession
+from racer.shared.deepracer.model_metadata import ModelMetadata
 from racer.shared.deepracer.simtrace import read_simtrace
 from racer.shared.store import LocalStore
 from tests.evaluation.scripted import CONTINUOUS_METADATA, ScriptedPolicy
@@ -36,17 +37,19 @@ def run_scripted(
     video: VideoOptions = NO_VIDEO,
     mcap: bool = False,
     track: str = "racer_oval",
+    world: str = "base",
     reverse_dir: bool = False,
     out_dir: Path | None = None,
     now: dt.datetime | None = None,
     model_prefix: str = "scripted-model",
+    model_metadata: ModelMetadata = CONTINUOUS_METADATA,
 ) -> tuple[EvaluationReport, ScriptedPolicy]:
     policy = ScriptedPolicy(speed_mps, exits)
     config = EvaluationConfig(
-        model_prefix=model_prefix, mode=mode, track=track, reverse_dir=reverse_dir,
+        model_prefix=model_prefix, mode=mode, track=track, world=world, reverse_dir=reverse_dir,
         deepracer=deepracer or DeepRacerRules(), race=race or RaceRules(), video=video, mcap=mcap,
     )
-    session = EvaluationSession(LocalStore(store_root), config, policy=policy, model_metadata=CONTINUOUS_METADATA,
+    session = EvaluationSession(LocalStore(store_root), config, policy=policy, model_metadata=model_metadata,
                                 out_dir=out_dir, now=now)
     policy.attach(session.driver)
     return session.run(), policy

@@ -108,3 +108,13 @@ def test_reset_count_must_be_zero_or_at_least_two():
         DeepRacerRules(number_of_resets=1)
     with pytest.raises(EvaluationConfigError, match="NUMBER_OF_TRIALS"):
         DeepRacerRules(number_of_trials=0)
+
+
+def test_reversed_direction_in_another_world(tmp_path):
+    forward, _ = run_scripted(tmp_path / "f", deepracer=DeepRacerRules(number_of_trials=1))
+    backward, _ = run_scripted(tmp_path / "b", deepracer=DeepRacerRules(number_of_trials=1), reverse_dir=True, world="concrete")
+    assert forward.laps[0].completed and backward.laps[0].completed
+    assert backward.summary["reverse_dir"] is True and backward.summary["world"] == "concrete"
+    yaw_forward = simtrace_of(tmp_path / "f", forward).yaw.iloc[0]
+    yaw_backward = simtrace_of(tmp_path / "b", backward).yaw.iloc[0]
+    assert abs((yaw_forward - yaw_backward + 180.0) % 360.0 - 180.0) > 150.0

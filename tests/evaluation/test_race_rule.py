@@ -93,3 +93,14 @@ def test_race_settings_are_checked():
         RaceRules(resets_per_lap=-1)
     with pytest.raises(EvaluationConfigError, match="race-minutes"):
         RaceRules(race_duration_s=0.0)
+
+
+def test_race_without_continuous_laps_restarts_every_lap_at_the_line(tmp_path):
+    report, _ = run_scripted(tmp_path, mode="race", race=RaceRules(race_duration_s=17.0, continuous=False))
+    rows = simtrace_of(tmp_path, report)
+    assert report.laps[0].completed and report.laps[1].completed
+    firsts = rows.groupby("episode").head(1)
+    assert list(firsts.episode_status) == ["prepare"] * len(report.laps)
+    assert firsts.X.max() - firsts.X.min() < 1e-6
+    lap_ends = rows[rows.episode_status == "lap_complete"]
+    assert lap_ends.done.all()

@@ -142,3 +142,19 @@ def test_a_second_evaluation_in_the_same_second_gets_its_own_folder(tmp_path):
     assert first.layout.run_name == "evaluation-20261122073005"
     assert second.layout.run_name == "evaluation-20261122073005-2"
     assert first.keys["simtrace"] != second.keys["simtrace"]
+
+
+def test_lidar_models_record_a_laser_scan_per_step(tmp_path):
+    from racer.shared.deepracer.model_metadata import model_metadata_to_dict, parse_model_metadata
+    from tests.evaluation.scripted import CONTINUOUS_METADATA
+
+    lidar_metadata = parse_model_metadata(
+        {**model_metadata_to_dict(CONTINUOUS_METADATA), "sensor": ["FRONT_FACING_CAMERA", "LIDAR"]}, source="test")
+    report, _ = run_scripted(tmp_path, exits={0: [8.0]}, deepracer=DeepRacerRules(number_of_trials=1), mcap=True,
+                             model_metadata=lidar_metadata)
+    steps = len(simtrace_of(tmp_path, report))
+    assert report.mcap_messages["/lidar/LIDAR"] == steps == report.mcap_messages["/car/pose"]
+    with (tmp_path / report.keys["mcap"]).open("rb") as handle:
+        scans = [decoded for _, _, _, decoded in make_reader(handle, decoder_factories=[DecoderFactory()])
+                 .iter_decoded_messages(topics=["/lidar/LIDAR"])]
+    assert len(scans[0].ranges) == 64 and all(0.15 <= r <= 1.0 for r in scans[0].ranges)
