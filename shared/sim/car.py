@@ -48,7 +48,9 @@ STEERING_JOINTS = ("left_steering_hinge_joint", "right_steering_hinge_joint")
 CAR_GEOM_GROUP = 3
 """Car geoms live in a group the camera does not draw and the LIDAR does not see."""
 
-WHEEL_MAX_TORQUE_NM = 0.6
+WHEEL_MAX_TORQUE_NM = 0.2
+"""Per wheel (≈ 4 m/s² at most): calibrated so that speed in the first steps after `prepare` rises as in the real
+console 2022 / DRfC simtraces (≈ 0.13, 0.33, 0.55 m/s between rows 2-3, 3-4, 4-5)."""
 WHEEL_VELOCITY_GAIN = 0.08
 STEERING_KP = 8.0
 STEERING_KV = 0.25

@@ -106,3 +106,37 @@ def test_car_indices_cover_the_free_joint_and_wheels():
         assert len(car.car_dofs) == 6 + 4 + 2 and len(car.wheel_actuators) == 4
     finally:
         env.close()
+
+
+def test_acceleration_after_prepare_matches_real_simtraces(deepracer_data):
+    """Speed between the first rows of an episode (throttle 1 m/s) as in the real console/DRfC training runs."""
+    import csv
+    from collections import defaultdict
+
+    import numpy as np
+
+    episodes = defaultdict(list)
+    for path in sorted((deepracer_data / "simtrace").glob("*training*.csv")):
+        with path.open(newline="") as handle:
+            for row in csv.DictReader(handle):
+                episodes[(path.name, row["episode"])].append(row)
+    real = []
+    for rows in episodes.values():
+        if len(rows) >= 6 and all(float(r["throttle"]) == 1.0 for r in rows[1:4]):
+            xy = np.array([(float(r["X"]), float(r["Y"])) for r in rows[:5]])
+            t = np.array([float(r["tstamp"]) for r in rows[:5]])
+            real.append(np.hypot(*np.diff(xy, axis=0).T) / np.diff(t))
+    assert len(real) >= 20
+    real_mean = np.mean(real, axis=0)
+
+    metadata = parse_model_metadata({"action_space": [{"steering_angle": 0, "speed": 1.0}, {"steering_angle": 10, "speed": 1.0}],
+                                     "sensor": ["FRONT_FACING_CAMERA"], "version": "5"})
+    env = DeepRacerEnv(EnvConfig(model_metadata=metadata, track="racer_circuit"))
+    try:
+        env.reset(seed=0)
+        rows = [env.step(0)[-1]["simtrace"] for _ in range(5)]
+    finally:
+        env.close()
+    ours = [math.hypot(b["X"] - a["X"], b["Y"] - a["Y"]) / (b["tstamp"] - a["tstamp"]) for a, b in zip(rows, rows[1:])]
+    assert ours[0] < 0.01 and real_mean[0] < 0.01  # the prepare step sends zero
+    np.testing.assert_allclose(ours[1:], real_mean[1:], atol=0.06)
