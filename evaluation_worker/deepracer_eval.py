@@ -10,16 +10,16 @@ keeps running, so the pause is part of the lap time.
 from __future__ import annotations
 
 from racer.evaluation_worker.config import DeepRacerRules
-from racer.evaluation_worker.driver import EvaluationDriver, ProgressLog, no_log
-from racer.evaluation_worker.laps import LapResult, LapTally, describe_lap
+from racer.evaluation_worker.driver import EvaluationDriver
+from racer.evaluation_worker.laps import LapCallback, LapResult, LapTally, ignore_lap
 
 LAP_COMPLETE = "lap_complete"
 IN_PROGRESS = "in_progress"
 
 
-def run_deepracer_evaluation(driver: EvaluationDriver, rules: DeepRacerRules, log: ProgressLog = no_log) -> list[LapResult]:
+def run_deepracer_evaluation(driver: EvaluationDriver, rules: DeepRacerRules, on_lap: LapCallback = ignore_lap) -> list[LapResult]:
     if rules.is_continuous:
-        return _continuous(driver, rules, log)
+        return _continuous(driver, rules, on_lap)
     laps: list[LapResult] = []
     for lap_index in range(rules.number_of_trials):
         tally = LapTally(lap_index, driver.start_lap(lap_index))
@@ -30,11 +30,11 @@ def run_deepracer_evaluation(driver: EvaluationDriver, rules: DeepRacerRules, lo
                 break
         lap = tally.result(trial=len(laps) + 1)
         laps.append(lap)
-        log(describe_lap(lap))
+        on_lap(lap)
     return laps
 
 
-def _continuous(driver: EvaluationDriver, rules: DeepRacerRules, log: ProgressLog) -> list[LapResult]:
+def _continuous(driver: EvaluationDriver, rules: DeepRacerRules, on_lap: LapCallback) -> list[LapResult]:
     laps: list[LapResult] = []
     tally = LapTally(0, driver.start_lap(0))
     while True:
@@ -49,7 +49,7 @@ def _continuous(driver: EvaluationDriver, rules: DeepRacerRules, log: ProgressLo
             continue
         lap = tally.result(trial=len(laps) + 1)
         laps.append(lap)
-        log(describe_lap(lap))
+        on_lap(lap)
         if not crossing or last_trial:
             return laps
         driver.continue_after_lap(len(laps), outcome.sim_time_s, clear_reset_budget=False)

@@ -7,10 +7,11 @@ the times the car was put back on the track (what the race rule limits to 3 per 
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
-from racer.shared.deepracer.simtrace import EpisodeStatus
 from racer.evaluation_worker.driver import PENALTY_STATUSES, StepRecord
+from racer.shared.deepracer.simtrace import EpisodeStatus
 
 
 @dataclass(frozen=True)
@@ -30,6 +31,8 @@ class LapResult:
     reversed_count: int
     put_backs: int
     steps: int
+    total_reward: float
+    """Sum of the step rewards (DeepRacer's evaluation reward), as the SimApp logs per evaluation episode."""
 
     @property
     def elapsed_s(self) -> float:
@@ -62,6 +65,7 @@ class LapTally:
         self.counts = dict.fromkeys(PENALTY_STATUSES, 0)
         self.put_backs = 0
         self.steps = 0
+        self.total_reward = 0.0
         self.last: StepRecord | None = None
 
     def add(self, record: StepRecord) -> None:
@@ -70,6 +74,7 @@ class LapTally:
             self.counts[status] += 1
         self.put_backs = record.lap_resets
         self.steps += 1
+        self.total_reward += record.reward
         self.last = record
 
     def result(self, trial: int) -> LapResult:
@@ -89,6 +94,7 @@ class LapTally:
             reversed_count=self.counts["reversed"],
             put_backs=self.put_backs,
             steps=self.steps,
+            total_reward=self.total_reward,
         )
 
 
@@ -97,5 +103,13 @@ def describe_lap(lap: LapResult) -> str:
     time_text = f"{lap.lap_time_s:7.3f} s" if lap.lap_time_s is not None else f"({lap.elapsed_s:6.3f} s)"
     return (
         f"lap {lap.lap_index + 1:3d}: {lap.label:<12} {time_text}  progress {lap.progress_pct:6.2f} %  "
-        f"put back {lap.put_backs}  steps {lap.steps}"
+        f"put back {lap.put_backs}  steps {lap.steps}  reward {lap.total_reward:.1f}"
     )
+
+
+LapCallback = Callable[[LapResult], None]
+"""Called as each lap ends (progress lines, the metrics file rewritten after every lap as the SimApp does)."""
+
+
+def ignore_lap(_lap: LapResult) -> None:
+    """Default lap callback."""

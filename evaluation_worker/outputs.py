@@ -120,6 +120,7 @@ def lap_dict(lap: LapResult) -> dict[str, Any]:
         "start_time_s": _round(lap.start_time_s),
         "end_time_s": _round(lap.end_time_s),
         "steps": lap.steps,
+        "reward_score": round(lap.total_reward, 3),
     }
 
 

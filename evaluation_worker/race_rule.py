@@ -13,8 +13,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from racer.evaluation_worker.config import RaceRules
-from racer.evaluation_worker.driver import EvaluationDriver, ProgressLog, no_log
-from racer.evaluation_worker.laps import LapResult, LapTally, describe_lap
+from racer.evaluation_worker.driver import EvaluationDriver
+from racer.evaluation_worker.laps import LapCallback, LapResult, LapTally, ignore_lap
 
 LAP_COMPLETE = "lap_complete"
 TIME_UP = "time_up"
@@ -45,7 +45,7 @@ class RaceResult:
         return float(sum(min(lap.progress_pct, 100.0) for lap in self.laps))
 
 
-def run_race(driver: EvaluationDriver, rules: RaceRules, log: ProgressLog = no_log) -> RaceResult:
+def run_race(driver: EvaluationDriver, rules: RaceRules, on_lap: LapCallback = ignore_lap) -> RaceResult:
     race_start_s = driver.start_lap(0)
     laps: list[LapResult] = []
     lap_index = 0
@@ -71,7 +71,7 @@ def run_race(driver: EvaluationDriver, rules: RaceRules, log: ProgressLog = no_l
         trial = sum(1 for lap in laps if lap.status != TIME_UP) + (0 if time_up else 1)
         lap = tally.result(trial=trial)
         laps.append(lap)
-        log(describe_lap(lap))
+        on_lap(lap)
         if time_up:
             break
         lap_index += 1

@@ -24,7 +24,7 @@ import torch
 from racer.evaluation_worker.config import EvaluationConfig
 from racer.evaluation_worker.deepracer_eval import run_deepracer_evaluation
 from racer.evaluation_worker.driver import EvaluationDriver, Policy, ProgressLog, StepObserver, make_env_config, no_log
-from racer.evaluation_worker.laps import LapResult
+from racer.evaluation_worker.laps import LapResult, describe_lap
 from racer.evaluation_worker.mcap_recording import McapRecorder
 from racer.evaluation_worker.outputs import (
     EvaluationLayout,
@@ -124,6 +124,7 @@ class EvaluationSession:
         self.video: VideoRecorder | None = None
         self.mcap: McapRecorder | None = None
         workdir: Path | None = None
+        ready = False
         try:
             _check_policy_inputs(policy, self.env, self.checkpoint)
             workdir = Path(out_dir) if out_dir is not None else Path(tempfile.mkdtemp(prefix="racer-eval-"))
@@ -135,13 +136,14 @@ class EvaluationSession:
             if config.mcap:
                 self.mcap = McapRecorder(self.env, self.workdir / self.layout.relative("mcap"), self._header())
                 observers.append(self.mcap)
-        except BaseException:
-            for observer in observers:
-                observer.close()
-            self.env.close()
-            if workdir is not None and not self._keep_dir:
-                shutil.rmtree(workdir, ignore_errors=True)
-            raise
+            ready = True
+        finally:
+            if not ready:  # a bad setting or a failing encoder: release what was opened, leave nothing behind
+                for observer in observers:
+                    observer.close()
+                self.env.close()
+                if workdir is not None and not self._keep_dir:
+                    shutil.rmtree(workdir, ignore_errors=True)
         self.driver = EvaluationDriver(self.env, policy, observers, seed=config.seed)
 
     def _env_config(self) -> EnvConfig:
@@ -184,12 +186,21 @@ class EvaluationSession:
             f"world {config.world} -> {self.layout.key(self.layout.run_name)}")
         started = time.perf_counter()
         race: RaceResult | None = None
+        finished: list[LapResult] = []
+        metrics_key = self.layout.key(self.layout.relative("metrics"))
+
+        def on_lap(lap: LapResult) -> None:
+            # Like the SimApp, the metrics file is rewritten after every lap, so a long evaluation can be watched.
+            finished.append(lap)
+            log(describe_lap(lap))
+            self.store.put_bytes(metrics_key, evaluation_metrics(finished).to_bytes())
+
         try:
             if config.mode == "race":
-                race = run_race(self.driver, config.race, log)
+                race = run_race(self.driver, config.race, on_lap)
                 laps = race.laps
             else:
-                laps = tuple(run_deepracer_evaluation(self.driver, config.deepracer, log))
+                laps = tuple(run_deepracer_evaluation(self.driver, config.deepracer, on_lap))
         finally:
             self.driver.close()
             self.env.close()

@@ -12,7 +12,7 @@ from racer.evaluation_worker.config import DeepRacerRules, EvaluationConfig, Rac
 from racer.evaluation_worker.runner import EvaluationReport, EvaluationSession
 from racer.shared.deepracer.model_metadata import ModelMetadata
 from racer.shared.deepracer.simtrace import read_simtrace
-from racer.shared.store import LocalStore
+from racer.shared.store import LocalStore, ObjectStore
 from tests.evaluation.scripted import CONTINUOUS_METADATA, ScriptedPolicy
 
 NO_VIDEO = VideoOptions(enabled=False)
@@ -43,13 +43,14 @@ def run_scripted(
     now: dt.datetime | None = None,
     model_prefix: str = "scripted-model",
     model_metadata: ModelMetadata = CONTINUOUS_METADATA,
+    store: ObjectStore | None = None,
 ) -> tuple[EvaluationReport, ScriptedPolicy]:
     policy = ScriptedPolicy(speed_mps, exits)
     config = EvaluationConfig(
         model_prefix=model_prefix, mode=mode, track=track, world=world, reverse_dir=reverse_dir,
         deepracer=deepracer or DeepRacerRules(), race=race or RaceRules(), video=video, mcap=mcap,
     )
-    session = EvaluationSession(LocalStore(store_root), config, policy=policy, model_metadata=model_metadata,
+    session = EvaluationSession(store or LocalStore(store_root), config, policy=policy, model_metadata=model_metadata,
                                 out_dir=out_dir, now=now)
     policy.attach(session.driver)
     return session.run(), policy
