@@ -56,7 +56,13 @@ from racer.shared.deepracer.hyperparameters import Hyperparameters
 from racer.shared.episode import Episode
 from racer.shared.policy.networks import ActionDistribution, ActorCritic, CategoricalPolicy, GaussianPolicy
 from racer.trainer.gae import GAE_LAMBDA, compute_gae, episode_ends_from_lengths
-from racer.trainer.nan_guard import LastGoodState, NonFiniteError, check_finite, first_non_finite_parameter, gradient_norm
+from racer.trainer.nan_guard import (
+    LastGoodState,
+    NonFiniteError,
+    check_finite,
+    first_non_finite_parameter,
+    gradient_norm,
+)
 
 __all__ = [
     "CLIP_EPSILON",
@@ -263,7 +269,9 @@ class PPOTrainer:
     # -- the algorithm -----------------------------------------------------------------------------------------------
 
     @torch.no_grad()
-    def _evaluate_old_policy(self, batch: TrainingBatch, towers: ThreadPoolExecutor) -> tuple[ActionDistribution, torch.Tensor]:
+    def _evaluate_old_policy(
+        self, batch: TrainingBatch, towers: ThreadPoolExecutor
+    ) -> tuple[ActionDistribution, torch.Tensor]:
         """The frozen old policy and V(s) for every transition, in chunks; the value tower on the second thread."""
         chunks = [torch.arange(start, min(start + self.settings.inference_chunk_size, batch.size))
                   for start in range(0, batch.size, self.settings.inference_chunk_size)]

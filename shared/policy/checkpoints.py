@@ -31,10 +31,11 @@ Public API
     checkpoints.names() -> complete checkpoints, oldest first
     checkpoints.select("best" | "last" | name) -> name
     number, env_steps = checkpoints.restore(name, network, optimizer=None)   (resume; weights only without optimizer)
-    loaded = checkpoints.load(name=None)                             -> LoadedCheckpoint(info, network_state, optimizer_state)
-    network = checkpoints.load_policy(name=None)                     -> ActorCritic in eval mode (workers)
-    load_optimizer_state(optimizer, network, loaded.optimizer_state)  (keeps channels-last strides: fused Adam needs them)
-    checkpoints.record_evaluation(name, avg_eval_metric, time_stamp)  DeepRacer's best/last rule; or write_best_and_last()
+    loaded = checkpoints.load(name=None)    -> LoadedCheckpoint(info, network_state, optimizer_state)
+    network = checkpoints.load_policy(name=None)    -> ActorCritic in eval mode (workers)
+    load_optimizer_state(optimizer, network, loaded.optimizer_state)    (restores channels-last strides too)
+    checkpoints.record_evaluation(name, avg_eval_metric, time_stamp)    DeepRacer's best/last rule
+    checkpoints.write_best_and_last(best, last), checkpoints.read_best_and_last() -> BestAndLast | None
     checkpoints.read_best_and_last() -> BestAndLast | None
     export_onnx(network) -> bytes
 """
@@ -204,7 +205,9 @@ def _tensors_to_bytes(tensors: Mapping[str, torch.Tensor]) -> bytes:
     return save_safetensors({name: tensor.detach().contiguous() for name, tensor in tensors.items()})
 
 
-def optimizer_state_to_files(optimizer: torch.optim.Optimizer, network: nn.Module) -> tuple[dict[str, torch.Tensor], dict]:
+def optimizer_state_to_files(
+    optimizer: torch.optim.Optimizer, network: nn.Module
+) -> tuple[dict[str, torch.Tensor], dict]:
     """Split an optimiser's state into tensors (keyed "<parameter name>.<state key>") and JSON-able scalars.
 
     The optimiser must have been built over `network.parameters()` (any grouping); parameters are identified by
@@ -228,12 +231,14 @@ def optimizer_state_to_files(optimizer: torch.optim.Optimizer, network: nn.Modul
             if isinstance(value, torch.Tensor) and value.dim() > 0:
                 tensors[f"{name}.{key}"] = value
             elif isinstance(value, torch.Tensor):
-                scalars.setdefault(name, {})[key] = {"value": value.item(), "dtype": str(value.dtype).removeprefix("torch.")}
+                dtype = str(value.dtype).removeprefix("torch.")
+                scalars.setdefault(name, {})[key] = {"value": value.item(), "dtype": dtype}
             else:
                 scalars.setdefault(name, {})[key] = {"value": value}
     groups = []
     for group in state_dict["param_groups"]:
-        settings = {key: (list(value) if isinstance(value, tuple) else value) for key, value in group.items() if key != "params"}
+        settings = {key: list(value) if isinstance(value, tuple) else value for key, value in group.items()}
+        del settings["params"]
         groups.append({"settings": settings, "params": [index_to_name[i] for i in group["params"]]})
     return tensors, {"type": type(optimizer).__name__, "param_groups": groups, "scalar_state": scalars}
 
@@ -276,7 +281,8 @@ def load_optimizer_state(optimizer: torch.optim.Optimizer, network: nn.Module, o
     for parameter in network.parameters():
         state = optimizer.state.get(parameter, {})
         for key, value in list(state.items()):
-            if isinstance(value, torch.Tensor) and value.shape == parameter.shape and value.stride() != parameter.stride():
+            same_shape = isinstance(value, torch.Tensor) and value.shape == parameter.shape
+            if same_shape and value.stride() != parameter.stride():
                 state[key] = torch.empty_like(parameter, dtype=value.dtype).copy_(value)
 
 
@@ -332,7 +338,9 @@ def _record(data: object) -> CheckpointRecord | None:
         return None
     metric = data.get("avg_eval_metric", data.get("avg_comp_pct"))  # older DRfC files use avg_comp_pct
     stamp = data.get("time_stamp")
-    return CheckpointRecord(str(data["name"]), None if metric is None else float(metric), None if stamp is None else float(stamp))
+    return CheckpointRecord(
+        str(data["name"]), None if metric is None else float(metric), None if stamp is None else float(stamp)
+    )
 
 
 # --------------------------------------------------------------------------------------------------------------------
@@ -573,7 +581,9 @@ class CheckpointStore:
         best = current.best if current is not None else None
         if best is None or best.avg_eval_metric is None:
             best = record
-        elif (record.avg_eval_metric >= best.avg_eval_metric) if higher_is_better else (record.avg_eval_metric <= best.avg_eval_metric):
+        elif higher_is_better and record.avg_eval_metric >= best.avg_eval_metric:
+            best = record
+        elif not higher_is_better and record.avg_eval_metric <= best.avg_eval_metric:
             best = record
         self.write_best_and_last(best, record)
         return BestAndLast(best=best, last=record)
