@@ -93,6 +93,9 @@ def test_best_checkpoint_comes_from_deepracer_checkpoints_json(tmp_path):
     assert result.exit_code == 0, result.output
     summary = json.loads(store.get_bytes(files_of(store, result.output)["summary"]))
     assert (summary["checkpoint"], summary["checkpoint_requested"]) == (names[0], "best")
+    named = invoke(str(tmp_path / "store"), "--trials", "1", "--no-video", "--no-mcap", "--checkpoint", names[1])
+    assert named.exit_code == 0, named.output
+    assert json.loads(store.get_bytes(files_of(store, named.output)["summary"]))["checkpoint"] == names[1]
 
 
 def test_bad_input_gives_one_clear_line(tmp_path):
