@@ -6,7 +6,7 @@ imageio-ffmpeg), which browsers and Foxglove play.
 
 Costs (2-core box, software OpenGL, measured): the follow view is a MuJoCo render (~10-20 ms at 480x360); the top
 view is rendered once (the track does not move) and the car is drawn onto it with OpenCV (<1 ms); the in-car view is
-the env's own camera frame (no extra render). The car's geoms are hidden from the car camera (group 3), so the
+the env's own RGB camera frame (`render_mode='rgb_array'`; stereo models: the centre camera), no extra render. The car's geoms are hidden from the car camera (group 3), so the
 follow view turns that group on.
 """
 
@@ -24,7 +24,6 @@ from racer.evaluation_worker.config import VideoOptions
 from racer.evaluation_worker.driver import StepRecord
 from racer.shared.sim._mujoco import mujoco
 from racer.shared.sim.car import CAR_GEOM_GROUP
-from racer.shared.sim.camera import CENTER_CAMERA, LEFT_CAMERA
 from racer.shared.sim.env import DeepRacerEnv
 
 FPS = 15
@@ -152,9 +151,8 @@ class VideoRecorder:
         self._top_camera = top_view_camera(env, width, height)
         self._top_background: np.ndarray | None = None
         self._top_projection: Projection | None = None
-        self._incar_camera = CENTER_CAMERA if _has_camera(env.model, CENTER_CAMERA) else LEFT_CAMERA
-        self._incar_renderer = None if env.render_mode == "rgb_array" else mujoco.Renderer(
-            env.model, height=env.config.image_height_px, width=env.config.image_width_px)
+        if env.render_mode != "rgb_array":
+            raise ValueError("VideoRecorder needs the env made with render_mode='rgb_array' (its camera frame is the in-car view)")
         self._trail: list[tuple[float, float]] = []
         self._pending: dict[str, np.ndarray] | None = None
         self._pending_pose: tuple[float, float, float] | None = None
@@ -179,12 +177,7 @@ class VideoRecorder:
         self._follow.azimuth = math.degrees(pose.yaw_rad)
         self._renderer.update_scene(env.data, self._follow, scene_option=self._car_visible)
         follow = self._renderer.render().copy()
-        if self._incar_renderer is None:
-            incar = env.render()
-        else:
-            self._incar_renderer.update_scene(env.data, self._incar_camera)
-            incar = self._incar_renderer.render()
-        incar = cv2.resize(incar, None, fx=INCAR_SCALE, fy=INCAR_SCALE, interpolation=cv2.INTER_NEAREST)
+        incar = cv2.resize(env.render(), None, fx=INCAR_SCALE, fy=INCAR_SCALE, interpolation=cv2.INTER_NEAREST)
         self._pending = {"camera-incar": incar, "camera-45degree": follow}
         self._pending_pose = (pose.origin_x_m, pose.origin_y_m, pose.yaw_rad)
 
@@ -218,9 +211,3 @@ class VideoRecorder:
         for encoder in self._encoders.values():
             encoder.close()
         self._renderer.close()
-        if self._incar_renderer is not None:
-            self._incar_renderer.close()
-
-
-def _has_camera(model: mujoco.MjModel, name: str) -> bool:
-    return mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, name) >= 0

@@ -158,3 +158,16 @@ def test_lidar_models_record_a_laser_scan_per_step(tmp_path):
         scans = [decoded for _, _, _, decoded in make_reader(handle, decoder_factories=[DecoderFactory()])
                  .iter_decoded_messages(topics=["/lidar/LIDAR"])]
     assert len(scans[0].ranges) == 64 and all(0.15 <= r <= 1.0 for r in scans[0].ranges)
+
+
+def test_stereo_models_record_one_image_channel_per_eye_and_an_in_car_video(tmp_path):
+    from racer.shared.deepracer.model_metadata import model_metadata_to_dict, parse_model_metadata
+    from tests.evaluation.scripted import CONTINUOUS_METADATA
+
+    stereo = parse_model_metadata({**model_metadata_to_dict(CONTINUOUS_METADATA), "sensor": ["STEREO_CAMERAS"]}, source="test")
+    report, _ = run_scripted(tmp_path, exits={0: [6.0]}, deepracer=DeepRacerRules(number_of_trials=1), mcap=True,
+                             video=VideoOptions(width_px=160, height_px=120), model_metadata=stereo)
+    steps = len(simtrace_of(tmp_path, report))
+    assert report.mcap_messages["/camera/STEREO_CAMERAS/0"] == report.mcap_messages["/camera/STEREO_CAMERAS/1"] == steps
+    assert "/camera/STEREO_CAMERAS" not in report.mcap_messages
+    assert report.video_frames["camera-incar"] == steps
