@@ -152,7 +152,8 @@ def _time_baseline(network: ActorCritic, hp: Hyperparameters, episodes: list[Epi
 @click.option("--epochs", default=10, show_default=True, help="num_epochs.")
 @click.option("--batch-size", default=64, show_default=True, help="Minibatch size.")
 @click.option("--actions", "num_actions", default=5, show_default=True, help="Discrete actions.")
-@click.option("--threads", default=2, show_default=True, help="torch intra-op threads.")
+@click.option("--threads", default=2, show_default=True,
+              help="Cores for each path: baseline intra-op threads; trainer threads_per_tower = threads // 2.")
 @click.option("--repeats", default=1, show_default=True, help="Timed runs per path (alternating); medians reported.")
 @click.option("--seed", default=0, show_default=True)
 def ppo_bench_command(transitions: int, epochs: int, batch_size: int, num_actions: int, threads: int, repeats: int,
