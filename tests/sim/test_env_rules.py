@@ -217,3 +217,15 @@ def test_real_deepracer_route_first_row_matches_real_simtrace(make_env, deeprace
     assert row["progress"] == pytest.approx(0.79148, abs=0.003)
     assert row["closest_waypoint"] == 1 and row["track_len"] == pytest.approx(17.709159380834848, abs=1e-12)
     assert info["params"]["track_width"] == pytest.approx(0.762, abs=0.01)
+
+
+def test_open_route_is_completed_by_driving_to_its_end(make_env, deepracer_data):
+    """DeepRacer's only open route: straight ahead at 2 m/s reaches 100 % after its 5.7 m."""
+    env = make_env(track=deepracer_data / "routes" / "Straight_track.npy")
+    env.reset(seed=0)
+    for _ in range(120):
+        _, _, terminated, truncated, info = env.step(7)  # 0°, 2 m/s
+        if terminated or truncated:
+            break
+    assert info["episode_status"] == "lap_complete" and info["progress"] == 100
+    assert 2.5 < info["lap_time_s"] < 4.5
