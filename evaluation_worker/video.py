@@ -5,9 +5,9 @@ a video plays in simulated real time and frame k is simtrace row k. Encoded with
 imageio-ffmpeg), which browsers and Foxglove play.
 
 Costs (2-core box, software OpenGL, measured): the follow view is a MuJoCo render (~10-20 ms at 480x360); the top
-view is rendered once (the track does not move) and the car is drawn onto it with OpenCV (<1 ms); the in-car view is
-the env's own RGB camera frame (`render_mode='rgb_array'`; stereo models: the centre camera), no extra render. The car's geoms are hidden from the car camera (group 3), so the
-follow view turns that group on.
+view is rendered once (the track does not move) and the car is drawn onto it with OpenCV (<1 ms); the in-car view
+is the env's own RGB camera frame (`render_mode='rgb_array'`; stereo models: the centre camera), no extra render.
+The car's geoms are hidden from the car camera (group 3), so the follow view turns that group on.
 """
 
 from __future__ import annotations
@@ -138,6 +138,8 @@ class VideoRecorder:
     """A StepObserver writing the three MP4s under `out_dir/<view>/0-video.mp4`."""
 
     def __init__(self, env: DeepRacerEnv, out_dir: Path, options: VideoOptions) -> None:
+        if env.render_mode != "rgb_array":
+            raise ValueError("VideoRecorder needs the env made with render_mode='rgb_array' (its camera frame is the in-car view)")
         self.options = options
         self.paths = {view: out_dir / view / VIDEO_FILE for view in VIEWS}
         width, height = options.width_px, options.height_px
@@ -151,8 +153,6 @@ class VideoRecorder:
         self._top_camera = top_view_camera(env, width, height)
         self._top_background: np.ndarray | None = None
         self._top_projection: Projection | None = None
-        if env.render_mode != "rgb_array":
-            raise ValueError("VideoRecorder needs the env made with render_mode='rgb_array' (its camera frame is the in-car view)")
         self._trail: list[tuple[float, float]] = []
         self._pending: dict[str, np.ndarray] | None = None
         self._pending_pose: tuple[float, float, float] | None = None
