@@ -19,6 +19,7 @@
 #   MINIO_BINARY         MinIO server binary for the local MinIO image (default: `minio` on PATH,
 #                        ~/go/bin/minio or .venv/bin/minio; built with `go install` when none is found)
 #   SMOKE_MINIO_PORT     host port (loopback) the test publishes MinIO's API on (default 19000)
+#   SMOKE_COMPOSE        compose command (default `docker compose` when the v2 plugin is there, else `docker-compose`)
 #   SMOKE_TRAIN_TIMEOUT_S  longest wait for the training run (default 900)
 #   SMOKE_SWARM=0        skip the second part: the same run on a single-node swarm (docker stack deploy);
 #                        it runs only on an engine that is not in a swarm yet, and leaves the swarm after
@@ -133,7 +134,10 @@ if ! docker info >/dev/null 2>&1; then
   done
   docker info >/dev/null 2>&1 || { tail -20 "$WORK/dockerd.log" >&2; fail "dockerd did not answer within 30 s"; }
 fi
-if docker compose version >/dev/null 2>&1; then
+if [ -n "${SMOKE_COMPOSE:-}" ]; then
+  read -r -a COMPOSE <<<"$SMOKE_COMPOSE"
+  "${COMPOSE[@]}" version >/dev/null 2>&1 || fail "SMOKE_COMPOSE='$SMOKE_COMPOSE' does not run"
+elif docker compose version >/dev/null 2>&1; then
   COMPOSE=(docker compose)
 else
   command -v docker-compose >/dev/null 2>&1 || as_root_install docker-compose docker-compose
@@ -159,6 +163,8 @@ fi
 step "racer image $RACER_IMAGE from docker/Dockerfile (torch download the first time)"
 build_image racer -f docker/Dockerfile --build-arg BASE_IMAGE="$BASE_IMAGE" \
   --build-arg PIP_CERT="$PIP_CERT_IN_BUILD" -t "$RACER_IMAGE" .
+# A rebuild after a dependency change leaves the previous image untagged (7 GB): remove those, and only those.
+docker image prune -f --filter label=racer.image=racer >/dev/null || true
 done_step "$(docker image inspect -f '{{.Size}}' "$RACER_IMAGE" | awk '{printf "%.2f GB", $1/1e9}')"
 
 step "redis and minio images from docker/services.Dockerfile"
@@ -221,10 +227,10 @@ step "docker compose up -d trainer rollout-0 rollout-1 (2 workers: base, carpet;
 compose up -d --no-build trainer rollout-0 rollout-1 >"$WORK/up.log" 2>&1 || { cat "$WORK/up.log" >&2; fail "docker compose up failed"; }
 compose ps
 for service in redis minio; do
-  health="$(docker inspect -f '{{.State.Health.Status}}' "$(compose ps -q "$service")")"
+  health="$(docker inspect -f '{{.State.Health.Status}}' "$(compose ps -a -q "$service")")"
   [ "$health" = healthy ] || fail "$service is $health after up (up waits for healthy)"
 done
-setup_exit="$(docker inspect -f '{{.State.ExitCode}}' "$(compose ps -q minio-setup)")"
+setup_exit="$(docker inspect -f '{{.State.ExitCode}}' "$(compose ps -a -q minio-setup)")"
 [ "$setup_exit" = 0 ] || fail "minio-setup exited with $setup_exit"
 # Published only through docker/compose.ports.yml, on loopback: check that MinIO answers there.
 exec 3<>"/dev/tcp/127.0.0.1/$MINIO_PORT" || fail "MinIO is not reachable on the published port 127.0.0.1:$MINIO_PORT"
@@ -232,11 +238,11 @@ printf 'GET /minio/health/live HTTP/1.1\r\nHost: localhost\r\nConnection: close\
 head -n1 <&3 | grep -q ' 200 ' || fail "MinIO on 127.0.0.1:$MINIO_PORT did not answer its health check"
 exec 3<&-
 # Redis must not be published.
-[ -z "$(docker port "$(compose ps -q redis)")" ] || fail "redis has a published port: $(docker port "$(compose ps -q redis)")"
+[ -z "$(docker port "$(compose ps -a -q redis)")" ] || fail "redis has a published port: $(docker port "$(compose ps -a -q redis)")"
 done_step "redis, minio healthy; bucket set up; MinIO published on 127.0.0.1:$MINIO_PORT only"
 
 step "waiting for the trainer to finish (at most $TRAIN_TIMEOUT_S s)"
-trainer_id="$(compose ps -q trainer)"
+trainer_id="$(compose ps -a -q trainer)"
 trainer_exit="$(timeout "$TRAIN_TIMEOUT_S" docker wait "$trainer_id" || echo timeout)"
 compose logs --no-color trainer >"$WORK/trainer.log" 2>&1 || true
 [ "$trainer_exit" != timeout ] || fail "the trainer did not finish within $TRAIN_TIMEOUT_S s (log: $WORK/trainer.log)"
@@ -244,7 +250,7 @@ compose logs --no-color trainer >"$WORK/trainer.log" 2>&1 || true
 done_step
 step "waiting for the rollout workers to exit after the run (at most 120 s)"
 for service in rollout-0 rollout-1; do
-  worker_exit="$(timeout 120 docker wait "$(compose ps -q "$service")" || echo timeout)"
+  worker_exit="$(timeout 120 docker wait "$(compose ps -a -q "$service")" || echo timeout)"
   compose logs --no-color "$service" >"$WORK/$service.log" 2>&1 || true
   [ "$worker_exit" = 0 ] || fail "$service exited with status $worker_exit after the run (log: $WORK/$service.log)"
 done
@@ -320,7 +326,7 @@ PY
 
 step "checking the trainer log and the store"
 check_trainer_log "$WORK/trainer.log"
-network="$(docker inspect -f '{{range $name, $_ := .NetworkSettings.Networks}}{{$name}} {{end}}' "$(compose ps -q minio)" | awk '{print $1}')"
+network="$(docker inspect -f '{{range $name, $_ := .NetworkSettings.Networks}}{{$name}} {{end}}' "$(compose ps -a -q minio)" | awk '{print $1}')"
 check_store "$network" "$WORK/smoke.env"
 done_step
 
