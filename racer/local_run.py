@@ -60,6 +60,7 @@ def service_environment(settings: ServiceSettings) -> dict[str, str]:
     else:
         env["RACER_STORE"] = str(settings.store.root)
     env.setdefault("MUJOCO_GL", "egl")
+    env.setdefault("LP_NUM_THREADS", "1")  # one llvmpipe render thread per worker: workers already fill the cores
     return env
 
 
@@ -113,8 +114,8 @@ class LocalRun:
             self._spawn(f"worker-{worker_id}", ["rollout", "--model-prefix", plan.model_prefix,
                                                 "--worker-id", str(worker_id), "--seed", str(plan.seed + worker_id)])
 
-    def stop(self, grace_s: float = 60.0) -> None:
-        """Ask the trainer to finish (final checkpoint, .finished), then stop everything that is left."""
+    def stop_processes(self, grace_s: float = 60.0) -> None:
+        """Ask the trainer to finish (final checkpoint, .finished), then stop the workers that are left."""
         trainer = self.children.get("trainer")
         if trainer is not None and trainer.poll() is None:
             trainer.send_signal(signal.SIGTERM)
@@ -136,6 +137,9 @@ class LocalRun:
                 except subprocess.TimeoutExpired:
                     child.kill()
                     child.wait()
+
+    def stop(self, grace_s: float = 60.0) -> None:
+        self.stop_processes(grace_s)
         if self.minio:
             self.minio.stop()
         if self.redis:
@@ -225,8 +229,8 @@ def run_local_training(plan: LocalRunPlan, base_settings: ServiceSettings, on_ev
             time.sleep(1.0)
         if interrupted:
             click.echo("stopping: the trainer writes a final checkpoint and .finished ...", err=True)
-        run.stop()
-        display.poll()
+        run.stop_processes()
+        display.poll()  # the last iteration and evaluation lines, while Redis is still up
         status = run.children["trainer"].returncode
         if status not in (0, None) and not interrupted:
             click.echo(f"trainer exited with status {status}; see {plan.log_dir / 'trainer.log'}:", err=True)
