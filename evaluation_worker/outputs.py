@@ -6,6 +6,7 @@ Layout under the model prefix (DeepRacer-for-Cloud's evaluation layout, referenc
     <prefix>/evaluation-<ts>/evaluation-simtrace/0-iteration.csv  19-column simtrace of every step
     <prefix>/evaluation-<ts>/summary.json                         what ran and its laps (race rule: laps, best lap,
                                                                   resets per lap, total progress), timings, file keys
+    <prefix>/evaluation-<ts>/evaluation_params.yaml               the job's settings as DeepRacer yaml keys (strings)
     <prefix>/evaluation-<ts>/camera-incar/0-video.mp4             videos (DeepRacer's camera-<view>/<n>-video.mp4 names)
     <prefix>/evaluation-<ts>/camera-topview/0-video.mp4
     <prefix>/evaluation-<ts>/camera-45degree/0-video.mp4
@@ -21,6 +22,7 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 from typing import Any
 
+from racer.evaluation_worker.config import EvaluationConfig
 from racer.evaluation_worker.driver import StepRecord
 from racer.evaluation_worker.laps import LapResult
 from racer.evaluation_worker.race_rule import RaceResult
@@ -48,6 +50,7 @@ class EvaluationLayout:
         files = {
             "simtrace": "evaluation-simtrace/0-iteration.csv",
             "summary": "summary.json",
+            "params": "evaluation_params.yaml",
             "mcap": "evaluation.mcap",
         }
         return f"{self.run_name}/{files.get(name, name)}"
@@ -95,6 +98,46 @@ def evaluation_metrics(laps: list[LapResult] | tuple[LapResult, ...]) -> Evaluat
         )
         for lap in laps
     )
+
+
+def evaluation_params(config: EvaluationConfig, layout: EvaluationLayout, checkpoint: str | None) -> dict[str, str]:
+    """The job as an evaluation_params.yaml would describe it (SimApp keys, string values as DRfC writes them).
+
+    Race mode keeps DeepRacer's keys where they mean the same (NUMBER_OF_RESETS = put-backs per lap, RACE_DURATION)
+    and says which rule ran in RACER_EVALUATION_MODE.
+    """
+    params = {
+        "JOB_TYPE": "EVALUATION",
+        "RACE_TYPE": "TIME_TRIAL",
+        "WORLD_NAME": str(config.track),
+        "RACER_WORLD": config.world,
+        "REVERSE_DIR": str(config.reverse_dir).lower(),
+        "MODEL_S3_PREFIX": layout.model_prefix,
+        "EVAL_CHECKPOINT": config.checkpoint if checkpoint is not None else "",
+        "METRICS_S3_OBJECT_KEY": layout.key(layout.relative("metrics")),
+        "SIMTRACE_S3_PREFIX": layout.key(layout.run_name),
+        "MP4_S3_OBJECT_PREFIX": layout.key(layout.run_name),
+        "RACER_EVALUATION_MODE": config.mode,
+    }
+    if config.mode == "race":
+        race = config.race
+        params.update({
+            "RACE_DURATION": str(race.race_duration_s),
+            "NUMBER_OF_RESETS": str(race.resets_per_lap),
+            "OFF_TRACK_PENALTY": str(race.reset_penalty_s),
+            "IS_CONTINUOUS": str(race.continuous).lower(),
+        })
+    else:
+        rules = config.deepracer
+        params.update({
+            "NUMBER_OF_TRIALS": str(rules.number_of_trials),
+            "IS_CONTINUOUS": str(rules.is_continuous).lower(),
+            "NUMBER_OF_RESETS": str(rules.number_of_resets),
+            "OFF_TRACK_PENALTY": str(rules.off_track_penalty_s),
+            "COLLISION_PENALTY": str(rules.collision_penalty_s),
+            "IMMOBILIZED_PENALTY": str(rules.immobilized_penalty_s),
+        })
+    return params
 
 
 def _round(value: float | None, digits: int = 3) -> float | None:

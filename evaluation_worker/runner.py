@@ -31,6 +31,7 @@ from racer.evaluation_worker.outputs import (
     SimtraceRecorder,
     choose_run_name,
     evaluation_metrics,
+    evaluation_params,
     format_table,
     summary_dict,
 )
@@ -38,6 +39,7 @@ from racer.evaluation_worker.race_rule import RaceResult, run_race
 from racer.evaluation_worker.video import VIEWS, VideoRecorder
 from racer.shared.deepracer.metrics import EvaluationMetrics
 from racer.shared.deepracer.model_metadata import ModelMetadata, ModelMetadataError, parse_model_metadata
+from racer.shared.deepracer.training_params import training_params_to_yaml
 from racer.shared.policy.checkpoints import CheckpointError, CheckpointStore
 from racer.shared.policy.networks import ActorCritic
 from racer.shared.sim.config import EnvConfig
@@ -215,7 +217,7 @@ class EvaluationSession:
         config, layout = self.config, self.layout
         steps = self.driver.steps_total
         files: dict[str, str] = {"metrics": layout.relative("metrics"), "simtrace": layout.relative("simtrace"),
-                                 "summary": layout.relative("summary")}
+                                 "summary": layout.relative("summary"), "params": layout.relative("params")}
         if self.video is not None:
             files.update({view: layout.video(view) for view in VIEWS})
         if self.mcap is not None:
@@ -242,6 +244,7 @@ class EvaluationSession:
             files["metrics"]: metrics.to_bytes(),
             files["simtrace"]: self.simtrace.writer.to_bytes(),
             files["summary"]: (json.dumps(summary, indent=2) + "\n").encode(),
+            files["params"]: training_params_to_yaml(evaluation_params(config, layout, self.checkpoint)).encode(),
         }
         for relative, data in contents.items():
             path = self.workdir / relative

@@ -58,7 +58,7 @@ def test_race_on_a_local_store_prints_the_table_and_writes_every_file(tmp_path):
     header = next(index for index, line in enumerate(lines) if line.split()[:5] == ["lap", "time", "(s)", "resets", "progress"])
     assert "Time Up" in result.output.split("\n", header + 1)[-1]
     keys = files_of(store, result.output)
-    assert set(keys) == {"metrics", "simtrace", "summary", "camera-incar", "camera-topview", "camera-45degree", "mcap"}
+    assert set(keys) == {"metrics", "simtrace", "summary", "params", "camera-incar", "camera-topview", "camera-45degree", "mcap"}
     summary = json.loads(store.get_bytes(keys["summary"]))
     assert summary["mode"] == "race" and summary["checkpoint"] == "0_Step-0.ckpt"
     assert summary["rules"]["race_duration_s"] == 9.0 and summary["rules"]["resets_per_lap"] == 3
@@ -77,7 +77,7 @@ def test_deepracer_evaluation_against_minio(s3_settings):
                     extra_env=extra)
     assert result.exit_code == 0, result.output
     keys = files_of(store, result.output)
-    assert set(keys) == {"metrics", "simtrace", "summary", "mcap"}
+    assert set(keys) == {"metrics", "simtrace", "summary", "params", "mcap"}
     metrics = read_evaluation_metrics(store.get_bytes(keys["metrics"]), source=keys["metrics"])
     assert [entry.trial for entry in metrics.entries] == [1, 2]
     rows = read_simtrace(store.get_bytes(keys["simtrace"]), source="simtrace")

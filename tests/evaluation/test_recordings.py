@@ -13,6 +13,7 @@ from mcap_protobuf.decoder import DecoderFactory
 
 from racer.evaluation_worker.config import DeepRacerRules, VideoOptions
 from racer.evaluation_worker.video import VIEWS
+from racer.shared.deepracer.training_params import parse_training_params
 from tests.evaluation.conftest import run_scripted, simtrace_of
 
 NOW = dt.datetime(2026, 11, 22, 7, 30, 5, tzinfo=dt.UTC)
@@ -36,6 +37,7 @@ def test_store_layout_follows_deepracer_for_cloud(recorded):
         "metrics": "scripted-model/metrics/EvaluationMetrics-20261122073005.json",
         "simtrace": f"{run}/evaluation-simtrace/0-iteration.csv",
         "summary": f"{run}/summary.json",
+        "params": f"{run}/evaluation_params.yaml",
         "camera-incar": f"{run}/camera-incar/0-video.mp4",
         "camera-topview": f"{run}/camera-topview/0-video.mp4",
         "camera-45degree": f"{run}/camera-45degree/0-video.mp4",
@@ -134,6 +136,14 @@ def test_summary_reports_laps_timings_and_files(recorded):
     assert summary["timings"]["video_frames"] == report.video_frames
     assert summary["files"] == report.keys
     assert "Lap complete" in report.table and "resets" in report.table.splitlines()[0]
+
+
+def test_evaluation_params_use_deepracers_yaml_keys(recorded):
+    root, _, report = recorded
+    params = parse_training_params((root / report.keys["params"]).read_text(), source="evaluation_params.yaml")
+    assert params.values["JOB_TYPE"] == "EVALUATION" and params.values["WORLD_NAME"] == "racer_oval"
+    assert (params.values["NUMBER_OF_TRIALS"], params.values["NUMBER_OF_RESETS"], params.values["OFF_TRACK_PENALTY"]) == ("1", "2", "0.4")
+    assert params.values["IS_CONTINUOUS"] == "false" and params.values["METRICS_S3_OBJECT_KEY"] == report.keys["metrics"]
 
 
 def test_a_second_evaluation_in_the_same_second_gets_its_own_folder(tmp_path):
