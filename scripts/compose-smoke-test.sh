@@ -211,6 +211,10 @@ RACER_TRACK=racer_oval
 RACER_WORLDS=base,carpet
 RACER_TRAINER_ARGS=--max-episodes 4
 RACER_ROLLOUT_ARGS=--wait-timeout-s 600
+RACER_EVAL_ARGS=--checkpoint last --trials 1 --no-video --no-mcap
+RACER_ANALYSIS_OUT=$WORK/analysis
+RACER_UID=$(id -u)
+RACER_GID=$(id -g)
 RACER_IMAGE=$RACER_IMAGE
 REDIS_IMAGE=$REDIS_IMAGE
 MINIO_IMAGE=$MINIO_IMAGE
@@ -266,14 +270,14 @@ check_trainer_log() {  # check_trainer_log LOGFILE
 }
 
 check_store() {  # check_store NETWORK ENV_FILE: reads MinIO from inside that network with the image's boto3
-  local env_file="$2" log="$WORK/store-check-$1.log"
-  docker run --rm -i --network "$1" --entrypoint python3 \
+  local env_file="$2" log="$WORK/store-check-$1-${3:-training}.log"
+  docker run --rm -i --network "$1" --entrypoint python3 -e CHECK="${3:-training}" \
     -e S3_ENDPOINT_URL=http://minio:9000 -e AWS_DEFAULT_REGION=us-east-1 \
     -e AWS_ACCESS_KEY_ID="$(grep '^MINIO_ROOT_USER=' "$env_file" | cut -d= -f2-)" \
     -e AWS_SECRET_ACCESS_KEY="$(grep '^MINIO_ROOT_PASSWORD=' "$env_file" | cut -d= -f2-)" \
     -e BUCKET="$(grep '^RACER_BUCKET=' "$env_file" | cut -d= -f2-)" \
     -e PREFIX="$(grep '^RACER_MODEL_PREFIX=' "$env_file" | cut -d= -f2-)" \
-    "$RACER_IMAGE" - >"$log" 2>&1 <<'PY' || { cat "$log" >&2; fail "the store does not hold what a two-iteration run must leave"; }
+    "$RACER_IMAGE" - >"$log" 2>&1 <<'PY' || { cat "$log" >&2; fail "the store check (${3:-training}) failed: see above"; }
 import os, re, sys
 import boto3
 
@@ -291,6 +295,13 @@ numbers = sorted({int(m.group(1)) for k in keys if k.startswith(f"{prefix}/model
                   for m in [checkpoint.match(k.rsplit("/", 1)[1])] if m})
 if numbers[-1:] != [2]:
     problems.append(f"checkpoints {numbers}: expected the last to be 2 (checkpoint 0 + two iterations)")
+if os.environ["CHECK"] == "evaluation":  # after `docker compose --profile evaluation run evaluation`
+    metrics = [k for k in keys if re.fullmatch(re.escape(prefix) + r"/metrics/EvaluationMetrics-[^/]+\.json", k)]
+    simtraces = [k for k in keys if re.fullmatch(re.escape(prefix) + r"/evaluation-[^/]+/evaluation-simtrace/0-iteration\.csv", k)]
+    if not metrics or not simtraces:
+        sys.exit(f"no evaluation output under s3://{bucket}/{prefix}/: metrics {metrics}, simtraces {simtraces}")
+    print(f"evaluation: {metrics[0]}, {simtraces[0]}")
+    sys.exit(0)
 need(f"{prefix}/model/.coach_checkpoint", "the checkpoint pointer")
 if f"{prefix}/model/.coach_checkpoint" in keys:
     pointer = s3.get_object(Bucket=bucket, Key=f"{prefix}/model/.coach_checkpoint")["Body"].read().decode().strip()
@@ -328,6 +339,20 @@ step "checking the trainer log and the store"
 check_trainer_log "$WORK/trainer.log"
 network="$(docker inspect -f '{{range $name, $_ := .NetworkSettings.Networks}}{{$name}} {{end}}' "$(compose ps -a -q minio)" | awk '{print $1}')"
 check_store "$network" "$WORK/smoke.env"
+done_step
+
+step "docker compose --profile evaluation run --rm evaluation (last checkpoint, 1 trial)"
+compose --profile evaluation run --rm evaluation >"$WORK/evaluation.log" 2>&1 \
+  || { tail -30 "$WORK/evaluation.log" >&2; fail "the evaluation service failed (log: $WORK/evaluation.log)"; }
+done_step
+step "docker compose --profile analysis run --rm analysis"
+mkdir -p "$WORK/analysis"
+compose --profile analysis run --rm analysis >"$WORK/analysis.log" 2>&1 \
+  || { tail -30 "$WORK/analysis.log" >&2; fail "the analysis service failed (log: $WORK/analysis.log)"; }
+[ -s "$WORK/analysis/report.html" ] || fail "the analysis service wrote no report.html into RACER_ANALYSIS_OUT ($WORK/analysis)"
+done_step "report.html and $(find "$WORK/analysis" -type f | wc -l) files"
+step "checking the evaluation's files in the store"
+check_store "$network" "$WORK/smoke.env" evaluation
 done_step
 
 step "docker compose down -v"
@@ -379,4 +404,4 @@ else
   done_step
 fi
 
-say "PASSED in $((SECONDS - T0)) s (compose part: ${COMPOSE_SECONDS} s): docker compose trained 2 iterations with workers in worlds base and carpet; checkpoints, pointer and simtraces are in MinIO${SWARM_PASSED:+; the same on a single-node swarm with docker stack deploy}"
+say "PASSED in $((SECONDS - T0)) s (compose part: ${COMPOSE_SECONDS} s): docker compose trained 2 iterations with workers in worlds base and carpet; checkpoints, pointer and simtraces are in MinIO; evaluation and analysis ran${SWARM_PASSED:+; the same on a single-node swarm with docker stack deploy}"
