@@ -11,10 +11,6 @@ Modules: `config` (frozen settings), `driver` (greedy policy + env + recorders),
 `deepracer_eval` / `race_rule` (the two modes), `outputs` (layout, simtrace, EvaluationMetrics, summary, table),
 `video` (MP4s), `mcap_recording` (Foxglove MCAP), `runner` (one evaluation end to end), `main` (the click command).
 
-Env dependency. Continuous runs (IS_CONTINUOUS, race laps) need the episode to go on after `lap_complete`;
-`DeepRacerEnv` ends it, so `EvaluationDriver.continue_after_lap` reopens it through four of the env's attributes
-(`_episode_open`, `_episode_start_time_s`, `_reset_count`, `_counters`) and fails with a clear error if they go away.
-The small env change that would replace this: `EnvConfig.is_continuous` (keep the episode open on lap_complete,
-restart the lap clock and the immobilized/reversed counters at the line) plus a way to renew the reset budget
-(`env.renew_reset_budget()`), i.e. what the SimApp's `_metrics.reset(); _reset_rules_manager.reset()` does.
+Continuous runs (IS_CONTINUOUS, race laps) keep the episode going after `lap_complete` with
+`DeepRacerEnv.continue_after_lap` (lap clock and counters restart at the line; reset budget kept or renewed).
 """

@@ -27,10 +27,6 @@ PENALTY_STATUSES: tuple[str, ...] = ("crashed", "immobilized", "off_track", "rev
 """Statuses a reset rule produces; each such step counts once in EvaluationMetrics (`<status>_count`)."""
 
 
-class EnvCompatibilityError(RuntimeError):
-    """The environment lacks something the evaluation worker relies on (names the attribute)."""
-
-
 class Policy(Protocol):
     """What the driver asks of a policy: `ActorCritic.act`, or a scripted stand-in in tests."""
 
@@ -232,19 +228,7 @@ class EvaluationDriver:
         restarts at the crossing, the immobilized/reversed counters restart, and the reset budget is kept for the
         whole run (`clear_reset_budget=False`) or renewed per lap (the race rule).
         """
-        core = self.core
-        for name in ("_episode_open", "_episode_start_time_s", "_reset_count", "_counters"):
-            if not hasattr(core, name):
-                raise EnvCompatibilityError(
-                    f"{type(core).__module__}.{type(core).__name__} has no attribute {name!r}; continuing a run after a "
-                    "completed lap needs it (see racer.evaluation_worker docs for the env API that would replace this)"
-                )
-        core._episode_open = True
-        core._episode_start_time_s = lap_end_time_s
-        if clear_reset_budget:
-            core._reset_count = 0
-        pose = core.car.pose(core.data)
-        core._counters.clear((pose.origin_x_m, pose.origin_y_m))
+        self.core.continue_after_lap(lap_end_time_s, renew_reset_budget=clear_reset_budget)
         self.lap_index = lap_index
         self.lap_resets = 0
 

@@ -61,7 +61,6 @@ def evaluate_command(model_prefix, checkpoint, mode, track, world, reverse, tria
         RaceRules,
         VideoOptions,
     )
-    from racer.evaluation_worker.driver import EnvCompatibilityError
     from racer.evaluation_worker.runner import EvaluationSession
     from racer.evaluation_worker.video import VideoError
     from racer.shared.config import settings_from_env
@@ -83,7 +82,7 @@ def evaluate_command(model_prefix, checkpoint, mode, track, world, reverse, tria
         store = open_store(settings_from_env().store)
         session = EvaluationSession(store, config, out_dir=out_dir)
         report = session.run(log=click.echo)
-    except (EvaluationConfigError, CheckpointError, VideoError, EnvCompatibilityError, *user_error_types()) as error:
+    except (EvaluationConfigError, CheckpointError, VideoError, *user_error_types()) as error:
         raise click.ClickException(str(error)) from error
     click.echo("")
     click.echo(report.table)

@@ -218,6 +218,7 @@ class DeepRacerEnv(gym.Env):
         self._respawn_pose: tuple[float, float, float] | None = None
         self._episode_index = self._evaluation_episodes_done if evaluation else self._training_episodes_done
         self._episode_start_time_s = float(self._data.time)
+        self._last_status = rules.PREPARE
         self._counters.clear()
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
@@ -255,6 +256,24 @@ class DeepRacerEnv(gym.Env):
             self._start_ndist = (self._start_ndist + self.config.round_robin_advance_dist) % 1.0
         if self.config.alternate_driving_direction:
             self._reverse_dir = not self._reverse_dir
+
+    def continue_after_lap(self, lap_start_time_s: float, *, renew_reset_budget: bool) -> None:
+        """Keep an evaluation episode going across the finish line instead of starting a new one.
+
+        DeepRacer's continuous evaluation and the race rule drive lap after lap without returning to the line:
+        progress restarts from 0, the lap clock restarts at `lap_start_time_s` (the crossing), the immobilized and
+        reversed counters restart, and the reset budget is kept for the whole run or renewed per lap (race rule).
+        """
+        if self._episode_open or self._last_status != rules.LAP_COMPLETE:
+            raise RuntimeError("continue_after_lap() is only for an episode that has just ended with lap_complete")
+        if not self._evaluation:
+            raise RuntimeError("continue_after_lap() is for evaluation episodes; training episodes end at the line")
+        self._episode_open = True
+        self._episode_start_time_s = float(lap_start_time_s)
+        if renew_reset_budget:
+            self._reset_count = 0
+        pose = self._car.pose(self._data)
+        self._counters.clear((pose.origin_x_m, pose.origin_y_m))
 
     # ----- stepping ------------------------------------------------------------------------------------------
 
@@ -365,6 +384,7 @@ class DeepRacerEnv(gym.Env):
         }
         if lap_time_s is not None:
             info["lap_time_s"] = lap_time_s
+        self._last_status = status
         if done:
             self._finish_episode()
         return self._observe(), reward, terminated, truncated, info
