@@ -56,6 +56,8 @@ def service_environment(settings: ServiceSettings) -> dict[str, str]:
             env["AWS_ACCESS_KEY_ID"] = settings.store.access_key_id
         if settings.store.secret_access_key:
             env["AWS_SECRET_ACCESS_KEY"] = settings.store.secret_access_key
+        if settings.store.session_token:
+            env["AWS_SESSION_TOKEN"] = settings.store.session_token
         env["AWS_DEFAULT_REGION"] = settings.store.region
     else:
         env["RACER_STORE"] = str(settings.store.root)

@@ -8,7 +8,7 @@ frozen dataclasses built here, so a test or a subprocess can be configured expli
 | `RACER_REDIS_URL` | Redis URL | `redis://127.0.0.1:6379/0` |
 | `RACER_STORE` | `s3://bucket` or a local directory | `./racer-data` |
 | `S3_ENDPOINT_URL` | S3 endpoint (MinIO), as in DeepRacer's `S3_ENDPOINT_URL` | unset (AWS) |
-| `AWS_ACCESS_KEY_ID`, `AWS_SECRET_ACCESS_KEY`, `AWS_DEFAULT_REGION` | S3 credentials and region | boto3's own chain, region `us-east-1` |
+| `AWS_ACCESS_KEY_ID`, `AWS_SECRET_ACCESS_KEY`, `AWS_SESSION_TOKEN`, `AWS_DEFAULT_REGION` | S3 credentials and region | boto3's own chain, region `us-east-1` |
 | `RACER_CONNECT_TIMEOUT_S` | how long to try reaching Redis or S3 before giving up | `10` |
 """
 
@@ -36,6 +36,8 @@ class S3Settings:
     endpoint_url: str | None = None
     access_key_id: str | None = None
     secret_access_key: str | None = None
+    session_token: str | None = None
+    """For temporary credentials (STS, SSO): AWS_SESSION_TOKEN."""
     region: str = "us-east-1"
     connect_timeout_s: float = 10.0
 
@@ -65,6 +67,7 @@ def parse_store_location(location: str, environ: Mapping[str, str], connect_time
             endpoint_url=environ.get("S3_ENDPOINT_URL") or None,
             access_key_id=environ.get("AWS_ACCESS_KEY_ID") or None,
             secret_access_key=environ.get("AWS_SECRET_ACCESS_KEY") or None,
+            session_token=environ.get("AWS_SESSION_TOKEN") or None,
             region=environ.get("AWS_DEFAULT_REGION") or environ.get("AWS_REGION") or "us-east-1",
             connect_timeout_s=connect_timeout_s,
         )

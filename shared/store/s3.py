@@ -26,6 +26,7 @@ class S3Store:
             endpoint_url=settings.endpoint_url,
             aws_access_key_id=settings.access_key_id,
             aws_secret_access_key=settings.secret_access_key,
+            aws_session_token=settings.session_token,
             region_name=settings.region,
             config=botocore.config.Config(
                 connect_timeout=min(3.0, timeout_s),

@@ -87,3 +87,16 @@ def test_local_store_has_no_partial_files(tmp_path):
     store = LocalStore(tmp_path)
     store.put_bytes("a/b.json", b"{}")
     assert store.list_keys("") == ["a/b.json"]  # the staging folder never shows
+
+
+def test_settings_from_environment_read_s3_and_session_token():
+    from racer.shared.config import settings_from_env
+
+    settings = settings_from_env({"RACER_STORE": "s3://models", "S3_ENDPOINT_URL": "http://127.0.0.1:9000",
+                                  "AWS_ACCESS_KEY_ID": "id", "AWS_SECRET_ACCESS_KEY": "secret",
+                                  "AWS_SESSION_TOKEN": "token", "RACER_REDIS_URL": "redis://r:6379/1"})
+    assert settings.store == S3Settings(bucket="models", endpoint_url="http://127.0.0.1:9000", access_key_id="id",
+                                        secret_access_key="secret", session_token="token", connect_timeout_s=10.0)
+    assert settings.redis.url == "redis://r:6379/1"
+    with pytest.raises(ValueError, match="s3://<bucket>"):
+        settings_from_env({"RACER_STORE": "s3://bucket/with/prefix"})
