@@ -22,6 +22,17 @@ class GLBackendError(RuntimeError):
     """No usable OpenGL backend for offscreen rendering."""
 
 
+def keep_triton_out(imported_modules: MutableMapping[str, object] = sys.modules) -> None:
+    """Stop torch from loading its optional GPU compiler, triton, into a process that renders with Mesa.
+
+    triton carries its own LLVM; loaded next to Mesa's llvmpipe (also LLVM) it crashes the process with a
+    segmentation fault. torch imports it lazily, e.g. the first time an optimiser is created after rendering.
+    We run torch on the CPU and never compile for a GPU, so a missing triton costs nothing.
+    """
+    if "triton" not in imported_modules:
+        imported_modules["triton"] = None  # `import triton` now raises ImportError; torch treats it as absent
+
+
 def probe_backend(backend: str) -> str | None:
     """None when `backend` can create a GL context, else the child's error output."""
     env = dict(os.environ, MUJOCO_GL=backend)
@@ -43,6 +54,7 @@ def ensure_gl_backend(
     probe: Callable[[str], str | None] = probe_backend,
 ) -> str:
     """The backend MuJoCo will use; picks egl, else osmesa, when MUJOCO_GL is unset (call before importing mujoco)."""
+    keep_triton_out()
     requested = environ.get("MUJOCO_GL", "").strip().lower()
     if requested:
         return requested
