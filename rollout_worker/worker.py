@@ -170,7 +170,7 @@ class RolloutWorker:
         if self.policy_version == announcement.iteration:
             return
         self.state.status = f"loading {announcement.checkpoint}"
-        self.policy = self.checkpoints.load_policy(announcement.checkpoint)
+        self.policy = self.checkpoints.load_inference_policy(announcement.checkpoint)
         self.policy.eval()
         self.policy_version = announcement.iteration
 

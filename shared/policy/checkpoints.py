@@ -465,6 +465,20 @@ class CheckpointStore:
         network.load_state_dict(load_safetensors(self._read_verified(info, name + WEIGHTS_SUFFIX)))
         return network.eval()
 
+    def load_inference_policy(self, name: str | None = None):
+        """The checkpoint's exported ONNX model run with ONNX Runtime: what the rollout and evaluation workers act with.
+
+        Same actions and log-probabilities as `load_policy(name).act` (see racer.shared.policy.onnx_policy), about
+        1.7x faster per observation on one CPU thread, because single-frame inference is mostly framework overhead.
+        """
+        from racer.shared.policy.onnx_policy import OnnxPolicy
+
+        network = self.load_policy(name)  # the continuous head's log-std lives in the weights, not in the ONNX graph
+        name = name or self.latest_name()
+        number, _steps = parse_checkpoint_name(name)
+        onnx_bytes = self._read_verified(self.read_info(name), f"model_{number}.onnx")
+        return OnnxPolicy(onnx_bytes, network)
+
     def read_best_and_last(self) -> BestAndLast | None:
         try:
             data = json.loads(self.store.get_bytes(self.model_key(BEST_AND_LAST_FILE)))
