@@ -110,7 +110,7 @@ class EvaluationSession:
         if policy is None:
             checkpoints = CheckpointStore(store, prefix)
             self.checkpoint = checkpoints.select(config.checkpoint)
-            policy = checkpoints.load_policy(self.checkpoint)
+            policy = checkpoints.load_inference_policy(self.checkpoint)  # the exported ONNX model, as on a car
             if model_metadata is None:
                 model_metadata = read_model_metadata(store, checkpoints, prefix, self.checkpoint)
         elif model_metadata is None:

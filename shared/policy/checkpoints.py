@@ -64,7 +64,7 @@ from racer.shared.deepracer.hyperparameters import (
     resolved_hyperparameters,
 )
 from racer.shared.deepracer.model_metadata import ModelMetadata, model_metadata_to_dict
-from racer.shared.policy.networks import ActorCritic, PolicyConfig
+from racer.shared.policy.networks import LOG_STD_MAX, LOG_STD_MIN, ActorCritic, PolicyConfig
 from racer.shared.store import ObjectNotFoundError, ObjectStore, join_key
 
 __all__ = [
@@ -470,14 +470,20 @@ class CheckpointStore:
 
         Same actions and log-probabilities as `load_policy(name).act` (see racer.shared.policy.onnx_policy), about
         1.7x faster per observation on one CPU thread, because single-frame inference is mostly framework overhead.
+        No torch network is built: workers load a policy every iteration, so this stays cheap.
         """
         from racer.shared.policy.onnx_policy import OnnxPolicy
 
-        network = self.load_policy(name)  # the continuous head's log-std lives in the weights, not in the ONNX graph
         name = name or self.latest_name()
-        number, _steps = parse_checkpoint_name(name)
-        onnx_bytes = self._read_verified(self.read_info(name), f"model_{number}.onnx")
-        return OnnxPolicy(onnx_bytes, network)
+        if name is None:
+            raise CheckpointError(f"{self.store.describe()}: no {self.model_key(POINTER_FILE)!r}; nothing to load")
+        info = self.read_info(name)
+        log_std = None
+        if info.policy_config.is_continuous:  # the Gaussian's state-independent log-std is a weight, not in the graph
+            weights = load_safetensors(self._read_verified(info, name + WEIGHTS_SUFFIX))
+            log_std = weights["log_std"].clamp(LOG_STD_MIN, LOG_STD_MAX)
+        onnx_bytes = self._read_verified(info, f"model_{info.number}.onnx")
+        return OnnxPolicy(onnx_bytes, info.policy_config, log_std)
 
     def read_best_and_last(self) -> BestAndLast | None:
         try:

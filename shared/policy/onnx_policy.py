@@ -14,24 +14,23 @@ import numpy as np
 import onnxruntime
 import torch
 
-from racer.shared.policy.networks import ActorCritic, CategoricalPolicy, GaussianPolicy, select_action
+from racer.shared.policy.networks import CategoricalPolicy, GaussianPolicy, PolicyConfig, select_action
 
 
 class OnnxPolicy:
-    def __init__(self, onnx_bytes: bytes, network: ActorCritic):
+    def __init__(self, onnx_bytes: bytes, config: PolicyConfig, log_std: torch.Tensor | None = None):
+        """`log_std` (continuous policies): the network's clipped log-std parameter, shape (2,)."""
         options = onnxruntime.SessionOptions()
         options.intra_op_num_threads = 1
         options.inter_op_num_threads = 1
         options.graph_optimization_level = onnxruntime.GraphOptimizationLevel.ORT_ENABLE_ALL
         self._session = onnxruntime.InferenceSession(onnx_bytes, options, providers=["CPUExecutionProvider"])
-        self.config = network.config
-        self._inputs = {spec.name: spec.shape for spec in network.config.inputs}
-        self._continuous = network.config.is_continuous
-        self._log_std = None
-        if self._continuous:
-            with torch.inference_mode():
-                zeros = {name: torch.zeros(1, *shape) for name, shape in self._inputs.items()}
-                self._log_std = network.distribution(zeros).log_std.detach().clone()
+        self.config = config
+        self._inputs = {spec.name: spec.shape for spec in config.inputs}
+        self._continuous = config.is_continuous
+        if self._continuous and log_std is None:
+            raise ValueError("a continuous policy needs the network's log_std")
+        self._log_std = None if log_std is None else torch.as_tensor(log_std, dtype=torch.float32).detach().clone()
 
     def eval(self) -> OnnxPolicy:
         """For symmetry with ActorCritic (an inference session has no training mode)."""
