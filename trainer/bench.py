@@ -8,8 +8,9 @@ the epochs, everything the trainer does per iteration); `baseline_samples_per_s`
 single-tensor Adam loop, no NaN checks, the towers one after the other with `--threads` intra-op threads. Both get
 the same cores and use the same network module (channels-last), so the speedup counts only what the update does
 differently: policy and value towers on one core each (`PPOSettings.threads_per_tower`), the fused Adam kernel, and
-one old-policy pass per update instead of one per minibatch. Neither path is compiled (torch.compile measured ~20 %
-slower here, so there is no compile time to amortise) nor uses bf16 (no AVX-512/AMX on this CPU: ~20x slower).
+one old-policy pass per update instead of one per minibatch, and on CPUs with native bf16 (AVX512-BF16 or AMX) the
+towers under bf16 autocast (`PPOSettings.bf16_towers`; `--fp32` turns it off to measure the rest alone). Neither
+path is compiled (torch.compile measured ~20 % slower, so there is no compile time to amortise).
 A small untimed warm-up update runs first on each path (oneDNN primitive creation). With `--repeats` > 1 the two
 paths alternate and medians are reported; `*_cpu_s` are process CPU seconds (OpenMP spin-waits included), less
 sensitive than wall time to other processes on the same cores.
@@ -44,6 +45,7 @@ from racer.trainer.ppo import (
     PPOTrainer,
     make_training_batch,
     minibatch_size_for,
+    native_bf16_available,
     shuffled_minibatches,
 )
 
@@ -131,9 +133,10 @@ def plain_ppo_update(network: ActorCritic, hyperparameters: Hyperparameters, epi
 
 
 def _time_trainer(network: ActorCritic, hp: Hyperparameters, episodes: list[Episode], seed: int,
-                  threads: int) -> tuple[float, float]:
+                  threads: int, bf16_towers: bool | None) -> tuple[float, float]:
     """(wall s, CPU s) of one PPOTrainer.update; the two towers share the `threads` cores."""
-    trainer = PPOTrainer(network, hp, PPOSettings(seed=seed, threads_per_tower=max(1, threads // 2)))
+    trainer = PPOTrainer(network, hp, PPOSettings(seed=seed, threads_per_tower=max(1, threads // 2),
+                                                  bf16_towers=bf16_towers))
     start, cpu_start = time.perf_counter(), time.process_time()
     trainer.update(episodes)
     return time.perf_counter() - start, time.process_time() - cpu_start
@@ -156,8 +159,9 @@ def _time_baseline(network: ActorCritic, hp: Hyperparameters, episodes: list[Epi
               help="Cores for each path: baseline intra-op threads; trainer threads_per_tower = threads // 2.")
 @click.option("--repeats", default=1, show_default=True, help="Timed runs per path (alternating); medians reported.")
 @click.option("--seed", default=0, show_default=True)
+@click.option("--fp32", is_flag=True, help="Keep the trainer's towers in fp32 even where the CPU has native bf16.")
 def ppo_bench_command(transitions: int, epochs: int, batch_size: int, num_actions: int, threads: int, repeats: int,
-                      seed: int) -> None:
+                      seed: int, fp32: bool) -> None:
     """One PPO update: samples/s of the project trainer vs a plain fp32 eager baseline, as one JSON line."""
     hp = Hyperparameters(batch_size=batch_size, num_epochs=epochs, lr=3e-4, beta_entropy=0.01, discount_factor=0.999,
                          loss_type="huber")
@@ -166,14 +170,15 @@ def ppo_bench_command(transitions: int, epochs: int, batch_size: int, num_action
     warm_up = synthetic_episodes(2 * batch_size, num_actions, seed + 1)
     warm_hp = Hyperparameters(batch_size=batch_size, num_epochs=1, lr=3e-4, loss_type="huber")
     print("ppo bench: warming up both paths", file=sys.stderr)
-    _time_trainer(copy.deepcopy(initial), warm_hp, warm_up, seed, threads)
+    bf16_towers = False if fp32 else None
+    _time_trainer(copy.deepcopy(initial), warm_hp, warm_up, seed, threads, bf16_towers)
     _time_baseline(copy.deepcopy(initial), warm_hp, warm_up, seed, threads)
 
     trainer_runs, baseline_runs = [], []
     for repeat in range(repeats):
         baseline_runs.append(_time_baseline(copy.deepcopy(initial), hp, episodes, seed, threads))
         print(f"ppo bench: run {repeat + 1}/{repeats} baseline {baseline_runs[-1][0]:.1f} s", file=sys.stderr)
-        trainer_runs.append(_time_trainer(copy.deepcopy(initial), hp, episodes, seed, threads))
+        trainer_runs.append(_time_trainer(copy.deepcopy(initial), hp, episodes, seed, threads, bf16_towers))
         print(f"ppo bench: run {repeat + 1}/{repeats} trainer {trainer_runs[-1][0]:.1f} s", file=sys.stderr)
     samples = transitions * epochs
     trainer_s, trainer_cpu_s = zip(*trainer_runs, strict=True)
@@ -198,6 +203,7 @@ def ppo_bench_command(transitions: int, epochs: int, batch_size: int, num_action
         "cpu_capability": torch.backends.cpu.get_cpu_capability(),
         "machine": platform.machine(),
         "torch": torch.__version__,
-        "fast_path": "policy/value towers on one core each, fused Adam, old policy once per update; "
-                     "channels-last in both paths; no torch.compile, no bf16",
+        "bf16_towers": (not fp32) and native_bf16_available(),
+        "fast_path": "policy/value towers on one core each, fused Adam, old policy once per update, bf16 towers "
+                     "where the CPU has native bf16; channels-last in both paths; no torch.compile",
     }), flush=True)

@@ -368,6 +368,18 @@ ActionDistribution = CategoricalPolicy | GaussianPolicy
 # The actor-critic
 
 
+def _tower_features(tower: Tower, observations: Mapping[str, torch.Tensor],
+                    tower_dtype: torch.dtype | None) -> torch.Tensor:
+    """A tower's output in fp32. With `tower_dtype` (the trainer's bf16 option) the convs and dense layers run under
+    CPU autocast; the heads, softmax and log-probabilities after it stay fp32."""
+    if tower_dtype is None:
+        return tower(observations)
+    with torch.autocast("cpu", dtype=tower_dtype):
+        features = tower(observations)
+    return features.float()
+
+
+
 class ActorCritic(nn.Module):
     """Two independent towers (policy: network_1, value: network_0 in DeepRacer's graph) and their heads."""
 
@@ -395,15 +407,16 @@ class ActorCritic(nn.Module):
 
     # -- batched, differentiable: what the trainer uses ---------------------------------------------------------------
 
-    def distribution(self, observations: Mapping[str, torch.Tensor]) -> ActionDistribution:
-        head = self.policy_head(self.policy_tower(observations))
+    def distribution(self, observations: Mapping[str, torch.Tensor],
+                     tower_dtype: torch.dtype | None = None) -> ActionDistribution:
+        head = self.policy_head(_tower_features(self.policy_tower, observations, tower_dtype))
         if self.config.is_continuous:
             log_std = self.log_std.clamp(LOG_STD_MIN, LOG_STD_MAX)
             return GaussianPolicy(mean=torch.tanh(head), log_std=log_std)
         return CategoricalPolicy(probs=torch.softmax(head, dim=1).clamp_min(MIN_PROBABILITY))
 
-    def value(self, observations: Mapping[str, torch.Tensor]) -> torch.Tensor:
-        return self.value_head(self.value_tower(observations)).squeeze(1)
+    def value(self, observations: Mapping[str, torch.Tensor], tower_dtype: torch.dtype | None = None) -> torch.Tensor:
+        return self.value_head(_tower_features(self.value_tower, observations, tower_dtype)).squeeze(1)
 
     def policy_output(self, observations: Mapping[str, torch.Tensor]) -> torch.Tensor:
         """What the exported inference model returns: action probabilities (discrete) or the Gaussian mean."""

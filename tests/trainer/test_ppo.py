@@ -216,13 +216,14 @@ def test_log_lines_match_the_real_console_log(deepracer_data):
     assert "Total reward=-3," in format_training_episode_line(1, 3, -3.0, 100, 2)
 
 
-def test_ppo_learns_the_bar_task_within_a_fixed_budget():
+@pytest.mark.parametrize("bf16_towers", [False, True], ids=["fp32", "bf16"])
+def test_ppo_learns_the_bar_task_within_a_fixed_budget(bf16_towers):
     """Five actions, the right one shown as a bright bar: > 95 % greedy accuracy within 8 iterations of 96 episodes."""
     num_actions = 5
     network = task_network(num_actions, seed=0)
     hp = Hyperparameters(batch_size=32, num_epochs=3, lr=3e-4, beta_entropy=0.01, discount_factor=0.99,
                          loss_type="huber")
-    trainer = PPOTrainer(network, hp, PPOSettings(seed=0))
+    trainer = PPOTrainer(network, hp, PPOSettings(seed=0, bf16_towers=bf16_towers))
     rng = np.random.default_rng(0)
     start_accuracy = greedy_accuracy(network, num_actions, rng)
     accuracies = []
