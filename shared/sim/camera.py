@@ -7,6 +7,7 @@ and the picture differs only in anti-aliasing of thin lines.
 
 from __future__ import annotations
 
+import functools
 import os
 
 import numpy as np
@@ -14,6 +15,8 @@ from PIL import Image
 
 from racer.shared.sim._mujoco import mujoco
 from racer.shared.sim.gl import GLBackendError
+
+from OpenGL import GL  # noqa: E402  (after mujoco, which selects PyOpenGL's platform from MUJOCO_GL)
 
 IMAGE_WIDTH_PX = 160
 IMAGE_HEIGHT_PX = 120
@@ -24,33 +27,48 @@ CENTER_CAMERA = "front_camera"
 LEFT_CAMERA = "left_camera"
 RIGHT_CAMERA = "right_camera"
 
-_R = np.arange(256, dtype=np.float64) * 0.2989
-_G = np.arange(256, dtype=np.float64) * 0.5870
-_B = np.arange(256, dtype=np.float64) * 0.1140
-
-
 def rgb_to_y(rgb: np.ndarray) -> np.ndarray:
-    """RL Coach's RGB→Y filter then uint8 truncation: `uint8(0.2989 R + 0.5870 G + 0.1140 B)`.
-
-    Table look-ups give the very same float64 products, summed in the same order, at a third of the cost.
-    """
+    """RL Coach's RGB→Y filter then uint8 truncation: `uint8(0.2989 R + 0.5870 G + 0.1140 B)`."""
     return GrayConverter(rgb.shape[:2]).to_y(rgb)
 
 
+@functools.cache
+def _luma_table() -> np.ndarray:
+    """Y of every colour, indexed by R | G << 8 | B << 16 (16 MiB, read-only, built once per process in ~0.15 s).
+
+    Each entry is RL Coach's float64 formula, products summed in its order, so a look-up is the formula itself.
+    """
+    green_blue = np.arange(1 << 16)
+    green_term = 0.5870 * (green_blue & 0xFF).astype(np.float64)
+    blue_term = 0.1140 * (green_blue >> 8).astype(np.float64)
+    table = np.empty(1 << 24, dtype=np.uint8)
+    for red in range(256):
+        table[red | (green_blue << 8)] = ((0.2989 * red + green_term) + blue_term).astype(np.uint8)
+    table.flags.writeable = False
+    return table
+
+
 class GrayConverter:
-    """`rgb_to_y` with preallocated work buffers (the env converts one frame per step)."""
+    """`rgb_to_y` for frames of one shape, at one table look-up per pixel (the env converts a frame per step).
+
+    The frame is copied into a buffer one byte longer than the pixels, so that a little-endian uint32 view with a
+    3-byte stride reads each pixel's R, G, B (plus the next pixel's R, masked off) as one table index.
+    """
 
     def __init__(self, shape: tuple[int, ...]) -> None:
-        self._sum = np.empty(shape, dtype=np.float64)
-        self._term = np.empty(shape, dtype=np.float64)
+        self._shape = tuple(shape[:2])
+        pixels = self._shape[0] * self._shape[1]
+        self._bytes = np.zeros(3 * pixels + 1, dtype=np.uint8)
+        self._words = np.ndarray((pixels,), dtype="<u4", buffer=self._bytes, strides=(3,))
+        self._index = np.empty(pixels, dtype=np.uint32)
+        self._table = _luma_table()
 
     def to_y(self, rgb: np.ndarray) -> np.ndarray:
-        _R.take(rgb[..., 0], out=self._sum)
-        _G.take(rgb[..., 1], out=self._term)
-        self._sum += self._term
-        _B.take(rgb[..., 2], out=self._term)
-        self._sum += self._term
-        return self._sum.astype(np.uint8)
+        if rgb.shape != (*self._shape, 3) or rgb.dtype != np.uint8:
+            raise ValueError(f"expected a {self._shape} x 3 uint8 frame, got {rgb.shape} {rgb.dtype}")
+        self._bytes[:-1].reshape(*self._shape, 3)[...] = rgb
+        np.bitwise_and(self._words, 0xFFFFFF, out=self._index)
+        return self._table.take(self._index).reshape(self._shape)
 
 
 def rgb_to_l(rgb: np.ndarray) -> np.ndarray:
@@ -115,11 +133,25 @@ class CameraRenderer:
 
     def rgb(self, data: mujoco.MjData, camera: str) -> np.ndarray:
         """(H, W, 3) uint8 image of a named camera (the shared buffer; see the class note)."""
+        self.start(data, camera)
+        return self.finish()
+
+    def start(self, data: mujoco.MjData, camera: str) -> None:
+        """Begin a frame of `camera` from the state in `data` and return at once; `finish()` gives its pixels.
+
+        The draw calls are flushed, so the GL driver's threads (llvmpipe) rasterise while the caller goes on with
+        other work: the env computes the reward and the simtrace row in that time.
+        """
         if self._context is None:
             raise RuntimeError("the camera renderer is closed")
         self._gl.make_current()
         mujoco.mjv_updateScene(self._model, data, self._option, None, self._camera(camera), self._category, self._scene)
         mujoco.mjr_render(self._rect, self._scene, self._context)
+        GL.glFlush()
+
+    def finish(self) -> np.ndarray:
+        """(H, W, 3) uint8 pixels of the frame begun by `start()` (waits for the driver; the shared buffer)."""
+        self._gl.make_current()
         mujoco.mjr_readPixels(self._rgb, None, self._rect, self._context)
         image = self._rgb[::-1]  # OpenGL rows start at the bottom
         if self._resize_to is not None:

@@ -20,7 +20,7 @@ from racer.shared.sim.config import STEPS_PER_SECOND, EnvConfig
 from racer.shared.sim.reward import RewardFunction, default_evaluation_reward, load_reward_function
 from racer.shared.sim.reward_params import make_reward_params
 from racer.shared.sim.scene import SceneSpec, build_model
-from racer.shared.sim.track import Track, compute_progress
+from racer.shared.sim.track import PointGeometry, Track, compute_progress
 from racer.shared.sim.worlds import get_world
 
 SIMTRACE_COLUMNS: tuple[str, ...] = (
@@ -131,6 +131,7 @@ class DeepRacerEnv(gym.Env):
         self._gray = GrayConverter((cfg.image_height_px, cfg.image_width_px))
         self._lidar = lidar_sensor.Lidar(self._model, self._car.body_id) if self._lidar_key else None
         self._last_rgb: np.ndarray | None = None
+        self._geometry_cache: tuple[tuple, tuple[PointGeometry, np.ndarray]] | None = None
 
         self.action_space = self._make_action_space()
         self.observation_space = self._make_observation_space()
@@ -300,22 +301,15 @@ class DeepRacerEnv(gym.Env):
         self._steps += 1.0
         pose = self._car.pose(self._data)
         mx, my = pose.model_point
-        geometry = track.point_geometry(mx, my)
+        geometry, on_track = self._pose_geometry(track, pose)
         progress = compute_progress(geometry.ndist, self._episode_start_ndist, self._prev_progress)
-        on_track = track.contains_points(pose.wheel_xs, pose.wheel_ys)
         all_on, any_on = bool(on_track.all()), bool(on_track.any())
         now_s = float(self._data.time)
 
         phase = self._phase
-        reward = 0.0
         terminated = False
         status = phase
         lap_time_s: float | None = None
-        params = make_reward_params(
-            track, x=mx, y=my, heading_deg=math.degrees(pose.yaw_rad), speed_mps=speed_mps,
-            steering_angle_deg=steering_deg, steps=self._steps, progress=progress, all_wheels_on_track=all_on,
-            is_offtrack=not any_on, is_crashed=False, sim_time_s=now_s, geometry=geometry,
-        )
         command = (0.0, 0.0)
         if phase == rules.PREPARE:
             self._counters.clear((pose.origin_x_m, pose.origin_y_m))
@@ -331,7 +325,6 @@ class DeepRacerEnv(gym.Env):
                 progress=progress, prev_progress=self._prev_progress,
                 origin=(pose.origin_x_m, pose.origin_y_m), any_wheel_on_track=any_on,
             )
-            reward = self._reward(params) if self._reward is not None else default_evaluation_reward(params)
             command = clip_command(speed_mps, steering_deg)
             if status == rules.LAP_COMPLETE:
                 terminated = True
@@ -351,7 +344,19 @@ class DeepRacerEnv(gym.Env):
             command = (0.0, 0.0)
         self._car.command(self._data, command[0], command[1])
         mujoco.mj_step(self._model, self._data, self._substeps)
+        self._start_observation()
 
+        # While the next frame renders: the track geometry of the pose it shows (the next step judges that pose),
+        # then the reward and the simtrace row of the pose judged above.
+        self._pose_geometry(track, self._car.pose(self._data))
+        params = make_reward_params(
+            track, x=mx, y=my, heading_deg=math.degrees(pose.yaw_rad), speed_mps=speed_mps,
+            steering_angle_deg=steering_deg, steps=self._steps, progress=progress, all_wheels_on_track=all_on,
+            is_offtrack=not any_on, is_crashed=False, sim_time_s=now_s, geometry=geometry,
+        )
+        reward = 0.0
+        if phase not in (rules.PREPARE, rules.PAUSE):
+            reward = self._reward(params) if self._reward is not None else default_evaluation_reward(params)
         truncated = not terminated and self._steps >= cfg.max_steps
         done = terminated or truncated
         simtrace = {
@@ -387,7 +392,18 @@ class DeepRacerEnv(gym.Env):
         self._last_status = status
         if done:
             self._finish_episode()
-        return self._observe(), reward, terminated, truncated, info
+        return self._finish_observation(), reward, terminated, truncated, info
+
+    def _pose_geometry(self, track: Track, pose: CarPose) -> tuple[PointGeometry, np.ndarray]:
+        """(point geometry of the front-of-car point, on-track flag per wheel) of a pose on a track, remembered for
+        one pose: `step()` computes it for the frame it starts rendering, and the next `step()` finds it here when
+        nothing moved the car in between (a teleport or reset gives another pose, so it is computed afresh)."""
+        key = (track, pose.model_point, pose.wheel_xs.tobytes(), pose.wheel_ys.tobytes())
+        if self._geometry_cache is not None and self._geometry_cache[0] == key:
+            return self._geometry_cache[1]
+        result = (track.point_geometry(*pose.model_point), track.contains_points(pose.wheel_xs, pose.wheel_ys))
+        self._geometry_cache = (key, result)
+        return result
 
     def _start_pause(self, status: str, pose: CarPose) -> None:
         """Pause for the rule's penalty, then continue from the last progress on the nearer lane (§2.4)."""
@@ -411,13 +427,22 @@ class DeepRacerEnv(gym.Env):
     # ----- observations --------------------------------------------------------------------------------------
 
     def _observe(self) -> dict[str, np.ndarray]:
+        self._start_observation()
+        return self._finish_observation()
+
+    def _start_observation(self) -> None:
+        """Begin rendering the single camera's frame (stereo renders both eyes in `_finish_observation`)."""
+        if self._camera_key != "STEREO_CAMERAS":
+            self._camera.start(self._data, self._render_cameras[0])
+
+    def _finish_observation(self) -> dict[str, np.ndarray]:
         data = self._data
         if self._camera_key == "STEREO_CAMERAS":
             left = rgb_to_l(self._camera.rgb(data, LEFT_CAMERA))
             right = rgb_to_l(self._camera.rgb(data, RIGHT_CAMERA))
             image = np.stack((left, right), axis=-1)
         else:
-            rgb = self._camera.rgb(data, self._render_cameras[0])
+            rgb = self._camera.finish()
             if self.render_mode == "rgb_array" and self._render_cameras[0] == CENTER_CAMERA:
                 self._last_rgb = rgb.copy()
             image = self._gray.to_y(rgb)[:, :, None]
