@@ -145,6 +145,8 @@ class Trainer:
         if latest is not None:
             iteration, self.env_steps = self.checkpoints.restore(latest, self.network, self.ppo.optimizer)
             log.info("resuming %s from checkpoint %s", self.options.model_prefix, latest)
+            if self.store.exists(self.layout.finished):
+                self.store.delete(self.layout.finished)  # training goes on: the model is not finished any more
             self.episodes_consumed = iteration * hyperparameters.num_episodes_between_training
         else:
             if self.options.pretrained_prefix:
@@ -306,7 +308,13 @@ class Trainer:
         return self.stop_event.is_set()
 
     def run(self) -> None:
+        """Iterate until a stop condition or signal, then write `.finished` and tell the workers.
+
+        A failure (an exception) writes neither: the run stays resumable, and a restarted trainer continues from
+        the newest checkpoint with the workers still waiting for it.
+        """
         iteration = self.setup()
+        stopped_cleanly = False
         try:
             while True:
                 name = self.checkpoints.latest_name()
@@ -324,11 +332,15 @@ class Trainer:
                 iteration += 1
                 if self._should_stop():
                     break
+            stopped_cleanly = True
         finally:
-            self.store.put_bytes(self.layout.finished, b"")
-            self.channel.announce_finished(iteration)
-            print(f"Training finished at checkpoint {iteration} ({self.episodes_consumed} episodes, "
-                  f"{self.env_steps} steps)", flush=True)
+            if not stopped_cleanly:
+                print(f"Trainer failed during iteration {iteration}; the run is not finished: restart the trainer "
+                      f"to resume from {self.checkpoints.latest_name()}", flush=True)
+        self.store.put_bytes(self.layout.finished, b"")
+        self.channel.announce_finished(iteration)
+        print(f"Training finished at checkpoint {iteration} ({self.episodes_consumed} episodes, "
+              f"{self.env_steps} steps)", flush=True)
 
 
 def run_trainer(settings: ServiceSettings, options: TrainerOptions) -> None:

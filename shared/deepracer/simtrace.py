@@ -24,6 +24,7 @@ __all__ = [
     "SIMTRACE_COLUMN_COUNTS",
     "SimtraceError",
     "SimtraceWriter",
+    "format_continuous_action",
     "format_simtrace_row",
     "format_simtrace_value",
     "parse_simtrace_action",
@@ -116,7 +117,7 @@ _TERMINAL = frozenset(
 )
 
 
-def _format_continuous_action(values: object) -> str:
+def format_continuous_action(values: object) -> str:
     """numpy's str() of the scaled [steering, speed] array, with numpy's default print options made explicit."""
     array = np.asarray(values, dtype=np.float64)
     if array.shape != (2,):
@@ -144,7 +145,7 @@ def format_simtrace_value(value: object) -> str:
     if isinstance(value, (int, float, str)):
         text = str(value)
     elif isinstance(value, (np.ndarray, list, tuple)):
-        text = _format_continuous_action(value)
+        text = format_continuous_action(value)
     else:
         raise TypeError(f"cannot write {type(value).__name__} {value!r} to a simtrace")
     if "," in text or "\n" in text or "\r" in text:

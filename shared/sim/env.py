@@ -11,6 +11,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from racer.shared.deepracer.simtrace import format_continuous_action
 from racer.shared.sim import lidar as lidar_sensor
 from racer.shared.sim import rules
 from racer.shared.sim._mujoco import mujoco
@@ -285,7 +286,7 @@ class DeepRacerEnv(gym.Env):
             if values.shape != (2,):
                 raise ValueError(f"a continuous action is [steering, speed] in [-1, 1], got {action!r}")
             steering, speed = self._metadata.scale_continuous_action(values)
-            return steering, speed, f"[{steering} {speed}]"
+            return steering, speed, format_continuous_action((steering, speed))
         index = int(action)
         if not 0 <= index < len(self._metadata.discrete_actions):
             raise ValueError(f"action index {index} is outside 0..{len(self._metadata.discrete_actions) - 1}")

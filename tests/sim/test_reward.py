@@ -207,3 +207,25 @@ def test_centre_line_reward_reproduces_real_training_rewards(track, deepracer_da
             progress=float(row["progress"]), all_wheels_on_track=row["all_wheels_on_track"] == "True",
             is_offtrack=row["episode_status"] == "off_track", sim_time_s=float(row["tstamp"]))
         assert function(params) == pytest.approx(float(row["reward"]), abs=1e-12), (simtrace, row["episode"], row["steps"])
+
+
+def test_a_reward_function_failing_inside_env_step_names_the_file_and_line(tmp_path, make_env):
+    """The env calls the reward while the next frame renders; the error still carries the user's file and line,
+    and the env can be reset and used afterwards."""
+    path = tmp_path / "late_failure.py"
+    path.write_text("def reward_function(params):\n"
+                    "    if params['steps'] >= 3:\n"
+                    "        raise RuntimeError('bad step %d' % params['steps'])\n"
+                    "    return 1.0\n")
+    env = make_env(reward_function_path=path)
+    env.reset(seed=0)
+    env.step(2)  # prepare step: the reward function is not called
+    env.step(2)
+    with pytest.raises(RewardFunctionError) as info:
+        env.step(2)
+    text = str(info.value)
+    assert str(path) in text and "line 3" in text and "bad step 3" in text
+    observation, _ = env.reset()
+    assert observation["FRONT_FACING_CAMERA"].shape == (120, 160, 1)
+    _, reward, *_ = env.step(2)
+    assert reward == 0.0  # the new episode's prepare step

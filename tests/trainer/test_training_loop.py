@@ -1,0 +1,96 @@
+"""The trainer's iteration loop in-process, against a real redis-server and a local store (no rollout workers).
+
+Batches are pushed by the test through the same channel the workers use, so the trainer's choices can be checked
+one by one: which batch trains, which is dropped, and what a failure leaves behind.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from tests.conftest import make_episode
+
+from racer.shared.config import LocalStoreSettings, ServiceSettings
+from racer.shared.redis_connection import RedisLink
+from racer.shared.run_layout import RunLayout
+from racer.shared.store import open_store
+from racer.shared.transport.channels import RunChannel
+from racer.shared.transport.codec import EpisodeBatch
+from racer.trainer.training_loop import Trainer, TrainerOptions
+
+PREFIX = "loop-model"
+
+
+@pytest.fixture
+def custom_files(tmp_path: Path) -> Path:
+    folder = tmp_path / "custom_files"
+    folder.mkdir()
+    (folder / "reward_function.py").write_text("def reward_function(params):\n    return 1.0\n")
+    actions = [{"steering_angle": a, "speed": 1.0} for a in (-30, -15, 0, 15, 30)]
+    (folder / "model_metadata.json").write_text(json.dumps({
+        "action_space": actions, "sensor": ["FRONT_FACING_CAMERA"], "version": "5",
+        "neural_network": "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW", "training_algorithm": "clipped_ppo"}))
+    (folder / "hyperparameters.json").write_text(json.dumps({
+        "num_episodes_between_training": 2, "batch_size": 32, "num_epochs": 3}))
+    return folder
+
+
+def make_trainer(redis_settings, tmp_path: Path, custom_files: Path, **options) -> Trainer:
+    settings = ServiceSettings(redis=redis_settings, store=LocalStoreSettings(root=tmp_path / "store"))
+    return Trainer(settings, TrainerOptions(model_prefix=PREFIX, custom_files=custom_files, num_workers=2,
+                                            track="racer_oval", worlds=("base", "carpet"), **options))
+
+
+def batch(iteration: int, share: int, worker_id: int, policy_version: int, seed: int) -> EpisodeBatch:
+    episode = make_episode(20, seed=seed, worker_id=worker_id, world="base", policy_version=policy_version)
+    return EpisodeBatch(iteration=iteration, share=share, worker_id=worker_id, world="base",
+                        policy_version=policy_version, episodes=(episode,))
+
+
+def test_collect_trains_one_batch_per_share_and_drops_stale_and_duplicate_ones(redis_settings, tmp_path,
+                                                                                 custom_files):
+    trainer = make_trainer(redis_settings, tmp_path, custom_files)
+    assert trainer.setup() == 0
+    channel = RunChannel(RedisLink(redis_settings), PREFIX)
+    channel.push_batch(batch(iteration=0, share=0, worker_id=0, policy_version=-1, seed=1))  # older policy
+    channel.push_batch(batch(iteration=0, share=0, worker_id=0, policy_version=0, seed=2))   # trains
+    channel.push_batch(batch(iteration=0, share=0, worker_id=1, policy_version=0, seed=3))   # replayed twice
+    channel.push_batch(batch(iteration=0, share=1, worker_id=1, policy_version=0, seed=4))   # trains
+
+    got = trainer.collect(0)
+
+    assert sorted(got) == [0, 1]
+    assert got[0].batch.episodes[0].episode_index == 2  # the first on-policy batch of share 0, not the replay
+    assert got[1].batch.episodes[0].episode_index == 4
+    assert channel.received_shares(0) == {0, 1}
+    # The dropped batches are acknowledged at once; the two kept ones wait for the checkpoint.
+    pending = channel.read_batches(trainer.consumer, 0, pending=True)
+    assert sorted(r.stream_id for r in pending) == sorted(r.stream_id for r in got.values())
+
+
+def test_a_failed_trainer_leaves_the_run_resumable(redis_settings, tmp_path, custom_files, capsys):
+    trainer = make_trainer(redis_settings, tmp_path, custom_files, share_timeout_s=0.5, dead_worker_grace_s=60)
+    with pytest.raises(TimeoutError, match=r"no episodes for shares \[0, 1\]"):
+        trainer.run()  # no worker ever delivers
+    store = open_store(LocalStoreSettings(root=tmp_path / "store"))
+    layout = RunLayout(PREFIX)
+    assert not store.exists(layout.finished)  # workers must keep waiting for a restarted trainer
+    channel = RunChannel(RedisLink(redis_settings), PREFIX)
+    assert channel.latest_iteration_announcement().kind == "iteration"
+    assert "restart the trainer to resume from 0_Step-0.ckpt" in capsys.readouterr().out
+
+    store.put_bytes(layout.finished, b"")  # as an older, finished run of the same model would have left it
+    restarted = make_trainer(redis_settings, tmp_path, custom_files)
+    assert restarted.setup() == 0  # resumes from checkpoint 0 ...
+    assert not store.exists(layout.finished)  # ... and the model is no longer marked finished
+
+
+def test_a_stop_request_finishes_the_run(redis_settings, tmp_path, custom_files):
+    trainer = make_trainer(redis_settings, tmp_path, custom_files)
+    trainer.stop_event.set()  # what SIGTERM / Ctrl-C do
+    trainer.run()
+    store = open_store(LocalStoreSettings(root=tmp_path / "store"))
+    assert store.exists(RunLayout(PREFIX).finished)
+    assert RunChannel(RedisLink(redis_settings), PREFIX).latest_iteration_announcement().kind == "finished"
