@@ -21,6 +21,7 @@
 #   SMOKE_MINIO_PORT     host port (loopback) the test publishes MinIO's API on (default 19000)
 #   SMOKE_COMPOSE        compose command (default `docker compose` when the v2 plugin is there, else `docker-compose`)
 #   SMOKE_TRAIN_TIMEOUT_S  longest wait for the training run (default 900)
+#   SMOKE_BUILD_TIMEOUT_S  longest one image build may take (default 1800; torch is a large download)
 #   SMOKE_SWARM=0        skip the second part: the same run on a single-node swarm (docker stack deploy);
 #                        it runs only on an engine that is not in a swarm yet, and leaves the swarm after
 #   SMOKE_KEEP=1         leave the compose project (or the stack) up after the test (for debugging)
@@ -45,6 +46,8 @@ REDIS_IMAGE=racer-redis:local
 MINIO_IMAGE=racer-minio:local
 MINIO_PORT="${SMOKE_MINIO_PORT:-19000}"
 TRAIN_TIMEOUT_S="${SMOKE_TRAIN_TIMEOUT_S:-900}"
+BUILD_TIMEOUT_S="${SMOKE_BUILD_TIMEOUT_S:-1800}"
+RUN_TIMEOUT_S=600  # one `compose run` (evaluation or analysis)
 
 T0=$SECONDS
 STEP_T0=$SECONDS
@@ -114,7 +117,7 @@ as_root_install() {
   [ "$(id -u)" -eq 0 ] || fail "$1 is missing and this script is not root: install it (apt-get install $2)"
   say "installing $2 (apt-get)"
   apt-get update -qq >/dev/null
-  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "$2" >"$WORK/apt-$2.log" 2>&1 \
+  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "$2" >"$WORK/apt-$2.log" 2>&1 \
     || { tail -20 "$WORK/apt-$2.log" >&2; fail "apt-get install $2 failed"; }
 }
 
@@ -148,7 +151,7 @@ done_step "engine $(docker version -f '{{.Server.Version}}'), compose: ${COMPOSE
 # --- 2. Images --------------------------------------------------------------------------------------
 build_image() {  # build_image LOG_NAME docker-build-args...
   local log="$WORK/build-$1.log"; shift
-  if ! docker build "$@" >"$log" 2>&1; then
+  if ! timeout "$BUILD_TIMEOUT_S" docker build "$@" >"$log" 2>&1; then
     tail -40 "$log" >&2
     fail "docker build $* failed (full log: $log)"
   fi
@@ -239,7 +242,7 @@ setup_exit="$(docker inspect -f '{{.State.ExitCode}}' "$(compose ps -a -q minio-
 # Published only through docker/compose.ports.yml, on loopback: check that MinIO answers there.
 exec 3<>"/dev/tcp/127.0.0.1/$MINIO_PORT" || fail "MinIO is not reachable on the published port 127.0.0.1:$MINIO_PORT"
 printf 'GET /minio/health/live HTTP/1.1\r\nHost: localhost\r\nConnection: close\r\n\r\n' >&3
-head -n1 <&3 | grep -q ' 200 ' || fail "MinIO on 127.0.0.1:$MINIO_PORT did not answer its health check"
+timeout 10 head -n1 <&3 | grep -q ' 200 ' || fail "MinIO on 127.0.0.1:$MINIO_PORT did not answer its health check"
 exec 3<&-
 # Redis must not be published.
 [ -z "$(docker port "$(compose ps -a -q redis)")" ] || fail "redis has a published port: $(docker port "$(compose ps -a -q redis)")"
@@ -342,12 +345,16 @@ check_store "$network" "$WORK/smoke.env"
 done_step
 
 step "docker compose --profile evaluation run --rm evaluation (last checkpoint, 1 trial)"
-compose --profile evaluation run -T --rm evaluation >"$WORK/evaluation.log" 2>&1 \
+timeout "$RUN_TIMEOUT_S" "${COMPOSE[@]}" --project-name "$PROJECT" --env-file "$WORK/smoke.env" \
+  -f "$ROOT/docker-compose.yml" -f "$ROOT/docker/compose.ports.yml" \
+  --profile evaluation run -T --rm evaluation >"$WORK/evaluation.log" 2>&1 \
   || { tail -30 "$WORK/evaluation.log" >&2; fail "the evaluation service failed (log: $WORK/evaluation.log)"; }
 done_step
 step "docker compose --profile analysis run --rm analysis"
 mkdir -p "$WORK/analysis"
-compose --profile analysis run -T --rm analysis >"$WORK/analysis.log" 2>&1 \
+timeout "$RUN_TIMEOUT_S" "${COMPOSE[@]}" --project-name "$PROJECT" --env-file "$WORK/smoke.env" \
+  -f "$ROOT/docker-compose.yml" -f "$ROOT/docker/compose.ports.yml" \
+  --profile analysis run -T --rm analysis >"$WORK/analysis.log" 2>&1 \
   || { tail -30 "$WORK/analysis.log" >&2; fail "the analysis service failed (log: $WORK/analysis.log)"; }
 [ -s "$WORK/analysis/report.html" ] || fail "the analysis service wrote no report.html into RACER_ANALYSIS_OUT ($WORK/analysis)"
 done_step "report.html and $(find "$WORK/analysis" -type f | wc -l) files"

@@ -138,7 +138,10 @@ def test_export_import_load_gives_the_same_greedy_actions(trained, tmp_path):
     assert imported.select("last") == "2_Step-1000.ckpt"
     batch = observations(12, seed=7)
     for name in ("1_Step-500.ckpt", "2_Step-1000.ckpt"):
-        assert greedy_actions(imported.load_policy(name), batch) == greedy_actions(network_with(trained.states[name]), batch)
+        expected = greedy_actions(network_with(trained.states[name]), batch)
+        assert greedy_actions(imported.load_policy(name), batch) == expected
+        # What `racer evaluate` acts with: the imported checkpoint's ONNX model under ONNX Runtime.
+        assert greedy_actions(imported.load_inference_policy(name), batch) == expected
     # The two checkpoints act differently, so loading the wrong one could not pass the comparison above.
     assert greedy_actions(imported.load_policy("1_Step-500.ckpt"), batch) != \
         greedy_actions(imported.load_policy("2_Step-1000.ckpt"), batch)
