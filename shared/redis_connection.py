@@ -16,29 +16,30 @@ class RedisUnavailableError(ConnectionError):
     """Redis could not be reached within the configured time budget."""
 
 
-def connect_redis(settings: RedisSettings, *, first_backoff_s: float = 0.1, max_backoff_s: float = 2.0) -> redis.Redis:
-    """Return a client that answered PING, retrying with exponential backoff until `connect_timeout_s` is spent.
+OPERATION_SOCKET_TIMEOUT_S = 30.0
+"""Socket timeout of the returned client: longer than any blocking stream read the run makes (at most 5 s)."""
 
-    The client itself keeps short socket timeouts and health checks, so a later restart of the
-    server shows up as `redis.ConnectionError` that callers can retry (see `retry_on_disconnect`).
+
+def connect_redis(settings: RedisSettings, *, first_backoff_s: float = 0.1, max_backoff_s: float = 2.0) -> redis.Redis:
+    """Return a client once the server answered PING, retrying with exponential backoff until `connect_timeout_s`
+    is spent.
+
+    The PING goes through a probe client whose socket timeouts fit in the remaining budget, so a host that accepts
+    connections but never answers fails within the budget too. The returned client keeps longer socket timeouts
+    and health checks, so a later restart of the server shows up as `redis.ConnectionError` that callers can retry
+    (see `RedisLink`).
     """
     deadline = time.monotonic() + settings.connect_timeout_s
     backoff_s = first_backoff_s
     attempts = 0
     while True:
         attempts += 1
-        client = redis.Redis.from_url(
-            settings.url,
-            socket_connect_timeout=min(2.0, settings.connect_timeout_s),
-            socket_timeout=30.0,
-            health_check_interval=15,
-            retry_on_timeout=False,
-        )
+        budget_s = max(0.1, min(2.0, deadline - time.monotonic()))
+        probe = redis.Redis.from_url(settings.url, socket_connect_timeout=budget_s, socket_timeout=budget_s,
+                                     retry_on_timeout=False)
         try:
-            client.ping()
-            return client
+            probe.ping()
         except (redis.ConnectionError, redis.TimeoutError) as error:
-            client.close()
             remaining_s = deadline - time.monotonic()
             if remaining_s <= 0:
                 raise RedisUnavailableError(
@@ -48,6 +49,16 @@ def connect_redis(settings: RedisSettings, *, first_backoff_s: float = 0.1, max_
             log.info("Redis at %s not reachable yet (%s); retrying in %.1f s", settings.url, error, backoff_s)
             time.sleep(min(backoff_s, remaining_s))
             backoff_s = min(backoff_s * 2, max_backoff_s)
+            continue
+        finally:
+            probe.close()
+        return redis.Redis.from_url(
+            settings.url,
+            socket_connect_timeout=min(2.0, settings.connect_timeout_s),
+            socket_timeout=OPERATION_SOCKET_TIMEOUT_S,
+            health_check_interval=15,
+            retry_on_timeout=False,
+        )
 
 
 class RedisLink:

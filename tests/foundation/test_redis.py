@@ -44,6 +44,21 @@ def test_unreachable_redis_fails_within_budget():
     assert time.monotonic() - started < 5
 
 
+def test_a_host_that_never_answers_fails_within_budget():
+    """A listener that accepts connections (kernel backlog) but never replies: not a hang, the budget holds."""
+    import socket
+
+    with socket.socket() as silent:
+        silent.bind(("127.0.0.1", 0))
+        silent.listen(8)
+        port = silent.getsockname()[1]
+        settings = RedisSettings(url=f"redis://127.0.0.1:{port}/0", connect_timeout_s=1.5)
+        started = time.monotonic()
+        with pytest.raises(RedisUnavailableError, match=f"cannot reach Redis at redis://127.0.0.1:{port}/0"):
+            connect_redis(settings)
+        assert time.monotonic() - started < 5
+
+
 def test_waits_for_a_server_that_starts_late(redis_server):
     import concurrent.futures
 
