@@ -4,7 +4,9 @@ Definitions (deepracer-utils' where one exists, user-expectations §3.1):
 - time_s: sum of step time deltas without the `prepare` row; lap_time_s is time_s of an episode that reached 100 %.
 - projected_lap_time_s: time_s * 100 / progress_pct, what the lap would take at the same pace.
 - throttle_mps: mean commanded speed (deepracer-utils calls it "speed"); speed_mps: driven distance / time_s.
-- resets: pause phases (evaluation off-track/crash resets), penalty_s: time spent in them.
+- resets: DeepRacer's reset_count, the episode's off_track + crashed + immobilized + reversed events (each such
+  row, whether the car was put back, with or without penalty pause rows, or the event ended the episode);
+  penalty_s: time spent in pause rows.
 """
 
 from __future__ import annotations
@@ -15,12 +17,14 @@ import pandas as pd
 from racer.analysis.loading import EPISODE_KEY
 from racer.analysis.sources import EVALUATION, TRAINING
 
+RESET_STATUSES = ("off_track", "crashed", "immobilized", "reversed")
+"""The events DeepRacer's EvaluationMetrics count in reset_count (sum of their four counters)."""
+
 
 def episodes(steps: pd.DataFrame) -> pd.DataFrame:
     """One row per episode (a training episode, or one evaluation lap/trial)."""
     steps = steps.assign(
-        pause_start=(steps["episode_status"] == "pause")
-        & (steps.groupby(EPISODE_KEY, sort=False)["episode_status"].shift(1) != "pause"),
+        is_incident=steps["episode_status"].isin(RESET_STATUSES),
         pause_dt_s=steps["dt_s"].where(steps["episode_status"] == "pause", 0.0),
         is_off_track=steps["episode_status"] == "off_track",
         is_crashed=steps["episode_status"] == "crashed",
@@ -35,7 +39,7 @@ def episodes(steps: pd.DataFrame) -> pd.DataFrame:
         throttle_mps=("throttle", "mean"),
         reward=("reward", "sum"),
         status=("episode_status", "last"),
-        resets=("pause_start", "sum"),
+        resets=("is_incident", "sum"),
         off_track=("is_off_track", "sum"),
         crashed=("is_crashed", "sum"),
         penalty_s=("pause_dt_s", "sum"),

@@ -118,7 +118,7 @@ def laps_by_speed(steps: pd.DataFrame, laps: pd.DataFrame, track: Track, path: P
         ax.plot(incidents["X"], incidents["Y"], "x", color="red", markersize=8, markeredgewidth=2, zorder=4)
         time_text = f"{lap.lap_time_s:.2f} s" if lap.lap_complete else f"{lap.progress_pct:.0f} % in {lap.time_s:.1f} s"
         where = f"iteration {lap.iteration}, episode {lap.episode}" if lap.phase == "training" else f"lap {lap.episode + 1}"
-        if lap.resets:
+        if lap.resets and lap.phase != "training":  # a training episode ends at its first incident
             time_text += f" ({lap.resets} reset{'s' if lap.resets > 1 else ''}, {lap.penalty_s:.1f} s penalty)"
         ax.set_title(f"{where}: {time_text}", fontsize=10)
     for ax in axes[count:]:

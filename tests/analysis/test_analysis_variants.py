@@ -85,6 +85,25 @@ def test_evaluation_resets_and_penalties(tmp_path, deepracer_data):
     assert laps.loc[1, "resets"] == laps.loc[3, "resets"] == 0
 
 
+def test_resets_count_every_incident_like_deepracers_reset_count(tmp_path, deepracer_data):
+    """A put-back without penalty (no pause rows) and the exit that ends a lap both count, as in EvaluationMetrics'
+    reset_count = off_track + crashed + immobilized + reversed."""
+    rows = read_rows(deepracer_data / "simtrace/console2022_evaluation_0-iteration.csv")
+    header = rows[0]
+    status = header.index("episode_status")
+    lap1 = [i for i, row in enumerate(rows) if row[0] == "0"]
+    lap2 = [i for i, row in enumerate(rows) if row[0] == "1"]
+    rows[lap1[40]][status] = "off_track"  # put back at once, the lap goes on
+    rows[lap1[80]][status] = "reversed"
+    del rows[lap2[50] + 1 : lap2[-1] + 1]  # lap 2 ends at its first exit
+    rows[lap2[50]][status] = "off_track"
+    rows[lap2[50]][header.index("done")] = "True"
+    folder = write_rows(tmp_path / "e/evaluation-1/evaluation-simtrace/0-iteration.csv", rows).parents[2]
+    laps = aggregate.evaluation_laps(episode_table(folder)).set_index("lap")
+    assert laps.loc[1, "resets"] == 2 and laps.loc[1, "penalty_s"] == 0
+    assert laps.loc[2, "resets"] == 1 and laps.loc[2, "status"] == "off_track"
+
+
 def test_continuous_action_files_draw_action_usage(tmp_path, deepracer_data, reinvent_route):
     """Continuous actions ('[steer speed]' strings) are binned by steering and speed; only bins that occur are shown."""
     from racer.analysis import plots
