@@ -199,6 +199,24 @@ def test_trainer_killed_and_restarted_resumes(system):
     assert [r["iteration"] for r in iteration_records(store, system.prefix)] == [0, 1, 2][-len(iteration_records(store, system.prefix)):]
 
 
+def test_sigterm_stops_the_trainer_cleanly_and_the_workers_follow(system):
+    """What `docker stop` / `docker compose stop` does: the trainer finishes, marks the model finished, exits 0,
+    and the workers, told by the trainer, exit 0 too."""
+    store = open_store(system.settings.store)
+    trainer = system.start_trainer(max_episodes=1000)
+    workers = [system.start_worker(0), system.start_worker(1)]
+    deadline = time.monotonic() + 300
+    while time.monotonic() < deadline and checkpoint_numbers(store, system.prefix)[-1:] != [1]:
+        time.sleep(0.3)
+    assert checkpoint_numbers(store, system.prefix)[-1] >= 1
+    trainer.send_signal(signal.SIGTERM)
+    assert trainer.wait(120) == 0, system.log_text("trainer")[-3000:]
+    assert store.exists(RunLayout(system.prefix).key("model", ".finished"))
+    assert "Training finished at checkpoint" in system.log_text("trainer")
+    for worker in workers:
+        assert worker.wait(60) == 0
+
+
 def test_redis_restart_mid_run(system, redis_server):
     store = open_store(system.settings.store)
     system.start_trainer(max_episodes=6)

@@ -12,6 +12,9 @@ from pathlib import Path
 
 import pytest
 
+from racer.shared.policy.checkpoints import CheckpointStore
+from racer.shared.store import LocalStore
+
 pytestmark = pytest.mark.slow
 
 
@@ -78,5 +81,12 @@ def test_ctrl_c_writes_a_final_checkpoint_and_leaves_no_process(tmp_path, small_
     output, _ = process.communicate(timeout=180)
     assert process.returncode == 0, output[-4000:]
     assert (model / ".finished").is_file()
+    # The pointer names the final checkpoint, complete and loadable (the run's last weights).
+    checkpoints = CheckpointStore(LocalStore(tmp_path / "store"), "local-model")
+    final = checkpoints.latest_name()
+    checkpoints.load_policy(final)
+    trainer_log = (tmp_path / "store" / ".runs" / "local-model" / "trainer.log").read_text()
+    number = final.split("_")[0]
+    assert f"Training finished at checkpoint {number} " in trainer_log
     time.sleep(1)
     assert processes_mentioning(str(tmp_path)) == [], output[-2000:]
