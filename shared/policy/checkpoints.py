@@ -389,6 +389,11 @@ class CheckpointStore:
         try:
             data = json.loads(self.store.get_bytes(self.model_key(name + MANIFEST_SUFFIX)))
         except ObjectNotFoundError:
+            if self.store.exists(self.model_key(name + ".index")):
+                raise CheckpointError(
+                    f"{self.store.describe()}: {self.model_key(name)} is a TensorFlow checkpoint (AWS console or "
+                    f"DeepRacer-for-Cloud): its files are kept, but racer evaluates and clones only the PyTorch "
+                    f"checkpoints it trains itself") from None
             raise CheckpointError(f"{self.store.describe()}: checkpoint {name} has no manifest "
                                   f"{self.model_key(name + MANIFEST_SUFFIX)!r} (not saved, or deleted by retention)") from None
         return CheckpointInfo.from_dict(data)

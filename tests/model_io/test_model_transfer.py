@@ -58,6 +58,16 @@ def test_import_with_only_coach_checkpoint_copies_the_named_and_the_previous(tmp
     assert result.written[-1] == "model/.coach_checkpoint"
 
 
+def test_an_imported_tensorflow_checkpoint_cannot_be_run_and_says_why(tmp_path, store):
+    from racer.shared.policy.checkpoints import CheckpointError, CheckpointStore
+
+    source = deepracer_model(tmp_path / "m")  # the console's layout: .coach_checkpoint names 4_Step-162.ckpt
+    assert import_model(FolderSource(source), store, "console-model").ok
+    checkpoints = CheckpointStore(store, "console-model")
+    with pytest.raises(CheckpointError, match=r"console-model/model/4_Step-162\.ckpt is a TensorFlow checkpoint"):
+        checkpoints.load_inference_policy()  # what racer evaluate does first
+
+
 def test_import_with_deepracer_checkpoints_copies_best_and_last_only(tmp_path, store):
     names = ("2_Step-91.ckpt", "3_Step-124.ckpt", "4_Step-162.ckpt", "5_Step-200.ckpt")
     source = deepracer_model(tmp_path / "m", checkpoints=names, coach="5_Step-200.ckpt",
