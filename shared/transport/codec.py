@@ -11,6 +11,10 @@ one Redis stream entry and arrives whole or not at all. Layout (schema `racer.ep
                     "obs/<SENSOR_NAME>": ARRAY, ...}}]}
     ARRAY = {"dtype": "<u1", "shape": [T, 120, 160, 1], "codec": "zlib" | "raw", "data": bytes}
 
+Done flags are not sent: every episode is complete, so its last transition is the only terminal one
+(`episode_ends` in the trainer) and the trainer bootstraps with 0 after it, as DeepRacer does. `final_status`
+says how it ended (lap_complete, off_track, ...). T is the episode's step count, the same for every array.
+
 Camera frames are most of the bytes; zlib level 1 shrinks rendered grayscale frames several times
 at a few hundred MB/s, which keeps a 20-episode iteration to a few MB in Redis.
 """

@@ -94,3 +94,41 @@ def test_a_stop_request_finishes_the_run(redis_settings, tmp_path, custom_files)
     store = open_store(LocalStoreSettings(root=tmp_path / "store"))
     assert store.exists(RunLayout(PREFIX).finished)
     assert RunChannel(RedisLink(redis_settings), PREFIX).latest_iteration_announcement().kind == "finished"
+
+
+def test_per_worker_settings_travel_from_workers_json_to_each_worker(redis_settings, tmp_path, custom_files):
+    """workers.json (like DeepRacer-for-Cloud's worker-N.env) -> training_params_<i>.yaml in the store -> the
+    settings each rollout worker reads back."""
+    from racer.rollout_worker.run_files import read_training_params
+    from racer.shared.run_layout import WorkerSettings
+
+    (custom_files / "workers.json").write_text(json.dumps({
+        "MIN_EVAL_TRIALS": 2, "BEST_MODEL_METRIC": "laptime",
+        "workers": [{"RACER_WORLD": "concrete"},
+                    {"RACER_WORLD": "wood", "REVERSE_DIR": "True", "START_POSITION_OFFSET": 0.25,
+                     "CHANGE_START_POSITION": False, "WORLD_NAME": "racer_bean"}]}))
+    trainer = make_trainer(redis_settings, tmp_path, custom_files)
+    trainer.setup()
+    store = open_store(LocalStoreSettings(root=tmp_path / "store"))
+    layout = RunLayout(PREFIX)
+    read_back = []
+    for worker_id in (0, 1):
+        params, key = read_training_params(store, layout, worker_id)
+        assert key == layout.training_params(worker_id)  # the workers differ: one file each
+        read_back.append(WorkerSettings.from_training_params(params, source=key))
+    assert read_back[0] == WorkerSettings(world="concrete", track="racer_oval", min_eval_trials=2,
+                                          best_model_metric="laptime")
+    assert read_back[1] == WorkerSettings(world="wood", track="racer_bean", reverse_dir=True,
+                                          start_position_offset=0.25, change_start_position=False,
+                                          min_eval_trials=2, best_model_metric="laptime")
+
+
+def test_a_malformed_workers_json_names_the_file_and_line(redis_settings, tmp_path, custom_files):
+    from racer.shared.user_errors import RunConfigError
+
+    (custom_files / "workers.json").write_text('{"MIN_EVAL_TRIALS": 2,\n "workers": [{"RACER_WORLD": "wood"}\n}')
+    with pytest.raises(RunConfigError, match=r"workers\.json: line 3 column 1"):
+        make_trainer(redis_settings, tmp_path, custom_files).setup()
+    (custom_files / "workers.json").write_text('{"workers": [{"RACER_WORLD": "gravel"}]}')
+    with pytest.raises(RunConfigError, match=r"workers\.json \(worker 0\).*'gravel' is not one of"):
+        make_trainer(redis_settings, tmp_path, custom_files).setup()
