@@ -284,7 +284,8 @@ def train_command(model_prefix, custom_files, num_workers, worlds, track, max_ep
 @click.option("--episodes-per-iteration", type=int, default=20, show_default=True)
 @click.option("--seed", type=int, default=0, show_default=True)
 def time_to_lap_command(track, reward_function, speed, num_workers, time_limit_minutes, episodes_per_iteration, seed):
-    """Train from scratch until greedy evaluation completes 3 of 3 laps; print one JSON line."""
+    """Train from scratch until greedy evaluation completes 3 of 3 laps (from three starts a third of a lap
+    apart); print one JSON line."""
     import tempfile
 
     reward_function = reward_function or PROJECT_ROOT.parent / "shared/deepracer-data/reward_functions/awsdoc_example_1.py"
@@ -299,7 +300,9 @@ def time_to_lap_command(track, reward_function, speed, num_workers, time_limit_m
         "action_space": actions, "action_space_type": "discrete", "sensor": ["FRONT_FACING_CAMERA"],
         "neural_network": "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW", "training_algorithm": "clipped_ppo", "version": "5"}))
     (custom / "hyperparameters.json").write_text(json.dumps({"num_episodes_between_training": episodes_per_iteration}))
-    (custom / "workers.json").write_text(json.dumps({"MIN_EVAL_TRIALS": 3}))
+    # Three greedy laps from three places on the lap (0, 1/3, 2/3 on from the round-robin start): the simulator is
+    # deterministic, so three trials from one place would be one drive three times.
+    (custom / "workers.json").write_text(json.dumps({"MIN_EVAL_TRIALS": 3, "RACER_EVAL_SPREAD_STARTS": "True"}))
     plan = LocalRunPlan(model_prefix="time-to-lap", custom_files=custom, num_workers=num_workers,
                         worlds=WORLDS, track=str(track), max_episodes=None, max_minutes=time_limit_minutes,
                         use_minio=False, log_dir=workdir / "logs", seed=seed)

@@ -243,10 +243,15 @@ class RolloutWorker:
             return
         self.state.status = "evaluating"
         results = []
+        first_start = self.env.start_ndist
         for trial in range(trials):
             if self._stop.is_set():
                 return
+            start = (first_start + trial / trials) % 1.0 if self.run.worker.eval_spread_starts else None
             results.append(play_episode(self.env, self.policy, greedy=True, generator=self.rng,
                                         policy_version=announcement.iteration, worker_id=self.worker_id,
-                                        world=self.run.worker.world, episode_index=trial))
+                                        world=self.run.worker.world, episode_index=trial, start_ndist=start))
+            log.info("worker %d: evaluation trial %d of checkpoint %d from %.3f of the lap: %s, progress %.1f%%",
+                     self.worker_id, trial, announcement.iteration, first_start if start is None else start,
+                     results[-1].final_status, results[-1].progress)
         self.log.record_evaluation(announcement, results, self.checkpoints, self.channel)

@@ -41,12 +41,16 @@ class PlayedEpisode:
 
 def play_episode(env, policy, *, greedy: bool, generator: np.random.Generator, policy_version: int,
                  worker_id: int, world: str, episode_index: int, epsilon: float = 0.0,
-                 simtrace_episode: int | None = None) -> PlayedEpisode:
+                 simtrace_episode: int | None = None, start_ndist: float | None = None) -> PlayedEpisode:
     """One episode from reset to termination. Evaluation episodes (`greedy=True`) do not advance the start line.
 
     `simtrace_episode` overrides the simtrace `episode` column (the worker owns that counter so it survives restarts).
+    `start_ndist` starts an evaluation episode at that normalised distance along the route.
     """
-    observation, _info = env.reset(options={"evaluation": greedy})
+    options = {"evaluation": greedy}
+    if start_ndist is not None:
+        options["start_ndist"] = start_ndist
+    observation, _info = env.reset(options=options)
     observations: dict[str, list[np.ndarray]] = {name: [] for name in observation}
     actions: list = []
     log_probs: list[float] = []

@@ -85,6 +85,10 @@ class WorkerSettings:
     """Greedy evaluation episodes per checkpoint (worker 0 only)."""
     best_model_metric: str = "progress"
     """progress, reward or laptime: how deepracer_checkpoints.json picks the best checkpoint."""
+    eval_spread_starts: bool = False
+    """racer's option (training_params key RACER_EVAL_SPREAD_STARTS): evaluation trial i of n starts i/n of a lap
+    further on. DeepRacer starts them all at one place; in a deterministic simulator they would all be the same
+    drive, so spread starts make "3 of 3 laps" mean three different laps."""
 
     def __post_init__(self) -> None:
         if self.world not in WORLDS:
@@ -111,6 +115,7 @@ class WorkerSettings:
             "MIN_EVAL_TRIALS": str(self.min_eval_trials),
             "BEST_MODEL_METRIC": self.best_model_metric,
             "NUMBER_OF_RESETS": "0",
+            "RACER_EVAL_SPREAD_STARTS": str(self.eval_spread_starts),
         }
 
     @classmethod
@@ -133,6 +138,7 @@ class WorkerSettings:
                 start_position_offset=float(params.get("START_POSITION_OFFSET", defaults.start_position_offset)),
                 min_eval_trials=int(params.get("MIN_EVAL_TRIALS", defaults.min_eval_trials)),
                 best_model_metric=str(params.get("BEST_MODEL_METRIC", defaults.best_model_metric)).lower(),
+                eval_spread_starts=flag("RACER_EVAL_SPREAD_STARTS", defaults.eval_spread_starts),
             )
         except ValueError as error:
             raise ValueError(f"{source}: {error}") from error

@@ -72,7 +72,8 @@ class DeepRacerEnv(gym.Env):
     ## Start position
     Training episodes start at `start_position_offset` and advance by `round_robin_advance_dist` of a lap after
     each finished training episode (`change_start_position`); `alternate_driving_direction` flips the direction
-    after each. `reset(options={"evaluation": True})` plays an evaluation episode, which changes neither.
+    after each. `reset(options={"evaluation": True})` plays an evaluation episode, which changes neither; it starts
+    where the next training episode would, or at `options["start_ndist"]` (normalised distance along the route).
 
     ## Reproducibility
     `reset(seed=s)` seeds the LIDAR noise and restarts the simulation clock; physics and rendering are
@@ -229,10 +230,16 @@ class DeepRacerEnv(gym.Env):
             # A seeded reset restarts the simulation clock too, so seeded runs are reproducible row for row.
             self._data.time = 0.0
         options = options or {}
-        unknown = set(options) - {"evaluation"}
+        unknown = set(options) - {"evaluation", "start_ndist"}
         if unknown:
-            raise ValueError(f"unknown reset option(s) {sorted(unknown)}; supported: 'evaluation'")
-        self._init_episode_state(evaluation=bool(options.get("evaluation", False)))
+            raise ValueError(f"unknown reset option(s) {sorted(unknown)}; supported: 'evaluation', 'start_ndist'")
+        evaluation = bool(options.get("evaluation", False))
+        self._init_episode_state(evaluation=evaluation)
+        if options.get("start_ndist") is not None:
+            if not evaluation:
+                raise ValueError("reset option 'start_ndist' is for evaluation episodes; training episodes start at "
+                             "the round-robin position")
+            self._episode_start_ndist = float(options["start_ndist"]) % 1.0
         x, y, yaw = self._track.pose_at(self._episode_start_ndist, "center")
         self._car.teleport(self._model, self._data, x, y, yaw)
         if self._lidar is not None:

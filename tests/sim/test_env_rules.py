@@ -187,6 +187,21 @@ def test_round_robin_start_evaluation_and_alternate_direction(make_env):
     assert after_eval["is_reversed"] is True
 
 
+def test_an_evaluation_episode_can_start_anywhere_and_moves_nothing(make_env):
+    env = make_env()
+    _, info = env.reset(options={"evaluation": True, "start_ndist": 1.4})
+    assert info["start_ndist"] == pytest.approx(0.4)
+    x, y, _ = env.track.pose_at(0.4, "center")
+    assert (env.car.pose(env.data).origin_x_m, env.car.pose(env.data).origin_y_m) == pytest.approx((x, y), abs=1e-6)
+    *_, step_info = env.step(STRAIGHT)  # the prepare step: progress counts from this start
+    front_of_car_pct = 100 * 0.14 / env.track.length_m  # the params point is 0.14 m ahead of the car's origin
+    assert step_info["progress"] == pytest.approx(front_of_car_pct, abs=0.2)
+    _, after = env.reset()
+    assert after["start_ndist"] == 0.0  # the training round robin did not move
+    with pytest.raises(ValueError, match="'start_ndist' is for evaluation episodes"):
+        env.reset(options={"start_ndist": 0.5})
+
+
 def test_fixed_start_when_change_start_position_is_off(make_env):
     env = make_env(change_start_position=False, start_position_offset=0.3, reverse_dir=True)
     for _ in range(2):
