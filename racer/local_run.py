@@ -23,6 +23,7 @@ from racer.shared.config import LocalStoreSettings, RedisSettings, S3Settings, S
 from racer.shared.redis_connection import RedisLink
 from racer.shared.run_layout import DEFAULT_TRACK, WORLDS
 from racer.shared.services import PROJECT_ROOT, MinioServer, RedisServer, _die_with_parent
+from racer.shared.sim.gl import ensure_gl_backend
 from racer.shared.store import S3Store, open_store
 from racer.shared.transport.channels import RunChannel
 
@@ -61,7 +62,6 @@ def service_environment(settings: ServiceSettings) -> dict[str, str]:
         env["AWS_DEFAULT_REGION"] = settings.store.region
     else:
         env["RACER_STORE"] = str(settings.store.root)
-    env.setdefault("MUJOCO_GL", "egl")
     env.setdefault("LP_NUM_THREADS", "1")  # one llvmpipe render thread per worker: workers already fill the cores
     return env
 
@@ -78,6 +78,7 @@ class LocalRun:
         self.settings: ServiceSettings | None = None
 
     def start_services(self) -> ServiceSettings:
+        ensure_gl_backend()  # MUJOCO_GL unset: EGL, else OSMesa, probed once; every child inherits the choice
         self.plan.log_dir.mkdir(parents=True, exist_ok=True)
         self.redis = RedisServer(self.plan.log_dir / "redis")
         self.redis.start()

@@ -5,5 +5,4 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 ./scripts/setup.sh
 export PATH="$PWD/.venv/bin:$PATH"
-export MUJOCO_GL="${MUJOCO_GL:-egl}"
 exec .venv/bin/racer train "$@"

@@ -131,3 +131,20 @@ def test_grayscale_is_exact_for_every_colour():
         rgb[..., 0] = r
         expected = (0.2989 * rgb[..., 0] + 0.5870 * rgb[..., 1] + 0.1140 * rgb[..., 2]).astype(np.uint8)
         np.testing.assert_array_equal(converter.to_y(rgb), expected, err_msg=f"R={r}")
+
+
+def test_discretized_sector_lidar_defaults_to_8_by_8_with_stereo_cameras():
+    """No lidar_config: DeepRacer's default 8 sectors x 8 values (64 one-hot bits), next to the stereo pair."""
+    metadata = parse_model_metadata({"action_space": [{"steering_angle": a, "speed": 1.0} for a in (0.0, 20.0)],
+                                     "version": "4",
+                                     "sensor": ["STEREO_CAMERAS", "DISCRETIZED_SECTOR_LIDAR"]})
+    env = DeepRacerEnv(EnvConfig(model_metadata=metadata))
+    try:
+        obs, _ = env.reset(seed=0)
+        obs, *_ = env.step(0)
+        assert obs["DISCRETIZED_SECTOR_LIDAR"].shape == (64,) and obs["STEREO_CAMERAS"].shape == (120, 160, 2)
+        bits = obs["DISCRETIZED_SECTOR_LIDAR"].reshape(8, 8)
+        assert set(np.unique(bits)) <= {0.0, 1.0} and (bits.sum(axis=1) <= 1).all()  # at most one bit per sector
+        assert env.observation_space.contains(obs)
+    finally:
+        env.close()
