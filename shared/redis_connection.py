@@ -66,7 +66,8 @@ class RedisLink:
 
     `do(operation)` runs `operation(client)`; on a connection error it reconnects with backoff for
     up to `reconnect_budget_s` and runs the operation again, so use it only for operations that are
-    safe to repeat (reads, XADD of a message the reader de-duplicates, SET, XACK).
+    safe to repeat (reads, XADD of a message the reader de-duplicates, SET, XACK). A write refused
+    because Redis is full (maxmemory, noeviction) is retried the same way.
     """
 
     def __init__(self, settings: RedisSettings, reconnect_budget_s: float = 300.0):
@@ -80,9 +81,22 @@ class RedisLink:
 
     def do(self, operation):
         deadline = time.monotonic() + self.reconnect_budget_s
+        full_wait_s = 0.5
         while True:
             try:
                 return operation(self._client)
+            except redis.exceptions.OutOfMemoryError as error:
+                # redis.conf refuses writes at maxmemory (noeviction) rather than drop episodes: wait for the
+                # trainer to consume and acknowledge what is queued.
+                if time.monotonic() > deadline:
+                    raise RedisUnavailableError(
+                        f"Redis at {self.settings.url} stayed full (maxmemory) for {self.reconnect_budget_s:.0f} s: "
+                        f"{error}. Is the trainer consuming episodes? Raise maxmemory in redis.conf for larger "
+                        f"iterations") from error
+                log.warning("Redis is full (maxmemory); retrying in %.1f s while the trainer consumes episodes",
+                            full_wait_s)
+                time.sleep(full_wait_s)
+                full_wait_s = min(2 * full_wait_s, 10.0)
             except (redis.ConnectionError, redis.TimeoutError) as error:
                 if time.monotonic() > deadline:
                     raise RedisUnavailableError(

@@ -5,9 +5,10 @@ from __future__ import annotations
 import time
 
 import pytest
+import redis
 
 from racer.shared.config import RedisSettings
-from racer.shared.redis_connection import RedisUnavailableError, connect_redis
+from racer.shared.redis_connection import RedisLink, RedisUnavailableError, connect_redis
 from racer.shared.services import free_port
 
 
@@ -70,3 +71,19 @@ def test_waits_for_a_server_that_starts_late(redis_server):
         # Started from the main thread: PR_SET_PDEATHSIG is tied to the thread that spawns the child.
         redis_server.start()
         assert connecting.result(timeout=15).ping()
+
+
+def test_a_write_refused_by_a_full_redis_waits_until_there_is_room(redis_server):
+    """redis.conf refuses writes at maxmemory rather than evict episodes; the link waits instead of failing."""
+    import threading
+
+    link = RedisLink(RedisSettings(url=redis_server.url, connect_timeout_s=5))
+    admin = connect_redis(RedisSettings(url=redis_server.url, connect_timeout_s=5))
+    admin.config_set("maxmemory", "1")  # every write is now refused with OOM
+    with pytest.raises(redis.exceptions.OutOfMemoryError):
+        admin.set("probe", "x")
+    threading.Timer(1.5, lambda: admin.config_set("maxmemory", "0")).start()  # the trainer catches up
+    started = time.monotonic()
+    assert link.do(lambda client: client.xadd("episodes", {"batch": b"x" * 1000})) is not None
+    assert time.monotonic() - started >= 1.0
+    assert admin.xlen("episodes") == 1
