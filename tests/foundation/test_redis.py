@@ -87,3 +87,42 @@ def test_a_write_refused_by_a_full_redis_waits_until_there_is_room(redis_server)
     assert link.do(lambda client: client.xadd("episodes", {"batch": b"x" * 1000})) is not None
     assert time.monotonic() - started >= 1.0
     assert admin.xlen("episodes") == 1
+
+
+@pytest.mark.parametrize("server_class", ["RedisServer", "MinioServer"])
+def test_servers_die_with_a_test_process_that_is_killed(tmp_path, server_class):
+    """A test (or run) killed with SIGKILL cannot clean up; the kernel kills its servers (PR_SET_PDEATHSIG)."""
+    import os
+    import signal
+    import subprocess
+    import sys
+
+    script = (
+        "import sys, time\n"
+        f"from racer.shared.services import {server_class}\n"
+        f"server = {server_class}(__import__('pathlib').Path({str(tmp_path / 'data')!r}))\n"
+        "server.start(timeout_s=60)\n"
+        "print(server.pid, flush=True)\n"
+        "time.sleep(600)\n"
+    )
+    parent = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, text=True)
+    server_pid = int(parent.stdout.readline())
+    os.kill(server_pid, 0)  # running
+    parent.send_signal(signal.SIGKILL)
+    parent.wait()
+    deadline = time.monotonic() + 10
+    while time.monotonic() < deadline and _alive(server_pid):
+        time.sleep(0.1)
+    assert not _alive(server_pid), f"{server_class} (pid {server_pid}) outlived its killed parent"
+
+
+def _alive(pid: int) -> bool:
+    """Running or sleeping; a zombie (killed, waiting for whoever adopted it to reap it) counts as dead."""
+    from pathlib import Path
+
+    try:
+        status = Path(f"/proc/{pid}/status").read_text()
+    except FileNotFoundError:
+        return False
+    state = next(line for line in status.splitlines() if line.startswith("State:"))
+    return "zombie" not in state
