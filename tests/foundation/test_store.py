@@ -100,3 +100,20 @@ def test_settings_from_environment_read_s3_and_session_token():
     assert settings.redis.url == "redis://r:6379/1"
     with pytest.raises(ValueError, match="s3://<bucket>"):
         settings_from_env({"RACER_STORE": "s3://bucket/with/prefix"})
+
+
+def test_a_restarted_minio_keeps_the_objects_and_the_store_reconnects(tmp_path):
+    """Tests (and users) can restart MinIO: data stays on disk, and the same S3Store goes on working."""
+    from racer.shared.services import MinioServer
+
+    with MinioServer(tmp_path / "minio") as server:
+        store = S3Store(S3Settings(bucket="restart", endpoint_url=server.endpoint_url, access_key_id=server.access_key,
+                                   secret_access_key=server.secret_key, connect_timeout_s=10.0))
+        store.ensure_bucket()
+        store.put_bytes("model/.coach_checkpoint", b"3_Step-300.ckpt")
+        old_pid = server.pid
+        server.restart(timeout_s=60)
+        assert server.pid != old_pid
+        assert store.get_bytes("model/.coach_checkpoint") == b"3_Step-300.ckpt"
+        store.put_bytes("model/.finished", b"")
+        assert store.list_keys("model/") == ["model/.coach_checkpoint", "model/.finished"]
