@@ -18,7 +18,8 @@
 #                        which build-base-image.sh puts in the local base image; empty with an official base)
 #   MINIO_BINARY         MinIO server binary for the local MinIO image (default: `minio` on PATH,
 #                        ~/go/bin/minio or .venv/bin/minio; built with `go install` when none is found)
-#   SMOKE_MINIO_PORT     host port (loopback) the test publishes MinIO's API on (default 19000)
+#   SMOKE_MINIO_PORT     host port (loopback) the test publishes MinIO's API on, the console on the next one
+#                        (default: the first free pair from 19000)
 #   SMOKE_COMPOSE        compose command (default `docker compose` when the v2 plugin is there, else `docker-compose`)
 #   SMOKE_TRAIN_TIMEOUT_S  longest wait for the training run (default 900)
 #   SMOKE_BUILD_TIMEOUT_S  longest one image build may take (default 1800; torch is a large download)
@@ -44,7 +45,16 @@ PIP_CERT_IN_BUILD="${SMOKE_PIP_CERT-/etc/ssl/certs/host-ca-bundle.crt}"
 RACER_IMAGE=racer:local
 REDIS_IMAGE=racer-redis:local
 MINIO_IMAGE=racer-minio:local
-MINIO_PORT="${SMOKE_MINIO_PORT:-19000}"
+port_in_use() { (exec 3<>"/dev/tcp/127.0.0.1/$1") 2>/dev/null; }
+if [ -n "${SMOKE_MINIO_PORT:-}" ]; then
+  MINIO_PORT="$SMOKE_MINIO_PORT"
+else  # the first pair of free loopback ports from 19000 (API, console = API + 1)
+  MINIO_PORT=19000
+  while port_in_use "$MINIO_PORT" || port_in_use "$((MINIO_PORT + 1))"; do
+    MINIO_PORT=$((MINIO_PORT + 2))
+    [ "$MINIO_PORT" -lt 19200 ] || { echo "[smoke] no free port pair in 19000-19199 for MinIO" >&2; exit 1; }
+  done
+fi
 TRAIN_TIMEOUT_S="${SMOKE_TRAIN_TIMEOUT_S:-900}"
 BUILD_TIMEOUT_S="${SMOKE_BUILD_TIMEOUT_S:-1800}"
 RUN_TIMEOUT_S=600  # one `compose run` (evaluation or analysis)
@@ -372,6 +382,13 @@ COMPOSE_SECONDS=$((SECONDS - T0))
 # Only on an engine that is not in a swarm yet (the test makes it a single-node swarm and leaves it
 # afterwards); an engine already in a swarm is left alone. SMOKE_SWARM=0 skips this part.
 swarm_state="$(docker info -f '{{.Swarm.LocalNodeState}}')"
+if [ "$swarm_state" = active ] && [ "$(docker info -f '{{.Swarm.Nodes}}')" = 1 ] \
+   && docker stack ls --format '{{.Name}}' 2>/dev/null | grep -qx "$STACK"; then
+  say "removing the single-node swarm and stack $STACK an interrupted smoke run left behind"
+  remove_swarm
+  SWARM_PASSED=""
+  swarm_state="$(docker info -f '{{.Swarm.LocalNodeState}}')"
+fi
 if [ "${SMOKE_SWARM:-1}" = 0 ]; then
   say "swarm part skipped (SMOKE_SWARM=0)"
 elif [ "$swarm_state" != inactive ]; then
