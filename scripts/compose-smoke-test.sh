@@ -214,8 +214,10 @@ echo '{"MIN_EVAL_TRIALS": 1}' >"$WORK/custom_files/workers.json"
 chmod -R a+rX "$WORK/custom_files"
 
 cat >"$WORK/smoke.env" <<EOF
-MINIO_ROOT_USER=smoke-user
+MINIO_ROOT_USER=smoke-admin
 MINIO_ROOT_PASSWORD=smoke-$(od -An -N8 -tx1 /dev/urandom | tr -d ' \n')
+RACER_S3_ACCESS_KEY=smoke-services
+RACER_S3_SECRET_KEY=smoke-$(od -An -N8 -tx1 /dev/urandom | tr -d ' \n')
 RACER_MODEL_PREFIX=$PREFIX
 RACER_BUCKET=$BUCKET
 RACER_CUSTOM_FILES=$WORK/custom_files

@@ -1,8 +1,9 @@
 """`validate` and `import` against a real MinIO: missing bucket, denied reads and writes, unknown credentials,
 an unreachable endpoint, and the folder matrix uploaded to a bucket.
 
-Access denial is real: MinIO issues temporary credentials through its STS AssumeRole API (signed by the root
-user) with a session policy, and enforces that policy on every request. No `mc` client is needed.
+Access denial is real, both ways MinIO does it: a MinIO user created through the admin API (the `minio`
+package's MinioAdmin) with a policy attached, and temporary credentials from MinIO's STS AssumeRole API with a
+session policy. MinIO enforces the policy on every request. No `mc` client is needed.
 """
 
 from __future__ import annotations
@@ -119,6 +120,31 @@ def test_a_user_whose_policy_denies_reads(s3_model, restricted_credentials, deni
     # The same credentials with nothing denied can read the model: the denial is the policy's doing.
     settings = restricted_credentials(s3_model.bucket, session_policy(s3_model.bucket, allowed, []))
     assert validate_model(StoreSource(S3Store(settings), PREFIX)).ok
+
+
+@pytest.mark.parametrize("denied", ["s3:ListBucket", "s3:GetObject"])
+def test_a_minio_user_whose_policy_denies_reads(s3_model, minio_server, denied):
+    """A real MinIO user (created through MinIO's admin API, as docker compose's minio-setup does) with a policy
+    that allows reading the bucket but denies one read action: `racer model validate` says ACCESS_DENIED_TO_BUCKET."""
+    from minio import MinioAdmin
+    from minio.credentials import StaticProvider
+
+    admin = MinioAdmin(endpoint=minio_server.endpoint_url.split("://", 1)[1], secure=False,
+                       credentials=StaticProvider(minio_server.access_key, minio_server.secret_key))
+    user, secret = f"reader-{denied.split(':')[1].lower()}", "reader-secret-123"
+    policy_name = f"deny-{denied.split(':')[1].lower()}"
+    admin.user_add(user, secret)
+    admin.policy_add(policy_name, policy=json.loads(session_policy(
+        s3_model.bucket, ["s3:ListBucket", "s3:GetObject", "s3:GetBucketLocation"], [denied])))
+    admin.attach_policy([policy_name], user=user)
+    env = cli_env(s3_model, AWS_ACCESS_KEY_ID=user, AWS_SECRET_ACCESS_KEY=secret)
+    result = CliRunner().invoke(main, ["model", "validate", f"s3://{s3_model.bucket}/{PREFIX}"], env=env)
+    assert result.exit_code == 1
+    assert result.output.startswith("ACCESS_DENIED_TO_BUCKET"), result.output
+    assert result.output.count("fix:") == 1
+    # The root user reads the same model: the denial is the user's policy.
+    root = CliRunner().invoke(main, ["model", "validate", f"s3://{s3_model.bucket}/{PREFIX}"], env=cli_env(s3_model))
+    assert root.exit_code == 0, root.output
 
 
 S3_CASES = ["no reward_function.py", "no pointer at all", "pointer names a missing checkpoint (seed)",
