@@ -54,9 +54,10 @@ class DeepRacerEnv(gym.Env):
     `SECTOR_LIDAR` `(8,)` float32 bits; `DISCRETIZED_SECTOR_LIDAR` `(num_sectors·num_values_per_sector,)` bits.
 
     ## Step ordering (reference §2.1)
-    `step(a_t)` reads the pose first (where observation o_t was taken), computes params, rules and reward from it,
-    then drives the car with a_t for 1/15 s and returns o_{t+1}. The first step of every episode is the
-    `prepare` step: the car gets a zero command whatever the action, reward 0.
+    `step(a_t)` reads the pose first (where observation o_t was taken) and judges the rules on it, then drives the
+    car with a_t for 1/15 s and returns o_{t+1}. Params, reward and simtrace row describe that first pose; they are
+    computed while o_{t+1} renders. The first step of every episode is the `prepare` step: the car gets a zero
+    command whatever the action, reward 0.
 
     ## Rewards
     The user's `reward_function(params)` (every params key present) on RUN steps, including the terminal one;
