@@ -63,6 +63,9 @@ class TrainerOptions:
     """Longest wait for the episodes of one iteration before giving up with an error."""
     dead_worker_grace_s: float = 20.0
     """How long a share may have no live worker before it is re-assigned."""
+    announcement_check_s: float = 30.0
+    """While collecting, how often to check that Redis still holds this iteration's announcement (a restarted
+    Redis may have lost the newest writes); a lost one is announced again."""
 
 
 def load_worker_settings(custom_files: Path, num_workers: int, track: str, worlds: tuple[str, ...]) -> list[WorkerSettings]:
@@ -201,6 +204,7 @@ class Trainer:
         replays: dict[int, tuple[int, float]] = {}
         waiting_since = time.monotonic()
         next_notice = waiting_since + 60
+        next_announcement_check = waiting_since + self.options.announcement_check_s
 
         def consider(received: ReceivedBatch) -> None:
             batch = received.batch
@@ -241,6 +245,9 @@ class Trainer:
                     log.warning("worker %d (share %d of iteration %d) has no heartbeat; worker %d replays it",
                                 share, share, iteration, candidates[0])
                     self.channel.request_replay(iteration, share, candidates[0])
+            if now > next_announcement_check:
+                next_announcement_check = now + self.options.announcement_check_s
+                self._announce_again_if_lost(iteration)
             if now > next_notice:
                 log.info("iteration %d: waiting for the episodes of shares %s (live workers %s)",
                          iteration, missing, sorted(live))
@@ -251,6 +258,17 @@ class Trainer:
                     f"{self.options.share_timeout_s:.0f} s (live workers: {sorted(live) or 'none'}); "
                     f"are the rollout workers running against {self.channel.key('episodes')}?")
         return got
+
+    def _announce_again_if_lost(self, iteration: int) -> None:
+        """Workers learn of an iteration only from the control stream: if Redis lost the announcement (restarted
+        before its append-only file had it), nobody would ever play the iteration."""
+        latest = self.channel.latest_iteration_announcement()
+        if latest is not None and latest.kind == "iteration" and latest.iteration == iteration:
+            return
+        log.warning("the announcement of iteration %d is no longer in Redis (restarted without it?); announcing it "
+                    "again", iteration)
+        self.channel.announce_iteration(iteration, self.checkpoints.latest_name(),
+                                        self.hyperparameters.num_episodes_between_training, self.options.num_workers)
 
     def train_iteration(self, iteration: int, batches: dict[int, ReceivedBatch], rollout_wall_s: float) -> dict:
         episodes: list[Episode] = []

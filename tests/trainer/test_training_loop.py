@@ -7,6 +7,7 @@ one by one: which batch trains, which is dropped, and what a failure leaves behi
 from __future__ import annotations
 
 import json
+import time
 from pathlib import Path
 
 import pytest
@@ -132,3 +133,31 @@ def test_a_malformed_workers_json_names_the_file_and_line(redis_settings, tmp_pa
     (custom_files / "workers.json").write_text('{"workers": [{"RACER_WORLD": "gravel"}]}')
     with pytest.raises(RunConfigError, match=r"workers\.json \(worker 0\).*'gravel' is not one of"):
         make_trainer(redis_settings, tmp_path, custom_files).setup()
+
+
+def test_an_announcement_lost_by_redis_is_announced_again(redis_settings, tmp_path, custom_files):
+    """Redis restarted without its newest writes: the iteration's announcement is gone, so no worker would ever
+    play it. The collecting trainer notices and announces it again; the workers' batches then arrive."""
+    import threading
+
+    trainer = make_trainer(redis_settings, tmp_path, custom_files, announcement_check_s=0.3)
+    trainer.setup()
+    channel = RunChannel(RedisLink(redis_settings), PREFIX)
+    channel.announce_iteration(0, "0_Step-0.ckpt", 2, 2)  # what Trainer.run does before collecting ...
+    channel.link.do(lambda client: client.delete(channel.key("control")))  # ... and what the lost data took
+    assert channel.latest_iteration_announcement() is None
+    collected = {}
+    collecting = threading.Thread(target=lambda: collected.update(trainer.collect(0)))
+    collecting.start()
+    deadline = time.monotonic() + 20
+    while time.monotonic() < deadline and channel.latest_iteration_announcement() is None:
+        time.sleep(0.1)
+    announcement = channel.latest_iteration_announcement()
+    assert announcement is not None and (announcement.kind, announcement.iteration) == ("iteration", 0)
+    assert announcement.checkpoint == "0_Step-0.ckpt" and announcement.num_workers == 2
+    channel.push_batch(batch(iteration=0, share=0, worker_id=0, policy_version=0, seed=5))
+    channel.push_batch(batch(iteration=0, share=1, worker_id=1, policy_version=0, seed=6))
+    collecting.join(60)
+    assert sorted(collected) == [0, 1]
+    announcements = channel.link.do(lambda client: client.xlen(channel.key("control")))
+    assert announcements == 1  # announced again once, not on every check
