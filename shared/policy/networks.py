@@ -379,7 +379,6 @@ def _tower_features(tower: Tower, observations: Mapping[str, torch.Tensor],
     return features.float()
 
 
-
 class ActorCritic(nn.Module):
     """Two independent towers (policy: network_1, value: network_0 in DeepRacer's graph) and their heads."""
 

@@ -134,7 +134,7 @@ class DeepRacerEnv(gym.Env):
         self._gray = GrayConverter((cfg.image_height_px, cfg.image_width_px))
         self._lidar = lidar_sensor.Lidar(self._model, self._car.body_id) if self._lidar_key else None
         self._last_rgb: np.ndarray | None = None
-        self._geometry_cache: tuple[tuple, tuple[PointGeometry, np.ndarray]] | None = None
+        self._judged_cache: tuple[tuple, tuple[CarPose, PointGeometry, np.ndarray]] | None = None
 
         self.action_space = self._make_action_space()
         self.observation_space = self._make_observation_space()
@@ -308,9 +308,8 @@ class DeepRacerEnv(gym.Env):
         cfg = self.config
         track = self._track
         self._steps += 1.0
-        pose = self._car.pose(self._data)
+        pose, geometry, on_track = self._judged_pose(track)
         mx, my = pose.model_point
-        geometry, on_track = self._pose_geometry(track, pose)
         progress = compute_progress(geometry.ndist, self._episode_start_ndist, self._prev_progress)
         all_on, any_on = bool(on_track.all()), bool(on_track.any())
         now_s = float(self._data.time)
@@ -355,9 +354,9 @@ class DeepRacerEnv(gym.Env):
         mujoco.mj_step(self._model, self._data, self._substeps)
         self._start_observation()
 
-        # While the next frame renders: the track geometry of the pose it shows (the next step judges that pose),
+        # While the next frame renders: the pose it shows with its track geometry (the next step judges it),
         # then the reward and the simtrace row of the pose judged above.
-        self._pose_geometry(track, self._car.pose(self._data))
+        self._judged_pose(track)
         params = make_reward_params(
             track, x=mx, y=my, heading_deg=math.degrees(pose.yaw_rad), speed_mps=speed_mps,
             steering_angle_deg=steering_deg, steps=self._steps, progress=progress, all_wheels_on_track=all_on,
@@ -403,15 +402,18 @@ class DeepRacerEnv(gym.Env):
             self._finish_episode()
         return self._finish_observation(), reward, terminated, truncated, info
 
-    def _pose_geometry(self, track: Track, pose: CarPose) -> tuple[PointGeometry, np.ndarray]:
-        """(point geometry of the front-of-car point, on-track flag per wheel) of a pose on a track, remembered for
-        one pose: `step()` computes it for the frame it starts rendering, and the next `step()` finds it here when
-        nothing moved the car in between (a teleport or reset gives another pose, so it is computed afresh)."""
-        key = (track, pose.model_point, pose.wheel_xs.tobytes(), pose.wheel_ys.tobytes())
-        if self._geometry_cache is not None and self._geometry_cache[0] == key:
-            return self._geometry_cache[1]
-        result = (track.point_geometry(*pose.model_point), track.contains_points(pose.wheel_xs, pose.wheel_ys))
-        self._geometry_cache = (key, result)
+    def _judged_pose(self, track: Track) -> tuple[CarPose, PointGeometry, np.ndarray]:
+        """The car's pose, the track geometry of its front-of-car point and the on-track flag per wheel.
+
+        Remembered for one state of the joints: `step()` computes it for the frame it starts rendering, and the
+        next `step()` finds it here when nothing moved the car in between (a teleport or reset changes qpos).
+        """
+        key = (track, self._data.qpos.tobytes())
+        if self._judged_cache is not None and self._judged_cache[0] == key:
+            return self._judged_cache[1]
+        pose = self._car.pose(self._data)
+        result = (pose, track.point_geometry(*pose.model_point), track.contains_points(pose.wheel_xs, pose.wheel_ys))
+        self._judged_cache = (key, result)
         return result
 
     def _start_pause(self, status: str, pose: CarPose) -> None:
