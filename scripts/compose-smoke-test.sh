@@ -77,8 +77,9 @@ fail() {
 }
 
 
-compose() { "${COMPOSE[@]}" --project-name "$PROJECT" --env-file "$WORK/smoke.env" \
-  -f "$ROOT/docker-compose.yml" -f "$ROOT/docker/compose.ports.yml" "$@"; }
+# compose ARGS...: the test's project; COMPOSE_LIMIT_S=N compose ARGS... gives up after N seconds.
+compose() { ${COMPOSE_LIMIT_S:+timeout "$COMPOSE_LIMIT_S"} "${COMPOSE[@]}" --project-name "$PROJECT" \
+  --env-file "$WORK/smoke.env" -f "$ROOT/docker-compose.yml" -f "$ROOT/docker/compose.ports.yml" "$@"; }
 
 remove_swarm() {  # the stack, its volume, and the single-node swarm this test created
   docker stack rm "$STACK" >/dev/null 2>&1 || true
@@ -357,16 +358,12 @@ check_store "$network" "$WORK/smoke.env"
 done_step
 
 step "docker compose --profile evaluation run --rm evaluation (last checkpoint, 1 trial)"
-timeout "$RUN_TIMEOUT_S" "${COMPOSE[@]}" --project-name "$PROJECT" --env-file "$WORK/smoke.env" \
-  -f "$ROOT/docker-compose.yml" -f "$ROOT/docker/compose.ports.yml" \
-  --profile evaluation run -T --rm evaluation >"$WORK/evaluation.log" 2>&1 \
+COMPOSE_LIMIT_S="$RUN_TIMEOUT_S" compose --profile evaluation run -T --rm evaluation >"$WORK/evaluation.log" 2>&1 \
   || { tail -30 "$WORK/evaluation.log" >&2; fail "the evaluation service failed (log: $WORK/evaluation.log)"; }
 done_step
 step "docker compose --profile analysis run --rm analysis"
 mkdir -p "$WORK/analysis"
-timeout "$RUN_TIMEOUT_S" "${COMPOSE[@]}" --project-name "$PROJECT" --env-file "$WORK/smoke.env" \
-  -f "$ROOT/docker-compose.yml" -f "$ROOT/docker/compose.ports.yml" \
-  --profile analysis run -T --rm analysis >"$WORK/analysis.log" 2>&1 \
+COMPOSE_LIMIT_S="$RUN_TIMEOUT_S" compose --profile analysis run -T --rm analysis >"$WORK/analysis.log" 2>&1 \
   || { tail -30 "$WORK/analysis.log" >&2; fail "the analysis service failed (log: $WORK/analysis.log)"; }
 [ -s "$WORK/analysis/report.html" ] || fail "the analysis service wrote no report.html into RACER_ANALYSIS_OUT ($WORK/analysis)"
 done_step "report.html and $(find "$WORK/analysis" -type f | wc -l) files"
