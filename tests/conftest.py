@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 from pathlib import Path
 
@@ -89,3 +90,23 @@ def make_episode(steps: int, seed: int, continuous: bool = False, worker_id: int
 @pytest.fixture
 def episode_factory():
     return make_episode
+
+
+CONSTANT_REWARD = "def reward_function(params):\n    return 1.0\n"
+
+
+def write_custom_files(folder: Path, *, steering_deg: tuple[float, ...] = (-30, 0, 30),
+                       reward_source: str = CONSTANT_REWARD, min_eval_trials: int | None = 1) -> Path:
+    """A small custom_files folder, as users bring it, for tests that train: shallow camera network, one speed,
+    2 episodes per iteration; `min_eval_trials` None writes no workers.json."""
+    folder.mkdir(parents=True)
+    (folder / "reward_function.py").write_text(reward_source)
+    actions = [{"steering_angle": angle, "speed": 1.0} for angle in steering_deg]
+    (folder / "model_metadata.json").write_text(json.dumps({
+        "action_space": actions, "sensor": ["FRONT_FACING_CAMERA"], "version": "5",
+        "neural_network": "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW", "training_algorithm": "clipped_ppo"}))
+    (folder / "hyperparameters.json").write_text(json.dumps({
+        "num_episodes_between_training": 2, "batch_size": 32, "num_epochs": 3}))
+    if min_eval_trials is not None:
+        (folder / "workers.json").write_text(json.dumps({"MIN_EVAL_TRIALS": min_eval_trials}))
+    return folder

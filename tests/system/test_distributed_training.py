@@ -22,6 +22,7 @@ from racer.shared.run_layout import RunLayout
 from racer.shared.services import _die_with_parent
 from racer.shared.store import open_store
 from racer.shared.transport.channels import RunChannel
+from tests.conftest import write_custom_files
 
 pytestmark = pytest.mark.slow
 
@@ -31,19 +32,9 @@ CHECKPOINT_NAME = re.compile(r"^(\d+)_Step-(\d+)\.ckpt$")
 
 @pytest.fixture
 def custom_files(tmp_path: Path) -> Path:
-    folder = tmp_path / "custom_files"
-    folder.mkdir()
-    (folder / "reward_function.py").write_text(
-        "def reward_function(params):\n"
-        "    return 1.0 - min(1.0, params['distance_from_center'] / (0.5 * params['track_width']))\n")
-    actions = [{"steering_angle": a, "speed": 1.0} for a in (-30, 0, 30)]
-    (folder / "model_metadata.json").write_text(json.dumps({
-        "action_space": actions, "sensor": ["FRONT_FACING_CAMERA"], "version": "5",
-        "neural_network": "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW", "training_algorithm": "clipped_ppo"}))
-    (folder / "hyperparameters.json").write_text(json.dumps({
-        "num_episodes_between_training": 2, "batch_size": 32, "num_epochs": 3}))
-    (folder / "workers.json").write_text(json.dumps({"MIN_EVAL_TRIALS": 1}))
-    return folder
+    centre_line = ("def reward_function(params):\n"
+                   "    return 1.0 - min(1.0, params['distance_from_center'] / (0.5 * params['track_width']))\n")
+    return write_custom_files(tmp_path / "custom_files", reward_source=centre_line)
 
 
 class SystemRun:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import os
 import signal
 import subprocess
@@ -14,6 +13,7 @@ import pytest
 
 from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.store import LocalStore
+from tests.conftest import write_custom_files
 
 pytestmark = pytest.mark.slow
 
@@ -37,16 +37,7 @@ def processes_mentioning(text: str) -> list[str]:
 
 @pytest.fixture
 def small_custom_files(tmp_path: Path) -> Path:
-    folder = tmp_path / "custom_files"
-    folder.mkdir()
-    (folder / "reward_function.py").write_text("def reward_function(params):\n    return 1.0\n")
-    (folder / "model_metadata.json").write_text(json.dumps({
-        "action_space": [{"steering_angle": a, "speed": 1.0} for a in (-30, 0, 30)],
-        "sensor": ["FRONT_FACING_CAMERA"], "neural_network": "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW", "version": "5"}))
-    (folder / "hyperparameters.json").write_text(json.dumps({
-        "num_episodes_between_training": 2, "batch_size": 32, "num_epochs": 3}))
-    (folder / "workers.json").write_text(json.dumps({"MIN_EVAL_TRIALS": 1}))
-    return folder
+    return write_custom_files(tmp_path / "custom_files")
 
 
 def racer_train(tmp_path: Path, custom_files: Path, *args: str) -> subprocess.Popen:

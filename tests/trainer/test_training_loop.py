@@ -11,7 +11,7 @@ import time
 from pathlib import Path
 
 import pytest
-from tests.conftest import make_episode
+from tests.conftest import make_episode, write_custom_files
 
 from racer.shared.config import LocalStoreSettings, ServiceSettings
 from racer.shared.redis_connection import RedisLink
@@ -26,16 +26,7 @@ PREFIX = "loop-model"
 
 @pytest.fixture
 def custom_files(tmp_path: Path) -> Path:
-    folder = tmp_path / "custom_files"
-    folder.mkdir()
-    (folder / "reward_function.py").write_text("def reward_function(params):\n    return 1.0\n")
-    actions = [{"steering_angle": a, "speed": 1.0} for a in (-30, -15, 0, 15, 30)]
-    (folder / "model_metadata.json").write_text(json.dumps({
-        "action_space": actions, "sensor": ["FRONT_FACING_CAMERA"], "version": "5",
-        "neural_network": "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW", "training_algorithm": "clipped_ppo"}))
-    (folder / "hyperparameters.json").write_text(json.dumps({
-        "num_episodes_between_training": 2, "batch_size": 32, "num_epochs": 3}))
-    return folder
+    return write_custom_files(tmp_path / "custom_files", steering_deg=(-30, -15, 0, 15, 30), min_eval_trials=None)
 
 
 def make_trainer(redis_settings, tmp_path: Path, custom_files: Path, **options) -> Trainer:
