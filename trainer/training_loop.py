@@ -148,8 +148,7 @@ class Trainer:
         if latest is not None:
             iteration, self.env_steps = self.checkpoints.restore(latest, self.network, self.ppo.optimizer)
             log.info("resuming %s from checkpoint %s", self.options.model_prefix, latest)
-            if self.store.exists(self.layout.finished):
-                self.store.delete(self.layout.finished)  # training goes on: the model is not finished any more
+            self.store.delete(self.layout.finished)  # training goes on: the model is not finished any more
             self.episodes_consumed = iteration * hyperparameters.num_episodes_between_training
         else:
             if self.options.pretrained_prefix:
