@@ -1,4 +1,4 @@
-"""The evaluation worker (DeepRacer's RoboMaker evaluation job): `racer evaluate`.
+"""The evaluation worker (DeepRacer's RoboMaker evaluation job): `racer evaluate`. Import name: `racer.evaluation_worker`.
 
 Two ways to evaluate a stored model (best, last or a named checkpoint), greedy policy, any track/world/direction:
 

@@ -12,9 +12,7 @@ from __future__ import annotations
 from racer.evaluation_worker.config import DeepRacerRules
 from racer.evaluation_worker.driver import EvaluationDriver
 from racer.evaluation_worker.laps import LapCallback, LapResult, LapTally, ignore_lap
-
-LAP_COMPLETE = "lap_complete"
-IN_PROGRESS = "in_progress"
+from racer.shared.deepracer.episode_status import EpisodeStatus
 
 
 def run_deepracer_evaluation(driver: EvaluationDriver, rules: DeepRacerRules, on_lap: LapCallback = ignore_lap) -> list[LapResult]:
@@ -39,10 +37,10 @@ def _continuous(driver: EvaluationDriver, rules: DeepRacerRules, on_lap: LapCall
     tally = LapTally(0, driver.start_lap(0))
     while True:
         outcome = driver.step()
-        crossing = outcome.status == LAP_COMPLETE
+        crossing = outcome.status == EpisodeStatus.LAP_COMPLETE
         last_trial = len(laps) + 1 >= rules.number_of_trials
         if crossing and not last_trial:
-            tally.add(driver.record(outcome, status=IN_PROGRESS, done=False))
+            tally.add(driver.record(outcome, status=EpisodeStatus.IN_PROGRESS, done=False))
         else:
             tally.add(driver.record(outcome))
         if not (crossing or outcome.terminated or outcome.truncated):

@@ -11,7 +11,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from racer.evaluation_worker.driver import PENALTY_STATUSES, StepRecord
-from racer.shared.deepracer.simtrace import EpisodeStatus
+from racer.shared.deepracer.episode_status import EpisodeStatus
 
 
 @dataclass(frozen=True)

@@ -64,7 +64,7 @@ def evaluate_command(model_prefix, checkpoint, mode, track, world, reverse, tria
     from racer.evaluation_worker.runner import EvaluationSession
     from racer.evaluation_worker.video import VideoError
     from racer.shared.config import settings_from_env
-    from racer.shared.policy.checkpoints import CheckpointError
+    from racer.shared.policy.manifest import CheckpointError
     from racer.shared.store import open_store
     from racer.shared.user_errors import user_error_types
 

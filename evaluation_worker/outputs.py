@@ -19,56 +19,29 @@ together and several evaluations of one model never overwrite each other's `0-vi
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict
 from typing import Any
 
 from racer.evaluation_worker.config import EvaluationConfig
 from racer.evaluation_worker.driver import StepRecord
 from racer.evaluation_worker.laps import LapResult
 from racer.evaluation_worker.race_rule import RaceResult
+from racer.shared import model_layout
+from racer.shared.deepracer.episode_status import EpisodeStatus
 from racer.shared.deepracer.metrics import EvaluationMetrics, EvaluationMetricsEntry
-from racer.shared.deepracer.simtrace import EpisodeStatus, SimtraceWriter
+from racer.shared.deepracer.simtrace import SimtraceWriter
+from racer.shared.model_layout import EvaluationLayout
 from racer.shared.sim.env import DeepRacerEnv
 from racer.shared.store import ObjectStore, join_key
 
 
-@dataclass(frozen=True)
-class EvaluationLayout:
-    """Keys of one evaluation, relative to the model prefix (`relative`) and absolute in the store (`key`)."""
-
-    model_prefix: str
-    run_name: str
-    """`evaluation-<ts>` (possibly with a `-<n>` suffix)."""
-
-    @property
-    def timestamp(self) -> str:
-        return self.run_name.removeprefix("evaluation-")
-
-    def relative(self, name: str) -> str:
-        if name == "metrics":
-            return f"metrics/EvaluationMetrics-{self.timestamp}.json"
-        files = {
-            "simtrace": "evaluation-simtrace/0-iteration.csv",
-            "summary": "summary.json",
-            "params": "evaluation_params.yaml",
-            "mcap": "evaluation.mcap",
-        }
-        return f"{self.run_name}/{files.get(name, name)}"
-
-    def video(self, view: str) -> str:
-        return f"{self.run_name}/{view}/0-video.mp4"
-
-    def key(self, relative: str) -> str:
-        return join_key(self.model_prefix, relative)
-
-
 def choose_run_name(store: ObjectStore, model_prefix: str, timestamp: str) -> str:
     """`evaluation-<ts>`, or with `-2`, `-3` ... when that folder already has files."""
-    name = f"evaluation-{timestamp}"
+    name = model_layout.evaluation_folder(timestamp)
     suffix = 1
     while store.list_keys(join_key(model_prefix, name) + "/"):
         suffix += 1
-        name = f"evaluation-{timestamp}-{suffix}"
+        name = model_layout.evaluation_folder(f"{timestamp}-{suffix}")
     return name
 
 

@@ -15,9 +15,8 @@ from dataclasses import dataclass
 from racer.evaluation_worker.config import RaceRules
 from racer.evaluation_worker.driver import EvaluationDriver
 from racer.evaluation_worker.laps import LapCallback, LapResult, LapTally, ignore_lap
+from racer.shared.deepracer.episode_status import EpisodeStatus
 
-LAP_COMPLETE = "lap_complete"
-TIME_UP = "time_up"
 _CLOCK_TOLERANCE_S = 1e-6
 """The sim clock is a sum of physics steps; this keeps a step landing exactly on the limit inside the race."""
 
@@ -57,9 +56,9 @@ def run_race(driver: EvaluationDriver, rules: RaceRules, on_lap: LapCallback = i
     while True:
         outcome = driver.step()
         time_up = past_limit(outcome.sim_time_s)
-        crossing = outcome.status == LAP_COMPLETE
+        crossing = outcome.status == EpisodeStatus.LAP_COMPLETE
         if time_up:
-            record = driver.record(outcome, status=TIME_UP, done=True)
+            record = driver.record(outcome, status=EpisodeStatus.TIME_UP, done=True)
         elif crossing and rules.continuous:
             record = driver.record(outcome, done=False)
         else:
@@ -68,7 +67,7 @@ def run_race(driver: EvaluationDriver, rules: RaceRules, on_lap: LapCallback = i
         if not (time_up or crossing or outcome.terminated or outcome.truncated):
             continue
         # SimApp: a time-up entry does not advance the trial counter; every other entry does.
-        trial = sum(1 for lap in laps if lap.status != TIME_UP) + (0 if time_up else 1)
+        trial = sum(1 for lap in laps if lap.status != EpisodeStatus.TIME_UP) + (0 if time_up else 1)
         lap = tally.result(trial=trial)
         laps.append(lap)
         on_lap(lap)

@@ -27,7 +27,6 @@ from racer.evaluation_worker.driver import EvaluationDriver, Policy, ProgressLog
 from racer.evaluation_worker.laps import LapResult, describe_lap
 from racer.evaluation_worker.mcap_recording import McapRecorder
 from racer.evaluation_worker.outputs import (
-    EvaluationLayout,
     SimtraceRecorder,
     choose_run_name,
     evaluation_metrics,
@@ -40,11 +39,13 @@ from racer.evaluation_worker.video import VIEWS, VideoRecorder
 from racer.shared.deepracer.metrics import EvaluationMetrics
 from racer.shared.deepracer.model_metadata import ModelMetadata, ModelMetadataError, parse_model_metadata
 from racer.shared.deepracer.training_params import training_params_to_yaml
-from racer.shared.policy.checkpoints import CheckpointError, CheckpointStore
+from racer.shared.model_layout import EvaluationLayout, ModelLayout
+from racer.shared.policy.checkpoints import CheckpointStore
+from racer.shared.policy.manifest import CheckpointError
 from racer.shared.policy.networks import ActorCritic
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
-from racer.shared.store import ObjectNotFoundError, ObjectStore, join_key
+from racer.shared.store import ObjectNotFoundError, ObjectStore
 
 
 @dataclass(frozen=True)
@@ -67,7 +68,7 @@ class EvaluationReport:
 
 def read_model_metadata(store: ObjectStore, checkpoints: CheckpointStore, model_prefix: str, checkpoint: str) -> ModelMetadata:
     """`<prefix>/model/model_metadata.json`, or the copy in the checkpoint's manifest when the file is absent."""
-    key = join_key(model_prefix, "model", "model_metadata.json")
+    key = ModelLayout(model_prefix).model_metadata
     source = f"{store.describe()}/{key}"
     try:
         raw = store.get_bytes(key)

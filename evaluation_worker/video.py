@@ -4,8 +4,8 @@ One frame per simtrace row, taken where that row's observation was taken, at 15 
 a video plays in simulated real time and frame k is simtrace row k. Encoded with H.264 (yuv420p, ffmpeg through
 imageio-ffmpeg), which browsers and Foxglove play.
 
-Costs (2-core box, software OpenGL, measured): the follow view is a MuJoCo render (~10-20 ms at 480x360); the top
-view is rendered once (the track does not move) and the car is drawn onto it with OpenCV (<1 ms); the in-car view
+Costs: the follow view is a MuJoCo render at 480x360, the dearest of the three; the top view is rendered once (the
+track does not move) and the car is drawn onto it with OpenCV; the in-car view
 is the env's own RGB camera frame (`render_mode='rgb_array'`; stereo models: the centre camera), no extra render.
 The car's geoms are hidden from the car camera (group 3), so the follow view turns that group on.
 """

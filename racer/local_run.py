@@ -19,11 +19,13 @@ from pathlib import Path
 
 import click
 
+from racer.shared import model_layout
 from racer.shared.config import LocalStoreSettings, RedisSettings, S3Settings, ServiceSettings, settings_from_env
 from racer.shared.redis_connection import RedisLink
-from racer.shared.run_layout import DEFAULT_TRACK, WORLDS
 from racer.shared.services import PROJECT_ROOT, MinioServer, RedisServer, _die_with_parent
+from racer.shared.sim.config import DEFAULT_TRACK
 from racer.shared.sim.gl import ensure_gl_backend
+from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
 from racer.shared.store import S3Store, open_store
 from racer.shared.transport.channels import RunChannel
 
@@ -329,7 +331,7 @@ def time_to_lap_command(track, reward_function, speed, num_workers, time_limit_m
 
 def _read_iteration_records(store_root: Path, plan: LocalRunPlan) -> list[dict]:
     """Iteration summaries the trainer also writes to the store (Redis is gone once the run stops)."""
-    path = store_root / plan.model_prefix / "metrics" / "iterations.jsonl"
+    path = store_root / plan.model_prefix / model_layout.ITERATIONS_LOG
     if not path.is_file():
         return []
     return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]

@@ -8,8 +8,8 @@ import signal
 import click
 
 from racer.shared.config import settings_from_env
+from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
 from racer.shared.user_errors import user_error_types
-from racer.shared.run_layout import WORLDS
 
 
 @click.command(name="rollout")

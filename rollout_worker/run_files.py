@@ -13,13 +13,14 @@ from pathlib import Path
 from racer.shared.deepracer.hyperparameters import Hyperparameters, parse_hyperparameters
 from racer.shared.deepracer.model_metadata import ModelMetadata, parse_model_metadata
 from racer.shared.deepracer.training_params import parse_training_params
-from racer.shared.run_layout import RunLayout, WorkerSettings
+from racer.shared.model_layout import ModelLayout
 from racer.shared.store import ObjectNotFoundError, ObjectStore
+from racer.shared.worker_settings import WorkerSettings
 
 
 @dataclass(frozen=True)
 class RunFiles:
-    layout: RunLayout
+    layout: ModelLayout
     model_metadata: ModelMetadata
     hyperparameters: Hyperparameters
     reward_function_path: Path
@@ -27,7 +28,7 @@ class RunFiles:
     worker: WorkerSettings
 
 
-def read_training_params(store: ObjectStore, layout: RunLayout, worker_id: int) -> tuple[dict[str, str], str]:
+def read_training_params(store: ObjectStore, layout: ModelLayout, worker_id: int) -> tuple[dict[str, str], str]:
     """Worker i's training_params_<i>.yaml, or the shared training_params.yaml when the workers do not differ."""
     for key in (layout.training_params(worker_id), layout.training_params(0)):
         try:
@@ -41,7 +42,7 @@ def read_training_params(store: ObjectStore, layout: RunLayout, worker_id: int) 
 
 def load_run_files(store: ObjectStore, model_prefix: str, worker_id: int, workdir: Path,
                    world_override: str | None = None, track_override: str | None = None) -> RunFiles:
-    layout = RunLayout(model_prefix)
+    layout = ModelLayout(model_prefix)
     metadata_source = f"{store.describe()}/{layout.model_metadata}"
     try:
         metadata_json = json.loads(store.get_bytes(layout.model_metadata))

@@ -10,20 +10,20 @@
 from __future__ import annotations
 
 import logging
-import re
 
 import numpy as np
 
 from racer.rollout_worker.run_files import RunFiles
+from racer.shared.deepracer.episode_status import EpisodeStatus
 from racer.shared.deepracer.metrics import TrainingMetrics, TrainingMetricsEntry, read_training_metrics
-from racer.shared.deepracer.simtrace import EpisodeStatus, SimtraceWriter
+from racer.shared.deepracer.simtrace import SimtraceWriter
 from racer.shared.episode_runner import PlayedEpisode
+from racer.shared.model_layout import CheckpointName
 from racer.shared.store import ObjectNotFoundError, ObjectStore
 
 log = logging.getLogger(__name__)
 
 UNFINISHED_LAP_MS = 999_999
-_STEPS_IN_NAME = re.compile(r"_Step-(\d+)\.ckpt")
 
 
 class WorkerLog:
@@ -88,7 +88,7 @@ class WorkerLog:
                                                       higher_is_better=(metric_name != "laptime"))
         best = best_and_last.best.name if best_and_last.best else None
         laps = [p for p in results if p.lap_completed]
-        steps = _STEPS_IN_NAME.search(announcement.checkpoint)
+        checkpoint = CheckpointName.find(announcement.checkpoint)
         record = {
             "iteration": announcement.iteration,
             "checkpoint": announcement.checkpoint,
@@ -99,7 +99,7 @@ class WorkerLog:
             "best_model_metric": metric_name,
             "best_checkpoint": best,
             "best_lap_time_s": min((p.lap_time_s for p in laps if p.lap_time_s), default=None),
-            "env_steps_total": int(steps.group(1)) if steps else None,
+            "env_steps_total": checkpoint.env_steps if checkpoint else None,
         }
         channel.publish("evaluations", record)
         log.info("evaluation of %s: %d/%d laps, %s %.2f (best: %s)", announcement.checkpoint, len(laps),

@@ -1,14 +1,17 @@
 #!/usr/bin/env bash
 # Sets everything up (idempotent) and runs the whole test suite:
-#   1. the docker compose smoke test (scripts/compose-smoke-test.sh: builds the images without a registry,
+#   1. the linter (ruff check, configured in pyproject.toml), first because it takes a second;
+#   2. the docker compose smoke test (scripts/compose-smoke-test.sh: builds the images without a registry,
 #      trains two iterations in containers, checks MinIO, then the same on a single-node swarm);
-#   2. pytest against real redis-server and MinIO processes.
-# RACER_TEST_DOCKER=0 skips step 1 (a quick local run); extra arguments go to pytest.
+#   3. pytest against real redis-server and MinIO processes.
+# RACER_TEST_DOCKER=0 skips step 2 (a quick local run); extra arguments go to pytest.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ./scripts/setup.sh
 export PATH="$PWD/.venv/bin:$PATH"
 export MUJOCO_GL="${MUJOCO_GL:-egl}"
+echo "[test] ruff check"
+.venv/bin/ruff check .
 if [ "${RACER_TEST_DOCKER:-1}" != "0" ]; then
   ./scripts/compose-smoke-test.sh
 fi

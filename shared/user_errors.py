@@ -11,7 +11,7 @@ def user_error_types() -> tuple[type[Exception], ...]:
     from racer.shared.deepracer.hyperparameters import HyperparametersError
     from racer.shared.deepracer.model_metadata import ModelMetadataError
     from racer.shared.deepracer.simtrace import SimtraceError
-    from racer.shared.policy.checkpoints import CheckpointError
+    from racer.shared.policy.manifest import CheckpointError
     from racer.shared.redis_connection import RedisUnavailableError
     from racer.shared.sim.gl import GLBackendError
     from racer.shared.sim.reward import RewardFunctionError

@@ -12,18 +12,30 @@ import pytest
 from racer.shared.config import RedisSettings, S3Settings
 from racer.shared.services import MinioServer, RedisServer
 from racer.shared.store import S3Store
+from tests.shared_data import SHARED_DATA
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
-REPO_ROOT = Path(__file__).resolve().parents[1]
-SHARED_DATA = REPO_ROOT.parent / "shared" / "deepracer-data"
-"""Real DeepRacer files (routes, simtraces, metrics, configs, reward functions), read in place."""
+
+
+def _missing_data_message(count: int) -> str:
+    return (f"{count} selected tests read real DeepRacer files from {SHARED_DATA}, which is missing. The folder "
+            f"comes with the project's shared/ folder, checked out beside this repository (../shared/deepracer-data; "
+            f"README, 'Test data'). Run from such a checkout, or deselect those tests.")
+
+
+def pytest_collection_modifyitems(config, items):
+    """One clear error before anything runs, instead of a FileNotFoundError in every test that needs the data."""
+    needing = [item for item in items if "deepracer_data" in getattr(item, "fixturenames", ())]
+    if needing and not SHARED_DATA.is_dir():
+        raise pytest.UsageError(_missing_data_message(len(needing)))
 
 
 @pytest.fixture(scope="session")
 def deepracer_data() -> Path:
+    """The real DeepRacer files; tests (and test modules, with `usefixtures`) that read them ask for this."""
     if not SHARED_DATA.is_dir():
-        raise FileNotFoundError(f"the real DeepRacer data folder is missing: {SHARED_DATA}")
+        raise FileNotFoundError(_missing_data_message(1))
     return SHARED_DATA
 
 

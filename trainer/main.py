@@ -8,8 +8,9 @@ from pathlib import Path
 import click
 
 from racer.shared.config import settings_from_env
+from racer.shared.sim.config import DEFAULT_TRACK
+from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
 from racer.shared.user_errors import user_error_types
-from racer.shared.run_layout import DEFAULT_TRACK, WORLDS
 
 
 @click.command(name="trainer")

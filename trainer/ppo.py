@@ -105,12 +105,11 @@ class PPOSettings:
     threads_per_tower: int | None = None
     """torch intra-op threads while an update runs (restored afterwards). The policy and value towers run
     concurrently on two threads, so the update uses 2 x this many cores; None = half the CPUs available to the
-    process (1 on a 2-core machine, where one thread per tower beat two threads per op by ~1.5x, more under load)."""
+    process (1 on a 2-core machine, where one thread per tower beat two threads per op, more so under load)."""
     bf16_towers: bool | None = None
     """Run the towers' convs and dense layers in bfloat16 (CPU autocast); heads, probabilities, losses, GAE and Adam
-    stay fp32. None = where the CPU computes bf16 natively (AVX512-BF16 or AMX), which halves the time of a
-    minibatch (measured on AVX512-BF16: 160 -> 77 ms forward + backward, shallow network, batch 64); elsewhere bf16
-    is emulated and many times slower, so fp32."""
+    stay fp32. None = where the CPU computes bf16 natively (AVX512-BF16 or AMX), which makes a minibatch much
+    faster (`racer bench ppo` measures it); elsewhere bf16 is emulated and many times slower, so fp32."""
 
 
 def native_bf16_available() -> bool:

@@ -24,19 +24,21 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from racer.shared import model_layout
 from racer.shared.config import ServiceSettings
 from racer.shared.deepracer.hyperparameters import Hyperparameters, hyperparameters_to_json_bytes, load_hyperparameters
-from racer.shared.deepracer.training_params import training_params_to_yaml
 from racer.shared.deepracer.model_metadata import ModelMetadata, load_model_metadata, parse_model_metadata
+from racer.shared.deepracer.training_params import training_params_to_yaml
 from racer.shared.episode import Episode
+from racer.shared.model_layout import ModelLayout
 from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.policy.networks import build_actor_critic
 from racer.shared.redis_connection import RedisLink
-from racer.shared.run_layout import RunLayout, WorkerSettings, default_worker_settings
 from racer.shared.sim.reward import load_reward_function
 from racer.shared.store import ObjectNotFoundError, open_store
 from racer.shared.transport.channels import ReceivedBatch, RunChannel, share_sizes
 from racer.shared.user_errors import CloneError, RunConfigError
+from racer.shared.worker_settings import WorkerSettings, default_worker_settings
 from racer.trainer.ppo import PPOSettings, PPOTrainer, format_policy_training_line, format_training_episode_line
 
 log = logging.getLogger(__name__)
@@ -104,7 +106,7 @@ class Trainer:
     def __init__(self, settings: ServiceSettings, options: TrainerOptions):
         self.options = options
         self.store = open_store(settings.store)
-        self.layout = RunLayout(options.model_prefix)
+        self.layout = ModelLayout(options.model_prefix)
         self.channel = RunChannel(RedisLink(settings.redis), options.model_prefix)
         self.checkpoints = CheckpointStore(self.store, options.model_prefix)
         self.stop_event = threading.Event()
@@ -165,7 +167,7 @@ class Trainer:
     def _clone_from_pretrained(self) -> None:
         """Start from another model's weights. Action values may change; the number of actions may not."""
         source_prefix = self.options.pretrained_prefix
-        source_layout = RunLayout(source_prefix)
+        source_layout = ModelLayout(source_prefix)
         try:
             source_metadata = parse_model_metadata(json.loads(self.store.get_bytes(source_layout.model_metadata)),
                                                    source=f"{self.store.describe()}/{source_layout.model_metadata}")
@@ -192,7 +194,7 @@ class Trainer:
     def _save(self, iteration: int) -> str:
         name = self.checkpoints.save(iteration, self.env_steps, self.network, self.ppo.optimizer, self.metadata,
                                      self.hyperparameters)
-        print(f"Checkpoint> Saving in path=['{self.layout.key('model', name)}']", flush=True)
+        print(f"Checkpoint> Saving in path=['{self.layout.key(model_layout.MODEL_DIR, name)}']", flush=True)
         return name
 
     # ---- one iteration -----------------------------------------------------------------------------
@@ -307,7 +309,7 @@ class Trainer:
 
     def _record_summary(self, summary: dict) -> None:
         self.channel.publish("iterations", summary)
-        key = self.layout.key("metrics", "iterations.jsonl")
+        key = self.layout.iterations_log
         try:
             existing = self.store.get_bytes(key)
         except ObjectNotFoundError:

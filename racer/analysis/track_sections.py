@@ -8,7 +8,6 @@ import numpy as np
 import pandas as pd
 
 from racer.analysis.loading import EPISODE_KEY
-
 from racer.shared.sim.track import Track, TrackError
 
 

@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import pandas as pd
 
+from racer.shared.deepracer.episode_status import EpisodeStatus
 from racer.shared.deepracer.metrics import TrainingMetrics, read_training_metrics
-from racer.shared.deepracer.simtrace import EpisodeStatus
 
 
 def entries_table(metrics: TrainingMetrics) -> pd.DataFrame:

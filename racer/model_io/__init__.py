@@ -27,10 +27,10 @@ from racer.model_io.transfer import (
 from racer.model_io.validate import validate_location, validate_model
 
 __all__ = [
-    "ArchiveDestination",
     "CODE_INFO",
-    "CheckpointSelection",
     "DEFAULT_LIMITS",
+    "ArchiveDestination",
+    "CheckpointSelection",
     "FolderDestination",
     "FolderSource",
     "ImportPlan",

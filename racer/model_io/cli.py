@@ -12,7 +12,6 @@ from pathlib import Path
 
 import click
 
-from racer.model_io.checkpoints import COACH_CHECKPOINT, DEEPRACER_CHECKPOINTS
 from racer.model_io.problems import ValidationProblem, ValidationReport
 from racer.model_io.sources import split_s3_location
 from racer.model_io.transfer import (
@@ -27,6 +26,7 @@ from racer.model_io.transfer import (
 )
 from racer.model_io.validate import validate_location
 from racer.shared.config import S3Settings, parse_store_location, settings_from_env
+from racer.shared.model_layout import COACH_CHECKPOINT, DEEPRACER_CHECKPOINTS
 from racer.shared.store import ObjectStore, S3Store, open_store
 
 STORE_HELP = ("This system's store: s3://bucket (endpoint and keys from S3_ENDPOINT_URL, AWS_*) or a folder. "

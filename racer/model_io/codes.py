@@ -20,7 +20,7 @@ class CodeInfo:
     """When this system reports the code."""
 
 
-class ProblemCode(str, Enum):
+class ProblemCode(str, Enum):  # noqa: UP042 (StrEnum would change str() of a member)
     """One console import error code. The value is the code exactly as the console printed it."""
 
     SERVICE_ERROR = "SERVICE_ERROR"

@@ -31,6 +31,9 @@ from racer.model_io.codes import ProblemCode
 from racer.model_io.problems import DEFAULT_LIMITS, ImportPlan, SizeLimits, ValidationProblem, ValidationReport
 from racer.model_io.sources import FolderSource, ModelSource, StoreSource, TarSource
 from racer.model_io.validate import CAR_BUNDLE_KEY, problem_for_source_error, validate_model
+from racer.shared import model_layout
+from racer.shared.model_layout import CheckpointName
+from racer.shared.policy.best_and_last import names_to_bytes as best_and_last_names_to_bytes
 from racer.shared.store import (
     AccessDeniedError,
     BucketNotFoundError,
@@ -44,8 +47,8 @@ from racer.shared.store import (
 MODEL_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9-]{0,63}$")
 """The console's rule for model names: 1-64 characters, letters, digits and hyphens."""
 
-METADATA_TARGET = "model/model_metadata.json"
-HYPERPARAMETERS_TARGET = "ip/hyperparameters.json"
+METADATA_TARGET = model_layout.MODEL_METADATA
+HYPERPARAMETERS_TARGET = model_layout.HYPERPARAMETERS
 CAR_BUNDLE_ONNX = "agent/model.onnx"
 CAR_BUNDLE_PB = "agent/model.pb"
 
@@ -192,10 +195,10 @@ def _copy_plan(source: ModelSource, plan: ImportPlan, destination: Destination, 
             last_read = (source_key, read(source_key))
         put(target, last_read[1])
     if deepracer_checkpoints is not None:
-        put(ck.DEEPRACER_CHECKPOINTS, deepracer_checkpoints)
+        put(model_layout.DEEPRACER_CHECKPOINTS, deepracer_checkpoints)
     if car_bundle_from is not None:
         put(CAR_BUNDLE_KEY, car_bundle(read(plan.metadata_key), car_bundle_from, read(car_bundle_from))[0])
-    put(ck.COACH_CHECKPOINT, plan.selection.pointer.encode())
+    put(model_layout.COACH_CHECKPOINT, plan.selection.pointer.encode())
     return written
 
 
@@ -203,9 +206,9 @@ def _source_deepracer_checkpoints(source: ModelSource, plan: ImportPlan) -> byte
     """The source's own file when it had one (keeps avg_eval_metric); otherwise one naming the pointer as both."""
     if plan.deepracer_checkpoints_key is not None:
         return source.read(plan.deepracer_checkpoints_key)
-    pointer = ck.parse_checkpoint_name(plan.selection.pointer)
+    pointer = CheckpointName.parse(plan.selection.pointer)
     assert pointer is not None  # validation accepted it
-    return ck.render_deepracer_checkpoints(pointer, pointer)
+    return best_and_last_names_to_bytes(pointer, pointer)
 
 
 def import_model(source: ModelSource, store: ObjectStore, model_name: str, *, overwrite: bool = False,
@@ -304,7 +307,7 @@ def export_model(store: ObjectStore, model_prefix: str, destination: Destination
 
 def _car_inference_model(plan: ImportPlan) -> str | None:
     """The best checkpoint's inference model: racer's ONNX if there is one, else a TensorFlow frozen graph."""
-    best = ck.parse_checkpoint_name(plan.selection.best)
+    best = CheckpointName.parse(plan.selection.best)
     assert best is not None  # validation accepted it
     candidates = ck.inference_model_files(best, plan.checkpoint_files)
     return next((key for key in candidates if key.endswith(".onnx")), candidates[0] if candidates else None)
@@ -315,7 +318,7 @@ def _exported_plan(plan: ImportPlan) -> ImportPlan:
     that checkpoint goes out: a later import then copies exactly what was exported."""
     if plan.deepracer_checkpoints_key is not None:
         return plan
-    pointer = ck.parse_checkpoint_name(plan.selection.pointer)
+    pointer = CheckpointName.parse(plan.selection.pointer)
     assert pointer is not None  # validation accepted it
     files = tuple(ck.checkpoint_files(pointer, plan.checkpoint_files)
                   + ck.inference_model_files(pointer, plan.checkpoint_files))

@@ -9,7 +9,6 @@ checkpoint and the one before it).
 from __future__ import annotations
 
 import ast
-import hashlib
 import io
 import json
 import re
@@ -32,8 +31,11 @@ from racer.model_io.problems import (
     ValidationReport,
 )
 from racer.model_io.sources import ModelSource, SourceFormatError, SourceMissingError, TarSource, open_source
+from racer.shared import model_layout
 from racer.shared.deepracer.hyperparameters import parse_hyperparameters
 from racer.shared.deepracer.model_metadata import ModelMetadata, parse_model_metadata
+from racer.shared.model_layout import MANIFEST_SUFFIX, CheckpointName
+from racer.shared.policy.best_and_last import parse_best_and_last_names
 from racer.shared.store import (
     AccessDeniedError,
     BucketNotFoundError,
@@ -41,14 +43,14 @@ from racer.shared.store import (
     StoreUnavailableError,
 )
 
-METADATA_KEYS = ("model/model_metadata.json", "model_metadata.json")
+METADATA_KEYS = (model_layout.MODEL_METADATA, "model_metadata.json")
 """Trainer layout (reference §5.1) first, then the prefix root (DeepRacer-on-AWS export)."""
-HYPERPARAMETER_KEYS = ("ip/hyperparameters.json", "hyperparameters.json")
+HYPERPARAMETER_KEYS = (model_layout.HYPERPARAMETERS, "hyperparameters.json")
 """Console / trainer layout first, then the prefix root (DeepRacer-on-AWS export)."""
-REWARD_FUNCTION_KEY = "reward_function.py"
-TRAINING_PARAMS_KEY = "training_params.yaml"
-CAR_BUNDLE_KEY = "model.tar.gz"
-TF_POINTER_KEY = "model/checkpoint"
+REWARD_FUNCTION_KEY = model_layout.REWARD_FUNCTION
+TRAINING_PARAMS_KEY = model_layout.TRAINING_PARAMS
+CAR_BUNDLE_KEY = model_layout.CAR_BUNDLE
+TF_POINTER_KEY = model_layout.TF_CHECKPOINT_POINTER
 CAR_BUNDLE_MODELS = ("agent/model.onnx", "agent/model.pb")
 _OPTIONAL = re.compile(r"^(metrics/.+\.json|(Training|Evaluation)Metrics[^/]*\.json|training_params_\d+\.yaml)$")
 """Metrics the console showed, and the per-worker training_params_<i>.yaml of a multi-world run."""
@@ -154,14 +156,14 @@ def _decode_json(data: bytes, key: str) -> object:
 def _check_sizes(run: _Collector, limits: SizeLimits) -> None:
     for key, size in run.files.items():
         in_model_dir = key.startswith(ck.MODEL_DIR)
-        in_checkpoint = in_model_dir and ck.checkpoint_name_of_file(key.removeprefix(ck.MODEL_DIR)) is not None
+        in_checkpoint = in_model_dir and CheckpointName.of_file(key.removeprefix(ck.MODEL_DIR)) is not None
         if in_checkpoint or ck.is_inference_model(key):
             if size > limits.checkpoint_file_bytes:
                 run.oversized.add(key)
                 run.add(ProblemCode.CHECKPOINT_FILE_SIZE_LIMIT_EXCEEDED, key,
                         f"{size} bytes; the limit for one checkpoint file is {limits.checkpoint_file_bytes} bytes",
                         "this is not a checkpoint DeepRacer or racer writes; restore the file from the training run")
-        elif key.endswith((".json", ".yaml", ".yml")) or key == ck.COACH_CHECKPOINT:
+        elif key.endswith((".json", ".yaml", ".yml")) or key == model_layout.COACH_CHECKPOINT:
             if size > limits.json_yaml_bytes:
                 run.oversized.add(key)
                 run.add(ProblemCode.JSON_YAML_FILE_SIZE_LIMIT_EXCEEDED, key,
@@ -176,29 +178,29 @@ def _check_sizes(run: _Collector, limits: SizeLimits) -> None:
 
 def _select_checkpoints(run: _Collector) -> CheckpointSelection | None:
     """The console's order: deepracer_checkpoints.json, then .coach_checkpoint, else the model can't be imported."""
-    if ck.DEEPRACER_CHECKPOINTS in run.files:
+    if model_layout.DEEPRACER_CHECKPOINTS in run.files:
         selection = _select_from_deepracer_checkpoints(run)
-        if selection is not None and ck.COACH_CHECKPOINT in run.files:
-            coach = run.read(ck.COACH_CHECKPOINT)
+        if selection is not None and model_layout.COACH_CHECKPOINT in run.files:
+            coach = run.read(model_layout.COACH_CHECKPOINT)
             if coach is not None and coach.decode("utf-8", "replace").strip() != selection.pointer:
-                run.notes.append(f"{ck.COACH_CHECKPOINT} ignored: {ck.DEEPRACER_CHECKPOINTS} takes precedence "
+                run.notes.append(f"{model_layout.COACH_CHECKPOINT} ignored: {model_layout.DEEPRACER_CHECKPOINTS} takes precedence "
                                  f"(as in the console); after import the pointer names {selection.pointer}")
         return selection
-    if ck.COACH_CHECKPOINT in run.files:
+    if model_layout.COACH_CHECKPOINT in run.files:
         return _select_from_coach_checkpoint(run)
     newest = [name for name in ck.all_checkpoint_names(run.files) if not ck.missing_parts(name, run.files)]
     hint = f" (the newest complete one here is {newest[-1]})" if newest else ""
     if TF_POINTER_KEY in run.files:
         hint += (f"; {TF_POINTER_KEY} is TensorFlow's own pointer (models older than SimApp 2.0 had only that): "
                  "its model_checkpoint_path names the checkpoint to write there")
-    run.add(ProblemCode.COACH_CHECKPOINT_DOES_NOT_EXIST, ck.COACH_CHECKPOINT,
-            f"neither {ck.DEEPRACER_CHECKPOINTS} nor {ck.COACH_CHECKPOINT} exists, so no checkpoint is named",
+    run.add(ProblemCode.COACH_CHECKPOINT_DOES_NOT_EXIST, model_layout.COACH_CHECKPOINT,
+            f"neither {model_layout.DEEPRACER_CHECKPOINTS} nor {model_layout.COACH_CHECKPOINT} exists, so no checkpoint is named",
             f"restore model/.coach_checkpoint: one line holding the checkpoint name, e.g. 13_Step-25173.ckpt{hint}")
     return None
 
 
-def _named_checkpoint(run: _Collector, pointer_key: str, field: str, text: str) -> ck.CheckpointName | None:
-    name = ck.parse_checkpoint_name(text)
+def _named_checkpoint(run: _Collector, pointer_key: str, field: str, text: str) -> CheckpointName | None:
+    name = CheckpointName.find(text)
     if name is None:
         run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, pointer_key,
                 f"{field}: {text!r} does not follow the naming convention <N>_Step-<M>.ckpt",
@@ -211,7 +213,7 @@ def _present_checkpoints(run: _Collector) -> str:
     return f" (checkpoints here: {', '.join(map(str, names))})" if names else " (no checkpoint files at all)"
 
 
-def _require_complete(run: _Collector, pointer_key: str, name: ck.CheckpointName) -> bool:
+def _require_complete(run: _Collector, pointer_key: str, name: CheckpointName) -> bool:
     missing = ck.missing_parts(name, run.files)
     if missing:
         run.add(ProblemCode.CHECKPOINT_FILES_DOES_NOT_EXIST, pointer_key,
@@ -221,50 +223,50 @@ def _require_complete(run: _Collector, pointer_key: str, name: ck.CheckpointName
 
 
 def _select_from_deepracer_checkpoints(run: _Collector) -> CheckpointSelection | None:
-    data = run.read(ck.DEEPRACER_CHECKPOINTS)
+    data = run.read(model_layout.DEEPRACER_CHECKPOINTS)
     if data is None:
         return None
     try:
-        pointers = ck.parse_deepracer_checkpoints(data)
+        pointers = parse_best_and_last_names(data)
     except ValueError as error:
-        run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, ck.DEEPRACER_CHECKPOINTS, str(error),
+        run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, model_layout.DEEPRACER_CHECKPOINTS, str(error),
                 'restore the original file: {"best_checkpoint": {"name": "<N>_Step-<M>.ckpt", ...}, '
                 '"last_checkpoint": {"name": ...}}, or delete it to fall back to model/.coach_checkpoint')
         return None
-    best = _named_checkpoint(run, ck.DEEPRACER_CHECKPOINTS, "best_checkpoint.name", pointers.best)
-    last = _named_checkpoint(run, ck.DEEPRACER_CHECKPOINTS, "last_checkpoint.name", pointers.last)
+    best = _named_checkpoint(run, model_layout.DEEPRACER_CHECKPOINTS, "best_checkpoint.name", pointers.best)
+    last = _named_checkpoint(run, model_layout.DEEPRACER_CHECKPOINTS, "last_checkpoint.name", pointers.last)
     if best is None or last is None:
         return None
     missing = {name: ck.missing_parts(name, run.files) for name in sorted({best, last})}
     if any(missing.values()):
         described = "; ".join(f"{name}: {', '.join(parts)}" for name, parts in missing.items() if parts)
-        run.add(ProblemCode.CHECKPOINT_FILES_DOES_NOT_EXIST, ck.DEEPRACER_CHECKPOINTS,
+        run.add(ProblemCode.CHECKPOINT_FILES_DOES_NOT_EXIST, model_layout.DEEPRACER_CHECKPOINTS,
                 f"names best {best} and last {last}, but files are missing ({described}){_present_checkpoints(run)}",
                 _CHECKPOINT_FIX)
         return None
     return CheckpointSelection(checkpoints=tuple(name.name for name in sorted({best, last})), pointer=last.name,
-                               best=best.name, source=ck.DEEPRACER_CHECKPOINTS)
+                               best=best.name, source=model_layout.DEEPRACER_CHECKPOINTS)
 
 
 def _select_from_coach_checkpoint(run: _Collector) -> CheckpointSelection | None:
-    data = run.read(ck.COACH_CHECKPOINT)
+    data = run.read(model_layout.COACH_CHECKPOINT)
     if data is None:
         return None
     try:
-        text = ck.parse_coach_checkpoint(data)
+        text = model_layout.parse_coach_checkpoint(data)
     except ValueError as error:
-        run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, ck.COACH_CHECKPOINT, str(error),
+        run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, model_layout.COACH_CHECKPOINT, str(error),
                 "restore the original file: one line holding the checkpoint name, e.g. 13_Step-25173.ckpt")
         return None
-    name = _named_checkpoint(run, ck.COACH_CHECKPOINT, "checkpoint name", text)
-    if name is None or not _require_complete(run, ck.COACH_CHECKPOINT, name):
+    name = _named_checkpoint(run, model_layout.COACH_CHECKPOINT, "checkpoint name", text)
+    if name is None or not _require_complete(run, model_layout.COACH_CHECKPOINT, name):
         return None
     previous = ck.previous_checkpoint(name, run.files)
     chosen = (previous, name) if previous is not None else (name,)
     if previous is None:
-        run.notes.append(f"{ck.COACH_CHECKPOINT}: no complete checkpoint before {name}; only {name} is imported")
+        run.notes.append(f"{model_layout.COACH_CHECKPOINT}: no complete checkpoint before {name}; only {name} is imported")
     return CheckpointSelection(checkpoints=tuple(item.name for item in chosen), pointer=name.name, best=name.name,
-                               source=ck.COACH_CHECKPOINT)
+                               source=model_layout.COACH_CHECKPOINT)
 
 
 def _check_json_copies(run: _Collector, keys: tuple[str, ...], parse: Callable[[object, str], T],
@@ -389,7 +391,7 @@ def _check_inference_models(run: _Collector, keys: list[str], metadata: ModelMet
                     f"{metadata.num_actions}", "restore the model_metadata.json the model was trained with")
 
 
-def _check_racer_checkpoints(run: _Collector, names: list[ck.CheckpointName], metadata_key: str | None,
+def _check_racer_checkpoints(run: _Collector, names: list[CheckpointName], metadata_key: str | None,
                              metadata: ModelMetadata | None) -> bool:
     """racer checkpoints carry a manifest with every file's size and sha256 and the network they were saved
     from: a file that doesn't match, or a model_metadata.json asking for another network, is an edited model.
@@ -398,14 +400,14 @@ def _check_racer_checkpoints(run: _Collector, names: list[ck.CheckpointName], me
     if not racer_names:
         return False
     # torch comes with these imports; only models that hold racer checkpoints pay for it.
-    from racer.shared.policy.checkpoints import CheckpointError, CheckpointInfo
+    from racer.shared.policy.manifest import CheckpointError, CheckpointInfo, sha256_hex
     from racer.shared.policy.networks import policy_config_from_metadata
 
     disagreeing: list[str] = []
     saved = None
     wanted_text = ""
     for name in racer_names:
-        manifest_key = f"{ck.MODEL_DIR}{name}.{ck.RACER_MANIFEST}"
+        manifest_key = name.file(MANIFEST_SUFFIX)
         data = run.read(manifest_key)
         if data is None:
             continue
@@ -424,7 +426,7 @@ def _check_racer_checkpoints(run: _Collector, names: list[ck.CheckpointName], me
             content = run.read(key)
             if content is None:
                 continue
-            if len(content) != expected.get("size_bytes") or hashlib.sha256(content).hexdigest() != expected.get("sha256"):
+            if len(content) != expected.get("size_bytes") or sha256_hex(content) != expected.get("sha256"):
                 run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, key,
                         f"does not match the size and sha256 recorded in {manifest_key} (the file was changed)",
                         "restore the checkpoint files exactly as the trainer wrote them")
@@ -497,13 +499,13 @@ def validate_model(source: ModelSource, limits: SizeLimits = DEFAULT_LIMITS) -> 
     _check_car_bundle(run)
     ignored = sorted({key.removeprefix(ck.MODEL_DIR).partition(".ckpt.")[0] + ".ckpt" for key in files
                       if key.startswith(ck.MODEL_DIR) and ".ckpt." in key
-                      and ck.checkpoint_name_of_file(key.removeprefix(ck.MODEL_DIR)) is None})
+                      and CheckpointName.of_file(key.removeprefix(ck.MODEL_DIR)) is None})
     if ignored:
         run.notes.append(f"ignored (not named <N>_Step-<M>.ckpt): {', '.join(ignored)}")
 
     plan = None
     if selection is not None:
-        names = [ck.parse_checkpoint_name(name) for name in selection.checkpoints]
+        names = [CheckpointName.find(name) for name in selection.checkpoints]
         checkpoint_keys = sorted({key for name in names if name for key in
                                   ck.checkpoint_files(name, files) + ck.inference_model_files(name, files)})
         metadata_disagrees = _check_racer_checkpoints(run, [name for name in names if name], metadata_key, metadata)
@@ -512,7 +514,7 @@ def validate_model(source: ModelSource, limits: SizeLimits = DEFAULT_LIMITS) -> 
             run.notes.append("TensorFlow checkpoints (DeepRacer console / SimApp): they import and export as they are, "
                              "but racer's trainer and evaluator run racer's own (PyTorch) checkpoints")
         optional = tuple(key for key in files if _OPTIONAL.match(key))
-        copied = [*checkpoint_keys, *optional, REWARD_FUNCTION_KEY, TRAINING_PARAMS_KEY, ck.DEEPRACER_CHECKPOINTS,
+        copied = [*checkpoint_keys, *optional, REWARD_FUNCTION_KEY, TRAINING_PARAMS_KEY, model_layout.DEEPRACER_CHECKPOINTS,
                   *(key for key in (metadata_key, hyperparameters_key) if key)]
         total = sum(files.get(key, 0) for key in set(copied))
         if total > limits.model_bytes:
@@ -524,7 +526,7 @@ def validate_model(source: ModelSource, limits: SizeLimits = DEFAULT_LIMITS) -> 
                 selection=selection, checkpoint_files=tuple(checkpoint_keys), metadata_key=metadata_key,
                 hyperparameters_key=hyperparameters_key, reward_function_key=REWARD_FUNCTION_KEY,
                 training_params_key=TRAINING_PARAMS_KEY, optional_keys=optional,
-                deepracer_checkpoints_key=ck.DEEPRACER_CHECKPOINTS if ck.DEEPRACER_CHECKPOINTS in files else None,
+                deepracer_checkpoints_key=model_layout.DEEPRACER_CHECKPOINTS if model_layout.DEEPRACER_CHECKPOINTS in files else None,
                 total_bytes=total)
     return ValidationReport(where, tuple(run.problems), tuple(run.notes), plan)
 

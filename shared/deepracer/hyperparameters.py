@@ -20,9 +20,9 @@ from racer.shared.deepracer._jsonfile import read_json_file
 __all__ = [
     "BATCH_SIZES",
     "EXPLORATION_TYPES",
+    "LOSS_TYPES",
     "Hyperparameters",
     "HyperparametersError",
-    "LOSS_TYPES",
     "hyperparameters_to_json_bytes",
     "load_hyperparameters",
     "parse_hyperparameters",

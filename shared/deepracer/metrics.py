@@ -15,17 +15,17 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from os import PathLike
 
-from racer.shared.deepracer.simtrace import EpisodeStatus
+from racer.shared.deepracer.episode_status import EpisodeStatus
 
 __all__ = [
     "BEST_MODEL_METRICS",
     "EVALUATION_METRICS_KEYS",
-    "EvaluationMetrics",
-    "EvaluationMetricsEntry",
-    "MetricsError",
     "PHASES",
     "TRAINING_METRICS_KEYS",
     "TRAINING_METRICS_VERSION",
+    "EvaluationMetrics",
+    "EvaluationMetricsEntry",
+    "MetricsError",
     "TrainingMetrics",
     "TrainingMetricsEntry",
     "read_evaluation_metrics",

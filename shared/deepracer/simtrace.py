@@ -18,8 +18,9 @@ from os import PathLike
 import numpy as np
 import pandas as pd
 
+from racer.shared.deepracer.episode_status import EpisodeStatus
+
 __all__ = [
-    "EpisodeStatus",
     "SIMTRACE_COLUMNS",
     "SIMTRACE_COLUMN_COUNTS",
     "SimtraceError",
@@ -59,62 +60,6 @@ SIMTRACE_COLUMNS: tuple[str, ...] = (
 )
 SIMTRACE_COLUMN_COUNTS: tuple[int, ...] = (15, 17, 18, 19)
 """Column counts seen in real files; each variant is a prefix of SIMTRACE_COLUMNS."""
-
-
-class EpisodeStatus(enum.StrEnum):
-    """The simtrace `episode_status` strings; `.label` is the wording used in the metrics JSON files."""
-
-    PREPARE = "prepare"
-    IN_PROGRESS = "in_progress"
-    OFF_TRACK = "off_track"
-    LAP_COMPLETE = "lap_complete"
-    CRASHED = "crashed"
-    IMMOBILIZED = "immobilized"
-    REVERSED = "reversed"
-    PAUSE = "pause"
-    PARK = "park"
-    TIME_UP = "time_up"
-
-    @property
-    def label(self) -> str:
-        return _LABELS[self]
-
-    @property
-    def ends_episode(self) -> bool:
-        """True for the statuses a reset rule produces (the episode ends or pauses for a penalty)."""
-        return self in _TERMINAL
-
-    @classmethod
-    def from_label(cls, label: str) -> EpisodeStatus:
-        """The status for a metrics label such as "Lap complete"; ValueError naming the allowed labels otherwise."""
-        for status, text in _LABELS.items():
-            if text == label:
-                return status
-        raise ValueError(f"{label!r} is not an episode status label; allowed: {', '.join(_LABELS.values())}")
-
-
-_LABELS: dict[EpisodeStatus, str] = {
-    EpisodeStatus.PREPARE: "Prepare",
-    EpisodeStatus.IN_PROGRESS: "In progress",
-    EpisodeStatus.OFF_TRACK: "Off track",
-    EpisodeStatus.LAP_COMPLETE: "Lap complete",
-    EpisodeStatus.CRASHED: "Crashed",
-    EpisodeStatus.IMMOBILIZED: "Immobilized",
-    EpisodeStatus.REVERSED: "Reversed",
-    EpisodeStatus.PAUSE: "Pause",
-    EpisodeStatus.PARK: "Park",
-    EpisodeStatus.TIME_UP: "Time Up",
-}
-_TERMINAL = frozenset(
-    {
-        EpisodeStatus.OFF_TRACK,
-        EpisodeStatus.LAP_COMPLETE,
-        EpisodeStatus.CRASHED,
-        EpisodeStatus.IMMOBILIZED,
-        EpisodeStatus.REVERSED,
-        EpisodeStatus.TIME_UP,
-    }
-)
 
 
 def format_continuous_action(values: object) -> str:

@@ -47,12 +47,12 @@ if TYPE_CHECKING:
     from racer.shared.deepracer.model_metadata import ModelMetadata
 
 __all__ = [
+    "NETWORK_ARCHITECTURES",
     "ActorCritic",
     "CategoricalPolicy",
     "ConvLayer",
     "GaussianPolicy",
     "InputSpec",
-    "NETWORK_ARCHITECTURES",
     "NetworkArchitecture",
     "PolicyConfig",
     "build_actor_critic",
@@ -449,8 +449,8 @@ class ActorCritic(nn.Module):
         """Choose one action for one observation (a dict of numpy arrays without batch axis); see `select_action`.
 
         Runs the policy tower only, under `torch.inference_mode`. Call `torch.set_num_threads(1)` in worker
-        processes: a batch of one gains nothing from more threads, and with other processes on the same cores we
-        measured 2 threads at ~40 ms per call against ~2 ms with 1 thread (shallow network).
+        processes: a batch of one gains nothing from more threads, and with other processes on the same cores extra
+        threads make each call many times slower.
         """
         with torch.inference_mode():
             distribution = self.distribution(self.observation_to_tensors(observation))

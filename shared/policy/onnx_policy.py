@@ -1,8 +1,8 @@
 """Acting with a checkpoint's ONNX inference model (ONNX Runtime, one CPU thread).
 
 A rollout worker chooses one action per frame; for one 120x160 frame the shallow network's PyTorch call is
-dominated by framework overhead, and ONNX Runtime runs the same graph about 1.7x faster (measured on this
-project's 2-core machine: 4.3 ms vs 7.1 ms under load). Action choice itself is `networks.select_action`, so
+dominated by framework overhead, which ONNX Runtime mostly avoids (the README's benchmarks give the figures).
+Action choice itself is `networks.select_action`, so
 sampling, argmax and e-greedy behave exactly as `ActorCritic.act`.
 """
 

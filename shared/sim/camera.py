@@ -1,8 +1,8 @@
 """Car cameras: offscreen MuJoCo rendering at 160×120 and DeepRacer's grayscale conversions (reference §8.1).
 
 DeepRacer renders 640×480 and bilinear-resizes to 160×120. Here the camera renders 160×120 directly: with
-software OpenGL the 640×480 frame costs 5-8x more (measured: ~13-20 ms vs ~2 ms per frame on the 2-core dev box),
-and the picture differs only in anti-aliasing of thin lines.
+software OpenGL the 640×480 frame costs several times more (the simulator README gives the measured figures), and
+the picture differs only in anti-aliasing of thin lines.
 """
 
 from __future__ import annotations
@@ -11,12 +11,11 @@ import functools
 import os
 
 import numpy as np
+from OpenGL import GL
 from PIL import Image
 
 from racer.shared.sim._mujoco import mujoco
 from racer.shared.sim.gl import GLBackendError
-
-from OpenGL import GL  # noqa: E402  (after mujoco, which selects PyOpenGL's platform from MUJOCO_GL)
 
 IMAGE_WIDTH_PX = 160
 IMAGE_HEIGHT_PX = 120

@@ -11,12 +11,20 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from racer.shared.deepracer.episode_status import EpisodeStatus
 from racer.shared.deepracer.simtrace import format_continuous_action
 from racer.shared.sim import lidar as lidar_sensor
 from racer.shared.sim import rules
 from racer.shared.sim._mujoco import mujoco
 from racer.shared.sim.camera import CENTER_CAMERA, LEFT_CAMERA, RIGHT_CAMERA, CameraRenderer, GrayConverter, rgb_to_l
-from racer.shared.sim.car import STEREO_HALF_BASELINE_M, Car, CarPose, camera_mount_m, clip_command, command_wheel_radius_m
+from racer.shared.sim.car import (
+    STEREO_HALF_BASELINE_M,
+    Car,
+    CarPose,
+    camera_mount_m,
+    clip_command,
+    command_wheel_radius_m,
+)
 from racer.shared.sim.config import STEPS_PER_SECOND, EnvConfig
 from racer.shared.sim.reward import RewardFunction, default_evaluation_reward, load_reward_function
 from racer.shared.sim.reward_params import make_reward_params
@@ -31,7 +39,7 @@ SIMTRACE_COLUMNS: tuple[str, ...] = (
 )
 """DeepRacer's 19 simtrace columns, in order (reference §4)."""
 
-_PENALTY_STATUSES = (rules.CRASHED, rules.OFF_TRACK, rules.IMMOBILIZED, rules.REVERSED)
+_PENALTY_STATUSES = (EpisodeStatus.CRASHED, EpisodeStatus.OFF_TRACK, EpisodeStatus.IMMOBILIZED, EpisodeStatus.REVERSED)
 
 
 class DeepRacerEnv(gym.Env):
@@ -214,7 +222,7 @@ class DeepRacerEnv(gym.Env):
         self._evaluation = evaluation
         self._track = self._tracks[self._reverse_dir]
         self._episode_start_ndist = self._start_ndist
-        self._phase = rules.PREPARE
+        self._phase = EpisodeStatus.PREPARE
         self._steps = 0.0
         self._prev_progress = 0.0
         self._reset_count = 0
@@ -222,7 +230,7 @@ class DeepRacerEnv(gym.Env):
         self._respawn_pose: tuple[float, float, float] | None = None
         self._episode_index = self._evaluation_episodes_done if evaluation else self._training_episodes_done
         self._episode_start_time_s = float(self._data.time)
-        self._last_status = rules.PREPARE
+        self._last_status = EpisodeStatus.PREPARE
         self._counters.clear()
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
@@ -274,7 +282,7 @@ class DeepRacerEnv(gym.Env):
         progress restarts from 0, the lap clock restarts at `lap_start_time_s` (the crossing), the immobilized and
         reversed counters restart, and the reset budget is kept for the whole run or renewed per lap (race rule).
         """
-        if self._episode_open or self._last_status != rules.LAP_COMPLETE:
+        if self._episode_open or self._last_status != EpisodeStatus.LAP_COMPLETE:
             raise RuntimeError("continue_after_lap() is only for an episode that has just ended with lap_complete")
         if not self._evaluation:
             raise RuntimeError("continue_after_lap() is for evaluation episodes; training episodes end at the line")
@@ -319,14 +327,14 @@ class DeepRacerEnv(gym.Env):
         status = phase
         lap_time_s: float | None = None
         command = (0.0, 0.0)
-        if phase == rules.PREPARE:
+        if phase == EpisodeStatus.PREPARE:
             self._counters.clear((pose.origin_x_m, pose.origin_y_m))
-            self._phase = rules.IN_PROGRESS
-        elif phase == rules.PAUSE:
+            self._phase = EpisodeStatus.IN_PROGRESS
+        elif phase == EpisodeStatus.PAUSE:
             self._pause_remaining_s -= cfg.step_duration_s
             if self._pause_remaining_s <= 1e-9:
                 self._pause_remaining_s = 0.0
-                self._phase = rules.IN_PROGRESS
+                self._phase = EpisodeStatus.IN_PROGRESS
                 self._counters.clear((pose.origin_x_m, pose.origin_y_m))
         else:
             status = self._counters.judge(
@@ -334,7 +342,7 @@ class DeepRacerEnv(gym.Env):
                 origin=(pose.origin_x_m, pose.origin_y_m), any_wheel_on_track=any_on,
             )
             command = clip_command(speed_mps, steering_deg)
-            if status == rules.LAP_COMPLETE:
+            if status == EpisodeStatus.LAP_COMPLETE:
                 terminated = True
                 lap_time_s = now_s - self._episode_start_time_s
             elif status in _PENALTY_STATUSES:
@@ -346,7 +354,7 @@ class DeepRacerEnv(gym.Env):
         self._prev_progress = 0.0 if progress == 100 else progress
 
         # Physics: the chosen command acts for one camera period (held in place while paused).
-        if self._phase == rules.PAUSE:
+        if self._phase == EpisodeStatus.PAUSE:
             x, y, yaw = self._respawn_pose  # type: ignore[misc]
             self._car.teleport(self._model, self._data, x, y, yaw)
             command = (0.0, 0.0)
@@ -363,7 +371,7 @@ class DeepRacerEnv(gym.Env):
             is_offtrack=not any_on, is_crashed=False, sim_time_s=now_s, geometry=geometry,
         )
         reward = 0.0
-        if phase not in (rules.PREPARE, rules.PAUSE):
+        if phase not in (EpisodeStatus.PREPARE, EpisodeStatus.PAUSE):
             reward = self._reward(params) if self._reward is not None else default_evaluation_reward(params)
         truncated = not terminated and self._steps >= cfg.max_steps
         done = terminated or truncated
@@ -384,7 +392,7 @@ class DeepRacerEnv(gym.Env):
             "track_len": track.length_m,
             "tstamp": now_s,
             "episode_status": status,
-            "pause_duration": self._pause_remaining_s if status in (rules.PAUSE, *_PENALTY_STATUSES) else 0.0,
+            "pause_duration": self._pause_remaining_s if status in (EpisodeStatus.PAUSE, *_PENALTY_STATUSES) else 0.0,
             "obstacle_crash_counter": 0,
             "wall_clock": self._wall_clock(),
         }
@@ -420,16 +428,16 @@ class DeepRacerEnv(gym.Env):
         """Pause for the rule's penalty, then continue from the last progress on the nearer lane (§2.4)."""
         cfg = self.config
         penalty_s = {
-            rules.OFF_TRACK: cfg.off_track_penalty_s,
-            rules.CRASHED: cfg.collision_penalty_s,
-            rules.REVERSED: cfg.effective_reverse_penalty_s,
-            rules.IMMOBILIZED: cfg.immobilized_penalty_s,
+            EpisodeStatus.OFF_TRACK: cfg.off_track_penalty_s,
+            EpisodeStatus.CRASHED: cfg.collision_penalty_s,
+            EpisodeStatus.REVERSED: cfg.effective_reverse_penalty_s,
+            EpisodeStatus.IMMOBILIZED: cfg.immobilized_penalty_s,
         }[status]
         lane = self._track.nearer_lane(*pose.model_point)
         ndist = self._episode_start_ndist + self._prev_progress / 100.0
         self._respawn_pose = self._track.pose_at(ndist, lane)
         self._pause_remaining_s = penalty_s
-        self._phase = rules.PAUSE if penalty_s > 0 else rules.IN_PROGRESS
+        self._phase = EpisodeStatus.PAUSE if penalty_s > 0 else EpisodeStatus.IN_PROGRESS
         if penalty_s <= 0:
             x, y, yaw = self._respawn_pose
             self._car.teleport(self._model, self._data, x, y, yaw)

@@ -45,7 +45,7 @@ def probe_backend(backend: str) -> str | None:
         return f"timed out after {PROBE_TIMEOUT_S:g} s"
     if result.returncode == 0:
         return None
-    return (result.stderr.strip().splitlines() or ["exit code %d" % result.returncode])[-1]
+    return (result.stderr.strip().splitlines() or [f"exit code {result.returncode}"])[-1]
 
 
 def ensure_gl_backend(

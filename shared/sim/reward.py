@@ -45,7 +45,7 @@ class RewardFunction:
         try:
             value = self._function(copy_params(dict(params)))
         # A user function may raise anything; it is re-raised with its traceback, never swallowed.
-        except Exception as exc:  # noqa: BLE001
+        except Exception as exc:
             raise RewardFunctionError(
                 f"reward function {self.path} raised {type(exc).__name__}:\n{_user_traceback(exc, self.path)}"
             ) from exc
@@ -89,7 +89,7 @@ def load_reward_function(path: str | Path) -> RewardFunction:
     except SyntaxError as exc:
         raise RewardFunctionError(f"{path}:{exc.lineno}: syntax error: {exc.msg}\n{_user_traceback(exc, path)}") from exc
     # Importing user code may raise anything; it is reported with its traceback.
-    except Exception as exc:  # noqa: BLE001
+    except Exception as exc:
         raise RewardFunctionError(f"{path}: loading the reward file raised {type(exc).__name__}:\n{_user_traceback(exc, path)}") from exc
     function = getattr(module, FUNCTION_NAME, None)
     if function is None:

@@ -9,28 +9,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-IN_PROGRESS = "in_progress"
-PREPARE = "prepare"
-PAUSE = "pause"
-LAP_COMPLETE = "lap_complete"
-CRASHED = "crashed"
-OFF_TRACK = "off_track"
-IMMOBILIZED = "immobilized"
-REVERSED = "reversed"
-
-STATUS_LABELS = {
-    IN_PROGRESS: "In progress",
-    PREPARE: "Prepare",
-    PAUSE: "Pause",
-    LAP_COMPLETE: "Lap complete",
-    CRASHED: "Crashed",
-    OFF_TRACK: "Off track",
-    IMMOBILIZED: "Immobilized",
-    REVERSED: "Reversed",
-    "park": "Park",
-    "time_up": "Time Up",
-}
-"""Simtrace status string → metrics label."""
+from racer.shared.deepracer.episode_status import EpisodeStatus
 
 
 @dataclass(frozen=True)
@@ -71,13 +50,13 @@ class RuleCounters:
         self._last_origin = origin
         self.reverse_count = self.reverse_count + 1 if progress < prev_progress else 0
         if progress >= 100.0:
-            return LAP_COMPLETE
+            return EpisodeStatus.LAP_COMPLETE
         if crashed:
-            return CRASHED
+            return EpisodeStatus.CRASHED
         if not any_wheel_on_track:
-            return OFF_TRACK
+            return EpisodeStatus.OFF_TRACK
         if self.immobilized_count >= self.limits.immobilized_steps:
-            return IMMOBILIZED
+            return EpisodeStatus.IMMOBILIZED
         if self.reverse_count >= self.limits.reverse_steps:
-            return REVERSED
-        return IN_PROGRESS
+            return EpisodeStatus.REVERSED
+        return EpisodeStatus.IN_PROGRESS

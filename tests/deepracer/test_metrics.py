@@ -6,6 +6,7 @@ import json
 
 import pytest
 
+from racer.shared.deepracer.episode_status import EpisodeStatus
 from racer.shared.deepracer.metrics import (
     EVALUATION_METRICS_KEYS,
     TRAINING_METRICS_KEYS,
@@ -18,7 +19,7 @@ from racer.shared.deepracer.metrics import (
     read_training_metrics,
     sim_time_to_ms,
 )
-from racer.shared.deepracer.simtrace import EpisodeStatus, read_simtrace
+from racer.shared.deepracer.simtrace import read_simtrace
 
 
 def training_files(data_dir):

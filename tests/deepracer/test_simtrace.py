@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from racer.shared.deepracer.episode_status import EpisodeStatus
 from racer.shared.deepracer.simtrace import (
     SIMTRACE_COLUMNS,
-    EpisodeStatus,
     SimtraceError,
     SimtraceWriter,
     format_simtrace_row,

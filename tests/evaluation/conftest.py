@@ -5,25 +5,15 @@ from __future__ import annotations
 import datetime as dt
 from pathlib import Path
 
-import pytest
-import torch
-
 from racer.evaluation_worker.config import DeepRacerRules, EvaluationConfig, RaceRules, VideoOptions
 from racer.evaluation_worker.runner import EvaluationReport, EvaluationSession
 from racer.shared.deepracer.model_metadata import ModelMetadata
 from racer.shared.deepracer.simtrace import read_simtrace
 from racer.shared.store import LocalStore, ObjectStore
 from tests.evaluation.scripted import CONTINUOUS_METADATA, ScriptedPolicy
+from tests.torch_threads import one_torch_thread  # noqa: F401 (an autouse fixture for this folder)
 
 NO_VIDEO = VideoOptions(enabled=False)
-
-
-@pytest.fixture(autouse=True)
-def one_torch_thread():
-    previous = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(previous)
 
 
 def run_scripted(

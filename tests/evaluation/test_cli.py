@@ -11,7 +11,8 @@ from click.testing import CliRunner
 from racer.evaluation_worker.main import evaluate_command
 from racer.shared.deepracer.metrics import read_evaluation_metrics
 from racer.shared.deepracer.simtrace import read_simtrace
-from racer.shared.policy.checkpoints import CheckpointRecord, CheckpointStore
+from racer.shared.policy.best_and_last import CheckpointRecord
+from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.policy.networks import build_actor_critic
 from racer.shared.sim.config import DEFAULT_MODEL_METADATA
 from racer.shared.store import LocalStore, ObjectStore, S3Store

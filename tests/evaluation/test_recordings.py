@@ -108,7 +108,7 @@ def test_mcap_has_the_foxglove_channels_and_one_message_per_step(recorded):
             assert summary.statistics.channel_message_counts[channels[topic].id] == count, topic
         handle.seek(0)
         poses, statuses, images = [], [], []
-        for schema, channel, message in make_reader(handle).iter_messages(topics=["/car/status"]):
+        for _schema, _channel, message in make_reader(handle).iter_messages(topics=["/car/status"]):
             statuses.append(json.loads(message.data)["episode_status"])
         handle.seek(0)
         reader = make_reader(handle, decoder_factories=[DecoderFactory()])

@@ -7,6 +7,7 @@ import time
 import pytest
 
 from racer.shared.config import S3Settings
+from racer.shared.services import free_port
 from racer.shared.store import (
     BucketNotFoundError,
     LocalStore,
@@ -15,7 +16,6 @@ from racer.shared.store import (
     StoreUnavailableError,
     open_store,
 )
-from racer.shared.services import free_port
 
 
 @pytest.fixture(params=["s3", "local"])

@@ -13,10 +13,12 @@ import numpy as np
 from onnx import TensorProto, helper, numpy_helper
 
 from racer.model_io import ProblemCode
+from tests.shared_data import SHARED_DATA
 
 Code = ProblemCode
 
-CONFIG = Path(__file__).resolve().parents[2].parent / "shared" / "deepracer-data"
+CONFIG = SHARED_DATA
+"""Test modules that use these builders declare `pytestmark = pytest.mark.usefixtures("deepracer_data")`."""
 
 TF_PARTS = ("data-00000-of-00001", "index", "meta")
 

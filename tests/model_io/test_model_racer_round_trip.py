@@ -25,14 +25,16 @@ from racer.model_io import (
     import_model,
     validate_location,
 )
-from racer.model_io.checkpoints import RACER_PARTS
+from racer.model_io.checkpoints import checkpoint_files, is_racer_checkpoint, missing_parts
 from racer.shared.deepracer.hyperparameters import parse_hyperparameters
 from racer.shared.deepracer.model_metadata import parse_model_metadata
-from racer.shared.policy import checkpoints as policy_checkpoints
+from racer.shared.model_layout import RACER_CHECKPOINT_SUFFIXES, CheckpointName
 from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.policy.networks import ActorCritic, build_actor_critic
 from racer.shared.store import LocalStore
 from tests.model_io.model_io_builders import real_files
+
+pytestmark = pytest.mark.usefixtures("deepracer_data")  # the builders read ../shared/deepracer-data
 
 Code = ProblemCode
 
@@ -119,10 +121,13 @@ def exported_copy(trained, tmp_path) -> Path:
     return Path(shutil.copytree(trained.exported, tmp_path / "copy"))
 
 
-def test_racer_parts_match_the_checkpoint_store():
-    suffixes = (policy_checkpoints.WEIGHTS_SUFFIX, policy_checkpoints.MANIFEST_SUFFIX,
-                policy_checkpoints.OPTIMIZER_TENSORS_SUFFIX, policy_checkpoints.OPTIMIZER_SCALARS_SUFFIX)
-    assert RACER_PARTS == {suffix.removeprefix(".") for suffix in suffixes}
+def test_validation_knows_every_file_the_checkpoint_store_writes(trained):
+    files = {str(path.relative_to(trained.exported)): path.stat().st_size
+             for path in trained.exported.rglob("*") if path.is_file()}
+    name = CheckpointName.parse("2_Step-1000.ckpt")
+    written = checkpoint_files(name, files)
+    assert written and is_racer_checkpoint(name, files) and missing_parts(name, files) == []
+    assert {key.removeprefix(name.file("")) for key in written} <= set(RACER_CHECKPOINT_SUFFIXES)
 
 
 def test_export_import_load_gives_the_same_greedy_actions(trained, tmp_path):

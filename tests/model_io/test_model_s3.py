@@ -22,6 +22,8 @@ from racer.shared.services import free_port
 from racer.shared.store import LocalStore, S3Store
 from tests.model_io.model_io_builders import BROKEN, deepracer_model, upload
 
+pytestmark = pytest.mark.usefixtures("deepracer_data")  # the builders read ../shared/deepracer-data
+
 Code = ProblemCode
 PREFIX = "DeepRacer-SageMaker-RoboMaker-comm-1234-model"
 

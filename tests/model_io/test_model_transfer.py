@@ -27,6 +27,8 @@ from racer.model_io import (
 from racer.shared.store import LocalStore, S3Store
 from tests.model_io.model_io_builders import deepracer_model, pack, real_files, tiny_onnx, write
 
+pytestmark = pytest.mark.usefixtures("deepracer_data")  # the builders read ../shared/deepracer-data
+
 CKPT_PARTS = ("data-00000-of-00001", "index", "meta")
 
 
@@ -59,7 +61,8 @@ def test_import_with_only_coach_checkpoint_copies_the_named_and_the_previous(tmp
 
 
 def test_an_imported_tensorflow_checkpoint_cannot_be_run_and_says_why(tmp_path, store):
-    from racer.shared.policy.checkpoints import CheckpointError, CheckpointStore
+    from racer.shared.policy.checkpoints import CheckpointStore
+    from racer.shared.policy.manifest import CheckpointError
 
     source = deepracer_model(tmp_path / "m")  # the console's layout: .coach_checkpoint names 4_Step-162.ckpt
     assert import_model(FolderSource(source), store, "console-model").ok

@@ -22,6 +22,8 @@ from tests.model_io.model_io_builders import (
     write,
 )
 
+pytestmark = pytest.mark.usefixtures("deepracer_data")  # the builders read ../shared/deepracer-data
+
 Code = ProblemCode
 
 

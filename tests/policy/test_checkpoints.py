@@ -13,15 +13,13 @@ import torch
 
 from racer.shared.deepracer.hyperparameters import Hyperparameters
 from racer.shared.deepracer.model_metadata import parse_model_metadata
-from racer.shared.policy.checkpoints import (
-    CheckpointError,
-    CheckpointRecord,
-    CheckpointStore,
-    export_onnx,
-    load_optimizer_state,
-    parse_checkpoint_name,
-)
+from racer.shared.model_layout import CheckpointName
+from racer.shared.policy.best_and_last import CheckpointRecord
+from racer.shared.policy.checkpoints import CheckpointStore
+from racer.shared.policy.manifest import CheckpointError
 from racer.shared.policy.networks import ActorCritic, build_actor_critic
+from racer.shared.policy.onnx_export import export_onnx
+from racer.shared.policy.optimizer_files import load_optimizer_state
 from racer.shared.store import LocalStore, S3Store
 from racer.trainer.ppo import PPOSettings, PPOTrainer
 from tests.trainer.ppo_task import random_episodes
@@ -312,7 +310,7 @@ def test_restore_select_and_names(tmp_path):
     assert checkpoints.save(0, 0, trainer.network, trainer.optimizer) == "0_Step-0.ckpt"
     trainer.update(episodes)
     assert checkpoints.save(1, 519, trainer.network, trainer.optimizer) == "1_Step-519.ckpt"
-    assert parse_checkpoint_name(checkpoints.latest_name()) == (1, 519)
+    assert CheckpointName.parse(checkpoints.latest_name()) == CheckpointName(1, 519)
     assert checkpoints.select("last") == checkpoints.select("best") == "1_Step-519.ckpt"
     checkpoints.record_evaluation("0_Step-0.ckpt", 70.0, 1.0)
     checkpoints.record_evaluation("1_Step-519.ckpt", 60.0, 2.0)
@@ -320,7 +318,7 @@ def test_restore_select_and_names(tmp_path):
     with pytest.raises(CheckpointError, match="have 0_Step-0.ckpt, 1_Step-519.ckpt"):
         checkpoints.select("5_Step-9.ckpt")
     with pytest.raises(ValueError, match="checkpoint name"):
-        parse_checkpoint_name("model.ckpt")
+        CheckpointName.parse("model.ckpt")
 
     torch.manual_seed(11)
     fresh = build_actor_critic(small_metadata())

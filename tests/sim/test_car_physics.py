@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import pytest
@@ -137,7 +138,7 @@ def test_acceleration_after_prepare_matches_real_simtraces(deepracer_data):
         rows = [env.step(0)[-1]["simtrace"] for _ in range(5)]
     finally:
         env.close()
-    ours = [math.hypot(b["X"] - a["X"], b["Y"] - a["Y"]) / (b["tstamp"] - a["tstamp"]) for a, b in zip(rows, rows[1:])]
+    ours = [math.hypot(b["X"] - a["X"], b["Y"] - a["Y"]) / (b["tstamp"] - a["tstamp"]) for a, b in itertools.pairwise(rows)]
     assert ours[0] < 0.01 and real_mean[0] < 0.01  # the prepare step sends zero
     np.testing.assert_allclose(ours[1:], real_mean[1:], atol=0.06)
 
@@ -155,7 +156,7 @@ def _real_yaw_rates_holding_left_30(deepracer_data) -> list[float]:
     rates = []
     for rows in episodes.values():
         held = 0
-        for i, (row, nxt) in enumerate(zip(rows, rows[1:])):
+        for i, (row, nxt) in enumerate(itertools.pairwise(rows)):
             held = held + 1 if float(row["steer"]) == 30.0 and float(row["throttle"]) == 1.0 else 0
             if 3 <= held <= 6 and i > 5:
                 dyaw = (float(nxt["yaw"]) - float(row["yaw"]) + 180.0) % 360.0 - 180.0

@@ -99,7 +99,7 @@ def test_same_seed_same_observations_and_rewards(tmp_path):
     (frames_a, rewards_a), (frames_b, rewards_b) = runs
     assert rewards_a == rewards_b and len(set(rewards_a)) > 5
     assert len(frames_a) == len(frames_b)
-    for a, b in zip(frames_a, frames_b):
+    for a, b in zip(frames_a, frames_b, strict=True):
         assert a.keys() == b.keys()
         for key in a:
             np.testing.assert_array_equal(a[key], b[key])

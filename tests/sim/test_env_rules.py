@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -98,7 +99,7 @@ def test_crossing_the_line_after_a_loop_completes_the_lap(make_env):
             break
     assert info["episode_status"] == "lap_complete" and terminated
     assert info["progress"] == 100
-    assert progress[-2] > 99.0 and all(b > a for a, b in zip(progress, progress[1:]))
+    assert progress[-2] > 99.0 and all(b > a for a, b in itertools.pairwise(progress))
     assert info["lap_time_s"] == pytest.approx((len(progress)) / 15.0, abs=1e-6)
 
 
@@ -116,7 +117,7 @@ def test_driving_backwards_is_reversed(make_env):
         if terminated:
             break
     assert statuses[-1] == "reversed"
-    decreasing = sum(1 for a, b in zip(progress, progress[1:]) if b < a)
+    decreasing = sum(1 for a, b in itertools.pairwise(progress) if b < a)
     assert decreasing == 15 and all(s == "in_progress" for s in statuses[:-1])
 
 
@@ -216,7 +217,7 @@ def test_fixed_start_when_change_start_position_is_off(make_env):
 def test_step_cap_truncates(make_env):
     env = make_env(max_steps=5)
     env.reset(seed=0)
-    for step in range(5):
+    for _ in range(5):
         _, _, terminated, truncated, info = env.step(STRAIGHT)
     assert truncated and not terminated and info["simtrace"]["done"] is True
 

@@ -17,8 +17,8 @@ import pytest
 
 from racer.local_run import service_environment
 from racer.shared.config import RedisSettings, ServiceSettings
+from racer.shared.model_layout import ModelLayout
 from racer.shared.redis_connection import RedisLink
-from racer.shared.run_layout import RunLayout
 from racer.shared.services import _die_with_parent
 from racer.shared.store import open_store
 from racer.shared.transport.channels import RunChannel
@@ -101,7 +101,7 @@ def checkpoint_numbers(store, prefix: str) -> list[int]:
 
 
 def iteration_records(store, prefix: str) -> list[dict]:
-    text = store.get_bytes(RunLayout(prefix).key("metrics", "iterations.jsonl")).decode()
+    text = store.get_bytes(ModelLayout(prefix).iterations_log).decode()
     return [json.loads(line) for line in text.splitlines() if line.strip()]
 
 
@@ -202,7 +202,7 @@ def test_sigterm_stops_the_trainer_cleanly_and_the_workers_follow(system):
     assert checkpoint_numbers(store, system.prefix)[-1] >= 1
     trainer.send_signal(signal.SIGTERM)
     assert trainer.wait(120) == 0, system.log_text("trainer")[-3000:]
-    assert store.exists(RunLayout(system.prefix).key("model", ".finished"))
+    assert store.exists(ModelLayout(system.prefix).finished)
     assert "Training finished at checkpoint" in system.log_text("trainer")
     for worker in workers:
         assert worker.wait(60) == 0

@@ -10,7 +10,6 @@ from dataclasses import replace
 import numpy as np
 import pytest
 import torch
-from tests.trainer.ppo_task import greedy_accuracy, play, random_episodes, task_network
 
 from racer.shared.deepracer.hyperparameters import Hyperparameters
 from racer.trainer.ppo import (
@@ -22,6 +21,7 @@ from racer.trainer.ppo import (
     minibatch_size_for,
     shuffled_minibatches,
 )
+from tests.trainer.ppo_task import greedy_accuracy, play, random_episodes, task_network
 
 HP = Hyperparameters(batch_size=32, num_epochs=2, lr=3e-4, beta_entropy=0.01, discount_factor=0.99, loss_type="huber")
 
@@ -88,7 +88,6 @@ def test_value_loss_type(loss_type, expected):
 
 
 def test_entropy_bonus_pushes_towards_higher_entropy():
-    rng = np.random.default_rng(3)
     entropies = {}
     for beta in (0.0, 1.0):
         network = task_network(5, seed=3)

@@ -11,15 +11,15 @@ import time
 from pathlib import Path
 
 import pytest
-from tests.conftest import make_episode, write_custom_files
 
 from racer.shared.config import LocalStoreSettings, ServiceSettings
+from racer.shared.model_layout import ModelLayout
 from racer.shared.redis_connection import RedisLink
-from racer.shared.run_layout import RunLayout
 from racer.shared.store import open_store
 from racer.shared.transport.channels import RunChannel
 from racer.shared.transport.codec import EpisodeBatch
 from racer.trainer.training_loop import Trainer, TrainerOptions
+from tests.conftest import make_episode, write_custom_files
 
 PREFIX = "loop-model"
 
@@ -67,7 +67,7 @@ def test_a_failed_trainer_leaves_the_run_resumable(redis_settings, tmp_path, cus
     with pytest.raises(TimeoutError, match=r"no episodes for shares \[0, 1\]"):
         trainer.run()  # no worker ever delivers
     store = open_store(LocalStoreSettings(root=tmp_path / "store"))
-    layout = RunLayout(PREFIX)
+    layout = ModelLayout(PREFIX)
     assert not store.exists(layout.finished)  # workers must keep waiting for a restarted trainer
     channel = RunChannel(RedisLink(redis_settings), PREFIX)
     assert channel.latest_iteration_announcement().kind == "iteration"
@@ -84,7 +84,7 @@ def test_a_stop_request_finishes_the_run(redis_settings, tmp_path, custom_files)
     trainer.stop_event.set()  # what SIGTERM / Ctrl-C do
     trainer.run()
     store = open_store(LocalStoreSettings(root=tmp_path / "store"))
-    assert store.exists(RunLayout(PREFIX).finished)
+    assert store.exists(ModelLayout(PREFIX).finished)
     assert RunChannel(RedisLink(redis_settings), PREFIX).latest_iteration_announcement().kind == "finished"
 
 
@@ -92,7 +92,7 @@ def test_per_worker_settings_travel_from_workers_json_to_each_worker(redis_setti
     """workers.json (like DeepRacer-for-Cloud's worker-N.env) -> training_params_<i>.yaml in the store -> the
     settings each rollout worker reads back."""
     from racer.rollout_worker.run_files import read_training_params
-    from racer.shared.run_layout import WorkerSettings
+    from racer.shared.worker_settings import WorkerSettings
 
     (custom_files / "workers.json").write_text(json.dumps({
         "MIN_EVAL_TRIALS": 2, "BEST_MODEL_METRIC": "laptime", "RACER_EVAL_SPREAD_STARTS": True,
@@ -102,7 +102,7 @@ def test_per_worker_settings_travel_from_workers_json_to_each_worker(redis_setti
     trainer = make_trainer(redis_settings, tmp_path, custom_files)
     trainer.setup()
     store = open_store(LocalStoreSettings(root=tmp_path / "store"))
-    layout = RunLayout(PREFIX)
+    layout = ModelLayout(PREFIX)
     read_back = []
     for worker_id in (0, 1):
         params, key = read_training_params(store, layout, worker_id)

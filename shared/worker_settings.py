@@ -1,16 +1,6 @@
-"""Where a training run keeps its files in the store: DeepRacer's key layout under a model prefix.
+"""One rollout worker's world and episode settings, and how they map onto DeepRacer's training_params.yaml keys.
 
-    <prefix>/model/model_metadata.json          the action space, sensors and network (copied verbatim)
-    <prefix>/model/...ckpt..., .coach_checkpoint  checkpoints (racer.shared.policy.checkpoints)
-    <prefix>/model/.ready, .finished            trainer ready / training ended
-    <prefix>/ip/hyperparameters.json            resolved hyperparameters (json indent 2, sorted keys)
-    <prefix>/ip/done                            DeepRacer's "trainer is up" marker
-    <prefix>/reward_function.py                 the user's reward function
-    <prefix>/training_params.yaml               worker 0's settings; training_params_<i>.yaml for worker i
-                                                when the workers differ (DeepRacer-for-Cloud multi-config)
-    <prefix>/training-simtrace/<n>-iteration.csv           one worker
-    <prefix>/<i>/training-simtrace/<n>-iteration.csv       several workers
-    <prefix>/metrics/TrainingMetrics.json, TrainingMetrics_<i>.json
+The keys of a model folder (where these settings are stored, per worker) live in racer.shared.model_layout.
 """
 
 from __future__ import annotations
@@ -19,53 +9,8 @@ from dataclasses import dataclass, fields
 
 from racer.shared.sim.config import DEFAULT_TRACK
 from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
-from racer.shared.store import join_key
 
-__all__ = ["DEFAULT_TRACK", "WORLDS", "RunLayout", "WorkerSettings", "default_worker_settings"]
-
-
-@dataclass(frozen=True)
-class RunLayout:
-    prefix: str
-
-    def key(self, *parts: str) -> str:
-        return join_key(self.prefix, *parts)
-
-    @property
-    def model_metadata(self) -> str:
-        return self.key("model", "model_metadata.json")
-
-    @property
-    def hyperparameters(self) -> str:
-        return self.key("ip", "hyperparameters.json")
-
-    @property
-    def ip_done(self) -> str:
-        return self.key("ip", "done")
-
-    @property
-    def reward_function(self) -> str:
-        return self.key("reward_function.py")
-
-    @property
-    def ready(self) -> str:
-        return self.key("model", ".ready")
-
-    @property
-    def finished(self) -> str:
-        return self.key("model", ".finished")
-
-    def training_params(self, worker_id: int) -> str:
-        return self.key("training_params.yaml" if worker_id == 0 else f"training_params_{worker_id}.yaml")
-
-    def training_simtrace(self, worker_id: int, iteration: int, num_workers: int) -> str:
-        name = f"{iteration}-iteration.csv"
-        if num_workers > 1:
-            return self.key(str(worker_id), "training-simtrace", name)
-        return self.key("training-simtrace", name)
-
-    def training_metrics(self, worker_id: int) -> str:
-        return self.key("metrics", "TrainingMetrics.json" if worker_id == 0 else f"TrainingMetrics_{worker_id}.json")
+__all__ = ["WorkerSettings", "default_worker_settings"]
 
 
 @dataclass(frozen=True)

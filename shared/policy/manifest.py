@@ -1,0 +1,90 @@
+"""The manifest racer writes last for each checkpoint (`model/<N>_Step-<M>.ckpt.json`): what produced the
+checkpoint and the size and sha256 of each of its files, so a reader can tell a complete checkpoint from a
+half-written or replaced one."""
+
+from __future__ import annotations
+
+import hashlib
+import platform
+from collections.abc import Mapping
+from dataclasses import dataclass
+from importlib import metadata as package_metadata
+
+import torch
+from safetensors.torch import save as save_safetensors
+
+from racer.shared.policy.networks import PolicyConfig
+
+FORMAT = "racer-checkpoint-1"
+
+
+class CheckpointError(Exception):
+    """A checkpoint that is missing, incomplete or corrupt; the message names the key."""
+
+
+@dataclass(frozen=True)
+class CheckpointInfo:
+    """The `.ckpt.json` manifest."""
+
+    name: str
+    number: int
+    env_steps: int
+    policy_config: PolicyConfig
+    model_metadata: dict | None
+    hyperparameters: dict | None
+    created_unix_s: float
+    versions: dict[str, str]
+    files: dict[str, dict]
+    """file name -> {"sha256": hex, "size_bytes": int}."""
+    extra: dict
+
+    def to_dict(self) -> dict:
+        return {
+            "format": FORMAT,
+            "name": self.name,
+            "number": self.number,
+            "env_steps": self.env_steps,
+            "policy_config": self.policy_config.to_dict(),
+            "model_metadata": self.model_metadata,
+            "hyperparameters": self.hyperparameters,
+            "created_unix_s": self.created_unix_s,
+            "versions": self.versions,
+            "files": self.files,
+            "extra": self.extra,
+        }
+
+    @classmethod
+    def from_dict(cls, data: Mapping) -> CheckpointInfo:
+        if data.get("format") != FORMAT:
+            raise CheckpointError(f"checkpoint manifest format {data.get('format')!r}, expected {FORMAT!r}")
+        return cls(
+            name=str(data["name"]),
+            number=int(data["number"]),
+            env_steps=int(data["env_steps"]),
+            policy_config=PolicyConfig.from_dict(data["policy_config"]),
+            model_metadata=data.get("model_metadata"),
+            hyperparameters=data.get("hyperparameters"),
+            created_unix_s=float(data["created_unix_s"]),
+            versions=dict(data.get("versions", {})),
+            files=dict(data["files"]),
+            extra=dict(data.get("extra", {})),
+        )
+
+
+def sha256_hex(data: bytes) -> str:
+    return hashlib.sha256(data).hexdigest()
+
+
+def tensors_to_bytes(tensors: Mapping[str, torch.Tensor]) -> bytes:
+    """safetensors bytes of a state dict (no pickle anywhere)."""
+    return save_safetensors({name: tensor.detach().contiguous() for name, tensor in tensors.items()})
+
+
+def package_versions() -> dict[str, str]:
+    versions = {"python": platform.python_version(), "torch": torch.__version__}
+    for package in ("racer", "safetensors", "onnx"):
+        try:
+            versions[package] = package_metadata.version(package)
+        except package_metadata.PackageNotFoundError:
+            versions[package] = "unknown"
+    return versions
