@@ -127,18 +127,30 @@ def inference_model_number(file_name: str) -> int | None:
     return None if match is None else int(match["number"])
 
 
+TRAINING_SIMTRACE_DIR = "training-simtrace"
+EVALUATION_SIMTRACE_DIR = "evaluation-simtrace"
+TRAINING_METRICS_FILE = "TrainingMetrics.json"
+_ITERATION_CSV = re.compile(r"^(?P<iteration>\d+)-iteration\.csv$")
+
+
+def simtrace_iteration(file_name: str) -> int | None:
+    """`12-iteration.csv` -> 12 (the simtrace of iteration 12), anything else -> None."""
+    match = _ITERATION_CSV.match(file_name)
+    return None if match is None else int(match["iteration"])
+
+
 def training_params(worker_id: int) -> str:
     return TRAINING_PARAMS if worker_id == 0 else f"training_params_{worker_id}.yaml"
 
 
 def training_simtrace(worker_id: int, iteration: int, num_workers: int) -> str:
     """DeepRacer-for-Cloud's layout: one worker writes at the root, several under `<worker>/`."""
-    name = f"training-simtrace/{iteration}-iteration.csv"
+    name = f"{TRAINING_SIMTRACE_DIR}/{iteration}-iteration.csv"
     return f"{worker_id}/{name}" if num_workers > 1 else name
 
 
 def training_metrics(worker_id: int) -> str:
-    return "metrics/TrainingMetrics.json" if worker_id == 0 else f"metrics/TrainingMetrics_{worker_id}.json"
+    return f"metrics/{TRAINING_METRICS_FILE}" if worker_id == 0 else f"metrics/TrainingMetrics_{worker_id}.json"
 
 
 EVALUATION_PREFIX = "evaluation-"
@@ -148,7 +160,7 @@ def evaluation_folder(timestamp: str) -> str:
     """`evaluation-<ts>`: one evaluation's folder under the model prefix."""
     return EVALUATION_PREFIX + timestamp
 _EVALUATION_FILES = {
-    "simtrace": "evaluation-simtrace/0-iteration.csv",
+    "simtrace": f"{EVALUATION_SIMTRACE_DIR}/0-iteration.csv",
     "summary": "summary.json",
     "params": "evaluation_params.yaml",
     "mcap": "evaluation.mcap",

@@ -24,20 +24,20 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path, PurePosixPath
 
+from racer.shared import model_layout
 from racer.shared.config import settings_from_env
 from racer.shared.store import ObjectStore, S3Store, open_store
 
 TRAINING = "training"
 EVALUATION = "evaluation"
 
-_ITERATION_FILE = re.compile(r"^(\d+)-iteration\.csv$")
 _PARAMS_FILE = re.compile(r"^(training_params.*|eval_params.*|evaluation_params.*)\.ya?ml$")
 
 
 def is_training_metrics(key: str) -> bool:
     """Worker 0's TrainingMetrics.json (DRfC, racer) or the console's metrics/training/<job>.json."""
     parts = PurePosixPath(key).parts
-    return parts[-1] == "TrainingMetrics.json" or (
+    return parts[-1] == model_layout.TRAINING_METRICS_FILE or (
         len(parts) >= 3 and parts[-3:-1] == ("metrics", "training") and parts[-1].endswith(".json")
     )
 
@@ -76,14 +76,13 @@ class RunFiles:
 def classify(key: str) -> tuple[str, str, int, int] | None:
     """(phase, run, worker, iteration) for a simtrace key in any known layout, None for other files."""
     parts = PurePosixPath(key).parts
-    match = _ITERATION_FILE.match(parts[-1]) if parts else None
-    if match is None:
+    iteration = model_layout.simtrace_iteration(parts[-1]) if parts else None
+    if iteration is None:
         return None
-    iteration = int(match.group(1))
     folder = parts[-2] if len(parts) >= 2 else ""
-    if folder == "training-simtrace":
+    if folder == model_layout.TRAINING_SIMTRACE_DIR:
         phase = TRAINING
-    elif folder == "evaluation-simtrace":
+    elif folder == model_layout.EVALUATION_SIMTRACE_DIR:
         phase = EVALUATION
     else:
         return None
