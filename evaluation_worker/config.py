@@ -11,6 +11,9 @@ from racer.shared.sim.worlds import WORLD_NAMES
 MODES: tuple[str, ...] = ("deepracer", "race")
 MIN_RESET_COUNT = 2
 """The SimApp accepts NUMBER_OF_RESETS = 0 or >= 2 (evaluation_worker MIN_RESET_COUNT)."""
+CONSOLE_NUMBER_OF_RESETS = 10000
+"""What the AWS console sends as NUMBER_OF_RESETS for an evaluation (console 2022 evaluation log): in effect no
+limit, so an off-track costs the penalty pause and the lap goes on."""
 
 
 class EvaluationConfigError(ValueError):
@@ -25,8 +28,9 @@ class DeepRacerRules:
     """NUMBER_OF_TRIALS: laps (trials) to evaluate."""
     is_continuous: bool = False
     """IS_CONTINUOUS: all trials in one run without stopping at the line (reset budget shared by the run)."""
-    number_of_resets: int = 0
-    """NUMBER_OF_RESETS: pause-and-reset events allowed per run before a rule ends it (0 = first exit ends it)."""
+    number_of_resets: int = CONSOLE_NUMBER_OF_RESETS
+    """NUMBER_OF_RESETS: pause-and-reset events allowed per trial (per run if continuous) before a rule ends it
+    (0 = the first exit ends it)."""
     off_track_penalty_s: float = 2.0
     """OFF_TRACK_PENALTY: seconds the car waits after being put back (also used for `reversed`)."""
     collision_penalty_s: float = 5.0

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import click
 
-from racer.evaluation_worker.config import MODES
+from racer.evaluation_worker.config import CONSOLE_NUMBER_OF_RESETS, MODES
 from racer.shared.sim.config import DEFAULT_TRACK
 from racer.shared.sim.worlds import WORLD_NAMES
 
@@ -35,8 +35,9 @@ def _video_size(text: str) -> tuple[int, int]:
 @click.option("--trials", type=click.IntRange(min=1), default=3, show_default=True, help="NUMBER_OF_TRIALS (deepracer mode).")
 @click.option("--continuous/--no-continuous", default=None,
               help="IS_CONTINUOUS: laps run into each other. Default: off in deepracer mode, on in race mode.")
-@click.option("--resets", type=click.IntRange(min=0), default=0, show_default=True,
-              help="NUMBER_OF_RESETS (deepracer mode): put-backs before a rule ends the run; 0 or >= 2.")
+@click.option("--resets", type=click.IntRange(min=0), default=CONSOLE_NUMBER_OF_RESETS, show_default=True,
+              help="NUMBER_OF_RESETS (deepracer mode): put-backs before a rule ends the trial; 0 or >= 2 "
+                   "(default: the console's value, so an exit costs the penalty and the lap goes on).")
 @click.option("--off-track-penalty", type=click.FloatRange(min=0.0), default=2.0, show_default=True,
               help="OFF_TRACK_PENALTY seconds (deepracer mode; also the reversed penalty).")
 @click.option("--race-minutes", type=click.FloatRange(min=0.0, min_open=True), default=4.0, show_default=True,

@@ -74,7 +74,7 @@ def test_deepracer_evaluation_against_minio(s3_settings):
     save_model(store)
     extra = {"S3_ENDPOINT_URL": s3_settings.endpoint_url, "AWS_ACCESS_KEY_ID": s3_settings.access_key_id,
              "AWS_SECRET_ACCESS_KEY": s3_settings.secret_access_key}
-    result = invoke(f"s3://{s3_settings.bucket}", "--trials", "2", "--no-video", "--mcap", "--checkpoint", "last",
+    result = invoke(f"s3://{s3_settings.bucket}", "--trials", "2", "--resets", "0", "--no-video", "--mcap", "--checkpoint", "last",
                     extra_env=extra)
     assert result.exit_code == 0, result.output
     keys = files_of(store, result.output)
@@ -90,11 +90,12 @@ def test_best_checkpoint_comes_from_deepracer_checkpoints_json(tmp_path):
     store = LocalStore(tmp_path / "store")
     names = save_model(store, count=2)
     CheckpointStore(store, PREFIX).write_best_and_last(CheckpointRecord(names[0], 50.0, 1.0), CheckpointRecord(names[1], 10.0, 2.0))
-    result = invoke(str(tmp_path / "store"), "--trials", "1", "--no-video", "--no-mcap")
+    result = invoke(str(tmp_path / "store"), "--trials", "1", "--resets", "0", "--no-video", "--no-mcap")
     assert result.exit_code == 0, result.output
     summary = json.loads(store.get_bytes(files_of(store, result.output)["summary"]))
     assert (summary["checkpoint"], summary["checkpoint_requested"]) == (names[0], "best")
-    named = invoke(str(tmp_path / "store"), "--trials", "1", "--no-video", "--no-mcap", "--checkpoint", names[1])
+    named = invoke(str(tmp_path / "store"), "--trials", "1", "--resets", "0", "--no-video", "--no-mcap",
+                   "--checkpoint", names[1])
     assert named.exit_code == 0, named.output
     assert json.loads(store.get_bytes(files_of(store, named.output)["summary"]))["checkpoint"] == names[1]
 
@@ -113,3 +114,8 @@ def test_bad_input_gives_one_clear_line(tmp_path):
     size = invoke(str(tmp_path / "store"), "--video-size", "big")
     assert size.exit_code == 2 and "WIDTHxHEIGHT" in size.output
     assert not list(Path(tmp_path / "store").glob(f"{PREFIX}/evaluation-*"))
+
+
+def test_resets_option_defaults_to_the_consoles_number_of_resets():
+    option = next(param for param in evaluate_command.params if param.name == "resets")
+    assert option.default == 10000  # console2022_evaluation_robomaker.log: NUMBER_OF_RESETS '10000'

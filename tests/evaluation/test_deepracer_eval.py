@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 
 import pytest
 
@@ -13,7 +14,7 @@ from tests.evaluation.conftest import run_scripted, simtrace_of
 
 
 def test_each_trial_starts_at_the_line_and_ends_on_the_first_exit_without_resets(tmp_path):
-    report, _ = run_scripted(tmp_path, exits={1: [40.0]}, deepracer=DeepRacerRules(number_of_trials=3))
+    report, _ = run_scripted(tmp_path, exits={1: [40.0]}, deepracer=DeepRacerRules(number_of_trials=3, number_of_resets=0))
     entries = json.loads((tmp_path / report.keys["metrics"]).read_bytes())["metrics"]
     assert [entry["episode_status"] for entry in entries] == ["Lap complete", "Off track", "Lap complete"]
     assert [entry["trial"] for entry in entries] == [1, 2, 3]
@@ -104,6 +105,17 @@ def test_metrics_file_has_deepracers_keys_order_and_types(tmp_path, deepracer_da
     assert len(read_evaluation_metrics(ours_raw, source="ours")) == 2
 
 
+def test_default_reset_budget_is_the_consoles_so_an_exit_costs_the_penalty_and_the_lap_goes_on(tmp_path, deepracer_data):
+    log = (deepracer_data / "logs" / "console2022_evaluation_robomaker.log").read_text()
+    console_resets = int(re.search(r"\* /NUMBER_OF_RESETS: (\d+)", log).group(1))
+    assert DeepRacerRules().number_of_resets == console_resets == 10000
+    report, _ = run_scripted(tmp_path, exits={0: [30.0]}, deepracer=DeepRacerRules(number_of_trials=1))
+    [lap] = report.laps
+    assert (lap.status, lap.off_track_count, lap.put_backs) == ("lap_complete", 1, 1)
+    rows = simtrace_of(tmp_path, report)
+    assert (rows.episode_status == "pause").sum() == 30  # 2 s of OFF_TRACK_PENALTY at 15 steps/s
+
+
 def test_reset_count_must_be_zero_or_at_least_two():
     with pytest.raises(EvaluationConfigError, match="NUMBER_OF_RESETS"):
         DeepRacerRules(number_of_resets=1)
@@ -133,7 +145,8 @@ class RecordingStore(LocalStore):
 
 def test_metrics_file_is_rewritten_after_every_lap(tmp_path):
     store = RecordingStore(tmp_path)
-    report, _ = run_scripted(tmp_path, exits={0: [10.0]}, deepracer=DeepRacerRules(number_of_trials=3), store=store)
+    report, _ = run_scripted(tmp_path, exits={0: [10.0]}, deepracer=DeepRacerRules(number_of_trials=3, number_of_resets=0),
+                             store=store)
     metrics_puts = [json.loads(data)["metrics"] for key, data in store.puts if key == report.keys["metrics"]]
     assert [len(entries) for entries in metrics_puts] == [1, 2, 3, 3]
     assert metrics_puts[0][0]["episode_status"] == "Off track"

@@ -160,7 +160,7 @@ def test_lidar_models_record_a_laser_scan_per_step(tmp_path):
 
     lidar_metadata = parse_model_metadata(
         {**model_metadata_to_dict(CONTINUOUS_METADATA), "sensor": ["FRONT_FACING_CAMERA", "LIDAR"]}, source="test")
-    report, _ = run_scripted(tmp_path, exits={0: [8.0]}, deepracer=DeepRacerRules(number_of_trials=1), mcap=True,
+    report, _ = run_scripted(tmp_path, exits={0: [8.0]}, deepracer=DeepRacerRules(number_of_trials=1, number_of_resets=0), mcap=True,
                              model_metadata=lidar_metadata)
     steps = len(simtrace_of(tmp_path, report))
     assert report.mcap_messages["/lidar/LIDAR"] == steps == report.mcap_messages["/car/pose"]
@@ -175,7 +175,7 @@ def test_stereo_models_record_one_image_channel_per_eye_and_an_in_car_video(tmp_
     from tests.evaluation.scripted import CONTINUOUS_METADATA
 
     stereo = parse_model_metadata({**model_metadata_to_dict(CONTINUOUS_METADATA), "sensor": ["STEREO_CAMERAS"]}, source="test")
-    report, _ = run_scripted(tmp_path, exits={0: [6.0]}, deepracer=DeepRacerRules(number_of_trials=1), mcap=True,
+    report, _ = run_scripted(tmp_path, exits={0: [6.0]}, deepracer=DeepRacerRules(number_of_trials=1, number_of_resets=0), mcap=True,
                              video=VideoOptions(width_px=160, height_px=120), model_metadata=stereo)
     steps = len(simtrace_of(tmp_path, report))
     assert report.mcap_messages["/camera/STEREO_CAMERAS/0"] == report.mcap_messages["/camera/STEREO_CAMERAS/1"] == steps
