@@ -21,7 +21,7 @@ class PlayedEpisode:
     final_status: str
     progress: float
     start_time_s: float
-    """Simulation clock at the first step."""
+    """Simulation clock at the reset (TrainingMetrics `start_time`); the first row is one step later."""
     end_time_s: float
     lap_time_s: float | None
     """Set when the episode ended with a completed lap."""
@@ -50,7 +50,7 @@ def play_episode(env, policy, *, greedy: bool, generator: np.random.Generator, p
     options = {"evaluation": greedy}
     if start_ndist is not None:
         options["start_ndist"] = start_ndist
-    observation, _info = env.reset(options=options)
+    observation, reset_info = env.reset(options=options)
     observations: dict[str, list[np.ndarray]] = {name: [] for name in observation}
     actions: list = []
     log_probs: list[float] = []
@@ -90,7 +90,7 @@ def play_episode(env, policy, *, greedy: bool, generator: np.random.Generator, p
         simtrace_rows=tuple(rows),
         final_status=episode.final_status,
         progress=episode.progress,
-        start_time_s=float(rows[0]["tstamp"]),
+        start_time_s=float(reset_info["start_time_s"]),
         end_time_s=float(rows[-1]["tstamp"]),
         lap_time_s=None if lap_time_s is None else float(lap_time_s),
     )

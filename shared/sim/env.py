@@ -64,7 +64,8 @@ class DeepRacerEnv(gym.Env):
     ## Step ordering (reference §2.1)
     `step(a_t)` reads the pose first (where observation o_t was taken) and judges the rules on it, then drives the
     car with a_t for 1/15 s and returns o_{t+1}. Params, reward and simtrace row describe that first pose; they are
-    computed while o_{t+1} renders. The first step of every episode is the `prepare` step: the car gets a zero
+    computed while o_{t+1} renders. The row's `tstamp` is the clock after the physics (as the SimApp's), so the
+    prepare row is 1/15 s after the episode start and a lap ends at its last row's `tstamp`. The first step of every episode is the `prepare` step: the car gets a zero
     command whatever the action, reward 0.
 
     ## Rewards
@@ -92,6 +93,8 @@ class DeepRacerEnv(gym.Env):
     ## Info
     Every step: `simtrace` (dict of the 19 simtrace columns, in order), `params` (the reward params of the step),
     `episode_status`, `progress`, `evaluation`; `lap_time_s` (simulated) on a completed lap.
+    `reset()` info: `episode`, `start_ndist`, `is_reversed`, `evaluation`, `start_time_s` (the sim clock at the
+    reset: the metrics' `start_time`).
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": STEPS_PER_SECOND}
@@ -260,6 +263,7 @@ class DeepRacerEnv(gym.Env):
             "start_ndist": self._episode_start_ndist,
             "is_reversed": self._track.direction_reversed,
             "evaluation": self._evaluation,
+            "start_time_s": self._episode_start_time_s,
         }
         return observation, info
 
@@ -344,7 +348,6 @@ class DeepRacerEnv(gym.Env):
             command = clip_command(speed_mps, steering_deg)
             if status == EpisodeStatus.LAP_COMPLETE:
                 terminated = True
-                lap_time_s = now_s - self._episode_start_time_s
             elif status in _PENALTY_STATUSES:
                 if self._reset_count < cfg.number_of_resets:
                     self._reset_count += 1
@@ -360,6 +363,11 @@ class DeepRacerEnv(gym.Env):
             command = (0.0, 0.0)
         self._car.command(self._data, command[0], command[1])
         mujoco.mj_step(self._model, self._data, self._substeps)
+        # The SimApp stamps a row when the step's physics has run (judge_action after unpausing), so the prepare
+        # row is one step after the episode start and the last row's time is the lap's end.
+        tstamp_s = float(self._data.time)
+        if status == rules.LAP_COMPLETE:
+            lap_time_s = tstamp_s - self._episode_start_time_s
         self._start_observation()
 
         # While the next frame renders: the pose it shows with its track geometry (the next step judges it),
@@ -390,7 +398,7 @@ class DeepRacerEnv(gym.Env):
             "progress": progress,
             "closest_waypoint": geometry.closest_waypoint_for_simtrace,
             "track_len": track.length_m,
-            "tstamp": now_s,
+            "tstamp": tstamp_s,
             "episode_status": status,
             "pause_duration": self._pause_remaining_s if status in (EpisodeStatus.PAUSE, *_PENALTY_STATUSES) else 0.0,
             "obstacle_crash_counter": 0,

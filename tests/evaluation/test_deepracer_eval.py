@@ -9,6 +9,7 @@ import pytest
 
 from racer.evaluation_worker.config import DeepRacerRules, EvaluationConfigError
 from racer.shared.deepracer.metrics import read_evaluation_metrics
+from racer.shared.deepracer.simtrace import read_simtrace
 from racer.shared.store import LocalStore
 from tests.evaluation.conftest import run_scripted, simtrace_of
 
@@ -150,3 +151,36 @@ def test_metrics_file_is_rewritten_after_every_lap(tmp_path):
     metrics_puts = [json.loads(data)["metrics"] for key, data in store.puts if key == report.keys["metrics"]]
     assert [len(entries) for entries in metrics_puts] == [1, 2, 3, 3]
     assert metrics_puts[0][0]["episode_status"] == "Off track"
+
+
+def _real_start_gaps_and_end_gaps(deepracer_data):
+    """(prepare row tstamp - metrics start_time, metrics metric_time - last row tstamp) of the real evaluations, s."""
+    pairs = [("console2022_evaluation_0-iteration.csv", "console2022_EvaluationMetrics.json"),
+             ("drfc1_evaluation_0-iteration.csv", "drfc1_EvaluationMetrics-20220709200242.json")]
+    starts, ends = [], []
+    for simtrace_name, metrics_name in pairs:
+        path = deepracer_data / "simtrace" / simtrace_name
+        rows = read_simtrace(path.read_bytes(), source=str(path))
+        entries = json.loads((deepracer_data / "metrics" / metrics_name).read_bytes())["metrics"]
+        for lap, entry in zip(rows.groupby("episode", sort=True), entries, strict=True):
+            lap_rows = lap[1]
+            if lap_rows.episode_status.iloc[0] == "prepare":
+                starts.append(lap_rows.tstamp.iloc[0] - entry["start_time"] / 1000)
+            ends.append(entry["metric_time"] / 1000 - lap_rows.tstamp.iloc[-1])
+    return starts, ends
+
+
+def test_time_stamps_are_taken_after_the_steps_physics_as_in_real_evaluations(tmp_path, deepracer_data):
+    real_starts, real_ends = _real_start_gaps_and_end_gaps(deepracer_data)
+    # Real files: the prepare row comes one step (~55-70 ms) after the episode start; the last row is the lap's end.
+    assert len(real_starts) >= 3 and all(0.04 <= gap <= 0.09 for gap in real_starts)
+    assert all(abs(gap) <= 0.01 for gap in real_ends)
+
+    report, _ = run_scripted(tmp_path, deepracer=DeepRacerRules(number_of_trials=2))
+    rows = simtrace_of(tmp_path, report)
+    entries = json.loads((tmp_path / report.keys["metrics"]).read_bytes())["metrics"]
+    for (_, lap_rows), entry, lap in zip(rows.groupby("episode", sort=True), entries, report.laps, strict=True):
+        assert lap_rows.tstamp.iloc[0] - entry["start_time"] / 1000 == pytest.approx(1 / 15, abs=0.0011)
+        assert entry["metric_time"] == round(lap_rows.tstamp.iloc[-1] * 1000)
+        # The lap time counts every step the lap took, the prepare step included: one row = 1/15 s.
+        assert lap.lap_time_s == pytest.approx(len(lap_rows) / 15, abs=1e-6)

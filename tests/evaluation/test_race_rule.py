@@ -52,7 +52,8 @@ def test_the_time_limit_ends_the_race_mid_lap(tmp_path):
     duration_s = 11.0
     report, _ = run_scripted(tmp_path, mode="race", race=RaceRules(race_duration_s=duration_s))
     rows = simtrace_of(tmp_path, report)
-    start_s = rows.tstamp.iloc[0]
+    start_s = report.race.race_start_s
+    assert rows.tstamp.iloc[0] == pytest.approx(start_s + STEP_S)  # the prepare row is stamped after its physics
     assert rows.episode_status.iloc[-1] == "time_up" and bool(rows.done.iloc[-1])
     assert rows.tstamp.iloc[-1] - start_s > duration_s
     assert rows.tstamp.iloc[-2] - start_s <= duration_s + 1e-6

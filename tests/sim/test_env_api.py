@@ -70,7 +70,7 @@ def test_simtrace_row_has_the_19_columns_with_deepracer_types(make_env):
     assert isinstance(row["steps"], float) and isinstance(row["episode"], int) and isinstance(row["action"], int)
     assert isinstance(row["done"], bool) and isinstance(row["all_wheels_on_track"], bool)
     assert row["track_len"] == env.track.length_m
-    assert row["tstamp"] == pytest.approx(2 / 15.0, abs=1e-9)
+    assert row["tstamp"] == pytest.approx(3 / 15.0, abs=1e-9)  # stamped after the third step's physics
     assert row["wall_clock"] == 1700000000.0
     assert info["episode_status"] == row["episode_status"] == "in_progress"
 
