@@ -2,8 +2,8 @@
 
 The SimApp writes a header line and then `','.join(str(v) for v in row)` per step, so values carry Python's `str()`
 formatting: floats in shortest-repr form (`1.0`, `9.999999999999998`), booleans as `True`/`False`, `steps` as a float,
-and a progress capped by `min(p, 100)` as the int `100`. A continuous action is the scaled numpy array, i.e. numpy's
-`str()` (`[-30.   1.]`, space separated, no comma). Files in the wild have 15 (2019 logs), 17 (console 2022,
+and a progress capped by `min(p, 100)` as the int `100`. A continuous action is the scaled [steering, speed] pair
+written as `"[{} {}]".format(steer, speed)` (agent_ctrl/utils.py): `[-25.0 1.6248216569843206]`, one space, no comma. Files in the wild have 15 (2019 logs), 17 (console 2022,
 DRfC training), 18 (+obstacle_crash_counter) or 19 (+wall_clock, 2026) columns; all are read. The writer emits 19.
 See docs/deepracer-reference.md section 4.
 """
@@ -63,20 +63,12 @@ SIMTRACE_COLUMN_COUNTS: tuple[int, ...] = (15, 17, 18, 19)
 
 
 def format_continuous_action(values: object) -> str:
-    """numpy's str() of the scaled [steering, speed] array, with numpy's default print options made explicit."""
+    """The SimApp's `"[{} {}]".format(steer, speed)` of the scaled action: `[-25.0 1.6248216569843206]`."""
     array = np.asarray(values, dtype=np.float64)
     if array.shape != (2,):
         raise ValueError(f"a continuous action has 2 values [steering, speed], got shape {array.shape}")
-    return np.array2string(
-        array,
-        max_line_width=75,
-        precision=8,
-        suppress_small=False,
-        separator=" ",
-        floatmode="maxprec",
-        sign="-",
-        legacy=False,
-    )
+    steering, speed = (float(value) for value in array)
+    return f"[{steering} {speed}]"
 
 
 def format_simtrace_value(value: object) -> str:

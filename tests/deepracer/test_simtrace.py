@@ -10,6 +10,7 @@ from racer.shared.deepracer.simtrace import (
     SIMTRACE_COLUMNS,
     SimtraceError,
     SimtraceWriter,
+    format_continuous_action,
     format_simtrace_row,
     format_simtrace_value,
     parse_simtrace_action,
@@ -167,12 +168,25 @@ def test_round_trip_continuous_action():
     writer.add_row({**base, "steer": -12.345678912345, "throttle": 1.5, "action": np.array([-12.345678912345, 1.5])})
     writer.add_row({**base, "steer": -30.0, "throttle": 1.0, "action": [-30.0, 1.0]})
     text = writer.to_bytes().decode()
-    assert text.splitlines()[1].split(",")[7] == "[-12.34567891   1.5       ]"
-    assert text.splitlines()[2].split(",")[7] == "[-30.   1.]"
+    assert text.splitlines()[1].split(",")[7] == "[-12.345678912345 1.5]"
+    assert text.splitlines()[2].split(",")[7] == "[-30.0 1.0]"
     frame = read_simtrace(writer.to_bytes(), source="cont.csv")
-    assert frame["action"].tolist() == ["[-12.34567891   1.5       ]", "[-30.   1.]"]
+    assert frame["action"].tolist() == ["[-12.345678912345 1.5]", "[-30.0 1.0]"]
     assert parse_simtrace_action(frame["action"].iloc[1]) == (-30.0, 1.0)
     assert parse_simtrace_action("7") == 7
+
+
+def test_continuous_action_is_written_as_the_simapp_formats_it():
+    """agent_ctrl/utils.py: `"[{} {}]".format(action[0], action[1])` on the scaled float64 action array."""
+    rng = np.random.default_rng(0)
+    samples = [np.array([-25.0, 1.6248216569843206]), np.array([30.0, 4.0]), np.array([0.0, 0.5])]
+    samples += [np.array([rng.uniform(-30, 30), rng.uniform(0.5, 4)]) for _ in range(200)]
+    for action in samples:
+        field = format_continuous_action(action)
+        assert field == "[{} {}]".format(action[0], action[1])
+        steer_text, speed_text = field[1:-1].split(" ")  # scripts split on one space
+        assert (float(steer_text), float(speed_text)) == (action[0], action[1])
+    assert format_continuous_action([-25.0, 1.6248216569843206]) == "[-25.0 1.6248216569843206]"
 
 
 def test_15_column_variant_reads():
