@@ -170,8 +170,10 @@ class Track:
         self._waypoint_ndists = [self._center.project(x, y) / self._center.length for x, y in self.center_line[:-1]]
         self._waypoint_ndists.append(1.0)
         self._waypoint_tuples = [(float(x), float(y)) for x, y in self.center_line]
-        # The orientation of the driven direction: ring orientation of the rows as stored here.
-        self._is_ccw = bool(LinearRing(self.center_line).is_ccw)
+        # The orientation of the driven direction: ring orientation of the rows as stored here. An open route has no
+        # ring orientation; the SimApp takes it as counter-clockwise driven forward (track_data.py), so the flag is
+        # True forward and False reversed.
+        self._is_ccw = bool(LinearRing(self.center_line).is_ccw) if self.is_loop else not direction_reversed
 
     def __repr__(self) -> str:
         direction = "reversed" if self.direction_reversed else "forward"

@@ -68,6 +68,30 @@ def test_open_track_uses_linestring_and_outer_plus_flipped_inner(deepracer_data)
     assert track.closest_waypoints(*track.center_line[-1]) == (len(track.center_line) - 1, 0)
 
 
+def test_is_left_of_center_on_an_open_route_follows_the_simapp(deepracer_data):
+    """track_data.py: an open route is counter-clockwise forward (is_ccw = True XOR reverse_dir), so a point on the
+    driver's left is left of centre in both directions (the ring orientation of a line that is no ring is not used)."""
+    forward = Track.load(deepracer_data / "routes" / "Straight_track.npy")
+    assert not forward.is_loop
+    for track in (forward, forward.reversed()):
+        assert track.is_ccw == (not track.direction_reversed)
+        center, inner, outer = _shapely_reference(track)
+        for i in range(1, track.num_waypoints - 1, 3):
+            (x0, y0), (x1, y1) = track.center_line[i], track.center_line[i + 1]
+            heading = np.array([x1 - x0, y1 - y0]) / np.hypot(x1 - x0, y1 - y0)
+            left = np.array([-heading[1], heading[0]])
+            for side, expected in ((left, True), (-left, False)):
+                x, y = track.center_line[i] + 0.5 * heading * np.hypot(x1 - x0, y1 - y0) + 0.1 * side
+                assert track.is_left_of_center(x, y) is expected, (track, i, expected)
+                assert track.point_geometry(x, y).is_left_of_center is expected
+                # The SimApp's own formula with its open-route orientation.
+                p = Point(x, y)
+                near = center.interpolate(center.project(p))
+                d_in = p.distance(inner.interpolate(inner.project(near)))
+                d_out = p.distance(outer.interpolate(outer.project(near)))
+                assert ((d_in < d_out) ^ track.direction_reversed) is expected
+
+
 def test_closest_waypoints_bracket_the_projection(deepracer_data):
     track = Track.load(deepracer_data / "routes" / "reinvent_base.npy")
     n = track.num_waypoints
