@@ -231,6 +231,7 @@ class DeepRacerEnv(gym.Env):
         self._reset_count = 0
         self._pause_remaining_s = 0.0
         self._respawn_pose: tuple[float, float, float] | None = None
+        self._prev_run_origin: tuple[float, float] | None = None
         self._episode_index = self._evaluation_episodes_done if evaluation else self._training_episodes_done
         self._episode_start_time_s = float(self._data.time)
         self._last_status = EpisodeStatus.PREPARE
@@ -337,10 +338,14 @@ class DeepRacerEnv(gym.Env):
         elif phase == EpisodeStatus.PAUSE:
             self._pause_remaining_s -= cfg.step_duration_s
             if self._pause_remaining_s <= 1e-9:
-                self._pause_remaining_s = 0.0
+                # The SimApp writes what is left of the penalty, negative on the last pause row when the penalty is
+                # not a whole number of steps (a 0 s penalty still spends this one pause step).
+                if abs(self._pause_remaining_s) <= 1e-9:
+                    self._pause_remaining_s = 0.0
                 self._phase = EpisodeStatus.IN_PROGRESS
                 self._counters.clear((pose.origin_x_m, pose.origin_y_m))
         else:
+            self._pause_remaining_s = 0.0  # the SimApp clears it on every RUN step; a pause below sets the penalty
             status = self._counters.judge(
                 progress=progress, prev_progress=self._prev_progress,
                 origin=(pose.origin_x_m, pose.origin_y_m), any_wheel_on_track=any_on,
@@ -355,6 +360,8 @@ class DeepRacerEnv(gym.Env):
                 else:
                     terminated = True
         self._prev_progress = 0.0 if progress == 100 else progress
+        if phase == EpisodeStatus.IN_PROGRESS:
+            self._prev_run_origin = (pose.origin_x_m, pose.origin_y_m)
 
         # Physics: the chosen command acts for one camera period (held in place while paused).
         if self._phase == EpisodeStatus.PAUSE:
@@ -366,7 +373,7 @@ class DeepRacerEnv(gym.Env):
         # The SimApp stamps a row when the step's physics has run (judge_action after unpausing), so the prepare
         # row is one step after the episode start and the last row's time is the lap's end.
         tstamp_s = float(self._data.time)
-        if status == rules.LAP_COMPLETE:
+        if status == EpisodeStatus.LAP_COMPLETE:
             lap_time_s = tstamp_s - self._episode_start_time_s
         self._start_observation()
 
@@ -400,7 +407,7 @@ class DeepRacerEnv(gym.Env):
             "track_len": track.length_m,
             "tstamp": tstamp_s,
             "episode_status": status,
-            "pause_duration": self._pause_remaining_s if status in (EpisodeStatus.PAUSE, *_PENALTY_STATUSES) else 0.0,
+            "pause_duration": self._pause_remaining_s,
             "obstacle_crash_counter": 0,
             "wall_clock": self._wall_clock(),
         }
@@ -433,7 +440,12 @@ class DeepRacerEnv(gym.Env):
         return result
 
     def _start_pause(self, status: str, pose: CarPose) -> None:
-        """Pause for the rule's penalty, then continue from the last progress on the nearer lane (§2.4)."""
+        """Pause for the rule's penalty, then continue on a lane at the last progress (reference §2.4).
+
+        As the SimApp (`_get_car_reset_model_state`): the spot is the previous step's progress, as a share of the
+        lap measured from the route's origin in the driving direction, on whichever lane's spot is nearer to the car's
+        pose of the previous step. The pause always lasts at least one step, also for a 0 s penalty.
+        """
         cfg = self.config
         penalty_s = {
             EpisodeStatus.OFF_TRACK: cfg.off_track_penalty_s,
@@ -441,15 +453,13 @@ class DeepRacerEnv(gym.Env):
             EpisodeStatus.REVERSED: cfg.effective_reverse_penalty_s,
             EpisodeStatus.IMMOBILIZED: cfg.immobilized_penalty_s,
         }[status]
-        lane = self._track.nearer_lane(*pose.model_point)
-        ndist = self._episode_start_ndist + self._prev_progress / 100.0
-        self._respawn_pose = self._track.pose_at(ndist, lane)
+        ndist = self._prev_progress / 100.0
+        inner = self._track.pose_at(ndist, "inner")
+        outer = self._track.pose_at(ndist, "outer")
+        previous = self._prev_run_origin or (pose.origin_x_m, pose.origin_y_m)
+        self._respawn_pose = inner if math.dist(inner[:2], previous) < math.dist(outer[:2], previous) else outer
         self._pause_remaining_s = penalty_s
-        self._phase = EpisodeStatus.PAUSE if penalty_s > 0 else EpisodeStatus.IN_PROGRESS
-        if penalty_s <= 0:
-            x, y, yaw = self._respawn_pose
-            self._car.teleport(self._model, self._data, x, y, yaw)
-            self._counters.clear((x, y))
+        self._phase = EpisodeStatus.PAUSE
 
     # ----- observations --------------------------------------------------------------------------------------
 

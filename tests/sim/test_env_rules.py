@@ -245,3 +245,63 @@ def test_open_route_is_completed_by_driving_to_its_end(make_env, deepracer_data)
             break
     assert info["episode_status"] == "lap_complete" and info["progress"] == 100
     assert 2.5 < info["lap_time_s"] < 4.5
+
+
+def _off_track_then_rows(env, ndist: float) -> list[dict]:
+    """Drive to `ndist`, leave the road, and return the rows from the off-track one until the car runs again."""
+    place_front_at(env, ndist)
+    env.step(STRAIGHT)
+    place_far_off_track(env)
+    rows = [env.step(STRAIGHT)[-1]["simtrace"]]
+    while rows[-1]["episode_status"] in ("off_track", "pause"):
+        rows.append(env.step(STRAIGHT)[-1]["simtrace"])
+    return rows
+
+
+def test_a_zero_second_penalty_still_spends_one_pause_step(make_env):
+    """SimApp: a reset rule moves the agent to the PAUSE phase; the next step is a `pause` row whatever the penalty."""
+    env = make_env(number_of_resets=2, off_track_penalty_s=0.0)
+    env.reset(seed=0)
+    env.step(STRAIGHT)
+    rows = _off_track_then_rows(env, 0.3)
+    assert [row["episode_status"] for row in rows] == ["off_track", "pause", "in_progress"]
+    assert rows[0]["pause_duration"] == 0.0 and rows[1]["reward"] == 0.0
+    assert rows[1]["pause_duration"] == pytest.approx(-1 / 15)  # what is left of the penalty, not clamped
+    assert rows[1]["X"] == pytest.approx(rows[2]["X"], abs=0.01)  # held where it was put back, then drives on
+
+
+def test_the_last_pause_row_shows_the_penalty_overrun(make_env):
+    env = make_env(number_of_resets=2, off_track_penalty_s=0.5)
+    env.reset(seed=0)
+    env.step(STRAIGHT)
+    rows = _off_track_then_rows(env, 0.3)
+    pauses = [row["pause_duration"] for row in rows if row["episode_status"] == "pause"]
+    assert len(pauses) == 8  # ceil(0.5 s * 15)
+    assert pauses[0] == pytest.approx(0.5 - 1 / 15) and pauses[-1] == pytest.approx(0.5 - 8 / 15)
+    assert pauses[-1] < 0.0
+    # A rule that ends the episode writes no penalty (the SimApp clears pause_duration on every RUN step).
+    ending = make_env(number_of_resets=0)
+    ending.reset(seed=0)
+    ending.step(STRAIGHT)
+    assert _off_track_then_rows(ending, 0.3)[0]["pause_duration"] == 0.0
+
+
+def test_respawn_is_measured_from_the_route_origin_on_the_lane_nearer_the_previous_pose(make_env):
+    """SimApp `_get_car_reset_model_state`: spawn_dist = prev_progress% of the lap along the centre line from its
+    start (not from the episode's start line); inner or outer lane, whichever is nearer to the previous car pose."""
+    env = make_env(number_of_resets=2, off_track_penalty_s=0.0, start_position_offset=0.5)
+    _, info = env.reset(seed=0)
+    assert info["start_ndist"] == pytest.approx(0.5)
+    env.step(STRAIGHT)
+    place_front_at(env, 0.62, lateral_m=-0.15)  # right of the centre line: the outer lane of this ccw loop
+    *_, before = env.step(STRAIGHT)
+    prev_progress = before["progress"]
+    assert prev_progress == pytest.approx(12.0, abs=0.1)
+    place_far_off_track(env)
+    *_, off = env.step(STRAIGHT)
+    assert off["episode_status"] == "off_track"
+    held = env.car.pose(env.data)
+    lane = "outer" if env.track.is_ccw else "inner"
+    x, y, yaw = env.track.pose_at(prev_progress / 100.0, lane)
+    assert (held.origin_x_m, held.origin_y_m) == pytest.approx((x, y), abs=0.01)
+    assert math.cos(held.yaw_rad - yaw) > 0.99
