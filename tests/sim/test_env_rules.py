@@ -293,15 +293,27 @@ def test_respawn_is_measured_from_the_route_origin_on_the_lane_nearer_the_previo
     _, info = env.reset(seed=0)
     assert info["start_ndist"] == pytest.approx(0.5)
     env.step(STRAIGHT)
-    place_front_at(env, 0.62, lateral_m=-0.15)  # right of the centre line: the outer lane of this ccw loop
+    place_front_at(env, 0.62)
     *_, before = env.step(STRAIGHT)
     prev_progress = before["progress"]
-    assert prev_progress == pytest.approx(12.0, abs=0.1)
+    assert prev_progress == pytest.approx(12.0, abs=0.5)
     place_far_off_track(env)
     *_, off = env.step(STRAIGHT)
     assert off["episode_status"] == "off_track"
     held = env.car.pose(env.data)
-    lane = "outer" if env.track.is_ccw else "inner"
-    x, y, yaw = env.track.pose_at(prev_progress / 100.0, lane)
-    assert (held.origin_x_m, held.origin_y_m) == pytest.approx((x, y), abs=0.01)
-    assert math.cos(held.yaw_rad - yaw) > 0.99
+    spots = [env.track.pose_at(prev_progress / 100.0, lane) for lane in ("inner", "outer")]
+    assert min(math.dist((held.origin_x_m, held.origin_y_m), spot[:2]) for spot in spots) < 0.01
+
+    for lateral_m, expected in ((-0.15, "outer" if env.track.is_ccw else "inner"),
+                                (0.15, "inner" if env.track.is_ccw else "outer")):
+        env = make_env(number_of_resets=2, off_track_penalty_s=0.0)
+        env.reset(seed=0)
+        env.step(STRAIGHT)
+        place_front_at(env, 0.3, lateral_m=lateral_m)  # negative: right of the centre line
+        *_, before = env.step(STRAIGHT)
+        place_far_off_track(env)
+        env.step(STRAIGHT)
+        held = env.car.pose(env.data)
+        x, y, yaw = env.track.pose_at(before["progress"] / 100.0, expected)
+        assert (held.origin_x_m, held.origin_y_m) == pytest.approx((x, y), abs=0.01), lateral_m
+        assert math.cos(held.yaw_rad - yaw) > 0.99
