@@ -46,6 +46,12 @@ class WorkerLog:
         except ObjectNotFoundError:
             return TrainingMetrics(best_model_metric=self.run.worker.best_model_metric)
 
+    @property
+    def next_training_episode(self) -> int:
+        """The simtrace `episode` of the next training episode: the SimApp's running 0-based counter of this
+        worker's training episodes (restored from TrainingMetrics on a restart, unaffected by replays)."""
+        return self._episode
+
     @staticmethod
     def _entry(played: PlayedEpisode, episode: int, trial: int, phase: str) -> TrainingMetricsEntry:
         return TrainingMetricsEntry.from_episode(

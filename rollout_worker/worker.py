@@ -211,10 +211,10 @@ class RolloutWorker:
         played: list[PlayedEpisode] = []
         started = time.monotonic()
         steps = 0
-        for number in range(count):
+        for _ in range(count):
             if self._stop.is_set():
                 return  # nothing half-sent: the batch goes out whole or not at all
-            episode_counter = announcement.iteration * count + number
+            episode_counter = self.log.next_training_episode
             epsilon = 0.0
             if hp.exploration_type.lower() == "e-greedy" and not self.run.model_metadata.continuous_action_space:
                 epsilon = e_greedy_epsilon(self.log.training_steps, hp.e_greedy_value, hp.epsilon_steps)

@@ -17,6 +17,7 @@ import pytest
 
 from racer.local_run import service_environment
 from racer.shared.config import RedisSettings, ServiceSettings
+from racer.shared.deepracer.simtrace import read_simtrace
 from racer.shared.model_layout import ModelLayout
 from racer.shared.redis_connection import RedisLink
 from racer.shared.services import _die_with_parent
@@ -168,6 +169,14 @@ def test_worker_killed_mid_iteration(system):
     assert [r["episodes"] for r in records] == [6, 6, 6]
     assert "replays it" in system.log_text("trainer")
     assert checkpoint_numbers(store, system.prefix)[-1] == 3
+    # The simtrace `episode` is worker 0's running count of training episodes (the SimApp's counter, as in the real
+    # files: console2022_training_1 starts at 20), so after the replay it goes on from there, as TrainingMetrics does.
+    metrics = json.loads(store.get_bytes(f"{system.prefix}/metrics/TrainingMetrics.json"))["metrics"]
+    training = [entry["episode"] for entry in metrics if entry["phase"] == "training"]
+    assert training == list(range(1, len(training) + 1)) and len(training) > 9
+    last = read_simtrace(store.get_bytes(f"{system.prefix}/0/training-simtrace/2-iteration.csv"), source="2-iteration")
+    episodes = sorted(last.episode.unique())
+    assert episodes == [episode - 1 for episode in training[-len(episodes):]]
 
 
 def test_trainer_killed_and_restarted_resumes(system):
