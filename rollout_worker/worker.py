@@ -26,9 +26,11 @@ import torch
 from racer.rollout_worker.run_files import RunFiles, load_run_files
 from racer.rollout_worker.training_log import WorkerLog
 from racer.shared.config import ServiceSettings
+from racer.shared.deepracer.hyperparameters import Hyperparameters
+from racer.shared.deepracer.model_metadata import ModelMetadata
 from racer.shared.episode_runner import PlayedEpisode, play_episode
 from racer.shared.policy.checkpoints import CheckpointStore
-from racer.shared.policy.networks import e_greedy_epsilon
+from racer.shared.policy.networks import E_GREEDY_EVALUATION_EPSILON, e_greedy_epsilon
 from racer.shared.redis_connection import RedisLink
 from racer.shared.sim.env import DeepRacerEnv, EnvConfig
 from racer.shared.store import open_store
@@ -56,6 +58,16 @@ class _WorkerState:
     episodes_played: int = 0
     steps_per_s: float = 0.0
     extra: dict = field(default_factory=dict)
+
+
+def uses_e_greedy(hyperparameters: Hyperparameters, metadata: ModelMetadata) -> bool:
+    """RL Coach's e-greedy applies to discrete action spaces only (continuous ones keep Gaussian sampling)."""
+    return hyperparameters.exploration_type.lower().strip() == "e-greedy" and not metadata.continuous_action_space
+
+
+def evaluation_epsilon(hyperparameters: Hyperparameters, metadata: ModelMetadata) -> float:
+    """ε of worker 0's in-training evaluation episodes: RL Coach keeps its evaluation ε (0.05) under e-greedy."""
+    return E_GREEDY_EVALUATION_EPSILON if uses_e_greedy(hyperparameters, metadata) else 0.0
 
 
 class RolloutWorker:
@@ -216,7 +228,7 @@ class RolloutWorker:
                 return  # nothing half-sent: the batch goes out whole or not at all
             episode_counter = self.log.next_training_episode
             epsilon = 0.0
-            if hp.exploration_type.lower() == "e-greedy" and not self.run.model_metadata.continuous_action_space:
+            if self._uses_e_greedy():
                 epsilon = e_greedy_epsilon(self.log.training_steps, hp.e_greedy_value, hp.epsilon_steps)
             episode = play_episode(self.env, self.policy, greedy=False, generator=self.rng, epsilon=epsilon,
                                    policy_version=announcement.iteration, worker_id=self.worker_id,
@@ -237,18 +249,22 @@ class RolloutWorker:
         log.info("worker %d: pushed share %d of iteration %d (%d episodes, %d steps, %.0f steps/s)",
                  self.worker_id, share, announcement.iteration, len(played), steps, steps / max(elapsed_s, 1e-6))
 
+    def _uses_e_greedy(self) -> bool:
+        return uses_e_greedy(self.run.hyperparameters, self.run.model_metadata)
+
     def _evaluate(self, announcement: Announcement) -> None:
         trials = self.run.worker.min_eval_trials
         if trials <= 0:
             return
         self.state.status = "evaluating"
+        epsilon = evaluation_epsilon(self.run.hyperparameters, self.run.model_metadata)
         results = []
         first_start = self.env.start_ndist
         for trial in range(trials):
             if self._stop.is_set():
                 return
             start = (first_start + trial / trials) % 1.0 if self.run.worker.eval_spread_starts else None
-            results.append(play_episode(self.env, self.policy, greedy=True, generator=self.rng,
+            results.append(play_episode(self.env, self.policy, greedy=True, generator=self.rng, epsilon=epsilon,
                                         policy_version=announcement.iteration, worker_id=self.worker_id,
                                         world=self.run.worker.world, episode_index=trial, start_ndist=start))
             log.info("worker %d: evaluation trial %d of checkpoint %d from %.3f of the lap: %s, progress %.1f%%",

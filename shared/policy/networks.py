@@ -57,6 +57,7 @@ __all__ = [
     "PolicyConfig",
     "build_actor_critic",
     "conv_output_shape",
+    "E_GREEDY_EVALUATION_EPSILON",
     "e_greedy_epsilon",
     "policy_config_from_metadata",
     "select_action",
@@ -494,6 +495,11 @@ def select_action(
 def build_actor_critic(metadata: ModelMetadata) -> ActorCritic:
     """The freshly initialised network a model_metadata.json asks for."""
     return ActorCritic(policy_config_from_metadata(metadata))
+
+
+E_GREEDY_EVALUATION_EPSILON = 0.05
+"""RL Coach's `EGreedyParameters.evaluation_epsilon`: with `e-greedy` exploration the in-training evaluation episodes
+(TEST phase) still take a random action with this probability; DeepRacer does not change it."""
 
 
 def e_greedy_epsilon(env_step: int, final_epsilon: float, decay_steps: int) -> float:

@@ -10,6 +10,7 @@ import torch
 
 from racer.shared.deepracer.model_metadata import load_model_metadata, parse_model_metadata
 from racer.shared.policy.networks import (
+    E_GREEDY_EVALUATION_EPSILON,
     NETWORK_ARCHITECTURES,
     ActorCritic,
     CameraEmbedder,
@@ -295,3 +296,27 @@ def test_policy_config_round_trips_and_validates():
         PolicyConfig("DEEP_CONVOLUTIONAL_NETWORK", (InputSpec("LIDAR", "vector", (64,)), FRONT), "discrete", 3)
     with pytest.raises(ValueError, match="neural_network"):
         PolicyConfig("RESNET", (FRONT,), "discrete", 3)
+
+
+def test_in_training_evaluation_keeps_rl_coachs_evaluation_epsilon_under_e_greedy(deepracer_data):
+    """RL Coach's EGreedy uses `evaluation_epsilon` (0.05) in the TEST phase; DeepRacer's in-training evaluations run
+    in that phase, so under `e-greedy` they still take 5 % random actions. Categorical exploration stays argmax."""
+    import json
+
+    from racer.rollout_worker.worker import evaluation_epsilon
+    from racer.shared.deepracer.hyperparameters import parse_hyperparameters
+
+    raw = json.loads((deepracer_data / "config" / "console2022_ip_hyperparameters.json").read_text())
+    discrete = load_model_metadata(deepracer_data / "config" / "console2022_model_metadata.json")
+    continuous = load_model_metadata(deepracer_data / "config" / "drfc_defaults_model_metadata_cont.json")
+    categorical, _ = parse_hyperparameters(raw)
+    e_greedy, _ = parse_hyperparameters({**raw, "exploration_type": "e-greedy"})
+    assert evaluation_epsilon(categorical, discrete) == 0.0
+    assert evaluation_epsilon(e_greedy, continuous) == 0.0
+    epsilon = evaluation_epsilon(e_greedy, discrete)
+    assert epsilon == E_GREEDY_EVALUATION_EPSILON == 0.05
+
+    distribution = CategoricalPolicy(torch.tensor([[0.1, 0.6, 0.05, 0.05, 0.2]], dtype=torch.float32))
+    rng = np.random.default_rng(6)
+    picks = np.array([select_action(distribution, True, rng, epsilon=epsilon)[0] for _ in range(8000)])
+    assert np.mean(picks != 1) == pytest.approx(epsilon * 4 / 5, abs=0.01)
