@@ -56,9 +56,9 @@ class RewardFunction:
 
 
 def check_reward_value(value: object, path: str | Path) -> float:
-    """DeepRacer's `float(reward)` plus its finiteness and ±1e5 range checks, with a clear message."""
-    if isinstance(value, (str, bytes)) or value is Ellipsis or value is None:
-        raise RewardFunctionError(f"reward function {path} returned {value!r} ({type(value).__name__}); it must return a number")
+    """DeepRacer's `float(reward)` plus its finiteness and ±1e5 range checks, with a clear message.
+
+    Whatever `float()` takes is a reward, as in the SimApp: a numeric string such as '1.5' too."""
     try:
         reward = float(value)  # type: ignore[arg-type]
     except (TypeError, ValueError) as exc:

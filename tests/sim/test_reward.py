@@ -124,7 +124,8 @@ def test_reward_function_cannot_corrupt_the_callers_params(track, tmp_path):
     [
         ("    return float('nan')\n", "finite"),
         ("    return float('inf')\n", "finite"),
-        ("    return '1.0'\n", "must return a number"),
+        ("    return 'fast'\n", "must return a number"),
+        ("    return 'nan'\n", "finite"),
         ("    return ...\n", "must return a number"),
         ("    return None\n", "must return a number"),
         ("    return 100001.0\n", r"within \[-100000, 100000\]"),
@@ -139,6 +140,17 @@ def test_bad_results_give_clear_errors(tmp_path, track, body, message):
     with pytest.raises(RewardFunctionError, match=message) as info:
         load_reward_function(path)(params)
     assert str(path) in str(info.value)
+
+
+def test_a_numeric_string_is_a_reward_as_the_simapps_float_makes_it_one(tmp_path, track):
+    """rollout_agent_ctrl.py: `reward = float(self._reward_(params))`, so '1.5' and ' 2e-3 ' are rewards."""
+    path = tmp_path / "string_reward.py"
+    path.write_text("def reward_function(params):\n    return '1.5' if params['all_wheels_on_track'] else ' 2e-3 '\n")
+    function = load_reward_function(path)
+    for on_track, expected in ((True, 1.5), (False, 0.002)):
+        params = make_reward_params(track, x=3.3, y=0.7, heading_deg=0.0, speed_mps=1.0, steering_angle_deg=0.0,
+                                    steps=1.0, progress=0.0, all_wheels_on_track=on_track, is_offtrack=False)
+        assert function(params) == expected
 
 
 def test_raising_function_shows_file_and_line(tmp_path):
