@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from racer.shared.sim.config import DEFAULT_TRACK
+from racer.shared.sim.config import DEFAULT_TRACK, RESET_POSITIONS
 from racer.shared.sim.worlds import WORLD_NAMES
 
 MODES: tuple[str, ...] = ("deepracer", "race")
@@ -56,8 +56,14 @@ class RaceRules:
     """Simulated seconds from the first start to the end of the race (4 minutes)."""
     resets_per_lap: int = 3
     """Put-backs allowed in one lap; leaving the track once more ends the lap attempt."""
-    reset_penalty_s: float = 0.0
-    """Seconds the car is held after being put back (the marshal's time); the clock keeps running."""
+    reset_penalty_s: float = 2.0
+    """Seconds the car is held after being put back (the marshal's time); the clock keeps running. On a physical
+    track a marshal walks to the car and sets it down: that is never instant, and with 0 s a put-back that saved a
+    bend could beat driving it. 2 s is also DeepRacer's own off-track penalty."""
+    put_back: str = "where_it_left"
+    """`where_it_left`: on the centre line where the car last had all four wheels on the road, half its last step
+    back (the seed's summit-rule code; any progress made while leaving is given back). `deepracer`: the SimApp's
+    respawn spot (previous progress, nearer lane)."""
     continuous: bool = True
     """Completed laps run straight into the next one (as on a physical track); False = restart each lap at the line."""
 
@@ -68,6 +74,8 @@ class RaceRules:
             raise EvaluationConfigError(f"--race-resets-per-lap must be >= 0, got {self.resets_per_lap}")
         if self.reset_penalty_s < 0:
             raise EvaluationConfigError(f"--race-reset-penalty must be >= 0, got {self.reset_penalty_s}")
+        if self.put_back not in RESET_POSITIONS:
+            raise EvaluationConfigError(f"--race-put-back must be one of {', '.join(RESET_POSITIONS)}, got {self.put_back!r}")
 
 
 @dataclass(frozen=True)

@@ -109,6 +109,7 @@ def make_env_config(
     collision_penalty_s: float,
     immobilized_penalty_s: float,
     reverse_penalty_s: float | None,
+    reset_position: str = "deepracer",
 ) -> EnvConfig:
     """The env of an evaluation job: default evaluation reward, start at the line, the job's reset budget."""
     return EnvConfig(
@@ -124,6 +125,7 @@ def make_env_config(
         collision_penalty_s=collision_penalty_s,
         immobilized_penalty_s=immobilized_penalty_s,
         reverse_penalty_s=reverse_penalty_s,
+        reset_position=reset_position,
     )
 
 

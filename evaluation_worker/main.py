@@ -11,7 +11,7 @@ from pathlib import Path
 import click
 
 from racer.evaluation_worker.config import CONSOLE_NUMBER_OF_RESETS, MODES
-from racer.shared.sim.config import DEFAULT_TRACK
+from racer.shared.sim.config import DEFAULT_TRACK, RESET_POSITIONS
 from racer.shared.sim.worlds import WORLD_NAMES
 
 
@@ -44,8 +44,11 @@ def _video_size(text: str) -> tuple[int, int]:
               help="Race duration in simulated minutes (race mode).")
 @click.option("--race-resets-per-lap", type=click.IntRange(min=0), default=3, show_default=True,
               help="Put-backs allowed per lap; the next exit ends the lap attempt (race mode).")
-@click.option("--race-reset-penalty", type=click.FloatRange(min=0.0), default=0.0, show_default=True,
-              help="Seconds the car is held after a put-back (race mode); the race clock keeps running.")
+@click.option("--race-reset-penalty", type=click.FloatRange(min=0.0), default=2.0, show_default=True,
+              help="Seconds the car is held after a put-back (race mode, the marshal's time); the clock keeps running.")
+@click.option("--race-put-back", type=click.Choice(RESET_POSITIONS), default="where_it_left", show_default=True,
+              help="Where a put-back sets the car (race mode): where it last had four wheels on the road, half a "
+                   "step back (the seed's rule), or DeepRacer's respawn spot.")
 @click.option("--video/--no-video", default=True, show_default=True, help="MP4s: in-car, top view, 45-degree follow.")
 @click.option("--video-size", default="480x360", show_default=True, help="Top and follow video size, WIDTHxHEIGHT (<= 640x480).")
 @click.option("--mcap/--no-mcap", default=True, show_default=True, help="An MCAP recording for Foxglove.")
@@ -53,7 +56,7 @@ def _video_size(text: str) -> tuple[int, int]:
               help="Also keep a local copy of the outputs here (same layout as under the model prefix).")
 @click.option("--seed", type=int, default=0, show_default=True, help="Seeds sensor noise; the sim clock starts at 0.")
 def evaluate_command(model_prefix, checkpoint, mode, track, world, reverse, trials, continuous, resets, off_track_penalty,
-                     race_minutes, race_resets_per_lap, race_reset_penalty, video, video_size, mcap, out_dir, seed) -> None:
+                     race_minutes, race_resets_per_lap, race_reset_penalty, race_put_back, video, video_size, mcap, out_dir, seed) -> None:
     """Evaluate a model from the store (RACER_STORE) and write metrics, simtrace, videos and an MCAP next to it."""
     from racer.evaluation_worker.config import (
         DeepRacerRules,
@@ -76,7 +79,8 @@ def evaluate_command(model_prefix, checkpoint, mode, track, world, reverse, tria
             deepracer=DeepRacerRules(number_of_trials=trials, is_continuous=bool(continuous), number_of_resets=resets,
                                      off_track_penalty_s=off_track_penalty),
             race=RaceRules(race_duration_s=race_minutes * 60.0, resets_per_lap=race_resets_per_lap,
-                           reset_penalty_s=race_reset_penalty, continuous=True if continuous is None else continuous),
+                           reset_penalty_s=race_reset_penalty, put_back=race_put_back,
+                           continuous=True if continuous is None else continuous),
             video=VideoOptions(enabled=video, width_px=width_px, height_px=height_px),
             mcap=mcap, seed=seed,
         )

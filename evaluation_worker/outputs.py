@@ -98,6 +98,7 @@ def evaluation_params(config: EvaluationConfig, layout: EvaluationLayout, checkp
             "RACE_DURATION": str(race.race_duration_s),
             "NUMBER_OF_RESETS": str(race.resets_per_lap),
             "OFF_TRACK_PENALTY": str(race.reset_penalty_s),
+            "RACER_PUT_BACK": race.put_back,
             "IS_CONTINUOUS": str(race.continuous).lower(),
         })
     else:

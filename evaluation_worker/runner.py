@@ -156,7 +156,7 @@ class EvaluationSession:
             return make_env_config(
                 track=config.track, world=config.world, model_metadata=self.model_metadata, reverse_dir=config.reverse_dir,
                 number_of_resets=config.race.resets_per_lap, off_track_penalty_s=penalty, collision_penalty_s=penalty,
-                immobilized_penalty_s=penalty, reverse_penalty_s=penalty,
+                immobilized_penalty_s=penalty, reverse_penalty_s=penalty, reset_position=config.race.put_back,
             )
         rules = config.deepracer
         return make_env_config(

@@ -11,6 +11,9 @@ from racer.shared.sim.worlds import WORLD_NAMES
 DEFAULT_TRACK = "racer_oval"
 """The short quick-start track shipped in `tracks/`."""
 
+RESET_POSITIONS: tuple[str, ...] = ("deepracer", "where_it_left")
+"""Where a reset rule puts the car back: the SimApp's spot, or where it left the road (the race rule's marshal)."""
+
 STEPS_PER_SECOND = 15
 """DeepRacer's camera rate: one env step per camera frame."""
 MAX_EPISODE_STEPS = 100_000
@@ -64,6 +67,10 @@ class EnvConfig:
     reverse_penalty_s: float | None = None
     """None = the off-track penalty, as the SimApp."""
     immobilized_penalty_s: float = 0.0
+    reset_position: str = "deepracer"
+    """Where the car goes back after a reset rule: `deepracer` = the SimApp's spot (previous progress from the route
+    origin, nearer lane); `where_it_left` = on the centre line where the car last had all four wheels on the road,
+    half its last step further back, as the seed's summit-rule code and a marshal do (evaluation race rule)."""
     number_of_reverse_counts: int = 15
     """NUMBER_OF_REVERSE_COUNTS: consecutive steps of decreasing progress that mean `reversed`."""
     immobilized_steps: int = 15
@@ -87,6 +94,8 @@ class EnvConfig:
         for name in ("off_track_penalty_s", "collision_penalty_s", "immobilized_penalty_s"):
             if getattr(self, name) < 0:
                 raise ValueError(f"EnvConfig.{name} must be >= 0, got {getattr(self, name)}")
+        if self.reset_position not in RESET_POSITIONS:
+            raise ValueError(f"EnvConfig.reset_position must be one of {', '.join(RESET_POSITIONS)}, got {self.reset_position!r}")
         if self.number_of_reverse_counts < 1 or self.immobilized_steps < 1:
             raise ValueError("EnvConfig.number_of_reverse_counts and immobilized_steps must be >= 1")
         if self.max_steps < 2:

@@ -232,6 +232,9 @@ class DeepRacerEnv(gym.Env):
         self._pause_remaining_s = 0.0
         self._respawn_pose: tuple[float, float, float] | None = None
         self._prev_run_origin: tuple[float, float] | None = None
+        self._last_model_point: tuple[float, float] | None = None
+        self._last_step_m = 0.0
+        self._last_on_road_ndist: float | None = None
         self._episode_index = self._evaluation_episodes_done if evaluation else self._training_episodes_done
         self._episode_start_time_s = float(self._data.time)
         self._last_status = EpisodeStatus.PREPARE
@@ -362,6 +365,7 @@ class DeepRacerEnv(gym.Env):
         self._prev_progress = 0.0 if progress == 100 else progress
         if phase == EpisodeStatus.IN_PROGRESS:
             self._prev_run_origin = (pose.origin_x_m, pose.origin_y_m)
+        self._remember_where_on_road(phase, (mx, my), geometry.ndist, all_on)
 
         # Physics: the chosen command acts for one camera period (held in place while paused).
         if self._phase == EpisodeStatus.PAUSE:
@@ -453,13 +457,28 @@ class DeepRacerEnv(gym.Env):
             EpisodeStatus.REVERSED: cfg.effective_reverse_penalty_s,
             EpisodeStatus.IMMOBILIZED: cfg.immobilized_penalty_s,
         }[status]
+        self._pause_remaining_s = penalty_s
+        self._phase = EpisodeStatus.PAUSE
+        if cfg.reset_position == "where_it_left" and self._last_on_road_ndist is not None:
+            # The seed's summit-rule code: back half the last step from where the car left, on the centre line.
+            half_step_m = 0.5 * math.dist(pose.model_point, self._last_model_point or pose.model_point)
+            ndist = self._last_on_road_ndist - half_step_m / self._track.length_m
+            self._respawn_pose = self._track.pose_at(ndist, "center")
+            return
         ndist = self._prev_progress / 100.0
         inner = self._track.pose_at(ndist, "inner")
         outer = self._track.pose_at(ndist, "outer")
         previous = self._prev_run_origin or (pose.origin_x_m, pose.origin_y_m)
         self._respawn_pose = inner if math.dist(inner[:2], previous) < math.dist(outer[:2], previous) else outer
-        self._pause_remaining_s = penalty_s
-        self._phase = EpisodeStatus.PAUSE
+
+    def _remember_where_on_road(self, phase: str, model_point: tuple[float, float], ndist: float, all_on: bool) -> None:
+        """For `reset_position="where_it_left"`: the last judged point with all four wheels on the road."""
+        if phase == EpisodeStatus.PAUSE:
+            self._last_model_point = None
+            return
+        if all_on:
+            self._last_on_road_ndist = ndist
+        self._last_model_point = model_point
 
     # ----- observations --------------------------------------------------------------------------------------
 

@@ -34,8 +34,9 @@ def run_scripted(
     model_prefix: str = "scripted-model",
     model_metadata: ModelMetadata = CONTINUOUS_METADATA,
     store: ObjectStore | None = None,
+    shortcut_m: float | None = None,
 ) -> tuple[EvaluationReport, ScriptedPolicy]:
-    policy = ScriptedPolicy(speed_mps, exits)
+    policy = ScriptedPolicy(speed_mps, exits, shortcut_m=shortcut_m)
     config = EvaluationConfig(
         model_prefix=model_prefix, mode=mode, track=track, world=world, reverse_dir=reverse_dir,
         deepracer=deepracer or DeepRacerRules(), race=race or RaceRules(), video=video, mcap=mcap,

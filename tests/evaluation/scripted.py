@@ -31,9 +31,14 @@ LOOKAHEAD_M = 0.6
 class ScriptedPolicy:
     """`.act(observation, greedy, generator, epsilon)` like ActorCritic, for a continuous [steering, speed] space."""
 
-    def __init__(self, speed_mps: float = 2.0, exits: Mapping[int, Sequence[float]] | None = None) -> None:
+    def __init__(self, speed_mps: float = 2.0, exits: Mapping[int, Sequence[float]] | None = None,
+                 shortcut_m: float | None = None) -> None:
+        """`shortcut_m`: an exit does not turn right off the road but heads straight for the centre-line point that
+        many metres further on, across the infield (a corner cut)."""
         self.speed_mps = speed_mps
+        self.shortcut_m = shortcut_m
         self.exits = {lap: sorted(values) for lap, values in (exits or {}).items()}
+        self._shortcut_target: tuple[float, float] | None = None
         self.driver = None
         self.done: set[tuple[int, float]] = set()
         self._exit: tuple[int, float, int] | None = None
@@ -58,6 +63,7 @@ class ScriptedPolicy:
             exit_lap, _, resets_at_start = self._exit
             if lap != exit_lap or driver.lap_resets > resets_at_start:
                 self._exit = None
+                self._shortcut_target = None
         if self._exit is None:
             for threshold in self.exits.get(lap, ()):
                 if (lap, threshold) not in self.done and progress >= threshold:
@@ -68,7 +74,12 @@ class ScriptedPolicy:
         ndist = track.project_normalized(mx, my)
         ahead = (ndist + LOOKAHEAD_M / track.length_m) % 1.0
         tx, ty, yaw = track.pose_at(ahead, "center")
-        if self._exit is not None:
+        if self._exit is not None and self.shortcut_m is not None:
+            if self._shortcut_target is None:
+                target = (ndist + self.shortcut_m / track.length_m) % 1.0
+                self._shortcut_target = track.pose_at(target, "center")[:2]
+            tx, ty = self._shortcut_target
+        elif self._exit is not None:
             # Aim well outside the road, to the right of the driving direction.
             tx += 3.0 * math.sin(yaw)
             ty -= 3.0 * math.cos(yaw)

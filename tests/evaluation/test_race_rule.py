@@ -14,7 +14,8 @@ STEP_S = 1.0 / 15.0
 
 def test_three_put_backs_per_lap_and_the_fourth_exit_ends_the_attempt(tmp_path):
     exits = {0: [20.0, 45.0, 70.0], 1: [15.0, 30.0, 50.0, 80.0]}
-    report, policy = run_scripted(tmp_path, mode="race", exits=exits, race=RaceRules(race_duration_s=26.0))
+    rules = RaceRules(race_duration_s=26.0, reset_penalty_s=0.0, put_back="deepracer")
+    report, policy = run_scripted(tmp_path, mode="race", exits=exits, race=rules)
     laps = report.laps
     assert policy.done >= {(0, p) for p in exits[0]} | {(1, p) for p in exits[1]}
 
@@ -77,10 +78,10 @@ def test_the_time_limit_ends_the_race_mid_lap(tmp_path):
 
 def test_put_back_penalty_holds_the_car_while_the_race_clock_runs(tmp_path):
     exits = {0: [30.0]}
-    fast, _ = run_scripted(tmp_path / "a", mode="race", exits=exits, race=RaceRules(race_duration_s=9.0))
+    fast, _ = run_scripted(tmp_path / "a", mode="race", exits=exits, race=RaceRules(race_duration_s=9.0, reset_penalty_s=0.0))
     held, _ = run_scripted(tmp_path / "b", mode="race", exits=exits, race=RaceRules(race_duration_s=9.0, reset_penalty_s=1.0))
     rows = simtrace_of(tmp_path / "b", held)
-    assert (simtrace_of(tmp_path / "a", fast).episode_status == "pause").sum() == 0
+    assert (simtrace_of(tmp_path / "a", fast).episode_status == "pause").sum() == 1  # a put-back takes one step
     pauses = rows[rows.episode_status == "pause"]
     assert len(pauses) == 15
     assert (pauses.reward == 0.0).all()
@@ -105,3 +106,38 @@ def test_race_without_continuous_laps_restarts_every_lap_at_the_line(tmp_path):
     assert firsts.X.max() - firsts.X.min() < 1e-6
     lap_ends = rows[rows.episode_status == "lap_complete"]
     assert lap_ends.done.all()
+
+
+def _lap_times(report) -> list[float]:
+    return [lap.lap_time_s for lap in report.laps if lap.completed]
+
+
+def test_an_off_track_shortcut_never_shortens_a_lap(tmp_path):
+    """A put-back must not beat driving the lap: the car cuts across the infield at every bend it can, is put back
+    where it left the road (the seed's rule) after the marshal's 2 s, and is slower than driving clean."""
+    rules = RaceRules(race_duration_s=40.0)
+    assert (rules.reset_penalty_s, rules.put_back) == (2.0, "where_it_left")
+    clean, _ = run_scripted(tmp_path / "clean", mode="race", race=rules)
+    clean_best = min(_lap_times(clean))
+    for shortcut_m in (1.5, 3.0, 5.0):
+        for start_pct in (10.0, 35.0, 60.0, 85.0):
+            exits = {0: [start_pct], 1: [start_pct], 2: [start_pct]}
+            cut, policy = run_scripted(tmp_path / f"cut-{shortcut_m}-{start_pct}", mode="race", race=rules, exits=exits,
+                                       shortcut_m=shortcut_m)
+            cutting_laps = [lap for lap in cut.laps if lap.completed and lap.put_backs > 0]
+            assert cutting_laps, (shortcut_m, start_pct)
+            assert min(lap.lap_time_s for lap in cutting_laps) > clean_best, (shortcut_m, start_pct)
+
+
+def test_the_put_back_spot_is_where_the_car_left_half_a_step_back(tmp_path):
+    report, _ = run_scripted(tmp_path, mode="race", exits={0: [40.0]}, race=RaceRules(race_duration_s=9.0))
+    rows = simtrace_of(tmp_path, report)
+    exit_index = rows.index[rows.episode_status == "off_track"][0]
+    before = rows.loc[:exit_index]
+    last_on_road = before[before.all_wheels_on_track].iloc[-1]
+    pause = rows.loc[exit_index + 1]
+    assert pause.episode_status == "pause"
+    # Put back behind the last point with four wheels on the road, never ahead of it (0.14 m front-of-car offset
+    # plus half a step at most 0.15 m), pointing along the track.
+    assert last_on_road.progress - 3.0 < pause.progress <= last_on_road.progress
+    assert pause.all_wheels_on_track and pause.pause_duration == pytest.approx(2.0 - STEP_S)
