@@ -39,7 +39,7 @@ def test_continuous_env_passes_check_env_and_scales_actions(deepracer_data):
         row = info["simtrace"]
         assert row["steer"] == pytest.approx(space.steering_angle_high_deg)
         assert row["throttle"] == pytest.approx(space.speed_low_mps)
-        assert row["action"] == str(np.array([row["steer"], row["throttle"]]))  # numpy's str(), as the SimApp
+        assert row["action"] == "[{} {}]".format(row["steer"], row["throttle"])  # as the SimApp formats it
         *_, info = env.step(np.array([-5.0, 7.0], dtype=np.float32))  # clipped to [-1, 1] first
         assert info["params"]["steering_angle"] == pytest.approx(space.steering_angle_low_deg)
         assert info["params"]["speed"] == pytest.approx(space.speed_high_mps)
