@@ -18,6 +18,7 @@ from racer.shared.sim import rules
 from racer.shared.sim._mujoco import mujoco
 from racer.shared.sim.camera import CENTER_CAMERA, LEFT_CAMERA, RIGHT_CAMERA, CameraRenderer, GrayConverter, rgb_to_l
 from racer.shared.sim.car import (
+    MAX_SPEED_MPS,
     STEREO_HALF_BASELINE_M,
     Car,
     CarPose,
@@ -461,8 +462,10 @@ class DeepRacerEnv(gym.Env):
         self._phase = EpisodeStatus.PAUSE
         if cfg.reset_position == "where_it_left" and self._last_on_road_ndist is not None:
             # The seed's summit-rule code: back half the last step from where the car left, on the centre line.
-            half_step_m = 0.5 * math.dist(pose.model_point, self._last_model_point or pose.model_point)
-            ndist = self._last_on_road_ndist - half_step_m / self._track.length_m
+            step_m = math.dist(pose.model_point, self._last_model_point or pose.model_point)
+            half_step_m = 0.5 * min(step_m, MAX_SPEED_MPS * cfg.step_duration_s)  # a step is at most 4 m/s long
+            # pose_at places the car's origin; its front (the judged point) is Car.FRONT_OF_CAR_M further on.
+            ndist = self._last_on_road_ndist - (half_step_m + Car.FRONT_OF_CAR_M) / self._track.length_m
             self._respawn_pose = self._track.pose_at(ndist, "center")
             return
         ndist = self._prev_progress / 100.0

@@ -113,20 +113,20 @@ def _lap_times(report) -> list[float]:
 
 
 def test_an_off_track_shortcut_never_shortens_a_lap(tmp_path):
-    """A put-back must not beat driving the lap: the car cuts across the infield at every bend it can, is put back
-    where it left the road (the seed's rule) after the marshal's 2 s, and is slower than driving clean."""
-    rules = RaceRules(race_duration_s=40.0)
+    """A put-back must not beat driving the lap: the car cuts across the infield (a chord to the centre line 1.5-5 m
+    further on), is put back where it left the road (the seed's rule) after the marshal's 2 s, and is slower than
+    driving clean. (The env-level test in tests/sim/test_env_rules.py shows the spot gives back what a cut gained.)"""
+    rules = RaceRules(race_duration_s=25.0)
     assert (rules.reset_penalty_s, rules.put_back) == (2.0, "where_it_left")
     clean, _ = run_scripted(tmp_path / "clean", mode="race", race=rules)
     clean_best = min(_lap_times(clean))
-    for shortcut_m in (1.5, 3.0, 5.0):
-        for start_pct in (10.0, 35.0, 60.0, 85.0):
-            exits = {0: [start_pct], 1: [start_pct], 2: [start_pct]}
-            cut, policy = run_scripted(tmp_path / f"cut-{shortcut_m}-{start_pct}", mode="race", race=rules, exits=exits,
-                                       shortcut_m=shortcut_m)
-            cutting_laps = [lap for lap in cut.laps if lap.completed and lap.put_backs > 0]
-            assert cutting_laps, (shortcut_m, start_pct)
-            assert min(lap.lap_time_s for lap in cutting_laps) > clean_best, (shortcut_m, start_pct)
+    cut_laps = []
+    for shortcut_m, start_pct in ((1.5, 10.0), (3.0, 35.0), (5.0, 60.0)):
+        exits = {0: [start_pct], 1: [start_pct]}
+        cut, _ = run_scripted(tmp_path / f"cut-{shortcut_m}", mode="race", race=rules, exits=exits, shortcut_m=shortcut_m)
+        cut_laps += [lap.lap_time_s for lap in cut.laps if lap.completed and lap.put_backs > 0]
+    assert len(cut_laps) >= 3
+    assert min(cut_laps) > clean_best + 1.5
 
 
 def test_the_put_back_spot_is_where_the_car_left_half_a_step_back(tmp_path):

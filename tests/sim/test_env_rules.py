@@ -320,3 +320,31 @@ def test_respawn_is_measured_from_the_route_origin_on_the_lane_nearer_the_previo
         x, y, yaw = env.track.pose_at(before["progress"] / 100.0, expected)
         assert (held.origin_x_m, held.origin_y_m) == pytest.approx((x, y), abs=0.01), lateral_m
         assert math.cos(held.yaw_rad - yaw) > 0.99
+
+
+def test_where_it_left_gives_back_what_a_cut_gained_while_leaving(make_env):
+    """The race rule's put-back (reset_position="where_it_left"): a car that jumps ahead with two wheels still on
+    the road (a corner cut: still in progress) and then leaves is put back behind the last point where all four
+    wheels were on the road. DeepRacer's own spot (previous progress) would keep the gain."""
+    results = {}
+    for reset_position in ("deepracer", "where_it_left"):
+        env = make_env(number_of_resets=3, off_track_penalty_s=0.0, reset_position=reset_position)
+        env.reset(seed=0)
+        env.step(STRAIGHT)
+        place_front_at(env, 0.20)
+        *_, legal = env.step(STRAIGHT)
+        assert legal["params"]["all_wheels_on_track"]
+        half_width = legal["params"]["track_width"] / 2
+        place_front_at(env, 0.35, lateral_m=half_width)  # straddling the left border, further on
+        *_, cut = env.step(STRAIGHT)
+        assert cut["episode_status"] == "in_progress" and not cut["params"]["all_wheels_on_track"]
+        assert cut["progress"] > legal["progress"] + 10.0
+        place_far_off_track(env)
+        *_, off = env.step(STRAIGHT)
+        assert off["episode_status"] == "off_track"
+        *_, pause = env.step(STRAIGHT)
+        assert pause["episode_status"] == "pause"
+        results[reset_position] = pause["progress"]
+    assert results["deepracer"] > legal["progress"] + 10.0  # the SimApp's spot keeps what the cut gained
+    assert results["where_it_left"] <= legal["progress"]  # the race rule's does not
+    assert results["where_it_left"] > legal["progress"] - 5.0
