@@ -10,6 +10,7 @@ frozen dataclasses built here, so a test or a subprocess can be configured expli
 | `S3_ENDPOINT_URL` | S3 endpoint (MinIO), as in DeepRacer's `S3_ENDPOINT_URL` | unset (AWS) |
 | `AWS_ACCESS_KEY_ID`, `AWS_SECRET_ACCESS_KEY`, `AWS_SESSION_TOKEN`, `AWS_DEFAULT_REGION` | S3 credentials and region | boto3's own chain, region `us-east-1` |
 | `RACER_CONNECT_TIMEOUT_S` | how long to try reaching Redis or S3 before giving up | `10` |
+| `RACER_ROUTES_PATH` | folders of DeepRacer route files (`<WORLD_NAME>.npy`), `:`-separated, searched in order before racer's `tracks/` | unset |
 """
 
 from __future__ import annotations
@@ -81,6 +82,16 @@ def settings_from_env(environ: Mapping[str, str] | None = None) -> ServiceSettin
         redis=RedisSettings(url=env.get("RACER_REDIS_URL", DEFAULT_REDIS_URL), connect_timeout_s=timeout_s),
         store=parse_store_location(env.get("RACER_STORE", DEFAULT_LOCAL_STORE), env, timeout_s),
     )
+
+
+ROUTES_PATH_VARIABLE = "RACER_ROUTES_PATH"
+
+
+def route_folders(environ: Mapping[str, str] | None = None) -> tuple[Path, ...]:
+    """The folders of RACER_ROUTES_PATH (os.pathsep-separated, empty entries skipped), in the order given."""
+    env = os.environ if environ is None else environ
+    raw = env.get(ROUTES_PATH_VARIABLE, "")
+    return tuple(Path(part).expanduser().resolve() for part in raw.split(os.pathsep) if part.strip())
 
 
 def env_flag(name: str, default: bool = False, environ: Mapping[str, str] | None = None) -> bool:

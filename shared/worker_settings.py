@@ -8,6 +8,7 @@ from __future__ import annotations
 from dataclasses import dataclass, fields
 
 from racer.shared.sim.config import DEFAULT_TRACK
+from racer.shared.sim.route_search import world_name_for_direction
 from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
 
 __all__ = ["WorkerSettings", "default_worker_settings"]
@@ -20,7 +21,8 @@ class WorkerSettings:
     world: str = "base"
     """Surface and look: base, carpet, concrete or wood."""
     track: str = DEFAULT_TRACK
-    """Route name (looked up in tracks/) or a path to a DeepRacer .npy route file."""
+    """Route name (WORLD_NAME: looked up on the route search path, RACER_ROUTES_PATH then tracks/) or a path to a
+    DeepRacer .npy route file. TRACK_DIRECTION_CLOCKWISE appends `_cw`/`_ccw` as DeepRacer-on-AWS does."""
     reverse_dir: bool = False
     alternate_driving_direction: bool = False
     change_start_position: bool = True
@@ -72,10 +74,11 @@ class WorkerSettings:
             return raw in {"true", "1"}
 
         defaults = cls()
+        clockwise = flag("TRACK_DIRECTION_CLOCKWISE", False) if "TRACK_DIRECTION_CLOCKWISE" in params else None
         try:
             return cls(
                 world=str(params.get("RACER_WORLD", defaults.world)),
-                track=str(params.get("WORLD_NAME", defaults.track)),
+                track=world_name_for_direction(str(params.get("WORLD_NAME", defaults.track)), clockwise),
                 reverse_dir=flag("REVERSE_DIR", defaults.reverse_dir),
                 alternate_driving_direction=flag("ALTERNATE_DRIVING_DIRECTION", defaults.alternate_driving_direction),
                 change_start_position=flag("CHANGE_START_POSITION", defaults.change_start_position),

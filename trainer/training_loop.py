@@ -35,6 +35,7 @@ from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.policy.networks import build_actor_critic
 from racer.shared.redis_connection import RedisLink
 from racer.shared.sim.reward import load_reward_function
+from racer.shared.sim.track import Track, TrackError
 from racer.shared.store import ObjectNotFoundError, open_store
 from racer.shared.transport.channels import ReceivedBatch, RunChannel, share_sizes
 from racer.shared.user_errors import CloneError, RunConfigError
@@ -124,6 +125,11 @@ class Trainer:
             log.warning(warning)
         load_reward_function(folder / "reward_function.py")  # fail now, with the file and line, not in a worker
         workers = load_worker_settings(folder, self.options.num_workers, self.options.track, self.options.worlds)
+        for worker_id, worker in enumerate(workers):
+            try:  # a track name no worker could find fails here, listing where it looked, not in every worker
+                Track.load(worker.track)
+            except TrackError as error:
+                raise RunConfigError(f"worker {worker_id}: track {worker.track!r}: {error}") from error
         return metadata, hyperparameters, (folder / "reward_function.py").read_bytes(), workers
 
     def _upload_run_files(self, metadata_bytes: bytes, hyperparameters: Hyperparameters, metadata: ModelMetadata,

@@ -21,24 +21,26 @@ import numpy as np
 import shapely
 from shapely.geometry import LinearRing, LineString, Polygon
 
-ROUTE_SUFFIX = ".npy"
+from racer.shared.sim.route_search import (
+    ROUTE_SUFFIX,
+    RouteNotFoundError,
+    available_routes,
+    default_tracks_dir,
+    find_route,
+    is_route_name,
+    search_folders,
+)
 
+__all__ = ["ROUTE_SUFFIX", "PointGeometry", "Track", "TrackError", "available_tracks", "compute_progress", "default_tracks_dir",
+           "read_route_file"]
 
 class TrackError(ValueError):
     """A route file is missing or malformed; the message names the file and the problem."""
 
 
-def default_tracks_dir() -> Path:
-    """The repository's `tracks/` folder (the `racer.tracks` package directory)."""
-    import racer.tracks
-
-    return Path(racer.tracks.__file__).resolve().parent
-
-
 def available_tracks(tracks_dir: Path | None = None) -> list[str]:
-    """Names of the route files in a tracks directory, sorted."""
-    folder = Path(tracks_dir) if tracks_dir is not None else default_tracks_dir()
-    return sorted(p.stem for p in folder.glob(f"*{ROUTE_SUFFIX}"))
+    """Names of the route files in a tracks directory, or on the route search path (None), sorted."""
+    return available_routes([Path(tracks_dir)] if tracks_dir is not None else search_folders())
 
 
 class _Polyline:
@@ -183,17 +185,16 @@ class Track:
 
     @classmethod
     def load(cls, name_or_path: str | Path, tracks_dir: str | Path | None = None) -> Track:
-        """Load a route from a `.npy` path, or by name (without suffix) from `tracks_dir` (default: `tracks/`)."""
-        text = str(name_or_path)
-        candidate = Path(text)
-        if text.endswith(ROUTE_SUFFIX) or candidate.parent != Path("."):
-            path = candidate
+        """Load a route from a `.npy` path, or by name (WORLD_NAME, without suffix) from `tracks_dir`, or, when that
+        is None, from the route search path (RACER_ROUTES_PATH's folders, then racer's `tracks/`)."""
+        if not is_route_name(name_or_path):
+            path = Path(name_or_path)
         else:
-            folder = Path(tracks_dir) if tracks_dir is not None else default_tracks_dir()
-            path = folder / f"{text}{ROUTE_SUFFIX}"
-            if not path.is_file():
-                known = ", ".join(available_tracks(folder)) or "none"
-                raise TrackError(f"{path}: no track named {text!r} in {folder} (available: {known})")
+            folders = [Path(tracks_dir)] if tracks_dir is not None else None
+            try:
+                path = find_route(str(name_or_path), folders)
+            except RouteNotFoundError as error:
+                raise TrackError(str(error)) from None
         return cls(path.stem, read_route_file(path), source=str(path))
 
     def reversed(self) -> Track:

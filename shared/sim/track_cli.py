@@ -7,7 +7,7 @@ from pathlib import Path
 import click
 import numpy as np
 
-from racer.shared.sim.track import Track, TrackError, available_tracks, default_tracks_dir
+from racer.shared.sim.track import Track, TrackError, available_tracks
 
 
 def _load(name: str, tracks_dir: Path | None) -> Track:
@@ -19,16 +19,15 @@ def _load(name: str, tracks_dir: Path | None) -> Track:
 
 @click.group("track")
 def track_group() -> None:
-    """Routes: the project's tracks in tracks/ or any DeepRacer route file."""
+    """Routes by name (RACER_ROUTES_PATH's folders, then the project's tracks/) or any DeepRacer route file."""
 
 
 @track_group.command("list")
 @click.option("--tracks-dir", type=click.Path(file_okay=False, path_type=Path), default=None, help="Folder of .npy routes.")
 def list_command(tracks_dir: Path | None) -> None:
-    """Names of the routes in the tracks folder, with length and width."""
-    folder = tracks_dir or default_tracks_dir()
-    for name in available_tracks(folder):
-        track = _load(name, folder)
+    """Names of the routes on the route search path (RACER_ROUTES_PATH, then tracks/), with length and width."""
+    for name in available_tracks(tracks_dir):
+        track = _load(name, tracks_dir)
         widths = np.hypot(*(track.inner_border - track.outer_border).T)
         click.echo(f"{name}\t{track.length_m:.2f} m\t{widths.mean():.2f} m wide\t{track.num_waypoints} waypoints")
 

@@ -184,3 +184,10 @@ def test_time_stamps_are_taken_after_the_steps_physics_as_in_real_evaluations(tm
         assert entry["metric_time"] == round(lap_rows.tstamp.iloc[-1] * 1000)
         # The lap time counts every step the lap took, the prepare step included: one row = 1/15 s.
         assert lap.lap_time_s == pytest.approx(len(lap_rows) / 15, abs=1e-6)
+
+
+def test_evaluation_finds_a_deepracer_track_by_name(tmp_path, deepracer_data, monkeypatch):
+    monkeypatch.setenv("RACER_ROUTES_PATH", str(deepracer_data / "routes"))
+    report, _ = run_scripted(tmp_path, track="reinvent_base", deepracer=DeepRacerRules(number_of_trials=1))
+    assert report.laps[0].completed
+    assert report.summary["track_length_m"] == pytest.approx(17.709159, abs=1e-6)

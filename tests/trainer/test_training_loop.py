@@ -152,3 +152,23 @@ def test_an_announcement_lost_by_redis_is_announced_again(redis_settings, tmp_pa
     assert sorted(collected) == [0, 1]
     announcements = channel.link.do(lambda client: client.xlen(channel.key("control")))
     assert announcements == 1  # announced again once, not on every check
+
+
+def test_workers_json_names_deepracer_tracks_found_on_the_route_search_path(redis_settings, tmp_path, custom_files,
+                                                                          deepracer_data, monkeypatch):
+    """WORLD_NAME as in training_params.yaml, TRACK_DIRECTION_CLOCKWISE as DeepRacer-on-AWS sends it."""
+    from racer.rollout_worker.run_files import read_training_params
+    from racer.shared.user_errors import RunConfigError
+
+    monkeypatch.setenv("RACER_ROUTES_PATH", str(deepracer_data / "routes"))
+    (custom_files / "workers.json").write_text(json.dumps({"WORLD_NAME": "reInvent2019_track",
+                                                           "TRACK_DIRECTION_CLOCKWISE": "true"}))
+    trainer = make_trainer(redis_settings, tmp_path, custom_files)
+    trainer.setup()
+    store = open_store(LocalStoreSettings(root=tmp_path / "store"))
+    params, _ = read_training_params(store, RunLayout(PREFIX), 1)
+    assert params["WORLD_NAME"] == "reInvent2019_track_cw"
+
+    (custom_files / "workers.json").write_text(json.dumps({"WORLD_NAME": "Nowhere_track"}))
+    with pytest.raises(RunConfigError, match=f"Nowhere_track.*looked in: {deepracer_data / 'routes'}"):
+        make_trainer(redis_settings, tmp_path / "other", custom_files).setup()

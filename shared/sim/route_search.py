@@ -1,0 +1,71 @@
+"""Finding a route file by its DeepRacer name (`WORLD_NAME`): a search path of folders, racer's `tracks/` last.
+
+DeepRacer users name tracks (`WORLD_NAME: reInvent2019_track` in training_params.yaml, DRfC's `DR_WORLD_NAME`); the
+SimApp loads `routes/<WORLD_NAME>.npy`. The folders of `RACER_ROUTES_PATH` (read in `racer.shared.config`) come
+first, in order, so a copy of the SimApp's `bundle/routes/` makes every console track name work. DeepRacer-on-AWS
+sends `TRACK_DIRECTION_CLOCKWISE`, which appends `_cw` or `_ccw` to the name as the SimApp's yaml reader does.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+from racer.shared.config import ROUTES_PATH_VARIABLE, route_folders
+
+ROUTE_SUFFIX = ".npy"
+CLOCKWISE_SUFFIX = "_cw"
+COUNTER_CLOCKWISE_SUFFIX = "_ccw"
+
+
+class RouteNotFoundError(ValueError):
+    """No route file of that name in any folder of the search path; the message lists where it looked."""
+
+
+def default_tracks_dir() -> Path:
+    """The repository's `tracks/` folder (the `racer.tracks` package directory)."""
+    import racer.tracks
+
+    return Path(racer.tracks.__file__).resolve().parent
+
+
+def search_folders(environ: Mapping[str, str] | None = None) -> tuple[Path, ...]:
+    """RACER_ROUTES_PATH's folders in order, then racer's own `tracks/`."""
+    return (*route_folders(environ), default_tracks_dir())
+
+
+def is_route_name(name_or_path: str | Path) -> bool:
+    """A bare name (`reInvent2019_track`) rather than a path (`routes/x.npy`, `x.npy`)."""
+    text = str(name_or_path)
+    return not text.endswith(ROUTE_SUFFIX) and Path(text).parent == Path(".")
+
+
+def world_name_for_direction(world_name: str, clockwise: bool | None) -> str:
+    """DeepRacer-on-AWS: TRACK_DIRECTION_CLOCKWISE appends `_cw` (true) or `_ccw` (false) to WORLD_NAME."""
+    if clockwise is None:
+        return world_name
+    return world_name + (CLOCKWISE_SUFFIX if clockwise else COUNTER_CLOCKWISE_SUFFIX)
+
+
+def available_routes(folders: Sequence[Path]) -> list[str]:
+    """Route names found in the folders (the first folder holding a name wins), sorted."""
+    names: set[str] = set()
+    for folder in folders:
+        names.update(path.stem for path in Path(folder).glob(f"*{ROUTE_SUFFIX}"))
+    return sorted(names)
+
+
+def find_route(name: str, folders: Sequence[Path] | None = None) -> Path:
+    """`<folder>/<name>.npy` of the first folder that has it; an unknown name lists the folders searched."""
+    searched = tuple(folders) if folders is not None else search_folders()
+    for folder in searched:
+        candidate = Path(folder) / f"{name}{ROUTE_SUFFIX}"
+        if candidate.is_file():
+            return candidate
+    where = ", ".join(str(folder) for folder in searched)
+    ours = ", ".join(available_routes([default_tracks_dir()]))
+    raise RouteNotFoundError(
+        f"no track named {name!r} ({name}{ROUTE_SUFFIX}); looked in: {where}. Set {ROUTES_PATH_VARIABLE} to folders "
+        f"of DeepRacer route files (for example the SimApp's bundle/routes) or give a path to a .npy file; racer's "
+        f"own tracks: {ours}"
+    )
