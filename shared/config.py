@@ -10,6 +10,7 @@ frozen dataclasses built here, so a test or a subprocess can be configured expli
 | `S3_ENDPOINT_URL` | S3 endpoint (MinIO), as in DeepRacer's `S3_ENDPOINT_URL` | unset (AWS) |
 | `AWS_ACCESS_KEY_ID`, `AWS_SECRET_ACCESS_KEY`, `AWS_SESSION_TOKEN`, `AWS_DEFAULT_REGION` | S3 credentials and region | boto3's own chain, region `us-east-1` |
 | `RACER_CONNECT_TIMEOUT_S` | how long to try reaching Redis or S3 before giving up | `10` |
+| `MAX_MEMORY_STEPS` | trainer: transitions one iteration trains on, as the SimApp's variable (0 = no cap) | DeepRacer's: 10000 shallow network, 3000 others |
 | `RACER_ROUTES_PATH` | folders of DeepRacer route files (`<WORLD_NAME>.npy`), `:`-separated, searched in order before racer's `tracks/` | unset |
 """
 
@@ -82,6 +83,17 @@ def settings_from_env(environ: Mapping[str, str] | None = None) -> ServiceSettin
         redis=RedisSettings(url=env.get("RACER_REDIS_URL", DEFAULT_REDIS_URL), connect_timeout_s=timeout_s),
         store=parse_store_location(env.get("RACER_STORE", DEFAULT_LOCAL_STORE), env, timeout_s),
     )
+
+
+def max_memory_steps_from_env(environ: Mapping[str, str] | None = None) -> int | None:
+    """DeepRacer's MAX_MEMORY_STEPS for the trainer: a whole number (0 = no cap), or None when unset."""
+    env = os.environ if environ is None else environ
+    raw = env.get("MAX_MEMORY_STEPS", "").strip()
+    if not raw:
+        return None
+    if not raw.isdigit():
+        raise ValueError(f"MAX_MEMORY_STEPS={raw!r}: expected a whole number of steps (0 = no cap)")
+    return int(raw)
 
 
 ROUTES_PATH_VARIABLE = "RACER_ROUTES_PATH"

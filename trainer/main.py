@@ -26,17 +26,26 @@ from racer.shared.user_errors import user_error_types
 @click.option("--pretrained-prefix", default=None, help="Clone the weights of this model's checkpoint.")
 @click.option("--pretrained-checkpoint", type=click.Choice(["last", "best"]), default="last", show_default=True)
 @click.option("--seed", type=int, default=0, show_default=True)
+@click.option("--max-memory-steps", type=click.IntRange(min=0), default=None,
+              help="Transitions one iteration trains on; later episodes are dropped as in DeepRacer. Default: "
+                   "MAX_MEMORY_STEPS, else DeepRacer's 10000 (shallow network) / 3000 (others); 0 = no cap.")
 def trainer_command(model_prefix, custom_files, num_workers, track, worlds, max_episodes, max_minutes,
-                    pretrained_prefix, pretrained_checkpoint, seed) -> None:
+                    pretrained_prefix, pretrained_checkpoint, seed, max_memory_steps) -> None:
     """Run the clipped-PPO trainer: Redis and the store come from RACER_REDIS_URL / RACER_STORE."""
+    from racer.shared.config import max_memory_steps_from_env
     from racer.trainer.training_loop import TrainerOptions, run_trainer
 
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    try:
+        memory_cap = max_memory_steps if max_memory_steps is not None else max_memory_steps_from_env()
+    except ValueError as error:
+        raise click.ClickException(str(error)) from error
     options = TrainerOptions(
         model_prefix=model_prefix, custom_files=custom_files, num_workers=num_workers, track=track,
         worlds=tuple(w.strip() for w in worlds.split(",") if w.strip()), max_episodes=max_episodes,
         max_minutes=max_minutes, seed=seed, pretrained_prefix=pretrained_prefix,
         pretrained_checkpoint=pretrained_checkpoint,
+        max_memory_steps=memory_cap,
     )
     try:
         run_trainer(settings_from_env(), options)

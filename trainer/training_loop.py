@@ -40,6 +40,7 @@ from racer.shared.store import ObjectNotFoundError, open_store
 from racer.shared.transport.channels import ReceivedBatch, RunChannel, share_sizes
 from racer.shared.user_errors import CloneError, RunConfigError
 from racer.shared.worker_settings import WorkerSettings, default_worker_settings
+from racer.trainer.memory_cap import cap_episodes, default_max_memory_steps, global_episode_order
 from racer.trainer.ppo import PPOSettings, PPOTrainer, format_policy_training_line, format_training_episode_line
 
 log = logging.getLogger(__name__)
@@ -66,6 +67,9 @@ class TrainerOptions:
     """Longest wait for the episodes of one iteration before giving up with an error."""
     dead_worker_grace_s: float = 20.0
     """How long a share may have no live worker before it is re-assigned."""
+    max_memory_steps: int | None = None
+    """Transitions one iteration trains on (DeepRacer's MAX_MEMORY_STEPS): None = DeepRacer's cap for the network
+    (10,000 shallow, 3,000 others), 0 = no cap."""
     announcement_check_s: float = 30.0
     """While collecting, how often to check that Redis still holds this iteration's announcement (a restarted
     Redis may have lost the newest writes); a lost one is announced again."""
@@ -277,19 +281,31 @@ class Trainer:
         self.channel.announce_iteration(iteration, self.checkpoints.latest_name(),
                                         self.hyperparameters.num_episodes_between_training, self.options.num_workers)
 
+    def _memory_cap(self) -> int | None:
+        if self.options.max_memory_steps is not None:
+            return self.options.max_memory_steps
+        return default_max_memory_steps(self.metadata.neural_network)
+
     def train_iteration(self, iteration: int, batches: dict[int, ReceivedBatch], rollout_wall_s: float) -> dict:
-        episodes: list[Episode] = []
-        for share in sorted(batches):
-            episodes.extend(batches[share].batch.episodes)
+        shares = {share: received.batch.episodes for share, received in batches.items()}
+        capped = cap_episodes(global_episode_order(shares, self.options.num_workers), self._memory_cap())
+        episodes = list(capped.kept)
+        if capped.dropped:
+            log.info("iteration %d: training on the first %d episodes (%d steps); %d later episodes (%d steps) are "
+                     "beyond the MAX_MEMORY_STEPS cap of %d steps, as in DeepRacer", iteration, len(episodes),
+                     capped.kept_steps, len(capped.dropped), capped.dropped_steps, capped.max_steps)
         for episode in episodes:
             self.episodes_consumed += 1
             self.env_steps += episode.steps
             print(format_training_episode_line(episode.worker_id, self.episodes_consumed, episode.total_reward,
                                                self.env_steps, iteration), flush=True)
+        self.episodes_consumed += len(capped.dropped)  # played, so they count towards the episode limit
         epoch_stats = self.ppo.update(episodes)
         for stats in epoch_stats:
             print(format_policy_training_line(stats), flush=True)
-        return self._summary(iteration, episodes, rollout_wall_s)
+        summary = self._summary(iteration, episodes, rollout_wall_s)
+        summary.update(episodes_dropped=len(capped.dropped), steps_dropped=capped.dropped_steps)
+        return summary
 
     def _summary(self, iteration: int, episodes: list[Episode], rollout_wall_s: float) -> dict:
         by_world = defaultdict(list)
