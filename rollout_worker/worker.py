@@ -70,6 +70,26 @@ def evaluation_epsilon(hyperparameters: Hyperparameters, metadata: ModelMetadata
     return E_GREEDY_EVALUATION_EPSILON if uses_e_greedy(hyperparameters, metadata) else 0.0
 
 
+def training_env_config(run: RunFiles) -> EnvConfig:
+    """The env of a training worker: its training_params (DeepRacer's keys) applied to DeepRacer's defaults."""
+    worker = run.worker
+    return EnvConfig(
+        track=worker.track,
+        world=worker.world,
+        model_metadata=run.model_metadata,
+        reward_function_path=run.reward_function_path,
+        reverse_dir=worker.reverse_dir,
+        alternate_driving_direction=worker.alternate_driving_direction,
+        change_start_position=worker.change_start_position,
+        round_robin_advance_dist=worker.round_robin_advance_dist,
+        start_position_offset=worker.start_position_offset,
+        number_of_resets=worker.number_of_resets,
+        off_track_penalty_s=worker.off_track_penalty_s,
+        collision_penalty_s=worker.collision_penalty_s,
+        number_of_reverse_counts=worker.number_of_reverse_counts,
+    )
+
+
 class RolloutWorker:
     def __init__(self, settings: ServiceSettings, options: RolloutOptions):
         self.options = options
@@ -162,17 +182,7 @@ class RolloutWorker:
                                   world_override=self.options.world_override,
                                   track_override=self.options.track_override)
         worker = self.run.worker
-        self.env = DeepRacerEnv(EnvConfig(
-            track=worker.track,
-            world=worker.world,
-            model_metadata=self.run.model_metadata,
-            reward_function_path=self.run.reward_function_path,
-            reverse_dir=worker.reverse_dir,
-            alternate_driving_direction=worker.alternate_driving_direction,
-            change_start_position=worker.change_start_position,
-            round_robin_advance_dist=worker.round_robin_advance_dist,
-            start_position_offset=worker.start_position_offset,
-        ))
+        self.env = DeepRacerEnv(training_env_config(self.run))
         self.env.reset(seed=self.options.seed)
         self.log = WorkerLog(self.store, self.run, self.worker_id)
         log.info("worker %d ready: world %s, track %s, model %s", self.worker_id, worker.world, worker.track,

@@ -14,6 +14,10 @@ from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
 __all__ = ["WorkerSettings", "default_worker_settings"]
 
 
+TIME_TRIAL_ONLY = {"RACE_TYPE": "TIME_TRIAL", "NUMBER_OF_OBSTACLES": "0", "NUMBER_OF_BOT_CARS": "0"}
+"""Keys racer reads only to refuse other race types until object avoidance and head-to-bot exist."""
+
+
 @dataclass(frozen=True)
 class WorkerSettings:
     """One rollout worker's world and episode settings (DeepRacer-for-Cloud's worker-N.env)."""
@@ -32,6 +36,14 @@ class WorkerSettings:
     """Greedy evaluation episodes per checkpoint (worker 0 only)."""
     best_model_metric: str = "progress"
     """progress, reward or laptime: how deepracer_checkpoints.json picks the best checkpoint."""
+    number_of_resets: int = 0
+    """NUMBER_OF_RESETS: pause-and-resets per episode before a reset rule ends it (SimApp training default 0)."""
+    off_track_penalty_s: float = 0.0
+    """OFF_TRACK_PENALTY (also for `reversed`): seconds paused per reset; the SimApp's training default is 0."""
+    collision_penalty_s: float = 0.0
+    """COLLISION_PENALTY; training default 0 as in the SimApp."""
+    number_of_reverse_counts: int = 15
+    """NUMBER_OF_REVERSE_COUNTS: steps of decreasing progress that make `reversed` (SimApp ReverseResetRule)."""
     eval_spread_starts: bool = False
     """racer's option (training_params key RACER_EVAL_SPREAD_STARTS): evaluation trial i of n starts i/n of a lap
     further on. DeepRacer starts them all at one place; in a deterministic simulator they would all be the same
@@ -44,6 +56,11 @@ class WorkerSettings:
             raise ValueError(f"BEST_MODEL_METRIC {self.best_model_metric!r} is not progress, reward or laptime")
         if not 0.0 <= self.round_robin_advance_dist <= 1.0:
             raise ValueError(f"ROUND_ROBIN_ADVANCE_DIST {self.round_robin_advance_dist} is outside [0, 1]")
+        if self.number_of_resets < 0 or self.number_of_reverse_counts < 1:
+            raise ValueError(f"NUMBER_OF_RESETS must be >= 0 and NUMBER_OF_REVERSE_COUNTS >= 1, got "
+                             f"{self.number_of_resets} and {self.number_of_reverse_counts}")
+        if self.off_track_penalty_s < 0 or self.collision_penalty_s < 0:
+            raise ValueError("OFF_TRACK_PENALTY and COLLISION_PENALTY must be >= 0 seconds")
 
     def to_training_params(self, model_prefix: str, num_workers: int) -> dict[str, str]:
         """DeepRacer's training_params.yaml keys, all values strings as DeepRacer-for-Cloud writes them."""
@@ -61,12 +78,21 @@ class WorkerSettings:
             "START_POSITION_OFFSET": str(self.start_position_offset),
             "MIN_EVAL_TRIALS": str(self.min_eval_trials),
             "BEST_MODEL_METRIC": self.best_model_metric,
-            "NUMBER_OF_RESETS": "0",
+            "NUMBER_OF_RESETS": str(self.number_of_resets),
+            "OFF_TRACK_PENALTY": str(self.off_track_penalty_s),
+            "COLLISION_PENALTY": str(self.collision_penalty_s),
+            "NUMBER_OF_REVERSE_COUNTS": str(self.number_of_reverse_counts),
             "RACER_EVAL_SPREAD_STARTS": str(self.eval_spread_starts),
         }
 
     @classmethod
     def from_training_params(cls, params: dict[str, str], source: str) -> WorkerSettings:
+        def whole(name: str, default: int) -> int:
+            number = float(params.get(name, default))
+            if not number.is_integer():
+                raise ValueError(f"{name}: {params[name]!r} is not a whole number")
+            return int(number)
+
         def flag(name: str, default: bool) -> bool:
             raw = str(params.get(name, default)).strip().lower()
             if raw not in {"true", "false", "1", "0"}:
@@ -74,6 +100,11 @@ class WorkerSettings:
             return raw in {"true", "1"}
 
         defaults = cls()
+        for key, supported in TIME_TRIAL_ONLY.items():
+            value = str(params.get(key, supported)).strip()
+            if value.upper() != supported:
+                raise ValueError(f"{source}: {key}: {value!r} is not supported yet; racer trains time trials only "
+                                 f"(RACE_TYPE TIME_TRIAL, NUMBER_OF_OBSTACLES 0, NUMBER_OF_BOT_CARS 0)")
         clockwise = flag("TRACK_DIRECTION_CLOCKWISE", False) if "TRACK_DIRECTION_CLOCKWISE" in params else None
         try:
             return cls(
@@ -87,6 +118,10 @@ class WorkerSettings:
                 min_eval_trials=int(params.get("MIN_EVAL_TRIALS", defaults.min_eval_trials)),
                 best_model_metric=str(params.get("BEST_MODEL_METRIC", defaults.best_model_metric)).lower(),
                 eval_spread_starts=flag("RACER_EVAL_SPREAD_STARTS", defaults.eval_spread_starts),
+                number_of_resets=whole("NUMBER_OF_RESETS", defaults.number_of_resets),
+                off_track_penalty_s=float(params.get("OFF_TRACK_PENALTY", defaults.off_track_penalty_s)),
+                collision_penalty_s=float(params.get("COLLISION_PENALTY", defaults.collision_penalty_s)),
+                number_of_reverse_counts=whole("NUMBER_OF_REVERSE_COUNTS", defaults.number_of_reverse_counts),
             )
         except ValueError as error:
             raise ValueError(f"{source}: {error}") from error

@@ -172,3 +172,36 @@ def test_workers_json_names_deepracer_tracks_found_on_the_route_search_path(redi
     (custom_files / "workers.json").write_text(json.dumps({"WORLD_NAME": "Nowhere_track"}))
     with pytest.raises(RunConfigError, match=f"Nowhere_track.*looked in: {deepracer_data / 'routes'}"):
         make_trainer(redis_settings, tmp_path / "other", custom_files).setup()
+
+
+def test_training_params_keys_work_or_are_refused_by_name(redis_settings, tmp_path, custom_files):
+    """NUMBER_OF_RESETS, OFF_TRACK_PENALTY and NUMBER_OF_REVERSE_COUNTS reach the training env as the SimApp reads
+    them; RACE_TYPE / NUMBER_OF_OBSTACLES / NUMBER_OF_BOT_CARS other than a time trial are a clear error."""
+    from racer.rollout_worker.run_files import load_run_files
+    from racer.rollout_worker.worker import training_env_config
+    from racer.shared.sim.env import DeepRacerEnv
+    from racer.shared.user_errors import RunConfigError
+    from tests.sim.conftest import place_front_at
+
+    for key, value in (("RACE_TYPE", "OBJECT_AVOIDANCE"), ("NUMBER_OF_OBSTACLES", 3), ("NUMBER_OF_BOT_CARS", "2")):
+        (custom_files / "workers.json").write_text(json.dumps({key: value}))
+        with pytest.raises(RunConfigError, match=rf"workers.json.*{key}: '{value}' is not supported yet"):
+            make_trainer(redis_settings, tmp_path / key, custom_files).setup()
+
+    (custom_files / "workers.json").write_text(json.dumps({"NUMBER_OF_RESETS": 2, "OFF_TRACK_PENALTY": "1.0",
+                                                           "NUMBER_OF_REVERSE_COUNTS": "5", "RACE_TYPE": "TIME_TRIAL"}))
+    make_trainer(redis_settings, tmp_path, custom_files).setup()
+    store = open_store(LocalStoreSettings(root=tmp_path / "store"))
+    run = load_run_files(store, PREFIX, 1, tmp_path / "worker-1")
+    config = training_env_config(run)
+    assert (config.number_of_resets, config.off_track_penalty_s, config.number_of_reverse_counts) == (2, 1.0, 5)
+    env = DeepRacerEnv(config)
+    try:
+        env.reset(seed=0)
+        env.step(0)
+        place_front_at(env, 0.5, backwards=True)
+        statuses = [env.step(2)[-1]["episode_status"] for _ in range(7)]
+    finally:
+        env.close()
+    assert statuses.index("reversed") == 5  # 5 steps of decreasing progress (the SimApp's default would be 15)
+    assert statuses[6] == "pause"  # with resets left it pauses for OFF_TRACK_PENALTY and goes on
