@@ -16,6 +16,9 @@ import numpy as np
 from racer.shared.sim._mujoco import mujoco
 
 WHEEL_RADIUS_M = 0.035
+"""The simulated tyre's radius."""
+COMMAND_WHEEL_RADIUS_M = 0.035
+"""The radius the SimApp divides the speed by to get wheel rad/s (models of version >= 3)."""
 REAR_AXLE_X_M = -0.081663
 FRONT_AXLE_X_M = 0.082311
 REAR_HALF_TRACK_M = 0.08105
@@ -23,7 +26,9 @@ FRONT_HALF_TRACK_M = 0.079601
 WHEELBASE_M = FRONT_AXLE_X_M - REAR_AXLE_X_M
 WHEEL_MASS_KG = 0.34055
 HINGE_MASS_KG = 0.1
-TOTAL_MASS_KG = 5.7
+URDF_CHASSIS_MASS_KG = 5.0
+TOTAL_MASS_KG = URDF_CHASSIS_MASS_KG + 4 * WHEEL_MASS_KG + 2 * HINGE_MASS_KG
+"""6.5622 kg, the SimApp URDF's chassis, wheels and hinges (was 5.7 kg before the dynamics replay)."""
 CHASSIS_MASS_KG = TOTAL_MASS_KG - 4 * WHEEL_MASS_KG - 2 * HINGE_MASS_KG
 STEERING_LIMIT_RAD = 1.0
 """Joint limit of the steering hinges (URDF)."""
@@ -48,14 +53,16 @@ STEERING_JOINTS = ("left_steering_hinge_joint", "right_steering_hinge_joint")
 CAR_GEOM_GROUP = 3
 """Car geoms live in a group the camera does not draw and the LIDAR does not see."""
 
-WHEEL_MAX_TORQUE_NM = 0.2
+WHEEL_MAX_TORQUE_NM = 0.23
 """Per wheel (≈ 4 m/s² at most): calibrated so that speed in the first steps after `prepare` rises as in the real
-console 2022 / DRfC simtraces (≈ 0.13, 0.33, 0.55 m/s between rows 2-3, 3-4, 4-5)."""
+console 2022 / DRfC simtraces (≈ 0.13, 0.33, 0.55 m/s between rows 2-3, 3-4, 4-5); scaled with the URDF mass."""
 TYRE_TORSIONAL_FRICTION = 0.02
 """Contact-patch resistance to turning about the vertical (condim 4; a sphere's point contact has none).
 Calibrated so a held 30° at 1 m/s gives ≈ 1.3 rad/s of yaw rate, as the real simtraces (≈ 1.1-1.3 rad/s)."""
 WHEEL_VELOCITY_GAIN = 0.08
-STEERING_KP = 8.0
+STEERING_KP = 2.0
+"""Steering servo stiffness: (STEERING_KV + hinge damping) / STEERING_KP ≈ 0.135 s to follow a new angle, fitted with
+`racer bench fidelity` (the real cars turn in more slowly than a 0.03 s servo: heading error after 1 s 17° -> 13°)."""
 STEERING_KV = 0.25
 
 
@@ -64,7 +71,7 @@ def command_wheel_radius_m(simapp_version: float) -> float:
     version 2, 0.1 m for version 1 (reference §6). The simulated wheel is always 0.035 m, so old models drive
     at 0.035/r of their nominal speed, as they do in DeepRacer."""
     if simapp_version >= 3.0:
-        return WHEEL_RADIUS_M
+        return COMMAND_WHEEL_RADIUS_M
     if simapp_version >= 2.0:
         return 0.0277
     return 0.1
@@ -161,7 +168,7 @@ class Car:
 
     FRONT_OF_CAR_M = 0.14
 
-    def __init__(self, model: mujoco.MjModel, command_wheel_radius: float = WHEEL_RADIUS_M) -> None:
+    def __init__(self, model: mujoco.MjModel, command_wheel_radius: float = COMMAND_WHEEL_RADIUS_M) -> None:
         self.command_wheel_radius = command_wheel_radius
         self.body_id = model.body("car").id
         joint = model.joint("car_free")

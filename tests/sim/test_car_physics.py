@@ -35,7 +35,8 @@ def test_geometry_and_mass():
     env = DeepRacerEnv(EnvConfig())
     try:
         model = env.model
-        assert model.body_subtreemass[model.body("car").id] == pytest.approx(5.7, abs=1e-6)
+        # The URDF's masses (reference §9.1): chassis 5.0 kg, four wheels of 0.34055 kg, two hinges of 0.1 kg.
+        assert model.body_subtreemass[model.body("car").id] == pytest.approx(5.0 + 4 * 0.34055 + 2 * 0.1, abs=1e-6)
         wheels = {name: model.body(name).pos for name in ("left_rear_wheel", "right_rear_wheel")}
         hinge = model.body("left_steering_hinge").pos
         assert hinge[0] - wheels["left_rear_wheel"][0] == pytest.approx(WHEELBASE_M, abs=1e-9)

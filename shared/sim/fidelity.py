@@ -1,0 +1,215 @@
+"""`racer bench fidelity`: open-loop replay of real DeepRacer simtraces through racer's car, per speed band.
+
+For segments of real episodes (console 2022 and DeepRacer-for-Cloud runs on re:Invent 2018), the car starts at a
+logged pose with the logged speed and yaw rate, receives the logged actions for the logged time of each step, and
+its pose after 1 s and 2 s is compared with the log. No closed loop: the errors are the car model's alone.
+
+Timing in a simtrace (SimApp v4+): row k's pose is read while physics is paused, before step k's action acts; the
+row's `tstamp` is taken after that step's physics. So pose k holds at `tstamp[k-1]`, and action k acts from
+`tstamp[k-1]` to `tstamp[k]` (55-75 ms: the real step lengths are replayed, 1/240 s substeps).
+The starting velocity and yaw rate are central differences of the logged car-origin track around the start pose;
+the steering hinges start at the previous row's command. Segments contain only `in_progress` rows (no resets).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import click
+import numpy as np
+
+from racer.shared.deepracer.simtrace import read_simtrace
+from racer.shared.sim._mujoco import mujoco
+from racer.shared.sim.car import STEERING_JOINTS, WHEEL_NAMES, WHEEL_RADIUS_M, Car, clip_command
+from racer.shared.sim.config import EnvConfig
+from racer.shared.sim.env import DeepRacerEnv
+
+HORIZONS_S: tuple[float, ...] = (1.0, 2.0)
+SPEED_BANDS_MPS: tuple[tuple[float, float], ...] = ((0.0, 0.75), (0.75, 1.25), (1.25, 1.75), (1.75, 10.0))
+"""Bands of the logged speed at the segment's start (the real runs command 1 and 2 m/s)."""
+SEGMENT_STRIDE_ROWS = 8
+"""A segment starts every 8 rows (~0.5 s) of an episode; segments overlap."""
+DEFAULT_SIMTRACES = Path("../shared/deepracer-data/simtrace")
+DEFAULT_ROUTE = Path("../shared/deepracer-data/routes/reinvent_base.npy")
+
+
+@dataclass(frozen=True)
+class Segment:
+    """Logged rows `start-2 .. start+n` of one episode, as arrays; index 2 is the start pose."""
+
+    source: str
+    episode: int
+    times_s: np.ndarray
+    """Time each pose holds at: tstamp of the row before."""
+    model_xy: np.ndarray
+    yaw_rad: np.ndarray
+    steer_deg: np.ndarray
+    throttle_mps: np.ndarray
+
+    @property
+    def origin_xy(self) -> np.ndarray:
+        heading = np.stack([np.cos(self.yaw_rad), np.sin(self.yaw_rad)], axis=1)
+        return self.model_xy - Car.FRONT_OF_CAR_M * heading
+
+    def start_state(self) -> tuple[float, float, float, float, float, float]:
+        """(x, y, yaw, vx, vy, yaw rate) of the car origin at the start pose (central differences)."""
+        origin, yaw, t = self.origin_xy, np.unwrap(self.yaw_rad), self.times_s
+        dt = t[3] - t[1]
+        vx, vy = (origin[3] - origin[1]) / dt
+        return float(origin[2, 0]), float(origin[2, 1]), float(yaw[2]), float(vx), float(vy), float((yaw[3] - yaw[1]) / dt)
+
+    @property
+    def start_speed_mps(self) -> float:
+        _, _, _, vx, vy, _ = self.start_state()
+        return math.hypot(vx, vy)
+
+
+def load_segments(paths: Iterable[Path], horizon_s: float = max(HORIZONS_S)) -> list[Segment]:
+    """Segments of `horizon_s` (plus one row) of uninterrupted `in_progress` driving from real simtrace files."""
+    segments: list[Segment] = []
+    for path in paths:
+        rows = read_simtrace(Path(path).read_bytes(), source=str(path))
+        for episode, group in rows.groupby("episode", sort=False):
+            status = group.episode_status.to_numpy()
+            tstamp = group.tstamp.to_numpy(dtype=np.float64)
+            columns = {name: group[name].to_numpy(dtype=np.float64) for name in ("X", "Y", "yaw", "steer", "throttle")}
+            n = len(group)
+            for start in range(3, n, SEGMENT_STRIDE_ROWS):
+                # Poses start-2 .. end need tstamp of the row before each: rows start-3 .. end-1.
+                end = start + 1
+                while end < n and tstamp[end - 1] - tstamp[start - 1] < horizon_s + 0.03:
+                    end += 1
+                if end >= n or tstamp[end - 1] - tstamp[start - 1] < horizon_s:
+                    break
+                window = slice(start - 2, end + 1)
+                if not all(s == "in_progress" for s in status[start - 2 : end + 1]):
+                    continue
+                segments.append(Segment(
+                    source=Path(path).name, episode=int(episode),
+                    times_s=tstamp[start - 3 : end],
+                    model_xy=np.stack([columns["X"][window], columns["Y"][window]], axis=1),
+                    yaw_rad=np.radians(columns["yaw"][window]),
+                    steer_deg=columns["steer"][window],
+                    throttle_mps=columns["throttle"][window],
+                ))
+    return segments
+
+
+class CarReplay:
+    """Racer's car (the base world: DeepRacer's tyre μ 0.5) driven by logged commands, outside the env's rules."""
+
+    def __init__(self, route: Path) -> None:
+        self.env = DeepRacerEnv(EnvConfig(track=route, world="base"))
+        self.model, self.data, self.car = self.env.model, self.env.data, self.env.car
+        self.timestep_s = float(self.model.opt.timestep)
+        self._wheel_dofs = [int(self.model.joint(f"{name}_joint").dofadr[0]) for name in WHEEL_NAMES]
+        self._hinge_qpos = [int(self.model.joint(name).qposadr[0]) for name in STEERING_JOINTS]
+
+    def close(self) -> None:
+        self.env.close()
+
+    def run(self, segment: Segment) -> tuple[np.ndarray, np.ndarray]:
+        """Predicted (model point xy, yaw) at each logged pose from the start pose on (index 2 onwards)."""
+        model, data, car = self.model, self.data, self.car
+        x, y, yaw, vx, vy, yaw_rate = segment.start_state()
+        car.teleport(model, data, x, y, yaw)
+        data.qvel[car.dof_adr : car.dof_adr + 2] = (vx, vy)
+        data.qvel[car.dof_adr + 5] = yaw_rate
+        speed = math.hypot(vx, vy)
+        for dof in self._wheel_dofs:
+            data.qvel[dof] = speed / WHEEL_RADIUS_M
+        previous_speed, previous_steer = clip_command(segment.throttle_mps[1], segment.steer_deg[1])
+        for adr in self._hinge_qpos:
+            data.qpos[adr] = math.radians(previous_steer)
+        car.command(data, previous_speed, previous_steer)
+        mujoco.mj_forward(model, data)
+        points, yaws = [], []
+        for k in range(2, len(segment.times_s) - 1):
+            pose = car.pose(data)
+            points.append(pose.model_point)
+            yaws.append(pose.yaw_rad)
+            car.command(data, *clip_command(segment.throttle_mps[k], segment.steer_deg[k]))
+            substeps = max(1, round((segment.times_s[k + 1] - segment.times_s[k]) / self.timestep_s))
+            mujoco.mj_step(model, data, substeps)
+        pose = car.pose(data)
+        points.append(pose.model_point)
+        yaws.append(pose.yaw_rad)
+        return np.asarray(points), np.asarray(yaws)
+
+
+@dataclass(frozen=True)
+class SegmentError:
+    start_speed_mps: float
+    position_m: dict[float, float]
+    heading_deg: dict[float, float]
+
+
+def segment_errors(segment: Segment, predicted_xy: np.ndarray, predicted_yaw: np.ndarray) -> SegmentError:
+    """Errors at the logged poses nearest to each horizon after the start pose."""
+    times = segment.times_s[2:]
+    position, heading = {}, {}
+    for horizon in HORIZONS_S:
+        k = int(np.argmin(np.abs(times - times[0] - horizon)))
+        position[horizon] = float(np.hypot(*(predicted_xy[k] - segment.model_xy[2 + k])))
+        difference = (predicted_yaw[k] - segment.yaw_rad[2 + k] + math.pi) % (2 * math.pi) - math.pi
+        heading[horizon] = abs(math.degrees(difference))
+    return SegmentError(segment.start_speed_mps, position, heading)
+
+
+def band_label(low: float, high: float) -> str:
+    return f"{low:g}-{high:g} m/s" if high < 10 else f">= {low:g} m/s"
+
+
+def summarise(errors: Sequence[SegmentError]) -> dict[str, dict]:
+    """Median and 90th percentile per speed band and horizon: position error in m, heading error in degrees."""
+    table: dict[str, dict] = {}
+    for low, high in SPEED_BANDS_MPS:
+        members = [e for e in errors if low <= e.start_speed_mps < high]
+        entry: dict[str, float | int] = {"segments": len(members)}
+        for horizon in HORIZONS_S:
+            if not members:
+                continue
+            position = np.array([e.position_m[horizon] for e in members])
+            heading = np.array([e.heading_deg[horizon] for e in members])
+            entry[f"position_m_{horizon:g}s_median"] = round(float(np.median(position)), 4)
+            entry[f"position_m_{horizon:g}s_p90"] = round(float(np.percentile(position, 90)), 4)
+            entry[f"heading_deg_{horizon:g}s_median"] = round(float(np.median(heading)), 2)
+            entry[f"heading_deg_{horizon:g}s_p90"] = round(float(np.percentile(heading, 90)), 2)
+        table[band_label(low, high)] = entry
+    return table
+
+
+def run_fidelity(simtraces: Sequence[Path], route: Path, progress: bool = False) -> dict:
+    segments = load_segments(simtraces)
+    if not segments:
+        raise click.ClickException(f"no replayable segments ({max(HORIZONS_S):g} s of in_progress rows) in "
+                                   f"{', '.join(str(p) for p in simtraces)}")
+    replay = CarReplay(route)
+    errors = []
+    try:
+        for index, segment in enumerate(segments):
+            errors.append(segment_errors(segment, *replay.run(segment)))
+            if progress and (index + 1) % 200 == 0:
+                print(f"replayed {index + 1}/{len(segments)} segments", file=sys.stderr, flush=True)
+    finally:
+        replay.close()
+    bands = summarise(errors)
+    goal_met = all(entry.get("position_m_1s_median", math.inf) <= 0.05 for entry in bands.values() if entry["segments"])
+    return {"segments": len(segments), "files": len(simtraces), "bands": bands,
+            "goal_median_position_1s_le_0_05_m": goal_met}
+
+
+@click.command(name="fidelity")
+@click.option("--simtraces", type=click.Path(exists=True, path_type=Path), default=DEFAULT_SIMTRACES,
+              show_default=True, help="A real simtrace CSV or a folder of them (DeepRacer runs on re:Invent 2018).")
+@click.option("--route", type=click.Path(exists=True, dir_okay=False, path_type=Path), default=DEFAULT_ROUTE,
+              show_default=True, help="The route the simtraces were driven on (the floor the car replays on).")
+def fidelity_bench_command(simtraces: Path, route: Path) -> None:
+    """Open-loop replay of real simtraces: median and p90 position/heading error after 1 s and 2 s per speed band."""
+    paths = sorted(simtraces.glob("*.csv")) if simtraces.is_dir() else [simtraces]
+    click.echo(json.dumps(run_fidelity(paths, route, progress=True)))

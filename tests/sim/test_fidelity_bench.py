@@ -1,0 +1,57 @@
+"""`racer bench fidelity`: the open-loop replay of real simtraces (the accuracy figures are a benchmark, in the README)."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+from click.testing import CliRunner
+
+from racer.shared.sim.fidelity import CarReplay, fidelity_bench_command, load_segments
+
+
+def test_segments_follow_the_simapps_timing(deepracer_data):
+    path = deepracer_data / "simtrace" / "drfc1_evaluation_0-iteration.csv"
+    segments = load_segments([path])
+    assert len(segments) >= 5
+    for segment in segments:
+        span = segment.times_s[-1] - segment.times_s[2]
+        assert 2.0 <= span < 2.1  # from the start pose to the last compared pose: 2 s of logged steps
+        assert np.all(np.diff(segment.times_s) > 0.02)
+        assert 0.0 <= segment.start_speed_mps < 3.0
+
+
+def test_the_replay_starts_on_the_logged_pose_and_stays_near_it(deepracer_data):
+    path = deepracer_data / "simtrace" / "drfc1_evaluation_0-iteration.csv"
+    segments = load_segments([path])
+    replay = CarReplay(deepracer_data / "routes" / "reinvent_base.npy")
+    try:
+        first_errors, one_second = [], []
+        for segment in segments:
+            points, yaws = replay.run(segment)
+            assert len(points) == len(segment.times_s) - 2
+            first_errors.append(math.hypot(*(points[0] - segment.model_xy[2])))
+            k = int(np.argmin(np.abs(segment.times_s[2:] - segment.times_s[2] - 1.0)))
+            one_second.append(math.hypot(*(points[k] - segment.model_xy[2 + k])))
+    finally:
+        replay.close()
+    assert max(first_errors) < 2e-3
+    assert float(np.median(one_second)) < 0.35  # README: 17-25 cm medians over all real files
+
+
+def test_bench_prints_one_json_line_with_every_band(deepracer_data):
+    result = CliRunner().invoke(fidelity_bench_command, [
+        "--simtraces", str(deepracer_data / "simtrace" / "drfc1_evaluation_0-iteration.csv"),
+        "--route", str(deepracer_data / "routes" / "reinvent_base.npy")])
+    assert result.exit_code == 0, result.output
+    numbers = json.loads(result.stdout.strip().splitlines()[-1])
+    assert numbers["files"] == 1 and numbers["segments"] >= 5
+    assert len(numbers["bands"]) == 4
+    populated = [band for band in numbers["bands"].values() if band["segments"]]
+    assert populated
+    for band in populated:
+        for key in ("position_m_1s_median", "position_m_1s_p90", "heading_deg_2s_median", "heading_deg_2s_p90"):
+            assert math.isfinite(band[key]) and band[key] >= 0
+        assert band["position_m_1s_median"] <= band["position_m_1s_p90"]
+    assert isinstance(numbers["goal_median_position_1s_le_0_05_m"], bool)
