@@ -183,7 +183,7 @@ def test_continuous_action_is_written_as_the_simapp_formats_it():
     samples += [np.array([rng.uniform(-30, 30), rng.uniform(0.5, 4)]) for _ in range(200)]
     for action in samples:
         field = format_continuous_action(action)
-        assert field == "[{} {}]".format(action[0], action[1])
+        assert field == f"[{action[0]} {action[1]}]"
         steer_text, speed_text = field[1:-1].split(" ")  # scripts split on one space
         assert (float(steer_text), float(speed_text)) == (action[0], action[1])
     assert format_continuous_action([-25.0, 1.6248216569843206]) == "[-25.0 1.6248216569843206]"

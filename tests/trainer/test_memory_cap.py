@@ -7,7 +7,6 @@ import json
 from pathlib import Path
 
 import pytest
-from tests.conftest import make_episode, write_custom_files
 
 from racer.shared.config import LocalStoreSettings, ServiceSettings, max_memory_steps_from_env
 from racer.shared.policy.checkpoints import CheckpointStore
@@ -17,6 +16,7 @@ from racer.shared.transport.channels import RunChannel
 from racer.shared.transport.codec import EpisodeBatch
 from racer.trainer.memory_cap import cap_episodes, default_max_memory_steps, global_episode_order
 from racer.trainer.training_loop import Trainer, TrainerOptions
+from tests.conftest import make_episode, write_custom_files
 
 PREFIX = "cap-model"
 

@@ -166,7 +166,7 @@ def test_workers_json_names_deepracer_tracks_found_on_the_route_search_path(redi
     trainer = make_trainer(redis_settings, tmp_path, custom_files)
     trainer.setup()
     store = open_store(LocalStoreSettings(root=tmp_path / "store"))
-    params, _ = read_training_params(store, RunLayout(PREFIX), 1)
+    params, _ = read_training_params(store, ModelLayout(PREFIX), 1)
     assert params["WORLD_NAME"] == "reInvent2019_track_cw"
 
     (custom_files / "workers.json").write_text(json.dumps({"WORLD_NAME": "Nowhere_track"}))
