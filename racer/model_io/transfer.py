@@ -29,8 +29,9 @@ import botocore.exceptions
 from racer.model_io import checkpoints as ck
 from racer.model_io.codes import ProblemCode
 from racer.model_io.problems import DEFAULT_LIMITS, ImportPlan, SizeLimits, ValidationProblem, ValidationReport
+from racer.model_io.source_problems import problem_for_source_error
 from racer.model_io.sources import FolderSource, ModelSource, StoreSource, TarSource
-from racer.model_io.validate import CAR_BUNDLE_KEY, problem_for_source_error, validate_model
+from racer.model_io.validate import CAR_BUNDLE_KEY, validate_model
 from racer.shared import model_layout
 from racer.shared.model_layout import CheckpointName
 from racer.shared.policy.best_and_last import names_to_bytes as best_and_last_names_to_bytes

@@ -1,9 +1,9 @@
 """Check a model prefix the way the DeepRacer console importer did, and say what to fix.
 
 Every problem is reported (not just the first), each with the console's code. When there are none the
-report carries an ImportPlan: the files an import copies, chosen by the console's checkpoint logic:
-`model/deepracer_checkpoints.json` first (best and last), else `model/.coach_checkpoint` (the named
-checkpoint and the one before it).
+report carries an ImportPlan: the files an import copies, with the checkpoints the console would choose
+(checkpoint_selection.py). Problems collect in a ValidationRun (validation_run.py); a source that cannot be read
+becomes the console's code through source_problems.py.
 """
 
 from __future__ import annotations
@@ -21,21 +21,22 @@ import botocore.exceptions
 import yaml
 
 from racer.model_io import checkpoints as ck
+from racer.model_io.checkpoint_selection import select_checkpoints
 from racer.model_io.codes import ProblemCode
 from racer.model_io.problems import (
     DEFAULT_LIMITS,
-    CheckpointSelection,
     ImportPlan,
     SizeLimits,
     ValidationProblem,
     ValidationReport,
 )
+from racer.model_io.source_problems import problem_for_source_error
 from racer.model_io.sources import ModelSource, SourceFormatError, SourceMissingError, TarSource, open_source
+from racer.model_io.validation_run import CHECKPOINT_FIX, ValidationRun
 from racer.shared import model_layout
 from racer.shared.deepracer.hyperparameters import parse_hyperparameters
 from racer.shared.deepracer.model_metadata import ModelMetadata, parse_model_metadata
 from racer.shared.model_layout import MANIFEST_SUFFIX, CheckpointName
-from racer.shared.policy.best_and_last import parse_best_and_last_names
 from racer.shared.store import (
     AccessDeniedError,
     BucketNotFoundError,
@@ -58,91 +59,6 @@ _WORKER_PARAMS = re.compile(r"^training_params_\d+\.yaml$")
 
 T = TypeVar("T")
 
-_ACCESS_FIX = ("give the credentials in use s3:ListBucket and s3:GetObject on the bucket and prefix (bucket policy "
-               "or user policy), or use credentials that have them")
-
-_CHECKPOINT_FIX = ("restore the missing files from your copy of the model, or point model/.coach_checkpoint "
-                   "(and model/deepracer_checkpoints.json) at a checkpoint whose files are all present")
-
-
-class _Collector:
-    """Accumulates problems and notes while the checks run, and reads files without raising."""
-
-    def __init__(self, source: ModelSource, files: dict[str, int]):
-        self.source = source
-        self.files = files
-        self.problems: list[ValidationProblem] = []
-        self.notes: list[str] = []
-        self.oversized: set[str] = set()
-        self.cut_off = False
-        """Set after the source refused a read for a reason other than a missing file: one problem is enough."""
-
-    def add(self, code: ProblemCode, path: str, message: str, fix: str) -> None:
-        self.problems.append(ValidationProblem(code, path, message, fix))
-
-    def read(self, key: str) -> bytes | None:
-        """The file's bytes, or None (with a problem recorded) if it is too big or can't be read."""
-        if key in self.oversized or self.cut_off:
-            return None
-        try:
-            return self.source.read(key)
-        except (OSError, SourceFormatError, botocore.exceptions.BotoCoreError, botocore.exceptions.ClientError,
-                AccessDeniedError, BucketNotFoundError, ObjectNotFoundError, StoreUnavailableError) as error:
-            self.problems.append(problem_for_source_error(error, self.source.describe(), key))
-            self.cut_off = not isinstance(error, ObjectNotFoundError | FileNotFoundError)
-            return None
-
-
-def problem_for_source_error(error: BaseException, where: str, key: str = "") -> ValidationProblem:
-    """Translate a failure to reach or read the source into the console's code for it."""
-    if isinstance(error, SourceMissingError):
-        return ValidationProblem(ProblemCode.FILE_DOES_NOT_EXIST, key, str(error),
-                                 "check the path; give a model folder, a .tar.gz of one, or s3://bucket/prefix")
-    if isinstance(error, SourceFormatError):
-        return ValidationProblem(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, key, str(error),
-                                 "re-create the archive from the model folder: tar czf model.tar.gz -C <folder> .")
-    if isinstance(error, BucketNotFoundError):
-        return ValidationProblem(ProblemCode.SRC_BUCKET_DOES_NOT_EXIST, key, f"{where}: {error}",
-                                 "check the bucket name and S3_ENDPOINT_URL; if the bucket was deleted, upload "
-                                 "your copy of the model to an existing bucket and validate that location")
-    if isinstance(error, AccessDeniedError):
-        cause = error.__cause__
-        cause_code = cause.response.get("Error", {}).get("Code", "") if isinstance(
-            cause, botocore.exceptions.ClientError) else ""
-        if cause_code == "InvalidAccessKeyId":
-            return _unknown_credentials(where, key, f"the S3 server does not know the access key in use ({error})")
-        return ValidationProblem(ProblemCode.ACCESS_DENIED_TO_BUCKET, key, f"{where}: {error}", _ACCESS_FIX)
-    if isinstance(error, botocore.exceptions.ClientError):  # straight from boto3 (the source's own listing)
-        code = error.response.get("Error", {}).get("Code", "")
-        if code == "NoSuchBucket":
-            return ValidationProblem(ProblemCode.SRC_BUCKET_DOES_NOT_EXIST, key, f"{where}: the bucket does not exist",
-                                     "check the bucket name and S3_ENDPOINT_URL; if the bucket was deleted, upload "
-                                     "your copy of the model to an existing bucket and validate that location")
-        if code == "InvalidAccessKeyId":
-            return _unknown_credentials(where, key, f"the S3 server does not know the access key in use ({code})")
-        if code in {"AccessDenied", "403", "SignatureDoesNotMatch"}:
-            return ValidationProblem(ProblemCode.ACCESS_DENIED_TO_BUCKET, key, f"{where}: access denied ({code})",
-                                     _ACCESS_FIX)
-    if isinstance(error, botocore.exceptions.NoCredentialsError):
-        return _unknown_credentials(where, key, "no S3 credentials were found")
-    if isinstance(error, ObjectNotFoundError | FileNotFoundError):
-        return ValidationProblem(ProblemCode.FILE_DOES_NOT_EXIST, key, f"{error} (it was deleted while reading)",
-                                 "restore the file and validate again")
-    if isinstance(error, StoreUnavailableError | botocore.exceptions.BotoCoreError | botocore.exceptions.ClientError):
-        return ValidationProblem(ProblemCode.SERVICE_ERROR, key, f"{where}: {error}",
-                                 "check that the S3 endpoint (S3_ENDPOINT_URL) is up and reachable, then retry")
-    if isinstance(error, PermissionError):
-        return ValidationProblem(ProblemCode.ACCESS_DENIED_TO_BUCKET, key, f"{where}: {error}",
-                                 "make the model files readable by this user (chmod / chown)")
-    return ValidationProblem(ProblemCode.SERVICE_ERROR, key, f"{where}: {error}", "check the file system, then retry")
-
-
-def _unknown_credentials(where: str, key: str, detail: str) -> ValidationProblem:
-    return ValidationProblem(ProblemCode.ACCOUNT_RESOURCE_DOES_NOT_EXIST, key, f"{where}: {detail}",
-                             "set AWS_ACCESS_KEY_ID and AWS_SECRET_ACCESS_KEY to a user that exists on this S3 "
-                             "server (for MinIO: MINIO_ROOT_USER or a user created with `mc admin user add`)")
-
-
 def _decode_json(data: bytes, key: str) -> object:
     """JSON with the byte-order mark some editors add; ValueError naming line and column."""
     try:
@@ -153,7 +69,7 @@ def _decode_json(data: bytes, key: str) -> object:
         raise ValueError(f"{key}: invalid JSON at line {error.lineno}, column {error.colno}: {error.msg}") from None
 
 
-def _check_sizes(run: _Collector, limits: SizeLimits) -> None:
+def _check_sizes(run: ValidationRun, limits: SizeLimits) -> None:
     for key, size in run.files.items():
         in_model_dir = key.startswith(ck.MODEL_DIR)
         in_checkpoint = in_model_dir and CheckpointName.of_file(key.removeprefix(ck.MODEL_DIR)) is not None
@@ -176,100 +92,7 @@ def _check_sizes(run: _Collector, limits: SizeLimits) -> None:
                     "rebuild model.tar.gz with only model_metadata.json and agent/model.* (racer model export)")
 
 
-def _select_checkpoints(run: _Collector) -> CheckpointSelection | None:
-    """The console's order: deepracer_checkpoints.json, then .coach_checkpoint, else the model can't be imported."""
-    if model_layout.DEEPRACER_CHECKPOINTS in run.files:
-        selection = _select_from_deepracer_checkpoints(run)
-        if selection is not None and model_layout.COACH_CHECKPOINT in run.files:
-            coach = run.read(model_layout.COACH_CHECKPOINT)
-            if coach is not None and coach.decode("utf-8", "replace").strip() != selection.pointer:
-                run.notes.append(f"{model_layout.COACH_CHECKPOINT} ignored: {model_layout.DEEPRACER_CHECKPOINTS} takes precedence "
-                                 f"(as in the console); after import the pointer names {selection.pointer}")
-        return selection
-    if model_layout.COACH_CHECKPOINT in run.files:
-        return _select_from_coach_checkpoint(run)
-    newest = [name for name in ck.all_checkpoint_names(run.files) if not ck.missing_parts(name, run.files)]
-    hint = f" (the newest complete one here is {newest[-1]})" if newest else ""
-    if TF_POINTER_KEY in run.files:
-        hint += (f"; {TF_POINTER_KEY} is TensorFlow's own pointer (models older than SimApp 2.0 had only that): "
-                 "its model_checkpoint_path names the checkpoint to write there")
-    run.add(ProblemCode.COACH_CHECKPOINT_DOES_NOT_EXIST, model_layout.COACH_CHECKPOINT,
-            f"neither {model_layout.DEEPRACER_CHECKPOINTS} nor {model_layout.COACH_CHECKPOINT} exists, so no checkpoint is named",
-            f"restore model/.coach_checkpoint: one line holding the checkpoint name, e.g. 13_Step-25173.ckpt{hint}")
-    return None
-
-
-def _named_checkpoint(run: _Collector, pointer_key: str, field: str, text: str) -> CheckpointName | None:
-    name = CheckpointName.find(text)
-    if name is None:
-        run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, pointer_key,
-                f"{field}: {text!r} does not follow the naming convention <N>_Step-<M>.ckpt",
-                "restore the original pointer file; it names a checkpoint like 13_Step-25173.ckpt")
-    return name
-
-
-def _present_checkpoints(run: _Collector) -> str:
-    names = ck.all_checkpoint_names(run.files)
-    return f" (checkpoints here: {', '.join(map(str, names))})" if names else " (no checkpoint files at all)"
-
-
-def _require_complete(run: _Collector, pointer_key: str, name: CheckpointName) -> bool:
-    missing = ck.missing_parts(name, run.files)
-    if missing:
-        run.add(ProblemCode.CHECKPOINT_FILES_DOES_NOT_EXIST, pointer_key,
-                f"names checkpoint {name}, but these files are missing: {', '.join(missing)}{_present_checkpoints(run)}",
-                _CHECKPOINT_FIX)
-    return not missing
-
-
-def _select_from_deepracer_checkpoints(run: _Collector) -> CheckpointSelection | None:
-    data = run.read(model_layout.DEEPRACER_CHECKPOINTS)
-    if data is None:
-        return None
-    try:
-        pointers = parse_best_and_last_names(data)
-    except ValueError as error:
-        run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, model_layout.DEEPRACER_CHECKPOINTS, str(error),
-                'restore the original file: {"best_checkpoint": {"name": "<N>_Step-<M>.ckpt", ...}, '
-                '"last_checkpoint": {"name": ...}}, or delete it to fall back to model/.coach_checkpoint')
-        return None
-    best = _named_checkpoint(run, model_layout.DEEPRACER_CHECKPOINTS, "best_checkpoint.name", pointers.best)
-    last = _named_checkpoint(run, model_layout.DEEPRACER_CHECKPOINTS, "last_checkpoint.name", pointers.last)
-    if best is None or last is None:
-        return None
-    missing = {name: ck.missing_parts(name, run.files) for name in sorted({best, last})}
-    if any(missing.values()):
-        described = "; ".join(f"{name}: {', '.join(parts)}" for name, parts in missing.items() if parts)
-        run.add(ProblemCode.CHECKPOINT_FILES_DOES_NOT_EXIST, model_layout.DEEPRACER_CHECKPOINTS,
-                f"names best {best} and last {last}, but files are missing ({described}){_present_checkpoints(run)}",
-                _CHECKPOINT_FIX)
-        return None
-    return CheckpointSelection(checkpoints=tuple(name.name for name in sorted({best, last})), pointer=last.name,
-                               best=best.name, source=model_layout.DEEPRACER_CHECKPOINTS)
-
-
-def _select_from_coach_checkpoint(run: _Collector) -> CheckpointSelection | None:
-    data = run.read(model_layout.COACH_CHECKPOINT)
-    if data is None:
-        return None
-    try:
-        text = model_layout.parse_coach_checkpoint(data)
-    except ValueError as error:
-        run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, model_layout.COACH_CHECKPOINT, str(error),
-                "restore the original file: one line holding the checkpoint name, e.g. 13_Step-25173.ckpt")
-        return None
-    name = _named_checkpoint(run, model_layout.COACH_CHECKPOINT, "checkpoint name", text)
-    if name is None or not _require_complete(run, model_layout.COACH_CHECKPOINT, name):
-        return None
-    previous = ck.previous_checkpoint(name, run.files)
-    chosen = (previous, name) if previous is not None else (name,)
-    if previous is None:
-        run.notes.append(f"{model_layout.COACH_CHECKPOINT}: no complete checkpoint before {name}; only {name} is imported")
-    return CheckpointSelection(checkpoints=tuple(item.name for item in chosen), pointer=name.name, best=name.name,
-                               source=model_layout.COACH_CHECKPOINT)
-
-
-def _check_json_copies(run: _Collector, keys: tuple[str, ...], parse: Callable[[object, str], T],
+def _check_json_copies(run: ValidationRun, keys: tuple[str, ...], parse: Callable[[object, str], T],
                        missing: str, fix_missing: str, fix_invalid: str) -> tuple[str | None, T | None]:
     """A JSON file that may sit in two places (trainer layout, DeepRacer-on-AWS root): each copy present must
     parse, and two copies must hold the same document. Returns the key to use and the parsed value."""
@@ -299,7 +122,7 @@ def _check_json_copies(run: _Collector, keys: tuple[str, ...], parse: Callable[[
     return present[0], parsed
 
 
-def _check_metadata(run: _Collector) -> tuple[str | None, ModelMetadata | None]:
+def _check_metadata(run: ValidationRun) -> tuple[str | None, ModelMetadata | None]:
     return _check_json_copies(
         run, METADATA_KEYS, lambda document, key: parse_model_metadata(document, source=key),
         "neither model/model_metadata.json nor model_metadata.json (prefix root) exists",
@@ -312,7 +135,7 @@ def _without_source(message: str, key: str) -> str:
     return message.removeprefix(f"{key}: ")
 
 
-def _check_hyperparameters(run: _Collector) -> str | None:
+def _check_hyperparameters(run: ValidationRun) -> str | None:
     key, parsed = _check_json_copies(
         run, HYPERPARAMETER_KEYS, lambda document, key: parse_hyperparameters(document, source=key),
         "neither ip/hyperparameters.json nor hyperparameters.json (prefix root) exists",
@@ -323,7 +146,7 @@ def _check_hyperparameters(run: _Collector) -> str | None:
     return key
 
 
-def _check_reward_function(run: _Collector) -> None:
+def _check_reward_function(run: ValidationRun) -> None:
     if REWARD_FUNCTION_KEY not in run.files:
         run.add(ProblemCode.FILE_DOES_NOT_EXIST, REWARD_FUNCTION_KEY, "reward_function.py is missing",
                 "put the reward function the model was trained with at the prefix root as reward_function.py")
@@ -343,7 +166,7 @@ def _check_reward_function(run: _Collector) -> None:
                 "restore the reward function file; DeepRacer calls reward_function(params)")
 
 
-def _check_training_params(run: _Collector) -> None:
+def _check_training_params(run: ValidationRun) -> None:
     """training_params.yaml (required) and any per-worker training_params_<i>.yaml: YAML mappings."""
     if TRAINING_PARAMS_KEY not in run.files:
         run.add(ProblemCode.FILE_DOES_NOT_EXIST, TRAINING_PARAMS_KEY, "training_params.yaml is missing",
@@ -363,7 +186,7 @@ def _check_training_params(run: _Collector) -> None:
                     f"must be a YAML mapping of KEY: value, got {type(document).__name__}", f"restore the original {key}")
 
 
-def _check_inference_models(run: _Collector, keys: list[str], metadata: ModelMetadata | None) -> None:
+def _check_inference_models(run: ValidationRun, keys: list[str], metadata: ModelMetadata | None) -> None:
     """This system's `model_<N>.onnx`: a valid ONNX graph whose output size matches the action space."""
     import onnx  # only needed when there is an ONNX file; keeps `racer model --help` fast
     from google.protobuf.message import DecodeError
@@ -391,7 +214,7 @@ def _check_inference_models(run: _Collector, keys: list[str], metadata: ModelMet
                     f"{metadata.num_actions}", "restore the model_metadata.json the model was trained with")
 
 
-def _check_racer_checkpoints(run: _Collector, names: list[CheckpointName], metadata_key: str | None,
+def _check_racer_checkpoints(run: ValidationRun, names: list[CheckpointName], metadata_key: str | None,
                              metadata: ModelMetadata | None) -> bool:
     """racer checkpoints carry a manifest with every file's size and sha256 and the network they were saved
     from: a file that doesn't match, or a model_metadata.json asking for another network, is an edited model.
@@ -421,7 +244,7 @@ def _check_racer_checkpoints(run: _Collector, names: list[CheckpointName], metad
             key = ck.MODEL_DIR + file_name
             if key not in run.files:
                 run.add(ProblemCode.CHECKPOINT_FILES_DOES_NOT_EXIST, key,
-                        f"listed by {manifest_key} but missing", _CHECKPOINT_FIX)
+                        f"listed by {manifest_key} but missing", CHECKPOINT_FIX)
                 continue
             content = run.read(key)
             if content is None:
@@ -448,7 +271,7 @@ def _check_racer_checkpoints(run: _Collector, names: list[CheckpointName], metad
     return bool(disagreeing)
 
 
-def _check_car_bundle(run: _Collector) -> None:
+def _check_car_bundle(run: ValidationRun) -> None:
     if CAR_BUNDLE_KEY not in run.files:
         return
     data = run.read(CAR_BUNDLE_KEY)
@@ -481,7 +304,7 @@ def validate_model(source: ModelSource, limits: SizeLimits = DEFAULT_LIMITS) -> 
         return ValidationReport(where, (ValidationProblem(
             ProblemCode.FILE_DOES_NOT_EXIST, "", f"{where}: there are no files here",
             "check the prefix (it is the folder holding model/ and ip/); if the model was deleted, upload your copy"),))
-    run = _Collector(source, files)
+    run = ValidationRun(source, files)
     if isinstance(source, TarSource):
         unpacked = sum(files.values())
         if source.archive_bytes > limits.model_bytes or unpacked > limits.model_bytes:
@@ -491,7 +314,7 @@ def validate_model(source: ModelSource, limits: SizeLimits = DEFAULT_LIMITS) -> 
                     "the import needs (racer model export writes exactly those)")
             return ValidationReport(where, tuple(run.problems))
     _check_sizes(run, limits)
-    selection = _select_checkpoints(run)
+    selection = select_checkpoints(run)
     metadata_key, metadata = _check_metadata(run)
     hyperparameters_key = _check_hyperparameters(run)
     _check_reward_function(run)
