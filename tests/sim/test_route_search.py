@@ -9,10 +9,10 @@ import pytest
 from click.testing import CliRunner
 
 from racer.shared.config import route_folders
-from racer.shared.run_layout import WorkerSettings
 from racer.shared.sim.route_search import default_tracks_dir, search_folders
 from racer.shared.sim.track import Track, TrackError
 from racer.shared.sim.track_cli import track_group
+from racer.shared.worker_settings import WorkerSettings
 
 
 @pytest.fixture
