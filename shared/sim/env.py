@@ -75,10 +75,13 @@ class DeepRacerEnv(gym.Env):
 
     ## Episode end
     terminated on `lap_complete` (progress ≥ 100) and on `off_track` (no wheel centre on the road), `immobilized`
-    (≤ 0.3 mm of movement for 15 steps), `reversed` (progress decreasing for 15 steps) or `crashed` once the
-    `number_of_resets` pause-and-resets are used up; truncated after `max_steps` (100000) steps.
-    With resets left, the car is paused for the penalty time, then respawned on the nearer lane at the last
-    progress, and the episode continues.
+    (≤ 0.3 mm of movement for 15 steps), `reversed` (progress decreasing for `number_of_reverse_counts` steps) or
+    `crashed` once the `number_of_resets` pause-and-resets are used up; truncated after `max_steps` (100000) steps.
+    With resets left, the car is put back and held for the penalty: `pause` rows, at least one even for a 0 s
+    penalty, `pause_duration` counting down to what is left (negative on the last row when the penalty is not a
+    whole number of steps). The SimApp's spot (`reset_position="deepracer"`): the previous progress as a share of the
+    lap from the route's origin, on the lane whose spot is nearer the previous pose; the race rule's
+    (`"where_it_left"`): the centre line half a step behind the last point with four wheels on the road.
 
     ## Start position
     Training episodes start at `start_position_offset` and advance by `round_robin_advance_dist` of a lap after
