@@ -202,6 +202,8 @@ def racer_state_from_coach(config: PolicyConfig, tensors: Mapping[str, np.ndarra
             problems.append(f"missing {variable.name} {list(variable.shape)}")
             continue
         array = np.asarray(tensors[variable.name])
+        if variable.shape == () and array.size == 1:  # a scalar (safetensors stores it as shape [1])
+            array = array.reshape(())
         if tuple(array.shape) != variable.shape:
             problems.append(f"{variable.name} has shape {list(array.shape)}, racer's network needs {list(variable.shape)}")
             continue

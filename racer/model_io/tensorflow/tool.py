@@ -134,7 +134,7 @@ def _load_weights(session, variables: dict, tensors: dict) -> None:
         raise KeyError(f"no weights for {', '.join(missing)}")
     session.run([variable.initializer for variable in variables.values()])
     for name, variable in variables.items():
-        variable.load(tensors[name], session)
+        variable.load(np.reshape(tensors[name], variable.shape.as_list()), session)  # safetensors keeps no 0-d
 
 
 def command_export(request: dict, arrays: dict) -> tuple[dict, dict]:
@@ -233,14 +233,15 @@ def _run_tensorflow(path: str, feeds: dict, output: str) -> np.ndarray:
 def _run_openvino(path: str, feeds: dict, output: str, fp16: bool, work: Path) -> np.ndarray:
     import openvino as ov
 
-    inputs = [(name, [1, *value.shape[1:]]) for name, value in feeds.items()]
-    model = ov.convert_model(path, input=inputs, output=[output])
+    # OpenVINO's TensorFlow front end names tensors `<node>:0`. The car converts with a batch of one.
+    model = ov.convert_model(path, input=[(f"{name}:0", [1, *value.shape[1:]]) for name, value in feeds.items()],
+                             output=[f"{output}:0"])
     xml = work / f"openvino_{'fp16' if fp16 else 'fp32'}.xml"
     ov.save_model(model, str(xml), compress_to_fp16=fp16)
     core = ov.Core()
     compiled = core.compile_model(str(xml), "CPU", {"INFERENCE_PRECISION_HINT": "f32", "INFERENCE_NUM_THREADS": 1})
     request = compiled.create_infer_request()
-    names = {port.get_any_name(): port for port in compiled.inputs}
+    names = {port.get_any_name().split(":")[0]: port for port in compiled.inputs}
     rows = []
     count = next(iter(feeds.values())).shape[0]
     for row in range(count):
