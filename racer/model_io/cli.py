@@ -12,8 +12,15 @@ from pathlib import Path
 
 import click
 
+from racer.model_io.deepracer_export import EXPORT_LAYOUTS
 from racer.model_io.problems import ValidationProblem, ValidationReport
 from racer.model_io.sources import split_s3_location
+from racer.model_io.tensorflow.runner import (
+    INSTALL_HINT,
+    TensorFlowMissingError,
+    TensorFlowToolError,
+    tensorflow_available,
+)
 from racer.model_io.transfer import (
     ArchiveDestination,
     Destination,
@@ -121,15 +128,32 @@ def import_command(source: str, model_name: str, store_location: str | None, ove
 @click.argument("dest")
 @click.option("--store", "store_location", default=None, help=STORE_HELP)
 @click.option("--overwrite", is_flag=True, help="Write into DEST even if it already holds files.")
-def export_command(model: str, dest: str, store_location: str | None, overwrite: bool) -> None:
+@click.option("--for", "target", type=click.Choice(EXPORT_LAYOUTS), default="racer", show_default=True,
+              help="racer: racer's layout plus DeepRacer's TensorFlow files; droa: the folder DeepRacer on AWS imports.")
+def export_command(model: str, dest: str, store_location: str | None, overwrite: bool, target: str) -> None:
     """Write MODEL (its prefix in the store) to DEST (a folder, s3://bucket/prefix or a .tar.gz), ready to import.
 
-    DEST gets ip/, model/, reward_function.py, training_params.yaml, model_metadata.json, metrics/ and the
-    car bundle model.tar.gz (model_metadata.json + agent/model.onnx). The result is validated.
+    DEST gets ip/, model/ (racer's checkpoints and, with the TensorFlow extra, DeepRacer's TensorFlow checkpoints
+    and model_<N>.pb), reward_function.py, training_params.yaml, model_metadata.json, metrics/ and the car bundle
+    model.tar.gz (model_metadata.json + agent/model.pb, the frozen graph every DeepRacer car loads). With
+    --for droa, DEST is the folder DeepRacer on AWS's model import takes (TensorFlow files only). The result is
+    validated.
     """
+    tensorflow = tensorflow_available()
+    if not tensorflow:
+        message = f"DeepRacer's TensorFlow files (model.pb for the car, checkpoints for DRoA) need TensorFlow: {INSTALL_HINT}"
+        if target == "droa":
+            raise click.ClickException(message)
+        click.echo(f"note: {message}; exporting racer's files only (the car bundle holds agent/model.onnx, which no "
+                   "DeepRacer software loads)")
     store = _open_store(store_location)
     destination = _destination(dest, overwrite)
-    result = export_model(store, model, destination)
+    if tensorflow:
+        click.echo("writing DeepRacer's TensorFlow files (a TensorFlow process; this takes a minute) ...")
+    try:
+        result = export_model(store, model, destination, tensorflow=tensorflow, layout=target)
+    except (TensorFlowToolError, TensorFlowMissingError) as error:
+        raise click.ClickException(str(error)) from None
     _finish(result, f"exported {model} to {result.destination}"
             + (f" (car bundle model.tar.gz: model_metadata.json + {result.car_bundle_model})"
                if result.car_bundle_model else " (no inference model for the best checkpoint: no model.tar.gz)"))

@@ -334,8 +334,8 @@ def validate_model(source: ModelSource, limits: SizeLimits = DEFAULT_LIMITS) -> 
         metadata_disagrees = _check_racer_checkpoints(run, [name for name in names if name], metadata_key, metadata)
         _check_inference_models(run, checkpoint_keys, None if metadata_disagrees else metadata)
         if any(key.endswith(".ckpt.index") for key in checkpoint_keys):
-            run.notes.append("TensorFlow checkpoints (DeepRacer console / SimApp): they import and export as they are, "
-                             "but racer's trainer and evaluator run racer's own (PyTorch) checkpoints")
+            run.notes.append("TensorFlow checkpoints (DeepRacer / DRoA / DRfC, or racer's export): `racer model "
+                             "import` converts them to racer checkpoints (with the TensorFlow extra installed)")
         optional = tuple(key for key in files if _OPTIONAL.match(key))
         copied = [*checkpoint_keys, *optional, REWARD_FUNCTION_KEY, TRAINING_PARAMS_KEY, model_layout.DEEPRACER_CHECKPOINTS,
                   *(key for key in (metadata_key, hyperparameters_key) if key)]

@@ -21,7 +21,7 @@ from racer.model_io.tensorflow.coach_layout import (
 from racer.model_io.tensorflow.runner import run_tool
 from racer.shared.policy.networks import ActorCritic, PolicyConfig
 
-__all__ = ["ImportedNetwork", "TF_CHECKPOINT_SUFFIXES", "UnsupportedGraphError", "network_from_frozen_graph",
+__all__ = ["ExportJob", "ImportedNetwork", "TF_CHECKPOINT_SUFFIXES", "UnsupportedGraphError", "network_from_frozen_graph",
            "network_from_tf_checkpoint", "tensorflow_files"]
 
 TF_CHECKPOINT_SUFFIXES = (".index", ".data-00000-of-00001", ".meta")
@@ -43,25 +43,43 @@ def _racer_arrays(network: ActorCritic) -> dict[str, np.ndarray]:
     return {key: value.detach().float().contiguous().cpu().numpy() for key, value in network.state_dict().items()}
 
 
-def tensorflow_files(network: ActorCritic, checkpoint_name: str | None, number: int | None) -> dict[str, bytes]:
-    """The frozen graph `model_<number>.pb` (if number is given) and the TensorFlow checkpoint
-    `<checkpoint_name>.index/.data-00000-of-00001/.meta` (if checkpoint_name is given), as file name -> bytes."""
-    tensors = coach_tensors_from_racer(network.config, _racer_arrays(network))
+@dataclass(frozen=True)
+class ExportJob:
+    network: ActorCritic
+    checkpoint_name: str | None
+    """Write the TensorFlow checkpoint `<checkpoint_name>.index/.data-00000-of-00001/.meta` (None: don't)."""
+    number: int | None
+    """Write the frozen graph `model_<number>.pb` (None: don't)."""
+
+
+def tensorflow_files(jobs: list[ExportJob]) -> list[dict[str, bytes]]:
+    """For each job, its TensorFlow files as file name -> bytes; all jobs in one TensorFlow process."""
+    arrays: dict[str, np.ndarray] = {}
     with tempfile.TemporaryDirectory(prefix="racer-tf-export-") as folder:
         work = Path(folder)
-        request: dict = {"graph": graph_spec(network.config)}
-        if number is not None:
-            request["frozen_path"] = str(work / f"model_{number}.pb")
-        if checkpoint_name is not None:
-            request["checkpoint_prefix"] = str(work / checkpoint_name)
-        run_tool("export", request, tensors)
-        files = {}
-        if number is not None:
-            files[f"model_{number}.pb"] = (work / f"model_{number}.pb").read_bytes()
-        if checkpoint_name is not None:
-            for suffix in TF_CHECKPOINT_SUFFIXES:
-                files[checkpoint_name + suffix] = (work / (checkpoint_name + suffix)).read_bytes()
-    return files
+        requests = []
+        for index, job in enumerate(jobs):
+            key = str(index)
+            tensors = coach_tensors_from_racer(job.network.config, _racer_arrays(job.network))
+            arrays.update({f"{key}|{name}": value for name, value in tensors.items()})
+            request: dict = {"key": key, "graph": graph_spec(job.network.config)}
+            (work / key).mkdir()
+            if job.number is not None:
+                request["frozen_path"] = str(work / key / f"model_{job.number}.pb")
+            if job.checkpoint_name is not None:
+                request["checkpoint_prefix"] = str(work / key / job.checkpoint_name)
+            requests.append(request)
+        run_tool("export", {"jobs": requests}, arrays)
+        outputs = []
+        for index, job in enumerate(jobs):
+            files = {}
+            if job.number is not None:
+                files[f"model_{job.number}.pb"] = (work / str(index) / f"model_{job.number}.pb").read_bytes()
+            if job.checkpoint_name is not None:
+                for suffix in TF_CHECKPOINT_SUFFIXES:
+                    files[job.checkpoint_name + suffix] = (work / str(index) / (job.checkpoint_name + suffix)).read_bytes()
+            outputs.append(files)
+    return outputs
 
 
 def _network_with(config: PolicyConfig, state: dict[str, np.ndarray]) -> ActorCritic:

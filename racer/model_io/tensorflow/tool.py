@@ -138,6 +138,16 @@ def _load_weights(session, variables: dict, tensors: dict) -> None:
 
 
 def command_export(request: dict, arrays: dict) -> tuple[dict, dict]:
+    """request["jobs"]: [{"key", "graph", "frozen_path"?, "checkpoint_prefix"?}]; arrays "<key>|<variable name>"."""
+    results = {}
+    for job in request["jobs"]:
+        prefix = f"{job['key']}|"
+        weights = {name.removeprefix(prefix): value for name, value in arrays.items() if name.startswith(prefix)}
+        results[job["key"]] = _export_one(job, weights)
+    return results, {}
+
+
+def _export_one(request: dict, arrays: dict) -> dict:
     spec = request["graph"]
     result = {}
     if request.get("frozen_path"):
@@ -155,7 +165,7 @@ def command_export(request: dict, arrays: dict) -> tuple[dict, dict]:
             saver = tf.compat.v1.train.Saver(var_list=variables, max_to_keep=None)
             saver.save(session, request["checkpoint_prefix"], write_meta_graph=True, write_state=False)
         result["checkpoint_variables"] = sorted(variables)
-    return result, {}
+    return result
 
 
 # --------------------------------------------------------------------------------------------------------------------
