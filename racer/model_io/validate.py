@@ -305,7 +305,7 @@ def validate_model(source: ModelSource, limits: SizeLimits = DEFAULT_LIMITS) -> 
             ProblemCode.FILE_DOES_NOT_EXIST, "", f"{where}: there are no files here",
             "check the prefix (it is the folder holding model/ and ip/); if the model was deleted, upload your copy"),))
     run = ValidationRun(source, files)
-    if isinstance(source, TarSource):
+    if isinstance(source, TarSource) or hasattr(source, "archive_bytes"):  # a tar or ZIP archive
         unpacked = sum(files.values())
         if source.archive_bytes > limits.model_bytes or unpacked > limits.model_bytes:
             run.add(ProblemCode.MODEL_TAR_FILE_SIZE_LIMIT_EXCEEDED, "",

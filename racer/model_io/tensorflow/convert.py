@@ -18,6 +18,7 @@ from racer.model_io.tensorflow.coach_layout import (
     graph_spec,
     racer_state_from_coach,
 )
+from racer.model_io.tensorflow.errors import UnsupportedGraphError
 from racer.model_io.tensorflow.runner import run_tool
 from racer.shared.policy.networks import ActorCritic, PolicyConfig
 
@@ -25,10 +26,6 @@ __all__ = ["ExportJob", "ImportedNetwork", "TF_CHECKPOINT_SUFFIXES", "Unsupporte
            "network_from_tf_checkpoint", "tensorflow_files"]
 
 TF_CHECKPOINT_SUFFIXES = (".index", ".data-00000-of-00001", ".meta")
-
-
-class UnsupportedGraphError(ValueError):
-    """A DeepRacer graph holds something racer's networks cannot represent; the message says exactly what."""
 
 
 @dataclass(frozen=True)
