@@ -18,6 +18,7 @@ from racer.model_io.deepracer_import import (
     convert_tf_checkpoints,
     find_model_root,
     import_frozen_graph,
+    tensorflow_only_checkpoints,
 )
 from racer.model_io.problems import ValidationProblem, ValidationReport
 from racer.model_io.sources import split_s3_location
@@ -146,7 +147,7 @@ def import_command(source: str, model_name: str, store_location: str | None, ove
     except ModelExistsError as error:
         raise click.ClickException(str(error)) from None
     _finish(result, f"imported {source} as {result.destination}")
-    if any(key.endswith(".ckpt.index") for key in result.written):
+    if tensorflow_only_checkpoints(result.written):
         if not tensorflow_available():
             click.echo(f"note: the TensorFlow checkpoints were copied but racer cannot run them until they are "
                        f"converted: {INSTALL_HINT}; then import again with --overwrite")

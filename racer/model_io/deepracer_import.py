@@ -25,7 +25,7 @@ from racer.shared.deepracer.model_metadata import ModelMetadata, parse_model_met
 from racer.shared.store import ObjectStore, join_key
 
 __all__ = ["ConversionOutcome", "SubfolderSource", "car_bundle_graph", "convert_tf_checkpoints",
-           "find_model_root", "import_frozen_graph"]
+           "find_model_root", "import_frozen_graph", "tensorflow_only_checkpoints"]
 
 _CAR_GRAPHS = ("agent/model.pb", "model.pb")
 _NUMBERED_GRAPH = re.compile(r"^model/model_(\d+)\.pb$")
@@ -90,6 +90,13 @@ def _policy_config(metadata: ModelMetadata):
         return policy_config_from_metadata(metadata)
     except ValueError as error:
         raise UnsupportedGraphError(f"model_metadata.json: {error}") from None
+
+
+def tensorflow_only_checkpoints(keys: list[str] | tuple[str, ...]) -> list[str]:
+    """Names of the complete TensorFlow checkpoints among `keys` that have no racer checkpoint beside them."""
+    files = dict.fromkeys(keys, 0)
+    return [name.name for name in ck.all_checkpoint_names(files)
+            if not ck.is_racer_checkpoint(name, files) and not ck.missing_parts(name, files)]
 
 
 def convert_tf_checkpoints(store: ObjectStore, model_name: str) -> ConversionOutcome:

@@ -180,7 +180,7 @@ def command_read_checkpoint(request: dict, arrays: dict) -> tuple[dict, dict]:
     described = {}
     for name in sorted(shapes):
         described[name] = {"shape": list(shapes[name]), "dtype": dtypes[name].name}
-        if dtypes[name].is_floating:
+        if request.get("values", True) and dtypes[name].is_floating:
             tensors[name] = np.ascontiguousarray(reader.get_tensor(name), dtype=np.float32)
     return {"variables": described}, tensors
 
