@@ -19,14 +19,22 @@ from pathlib import Path
 import numpy as np
 import pytest
 import torch
-
-from racer.model_io.tensorflow.coach_layout import POLICY_OUTPUT_NODE, coach_variables, input_node
-from racer.model_io.tensorflow.convert import ExportJob, tensorflow_files
-from racer.model_io.tensorflow.runner import run_tool
 from racer.shared.deepracer.model_metadata import NEURAL_NETWORKS, parse_model_metadata
 from racer.shared.policy.networks import ActorCritic, build_actor_critic
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
+from safetensors.numpy import save_file
+
+from racer.model_io.tensorflow.coach_layout import (
+    POLICY_NETWORK,
+    POLICY_OUTPUT_NODE,
+    coach_tensors_from_racer,
+    coach_variables,
+    graph_spec,
+    input_node,
+)
+from racer.model_io.tensorflow.convert import ExportJob, tensorflow_files
+from racer.model_io.tensorflow.runner import run_tool
 
 pytestmark = pytest.mark.slow
 
@@ -75,44 +83,48 @@ def frames() -> dict[str, np.ndarray]:
     return {sensor: np.stack(values).astype(np.float32) for sensor, values in rendered.items()}
 
 
-def make_models() -> list[tuple[str, ActorCritic]]:
-    models = []
-    for network in NEURAL_NETWORKS:
-        for sensors in SENSOR_SETS:
-            for continuous in (False, True):
-                key = f"{network}|{'+'.join(sensors)}|{'continuous' if continuous else 'discrete'}"
-                torch.manual_seed(len(models))
-                model = build_actor_critic(parse_model_metadata(metadata_dict(network, sensors, continuous), key))
-                if continuous:  # RL Coach's 0.01-scaled initialisation makes near-zero means: use a trained-like head
-                    with torch.no_grad():
-                        model.policy_head.weight.normal_(0.0, 0.05)
-                models.append((key.replace("|", ":"), model.eval()))
-    return models
+def model_keys() -> list[tuple[str, tuple[str, ...], bool]]:
+    return [(network, sensors, continuous) for network in NEURAL_NETWORKS for sensors in SENSOR_SETS
+            for continuous in (False, True)]
+
+
+def make_model(index: int, network: str, sensors: tuple[str, ...], continuous: bool) -> tuple[str, ActorCritic]:
+    key = f"{network}:{'+'.join(sensors)}:{'continuous' if continuous else 'discrete'}"
+    torch.manual_seed(index)
+    model = build_actor_critic(parse_model_metadata(metadata_dict(network, sensors, continuous), key))
+    if continuous:  # RL Coach's 0.01-scaled initialisation makes near-zero means: use a trained-like head
+        with torch.no_grad():
+            model.policy_head.weight.normal_(0.0, 0.05)
+    return key, model.eval()
 
 
 @pytest.fixture(scope="module")
 def proof(frames) -> dict:
-    """racer's outputs and every runtime's outputs for the 48 models."""
-    models = make_models()
+    """racer's outputs and every runtime's outputs for the 48 models. racer writes each model's weights (RL Coach's
+    names) to a file of its own and forgets the model (the stereo DEEP networks are 230 MB each); one TensorFlow
+    process then freezes and runs them one by one."""
+    keys, expected, requests = [], {}, []
     with tempfile.TemporaryDirectory(prefix="racer-proof-") as folder:
-        produced = tensorflow_files([ExportJob(model, None, index) for index, (_, model) in enumerate(models)])
-        requests, arrays, expected = [], {}, {}
-        for index, ((key, model), files) in enumerate(zip(models, produced, strict=True)):
-            path = Path(folder) / f"model_{index}.pb"
-            path.write_bytes(files[f"model_{index}.pb"])
-            feeds = {spec.name: frames[spec.name] for spec in model.config.inputs}
+        for index, spec in enumerate(model_keys()):
+            key, model = make_model(index, *spec)
+            feeds = {name: torch.from_numpy(frames[name]) for name in model.input_names}
             with torch.inference_mode():
-                expected[key] = model.policy_output({name: torch.from_numpy(value) for name, value in feeds.items()})
-            requests.append({"key": key, "frozen_path": str(path), "output": POLICY_OUTPUT_NODE,
-                             "inputs": [input_node(name) for name in feeds]})
-            arrays.update({f"{key}|{input_node(name)}": value for name, value in feeds.items()})
-        _, outputs = run_tool("run", {"models": requests, "runtimes": RUNTIMES}, arrays)
-    return {"models": models, "expected": {key: value.numpy() for key, value in expected.items()}, "outputs": outputs}
+                expected[key] = model.policy_output(feeds).numpy()
+            weights = coach_tensors_from_racer(model.config, {name: value.numpy() for name, value
+                                                              in model.state_dict().items()})
+            path = Path(folder) / f"{index}.safetensors"
+            save_file({name: value for name, value in weights.items() if name.startswith(POLICY_NETWORK)}, str(path))
+            requests.append({"key": key, "graph": graph_spec(model.config), "weights_path": str(path)})
+            keys.append(key)
+            del model, weights
+        _, outputs = run_tool("prove", {"models": requests, "runtimes": RUNTIMES},
+                              {input_node(name): value for name, value in frames.items()})
+    return {"keys": keys, "expected": expected, "outputs": outputs}
 
 
 def test_every_network_sensor_set_and_action_space_is_covered(proof):
-    assert len(proof["models"]) == 3 * 8 * 2
-    assert {key.split(":")[0] for key, _ in proof["models"]} == set(NEURAL_NETWORKS)
+    assert len(proof["keys"]) == len(set(proof["keys"])) == 3 * 8 * 2
+    assert {key.split(":")[0] for key in proof["keys"]} == set(NEURAL_NETWORKS)
 
 
 @pytest.mark.parametrize("runtime", ["tensorflow", "openvino_fp32", "litert_fp32"])

@@ -13,6 +13,7 @@ import numpy as np
 import torch
 
 from racer.model_io.tensorflow.coach_layout import (
+    POLICY_NETWORK,
     POLICY_OUTPUT_NODE,
     coach_tensors_from_racer,
     graph_spec,
@@ -58,6 +59,8 @@ def tensorflow_files(jobs: list[ExportJob]) -> list[dict[str, bytes]]:
         for index, job in enumerate(jobs):
             key = str(index)
             tensors = coach_tensors_from_racer(job.network.config, _racer_arrays(job.network))
+            if job.checkpoint_name is None:  # the frozen graph holds the policy network only
+                tensors = {name: value for name, value in tensors.items() if name.startswith(POLICY_NETWORK + "/")}
             arrays.update({f"{key}|{name}": value for name, value in tensors.items()})
             request: dict = {"key": key, "graph": graph_spec(job.network.config)}
             (work / key).mkdir()

@@ -13,6 +13,7 @@ Commands (request["command"]):
 - `read_frozen`: the constants, placeholders and op types of a frozen graph's inference path.
 - `run`: feed arrays through frozen graphs with TensorFlow and, optionally, through OpenVINO IR and LiteRT models
   converted from them (fp32 and fp16), for the proof that every runtime computes the same function.
+- `prove`: `run` for many models given as graph spec + weights file each, one model in memory at a time.
 - `restore_meta`: import a `.meta` graph (e.g. the SimApp's own) and restore a checkpoint into it with its saver;
   report missing or mismatched variables and the policy output for the given inputs.
 """
@@ -128,7 +129,11 @@ def build_graph(spec: dict, with_value: bool) -> tuple[tf.Graph, dict, dict, dic
     return graph, placeholders, created, outputs
 
 
-def _load_weights(session, variables: dict, tensors: dict) -> None:
+def _load_weights(session, variables: dict, tensors: dict, default_rescaler: bool = False) -> None:
+    if default_rescaler:  # the policy-only export does not send the log-std or rescaler: they are not on its path
+        tensors = {**{name: np.zeros(variable.shape.as_list(), np.float32) for name, variable in variables.items()
+                      if name.endswith("policy_log_std")},
+                   **{name: np.ones((), np.float32) for name in variables if name.endswith("_rescalers")}, **tensors}
     missing = sorted(set(variables) - set(tensors))
     if missing:
         raise KeyError(f"no weights for {', '.join(missing)}")
@@ -151,9 +156,9 @@ def _export_one(request: dict, arrays: dict) -> dict:
     spec = request["graph"]
     result = {}
     if request.get("frozen_path"):
-        graph, _, variables, outputs = build_graph(spec, with_value=False)
+        graph, _, variables, _ = build_graph(spec, with_value=False)
         with tf.compat.v1.Session(graph=graph) as session:
-            _load_weights(session, variables, arrays)
+            _load_weights(session, variables, arrays, default_rescaler=True)
             frozen = tf.compat.v1.graph_util.convert_variables_to_constants(
                 session, graph.as_graph_def(), [spec["output_node"]])
         Path(request["frozen_path"]).write_bytes(frozen.SerializeToString())
@@ -304,6 +309,26 @@ def command_run(request: dict, arrays: dict) -> tuple[dict, dict]:
     return {"runtimes": runtimes}, outputs
 
 
+def command_prove(request: dict, arrays: dict) -> tuple[dict, dict]:
+    """For each model (graph spec + its own weights file): freeze its policy graph, then run it with every runtime.
+
+    One model in memory at a time (a stereo DEEP policy network is 230 MB); arrays: frames keyed by input node."""
+    outputs = {}
+    for model in request["models"]:
+        weights = load_file(model["weights_path"])
+        with tempfile.TemporaryDirectory() as work:
+            frozen = str(Path(work) / "model.pb")
+            _export_one({"graph": model["graph"], "frozen_path": frozen}, weights)
+            del weights
+            feeds = {node: arrays[node] for node in model["graph"]["input_nodes"].values()}
+            single = {"key": model["key"], "frozen_path": frozen, "inputs": list(feeds),
+                      "output": model["graph"]["output_node"]}
+            _, produced = command_run({"models": [single], "runtimes": request["runtimes"]},
+                                      {f"{model['key']}|{node}": value for node, value in feeds.items()})
+        outputs.update(produced)
+    return {"runtimes": request["runtimes"]}, outputs
+
+
 def command_restore_meta(request: dict, arrays: dict) -> tuple[dict, dict]:
     """Import a .meta graph and restore `checkpoint_prefix` with its own saver, like RL Coach's restore."""
     graph = tf.Graph()
@@ -342,6 +367,7 @@ COMMANDS = {
     "read_checkpoint": command_read_checkpoint,
     "read_frozen": command_read_frozen,
     "run": command_run,
+    "prove": command_prove,
     "restore_meta": command_restore_meta,
 }
 
