@@ -24,6 +24,7 @@ import json
 import os
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 import numpy as np
@@ -291,11 +292,13 @@ def _run_litert(path: str, feeds: dict, output: str, fp16: bool) -> np.ndarray:
 def command_run(request: dict, arrays: dict) -> tuple[dict, dict]:
     """request["models"]: [{"key", "frozen_path", "inputs": [node names], "output"}]; arrays "<key>|<node>"."""
     outputs = {}
+    cpu_s: dict[str, dict[str, float]] = {}
     runtimes = request.get("runtimes", ["tensorflow"])
     for model in request["models"]:
         feeds = {node: arrays[f"{model['key']}|{node}"] for node in model["inputs"]}
         with tempfile.TemporaryDirectory() as work:
             for runtime in runtimes:
+                started = time.process_time()
                 if runtime == "tensorflow":
                     value = _run_tensorflow(model["frozen_path"], feeds, model["output"])
                 elif runtime in ("openvino_fp32", "openvino_fp16"):
@@ -306,7 +309,8 @@ def command_run(request: dict, arrays: dict) -> tuple[dict, dict]:
                 else:
                     raise ValueError(f"unknown runtime {runtime!r}")
                 outputs[f"{model['key']}|{runtime}"] = np.ascontiguousarray(value, dtype=np.float32)
-    return {"runtimes": runtimes}, outputs
+                cpu_s.setdefault(model["key"], {})[runtime] = time.process_time() - started
+    return {"runtimes": runtimes, "cpu_s": cpu_s}, outputs
 
 
 def command_prove(request: dict, arrays: dict) -> tuple[dict, dict]:
@@ -314,19 +318,23 @@ def command_prove(request: dict, arrays: dict) -> tuple[dict, dict]:
 
     One model in memory at a time (a stereo DEEP policy network is 230 MB); arrays: frames keyed by input node."""
     outputs = {}
+    cpu_s: dict[str, dict[str, float]] = {}
     for model in request["models"]:
+        started = time.process_time()
         weights = load_file(model["weights_path"])
         with tempfile.TemporaryDirectory() as work:
             frozen = str(Path(work) / "model.pb")
             _export_one({"graph": model["graph"], "frozen_path": frozen}, weights)
             del weights
+            export_s = time.process_time() - started
             feeds = {node: arrays[node] for node in model["graph"]["input_nodes"].values()}
             single = {"key": model["key"], "frozen_path": frozen, "inputs": list(feeds),
                       "output": model["graph"]["output_node"]}
-            _, produced = command_run({"models": [single], "runtimes": request["runtimes"]},
-                                      {f"{model['key']}|{node}": value for node, value in feeds.items()})
+            ran, produced = command_run({"models": [single], "runtimes": request["runtimes"]},
+                                        {f"{model['key']}|{node}": value for node, value in feeds.items()})
         outputs.update(produced)
-    return {"runtimes": request["runtimes"]}, outputs
+        cpu_s[model["key"]] = {"export": export_s, **ran["cpu_s"][model["key"]]}
+    return {"runtimes": request["runtimes"], "cpu_s": cpu_s}, outputs
 
 
 def command_restore_meta(request: dict, arrays: dict) -> tuple[dict, dict]:
