@@ -19,6 +19,7 @@ import re
 from racer.model_io import checkpoints as ck
 from racer.model_io.problems import ImportPlan
 from racer.model_io.sources import StoreSource
+from racer.shared.model_layout import RACER_CHECKPOINT_SUFFIXES, CheckpointName
 
 __all__ = ["EXPORT_LAYOUTS", "droa_plan", "droa_targets", "tensorflow_exports"]
 
@@ -34,8 +35,7 @@ def tensorflow_exports(source: StoreSource, plan: ImportPlan) -> dict[str, bytes
     checkpoints = CheckpointStore(source.store, source.prefix)
     jobs = []
     for text in plan.selection.checkpoints:
-        name = ck.parse_checkpoint_name(text)
-        assert name is not None  # validation accepted it
+        name = CheckpointName.parse(text)  # validation accepted it
         if not ck.is_racer_checkpoint(name, plan.checkpoint_files):
             continue  # a TensorFlow checkpoint already: its files are copied as they are
         jobs.append(ExportJob(checkpoints.load_policy(name.name), name.name, name.number))
@@ -60,5 +60,5 @@ def droa_targets(key: str) -> str:
 
 
 def _is_racer_part(key: str) -> bool:
-    name = ck.checkpoint_name_of_file(key.removeprefix(ck.MODEL_DIR))
-    return name is not None and key.removeprefix(f"{ck.MODEL_DIR}{name.name}.") in ck.RACER_PARTS
+    name = CheckpointName.of_file(key.removeprefix(ck.MODEL_DIR))
+    return name is not None and key.removeprefix(f"{ck.MODEL_DIR}{name.name}") in RACER_CHECKPOINT_SUFFIXES

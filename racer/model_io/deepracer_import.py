@@ -21,6 +21,7 @@ from pathlib import Path
 
 from racer.model_io import checkpoints as ck
 from racer.model_io.sources import ModelSource
+from racer.shared import model_layout
 from racer.shared.deepracer.model_metadata import ModelMetadata, parse_model_metadata
 from racer.shared.store import ObjectStore, join_key
 
@@ -59,7 +60,7 @@ class SubfolderSource:
 def find_model_root(source: ModelSource) -> ModelSource | None:
     """The shallowest folder holding `model/.coach_checkpoint` or `model/deepracer_checkpoints.json`, when it is
     not the source's root (DRoA's training-logs download nests the model). None if there is none."""
-    pointers = [key for key in source.list_files() if key.endswith((ck.COACH_CHECKPOINT, ck.DEEPRACER_CHECKPOINTS))]
+    pointers = [key for key in source.list_files() if key.endswith((model_layout.COACH_CHECKPOINT, model_layout.DEEPRACER_CHECKPOINTS))]
     folders = sorted({key.rsplit("/model/", 1)[0] for key in pointers if "/model/" in key}, key=lambda f: f.count("/"))
     return SubfolderSource(source, folders[0]) if folders else None
 
@@ -78,8 +79,9 @@ def car_bundle_graph(files: dict[str, int]) -> str | None:
 
 
 def _metadata(store: ObjectStore, model_name: str) -> tuple[ModelMetadata, bytes]:
-    data = store.get_bytes(join_key(model_name, "model", "model_metadata.json"))
-    return parse_model_metadata(json.loads(data.decode("utf-8-sig")), source=f"{model_name}/model/model_metadata.json"), data
+    key = join_key(model_name, model_layout.MODEL_METADATA)
+    data = store.get_bytes(key)
+    return parse_model_metadata(json.loads(data.decode("utf-8-sig")), source=key), data
 
 
 def _policy_config(metadata: ModelMetadata):
@@ -106,7 +108,7 @@ def convert_tf_checkpoints(store: ObjectStore, model_name: str) -> ConversionOut
     from racer.model_io.tensorflow.convert import network_from_tf_checkpoint
     from racer.shared.policy.checkpoints import CheckpointStore
 
-    prefix = join_key(model_name, "model") + "/"
+    prefix = join_key(model_name, model_layout.MODEL_DIR) + "/"
     files = {key.removeprefix(model_name + "/"): 0 for key in store.list_keys(prefix)}
     tf_names = [name for name in ck.all_checkpoint_names(files)
                 if not ck.is_racer_checkpoint(name, files) and not ck.missing_parts(name, files)]
@@ -122,12 +124,12 @@ def convert_tf_checkpoints(store: ObjectStore, model_name: str) -> ConversionOut
             for key in ck.checkpoint_files(name, files):
                 (Path(folder) / key.removeprefix(ck.MODEL_DIR)).write_bytes(store.get_bytes(join_key(model_name, key)))
             imported = network_from_tf_checkpoint(Path(folder) / name.name, config)
-        checkpoints.save(name.number, name.steps, imported.network, model_metadata=metadata,
+        checkpoints.save(name.number, name.env_steps, imported.network, model_metadata=metadata,
                          extra={"imported_from": "tensorflow checkpoint", "value_restored": imported.value_restored})
         written.append(name.name)
         notes += [f"{name}: {note}" for note in imported.notes]
     if pointer is not None:  # save() moved the pointer to each converted checkpoint in turn
-        store.put_bytes(join_key(model_name, ck.COACH_CHECKPOINT), (pointer + "\n").encode())
+        store.put_bytes(join_key(model_name, model_layout.COACH_CHECKPOINT), (pointer + "\n").encode())
     return ConversionOutcome(tuple(written), tuple(notes))
 
 

@@ -15,6 +15,10 @@ import numpy as np
 import pytest
 import torch
 from click.testing import CliRunner
+
+from racer.cli import main
+from racer.model_io import cli as model_cli
+from racer.model_io import validate_location
 from racer.shared.deepracer.hyperparameters import parse_hyperparameters
 from racer.shared.deepracer.model_metadata import parse_model_metadata
 from racer.shared.policy.checkpoints import (
@@ -24,10 +28,6 @@ from racer.shared.policy.checkpoints import (
 )
 from racer.shared.policy.networks import build_actor_critic
 from racer.shared.store import LocalStore
-
-from racer.cli import main
-from racer.model_io import cli as model_cli
-from racer.model_io import validate_location
 from tests.model_io.model_io_builders import real_files
 
 pytestmark = pytest.mark.slow

@@ -18,8 +18,6 @@ import json
 import numpy as np
 import pytest
 import torch
-from racer.shared.deepracer.model_metadata import NEURAL_NETWORKS, parse_model_metadata
-from racer.shared.policy.networks import build_actor_critic
 
 from racer.model_io.tensorflow.coach_layout import (
     POLICY_OUTPUT_NODE,
@@ -39,6 +37,8 @@ from racer.model_io.tensorflow.proof import (
     summarize,
 )
 from racer.model_io.tensorflow.runner import run_tool
+from racer.shared.deepracer.model_metadata import NEURAL_NETWORKS, parse_model_metadata
+from racer.shared.policy.networks import build_actor_critic
 from tests.model_io.model_io_builders import CONFIG
 
 pytestmark = pytest.mark.slow

@@ -7,12 +7,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import torch
-from racer.shared.deepracer.model_metadata import parse_model_metadata
-from racer.shared.policy.networks import (
-    ActorCritic,
-    build_actor_critic,
-    policy_config_from_metadata,
-)
 
 from racer.model_io.tensorflow.coach_layout import (
     POLICY_OUTPUT_NODE,
@@ -30,6 +24,12 @@ from racer.model_io.tensorflow.convert import (
     tensorflow_files,
 )
 from racer.model_io.tensorflow.runner import run_tool
+from racer.shared.deepracer.model_metadata import parse_model_metadata
+from racer.shared.policy.networks import (
+    ActorCritic,
+    build_actor_critic,
+    policy_config_from_metadata,
+)
 
 pytestmark = pytest.mark.slow
 

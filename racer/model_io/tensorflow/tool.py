@@ -21,7 +21,6 @@ Commands (request["command"]):
 from __future__ import annotations
 
 import json
-import os
 import sys
 import tempfile
 import time
@@ -30,10 +29,7 @@ from pathlib import Path
 import numpy as np
 from safetensors.numpy import load_file, save_file
 
-os.environ.setdefault("TF_CPP_MIN_LOG_LEVEL", "2")
-os.environ.setdefault("CUDA_VISIBLE_DEVICES", "")
-
-import tensorflow as tf  # noqa: E402  (environment first: it silences TensorFlow's start-up chatter)
+import tensorflow as tf  # runner.py starts this process with TF_CPP_MIN_LOG_LEVEL=2: errors only
 
 tf.compat.v1.disable_eager_execution()
 tf.compat.v1.disable_resource_variables()  # RL Coach's variables are VariableV2, as in DeepRacer's .meta
