@@ -27,9 +27,8 @@ import time
 from pathlib import Path
 
 import numpy as np
-from safetensors.numpy import load_file, save_file
-
 import tensorflow as tf  # runner.py starts this process with TF_CPP_MIN_LOG_LEVEL=2: errors only
+from safetensors.numpy import load_file, save_file
 
 tf.compat.v1.disable_eager_execution()
 tf.compat.v1.disable_resource_variables()  # RL Coach's variables are VariableV2, as in DeepRacer's .meta
