@@ -156,7 +156,10 @@ def import_command(source: str, model_name: str, store_location: str | None, ove
         try:
             outcome = convert_tf_checkpoints(store, model_name)
         except (UnsupportedGraphError, TensorFlowToolError) as error:
-            raise click.ClickException(f"{source} cannot become a racer model: {error}") from None
+            reason = str(error).strip().splitlines()[-1]
+            click.echo(f"warning: {model_name} holds the files as they are, but racer cannot evaluate or train it: "
+                       f"its TensorFlow checkpoints cannot become racer checkpoints: {reason}")
+            return
         for note in outcome.notes:
             click.echo(f"note: {note}")
         click.echo(f"converted {', '.join(outcome.written)} to racer checkpoints")
