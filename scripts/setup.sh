@@ -45,6 +45,14 @@ if [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$wanted" ]; then
   .venv/bin/python -m pip install -q -e '.[test]'
   echo "$wanted" > "$stamp"
 fi
+# The optional TensorFlow extra (model export/import in DeepRacer's TensorFlow formats, and the tests proving
+# them): about 1 GB once. RACER_TENSORFLOW=0 skips it; racer model export/import then say how to get it.
+tf_stamp=".venv/.racer-tensorflow-installed"
+if [ "${RACER_TENSORFLOW:-1}" != "0" ] && { [ ! -f "$tf_stamp" ] || [ "$(cat "$tf_stamp")" != "$wanted" ]; }; then
+  say "installing the TensorFlow extra into .venv (tensorflow-cpu, openvino, ai-edge-litert)"
+  .venv/bin/python -m pip install -q -e '.[test,tensorflow]'
+  echo "$wanted" > "$tf_stamp"
+fi
 minio_bin="$(command -v minio 2>/dev/null || echo "$HOME/go/bin/minio")"
 ln -sf "$minio_bin" .venv/bin/minio
 say "ready: $(.venv/bin/python --version), redis-server $(redis-server --version | sed 's/.*v=\([^ ]*\).*/\1/'), minio at $minio_bin"

@@ -12,9 +12,25 @@ from pathlib import Path
 
 import click
 
+from racer.model_io.deepracer_export import EXPORT_LAYOUTS
+from racer.model_io.deepracer_import import (
+    car_bundle_graph,
+    convert_tf_checkpoints,
+    find_model_root,
+    import_frozen_graph,
+    tensorflow_only_checkpoints,
+)
 from racer.model_io.problems import ValidationProblem, ValidationReport
 from racer.model_io.sources import split_s3_location
+from racer.model_io.tensorflow.errors import UnsupportedGraphError
+from racer.model_io.tensorflow.runner import (
+    INSTALL_HINT,
+    TensorFlowMissingError,
+    TensorFlowToolError,
+    tensorflow_available,
+)
 from racer.model_io.transfer import (
+    MODEL_NAME,
     ArchiveDestination,
     Destination,
     FolderDestination,
@@ -24,7 +40,7 @@ from racer.model_io.transfer import (
     export_model,
     import_model,
 )
-from racer.model_io.validate import validate_location
+from racer.model_io.validate import validate_location, validate_model
 from racer.shared.config import S3Settings, parse_store_location, settings_from_env
 from racer.shared.model_layout import COACH_CHECKPOINT, DEEPRACER_CHECKPOINTS
 from racer.shared.store import ObjectStore, S3Store, open_store
@@ -88,7 +104,7 @@ def validate_command(location: str, as_json: bool) -> None:
     sys.exit(0 if report.ok else 1)
 
 
-@model_group.command("import", short_help="Copy a valid model into this system's store under a new name.")
+@model_group.command("import", short_help="Bring a model in (racer's, DeepRacer's TensorFlow files, DRoA's downloads).")
 @click.argument("source")
 @click.argument("model_name")
 @click.option("--store", "store_location", default=None, help=STORE_HELP)
@@ -96,12 +112,32 @@ def validate_command(location: str, as_json: bool) -> None:
 def import_command(source: str, model_name: str, store_location: str | None, overwrite: bool) -> None:
     """Validate SOURCE and copy it into the store as MODEL_NAME (training can clone it, evaluation can run it).
 
+    SOURCE: a model folder, .tar.gz, ZIP or s3://bucket/prefix; DeepRacer on AWS's downloads (the "virtual model"
+    package, ZIP or tar.gz; the physical-car tarball; the training-logs tarball when it holds the model).
     Copies best and last checkpoints when model/deepracer_checkpoints.json exists, otherwise the checkpoint
-    named by model/.coach_checkpoint and the one before it (the console's logic).
+    named by model/.coach_checkpoint and the one before it (the console's logic). TensorFlow checkpoints are then
+    converted to racer checkpoints; a frozen graph (agent/model.pb) becomes checkpoint 0 with a fresh value network.
     """
+    if not MODEL_NAME.match(model_name):
+        raise click.BadParameter(f"{model_name!r}: use 1-64 letters, digits and hyphens, starting with a letter or "
+                                 "digit (the console's rule)", param_hint="MODEL_NAME")
     report, opened = validate_location(source)
+    if opened is not None and not report.ok:
+        graph_key = car_bundle_graph(opened.list_files())
+        if graph_key is not None:
+            _import_graph(opened, graph_key, source, model_name, store_location, overwrite)
+            return
+        nested = find_model_root(opened)
+        if nested is not None:
+            nested_report = validate_model(nested)
+            if nested_report.ok:
+                click.echo(f"note: the model is in {nested.describe()}")
+                report, opened = nested_report, nested
     if opened is None or not report.ok:
         _print_report(report)
+        if opened is not None and not any(key.endswith((".pb", ".index")) for key in opened.list_files()):
+            click.echo("note: no model weights here (no checkpoint, no model.pb); a DRoA training-logs download "
+                       "holds logs and metrics only: download the model itself (\"virtual model\" or physical car)")
         sys.exit(1)
     store = _open_store(store_location)
     try:
@@ -111,9 +147,49 @@ def import_command(source: str, model_name: str, store_location: str | None, ove
     except ModelExistsError as error:
         raise click.ClickException(str(error)) from None
     _finish(result, f"imported {source} as {result.destination}")
-    if any(key.endswith(".ckpt.weights.safetensors") for key in result.written):
-        click.echo(f"model prefix {model_name!r}: clone it with `racer trainer --pretrained-prefix {model_name}`, "
-                   "or give it as the model prefix to evaluate")
+    if tensorflow_only_checkpoints(result.written):
+        if not tensorflow_available():
+            click.echo(f"note: the TensorFlow checkpoints were copied but racer cannot run them until they are "
+                       f"converted: {INSTALL_HINT}; then import again with --overwrite")
+            return
+        click.echo("converting the TensorFlow checkpoints to racer checkpoints (a TensorFlow process) ...")
+        try:
+            outcome = convert_tf_checkpoints(store, model_name)
+        except (UnsupportedGraphError, TensorFlowToolError) as error:
+            reason = str(error).strip().splitlines()[-1]
+            click.echo(f"warning: {model_name} holds the files as they are, but racer cannot evaluate or train it: "
+                       f"its TensorFlow checkpoints cannot become racer checkpoints: {reason}")
+            return
+        for note in outcome.notes:
+            click.echo(f"note: {note}")
+        click.echo(f"converted {', '.join(outcome.written)} to racer checkpoints")
+    click.echo(f"model prefix {model_name!r}: clone it with `racer trainer --pretrained-prefix {model_name}`, "
+               "or give it as the model prefix to evaluate")
+
+
+def _import_graph(opened, graph_key: str, source: str, model_name: str, store_location: str | None,
+                  overwrite: bool) -> None:
+    """A car bundle / frozen graph: checkpoint 0 from the graph's policy, a fresh value network."""
+    if not tensorflow_available():
+        raise click.ClickException(f"{source} holds a TensorFlow frozen graph ({graph_key}); reading it needs "
+                                   f"TensorFlow: {INSTALL_HINT}")
+    store = _open_store(store_location)
+    existing = store.list_keys(model_name + "/")
+    if existing and not overwrite:
+        raise click.ClickException(f"{model_name} already holds a model ({len(existing)} files); choose another name "
+                                   "or pass --overwrite")
+    for key in existing:
+        store.delete(key)
+    click.echo(f"reading the frozen graph {graph_key} (a TensorFlow process) ...")
+    try:
+        outcome = import_frozen_graph(opened, graph_key, store, model_name)
+    except (UnsupportedGraphError, TensorFlowToolError, ValueError) as error:
+        raise click.ClickException(f"{source} cannot become a racer model: {error}") from None
+    for note in outcome.notes:
+        click.echo(f"note: {note}")
+    click.echo(f"imported the policy of {source}:{graph_key} as {model_name}/model/{outcome.written[0]}")
+    click.echo(f"model prefix {model_name!r}: clone it with `racer trainer --pretrained-prefix {model_name}`, "
+               "or give it as the model prefix to evaluate")
 
 
 @model_group.command("export", short_help="Write a stored model in the import-ready layout plus the car's model.tar.gz.")
@@ -121,15 +197,32 @@ def import_command(source: str, model_name: str, store_location: str | None, ove
 @click.argument("dest")
 @click.option("--store", "store_location", default=None, help=STORE_HELP)
 @click.option("--overwrite", is_flag=True, help="Write into DEST even if it already holds files.")
-def export_command(model: str, dest: str, store_location: str | None, overwrite: bool) -> None:
+@click.option("--for", "target", type=click.Choice(EXPORT_LAYOUTS), default="racer", show_default=True,
+              help="racer: racer's layout plus DeepRacer's TensorFlow files; droa: the folder DeepRacer on AWS imports.")
+def export_command(model: str, dest: str, store_location: str | None, overwrite: bool, target: str) -> None:
     """Write MODEL (its prefix in the store) to DEST (a folder, s3://bucket/prefix or a .tar.gz), ready to import.
 
-    DEST gets ip/, model/, reward_function.py, training_params.yaml, model_metadata.json, metrics/ and the
-    car bundle model.tar.gz (model_metadata.json + agent/model.onnx). The result is validated.
+    DEST gets ip/, model/ (racer's checkpoints and, with the TensorFlow extra, DeepRacer's TensorFlow checkpoints
+    and model_<N>.pb), reward_function.py, training_params.yaml, model_metadata.json, metrics/ and the car bundle
+    model.tar.gz (model_metadata.json + agent/model.pb, the frozen graph every DeepRacer car loads). With
+    --for droa, DEST is the folder DeepRacer on AWS's model import takes (TensorFlow files only). The result is
+    validated.
     """
+    tensorflow = tensorflow_available()
+    if not tensorflow:
+        message = f"DeepRacer's TensorFlow files (model.pb for the car, checkpoints for DRoA) need TensorFlow: {INSTALL_HINT}"
+        if target == "droa":
+            raise click.ClickException(message)
+        click.echo(f"note: {message}; exporting racer's files only (the car bundle holds agent/model.onnx, which no "
+                   "DeepRacer software loads)")
     store = _open_store(store_location)
     destination = _destination(dest, overwrite)
-    result = export_model(store, model, destination)
+    if tensorflow:
+        click.echo("writing DeepRacer's TensorFlow files (a TensorFlow process; this takes a minute) ...")
+    try:
+        result = export_model(store, model, destination, tensorflow=tensorflow, layout=target)
+    except (TensorFlowToolError, TensorFlowMissingError) as error:
+        raise click.ClickException(str(error)) from None
     _finish(result, f"exported {model} to {result.destination}"
             + (f" (car bundle model.tar.gz: model_metadata.json + {result.car_bundle_model})"
                if result.car_bundle_model else " (no inference model for the best checkpoint: no model.tar.gz)"))

@@ -166,7 +166,11 @@ def open_source(location: str) -> ModelSource:
     path = Path(location).expanduser()
     if path.is_dir():
         return FolderSource(path)
-    if path.is_file() or location.endswith(TAR_SUFFIXES):
+    if path.is_file():
+        from racer.model_io.zip_source import ZipSource, is_zip  # DRoA <= 1.0.9 wrote ZIPs named .tar.gz
+
+        return ZipSource(path) if is_zip(path) else TarSource(path)
+    if location.endswith(TAR_SUFFIXES):
         return TarSource(path)
     raise SourceMissingError(f"{location}: no such folder or archive")
 

@@ -20,6 +20,7 @@ import gzip
 import io
 import re
 import tarfile
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Protocol
@@ -28,6 +29,7 @@ import botocore.exceptions
 
 from racer.model_io import checkpoints as ck
 from racer.model_io.codes import ProblemCode
+from racer.model_io.deepracer_export import EXPORT_LAYOUTS, droa_plan, droa_targets, tensorflow_exports
 from racer.model_io.problems import DEFAULT_LIMITS, ImportPlan, SizeLimits, ValidationProblem, ValidationReport
 from racer.model_io.source_problems import problem_for_source_error
 from racer.model_io.sources import FolderSource, ModelSource, StoreSource, TarSource
@@ -163,18 +165,23 @@ class _CopyFailed(Exception):
 def _copy_plan(source: ModelSource, plan: ImportPlan, destination: Destination, *,
                metadata_targets: tuple[str, ...], hyperparameters_targets: tuple[str, ...],
                deepracer_checkpoints: bytes | None,
-               car_bundle_from: str | None = None) -> list[str]:
-    """Copy the planned files, then the car bundle built from `car_bundle_from` (an inference model key) if
-    given, then `.coach_checkpoint` last. Raises _CopyFailed with the problem on the first failure."""
+               car_bundle_from: str | None = None, extra_files: dict[str, bytes] | None = None,
+               optional_target: Callable[[str], str] = str) -> list[str]:
+    """Copy the planned files, then `extra_files` (made for the export, e.g. TensorFlow's), then the car bundle
+    built from `car_bundle_from` (an inference model key, looked up in extra_files first) if given, then
+    `.coach_checkpoint` last. Raises _CopyFailed with the problem on the first failure."""
+    extra_files = extra_files or {}
     copies: list[tuple[str, str]] = [(key, key) for key in plan.checkpoint_files]
     copies += [(plan.metadata_key, target) for target in metadata_targets]
     copies += [(plan.hyperparameters_key, target) for target in hyperparameters_targets]
     copies += [(plan.reward_function_key, plan.reward_function_key),
                (plan.training_params_key, plan.training_params_key)]
-    copies += [(key, key) for key in plan.optional_keys]
+    copies += [(key, optional_target(key)) for key in plan.optional_keys]
     written: list[str] = []
 
     def read(key: str) -> bytes:
+        if key in extra_files:
+            return extra_files[key]
         try:
             return source.read(key)
         except _SOURCE_ERRORS as error:
@@ -195,6 +202,8 @@ def _copy_plan(source: ModelSource, plan: ImportPlan, destination: Destination, 
         if last_read is None or last_read[0] != source_key:
             last_read = (source_key, read(source_key))
         put(target, last_read[1])
+    for key, data in extra_files.items():
+        put(key, data)
     if deepracer_checkpoints is not None:
         put(model_layout.DEEPRACER_CHECKPOINTS, deepracer_checkpoints)
     if car_bundle_from is not None:
@@ -276,19 +285,33 @@ def car_bundle(metadata: bytes, inference_key: str, inference_model: bytes) -> t
 
 def export_model(store: ObjectStore, model_prefix: str, destination: Destination, *,
                  limits: SizeLimits = DEFAULT_LIMITS,
-                 check: bool = True) -> TransferResult:
-    """Write `model_prefix` from `store` to `destination` in the import-ready layout plus model.tar.gz."""
+                 check: bool = True, tensorflow: bool = False, layout: str = "racer") -> TransferResult:
+    """Write `model_prefix` from `store` to `destination` in the import-ready layout plus model.tar.gz.
+
+    tensorflow=True adds DeepRacer's TensorFlow files for each racer checkpoint (checkpoint + `model_<N>.pb`) and
+    puts the frozen graph in the car bundle as `agent/model.pb` (needs the optional TensorFlow extra).
+    layout="droa" writes the folder DeepRacer on AWS imports (TensorFlow files only; implies tensorflow=True)."""
+    if layout not in EXPORT_LAYOUTS:
+        raise ValueError(f"layout must be one of {', '.join(EXPORT_LAYOUTS)}, got {layout!r}")
+    tensorflow = tensorflow or layout == "droa"
     source = StoreSource(store, model_prefix)
     report = validate_model(source, limits)
     if report.plan is None:
         return TransferResult(destination.describe(), report)
     plan = _exported_plan(report.plan)
-    inference_key = _car_inference_model(plan)
+    extra_files = tensorflow_exports(source, plan) if tensorflow else {}
+    metadata_targets, hyperparameters_targets = (METADATA_TARGET, "model_metadata.json"), \
+        (HYPERPARAMETERS_TARGET, "hyperparameters.json")
+    if layout == "droa":
+        plan = droa_plan(plan)
+        hyperparameters_targets = ("hyperparameters.json",)
+    inference_key = _car_inference_model(plan, extra_files, prefer_pb=tensorflow)
     try:
-        written = _copy_plan(source, plan, destination, metadata_targets=(METADATA_TARGET, "model_metadata.json"),
-                             hyperparameters_targets=(HYPERPARAMETERS_TARGET, "hyperparameters.json"),
+        written = _copy_plan(source, plan, destination, metadata_targets=metadata_targets,
+                             hyperparameters_targets=hyperparameters_targets,
                              deepracer_checkpoints=_source_deepracer_checkpoints(source, plan),
-                             car_bundle_from=inference_key)
+                             car_bundle_from=inference_key, extra_files=extra_files,
+                             optional_target=droa_targets if layout == "droa" else str)
     except _CopyFailed as failure:
         if isinstance(destination, ArchiveDestination):
             destination.discard()
@@ -306,12 +329,14 @@ def export_model(store: ObjectStore, model_prefix: str, destination: Destination
                           check=checked)
 
 
-def _car_inference_model(plan: ImportPlan) -> str | None:
-    """The best checkpoint's inference model: racer's ONNX if there is one, else a TensorFlow frozen graph."""
+def _car_inference_model(plan: ImportPlan, extra_files: dict[str, bytes], prefer_pb: bool) -> str | None:
+    """The best checkpoint's inference model for the car bundle: the TensorFlow frozen graph when asked for (what
+    every DeepRacer car software loads) or when it is the only one, else racer's ONNX."""
     best = CheckpointName.parse(plan.selection.best)
     assert best is not None  # validation accepted it
-    candidates = ck.inference_model_files(best, plan.checkpoint_files)
-    return next((key for key in candidates if key.endswith(".onnx")), candidates[0] if candidates else None)
+    candidates = ck.inference_model_files(best, {*plan.checkpoint_files, *extra_files})
+    wanted = ".pb" if prefer_pb else ".onnx"
+    return next((key for key in candidates if key.endswith(wanted)), candidates[0] if candidates else None)
 
 
 def _exported_plan(plan: ImportPlan) -> ImportPlan:

@@ -305,7 +305,7 @@ def validate_model(source: ModelSource, limits: SizeLimits = DEFAULT_LIMITS) -> 
             ProblemCode.FILE_DOES_NOT_EXIST, "", f"{where}: there are no files here",
             "check the prefix (it is the folder holding model/ and ip/); if the model was deleted, upload your copy"),))
     run = ValidationRun(source, files)
-    if isinstance(source, TarSource):
+    if isinstance(source, TarSource) or hasattr(source, "archive_bytes"):  # a tar or ZIP archive
         unpacked = sum(files.values())
         if source.archive_bytes > limits.model_bytes or unpacked > limits.model_bytes:
             run.add(ProblemCode.MODEL_TAR_FILE_SIZE_LIMIT_EXCEEDED, "",
@@ -334,8 +334,8 @@ def validate_model(source: ModelSource, limits: SizeLimits = DEFAULT_LIMITS) -> 
         metadata_disagrees = _check_racer_checkpoints(run, [name for name in names if name], metadata_key, metadata)
         _check_inference_models(run, checkpoint_keys, None if metadata_disagrees else metadata)
         if any(key.endswith(".ckpt.index") for key in checkpoint_keys):
-            run.notes.append("TensorFlow checkpoints (DeepRacer console / SimApp): they import and export as they are, "
-                             "but racer's trainer and evaluator run racer's own (PyTorch) checkpoints")
+            run.notes.append("TensorFlow checkpoints (DeepRacer / DRoA / DRfC, or racer's export): `racer model "
+                             "import` converts them to racer checkpoints (with the TensorFlow extra installed)")
         optional = tuple(key for key in files if _OPTIONAL.match(key))
         copied = [*checkpoint_keys, *optional, REWARD_FUNCTION_KEY, TRAINING_PARAMS_KEY, model_layout.DEEPRACER_CHECKPOINTS,
                   *(key for key in (metadata_key, hyperparameters_key) if key)]

@@ -13,7 +13,7 @@ from importlib import metadata as package_metadata
 import torch
 from safetensors.torch import save as save_safetensors
 
-from racer.shared.policy.networks import PolicyConfig
+from racer.shared.policy.networks import CONTINUOUS_MEAN, PolicyConfig
 
 FORMAT = "racer-checkpoint-1"
 
@@ -45,6 +45,7 @@ class CheckpointInfo:
             "number": self.number,
             "env_steps": self.env_steps,
             "policy_config": self.policy_config.to_dict(),
+            "continuous_mean": CONTINUOUS_MEAN,
             "model_metadata": self.model_metadata,
             "hyperparameters": self.hyperparameters,
             "created_unix_s": self.created_unix_s,
@@ -57,6 +58,14 @@ class CheckpointInfo:
     def from_dict(cls, data: Mapping) -> CheckpointInfo:
         if data.get("format") != FORMAT:
             raise CheckpointError(f"checkpoint manifest format {data.get('format')!r}, expected {FORMAT!r}")
+        continuous = data.get("policy_config", {}).get("action_space_type") == "continuous"
+        if continuous and data.get("continuous_mean") != CONTINUOUS_MEAN:
+            raise CheckpointError(
+                f"checkpoint {data.get('name')} is a continuous model from racer before its head became DeepRacer's "
+                "(its mean was tanh of the layer's output, DeepRacer's is the output itself): the same weights would "
+                "drive differently, so racer refuses it. Train it again, or evaluate it with the racer version that "
+                "trained it"
+            )
         return cls(
             name=str(data["name"]),
             number=int(data["number"]),

@@ -8,7 +8,7 @@ Public API
 - `build_actor_critic(model_metadata) -> ActorCritic`, or `ActorCritic(policy_config)`.
 - `ActorCritic.distribution(obs) -> CategoricalPolicy | GaussianPolicy` (policy tower), `ActorCritic.value(obs)`
   (value tower, shape (B,)), `ActorCritic.policy_output(obs)` (what the exported model outputs: action probabilities
-  or the Gaussian mean in [-1, 1]).
+  or the Gaussian mean, DeepRacer's linear head output).
 - `ActorCritic.act(observation, greedy, generator=None, epsilon=0.0) -> (action, log_prob)`: one observation as a dict
   of numpy arrays (sensor name -> array without batch axis), for the rollout and evaluation workers;
   `select_action(distribution, ...)` is the sampling rule it applies (argmax/mean, sampling, e-greedy).
@@ -26,10 +26,10 @@ Layers: Conv2d with 'valid' padding and ReLU after every conv and dense layer of
 and value towers are separate copies of embedders + middleware (`use_separate_networks_per_head = True`).
 
 Heads: discrete = Dense(num_actions) -> softmax -> max(p, 1e-8) (not renormalised, as DeepRacer). Continuous =
-Dense(2) -> tanh for the mean, plus a state-independent log-std parameter (init 0, clipped to [-20, 3]). We use tanh,
-not a clamp, for the mean: it keeps the mean inside the network's [-1, 1] action box while its gradient never
-vanishes completely (a clamp has zero gradient once the mean leaves the box, so a mean that overshoots cannot be pulled
-back by the policy gradient). With the 0.01-scaled initialisation tanh is the identity to within 1e-4 at the start.
+DeepRacer's: the mean is the linear Dense(2) output (RL Coach's `tf.identity` named `policy`, not squashed), plus a
+state-independent log-std parameter (init 0, clipped to [-20, 3] where it is used). The same weights therefore act the
+same in racer, in RL Coach and on the car; the environment clips the action to [-1, 1] when it scales it, as the
+SimApp's does. (racer's checkpoints before `CONTINUOUS_MEAN` = "linear" squashed the mean with tanh; they are refused.)
 """
 
 from __future__ import annotations
@@ -71,6 +71,8 @@ MIN_PROBABILITY = 1e-8
 """Discrete head floor, `max(softmax, 1e-8)` (ppo_head.py)."""
 LOG_STD_MIN = -20.0
 LOG_STD_MAX = 3.0
+CONTINUOUS_MEAN = "linear"
+"""The continuous head's mean function, recorded in every checkpoint manifest: DeepRacer's linear mean."""
 LIDAR_EMBEDDER_DENSE = (256, 256)
 """All three LIDAR-type sensors use the same dense embedder, whatever the network type."""
 
@@ -340,7 +342,7 @@ class GaussianPolicy:
     """Continuous head output: diagonal Gaussian over (steering, speed) in network space."""
 
     mean: torch.Tensor
-    """(B, 2), in [-1, 1]."""
+    """(B, 2), network space (the action box is [-1, 1]; the environment clips)."""
     log_std: torch.Tensor
     """(2,) or (B, 2), already clipped to [-20, 3]."""
 
@@ -412,7 +414,7 @@ class ActorCritic(nn.Module):
         head = self.policy_head(_tower_features(self.policy_tower, observations, tower_dtype))
         if self.config.is_continuous:
             log_std = self.log_std.clamp(LOG_STD_MIN, LOG_STD_MAX)
-            return GaussianPolicy(mean=torch.tanh(head), log_std=log_std)
+            return GaussianPolicy(mean=head, log_std=log_std)
         return CategoricalPolicy(probs=torch.softmax(head, dim=1).clamp_min(MIN_PROBABILITY))
 
     def value(self, observations: Mapping[str, torch.Tensor], tower_dtype: torch.dtype | None = None) -> torch.Tensor:

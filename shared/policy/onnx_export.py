@@ -26,7 +26,7 @@ class _InferenceModel(nn.Module):
 
 def export_onnx(network: ActorCritic) -> bytes:
     """The inference model of a network: inputs named by sensor (raw 0-255 grayscale float [1, 120, 160, C],
-    lidar [1, n]), output `policy` = action probabilities or the Gaussian mean in [-1, 1]. Policy tower only."""
+    lidar [1, n]), output `policy` = action probabilities or the Gaussian mean (linear, as DeepRacer). Policy tower only."""
     examples = tuple(torch.zeros(1, *spec.shape) for spec in network.config.inputs)
     buffer = io.BytesIO()
     was_training = network.training

@@ -37,7 +37,7 @@ class OnnxPolicy:
         return self
 
     def policy_output(self, observation: Mapping[str, np.ndarray]) -> np.ndarray:
-        """Action probabilities (discrete) or the Gaussian mean in [-1, 1] (continuous), shape (num_actions,)."""
+        """Action probabilities (discrete) or the Gaussian mean (continuous, DeepRacer's linear head), shape (num_actions,)."""
         feed = {}
         for name, shape in self._inputs.items():
             array = np.asarray(observation[name])

@@ -238,7 +238,7 @@ def test_command_line_round_trip_through_a_bucket(trained, s3_settings, tmp_path
     location = f"s3://{s3_settings.bucket}/exports/trained"
     result = runner.invoke(main, ["model", "export", "trained", location, "--store", str(trained.store.root)], env=env)
     assert result.exit_code == 0, result.output
-    assert "agent/model.onnx" in result.output
+    assert "agent/model.pb" in result.output  # the car bundle holds the frozen graph DeepRacer's cars load (issue 21)
     result = runner.invoke(main, ["model", "validate", location], env=env)
     assert result.exit_code == 0, result.output
     assert "best 1_Step-500.ckpt, last 2_Step-1000.ckpt" in result.output

@@ -1,0 +1,64 @@
+"""What DeepRacer's own software needs from a racer model: TensorFlow files and DRoA's import folder.
+
+For every racer checkpoint an export copies, `model/<N>_Step-<M>.ckpt.{index,data-00000-of-00001,meta}` (a real
+TensorFlow checkpoint with RL Coach's variable names, which DRoA's validator restores) and `model/model_<N>.pb` (the
+frozen graph the car and DRoA run), made in a TensorFlow process of their own (tensorflow/runner.py).
+
+`--for droa` writes the folder DeepRacer on AWS imports (its `source/docs/import/README.md`): `model/` with
+`.coach_checkpoint`, `deepracer_checkpoints.json`, the TensorFlow checkpoint files and `model_<N>.pb`; at the root
+`model_metadata.json`, `reward_function.py`, `training_params.yaml`, `hyperparameters.json` and the training metrics
+as `metrics/training/training-<name>.json`. racer's own files (safetensors, manifests, ONNX) stay out: DRoA would
+ignore them and they count against its 1 GB limit.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+
+from racer.model_io import checkpoints as ck
+from racer.model_io.problems import ImportPlan
+from racer.model_io.sources import StoreSource
+from racer.shared.model_layout import RACER_CHECKPOINT_SUFFIXES, CheckpointName
+
+__all__ = ["EXPORT_LAYOUTS", "droa_plan", "droa_targets", "tensorflow_exports"]
+
+EXPORT_LAYOUTS = ("racer", "droa")
+_TRAINING_METRICS = re.compile(r"^(?:metrics/)?(TrainingMetrics[^/]*)\.json$")
+
+
+def tensorflow_exports(source: StoreSource, plan: ImportPlan) -> dict[str, bytes]:
+    """TensorFlow checkpoint files and `model_<N>.pb` for every racer checkpoint of the plan, keyed like the plan."""
+    from racer.model_io.tensorflow.convert import ExportJob, tensorflow_files  # torch and numpy, only when asked
+    from racer.shared.policy.checkpoints import CheckpointStore
+
+    checkpoints = CheckpointStore(source.store, source.prefix)
+    jobs = []
+    for text in plan.selection.checkpoints:
+        name = CheckpointName.parse(text)  # validation accepted it
+        if not ck.is_racer_checkpoint(name, plan.checkpoint_files):
+            continue  # a TensorFlow checkpoint already: its files are copied as they are
+        jobs.append(ExportJob(checkpoints.load_policy(name.name), name.name, name.number))
+    files: dict[str, bytes] = {}
+    for produced in tensorflow_files(jobs) if jobs else []:
+        files.update({f"{ck.MODEL_DIR}{file_name}": data for file_name, data in produced.items()})
+    return files
+
+
+def droa_plan(plan: ImportPlan) -> ImportPlan:
+    """The plan without racer's own checkpoint files and ONNX models, and with only the training metrics."""
+    keep = tuple(key for key in plan.checkpoint_files
+                 if not key.endswith(".onnx") and not _is_racer_part(key))
+    optional = tuple(key for key in plan.optional_keys if _TRAINING_METRICS.match(key))
+    return dataclasses.replace(plan, checkpoint_files=keep, optional_keys=optional)
+
+
+def droa_targets(key: str) -> str:
+    """Where DRoA's import expects a copied file: training metrics go to metrics/training/training-<name>.json."""
+    match = _TRAINING_METRICS.match(key)
+    return f"metrics/training/training-{match.group(1)}.json" if match else key
+
+
+def _is_racer_part(key: str) -> bool:
+    name = CheckpointName.of_file(key.removeprefix(ck.MODEL_DIR))
+    return name is not None and key.removeprefix(f"{ck.MODEL_DIR}{name.name}") in RACER_CHECKPOINT_SUFFIXES

@@ -1,0 +1,158 @@
+"""DeepRacer's models become racer models: TensorFlow checkpoints, frozen graphs and DRoA's downloads.
+
+* A model folder / archive / prefix with TensorFlow checkpoints (console, DRfC, DRoA's "virtual model" download,
+  racer's own `--for droa` export) is copied by `import_model`, then `convert_tf_checkpoints` turns each copied
+  TensorFlow checkpoint into a racer checkpoint of the same name (value network included when the checkpoint has
+  it), so `racer evaluate` drives it and `--pretrained-prefix` continues training it.
+* A frozen graph with its model_metadata.json (the physical-car tarball `agent/model.pb`, or a folder with
+  `model.pb` / `model/model_<N>.pb`) becomes checkpoint `0_Step-0.ckpt`: the policy from the graph, the value
+  network fresh (a frozen graph holds only the policy).
+* Archives are recognised by their first bytes (a ZIP named `.tar.gz` from DRoA <= 1.0.9, a real tar.gz since
+  1.0.10) and searched for the model when it sits deeper than the archive root (the training-logs download).
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+from racer.model_io import checkpoints as ck
+from racer.model_io.sources import ModelSource
+from racer.shared import model_layout
+from racer.shared.deepracer.model_metadata import ModelMetadata, parse_model_metadata
+from racer.shared.store import ObjectStore, join_key
+
+__all__ = ["ConversionOutcome", "SubfolderSource", "car_bundle_graph", "convert_tf_checkpoints",
+           "find_model_root", "import_frozen_graph", "tensorflow_only_checkpoints"]
+
+_CAR_GRAPHS = ("agent/model.pb", "model.pb")
+_NUMBERED_GRAPH = re.compile(r"^model/model_(\d+)\.pb$")
+
+
+@dataclass(frozen=True)
+class ConversionOutcome:
+    written: tuple[str, ...]
+    """Checkpoint names written in racer's format."""
+    notes: tuple[str, ...]
+
+
+class SubfolderSource:
+    """A view of one folder inside another source (a model found deeper inside an archive)."""
+
+    def __init__(self, source: ModelSource, folder: str):
+        self.source = source
+        self.folder = folder.strip("/")
+
+    def describe(self) -> str:
+        return f"{self.source.describe()}:{self.folder}"
+
+    def list_files(self) -> dict[str, int]:
+        start = self.folder + "/"
+        return {key.removeprefix(start): size for key, size in self.source.list_files().items() if key.startswith(start)}
+
+    def read(self, key: str) -> bytes:
+        return self.source.read(f"{self.folder}/{key}")
+
+
+def find_model_root(source: ModelSource) -> ModelSource | None:
+    """The shallowest folder holding `model/.coach_checkpoint` or `model/deepracer_checkpoints.json`, when it is
+    not the source's root (DRoA's training-logs download nests the model). None if there is none."""
+    pointers = [key for key in source.list_files() if key.endswith((model_layout.COACH_CHECKPOINT, model_layout.DEEPRACER_CHECKPOINTS))]
+    folders = sorted({key.rsplit("/model/", 1)[0] for key in pointers if "/model/" in key}, key=lambda f: f.count("/"))
+    return SubfolderSource(source, folders[0]) if folders else None
+
+
+def car_bundle_graph(files: dict[str, int]) -> str | None:
+    """The frozen graph to import when the source is a car bundle or a graph-only folder (no checkpoint)."""
+    if "model_metadata.json" not in files and "model/model_metadata.json" not in files:
+        return None
+    if ck.all_checkpoint_names(files):
+        return None
+    for key in _CAR_GRAPHS:
+        if key in files:
+            return key
+    numbered = sorted((int(match.group(1)), key) for key in files if (match := _NUMBERED_GRAPH.match(key)))
+    return numbered[-1][1] if numbered else None
+
+
+def _metadata(store: ObjectStore, model_name: str) -> tuple[ModelMetadata, bytes]:
+    key = join_key(model_name, model_layout.MODEL_METADATA)
+    data = store.get_bytes(key)
+    return parse_model_metadata(json.loads(data.decode("utf-8-sig")), source=key), data
+
+
+def _policy_config(metadata: ModelMetadata):
+    from racer.model_io.tensorflow.errors import UnsupportedGraphError
+    from racer.shared.policy.networks import policy_config_from_metadata
+
+    try:
+        return policy_config_from_metadata(metadata)
+    except ValueError as error:
+        raise UnsupportedGraphError(f"model_metadata.json: {error}") from None
+
+
+def tensorflow_only_checkpoints(keys: list[str] | tuple[str, ...]) -> list[str]:
+    """Names of the complete TensorFlow checkpoints among `keys` that have no racer checkpoint beside them."""
+    files = dict.fromkeys(keys, 0)
+    return [name.name for name in ck.all_checkpoint_names(files)
+            if not ck.is_racer_checkpoint(name, files) and not ck.missing_parts(name, files)]
+
+
+def convert_tf_checkpoints(store: ObjectStore, model_name: str) -> ConversionOutcome:
+    """Turn every TensorFlow checkpoint under `<model_name>/model/` into a racer checkpoint of the same name.
+
+    Raises UnsupportedGraphError (naming what racer cannot represent) or TensorFlowMissingError."""
+    from racer.model_io.tensorflow.convert import network_from_tf_checkpoint
+    from racer.shared.policy.checkpoints import CheckpointStore
+
+    prefix = join_key(model_name, model_layout.MODEL_DIR) + "/"
+    files = {key.removeprefix(model_name + "/"): 0 for key in store.list_keys(prefix)}
+    tf_names = [name for name in ck.all_checkpoint_names(files)
+                if not ck.is_racer_checkpoint(name, files) and not ck.missing_parts(name, files)]
+    if not tf_names:
+        return ConversionOutcome((), ())
+    metadata, _ = _metadata(store, model_name)
+    config = _policy_config(metadata)
+    checkpoints = CheckpointStore(store, model_name, keep=len(tf_names) + 4)
+    pointer = checkpoints.latest_name()
+    written, notes = [], []
+    for name in tf_names:
+        with tempfile.TemporaryDirectory(prefix="racer-tf-import-") as folder:
+            for key in ck.checkpoint_files(name, files):
+                (Path(folder) / key.removeprefix(ck.MODEL_DIR)).write_bytes(store.get_bytes(join_key(model_name, key)))
+            imported = network_from_tf_checkpoint(Path(folder) / name.name, config)
+        checkpoints.save(name.number, name.env_steps, imported.network, model_metadata=metadata,
+                         extra={"imported_from": "tensorflow checkpoint", "value_restored": imported.value_restored})
+        written.append(name.name)
+        notes += [f"{name}: {note}" for note in imported.notes]
+    if pointer is not None:  # save() moved the pointer to each converted checkpoint in turn
+        store.put_bytes(join_key(model_name, model_layout.COACH_CHECKPOINT), (pointer + "\n").encode())
+    return ConversionOutcome(tuple(written), tuple(notes))
+
+
+def import_frozen_graph(source: ModelSource, graph_key: str, store: ObjectStore, model_name: str) -> ConversionOutcome:
+    """A frozen graph + model_metadata.json -> racer model `<model_name>` with checkpoint 0_Step-0.ckpt."""
+    from racer.model_io.tensorflow.convert import network_from_frozen_graph
+    from racer.shared.policy.checkpoints import CheckpointRecord, CheckpointStore
+
+    files = source.list_files()
+    metadata_key = "model_metadata.json" if "model_metadata.json" in files else "model/model_metadata.json"
+    metadata = parse_model_metadata(json.loads(source.read(metadata_key).decode("utf-8-sig")),
+                                    source=f"{source.describe()}/{metadata_key}")
+    config = _policy_config(metadata)
+    with tempfile.TemporaryDirectory(prefix="racer-tf-import-") as folder:
+        graph_path = Path(folder) / "model.pb"
+        graph_path.write_bytes(source.read(graph_key))
+        imported = network_from_frozen_graph(graph_path, config)
+    checkpoints = CheckpointStore(store, model_name)
+    checkpoints.put_model_metadata(metadata)
+    for optional in ("reward_function.py", "training_params.yaml"):
+        if optional in files:
+            store.put_bytes(join_key(model_name, optional), source.read(optional))
+    name = checkpoints.save(0, 0, imported.network, model_metadata=metadata,
+                            extra={"imported_from": f"frozen graph {graph_key}", "value_restored": False})
+    checkpoints.write_best_and_last(CheckpointRecord(name, None, None), CheckpointRecord(name, None, None))
+    return ConversionOutcome((name,), imported.notes)

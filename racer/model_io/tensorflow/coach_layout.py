@@ -1,0 +1,237 @@
+"""RL Coach's graph for one racer network: variable names, shapes and how each maps onto racer's weights.
+
+DeepRacer's clipped-PPO graph (SimApp + RL Coach, read from a real checkpoint's `.index` and `.meta`) holds two
+towers under `main_level/agent/main/online/`: `network_0` (value) and `network_1` (policy). Each tower has one
+embedder per sensor (scope = sensor name, inputs in sorted order, concatenated as `merger`), the middleware
+`middleware_fc_embedder`, a `gradients_from_head_0-0_rescalers` scalar and its head (`v_values_head_0/output`,
+`ppo_head_0/policy_fc` (discrete) or `ppo_head_0/policy_mean` + `policy_log_std` (continuous)). Layer scopes count
+the activation layers RL Coach inserts after each layer, so convolutions are `Conv2d_0`, `Conv2d_2`, ... and the
+dense layers after them go on counting (`Dense_6` after three convolutions). The input placeholders live in
+`network_0/<SENSOR>/<SENSOR>` and both towers read them.
+
+Everything here is plain data (JSON-able) so that the TensorFlow side (`tool.py`, run in its own process) needs
+neither torch nor racer's network code.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from racer.shared.policy.networks import (
+    LIDAR_EMBEDDER_DENSE,
+    LOG_STD_MAX,
+    LOG_STD_MIN,
+    NETWORK_ARCHITECTURES,
+    PIXEL_SCALE,
+    PolicyConfig,
+)
+
+__all__ = [
+    "AGENT_SCOPE",
+    "CoachVariable",
+    "INPUT_NODE_FORMAT",
+    "POLICY_OUTPUT_NODE",
+    "POLICY_NETWORK",
+    "VALUE_NETWORK",
+    "coach_tensors_from_racer",
+    "coach_variables",
+    "graph_spec",
+    "input_node",
+    "racer_state_from_coach",
+]
+
+AGENT_SCOPE = "main_level/agent/main/online"
+VALUE_NETWORK = f"{AGENT_SCOPE}/network_0"
+POLICY_NETWORK = f"{AGENT_SCOPE}/network_1"
+INPUT_NODE_FORMAT = VALUE_NETWORK + "/{sensor}/{sensor}"
+POLICY_OUTPUT_NODE = f"{POLICY_NETWORK}/ppo_head_0/policy"
+"""The SimApp's FROZEN_HEAD_OUTPUT_GRAPH_FORMAT_MAPPING for clipped PPO, agent `agent`."""
+RESCALER = "gradients_from_head_0-0_rescalers"
+MIDDLEWARE_SCOPE = "middleware_fc_embedder"
+
+
+def input_node(sensor: str) -> str:
+    return INPUT_NODE_FORMAT.format(sensor=sensor)
+
+
+@dataclass(frozen=True)
+class CoachVariable:
+    name: str
+    """Full TensorFlow variable name, e.g. `main_level/agent/main/online/network_1/ppo_head_0/policy_fc/kernel`."""
+    shape: tuple[int, ...]
+    racer_key: str | None
+    """The racer state_dict key holding the same numbers (None: the rescaler, which racer has no use for)."""
+    layout: str
+    """How racer's tensor becomes TensorFlow's: `conv` (O,I,kh,kw) -> (kh,kw,I,O), `dense` (out,in) -> (in,out),
+    `same`, `row` ((n,) -> (1, n)) or `scalar` (the rescaler, value 1.0)."""
+
+
+def _layers(config: PolicyConfig) -> list[dict]:
+    """Per tower: the embedders (sorted sensor names) with their layers, then the middleware. Scope names as RL Coach."""
+    architecture = NETWORK_ARCHITECTURES[config.neural_network]
+    embedders = []
+    for spec in config.inputs:
+        layers = []
+        if spec.kind == "camera":
+            stereo = spec.shape[2] == 2
+            convs = architecture.stereo_convs if stereo else architecture.camera_convs
+            dense = architecture.stereo_dense if stereo else architecture.camera_dense
+            channels = spec.shape[2]
+            for index, conv in enumerate(convs):
+                layers.append({"type": "conv", "scope": f"Conv2d_{2 * index}", "racer": f"convs.{2 * index}",
+                               "kernel": [conv.kernel_px, conv.kernel_px, channels, conv.filters],
+                               "stride": conv.stride_px})
+                channels = conv.filters
+            height, width = spec.shape[0], spec.shape[1]
+            for conv in convs:
+                height = (height - conv.kernel_px) // conv.stride_px + 1
+                width = (width - conv.kernel_px) // conv.stride_px + 1
+            features = height * width * channels
+            first_dense = 2 * len(convs)
+            rescale = PIXEL_SCALE
+        else:
+            dense = LIDAR_EMBEDDER_DENSE
+            features = spec.shape[0]
+            first_dense = 0
+            rescale = 1.0
+        for index, units in enumerate(dense):
+            layers.append({"type": "dense", "scope": f"Dense_{first_dense + 2 * index}", "racer": f"dense.{2 * index}",
+                           "kernel": [features, units]})
+            features = units
+        embedders.append({"sensor": spec.name, "shape": list(spec.shape), "rescale": rescale, "layers": layers,
+                          "features": features})
+    merged = sum(embedder["features"] for embedder in embedders)
+    middleware = []
+    for index, units in enumerate(architecture.middleware_dense):
+        middleware.append({"type": "dense", "scope": f"Dense_{2 * index}", "racer": f"middleware.{2 * index}",
+                           "kernel": [merged, units]})
+        merged = units
+    return [*embedders, {"middleware": middleware, "features": merged}]
+
+
+def coach_variables(config: PolicyConfig, include_value: bool = True) -> list[CoachVariable]:
+    """Every variable RL Coach's saver writes for this network, in the SimApp's names and shapes."""
+    *embedders, middleware = _layers(config)
+    variables: list[CoachVariable] = []
+    towers = [("policy_tower", POLICY_NETWORK)]
+    if include_value:
+        towers.insert(0, ("value_tower", VALUE_NETWORK))
+    for tower, scope in towers:
+        for embedder in embedders:
+            for layer in embedder["layers"]:
+                prefix = f"{scope}/{embedder['sensor']}/{layer['scope']}"
+                key = f"{tower}.embedders.{embedder['sensor']}.{layer['racer']}"
+                variables.append(CoachVariable(f"{prefix}/kernel", tuple(layer["kernel"]), f"{key}.weight",
+                                               layer["type"]))
+                variables.append(CoachVariable(f"{prefix}/bias", (layer["kernel"][-1],), f"{key}.bias", "same"))
+        for layer in middleware["middleware"]:
+            prefix = f"{scope}/{MIDDLEWARE_SCOPE}/{layer['scope']}"
+            key = f"{tower}.{layer['racer']}"
+            variables.append(CoachVariable(f"{prefix}/kernel", tuple(layer["kernel"]), f"{key}.weight", "dense"))
+            variables.append(CoachVariable(f"{prefix}/bias", (layer["kernel"][-1],), f"{key}.bias", "same"))
+        variables.append(CoachVariable(f"{scope}/{RESCALER}", (), None, "scalar"))
+        features = middleware["features"]
+        if tower == "value_tower":
+            head = f"{scope}/v_values_head_0/output"
+            variables.append(CoachVariable(f"{head}/kernel", (features, 1), "value_head.weight", "dense"))
+            variables.append(CoachVariable(f"{head}/bias", (1,), "value_head.bias", "same"))
+        else:
+            fc = "policy_mean" if config.is_continuous else "policy_fc"
+            head = f"{scope}/ppo_head_0/{fc}"
+            variables.append(CoachVariable(f"{head}/kernel", (features, config.num_actions), "policy_head.weight",
+                                           "dense"))
+            variables.append(CoachVariable(f"{head}/bias", (config.num_actions,), "policy_head.bias", "same"))
+            if config.is_continuous:
+                variables.append(CoachVariable(f"{scope}/ppo_head_0/policy_log_std", (1, config.num_actions),
+                                               "log_std", "row"))
+    return variables
+
+
+def _to_coach(array: np.ndarray, layout: str) -> np.ndarray:
+    if layout == "conv":
+        return np.ascontiguousarray(array.transpose(2, 3, 1, 0))
+    if layout == "dense":
+        return np.ascontiguousarray(array.T)
+    if layout == "row":
+        return array.reshape(1, -1)
+    return array
+
+
+def _to_racer(array: np.ndarray, layout: str) -> np.ndarray:
+    if layout == "conv":
+        return np.ascontiguousarray(array.transpose(3, 2, 0, 1))
+    if layout == "dense":
+        return np.ascontiguousarray(array.T)
+    if layout == "row":
+        return array.reshape(-1)
+    return array
+
+
+def coach_tensors_from_racer(config: PolicyConfig, state: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """racer weights (state_dict as float32 numpy arrays) -> RL Coach's variables, rescalers at 1.0."""
+    tensors = {}
+    for variable in coach_variables(config):
+        if variable.racer_key is None:
+            tensors[variable.name] = np.asarray(1.0, dtype=np.float32)
+        else:
+            tensors[variable.name] = _to_coach(np.asarray(state[variable.racer_key], dtype=np.float32), variable.layout)
+        if tensors[variable.name].shape != variable.shape:
+            raise ValueError(f"{variable.racer_key} has shape {tensors[variable.name].shape} in TensorFlow's layout, "
+                             f"RL Coach's {variable.name} has {variable.shape}")
+    return tensors
+
+
+class CoachMismatchError(ValueError):
+    """TensorFlow variables that racer's network for the given model_metadata.json cannot take, listed one by one."""
+
+
+def racer_state_from_coach(config: PolicyConfig, tensors: Mapping[str, np.ndarray],
+                           include_value: bool) -> dict[str, np.ndarray]:
+    """RL Coach's variables -> racer state_dict entries (policy tower and head; the value tower too if asked).
+
+    Raises CoachMismatchError listing every missing variable, wrong shape and unexpected network variable, so the
+    user learns exactly which part of the graph racer's networks cannot represent."""
+    expected = coach_variables(config, include_value=include_value)
+    problems = []
+    state = {}
+    for variable in expected:
+        if variable.name not in tensors:
+            problems.append(f"missing {variable.name} {list(variable.shape)}")
+            continue
+        array = np.asarray(tensors[variable.name])
+        if variable.shape == () and array.size == 1:  # a scalar (safetensors stores it as shape [1])
+            array = array.reshape(())
+        if tuple(array.shape) != variable.shape:
+            problems.append(f"{variable.name} has shape {list(array.shape)}, racer's network needs {list(variable.shape)}")
+            continue
+        if variable.racer_key is not None:
+            state[variable.racer_key] = _to_racer(array.astype(np.float32), variable.layout)
+    known = {variable.name for variable in coach_variables(config, include_value=True)}
+    scopes = (POLICY_NETWORK + "/", VALUE_NETWORK + "/") if include_value else (POLICY_NETWORK + "/",)
+    extra = sorted(name for name in tensors if name.startswith(scopes) and name not in known)
+    problems += [f"unexpected {name} {list(np.shape(tensors[name]))} (no such layer in racer's "
+                 f"{config.neural_network} for these sensors)" for name in extra]
+    if problems:
+        raise CoachMismatchError("; ".join(problems))
+    return state
+
+
+def graph_spec(config: PolicyConfig) -> dict:
+    """What tool.py needs to build the graph: inputs, embedder layers, middleware, head. JSON-able."""
+    *embedders, middleware = _layers(config)
+    return {
+        "value_network": VALUE_NETWORK,
+        "policy_network": POLICY_NETWORK,
+        "rescaler": RESCALER,
+        "middleware_scope": MIDDLEWARE_SCOPE,
+        "embedders": [{key: value for key, value in embedder.items() if key != "features"} for embedder in embedders],
+        "middleware": middleware["middleware"],
+        "continuous": config.is_continuous,
+        "num_actions": config.num_actions,
+        "log_std_range": [LOG_STD_MIN, LOG_STD_MAX],
+        "output_node": POLICY_OUTPUT_NODE,
+        "input_nodes": {embedder["sensor"]: input_node(embedder["sensor"]) for embedder in embedders},
+    }

@@ -1,0 +1,156 @@
+"""The proof that one policy is one function everywhere: racer, the exported frozen graph run by TensorFlow, and the
+OpenVINO IR and LiteRT (TFLite) models the cars make from it, fp32 and fp16, on frames racer's simulator renders.
+
+`racer bench tf-proof` runs the whole matrix (every network, every sensor set DRoA's validation accepts, discrete
+and continuous: 48 models) and prints one JSON line; the test suite runs a subset (tests/model_io). Frames are rendered
+in this process; every TensorFlow, OpenVINO and LiteRT step runs in one TensorFlow process (`tool.py prove`) that
+takes the models one at a time (a stereo DEEP policy network is 230 MB).
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import click
+import numpy as np
+import torch
+from safetensors.numpy import save_file
+
+from racer.model_io.tensorflow.coach_layout import POLICY_NETWORK, coach_tensors_from_racer, graph_spec, input_node
+from racer.model_io.tensorflow.runner import run_tool
+from racer.shared.deepracer.model_metadata import NEURAL_NETWORKS, parse_model_metadata
+from racer.shared.policy.networks import ActorCritic, build_actor_critic
+
+__all__ = ["FP16_TOLERANCE", "FP32_TOLERANCE", "ModelSpec", "RUNTIMES", "SENSOR_SETS", "all_specs", "make_model",
+           "render_frames", "run_proof", "summarize"]
+
+SENSOR_SETS: tuple[tuple[str, ...], ...] = tuple(
+    (camera, *lidar) for camera in ("FRONT_FACING_CAMERA", "STEREO_CAMERAS")
+    for lidar in ((), ("LIDAR",), ("SECTOR_LIDAR",), ("DISCRETIZED_SECTOR_LIDAR",)))
+"""The SimApp's validation_worker.get_transition_data: a front camera or stereo cameras, alone or with one lidar."""
+RUNTIMES = ("tensorflow", "openvino_fp32", "litert_fp32", "openvino_fp16", "litert_fp16")
+FP32_TOLERANCE = 1e-5
+FP16_TOLERANCE = 1e-3
+FP16_SAME_ACTION = 0.99
+
+
+@dataclass(frozen=True)
+class ModelSpec:
+    neural_network: str
+    sensors: tuple[str, ...]
+    continuous: bool
+
+    @property
+    def key(self) -> str:
+        return f"{self.neural_network}:{'+'.join(self.sensors)}:{'continuous' if self.continuous else 'discrete'}"
+
+    def metadata(self) -> dict:
+        if self.continuous:
+            space: object = {"steering_angle": {"low": -30, "high": 30}, "speed": {"low": 0.5, "high": 3}}
+        else:
+            space = [{"steering_angle": angle, "speed": speed} for angle in (-30, -15, 0, 15, 30) for speed in (1, 2)]
+        return {"action_space": space, "sensor": list(self.sensors), "neural_network": self.neural_network,
+                "action_space_type": "continuous" if self.continuous else "discrete",
+                "training_algorithm": "clipped_ppo", "version": "5",
+                "lidar_config": {"num_sectors": 8, "num_values_per_sector": 4, "clipping_dist": 2.0}}
+
+
+def all_specs() -> list[ModelSpec]:
+    return [ModelSpec(network, sensors, continuous) for network in NEURAL_NETWORKS for sensors in SENSOR_SETS
+            for continuous in (False, True)]
+
+
+def make_model(spec: ModelSpec, seed: int) -> ActorCritic:
+    """A network with weights like a trained one's: RL Coach's 0.01-scaled continuous head would give near-zero
+    means, so the head is redrawn wider."""
+    torch.manual_seed(seed)
+    model = build_actor_critic(parse_model_metadata(spec.metadata(), spec.key))
+    with torch.no_grad():
+        model.policy_head.weight.normal_(0.0, 0.05)
+    return model.eval()
+
+
+def render_frames(count: int) -> dict[str, np.ndarray]:
+    """`count` observations per sensor, rendered while driving with random actions (reset when an episode ends)."""
+    from racer.shared.sim.config import EnvConfig  # MuJoCo and Mesa: this process never imports TensorFlow
+    from racer.shared.sim.env import DeepRacerEnv
+
+    rendered: dict[str, np.ndarray] = {}
+    for sensors in (("FRONT_FACING_CAMERA", "LIDAR"), ("STEREO_CAMERAS", "SECTOR_LIDAR"),
+                    ("FRONT_FACING_CAMERA", "DISCRETIZED_SECTOR_LIDAR")):
+        metadata = parse_model_metadata(ModelSpec(NEURAL_NETWORKS[0], sensors, False).metadata(), "proof metadata")
+        env = DeepRacerEnv(EnvConfig(model_metadata=metadata), wall_clock=lambda: 1700000000.0)
+        try:
+            rng = np.random.default_rng(len(rendered))
+            observation, _ = env.reset(seed=3)
+            wanted = [sensor for sensor in sensors if sensor not in rendered]
+            collected: dict[str, list[np.ndarray]] = {sensor: [] for sensor in wanted}
+            while len(collected[wanted[0]]) < count:
+                for sensor in wanted:
+                    collected[sensor].append(np.asarray(observation[sensor]).copy())
+                observation, _, terminated, truncated, _ = env.step(int(rng.integers(metadata.num_actions)))
+                if terminated or truncated:
+                    observation, _ = env.reset()
+            rendered.update({sensor: np.stack(values).astype(np.float32) for sensor, values in collected.items()})
+        finally:
+            env.close()
+    return rendered
+
+
+def run_proof(specs: list[ModelSpec], frames: dict[str, np.ndarray],
+              runtimes: tuple[str, ...] = RUNTIMES) -> dict:
+    """racer's policy outputs and every runtime's, per model key; `cpu_s`: TensorFlow-process CPU seconds per
+    model and runtime (conversion included)."""
+    expected, requests = {}, []
+    with tempfile.TemporaryDirectory(prefix="racer-proof-") as folder:
+        for index, spec in enumerate(specs):
+            model = make_model(spec, index)
+            feeds = {name: torch.from_numpy(frames[name]) for name in model.input_names}
+            with torch.inference_mode():
+                expected[spec.key] = model.policy_output(feeds).numpy()
+            weights = coach_tensors_from_racer(model.config, {name: value.numpy() for name, value
+                                                              in model.state_dict().items()})
+            path = Path(folder) / f"{index}.safetensors"
+            save_file({name: value for name, value in weights.items() if name.startswith(POLICY_NETWORK)}, str(path))
+            requests.append({"key": spec.key, "graph": graph_spec(model.config), "weights_path": str(path)})
+            del model, weights
+        result, outputs = run_tool("prove", {"models": requests, "runtimes": list(runtimes)},
+                                   {input_node(name): value for name, value in frames.items()})
+    return {"expected": expected, "outputs": outputs, "cpu_s": result["cpu_s"], "runtimes": list(runtimes)}
+
+
+def summarize(proof: dict) -> dict:
+    """Worst differences from racer per runtime, the fp16 greedy agreement, and whether the goals hold."""
+    figures: dict = {"models": len(proof["expected"])}
+    ok = True
+    for runtime in proof["runtimes"]:
+        worst = max(float(np.abs(proof["outputs"][f"{key}|{runtime}"] - value).max())
+                    for key, value in proof["expected"].items())
+        same = min((float(np.mean(proof["outputs"][f"{key}|{runtime}"].argmax(1) == value.argmax(1)))
+                    for key, value in proof["expected"].items() if key.endswith("discrete")), default=1.0)
+        fp16 = runtime.endswith("fp16")
+        ok = ok and worst <= (FP16_TOLERANCE if fp16 else FP32_TOLERANCE) and (not fp16 or same >= FP16_SAME_ACTION)
+        cpu = sum(times.get(runtime, 0.0) for times in proof["cpu_s"].values())
+        figures[runtime] = {"max_abs_diff": worst, "min_same_greedy_action": same, "cpu_s": round(cpu, 1)}
+    figures["goals_met"] = ok
+    return figures
+
+
+@click.command("tf-proof")
+@click.option("--frames", "frame_count", type=click.IntRange(min=1), default=100, show_default=True)
+def tf_proof_command(frame_count: int) -> None:
+    """All 48 models through TensorFlow, OpenVINO and LiteRT (fp32, fp16) vs racer; one JSON line."""
+    started = time.monotonic()
+    print(f"rendering {frame_count} frames per sensor ...", file=sys.stderr, flush=True)
+    frames = render_frames(frame_count)
+    print("48 models through TensorFlow, OpenVINO and LiteRT in one TensorFlow process (several minutes) ...",
+          file=sys.stderr, flush=True)
+    figures = summarize(run_proof(all_specs(), frames))
+    figures["frames"] = frame_count
+    figures["wall_s"] = round(time.monotonic() - started, 1)
+    print(json.dumps(figures))

@@ -1,0 +1,135 @@
+"""One function everywhere: racer's policy, the exported TensorFlow frozen graph, and the OpenVINO IR and LiteRT
+(TFLite) models the cars make from it compute the same outputs on frames rendered by racer's simulator.
+
+Every network (shallow, deep, deeper), every sensor set DRoA's model validation accepts, discrete and continuous.
+The full product is 48 models and the stereo DEEP networks are 230 MB each, which takes long on 2 cores: the suite
+runs 24 of them (every sensor set with the shallow network; the deep and deeper networks with the front camera,
+alone and with LIDAR), and `racer bench tf-proof` runs all 48 with the same code. TensorFlow, OpenVINO and LiteRT
+run in one TensorFlow process, never in this process, which has rendered with Mesa.
+
+Also: TensorFlow imports the real DeepRacer checkpoint's `.meta` graph and restores a checkpoint racer wrote for the
+same model_metadata.json (9 actions, shallow, front camera) with its own saver, and its policy equals racer's.
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import torch
+
+from racer.model_io.tensorflow.coach_layout import (
+    POLICY_OUTPUT_NODE,
+    coach_variables,
+    input_node,
+)
+from racer.model_io.tensorflow.convert import ExportJob, tensorflow_files
+from racer.model_io.tensorflow.proof import (
+    FP16_SAME_ACTION,
+    FP16_TOLERANCE,
+    FP32_TOLERANCE,
+    SENSOR_SETS,
+    ModelSpec,
+    all_specs,
+    render_frames,
+    run_proof,
+    summarize,
+)
+from racer.model_io.tensorflow.runner import run_tool
+from racer.shared.deepracer.model_metadata import NEURAL_NETWORKS, parse_model_metadata
+from racer.shared.policy.networks import build_actor_critic
+from tests.model_io.model_io_builders import CONFIG
+
+pytestmark = pytest.mark.slow
+
+REAL_CHECKPOINT = CONFIG / "checkpoints" / "reInvent2019-TestModel" / "model"
+FRAMES = 100
+SUITE_SPECS = [spec for spec in all_specs() if spec.neural_network == NEURAL_NETWORKS[0]
+               or spec.sensors in (("FRONT_FACING_CAMERA",), ("FRONT_FACING_CAMERA", "LIDAR"))]
+
+
+@pytest.fixture(scope="module")
+def frames() -> dict[str, np.ndarray]:
+    return render_frames(FRAMES)
+
+
+@pytest.fixture(scope="module")
+def proof(frames) -> dict:
+    return run_proof(SUITE_SPECS, frames)
+
+
+def test_every_network_sensor_set_and_action_space_is_covered(proof):
+    assert len(all_specs()) == 48 and len(set(SENSOR_SETS)) == 8
+    keys = list(proof["expected"])
+    assert len(keys) == 24
+    assert {key.split(":")[0] for key in keys} == set(NEURAL_NETWORKS)
+    assert {key.split(":")[1] for key in keys} == {"+".join(sensors) for sensors in SENSOR_SETS}
+    assert {key.split(":")[2] for key in keys} == {"discrete", "continuous"}
+
+
+@pytest.mark.parametrize("runtime", ["tensorflow", "openvino_fp32", "litert_fp32"])
+def test_fp32_runtimes_agree_with_racer_to_1e5(proof, runtime):
+    worst = {key: float(np.abs(proof["outputs"][f"{key}|{runtime}"] - expected).max())
+             for key, expected in proof["expected"].items()}
+    bad = {key: value for key, value in worst.items() if value > FP32_TOLERANCE}
+    assert not bad, f"{runtime}: outputs differ from racer's by more than {FP32_TOLERANCE}: {bad}"
+
+
+@pytest.mark.parametrize("runtime", ["openvino_fp16", "litert_fp16"])
+def test_fp16_conversions_pick_the_same_action_and_agree_to_1e3(proof, runtime):
+    for key, expected in proof["expected"].items():
+        got = proof["outputs"][f"{key}|{runtime}"]
+        assert float(np.abs(got - expected).max()) <= FP16_TOLERANCE, key
+        if key.endswith("discrete"):
+            same = float(np.mean(got.argmax(axis=1) == expected.argmax(axis=1)))
+            assert same >= FP16_SAME_ACTION, f"{runtime} {key}: same greedy action on {same:.0%} of frames"
+    assert summarize(proof)["goals_met"]
+
+
+def test_the_frames_are_real_and_the_policies_are_not_constant(frames, proof):
+    """The comparison means something: frames differ, and discrete policies choose different actions."""
+    front = frames["FRONT_FACING_CAMERA"]
+    assert front.shape == (FRAMES, 120, 160, 1) and frames["STEREO_CAMERAS"].shape == (FRAMES, 120, 160, 2)
+    assert len({frame.tobytes() for frame in front}) > FRAMES // 2
+    assert 20 < float(front.mean()) < 235
+    varied = [key for key, value in proof["expected"].items()
+              if key.endswith("discrete") and len(set(value.argmax(axis=1).tolist())) > 1]
+    assert len(varied) >= 6, varied
+
+
+def test_deepracer_restores_a_racer_checkpoint_into_its_own_graph(frames, tmp_path):
+    """The SimApp's .meta graph (reInvent2019 test model: 9 actions, shallow, front camera) restores a checkpoint
+    racer wrote with RL Coach's saver: no missing or mismatched variable, and the same policy."""
+    metadata = parse_model_metadata(json.loads((REAL_CHECKPOINT / "model_metadata.json").read_text()), "real")
+    torch.manual_seed(5)
+    network = build_actor_critic(metadata).eval()
+    files = tensorflow_files([ExportJob(network, "11_Step-38428.ckpt", None)])[0]
+    for name, data in files.items():
+        (tmp_path / name).write_bytes(data)
+    camera = frames["FRONT_FACING_CAMERA"][:20]
+    result, tensors = run_tool("restore_meta", {
+        "meta_path": str(REAL_CHECKPOINT / "11_Step-38428.ckpt.meta"),
+        "checkpoint_prefix": str(tmp_path / "11_Step-38428.ckpt"),
+        "inputs": [input_node("FRONT_FACING_CAMERA")], "output": POLICY_OUTPUT_NODE,
+    }, {input_node("FRONT_FACING_CAMERA"): camera})
+    assert result == {"missing": [], "mismatched": [], "restored": True}
+    with torch.inference_mode():
+        expected = network.policy_output({"FRONT_FACING_CAMERA": torch.from_numpy(camera)}).numpy()
+    assert float(np.abs(tensors["policy"] - expected).max()) <= FP32_TOLERANCE
+
+
+def test_racer_names_every_variable_of_the_real_checkpoint():
+    """The 22 tensors of DeepRacer's checkpoint index, names and shapes, are what racer writes for that metadata."""
+    metadata = parse_model_metadata(json.loads((REAL_CHECKPOINT / "model_metadata.json").read_text()), "real")
+    result, _ = run_tool("read_checkpoint", {"checkpoint_prefix": str(REAL_CHECKPOINT / "11_Step-38428.ckpt"),
+                                             "values": False})
+    real = {name: tuple(item["shape"]) for name, item in result["variables"].items()}
+    ours = {variable.name: variable.shape for variable in coach_variables(build_actor_critic(metadata).config)}
+    assert len(real) == 22
+    assert ours == real
+
+
+def test_model_specs_name_each_model_once():
+    assert len({spec.key for spec in all_specs()}) == 48
+    assert ModelSpec(NEURAL_NETWORKS[0], ("STEREO_CAMERAS", "LIDAR"), True).key.endswith("STEREO_CAMERAS+LIDAR:continuous")
