@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import functools
 import os
+import weakref
 
 import numpy as np
 from OpenGL import GL
@@ -77,6 +78,25 @@ def rgb_to_l(rgb: np.ndarray) -> np.ndarray:
     return (y >> 16).astype(np.uint8)
 
 
+def _release_gl(resources: list) -> None:
+    """Free a renderer's MjrContext with its own GL context current, then the GL context.
+
+    A dropped renderer must not free its GL objects in whichever context happens to be current: the names of
+    framebuffers and textures repeat across contexts, so that would delete another renderer's framebuffer
+    (`GLError 1286 invalid framebuffer operation` at its next frame). `resources` is [gl_context, mjr_context];
+    both are popped so nothing is left to a later, context-less destructor.
+    """
+    gl, context = resources
+    resources.clear()
+    if gl is None:
+        return
+    if context is not None:
+        with gl.as_current():
+            context.free()
+            del context
+    gl.free()
+
+
 class CameraRenderer:
     """One offscreen GL context, scene and frame buffer shared by the car's cameras.
 
@@ -105,11 +125,13 @@ class CameraRenderer:
             self._gl.make_current()
             self._context = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_150.value)
         except (RuntimeError, ImportError, OSError, AttributeError) as exc:
-            self.close()
+            _release_gl([self._gl, self._context])
             raise GLBackendError(
                 f"cannot create an offscreen OpenGL context with MUJOCO_GL={os.environ.get('MUJOCO_GL', '')!r}: {exc}. "
                 "Use MUJOCO_GL=egl or MUJOCO_GL=osmesa (set before mujoco is imported)"
             ) from exc
+        # Freed with its own context current, whether by close(), garbage collection or interpreter exit.
+        self._release = weakref.finalize(self, _release_gl, [self._gl, self._context])
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN.value, self._context)
         self._scene = mujoco.MjvScene(model=model, maxgeom=max(64, 2 * model.ngeom))
         self._option = mujoco.MjvOption()
@@ -158,11 +180,7 @@ class CameraRenderer:
         return image
 
     def close(self) -> None:
-        """Free the GL resources (idempotent); the MjrContext must be freed with its context current."""
-        if getattr(self, "_context", None) is not None and self._gl is not None:
-            self._gl.make_current()
-            self._context.free()
+        """Free the GL context and everything drawn with it (idempotent)."""
         self._context = None
-        if getattr(self, "_gl", None) is not None:
-            self._gl.free()
         self._gl = None
+        self._release()
