@@ -78,6 +78,21 @@ def rgb_to_l(rgb: np.ndarray) -> np.ndarray:
     return (y >> 16).astype(np.uint8)
 
 
+TEXTURE_ANISOTROPY = 16.0
+"""Anisotropic texture filtering for the direct 160x120 frame: the road seen at a grazing angle is sharp along
+the view and smooth across it, as in DeepRacer's 640x480 + bilinear resize (mip-mapping alone blurs it)."""
+_GL_TEXTURE_MAX_ANISOTROPY = 0x84FE
+"""GL 4.6 / ARB_texture_filter_anisotropic (same value as the EXT enum)."""
+
+
+def _filter_textures_anisotropically(context: mujoco.MjrContext, anisotropy: float) -> None:
+    """Set the anisotropy of the context's 2D textures (MuJoCo mip-maps them but leaves anisotropy at 1)."""
+    for texture_id in np.asarray(context.texture)[: context.ntexture]:
+        GL.glBindTexture(GL.GL_TEXTURE_2D, int(texture_id))
+        GL.glTexParameterf(GL.GL_TEXTURE_2D, _GL_TEXTURE_MAX_ANISOTROPY, anisotropy)
+    GL.glBindTexture(GL.GL_TEXTURE_2D, 0)
+
+
 def _release_gl(resources: list) -> None:
     """Free a renderer's MjrContext with its own GL context current, then the GL context.
 
@@ -133,6 +148,8 @@ class CameraRenderer:
         # Freed with its own context current, whether by close(), garbage collection or interpreter exit.
         self._release = weakref.finalize(self, _release_gl, [self._gl, self._context])
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN.value, self._context)
+        if not full_resolution:
+            _filter_textures_anisotropically(self._context, TEXTURE_ANISOTROPY)
         self._scene = mujoco.MjvScene(model=model, maxgeom=max(64, 2 * model.ngeom))
         self._option = mujoco.MjvOption()
         self._rect = mujoco.MjrRect(0, 0, render_w, render_h)

@@ -14,15 +14,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from racer.shared.sim import car as car_geometry
+from racer.shared.sim import world_look
 from racer.shared.sim._mujoco import mujoco
 from racer.shared.sim.track import Track
-from racer.shared.sim.worlds import Texture, World
+from racer.shared.sim.worlds import World
 
 ROAD_Z_M = 0.0008
-LINE_Z_M = 0.0016
-BORDER_LINE_WIDTH_M = 0.05
-CENTER_LINE_WIDTH_M = 0.025
-FLOOR_MARGIN_M = 6.0
 SCENE_EXTENT_M = 10.0
 """Fixed `statistic extent` so the clip planes below are in metres times 10."""
 NEAR_CLIP_M = 0.02
@@ -51,105 +48,87 @@ def _ring_rows(track: Track) -> np.ndarray:
     return track.waypoints[:-1] if track.is_loop else track.waypoints
 
 
-def _strip_mesh(
-    name: str,
-    left: np.ndarray,
-    right: np.ndarray,
-    z: float,
-    closed: bool,
-    quads: np.ndarray | None = None,
-    uv_scale: float = 1.0,
-) -> str:
-    """A flat triangle strip between two polylines of equal length; `quads` selects which quads to emit."""
-    n = len(left)
-    vertices = np.empty((2 * n, 3))
-    vertices[0::2, :2] = left
-    vertices[1::2, :2] = right
-    vertices[:, 2] = z
-    count = n if closed else n - 1
-    if quads is None:
-        quads = np.arange(count)
-    faces = []
-    for i in quads:
-        j = (i + 1) % n
-        a, b, c, d = 2 * i, 2 * i + 1, 2 * j, 2 * j + 1
-        faces.append((a, b, d))
-        faces.append((a, d, c))
-    faces_arr = np.asarray(faces, dtype=np.int64)
-    # Make every triangle face up so it is lit and not culled.
-    p = vertices[faces_arr]
-    normal_z = (p[:, 1, 0] - p[:, 0, 0]) * (p[:, 2, 1] - p[:, 0, 1]) - (p[:, 1, 1] - p[:, 0, 1]) * (p[:, 2, 0] - p[:, 0, 0])
-    flip = normal_z < 0
-    faces_arr[flip] = faces_arr[flip][:, [0, 2, 1]]
-    texcoord = vertices[:, :2] * uv_scale
+def _mesh_xml(name: str, vertices: np.ndarray, faces: np.ndarray, texcoord: np.ndarray) -> str:
     return (
         f'    <mesh name="{name}" inertia="shell" vertex="{_floats(vertices)}" '
-        f'face="{" ".join(str(int(i)) for i in faces_arr.ravel())}" texcoord="{_floats(texcoord)}"/>'
+        f'face="{" ".join(str(int(i)) for i in faces.ravel())}" texcoord="{_floats(texcoord)}"/>'
     )
 
 
-def _offset_towards(border: np.ndarray, center: np.ndarray, width_m: float) -> np.ndarray:
-    direction = center - border
-    length = np.linalg.norm(direction, axis=1, keepdims=True)
-    return border + direction / np.maximum(length, 1e-9) * width_m
+def _unit(vectors: np.ndarray) -> np.ndarray:
+    return vectors / np.maximum(np.linalg.norm(vectors, axis=1, keepdims=True), 1e-9)
 
 
-def _center_line_edges(center: np.ndarray, closed: bool, half_width_m: float) -> tuple[np.ndarray, np.ndarray]:
-    """Left/right edges of a thin band along the centre line (normals from central differences)."""
-    if closed:
-        tangent = np.roll(center, -1, axis=0) - np.roll(center, 1, axis=0)
-    else:
-        tangent = np.gradient(center, axis=0)
-    tangent /= np.maximum(np.linalg.norm(tangent, axis=1, keepdims=True), 1e-9)
-    normal = np.stack([-tangent[:, 1], tangent[:, 0]], axis=1)
-    return center + normal * half_width_m, center - normal * half_width_m
+def _road_band_mesh(track: Track) -> tuple[str, float]:
+    """One textured strip from ROAD_MARGIN_M outside one road edge to as far outside the other.
+
+    u runs across the band (0 at the outer side, 1 at the inner side), v along the centre line in road-texture
+    tiles, so lines and dashes come from the texture. A loop's closing row is kept (no wrap-around quad), so v
+    grows all the way round. Returns the mesh and the mean road width.
+    """
+    rows = track.waypoints
+    center, inner, outer = rows[:, 0:2], rows[:, 2:4], rows[:, 4:6]
+    width_m = float(np.mean(np.linalg.norm(inner - outer, axis=1)))
+    outside = outer + _unit(outer - center) * world_look.ROAD_MARGIN_M
+    inside = inner + _unit(inner - center) * world_look.ROAD_MARGIN_M
+    n = len(rows)
+    vertices = np.empty((2 * n, 3))
+    vertices[0::2, :2] = outside
+    vertices[1::2, :2] = inside
+    vertices[:, 2] = ROAD_Z_M
+    along_m = np.concatenate(([0.0], np.cumsum(np.linalg.norm(np.diff(center, axis=0), axis=1))))
+    texcoord = np.empty((2 * n, 2))
+    texcoord[0::2, 0], texcoord[1::2, 0] = 0.0, 1.0
+    texcoord[0::2, 1] = texcoord[1::2, 1] = along_m / world_look.road_tile_length_m()
+    quads = np.arange(n - 1)
+    a, b, c, d = 2 * quads, 2 * quads + 1, 2 * quads + 2, 2 * quads + 3
+    faces = np.concatenate([np.stack([a, b, d], 1), np.stack([a, d, c], 1)])
+    # Make every triangle face up so it is lit and not culled.
+    p = vertices[faces]
+    normal_z = (p[:, 1, 0] - p[:, 0, 0]) * (p[:, 2, 1] - p[:, 0, 1]) - (p[:, 1, 1] - p[:, 0, 1]) * (p[:, 2, 0] - p[:, 0, 0])
+    faces[normal_z < 0] = faces[normal_z < 0][:, [0, 2, 1]]
+    return _mesh_xml("road", vertices, faces, texcoord), width_m
 
 
-def _texture_xml(name: str, texture: Texture) -> str:
-    mark = f' mark="{texture.mark}" markrgb="{_floats(texture.markrgb)}" random="{texture.random}"' if texture.mark != "none" else ""
+def _walls_mesh(lo: np.ndarray, hi: np.ndarray, height_m: float) -> str:
+    """Four inward-facing wall quads around the floor rectangle; v runs from the foot (0) to the top (1)."""
+    corners = np.array([[lo[0], lo[1]], [hi[0], lo[1]], [hi[0], hi[1]], [lo[0], hi[1]]])
+    vertices, texcoord, faces = [], [], []
+    for k in range(4):
+        p, q = corners[k], corners[(k + 1) % 4]
+        base = len(vertices)
+        vertices += [(*p, 0.0), (*q, 0.0), (*q, height_m), (*p, height_m)]
+        texcoord += [(0.0, 1.0), (1.0, 1.0), (1.0, 0.0), (0.0, 0.0)]
+        # Corners run counter-clockwise seen from above, so (p, top, q) winds towards the inside.
+        faces += [(base, base + 2, base + 1), (base, base + 3, base + 2)]
+    return _mesh_xml("walls", np.array(vertices), np.array(faces), np.array(texcoord))
+
+
+def _lights_xml() -> str:
+    sun, point = world_look.default_lights()["sun"], world_look.default_lights()["point"]
+    ambient = world_look.LIGHT_SCALE * world_look.SCENE_AMBIENT
+    px, py, pz = world_look.POINT_LIGHT_POS_M
     return (
-        f'    <texture name="{name}" type="2d" builtin="{texture.builtin}" rgb1="{_floats(texture.rgb1)}" '
-        f'rgb2="{_floats(texture.rgb2)}" width="{texture.size_px}" height="{texture.size_px}"{mark}/>'
+        f'    <light name="sun" type="directional" castshadow="false" pos="0 0 15" dir="{_floats(world_look.SUN_DIRECTION)}"\n'
+        f'           diffuse="{_floats(sun.diffuse)}" ambient="{ambient} {ambient} {ambient}" specular="0 0 0"/>\n'
+        # A spot light straight down with a 90 degree cutoff and no falloff lights everything below it as the
+        # SimApp's point light does (MuJoCo's renderer draws no light of type "point").
+        f'    <light name="point" type="spot" cutoff="90" exponent="0" dir="0 0 -1" castshadow="false" '
+        f'pos="{px} {py} {pz}" diffuse="{_floats(point.diffuse)}"\n'
+        f'           attenuation="{_floats(point.attenuation)}" ambient="0 0 0" specular="0 0 0"/>'
     )
-
-
-def _backdrop_xml(mid: np.ndarray, half: np.ndarray) -> str:
-    """Four untextured walls around the floor, two-toned: the horizon the camera sees (cheaper than a skybox)."""
-    walls = []
-    for index, (dx, dy, sx, sy) in enumerate(
-        ((half[0], 0.0, 0.05, half[1]), (-half[0], 0.0, 0.05, half[1]), (0.0, half[1], half[0], 0.05), (0.0, -half[1], half[0], 0.05))
-    ):
-        for level, (z, hz, material) in enumerate(((0.6, 0.6, "wall_low"), (3.2, 2.0, "wall_high"))):
-            walls.append(
-                f'    <geom name="wall_{index}_{level}" type="box" pos="{mid[0] + dx:.3f} {mid[1] + dy:.3f} {z}" '
-                f'size="{sx:.3f} {sy:.3f} {hz}" material="{material}" contype="0" conaffinity="0" group="1"/>'
-            )
-    return "\n".join(walls)
 
 
 def scene_mjcf(spec: SceneSpec) -> str:
+    """The MJCF text; its textures are the files named in `scene_assets(spec)`."""
     track, world = spec.track, spec.world
-    rows = _ring_rows(track)
-    closed = track.is_loop
-    center, inner, outer = rows[:, 0:2], rows[:, 2:4], rows[:, 4:6]
-    lo = np.min(track.waypoints.reshape(-1, 3, 2), axis=(0, 1))
-    hi = np.max(track.waypoints.reshape(-1, 3, 2), axis=(0, 1))
-    mid = (lo + hi) / 2
-    half = (hi - lo) / 2 + FLOOR_MARGIN_M
-    dash_quads = np.arange(0, len(rows) if closed else len(rows) - 1, 2)
-    c_left, c_right = _center_line_edges(center, closed, CENTER_LINE_WIDTH_M / 2)
-    meshes = "\n".join(
-        (
-            _strip_mesh("road", outer, inner, ROAD_Z_M, closed, uv_scale=world.road.repeat_per_m),
-            _strip_mesh("inner_line", inner, _offset_towards(inner, center, BORDER_LINE_WIDTH_M), LINE_Z_M, closed),
-            _strip_mesh("outer_line", outer, _offset_towards(outer, center, BORDER_LINE_WIDTH_M), LINE_Z_M, closed),
-            _strip_mesh("center_line", c_left, c_right, LINE_Z_M, closed, quads=dash_quads),
-        )
-    )
-    light = world.lighting
-    sky1, sky2 = world.skybox_rgb
+    look = world_look.get_look(world.name)
+    lo = np.min(track.waypoints.reshape(-1, 3, 2), axis=(0, 1)) - look.field_margin_m
+    hi = np.max(track.waypoints.reshape(-1, 3, 2), axis=(0, 1)) + look.field_margin_m
+    mid, half = (lo + hi) / 2, (hi - lo) / 2
+    road_mesh, _ = _road_band_mesh(track)
     mu = world.tyre_friction
-    ground_repeat = world.ground.repeat_per_m
+    tile = world_look.FIELD_TILE_M
     return f"""<mujoco model="racer_{track.name}_{world.name}">
   <compiler angle="radian" autolimits="true"/>
   <option timestep="{spec.timestep_s!r}" integrator="implicitfast"/>
@@ -158,29 +137,24 @@ def scene_mjcf(spec: SceneSpec) -> str:
     <global offwidth="640" offheight="480"/>
     <quality shadowsize="0" offsamples="0"/>
     <map znear="{NEAR_CLIP_M / SCENE_EXTENT_M}" zfar="{FAR_CLIP_M / SCENE_EXTENT_M}"/>
-    <headlight diffuse="{_floats(light.headlight_diffuse)}" ambient="{_floats(light.headlight_ambient)}" specular="0 0 0"/>
+    <headlight active="0" diffuse="0 0 0" ambient="0 0 0" specular="0 0 0"/>
   </visual>
   <asset>
-{_texture_xml("ground_tex", world.ground)}
-{_texture_xml("road_tex", world.road)}
-    <material name="ground" texture="ground_tex" texrepeat="{ground_repeat} {ground_repeat}" texuniform="true" specular="0" shininess="0"/>
-    <material name="road" texture="road_tex" specular="0.05" shininess="0"/>
-    <material name="border" rgba="{_floats(world.border_rgb)} 1" specular="0"/>
-    <material name="center" rgba="{_floats(world.center_line_rgb)} 1" specular="0"/>
-    <material name="wall_low" rgba="{_floats(sky1)} 1" specular="0"/>
-    <material name="wall_high" rgba="{_floats(sky2)} 1" specular="0"/>
-{meshes}
+    <texture name="field_tex" type="2d" file="field.png"/>
+    <texture name="road_tex" type="2d" file="road.png"/>
+    <texture name="wall_tex" type="2d" file="wall.png"/>
+    <material name="ground" texture="field_tex" texrepeat="{1 / tile} {1 / tile}" texuniform="true" specular="0" shininess="0"/>
+    <material name="road" texture="road_tex" specular="0" shininess="0"/>
+    <material name="walls" texture="wall_tex" specular="0" shininess="0"/>
+{road_mesh}
+{_walls_mesh(lo, hi, look.wall_height_m + world_look.WALL_EXTENSION_M)}
   </asset>
   <worldbody>
-    <light name="sun" directional="true" castshadow="false" pos="{mid[0]:.3f} {mid[1]:.3f} 10" dir="{_floats(light.direction)}"
-           diffuse="{_floats(light.diffuse)}" ambient="{_floats(light.ambient)}" specular="0 0 0"/>
+{_lights_xml()}
     <geom name="floor" type="plane" pos="{mid[0]:.4f} {mid[1]:.4f} 0" size="{half[0]:.3f} {half[1]:.3f} {2 * max(half):.3f}" material="ground"
           friction="{mu} 0.005 0.0001" contype="1" conaffinity="2" group="1"/>
     <geom name="road" type="mesh" mesh="road" material="road" contype="0" conaffinity="0" group="1"/>
-    <geom name="inner_line" type="mesh" mesh="inner_line" material="border" contype="0" conaffinity="0" group="1"/>
-    <geom name="outer_line" type="mesh" mesh="outer_line" material="border" contype="0" conaffinity="0" group="1"/>
-    <geom name="center_line" type="mesh" mesh="center_line" material="center" contype="0" conaffinity="0" group="1"/>
-{_backdrop_xml(mid, half)}
+    <geom name="walls" type="mesh" mesh="walls" material="walls" contype="0" conaffinity="0" group="1"/>
 {car_geometry.car_mjcf(mu, spec.camera_names, spec.camera_pos_m)}
   </worldbody>
 {car_geometry.car_actuators_mjcf()}
@@ -188,9 +162,20 @@ def scene_mjcf(spec: SceneSpec) -> str:
 """
 
 
+def scene_assets(spec: SceneSpec) -> dict[str, bytes]:
+    """The generated texture files the MJCF refers to (PNG bytes by file name)."""
+    look = world_look.get_look(spec.world.name)
+    _, width_m = _road_band_mesh(spec.track)
+    return {
+        "field.png": world_look.field_texture_png(look),
+        "road.png": world_look.road_texture_png(look, round(width_m, 4)),
+        "wall.png": world_look.wall_texture_png(look),
+    }
+
+
 def build_model(spec: SceneSpec) -> mujoco.MjModel:
     """Compile the scene; a compile error names the track and world."""
     try:
-        return mujoco.MjModel.from_xml_string(scene_mjcf(spec))
+        return mujoco.MjModel.from_xml_string(scene_mjcf(spec), assets=scene_assets(spec))
     except ValueError as exc:
         raise ValueError(f"building the MuJoCo scene for track {spec.track.source} in world {spec.world.name!r} failed: {exc}") from exc

@@ -1,0 +1,175 @@
+"""`racer bench camera`: how close racer's camera frames are to DeepRacer's, and what each render path costs.
+
+For each world, racer renders the front camera at poses spread evenly around the re:Invent 2018 lap (centre line,
+heading along the route) and compares them with the real in-car frames of one Gazebo episode
+(`frames/gazebo_reinvent_episode`, 160x120 RGB): the earth-mover distance between the grayscale histograms (in grey
+levels; RL Coach's grayscale), the mean grey of the lower half (mostly road) and of the upper third (walls and what is
+above them). The direct 160x120 frame is compared with racer's 640x480 + bilinear-resize path at the same poses
+(mean absolute grey difference), and both paths are timed. With `--checkpoint`, a racer policy's greedy
+left / straight / right shares on the Gazebo frames show how it reads DeepRacer's images.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import click
+import numpy as np
+from PIL import Image
+
+from racer.shared.sim.camera import CENTER_CAMERA, CameraRenderer, rgb_to_y
+from racer.shared.sim.config import EnvConfig
+from racer.shared.sim.env import DeepRacerEnv
+from racer.shared.sim.worlds import WORLD_NAMES
+
+DATA_DIR = Path(__file__).resolve().parents[2].parent / "shared" / "deepracer-data"
+"""The shared DeepRacer data folder next to the repository (routes and Gazebo frames)."""
+GAZEBO_FRAMES = "frames/gazebo_reinvent_episode"
+ROUTE = "routes/reinvent_base.npy"
+UPPER_ROWS = slice(0, 40)
+LOWER_ROWS = slice(60, 120)
+
+
+@dataclass(frozen=True)
+class FrameStats:
+    """Grey-level statistics of a set of 160x120 frames."""
+
+    histogram: np.ndarray
+    lower_half_mean: float
+    upper_third_mean: float
+
+
+def frame_stats(gray_frames: np.ndarray) -> FrameStats:
+    """(N, 120, 160) uint8 grey frames -> normalised histogram and region means."""
+    histogram = np.bincount(gray_frames.ravel(), minlength=256).astype(np.float64)
+    return FrameStats(
+        histogram / histogram.sum(),
+        float(gray_frames[:, LOWER_ROWS].mean()),
+        float(gray_frames[:, UPPER_ROWS].mean()),
+    )
+
+
+def histogram_emd(a: np.ndarray, b: np.ndarray) -> float:
+    """Earth-mover distance between two normalised 256-bin histograms, in grey levels."""
+    return float(np.abs(np.cumsum(a) - np.cumsum(b)).sum())
+
+
+def load_gazebo_frames(folder: Path) -> np.ndarray:
+    """(N, 120, 160, 3) uint8 RGB frames of the Gazebo episode, in file order; a clear error when missing."""
+    files = sorted(folder.glob("*.png"))
+    if not files:
+        raise click.ClickException(f"no Gazebo frames (*.png) in {folder}; pass --data DIR (the shared deepracer-data)")
+    frames = []
+    for path in files:
+        image = np.asarray(Image.open(path).convert("RGB"))
+        if image.shape != (120, 160, 3):
+            raise click.ClickException(f"{path}: expected a 160x120 frame, got {image.shape[1]}x{image.shape[0]}")
+        frames.append(image)
+    return np.stack(frames)
+
+
+def render_lap(route: Path, world: str, poses: int, full_resolution: bool) -> tuple[np.ndarray, float]:
+    """RGB frames at `poses` evenly spread centre-line poses, and the mean milliseconds per frame."""
+    env = DeepRacerEnv(EnvConfig(track=route, world=world, render_full_resolution=full_resolution))
+    try:
+        env.reset(seed=0)
+        renderer: CameraRenderer = env._camera  # the env's own renderer: the path training uses
+        frames, elapsed_s = [], 0.0
+        for ndist in np.arange(poses) / poses:
+            env.teleport(*env.track.pose_at(float(ndist), "center"))
+            start = time.perf_counter()
+            renderer.start(env.data, CENTER_CAMERA)
+            frame = renderer.finish()
+            elapsed_s += time.perf_counter() - start
+            frames.append(frame.copy())
+        return np.stack(frames), 1e3 * elapsed_s / poses
+    finally:
+        env.close()
+
+
+def frame_cost_ms(route: Path, world: str, full_resolution: bool, frames: int = 300) -> float:
+    """Mean milliseconds per frame over `frames` renders while driving slowly around the lap (after a warm-up)."""
+    env = DeepRacerEnv(EnvConfig(track=route, world=world, render_full_resolution=full_resolution))
+    try:
+        env.reset(seed=0)
+        renderer: CameraRenderer = env._camera
+        poses = [env.track.pose_at(float(i) / frames, "center") for i in range(frames)]
+        for pose in poses[:20]:
+            env.teleport(*pose)
+            renderer.start(env.data, CENTER_CAMERA)
+            renderer.finish()
+        start = time.perf_counter()
+        for pose in poses:
+            env.teleport(*pose)
+            renderer.start(env.data, CENTER_CAMERA)
+            renderer.finish()
+        return 1e3 * (time.perf_counter() - start) / frames
+    finally:
+        env.close()
+
+
+def policy_shares(checkpoint: Path, frames_rgb: np.ndarray) -> dict[str, float]:
+    """Greedy left / straight / right shares of a racer checkpoint's actions on the frames."""
+    from racer.shared.policy.action_shares import greedy_steering_shares
+
+    gray = np.stack([rgb_to_y(frame) for frame in frames_rgb])
+    return greedy_steering_shares(checkpoint, gray)
+
+
+def run_camera_benchmark(
+    data_dir: Path = DATA_DIR, poses: int = 40, worlds: tuple[str, ...] = WORLD_NAMES, checkpoint: Path | None = None
+) -> dict:
+    route = data_dir / ROUTE
+    if not route.is_file():
+        raise click.ClickException(f"route file missing: {route}; pass --data DIR (the shared deepracer-data)")
+    gazebo_rgb = load_gazebo_frames(data_dir / GAZEBO_FRAMES)
+    gazebo = frame_stats(np.stack([rgb_to_y(frame) for frame in gazebo_rgb]))
+    half = len(gazebo_rgb) // 2
+    first = frame_stats(np.stack([rgb_to_y(frame) for frame in gazebo_rgb[:half]]))
+    second = frame_stats(np.stack([rgb_to_y(frame) for frame in gazebo_rgb[half:]]))
+    result: dict = {
+        "gazebo_frames": len(gazebo_rgb),
+        "gazebo_lower_half_mean": round(gazebo.lower_half_mean, 1),
+        "gazebo_upper_third_mean": round(gazebo.upper_third_mean, 1),
+        "gazebo_halves_emd": round(histogram_emd(first.histogram, second.histogram), 2),
+        "poses": poses,
+        "worlds": {},
+    }
+    for world in worlds:
+        direct_rgb, _ = render_lap(route, world, poses, full_resolution=False)
+        full_rgb, _ = render_lap(route, world, poses, full_resolution=True)
+        direct_gray = np.stack([rgb_to_y(frame) for frame in direct_rgb])
+        full_gray = np.stack([rgb_to_y(frame) for frame in full_rgb])
+        stats = frame_stats(direct_gray)
+        direct_ms = frame_cost_ms(route, world, full_resolution=False)
+        full_ms = frame_cost_ms(route, world, full_resolution=True)
+        result["worlds"][world] = {
+            "histogram_emd": round(histogram_emd(stats.histogram, gazebo.histogram), 2),
+            "lower_half_mean": round(stats.lower_half_mean, 1),
+            "upper_third_mean": round(stats.upper_third_mean, 1),
+            "default_vs_full_resolution_mad": round(float(np.abs(direct_gray.astype(int) - full_gray).mean()), 3),
+            "default_frame_ms": round(direct_ms, 3),
+            "full_resolution_frame_ms": round(full_ms, 3),
+        }
+    if checkpoint is not None:
+        result["policy_shares_on_gazebo_frames"] = policy_shares(checkpoint, gazebo_rgb)
+    return result
+
+
+@click.command("camera")
+@click.option("--data", "data_dir", type=click.Path(file_okay=False, path_type=Path), default=DATA_DIR,
+              show_default=True, help="The shared deepracer-data folder (route and Gazebo frames).")
+@click.option("--poses", default=40, show_default=True, help="Poses around the re:Invent 2018 lap.")
+@click.option("--worlds", default=",".join(WORLD_NAMES), show_default=True, help="Comma-separated worlds.")
+@click.option("--checkpoint", type=click.Path(exists=True, path_type=Path), default=None,
+              help="A racer checkpoint (its .ckpt path prefix or model folder): report its steering shares.")
+def camera_bench_command(data_dir: Path, poses: int, worlds: str, checkpoint: Path | None) -> None:
+    """Compare racer's camera frames with DeepRacer's Gazebo frames; prints one JSON line."""
+    names = tuple(name.strip() for name in worlds.split(",") if name.strip())
+    unknown = [name for name in names if name not in WORLD_NAMES]
+    if unknown:
+        raise click.BadParameter(f"unknown world(s) {unknown}; choose from {', '.join(WORLD_NAMES)}", param_hint="--worlds")
+    click.echo(json.dumps(run_camera_benchmark(data_dir, poses, names, checkpoint)))
