@@ -11,6 +11,7 @@ left / straight / right shares on the Gazebo frames show how it reads DeepRacer'
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import time
 from dataclasses import dataclass
@@ -19,9 +20,8 @@ from pathlib import Path
 import click
 import numpy as np
 from PIL import Image
-
 from racer.shared.sim.camera import CENTER_CAMERA, CameraRenderer, rgb_to_y
-from racer.shared.sim.config import EnvConfig
+from racer.shared.sim.config import DEFAULT_MODEL_METADATA, EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
 from racer.shared.sim.worlds import WORLD_NAMES
 
@@ -31,6 +31,8 @@ GAZEBO_FRAMES = "frames/gazebo_reinvent_episode"
 ROUTE = "routes/reinvent_base.npy"
 UPPER_ROWS = slice(0, 40)
 LOWER_ROWS = slice(60, 120)
+GAZEBO_EPISODE_SIMAPP_VERSION = 2.0
+"""The Gazebo frames come from a 2019 episode: a model of SimApp version < 3, with the older camera mount."""
 
 
 @dataclass(frozen=True)
@@ -71,9 +73,16 @@ def load_gazebo_frames(folder: Path) -> np.ndarray:
     return np.stack(frames)
 
 
+def gazebo_episode_config(route: Path, world: str, full_resolution: bool) -> EnvConfig:
+    """An env with the camera of the car that recorded the Gazebo frames: a 2019 model (SimApp version < 3),
+    whose camera sits at (0.2, 0, 0.164) m instead of (0.145, 0, 0.130)."""
+    metadata = dataclasses.replace(DEFAULT_MODEL_METADATA, version=GAZEBO_EPISODE_SIMAPP_VERSION)
+    return EnvConfig(track=route, world=world, model_metadata=metadata, render_full_resolution=full_resolution)
+
+
 def render_lap(route: Path, world: str, poses: int, full_resolution: bool) -> tuple[np.ndarray, float]:
     """RGB frames at `poses` evenly spread centre-line poses, and the mean milliseconds per frame."""
-    env = DeepRacerEnv(EnvConfig(track=route, world=world, render_full_resolution=full_resolution))
+    env = DeepRacerEnv(gazebo_episode_config(route, world, full_resolution))
     try:
         env.reset(seed=0)
         renderer: CameraRenderer = env._camera  # the env's own renderer: the path training uses
@@ -171,5 +180,7 @@ def camera_bench_command(data_dir: Path, poses: int, worlds: str, checkpoint: Pa
     names = tuple(name.strip() for name in worlds.split(",") if name.strip())
     unknown = [name for name in names if name not in WORLD_NAMES]
     if unknown:
-        raise click.BadParameter(f"unknown world(s) {unknown}; choose from {', '.join(WORLD_NAMES)}", param_hint="--worlds")
+        raise click.BadParameter(
+            f"unknown world(s) {unknown}; choose from {', '.join(WORLD_NAMES)}", param_hint="--worlds"
+        )
     click.echo(json.dumps(run_camera_benchmark(data_dir, poses, names, checkpoint)))

@@ -12,7 +12,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-
 from racer.shared.sim import car as car_geometry
 from racer.shared.sim import world_look
 from racer.shared.sim._mujoco import mujoco
@@ -85,7 +84,8 @@ def _road_band_mesh(track: Track) -> tuple[str, float]:
     faces = np.concatenate([np.stack([a, b, d], 1), np.stack([a, d, c], 1)])
     # Make every triangle face up so it is lit and not culled.
     p = vertices[faces]
-    normal_z = (p[:, 1, 0] - p[:, 0, 0]) * (p[:, 2, 1] - p[:, 0, 1]) - (p[:, 1, 1] - p[:, 0, 1]) * (p[:, 2, 0] - p[:, 0, 0])
+    edge_1, edge_2 = p[:, 1, :2] - p[:, 0, :2], p[:, 2, :2] - p[:, 0, :2]
+    normal_z = edge_1[:, 0] * edge_2[:, 1] - edge_1[:, 1] * edge_2[:, 0]
     faces[normal_z < 0] = faces[normal_z < 0][:, [0, 2, 1]]
     return _mesh_xml("road", vertices, faces, texcoord), width_m
 
@@ -109,7 +109,8 @@ def _lights_xml() -> str:
     ambient = world_look.LIGHT_SCALE * world_look.SCENE_AMBIENT
     px, py, pz = world_look.POINT_LIGHT_POS_M
     return (
-        f'    <light name="sun" type="directional" castshadow="false" pos="0 0 15" dir="{_floats(world_look.SUN_DIRECTION)}"\n'
+        f'    <light name="sun" type="directional" castshadow="false" pos="0 0 15" '
+        f'dir="{_floats(world_look.SUN_DIRECTION)}"\n'
         f'           diffuse="{_floats(sun.diffuse)}" ambient="{ambient} {ambient} {ambient}" specular="0 0 0"/>\n'
         # A spot light straight down with a 90 degree cutoff and no falloff lights everything below it as the
         # SimApp's point light does (MuJoCo's renderer draws no light of type "point").
@@ -143,7 +144,8 @@ def scene_mjcf(spec: SceneSpec) -> str:
     <texture name="field_tex" type="2d" file="field.png"/>
     <texture name="road_tex" type="2d" file="road.png"/>
     <texture name="wall_tex" type="2d" file="wall.png"/>
-    <material name="ground" texture="field_tex" texrepeat="{1 / tile} {1 / tile}" texuniform="true" specular="0" shininess="0"/>
+    <material name="ground" texture="field_tex" texrepeat="{1 / tile} {1 / tile}" texuniform="true" specular="0"
+              shininess="0"/>
     <material name="road" texture="road_tex" specular="0" shininess="0"/>
     <material name="walls" texture="wall_tex" specular="0" shininess="0"/>
 {road_mesh}

@@ -53,6 +53,12 @@ DASH_PERIOD_M = 0.1016
 ROAD_TILE_DASHES = 8
 """Dash periods per road-texture tile along the road (one tile = 0.81 m)."""
 ROAD_TEXTURE_PX = 512
+"""Texels across the road band (about 2 mm each)."""
+ROAD_TEXTURE_ALONG_PX = 128
+"""Texels along one tile (6.35 mm each): coarser along the road, which the camera sees foreshortened, so GL's
+mip-mapping blurs the lines less (see camera.TEXTURE_LOD_BIAS)."""
+GRAIN_BLOB_PX = 4
+"""Grain is drawn in blobs of this many texels across (and one along), about 8 x 6 mm: near-isotropic."""
 FIELD_TEXTURE_PX = 256
 FIELD_TILE_M = 1.0
 
@@ -71,7 +77,7 @@ class WorldLook:
     background_rgb: RGB
     """Above the walls: black for base (no sky in its world file), a pale sky for the others."""
     road_grain: float
-    """Standard deviation (grey levels) of the per-texel noise of road and field."""
+    """Standard deviation (grey levels) of the road's grain (and the field's, below)."""
     field_grain: float
     wall_height_m: float
     field_margin_m: float
@@ -80,9 +86,9 @@ class WorldLook:
 
 LOOKS: dict[str, WorldLook] = {
     "base": WorldLook(
-        "base", road_rgb=(36, 52, 68), field_rgb=(100, 143, 110), edge_line_rgb=(229, 230, 225),
+        "base", road_rgb=(41, 58, 76), field_rgb=(100, 143, 110), edge_line_rgb=(242, 242, 236),
         center_line_rgb=(236, 143, 2), wall_bottom_rgb=(50, 90, 108), wall_top_rgb=(50, 90, 108),
-        background_rgb=(0, 0, 0), road_grain=7.0, field_grain=8.0, wall_height_m=1.0, field_margin_m=0.91,
+        background_rgb=(0, 0, 0), road_grain=5.6, field_grain=6.4, wall_height_m=1.0, field_margin_m=0.91,
     ),
     "carpet": WorldLook(
         "carpet", road_rgb=(52, 52, 52), field_rgb=(52, 52, 52), edge_line_rgb=(229, 230, 225),
@@ -155,6 +161,11 @@ def _coverage(low: np.ndarray, high: np.ndarray, cell: float, edges: np.ndarray)
     return covered / cell
 
 
+def _grain(rng: np.random.Generator, std: float, rows: int, columns: int) -> np.ndarray:
+    coarse = rng.normal(0.0, std, (rows, columns // GRAIN_BLOB_PX))
+    return np.repeat(coarse, GRAIN_BLOB_PX, axis=1)[..., None]
+
+
 @functools.cache
 def road_texture_png(look: WorldLook, road_width_m: float, seed: int = 0) -> bytes:
     """The road band's texture: u across the band (margin, lines, asphalt), v along `ROAD_TILE_DASHES` dashes.
@@ -163,6 +174,7 @@ def road_texture_png(look: WorldLook, road_width_m: float, seed: int = 0) -> byt
     """
     rng = np.random.default_rng(seed)
     size = ROAD_TEXTURE_PX
+    along_px = ROAD_TEXTURE_ALONG_PX
     band_m = road_width_m + 2 * ROAD_MARGIN_M
     half_road = road_width_m / 2
     across_cell = band_m / size
@@ -177,16 +189,16 @@ def road_texture_png(look: WorldLook, road_width_m: float, seed: int = 0) -> byt
         across_low, across_high, across_cell, np.array([[-CENTER_LINE_WIDTH_M / 2, CENTER_LINE_WIDTH_M / 2]])
     )
     tile_m = ROAD_TILE_DASHES * DASH_PERIOD_M
-    along_cell = tile_m / size
-    along_low = np.arange(size) * along_cell
+    along_cell = tile_m / along_px
+    along_low = np.arange(along_px) * along_cell
     dashes = np.array([[k * DASH_PERIOD_M, k * DASH_PERIOD_M + DASH_LENGTH_M] for k in range(ROAD_TILE_DASHES)])
     centre_along = _coverage(along_low, along_low + along_cell, along_cell, dashes)
     centre = centre_along[:, None] * centre_across[None, :]  # rows along the road, columns across
     field_w = (1.0 - road)[None, :, None]
     edge_w = edge[None, :, None]
     asphalt_w = np.clip(road[None, :] - edge[None, :] - centre, 0.0, None)[..., None]
-    road_noise = rng.normal(0.0, look.road_grain, (size, size, 1))
-    field_noise = rng.normal(0.0, look.field_grain, (size, size, 1))
+    road_noise = _grain(rng, look.road_grain, along_px, size)
+    field_noise = _grain(rng, look.field_grain, along_px, size)
     pixels = (
         field_w * (_texture_rgb(look.field_rgb) + field_noise)
         + asphalt_w * (_texture_rgb(look.road_rgb) + road_noise)
