@@ -87,6 +87,8 @@ def training_env_config(run: RunFiles) -> EnvConfig:
         off_track_penalty_s=worker.off_track_penalty_s,
         collision_penalty_s=worker.collision_penalty_s,
         number_of_reverse_counts=worker.number_of_reverse_counts,
+        domain_randomization=worker.domain_randomization,
+        car_randomization=worker.car_randomization,
     )
 
 

@@ -48,6 +48,10 @@ class WorkerSettings:
     """racer's option (training_params key RACER_EVAL_SPREAD_STARTS): evaluation trial i of n starts i/n of a lap
     further on. DeepRacer starts them all at one place; in a deterministic simulator they would all be the same
     drive, so spread starts make "3 of 3 laps" mean three different laps."""
+    domain_randomization: bool = False
+    """ENABLE_DOMAIN_RANDOMIZATION: random light colours and attenuation at every episode, as the SimApp."""
+    car_randomization: bool = False
+    """racer's RACER_CAR_RANDOMIZATION: tint, brightness, camera blur, noise and pose jitter per episode."""
 
     def __post_init__(self) -> None:
         if self.world not in WORLDS:
@@ -83,6 +87,8 @@ class WorkerSettings:
             "COLLISION_PENALTY": str(self.collision_penalty_s),
             "NUMBER_OF_REVERSE_COUNTS": str(self.number_of_reverse_counts),
             "RACER_EVAL_SPREAD_STARTS": str(self.eval_spread_starts),
+            "ENABLE_DOMAIN_RANDOMIZATION": str(self.domain_randomization),
+            "RACER_CAR_RANDOMIZATION": str(self.car_randomization),
         }
 
     @classmethod
@@ -122,6 +128,8 @@ class WorkerSettings:
                 off_track_penalty_s=float(params.get("OFF_TRACK_PENALTY", defaults.off_track_penalty_s)),
                 collision_penalty_s=float(params.get("COLLISION_PENALTY", defaults.collision_penalty_s)),
                 number_of_reverse_counts=whole("NUMBER_OF_REVERSE_COUNTS", defaults.number_of_reverse_counts),
+                domain_randomization=flag("ENABLE_DOMAIN_RANDOMIZATION", defaults.domain_randomization),
+                car_randomization=flag("RACER_CAR_RANDOMIZATION", defaults.car_randomization),
             )
         except ValueError as error:
             raise ValueError(f"{source}: {error}") from error
@@ -132,7 +140,8 @@ class WorkerSettings:
         return WorkerSettings(**values)
 
 
-def default_worker_settings(num_workers: int, track: str = DEFAULT_TRACK,
-                            worlds: tuple[str, ...] = WORLDS) -> list[WorkerSettings]:
+def default_worker_settings(num_workers: int, track: str = DEFAULT_TRACK, worlds: tuple[str, ...] = WORLDS,
+                            domain_randomization: bool = False, car_randomization: bool = False) -> list[WorkerSettings]:
     """Worker i gets world i (cycling through `worlds`) on the same track."""
-    return [WorkerSettings(world=worlds[i % len(worlds)], track=track) for i in range(num_workers)]
+    return [WorkerSettings(world=worlds[i % len(worlds)], track=track, domain_randomization=domain_randomization,
+                           car_randomization=car_randomization) for i in range(num_workers)]

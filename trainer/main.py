@@ -29,8 +29,13 @@ from racer.shared.user_errors import user_error_types
 @click.option("--max-memory-steps", type=click.IntRange(min=0), default=None,
               help="Transitions one iteration trains on; later episodes are dropped as in DeepRacer. Default: "
                    "MAX_MEMORY_STEPS, else DeepRacer's 10000 (shallow network) / 3000 (others); 0 = no cap.")
+@click.option("--domain-randomization", type=bool, default=False, show_default=True,
+              help="ENABLE_DOMAIN_RANDOMIZATION for every worker (random light colours per episode, as DeepRacer).")
+@click.option("--car-randomization", type=bool, default=False, show_default=True,
+              help="racer's RACER_CAR_RANDOMIZATION for every worker (tint, blur, noise, camera jitter).")
 def trainer_command(model_prefix, custom_files, num_workers, track, worlds, max_episodes, max_minutes,
-                    pretrained_prefix, pretrained_checkpoint, seed, max_memory_steps) -> None:
+                    pretrained_prefix, pretrained_checkpoint, seed, max_memory_steps, domain_randomization,
+                    car_randomization) -> None:
     """Run the clipped-PPO trainer: Redis and the store come from RACER_REDIS_URL / RACER_STORE."""
     from racer.shared.config import max_memory_steps_from_env
     from racer.trainer.training_loop import TrainerOptions, run_trainer
@@ -45,7 +50,7 @@ def trainer_command(model_prefix, custom_files, num_workers, track, worlds, max_
         worlds=tuple(w.strip() for w in worlds.split(",") if w.strip()), max_episodes=max_episodes,
         max_minutes=max_minutes, seed=seed, pretrained_prefix=pretrained_prefix,
         pretrained_checkpoint=pretrained_checkpoint,
-        max_memory_steps=memory_cap,
+        max_memory_steps=memory_cap, domain_randomization=domain_randomization, car_randomization=car_randomization,
     )
     try:
         run_trainer(settings_from_env(), options)

@@ -63,6 +63,10 @@ class TrainerOptions:
     seed: int = 0
     pretrained_prefix: str | None = None
     pretrained_checkpoint: str = "last"
+    domain_randomization: bool = False
+    """Default ENABLE_DOMAIN_RANDOMIZATION of every worker (workers.json may override it per worker)."""
+    car_randomization: bool = False
+    """Default RACER_CAR_RANDOMIZATION of every worker."""
     share_timeout_s: float = 3600.0
     """Longest wait for the episodes of one iteration before giving up with an error."""
     dead_worker_grace_s: float = 20.0
@@ -75,13 +79,14 @@ class TrainerOptions:
     Redis may have lost the newest writes); a lost one is announced again."""
 
 
-def load_worker_settings(custom_files: Path, num_workers: int, track: str, worlds: tuple[str, ...]) -> list[WorkerSettings]:
+def load_worker_settings(custom_files: Path, num_workers: int, track: str, worlds: tuple[str, ...],
+                         domain_randomization: bool = False, car_randomization: bool = False) -> list[WorkerSettings]:
     """Defaults (world i to worker i, one track) plus the optional custom_files/workers.json.
 
     workers.json holds DeepRacer training_params keys applied to every worker, and optionally
     `"workers": [{...}, {...}]` with per-worker overrides (like DeepRacer-for-Cloud's worker-N.env).
     """
-    settings = default_worker_settings(num_workers, track, worlds)
+    settings = default_worker_settings(num_workers, track, worlds, domain_randomization, car_randomization)
     path = custom_files / "workers.json"
     if not path.is_file():
         return settings
@@ -128,7 +133,8 @@ class Trainer:
         for warning in warnings:
             log.warning(warning)
         load_reward_function(folder / "reward_function.py")  # fail now, with the file and line, not in a worker
-        workers = load_worker_settings(folder, self.options.num_workers, self.options.track, self.options.worlds)
+        workers = load_worker_settings(folder, self.options.num_workers, self.options.track, self.options.worlds,
+                                       self.options.domain_randomization, self.options.car_randomization)
         for worker_id, worker in enumerate(workers):
             try:  # a track name no worker could find fails here, listing where it looked, not in every worker
                 Track.load(worker.track)

@@ -80,6 +80,11 @@ class EnvConfig:
     """MuJoCo steps per env step (timestep = 1 / (15 · substeps) s)."""
     image_width_px: int = 160
     image_height_px: int = 120
+    domain_randomization: bool = False
+    """ENABLE_DOMAIN_RANDOMIZATION: random light colours and attenuation at every reset, as the SimApp."""
+    car_randomization: bool = False
+    """racer's RACER_CAR_RANDOMIZATION: per-episode material tint and brightness, camera blur, noise and pose
+    jitter, for models meant for the physical car (see domain_randomization.py)."""
     render_full_resolution: bool = False
     """True = DeepRacer's path: render 640×480, bilinear-resize to the image size (PIL, as the SimApp).
     False (default) = render the image size directly, about 5-8x cheaper with software GL."""

@@ -27,6 +27,7 @@ from racer.shared.sim.car import (
     command_wheel_radius_m,
 )
 from racer.shared.sim.config import STEPS_PER_SECOND, EnvConfig
+from racer.shared.sim.domain_randomization import SceneRandomizer
 from racer.shared.sim.reward import RewardFunction, default_evaluation_reward, load_reward_function
 from racer.shared.sim.reward_params import make_reward_params
 from racer.shared.sim.scene import SceneSpec, build_model
@@ -39,6 +40,9 @@ SIMTRACE_COLUMNS: tuple[str, ...] = (
     "obstacle_crash_counter", "wall_clock",
 )
 """DeepRacer's 19 simtrace columns, in order (reference §4)."""
+
+_SCENE_RNG_STREAM = 22
+"""Seeds the scene randomisation apart from the LIDAR noise (which uses `np_random`)."""
 
 _PENALTY_STATUSES = (EpisodeStatus.CRASHED, EpisodeStatus.OFF_TRACK, EpisodeStatus.IMMOBILIZED, EpisodeStatus.REVERSED)
 
@@ -146,6 +150,8 @@ class DeepRacerEnv(gym.Env):
         self._data = mujoco.MjData(self._model)
         self._car = Car(self._model, command_wheel_radius_m(self._metadata.version))
         self._camera = CameraRenderer(self._model, cfg.image_width_px, cfg.image_height_px, cfg.render_full_resolution)
+        self._randomizer = SceneRandomizer(self._model, cfg.domain_randomization, cfg.car_randomization)
+        self._scene_rng = np.random.default_rng()
         self._gray = GrayConverter((cfg.image_height_px, cfg.image_width_px))
         self._lidar = lidar_sensor.Lidar(self._model, self._car.body_id) if self._lidar_key else None
         self._last_rgb: np.ndarray | None = None
@@ -249,6 +255,7 @@ class DeepRacerEnv(gym.Env):
         if seed is not None:
             # A seeded reset restarts the simulation clock too, so seeded runs are reproducible row for row.
             self._data.time = 0.0
+            self._scene_rng = np.random.default_rng((seed, _SCENE_RNG_STREAM))
         options = options or {}
         unknown = set(options) - {"evaluation", "start_ndist"}
         if unknown:
@@ -260,6 +267,8 @@ class DeepRacerEnv(gym.Env):
                 raise ValueError("reset option 'start_ndist' is for evaluation episodes; training episodes start at "
                              "the round-robin position")
             self._episode_start_ndist = float(options["start_ndist"]) % 1.0
+        if self._randomizer.enabled:
+            self._randomizer.randomize(self._model, self._scene_rng)
         x, y, yaw = self._track.pose_at(self._episode_start_ndist, "center")
         self._car.teleport(self._model, self._data, x, y, yaw)
         if self._lidar is not None:
@@ -500,11 +509,11 @@ class DeepRacerEnv(gym.Env):
     def _finish_observation(self) -> dict[str, np.ndarray]:
         data = self._data
         if self._camera_key == "STEREO_CAMERAS":
-            left = rgb_to_l(self._camera.rgb(data, LEFT_CAMERA))
-            right = rgb_to_l(self._camera.rgb(data, RIGHT_CAMERA))
+            left = rgb_to_l(self._camera_frame(self._camera.rgb(data, LEFT_CAMERA)))
+            right = rgb_to_l(self._camera_frame(self._camera.rgb(data, RIGHT_CAMERA)))
             image = np.stack((left, right), axis=-1)
         else:
-            rgb = self._camera.finish()
+            rgb = self._camera_frame(self._camera.finish())
             if self.render_mode == "rgb_array" and self._render_cameras[0] == CENTER_CAMERA:
                 self._last_rgb = rgb.copy()
             image = self._gray.to_y(rgb)[:, :, None]
@@ -513,6 +522,10 @@ class DeepRacerEnv(gym.Env):
             ranges = self._lidar.scan(self._model, data, self.np_random)
             observation[self._lidar_key] = self._lidar_observation(ranges)
         return observation
+
+    def _camera_frame(self, rgb: np.ndarray) -> np.ndarray:
+        """The rendered frame with the episode's camera blur and noise (car randomisation only)."""
+        return self._randomizer.process_frame(rgb, self._scene_rng) if self._randomizer.car else rgb
 
     def _lidar_observation(self, ranges: np.ndarray) -> np.ndarray:
         if self._lidar_key == "LIDAR":

@@ -98,7 +98,8 @@ def test_per_worker_settings_travel_from_workers_json_to_each_worker(redis_setti
         "MIN_EVAL_TRIALS": 2, "BEST_MODEL_METRIC": "laptime", "RACER_EVAL_SPREAD_STARTS": True,
         "workers": [{"RACER_WORLD": "concrete"},
                     {"RACER_WORLD": "wood", "REVERSE_DIR": "True", "START_POSITION_OFFSET": 0.25,
-                     "CHANGE_START_POSITION": False, "WORLD_NAME": "racer_bean"}]}))
+                     "CHANGE_START_POSITION": False, "WORLD_NAME": "racer_bean",
+                     "ENABLE_DOMAIN_RANDOMIZATION": "True", "RACER_CAR_RANDOMIZATION": True}]}))
     trainer = make_trainer(redis_settings, tmp_path, custom_files)
     trainer.setup()
     store = open_store(LocalStoreSettings(root=tmp_path / "store"))
@@ -112,7 +113,8 @@ def test_per_worker_settings_travel_from_workers_json_to_each_worker(redis_setti
                                           best_model_metric="laptime", eval_spread_starts=True)
     assert read_back[1] == WorkerSettings(world="wood", track="racer_bean", reverse_dir=True,
                                           start_position_offset=0.25, change_start_position=False,
-                                          min_eval_trials=2, best_model_metric="laptime", eval_spread_starts=True)
+                                          min_eval_trials=2, best_model_metric="laptime", eval_spread_starts=True,
+                                          domain_randomization=True, car_randomization=True)
 
 
 def test_a_malformed_workers_json_names_the_file_and_line(redis_settings, tmp_path, custom_files):
