@@ -130,6 +130,7 @@ class CameraRenderer:
         width_px: int = IMAGE_WIDTH_PX,
         height_px: int = IMAGE_HEIGHT_PX,
         full_resolution: bool = False,
+        antialias: bool = True,
     ) -> None:
         self._model = model
         self._resize_to = (width_px, height_px) if full_resolution else None
@@ -151,7 +152,8 @@ class CameraRenderer:
         # Freed with its own context current, whether by close(), garbage collection or interpreter exit.
         self._release = weakref.finalize(self, _release_gl, [self._gl, self._context])
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN.value, self._context)
-        if not full_resolution:
+        self._filter_frame = antialias and not full_resolution
+        if self._filter_frame:
             _sharpen_texture_filter(self._context, TEXTURE_LOD_BIAS)
         self._scene = mujoco.MjvScene(model=model, maxgeom=max(64, 2 * model.ngeom))
         self._option = mujoco.MjvOption()
@@ -198,6 +200,8 @@ class CameraRenderer:
         image = self._rgb[::-1]  # OpenGL rows start at the bottom
         if self._resize_to is not None:
             return np.asarray(Image.fromarray(np.ascontiguousarray(image)).resize(self._resize_to, resample=Image.BILINEAR))
+        if not self._filter_frame:
+            return image
         cv2.sepFilter2D(image, -1, RESIZE_KERNEL, RESIZE_KERNEL, dst=self._filtered, borderType=cv2.BORDER_REPLICATE)
         return self._filtered
 
