@@ -120,12 +120,36 @@ def frame_cost_ms(route: Path, world: str, full_resolution: bool, frames: int = 
         env.close()
 
 
-def policy_shares(checkpoint: Path, frames_rgb: np.ndarray) -> dict[str, float]:
-    """Greedy left / straight / right shares of a racer checkpoint's actions on the frames."""
-    from racer.shared.policy.action_shares import greedy_steering_shares
+def policy_shares(model_dir: Path, frames_rgb: np.ndarray) -> dict[str, float]:
+    """Greedy left / straight / right shares of a racer model's newest checkpoint on the frames.
 
-    gray = np.stack([rgb_to_y(frame) for frame in frames_rgb])
-    return greedy_steering_shares(checkpoint, gray)
+    `model_dir` is a model folder in racer's local store layout (`<store>/<model>/model/...`); positive steering is
+    left, as in DeepRacer. A continuous policy counts |steering| below 1 degree as straight.
+    """
+    import torch
+
+    from racer.shared.config import LocalStoreSettings
+    from racer.shared.deepracer.model_metadata import parse_model_metadata
+    from racer.shared.policy.checkpoints import CheckpointStore
+    from racer.shared.store import open_store
+
+    metadata_path = model_dir / "model" / "model_metadata.json"
+    if not metadata_path.is_file():
+        raise click.ClickException(f"{metadata_path} is missing: --checkpoint takes a racer model folder")
+    metadata = parse_model_metadata(json.loads(metadata_path.read_text()), source=str(metadata_path))
+    torch.set_num_threads(1)
+    network = CheckpointStore(open_store(LocalStoreSettings(root=model_dir.parent)), model_dir.name).load_policy()
+    counts = {"left": 0, "straight": 0, "right": 0}
+    for frame in frames_rgb:
+        action, _ = network.act({metadata.camera_sensor: rgb_to_y(frame)[:, :, None]}, greedy=True)
+        if metadata.is_continuous:
+            steering = float(metadata.scale_continuous_action(np.asarray(action, dtype=np.float64))[0])
+            side = "straight" if abs(steering) < 1.0 else ("left" if steering > 0 else "right")
+        else:
+            steering = metadata.discrete_actions[int(action)].steering_angle_deg
+            side = "straight" if steering == 0 else ("left" if steering > 0 else "right")
+        counts[side] += 1
+    return {side: round(count / len(frames_rgb), 3) for side, count in counts.items()}
 
 
 def run_camera_benchmark(
@@ -173,8 +197,8 @@ def run_camera_benchmark(
               show_default=True, help="The shared deepracer-data folder (route and Gazebo frames).")
 @click.option("--poses", default=40, show_default=True, help="Poses around the re:Invent 2018 lap.")
 @click.option("--worlds", default=",".join(WORLD_NAMES), show_default=True, help="Comma-separated worlds.")
-@click.option("--checkpoint", type=click.Path(exists=True, path_type=Path), default=None,
-              help="A racer checkpoint (its .ckpt path prefix or model folder): report its steering shares.")
+@click.option("--checkpoint", type=click.Path(exists=True, file_okay=False, path_type=Path), default=None,
+              help="A racer model folder (e.g. racer-data/MODEL): its newest checkpoint's steering shares.")
 def camera_bench_command(data_dir: Path, poses: int, worlds: str, checkpoint: Path | None) -> None:
     """Compare racer's camera frames with DeepRacer's Gazebo frames; prints one JSON line."""
     names = tuple(name.strip() for name in worlds.split(",") if name.strip())
