@@ -127,7 +127,6 @@ def policy_shares(model_dir: Path, frames_rgb: np.ndarray) -> dict[str, float]:
     left, as in DeepRacer. A continuous policy counts |steering| below 1 degree as straight.
     """
     import torch
-
     from racer.shared.config import LocalStoreSettings
     from racer.shared.deepracer.model_metadata import parse_model_metadata
     from racer.shared.policy.checkpoints import CheckpointStore

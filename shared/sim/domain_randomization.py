@@ -17,7 +17,6 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
-
 from racer.shared.sim import world_look
 from racer.shared.sim._mujoco import mujoco
 
@@ -80,7 +79,8 @@ class SceneRandomizer:
             rgba = self._material_rgba.copy()
             rgba[:, :3] = np.clip(rgba[:, :3] * tint, 0.0, None)
             model.mat_rgba[self._materials] = rgba
-            model.cam_pos[:] = self._camera_pos + rng.uniform(-r.camera_shift_m, r.camera_shift_m, self._camera_pos.shape)
+            shift = rng.uniform(-r.camera_shift_m, r.camera_shift_m, self._camera_pos.shape)
+            model.cam_pos[:] = self._camera_pos + shift
             for index, quat in enumerate(self._camera_quat):
                 axis = rng.normal(size=3)
                 angle = rng.uniform(0.0, r.camera_tilt_rad)
