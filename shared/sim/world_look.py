@@ -86,7 +86,7 @@ class WorldLook:
 
 LOOKS: dict[str, WorldLook] = {
     "base": WorldLook(
-        "base", road_rgb=(41, 58, 76), field_rgb=(100, 143, 110), edge_line_rgb=(242, 242, 236),
+        "base", road_rgb=(38, 55, 72), field_rgb=(100, 143, 110), edge_line_rgb=(242, 242, 236),
         center_line_rgb=(236, 143, 2), wall_bottom_rgb=(50, 90, 108), wall_top_rgb=(50, 90, 108),
         background_rgb=(0, 0, 0), road_grain=5.6, field_grain=6.4, wall_height_m=1.0, field_margin_m=0.91,
     ),
