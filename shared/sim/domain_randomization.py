@@ -107,6 +107,7 @@ class SceneRandomizer:
         if effects.blur_sigma_px > 0.05:
             rgb = cv2.GaussianBlur(rgb, (0, 0), effects.blur_sigma_px)
         if effects.noise_std > 0.0:
-            noise = rng.standard_normal(rgb.shape, dtype=np.float32) * np.float32(effects.noise_std)
+            # Luminance noise (one value per pixel for all three channels): the policy sees grey frames.
+            noise = rng.standard_normal((*rgb.shape[:2], 1), dtype=np.float32) * np.float32(effects.noise_std)
             rgb = np.clip(rgb + noise, 0, 255).astype(np.uint8)
         return rgb
