@@ -20,6 +20,7 @@ from pathlib import Path
 import click
 import numpy as np
 from PIL import Image
+
 from racer.shared.sim.camera import CENTER_CAMERA, CameraRenderer, rgb_to_y
 from racer.shared.sim.config import DEFAULT_MODEL_METADATA, EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
@@ -127,6 +128,7 @@ def policy_shares(model_dir: Path, frames_rgb: np.ndarray) -> dict[str, float]:
     left, as in DeepRacer. A continuous policy counts |steering| below 1 degree as straight.
     """
     import torch
+
     from racer.shared.config import LocalStoreSettings
     from racer.shared.deepracer.model_metadata import parse_model_metadata
     from racer.shared.policy.checkpoints import CheckpointStore

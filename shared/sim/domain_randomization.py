@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
+
 from racer.shared.sim import world_look
 from racer.shared.sim._mujoco import mujoco
 

@@ -6,6 +6,7 @@ import json
 
 import numpy as np
 import pytest
+
 from racer.shared.sim.camera import rgb_to_y
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
@@ -162,6 +163,7 @@ def test_car_randomization_tints_blurs_and_moves_the_camera(reinvent_route):
 @pytest.mark.slow
 def test_camera_bench_prints_one_json_line(deepracer_data):
     from click.testing import CliRunner
+
     from racer.shared.sim.camera_bench import camera_bench_command
 
     arguments = ["--data", str(deepracer_data), "--poses", "8", "--worlds", "base"]
@@ -178,6 +180,7 @@ def test_camera_bench_prints_one_json_line(deepracer_data):
 def test_camera_bench_reports_a_policys_steering_shares(deepracer_data, tmp_path):
     """--checkpoint: a model folder in racer's store layout; its newest checkpoint steers on the 92 Gazebo frames."""
     import torch
+
     from racer.shared.config import LocalStoreSettings
     from racer.shared.policy.checkpoints import CheckpointStore
     from racer.shared.policy.networks import build_actor_critic

@@ -76,8 +76,8 @@ def test_full_resolution_path_gives_a_similar_picture():
 def test_camera_renderer_matches_mujoco_renderer():
     """The lean renderer draws exactly what `mujoco.Renderer` draws for the same camera (without the
     anti-aliasing of the direct frame, which `test_camera_look.py` compares with the full-resolution path)."""
-    from racer.shared.sim.camera import CameraRenderer
     from racer.shared.sim._mujoco import mujoco
+    from racer.shared.sim.camera import CameraRenderer
     from racer.shared.sim.config import EnvConfig
     from racer.shared.sim.env import DeepRacerEnv
 
