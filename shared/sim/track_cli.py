@@ -8,6 +8,7 @@ import click
 import numpy as np
 
 from racer.shared.sim.track import Track, TrackError, available_tracks
+from racer.shared.sim.worlds import WORLD_NAMES
 
 
 def _load(name: str, tracks_dir: Path | None) -> Track:
@@ -54,8 +55,19 @@ def show_command(name: str, tracks_dir: Path | None) -> None:
 @click.argument("name")
 @click.argument("out", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--tracks-dir", type=click.Path(file_okay=False, path_type=Path), default=None)
-def plot_command(name: str, out: Path, tracks_dir: Path | None) -> None:
+@click.option("--rendered", "world", type=click.Choice(WORLD_NAMES), default=None,
+              help="Draw what the simulator renders in this world, seen from above (PNG), instead of the diagram.")
+def plot_command(name: str, out: Path, tracks_dir: Path | None, world: str | None) -> None:
     """Draw the route (borders, centre line, start and direction) to an image file."""
+    if world is not None:
+        from PIL import Image
+
+        from racer.shared.sim.top_view import render_top_view
+
+        out.parent.mkdir(parents=True, exist_ok=True)
+        Image.fromarray(render_top_view(_load(name, tracks_dir), world)).save(out)
+        click.echo(str(out))
+        return
     import matplotlib
 
     matplotlib.use("Agg")

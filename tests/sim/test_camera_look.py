@@ -201,3 +201,22 @@ def test_camera_bench_reports_a_policys_steering_shares(deepracer_data, tmp_path
     steering = DEFAULT_MODEL_METADATA.discrete_actions[int(first)].steering_angle_deg
     side = "straight" if steering == 0 else ("left" if steering > 0 else "right")
     assert shares[side] >= 1 / len(frames)
+
+
+def test_track_plot_rendered_top_view(tmp_path):
+    """`racer track plot NAME OUT --rendered base`: racer's own track in DeepRacer's look, seen from above."""
+    from click.testing import CliRunner
+    from PIL import Image
+
+    from racer.shared.sim.track_cli import plot_command
+
+    out = tmp_path / "oval.png"
+    result = CliRunner().invoke(plot_command, ["racer_oval", str(out), "--rendered", "base"])
+    assert result.exit_code == 0, result.output
+    image = np.asarray(Image.open(out).convert("RGB")).reshape(-1, 3).astype(int)
+    assert image.shape[0] == 640 * 480
+    r, g, b = image.T
+    road = (b > r + 15) & (b > g + 5) & (r < 70)
+    field = (g > r + 20) & (g > b + 10)
+    white = (r > 170) & (g > 170) & (b > 170)
+    assert road.mean() > 0.05 and field.mean() > 0.2 and white.mean() > 0.005
