@@ -74,16 +74,20 @@ def load_gazebo_frames(folder: Path) -> np.ndarray:
     return np.stack(frames)
 
 
-def gazebo_episode_config(route: Path, world: str, full_resolution: bool) -> EnvConfig:
+def gazebo_episode_config(route: Path, world: str, full_resolution: bool, simapp_dir: Path | None = None) -> EnvConfig:
     """An env with the camera of the car that recorded the Gazebo frames: a 2019 model (SimApp version < 3),
     whose camera sits at (0.2, 0, 0.164) m instead of (0.145, 0, 0.130)."""
     metadata = dataclasses.replace(DEFAULT_MODEL_METADATA, version=GAZEBO_EPISODE_SIMAPP_VERSION)
-    return EnvConfig(track=route, world=world, model_metadata=metadata, render_full_resolution=full_resolution)
+    return EnvConfig(
+        track=route, world=world, model_metadata=metadata, render_full_resolution=full_resolution, simapp_dir=simapp_dir
+    )
 
 
-def render_lap(route: Path, world: str, poses: int, full_resolution: bool) -> tuple[np.ndarray, float]:
+def render_lap(
+    route: Path, world: str, poses: int, full_resolution: bool, simapp_dir: Path | None = None
+) -> tuple[np.ndarray, float]:
     """RGB frames at `poses` evenly spread centre-line poses, and the mean milliseconds per frame."""
-    env = DeepRacerEnv(gazebo_episode_config(route, world, full_resolution))
+    env = DeepRacerEnv(gazebo_episode_config(route, world, full_resolution, simapp_dir))
     try:
         env.reset(seed=0)
         renderer: CameraRenderer = env._camera  # the env's own renderer: the path training uses
@@ -100,9 +104,13 @@ def render_lap(route: Path, world: str, poses: int, full_resolution: bool) -> tu
         env.close()
 
 
-def frame_cost_ms(route: Path, world: str, full_resolution: bool, frames: int = 300) -> float:
+def frame_cost_ms(
+    route: Path, world: str, full_resolution: bool, frames: int = 300, simapp_dir: Path | None = None
+) -> float:
     """Mean milliseconds per frame over `frames` renders while driving slowly around the lap (after a warm-up)."""
-    env = DeepRacerEnv(EnvConfig(track=route, world=world, render_full_resolution=full_resolution))
+    env = DeepRacerEnv(
+        EnvConfig(track=route, world=world, render_full_resolution=full_resolution, simapp_dir=simapp_dir)
+    )
     try:
         env.reset(seed=0)
         renderer: CameraRenderer = env._camera
@@ -154,8 +162,14 @@ def policy_shares(model_dir: Path, frames_rgb: np.ndarray) -> dict[str, float]:
 
 
 def run_camera_benchmark(
-    data_dir: Path = DATA_DIR, poses: int = 40, worlds: tuple[str, ...] = WORLD_NAMES, checkpoint: Path | None = None
+    data_dir: Path = DATA_DIR,
+    poses: int = 40,
+    worlds: tuple[str, ...] = WORLD_NAMES,
+    checkpoint: Path | None = None,
+    simapp_dir: Path | None = None,
 ) -> dict:
+    """The report; with `simapp_dir`, each world is measured a second time drawn from DeepRacer's own meshes
+    (key `<world>+simapp`)."""
     route = data_dir / ROUTE
     if not route.is_file():
         raise click.ClickException(f"route file missing: {route}; pass --data DIR (the shared deepracer-data)")
@@ -172,15 +186,18 @@ def run_camera_benchmark(
         "poses": poses,
         "worlds": {},
     }
-    for world in worlds:
-        direct_rgb, _ = render_lap(route, world, poses, full_resolution=False)
-        full_rgb, _ = render_lap(route, world, poses, full_resolution=True)
+    runs = [(world, None) for world in worlds]
+    if simapp_dir is not None:
+        runs += [(world, simapp_dir) for world in worlds]
+    for world, simapp in runs:
+        direct_rgb, _ = render_lap(route, world, poses, full_resolution=False, simapp_dir=simapp)
+        full_rgb, _ = render_lap(route, world, poses, full_resolution=True, simapp_dir=simapp)
         direct_gray = np.stack([rgb_to_y(frame) for frame in direct_rgb])
         full_gray = np.stack([rgb_to_y(frame) for frame in full_rgb])
         stats = frame_stats(direct_gray)
-        direct_ms = frame_cost_ms(route, world, full_resolution=False)
-        full_ms = frame_cost_ms(route, world, full_resolution=True)
-        result["worlds"][world] = {
+        direct_ms = frame_cost_ms(route, world, full_resolution=False, simapp_dir=simapp)
+        full_ms = frame_cost_ms(route, world, full_resolution=True, simapp_dir=simapp)
+        result["worlds"][world if simapp is None else f"{world}+simapp"] = {
             "histogram_emd": round(histogram_emd(stats.histogram, gazebo.histogram), 2),
             "lower_half_mean": round(stats.lower_half_mean, 1),
             "upper_third_mean": round(stats.upper_third_mean, 1),
@@ -200,7 +217,11 @@ def run_camera_benchmark(
 @click.option("--worlds", default=",".join(WORLD_NAMES), show_default=True, help="Comma-separated worlds.")
 @click.option("--checkpoint", type=click.Path(exists=True, file_okay=False, path_type=Path), default=None,
               help="A racer model folder (e.g. racer-data/MODEL): its newest checkpoint's steering shares.")
-def camera_bench_command(data_dir: Path, poses: int, worlds: str, checkpoint: Path | None) -> None:
+@click.option("--simapp", "simapp_dir", type=click.Path(exists=True, file_okay=False, path_type=Path), default=None,
+              help="Also measure each world drawn from DeepRacer's own meshes in this SimApp bundle/ folder.")
+def camera_bench_command(
+    data_dir: Path, poses: int, worlds: str, checkpoint: Path | None, simapp_dir: Path | None
+) -> None:
     """Compare racer's camera frames with DeepRacer's Gazebo frames; prints one JSON line."""
     names = tuple(name.strip() for name in worlds.split(",") if name.strip())
     unknown = [name for name in names if name not in WORLD_NAMES]
@@ -208,4 +229,4 @@ def camera_bench_command(data_dir: Path, poses: int, worlds: str, checkpoint: Pa
         raise click.BadParameter(
             f"unknown world(s) {unknown}; choose from {', '.join(WORLD_NAMES)}", param_hint="--worlds"
         )
-    click.echo(json.dumps(run_camera_benchmark(data_dir, poses, names, checkpoint)))
+    click.echo(json.dumps(run_camera_benchmark(data_dir, poses, names, checkpoint, simapp_dir)))

@@ -80,6 +80,9 @@ class EnvConfig:
     """MuJoCo steps per env step (timestep = 1 / (15 · substeps) s)."""
     image_width_px: int = 160
     image_height_px: int = 120
+    simapp_dir: Path | None = None
+    """A SimApp checkout's `bundle/` folder (worlds/, models/, meshes/): draw DeepRacer's own world meshes and
+    textures (`worlds/reinvent_<world>.world`) instead of racer's look. They fit the re:Invent 2018 route only."""
     domain_randomization: bool = False
     """ENABLE_DOMAIN_RANDOMIZATION: random light colours and attenuation at every reset, as the SimApp."""
     car_randomization: bool = False

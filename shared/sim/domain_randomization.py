@@ -6,8 +6,8 @@ linear and quadratic attenuation each drawn from [0, 1] (a directional light ign
 MuJoCo). racer's lights are in MuJoCo units, so the colours are scaled by `world_look.LIGHT_SCALE`.
 
 racer's car randomisation (`RACER_CAR_RANDOMIZATION`, off by default) goes further for the physical car, whose
-camera sees other colours, light, noise and mounting than any simulator: per episode, a tint and brightness of the
-road, field and walls, a camera blur and noise level, and a small camera pose jitter; the noise is fresh every frame.
+camera sees other colours, light, noise and mounting than any simulator: per episode, a tint and brightness of every
+material (road, field, lines, walls), a camera blur and noise level, and a small camera pose jitter; the noise is fresh every frame.
 """
 
 from __future__ import annotations
@@ -20,8 +20,6 @@ import numpy as np
 
 from racer.shared.sim import world_look
 from racer.shared.sim._mujoco import mujoco
-
-RANDOMIZED_MATERIALS = ("ground", "road", "walls")
 
 
 @dataclass(frozen=True)
@@ -56,7 +54,7 @@ class SceneRandomizer:
         self._light_diffuse = model.light_diffuse.copy()
         self._light_specular = model.light_specular.copy()
         self._light_attenuation = model.light_attenuation.copy()
-        self._materials = np.array([model.material(name).id for name in RANDOMIZED_MATERIALS])
+        self._materials = np.arange(model.nmat)
         self._material_rgba = model.mat_rgba[self._materials].copy()
         self._camera_pos = model.cam_pos.copy()
         self._camera_quat = model.cam_quat.copy()

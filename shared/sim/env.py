@@ -31,6 +31,7 @@ from racer.shared.sim.domain_randomization import SceneRandomizer
 from racer.shared.sim.reward import RewardFunction, default_evaluation_reward, load_reward_function
 from racer.shared.sim.reward_params import make_reward_params
 from racer.shared.sim.scene import SceneSpec, build_model
+from racer.shared.sim.simapp_world import load_simapp_world
 from racer.shared.sim.track import PointGeometry, Track, compute_progress
 from racer.shared.sim.worlds import get_world
 
@@ -145,6 +146,7 @@ class DeepRacerEnv(gym.Env):
                 1.0 / (STEPS_PER_SECOND * self._substeps),
                 cameras,
                 camera_mount_m(self._metadata.version),
+                load_simapp_world(cfg.simapp_dir, cfg.world) if cfg.simapp_dir is not None else None,
             )
         )
         self._data = mujoco.MjData(self._model)

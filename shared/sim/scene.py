@@ -9,13 +9,14 @@ llvmpipe they cost 30-60x the frame), no skybox (walls instead), and the floor p
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from racer.shared.sim import car as car_geometry
 from racer.shared.sim import world_look
 from racer.shared.sim._mujoco import mujoco
+from racer.shared.sim.simapp_world import SimappWorld, simapp_scene_xml
 from racer.shared.sim.track import Track
 from racer.shared.sim.worlds import World
 
@@ -37,6 +38,8 @@ class SceneSpec:
     """(camera name, lateral offset y in metres) per camera to mount on the car."""
     camera_pos_m: tuple[float, float, float] = car_geometry.CAMERA_POS_M
     """Camera mount (x, z used; y per camera) on the car."""
+    simapp: SimappWorld | None = field(default=None, compare=False)
+    """DeepRacer's own world meshes and lights to draw instead of racer's look (`EnvConfig.simapp_dir`)."""
 
 
 def _floats(values: np.ndarray) -> str:
@@ -121,17 +124,45 @@ def _lights_xml() -> str:
     )
 
 
-def scene_mjcf(spec: SceneSpec) -> str:
-    """The MJCF text; its textures are the files named in `scene_assets(spec)`."""
+def _racer_visuals(spec: SceneSpec, lo: np.ndarray, hi: np.ndarray) -> tuple[str, str, str, dict[str, bytes]]:
+    """racer's own look of the world: (asset elements, geoms, lights, texture files)."""
+    look = world_look.get_look(spec.world.name)
+    road_mesh, width_m = _road_band_mesh(spec.track)
+    tile = world_look.FIELD_TILE_M
+    assets_xml = f"""    <texture name="field_tex" type="2d" file="field.png"/>
+    <texture name="road_tex" type="2d" file="road.png"/>
+    <texture name="wall_tex" type="2d" file="wall.png"/>
+    <material name="ground" texture="field_tex" texrepeat="{1 / tile} {1 / tile}" texuniform="true" specular="0"
+              shininess="0"/>
+    <material name="road" texture="road_tex" specular="0" shininess="0"/>
+    <material name="walls" texture="wall_tex" specular="0" shininess="0"/>
+{road_mesh}
+{_walls_mesh(lo, hi, look.wall_height_m + world_look.WALL_EXTENSION_M)}"""
+    geoms_xml = """    <geom name="road" type="mesh" mesh="road" material="road" contype="0" conaffinity="0" group="1"/>
+    <geom name="walls" type="mesh" mesh="walls" material="walls" contype="0" conaffinity="0" group="1"/>"""
+    files = {
+        "field.png": world_look.field_texture_png(look),
+        "road.png": world_look.road_texture_png(look, round(width_m, 4)),
+        "wall.png": world_look.wall_texture_png(look),
+    }
+    return assets_xml, geoms_xml, _lights_xml(), files
+
+
+def scene_mjcf_and_assets(spec: SceneSpec) -> tuple[str, dict[str, bytes]]:
+    """The MJCF text and the texture files (PNG bytes by file name) it refers to."""
     track, world = spec.track, spec.world
     look = world_look.get_look(world.name)
     lo = np.min(track.waypoints.reshape(-1, 3, 2), axis=(0, 1)) - look.field_margin_m
     hi = np.max(track.waypoints.reshape(-1, 3, 2), axis=(0, 1)) + look.field_margin_m
     mid, half = (lo + hi) / 2, (hi - lo) / 2
-    road_mesh, _ = _road_band_mesh(track)
+    if spec.simapp is None:
+        assets_xml, geoms_xml, lights_xml, files = _racer_visuals(spec, lo, hi)
+        floor_look = 'material="ground" group="1"'
+    else:
+        assets_xml, geoms_xml, lights_xml, files = simapp_scene_xml(spec.simapp, world_look.LIGHT_SCALE)
+        floor_look = 'rgba="0 0 0 0" group="3"'  # physics only: DeepRacer's own field mesh is what the camera sees
     mu = world.tyre_friction
-    tile = world_look.FIELD_TILE_M
-    return f"""<mujoco model="racer_{track.name}_{world.name}">
+    xml = f"""<mujoco model="racer_{track.name}_{world.name}">
   <compiler angle="radian" autolimits="true"/>
   <option timestep="{spec.timestep_s!r}" integrator="implicitfast"/>
   <statistic extent="{SCENE_EXTENT_M}" center="{mid[0]:.4f} {mid[1]:.4f} 0"/>
@@ -142,43 +173,25 @@ def scene_mjcf(spec: SceneSpec) -> str:
     <headlight active="0" diffuse="0 0 0" ambient="0 0 0" specular="0 0 0"/>
   </visual>
   <asset>
-    <texture name="field_tex" type="2d" file="field.png"/>
-    <texture name="road_tex" type="2d" file="road.png"/>
-    <texture name="wall_tex" type="2d" file="wall.png"/>
-    <material name="ground" texture="field_tex" texrepeat="{1 / tile} {1 / tile}" texuniform="true" specular="0"
-              shininess="0"/>
-    <material name="road" texture="road_tex" specular="0" shininess="0"/>
-    <material name="walls" texture="wall_tex" specular="0" shininess="0"/>
-{road_mesh}
-{_walls_mesh(lo, hi, look.wall_height_m + world_look.WALL_EXTENSION_M)}
+{assets_xml}
   </asset>
   <worldbody>
-{_lights_xml()}
-    <geom name="floor" type="plane" pos="{mid[0]:.4f} {mid[1]:.4f} 0" size="{half[0]:.3f} {half[1]:.3f} {2 * max(half):.3f}" material="ground"
-          friction="{mu} 0.005 0.0001" contype="1" conaffinity="2" group="1"/>
-    <geom name="road" type="mesh" mesh="road" material="road" contype="0" conaffinity="0" group="1"/>
-    <geom name="walls" type="mesh" mesh="walls" material="walls" contype="0" conaffinity="0" group="1"/>
+{lights_xml}
+    <geom name="floor" type="plane" pos="{mid[0]:.4f} {mid[1]:.4f} 0" size="{half[0]:.3f} {half[1]:.3f} {2 * max(half):.3f}"
+          {floor_look} friction="{mu} 0.005 0.0001" contype="1" conaffinity="2"/>
+{geoms_xml}
 {car_geometry.car_mjcf(mu, spec.camera_names, spec.camera_pos_m)}
   </worldbody>
 {car_geometry.car_actuators_mjcf()}
 </mujoco>
 """
-
-
-def scene_assets(spec: SceneSpec) -> dict[str, bytes]:
-    """The generated texture files the MJCF refers to (PNG bytes by file name)."""
-    look = world_look.get_look(spec.world.name)
-    _, width_m = _road_band_mesh(spec.track)
-    return {
-        "field.png": world_look.field_texture_png(look),
-        "road.png": world_look.road_texture_png(look, round(width_m, 4)),
-        "wall.png": world_look.wall_texture_png(look),
-    }
+    return xml, files
 
 
 def build_model(spec: SceneSpec) -> mujoco.MjModel:
     """Compile the scene; a compile error names the track and world."""
     try:
-        return mujoco.MjModel.from_xml_string(scene_mjcf(spec), assets=scene_assets(spec))
+        xml, files = scene_mjcf_and_assets(spec)
+        return mujoco.MjModel.from_xml_string(xml, assets=files)
     except ValueError as exc:
         raise ValueError(f"building the MuJoCo scene for track {spec.track.source} in world {spec.world.name!r} failed: {exc}") from exc
