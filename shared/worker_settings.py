@@ -52,6 +52,9 @@ class WorkerSettings:
     """ENABLE_DOMAIN_RANDOMIZATION: random light colours and attenuation at every episode, as the SimApp."""
     car_randomization: bool = False
     """racer's RACER_CAR_RANDOMIZATION: tint, brightness, camera blur, noise and pose jitter per episode."""
+    simapp_dir: str = ""
+    """racer's RACER_SIMAPP_DIR: a SimApp bundle/ folder on the worker's machine whose world meshes and textures
+    the camera draws instead of racer's look ("" = racer's look)."""
 
     def __post_init__(self) -> None:
         if self.world not in WORLDS:
@@ -89,6 +92,7 @@ class WorkerSettings:
             "RACER_EVAL_SPREAD_STARTS": str(self.eval_spread_starts),
             "ENABLE_DOMAIN_RANDOMIZATION": str(self.domain_randomization),
             "RACER_CAR_RANDOMIZATION": str(self.car_randomization),
+            "RACER_SIMAPP_DIR": self.simapp_dir,
         }
 
     @classmethod
@@ -130,6 +134,7 @@ class WorkerSettings:
                 number_of_reverse_counts=whole("NUMBER_OF_REVERSE_COUNTS", defaults.number_of_reverse_counts),
                 domain_randomization=flag("ENABLE_DOMAIN_RANDOMIZATION", defaults.domain_randomization),
                 car_randomization=flag("RACER_CAR_RANDOMIZATION", defaults.car_randomization),
+                simapp_dir=str(params.get("RACER_SIMAPP_DIR") or defaults.simapp_dir),
             )
         except ValueError as error:
             raise ValueError(f"{source}: {error}") from error

@@ -96,7 +96,7 @@ def test_per_worker_settings_travel_from_workers_json_to_each_worker(redis_setti
 
     (custom_files / "workers.json").write_text(json.dumps({
         "MIN_EVAL_TRIALS": 2, "BEST_MODEL_METRIC": "laptime", "RACER_EVAL_SPREAD_STARTS": True,
-        "workers": [{"RACER_WORLD": "concrete"},
+        "workers": [{"RACER_WORLD": "concrete", "RACER_SIMAPP_DIR": "/opt/simapp/bundle"},
                     {"RACER_WORLD": "wood", "REVERSE_DIR": "True", "START_POSITION_OFFSET": 0.25,
                      "CHANGE_START_POSITION": False, "WORLD_NAME": "racer_bean",
                      "ENABLE_DOMAIN_RANDOMIZATION": "True", "RACER_CAR_RANDOMIZATION": True}]}))
@@ -110,7 +110,8 @@ def test_per_worker_settings_travel_from_workers_json_to_each_worker(redis_setti
         assert key == layout.training_params(worker_id)  # the workers differ: one file each
         read_back.append(WorkerSettings.from_training_params(params, source=key))
     assert read_back[0] == WorkerSettings(world="concrete", track="racer_oval", min_eval_trials=2,
-                                          best_model_metric="laptime", eval_spread_starts=True)
+                                          best_model_metric="laptime", eval_spread_starts=True,
+                                          simapp_dir="/opt/simapp/bundle")
     assert read_back[1] == WorkerSettings(world="wood", track="racer_bean", reverse_dir=True,
                                           start_position_offset=0.25, change_start_position=False,
                                           min_eval_trials=2, best_model_metric="laptime", eval_spread_starts=True,
