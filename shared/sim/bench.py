@@ -3,8 +3,8 @@
 env: `DeepRacerEnv` with the front camera at 160×120 on the default track, a real reward function (the DeepRacer
 centre-line example, written to a temporary file) and uniformly random discrete actions.
 raw bound: the same compiled scene, the same physics substeps and one 160×120 render per step, no env code, through
-the fastest render path we have (the env's lean `CameraRenderer`, pixel-identical to `mujoco.Renderer`, whose flush
-alone makes a bare physics+render loop ~7 % faster than `mujoco.Renderer`).
+the fastest render path we have (the env's lean `CameraRenderer` with the env's anti-aliasing; without it the
+renderer is pixel-identical to `mujoco.Renderer`, and its flush alone makes a bare physics+render loop faster).
 The two are measured in alternating blocks so that load from other processes hits both alike; process CPU
 time per step is reported too, since wall-clock rates on a shared 2-core machine move with everyone's load.
 """
