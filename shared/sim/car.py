@@ -62,7 +62,7 @@ Calibrated so a held 30° at 1 m/s gives ≈ 1.3 rad/s of yaw rate, as the real 
 WHEEL_VELOCITY_GAIN = 0.08
 STEERING_KP = 2.0
 """Steering servo stiffness: (STEERING_KV + hinge damping) / STEERING_KP ≈ 0.135 s to follow a new angle, fitted with
-`racer bench fidelity` (the real cars turn in more slowly than a 0.03 s servo: heading error after 1 s 17° -> 13°)."""
+`racer bench fidelity`: the real cars turn in more slowly than a 0.03 s servo (figures in shared/sim/README.md)."""
 STEERING_KV = 0.25
 
 
