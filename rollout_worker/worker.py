@@ -36,6 +36,7 @@ from racer.shared.sim.env import DeepRacerEnv, EnvConfig
 from racer.shared.store import open_store
 from racer.shared.transport.channels import Announcement, RunChannel, share_sizes
 from racer.shared.transport.codec import EpisodeBatch
+from racer.shared.transport.frames import FrameChannel, FrameTap
 
 log = logging.getLogger(__name__)
 
@@ -98,7 +99,10 @@ class RolloutWorker:
         self.options = options
         self.worker_id = options.worker_id
         self.store = open_store(settings.store)
-        self.channel = RunChannel(RedisLink(settings.redis), options.model_prefix)
+        link = RedisLink(settings.redis)
+        self.channel = RunChannel(link, options.model_prefix)
+        self.frames = FrameChannel(link, options.model_prefix)
+        self.frame_tap: FrameTap | None = None
         self.checkpoints = CheckpointStore(self.store, options.model_prefix)
         self.state = _WorkerState()
         self._stop = threading.Event()
@@ -188,6 +192,7 @@ class RolloutWorker:
         self.env = DeepRacerEnv(training_env_config(self.run))
         self.env.reset(seed=self.options.seed)
         self.log = WorkerLog(self.store, self.run, self.worker_id)
+        self.frame_tap = FrameTap(self.frames, self.worker_id, worker.world)
         log.info("worker %d ready: world %s, track %s, model %s", self.worker_id, worker.world, worker.track,
                  self.options.model_prefix)
 
@@ -231,6 +236,7 @@ class RolloutWorker:
         if count == 0:
             return
         self.state.status = "playing"
+        self.frame_tap.phase = "training"
         self._beat()  # at once: a short share can finish between two periodic beats
         hp = self.run.hyperparameters
         played: list[PlayedEpisode] = []
@@ -246,7 +252,7 @@ class RolloutWorker:
             episode = play_episode(self.env, self.policy, greedy=False, generator=self.rng, epsilon=epsilon,
                                    policy_version=announcement.iteration, worker_id=self.worker_id,
                                    world=self.run.worker.world, episode_index=episode_counter,
-                                   simtrace_episode=episode_counter)
+                                   simtrace_episode=episode_counter, on_step=self.frame_tap)
             played.append(episode)
             steps += episode.steps
             self.state.episodes_played += 1
@@ -271,6 +277,7 @@ class RolloutWorker:
             return
         self.state.status = "evaluating"
         epsilon = evaluation_epsilon(self.run.hyperparameters, self.run.model_metadata)
+        self.frame_tap.phase = "evaluation"
         results = []
         first_start = self.env.start_ndist
         for trial in range(trials):
@@ -279,7 +286,8 @@ class RolloutWorker:
             start = (first_start + trial / trials) % 1.0 if self.run.worker.eval_spread_starts else None
             results.append(play_episode(self.env, self.policy, greedy=True, generator=self.rng, epsilon=epsilon,
                                         policy_version=announcement.iteration, worker_id=self.worker_id,
-                                        world=self.run.worker.world, episode_index=trial, start_ndist=start))
+                                        world=self.run.worker.world, episode_index=trial, start_ndist=start,
+                                        on_step=self.frame_tap))
             log.info("worker %d: evaluation trial %d of checkpoint %d from %.3f of the lap: %s, progress %.1f%%",
                      self.worker_id, trial, announcement.iteration, first_start if start is None else start,
                      results[-1].final_status, results[-1].progress)

@@ -6,6 +6,7 @@ same path: observation -> policy.act -> env.step -> (reward, simtrace row).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -41,11 +42,13 @@ class PlayedEpisode:
 
 def play_episode(env, policy, *, greedy: bool, generator: np.random.Generator, policy_version: int,
                  worker_id: int, world: str, episode_index: int, epsilon: float = 0.0,
-                 simtrace_episode: int | None = None, start_ndist: float | None = None) -> PlayedEpisode:
+                 simtrace_episode: int | None = None, start_ndist: float | None = None,
+                 on_step: Callable[[dict, float, dict], None] | None = None) -> PlayedEpisode:
     """One episode from reset to termination. Evaluation episodes (`greedy=True`) do not advance the start line.
 
     `simtrace_episode` overrides the simtrace `episode` column (the worker owns that counter so it survives restarts).
     `start_ndist` starts an evaluation episode at that normalised distance along the route.
+    `on_step(observation, reward, info)` sees every step (the live viewer's frame tap).
     """
     options = {"evaluation": greedy}
     if start_ndist is not None:
@@ -65,6 +68,8 @@ def play_episode(env, policy, *, greedy: bool, generator: np.random.Generator, p
         log_probs.append(log_prob)
         observation, reward, terminated, truncated, info = env.step(action)
         rewards.append(float(reward))
+        if on_step is not None:
+            on_step(observation, float(reward), info)
         row = dict(info["simtrace"])
         if simtrace_episode is not None:
             row["episode"] = simtrace_episode

@@ -112,6 +112,12 @@ def load_worker_settings(custom_files: Path, num_workers: int, track: str, world
     return result
 
 
+def _world_steps_per_s(episodes: list[Episode]) -> float:
+    """Experience rate of one world: the rates its workers measured while playing their shares, added up."""
+    by_worker = {e.worker_id: float(e.info.get("rollout_steps_per_s", 0.0)) for e in episodes}
+    return round(sum(by_worker.values()), 1)
+
+
 class Trainer:
     def __init__(self, settings: ServiceSettings, options: TrainerOptions):
         self.options = options
@@ -330,7 +336,8 @@ class Trainer:
             "worlds": {
                 world: {"episodes": len(items), "mean_reward": float(np.mean([e.total_reward for e in items])),
                         "mean_progress": float(np.mean([e.progress for e in items])),
-                        "completion_rate": float(np.mean([e.final_status == "lap_complete" for e in items]))}
+                        "completion_rate": float(np.mean([e.final_status == "lap_complete" for e in items])),
+                        "steps_per_s": _world_steps_per_s(items)}
                 for world, items in by_world.items()
             },
         }
