@@ -44,6 +44,9 @@ class LocalRunPlan:
     seed: int = 0
     pretrained_prefix: str | None = None
     pretrained_checkpoint: str = "last"
+    viewer_host: str = "127.0.0.1"
+    viewer_port: int | None = None
+    """The live web page (`racer view --live`) listens here; None: no viewer."""
 
 
 def service_environment(settings: ServiceSettings) -> dict[str, str]:
@@ -66,6 +69,15 @@ def service_environment(settings: ServiceSettings) -> dict[str, str]:
         env["RACER_STORE"] = str(settings.store.root)
     env.setdefault("LP_NUM_THREADS", "1")  # one llvmpipe render thread per worker: workers already fill the cores
     return env
+
+
+VIEWER = "viewer"
+"""The child process name of the web page server."""
+
+
+def viewer_url(host: str, port: int) -> str:
+    shown = "localhost" if host in {"127.0.0.1", "::1", "localhost"} else host
+    return f"http://{shown}:{port}/"
 
 
 class LocalRun:
@@ -118,6 +130,9 @@ class LocalRun:
         for worker_id in range(plan.num_workers):
             self._spawn(f"worker-{worker_id}", ["rollout", "--model-prefix", plan.model_prefix,
                                                 "--worker-id", str(worker_id), "--seed", str(plan.seed + worker_id)])
+        if plan.viewer_port is not None:
+            self._spawn(VIEWER, ["view", "--live", plan.model_prefix, "--host", plan.viewer_host,
+                                 "--port", str(plan.viewer_port)])
 
     def stop_processes(self, grace_s: float = 60.0) -> None:
         """Ask the trainer to finish (final checkpoint, .finished), then stop the workers that are left."""
@@ -128,6 +143,9 @@ class LocalRun:
                 trainer.wait(grace_s)
             except subprocess.TimeoutExpired:
                 trainer.kill()
+        viewer = self.children.get(VIEWER)
+        if viewer is not None and viewer.poll() is None:
+            viewer.terminate()  # it never ends by itself
         deadline = time.monotonic() + 15
         for child in self.children.values():
             if child.poll() is None:
@@ -216,6 +234,9 @@ def run_local_training(plan: LocalRunPlan, base_settings: ServiceSettings, on_ev
                    f"{plan.num_workers} workers ({', '.join(plan.worlds[:plan.num_workers])}) on track {plan.track}; "
                    f"logs in {plan.log_dir}")
         run.start_processes()
+        if plan.viewer_port is not None:
+            click.echo(f"racer train: watch it live at {viewer_url(plan.viewer_host, plan.viewer_port)}")
+        viewer_reported = False
         channel = RunChannel(RedisLink(settings.redis), plan.model_prefix)
         display = ProgressDisplay(channel, plan.num_workers, started)
         trainer = run.children["trainer"]
@@ -223,8 +244,13 @@ def run_local_training(plan: LocalRunPlan, base_settings: ServiceSettings, on_ev
             for record in display.poll():
                 if on_evaluation is not None and on_evaluation(record):
                     interrupted = True
+            viewer = run.children.get(VIEWER)
+            if viewer is not None and viewer.poll() not in (None, 0) and not viewer_reported:
+                viewer_reported = True  # training goes on without the page (e.g. the port is taken)
+                click.echo(f"the viewer exited with status {viewer.returncode}; training goes on without it (see "
+                           f"{plan.log_dir / (VIEWER + '.log')})", err=True)
             crashed = [name for name, child in run.children.items()
-                       if name != "trainer" and child.poll() not in (None, 0)]
+                       if name.startswith("worker-") and child.poll() not in (None, 0)]
             for name in crashed:
                 click.echo(f"{name} exited with status {run.children[name].returncode}; restarting it "
                            f"(see {plan.log_dir / (name + '.log')})", err=True)
@@ -262,8 +288,12 @@ def run_local_training(plan: LocalRunPlan, base_settings: ServiceSettings, on_ev
 @click.option("--pretrained-prefix", default=None, help="Clone: start from this model's checkpoint.")
 @click.option("--pretrained-checkpoint", type=click.Choice(["last", "best"]), default="last", show_default=True)
 @click.option("--seed", type=int, default=0, show_default=True)
+@click.option("--viewer-port", type=click.IntRange(0, 65535), default=8100, show_default=True,
+              help="Port of the live web page (camera streams, curves, evaluations); 0: no page.")
+@click.option("--viewer-host", default="127.0.0.1", show_default=True,
+              help="Address the page listens on; the default is reachable from this machine only.")
 def train_command(model_prefix, custom_files, num_workers, worlds, track, max_episodes, max_minutes, use_minio,
-                  pretrained_prefix, pretrained_checkpoint, seed) -> None:
+                  pretrained_prefix, pretrained_checkpoint, seed, viewer_port, viewer_host) -> None:
     """Train with the embedded default: Redis, store, trainer and rollout workers as local processes."""
     base_settings = settings_from_env()
     model_prefix = model_prefix or datetime.now().strftime("racer-%Y%m%d-%H%M%S")
@@ -273,6 +303,7 @@ def train_command(model_prefix, custom_files, num_workers, worlds, track, max_ep
         worlds=tuple(w.strip() for w in worlds.split(",") if w.strip()), track=track, max_episodes=max_episodes,
         max_minutes=max_minutes, use_minio=use_minio, log_dir=Path(store_root) / ".runs" / model_prefix,
         seed=seed, pretrained_prefix=pretrained_prefix, pretrained_checkpoint=pretrained_checkpoint,
+        viewer_host=viewer_host, viewer_port=viewer_port or None,
     )
     sys.exit(run_local_training(plan, base_settings))
 

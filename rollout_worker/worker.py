@@ -14,6 +14,7 @@ A heartbeat thread keeps `heartbeat:<id>` alive so the trainer can tell a dead w
 from __future__ import annotations
 
 import logging
+import os
 import tempfile
 import threading
 import time
@@ -126,7 +127,7 @@ class RolloutWorker:
         world = self.run.worker.world if self.run else self.options.world_override or "?"
         self.channel.beat(self.worker_id, {"state": self.state.status, "iteration": self.state.iteration,
                                            "episodes": self.state.episodes_played, "world": world,
-                                           "steps_per_s": round(self.state.steps_per_s, 1)})
+                                           "steps_per_s": round(self.state.steps_per_s, 1), "pid": os.getpid()})
 
     def run_forever(self) -> None:
         torch.set_num_threads(1)

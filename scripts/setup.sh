@@ -1,13 +1,14 @@
 #!/usr/bin/env bash
 # Installs everything racer needs on a Debian bookworm machine, idempotently:
-#   Debian packages (python3.11 with venv, redis-server, Mesa EGL/OSMesa for headless MuJoCo, ffmpeg),
+#   Debian packages (python3.11 with venv, redis-server, Mesa EGL/OSMesa for headless MuJoCo, ffmpeg, and
+#   chromium + chromium-driver for the viewer's browser tests),
 #   a MinIO server (built with `go install` when no `minio` is on PATH; ~3 minutes the first time),
 #   and the Python dependencies in ./.venv. A second run only checks and exits in seconds.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 MINIO_MODULE="github.com/minio/minio@v0.0.0-20260212201848-7aac2a2c5b7c"
-APT_PACKAGES=(python3.11 python3.11-venv redis-server libosmesa6 libegl1 libegl-mesa0 libgl1 libgles2 ffmpeg)
+APT_PACKAGES=(python3.11 python3.11-venv redis-server libosmesa6 libegl1 libegl-mesa0 libgl1 libgles2 ffmpeg chromium chromium-driver)
 PYTHON="${PYTHON:-python3.11}"
 
 say() { printf '[setup] %s\n' "$*"; }

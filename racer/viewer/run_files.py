@@ -19,6 +19,7 @@ from pathlib import Path, PurePosixPath
 
 from racer.shared.config import settings_from_env
 from racer.shared.deepracer.metrics import MetricsError, read_training_metrics
+from racer.shared.deepracer.simtrace import EpisodeStatus
 from racer.shared.deepracer.training_params import TrainingParamsError, parse_training_params
 from racer.shared.sim.track import Track, TrackError
 from racer.shared.store import LocalStore, ObjectNotFoundError, ObjectStore, join_key, open_store
@@ -66,6 +67,26 @@ def checkpoint_label(number: int, env_steps: int | None) -> str:
 
 def _finite(value) -> float | None:
     return None if value is None or (isinstance(value, float) and not math.isfinite(value)) else value
+
+
+def _iterations_from_training_metrics(data: bytes, name: str) -> list[dict]:
+    """Curves of a run racer did not train (DeepRacer console, DeepRacer-for-Cloud): worker 0's training episodes
+    per iteration, as the console's reward graph shows them; no steps/s or per-world split there."""
+    metrics = read_training_metrics(data, source=name)
+    by_iteration: dict[int, list] = {}
+    iteration = -1
+    for entry in metrics.entries:
+        if entry.phase == "training":
+            if entry.trial == 1 or iteration < 0:
+                iteration += 1
+            by_iteration.setdefault(iteration, []).append(entry)
+    return [{
+        "iteration": number, "episodes": len(entries),
+        "mean_reward": sum(e.reward_score for e in entries) / len(entries),
+        "mean_progress": sum(e.completion_percentage for e in entries) / len(entries),
+        "completion_rate": sum(e.episode_status == EpisodeStatus.LAP_COMPLETE for e in entries) / len(entries),
+        "experience_steps_per_s": None, "env_steps_total": None, "elapsed_s": None, "worlds": {},
+    } for number, entries in sorted(by_iteration.items())]
 
 
 class RunFiles:
@@ -157,7 +178,10 @@ class RunFiles:
                         break  # a line being appended to (S3 replaces the whole object, a local file too)
             return records
 
-        return self._read("metrics/iterations.jsonl", parse) or []
+        records = self._read("metrics/iterations.jsonl", parse)
+        if records is not None:
+            return records
+        return self._read("metrics/TrainingMetrics.json", _iterations_from_training_metrics) or []
 
     def evaluations(self) -> list[dict]:
         """Worker 0's greedy evaluation of each checkpoint: trials, laps, mean progress, best lap, best flag."""
@@ -177,7 +201,7 @@ class RunFiles:
                 by_checkpoint.setdefault(max(iteration, 0), []).append(entry)
         rows = []
         for number, entries in sorted(by_checkpoint.items()):
-            laps = [e.elapsed_time_ms / 1000 for e in entries if e.episode_status.value == "lap_complete"]
+            laps = [e.elapsed_time_ms / 1000 for e in entries if e.episode_status == EpisodeStatus.LAP_COMPLETE]
             name = checkpoint_label(number, 0 if number == 0 else steps_after.get(number - 1))
             rows.append({
                 "checkpoint_number": number, "checkpoint": name, "trials": len(entries), "laps_completed": len(laps),

@@ -1,0 +1,135 @@
+"""The viewer's web app (Starlette): one page, a few JSON endpoints, the frames as JPEG and the run's files.
+
+| route | what |
+|---|---|
+| `/` | the page (static/index.html; it polls the endpoints below) |
+| `/static/...` | the page's script, style and the vendored Chart.js |
+| `/api/run` | model, store, live or not, the workers' worlds, the track map |
+| `/api/live` | workers (up/down, state, newest frame's pose and trail), Redis reachable; renews `watching` |
+| `/api/progress` | per-iteration curves, evaluations per checkpoint, best lap path, `racer evaluate` runs |
+| `/api/workers/<id>/frame.jpg` | the newest camera frame of a worker |
+| `/files/<key>` | a file of the run (videos, simtraces, metrics) from the store; nothing outside the model prefix |
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from starlette.applications import Starlette
+from starlette.exceptions import HTTPException
+from starlette.requests import Request
+from starlette.responses import FileResponse, JSONResponse, Response
+from starlette.routing import Mount, Route
+from starlette.staticfiles import StaticFiles
+
+from racer.shared.store import LocalStore, ObjectNotFoundError, validate_key
+from racer.viewer.live import LiveRun
+from racer.viewer.run_files import RunFiles
+
+STATIC_DIR = Path(__file__).resolve().parent / "static"
+
+HEARTBEAT_STALE_S = 10.0
+"""Workers beat every 3 s: a beat older than this means the worker is gone even if its key has not expired."""
+
+FILE_TYPES = {
+    ".mp4": "video/mp4", ".json": "application/json", ".jsonl": "application/json", ".csv": "text/csv",
+    ".png": "image/png", ".yaml": "text/plain", ".py": "text/plain", ".html": "text/html",
+    ".mcap": "application/octet-stream",
+}
+"""What /files serves (by suffix) and as which type; everything else under the prefix is 404."""
+
+
+@dataclass
+class ViewerState:
+    files: RunFiles
+    live: LiveRun | None
+    title: str
+
+
+def _no_store(response: Response) -> Response:
+    response.headers["Cache-Control"] = "no-store"
+    return response
+
+
+def create_app(files: RunFiles, live: LiveRun | None) -> Starlette:
+    state = ViewerState(files=files, live=live, title=files.prefix)
+
+    async def index(request: Request) -> Response:
+        return _no_store(FileResponse(STATIC_DIR / "index.html", media_type="text/html"))
+
+    def run_info(request: Request) -> Response:
+        return _no_store(JSONResponse({
+            "model": files.prefix, "store": files.store.describe(), "live": live is not None,
+            "workers": files.workers(), "track": files.track(),
+        }))
+
+    def live_status(request: Request) -> Response:
+        if live is None:
+            return _no_store(JSONResponse({"live": False}))
+        known = files.workers()
+        snapshot = live.snapshot([w["id"] for w in known], watching=request.query_params.get("watch", "1") == "1")
+        worlds = {w["id"]: w["world"] for w in known}
+        now = time.time()
+        workers = []
+        for worker_id in sorted(set(worlds) | set(snapshot.workers) | set(snapshot.frames)):
+            beat = snapshot.workers.get(worker_id)
+            age_s = None if beat is None else max(0.0, now - float(beat.get("time", now)))
+            frame = snapshot.frames.get(worker_id)
+            workers.append({
+                "id": worker_id, "world": (beat or {}).get("world") or worlds.get(worker_id, "?"),
+                "up": beat is not None and age_s <= HEARTBEAT_STALE_S,
+                "state": (beat or {}).get("state"), "iteration": (beat or {}).get("iteration"),
+                "episodes": (beat or {}).get("episodes"), "steps_per_s": (beat or {}).get("steps_per_s"),
+                "pid": (beat or {}).get("pid"), "heartbeat_age_s": None if age_s is None else round(age_s, 1),
+                "frame": None if frame is None else LiveRun.frame_summary(frame),
+            })
+        return _no_store(JSONResponse({"live": True, "redis": {"ok": snapshot.redis_error is None,
+                                                                "error": snapshot.redis_error},
+                                       "workers": workers}))
+
+    def progress(request: Request) -> Response:
+        return _no_store(JSONResponse(files.progress()))
+
+    def frame_jpeg(request: Request) -> Response:
+        worker_id = request.path_params["worker_id"]
+        frame = live.frame(worker_id) if live is not None else None
+        if frame is None or not frame.jpeg:
+            raise HTTPException(404, f"no camera frame of worker {worker_id}")
+        response = Response(frame.jpeg, media_type="image/jpeg")
+        response.headers["X-Frame-Id"] = frame.frame_id
+        return _no_store(response)
+
+    def run_file(request: Request) -> Response:
+        relative = request.path_params["path"]
+        try:
+            validate_key(relative)
+        except ValueError:
+            raise HTTPException(404, "no such file") from None
+        media_type = FILE_TYPES.get(Path(relative).suffix.lower())
+        if media_type is None:
+            raise HTTPException(404, "no such file")
+        key = files.key(relative)
+        if isinstance(files.store, LocalStore):
+            path = (files.store.root / key).resolve()
+            run_root = (files.store.root / files.prefix).resolve()
+            if not path.is_relative_to(run_root) or not path.is_file():
+                raise HTTPException(404, "no such file")
+            return FileResponse(path, media_type=media_type)  # Range requests: videos can seek
+        try:
+            data = files.store.get_bytes(key)
+        except ObjectNotFoundError:
+            raise HTTPException(404, "no such file") from None
+        return Response(data, media_type=media_type)
+
+    routes = [
+        Route("/", index),
+        Route("/api/run", run_info),
+        Route("/api/live", live_status),
+        Route("/api/progress", progress),
+        Route("/api/workers/{worker_id:int}/frame.jpg", frame_jpeg),
+        Route("/files/{path:path}", run_file),
+        Mount("/static", StaticFiles(directory=STATIC_DIR), name="static"),
+    ]
+    return Starlette(routes=routes)
