@@ -14,7 +14,6 @@
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
 from pathlib import Path
 
 from starlette.applications import Starlette
@@ -41,21 +40,12 @@ FILE_TYPES = {
 """What /files serves (by suffix) and as which type; everything else under the prefix is 404."""
 
 
-@dataclass
-class ViewerState:
-    files: RunFiles
-    live: LiveRun | None
-    title: str
-
-
 def _no_store(response: Response) -> Response:
     response.headers["Cache-Control"] = "no-store"
     return response
 
 
 def create_app(files: RunFiles, live: LiveRun | None) -> Starlette:
-    state = ViewerState(files=files, live=live, title=files.prefix)
-
     async def index(request: Request) -> Response:
         return _no_store(FileResponse(STATIC_DIR / "index.html", media_type="text/html"))
 
