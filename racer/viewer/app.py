@@ -23,7 +23,8 @@ from starlette.responses import FileResponse, JSONResponse, Response
 from starlette.routing import Mount, Route
 from starlette.staticfiles import StaticFiles
 
-from racer.shared.store import LocalStore, ObjectNotFoundError, validate_key
+from racer.shared.store import LocalStore, ObjectNotFoundError
+from racer.shared.store.base import validate_key
 from racer.viewer.live import LiveRun
 from racer.viewer.run_files import RunFiles
 

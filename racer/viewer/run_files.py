@@ -97,7 +97,7 @@ class RunFiles:
         self.store = location.store
         self.prefix = location.prefix
         self._lock = threading.Lock()
-        self._cache: dict[str, tuple[int, object]] = {}
+        self._cache: dict[tuple[str, str], tuple[int, object]] = {}
         self.laps = BestLapFinder(self.store, self.prefix)
 
     def key(self, *parts: str) -> str:
@@ -106,12 +106,13 @@ class RunFiles:
     def _read(self, relative: str, parse):
         """Parsed content of a file under the prefix, None when missing; re-parsed only after its size changes."""
         key = self.key(relative)
+        slot = (key, parse.__qualname__)  # one file may be parsed in two ways (TrainingMetrics.json)
         try:
             size = self.store.size(key)
         except ObjectNotFoundError:
             return None
         with self._lock:
-            cached = self._cache.get(key)
+            cached = self._cache.get(slot)
             if cached is not None and cached[0] == size:
                 return cached[1]
         try:
@@ -119,7 +120,7 @@ class RunFiles:
         except ObjectNotFoundError:
             return None
         with self._lock:
-            self._cache[key] = (size, value)
+            self._cache[slot] = (size, value)
         return value
 
     # ---- the run's set-up --------------------------------------------------------------------------
@@ -189,7 +190,8 @@ class RunFiles:
                              lambda data, name: read_training_metrics(data, source=name))
         if metrics is None:
             return []
-        steps_after = {int(r["iteration"]): r.get("env_steps_total") for r in self.iterations()}
+        steps_after = {int(r["iteration"]): r["env_steps_total"] for r in self.iterations()
+                       if r.get("env_steps_total") is not None}
         best_and_last = self._read("model/deepracer_checkpoints.json", lambda data, name: json.loads(data)) or {}
         best = (best_and_last.get("best_checkpoint") or {}).get("name")
         by_checkpoint: dict[int, list] = {}
@@ -202,7 +204,8 @@ class RunFiles:
         rows = []
         for number, entries in sorted(by_checkpoint.items()):
             laps = [e.elapsed_time_ms / 1000 for e in entries if e.episode_status == EpisodeStatus.LAP_COMPLETE]
-            name = checkpoint_label(number, 0 if number == 0 else steps_after.get(number - 1))
+            steps = steps_after.get(number - 1) if number else (0 if steps_after else None)
+            name = checkpoint_label(number, steps)
             rows.append({
                 "checkpoint_number": number, "checkpoint": name, "trials": len(entries), "laps_completed": len(laps),
                 "mean_progress": round(sum(e.completion_percentage for e in entries) / len(entries), 2),

@@ -228,6 +228,8 @@ function updateCurves(progress) {
     chart.data.datasets = datasets;
     chart.update("none");
   }
+  const speedKnown = its.some(r => r.experience_steps_per_s !== null && r.experience_steps_per_s !== undefined);
+  $("chart-speed").closest("figure").hidden = its.length > 0 && !speedKnown; // runs racer did not train lack it
   $("curves").dataset.points = String(its.length);
   const last = its[its.length - 1];
   if (last) {
