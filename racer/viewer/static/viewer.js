@@ -156,6 +156,8 @@ function updateWorkers(live) {
       view.pill.textContent = "unknown";
     } else if (up) {
       view.pill.textContent = worker.state || "up";
+      view.overlay.textContent = "waiting for the first frame…";
+      view.overlay.hidden = !view.img.hidden;
     } else {
       view.pill.textContent = "DOWN";
       view.overlay.hidden = false;
@@ -272,7 +274,7 @@ function updateBestLap(best) {
   const where = best.phase === "evaluation" ? `evaluation ${best.run}` : `training iteration ${best.iteration}, worker ${best.worker}`;
   $("best-lap-caption").innerHTML = best.complete
     ? `<b>${fmt(best.lap_time_s, 3)} s</b> lap · ${where} · ${best.steps} steps`
-    : `No complete lap yet. Furthest: <b>${fmt(best.progress, 1)} %</b> in ${fmt(best.time_s, 1)} s · ${where}`;
+    : `No complete lap in the simtraces yet. Furthest: <b>${fmt(best.progress, 1)} %</b> in ${fmt(best.time_s, 1)} s · ${where}`;
   $("best-lap-note").textContent = best.complete ? "fastest complete lap" : "furthest episode";
   const chart = state.charts.bestLap;
   if (chart) {
