@@ -14,7 +14,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "evaluate": ("racer.evaluation_worker.main:evaluate_command", "Evaluate a model: DeepRacer trials or the 4-minute race rule."),
     "analyze": ("racer.analysis.cli:analyze_command", "Analyse simtrace logs into tables, plots and an HTML report."),
     "model": ("racer.model_io.cli:model_group", "Validate, import and export models in DeepRacer's layout."),
-    "bench": ("racer.bench:bench_group", "Benchmarks that print one JSON line (sim, ppo, time-to-lap)."),
+    "bench": ("racer.bench:bench_group", "Benchmarks that print one JSON line (sim, ppo, time-to-lap, viewer)."),
     "track": ("racer.shared.sim.track_cli:track_group", "List, inspect and plot tracks."),
     "view": ("racer.viewer.cli:view_command", "Watch a run in the browser: camera streams, curves, evaluations, best lap."),
 }

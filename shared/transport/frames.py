@@ -29,8 +29,8 @@ import numpy as np
 
 from racer.shared.redis_connection import RedisLink
 
-WATCHING_TTL_S = 10
-"""The viewer renews `watching` on every page poll (several per second); a closed page stops the frames within this."""
+WATCHING_TTL_S = 5
+"""The viewer renews `watching` on every page poll (2.5 per second); a closed page stops the frames within this."""
 FRAME_TTL_S = 30
 """A frame outlives its worker by this much at most: the heartbeat, not the frame, says whether a worker is up."""
 TRAIL_POINTS = 400
@@ -102,6 +102,9 @@ class FrameChannel:
 
     def mark_watching(self) -> None:
         self.link.do(lambda r: r.set(self.key("watching"), b"1", ex=WATCHING_TTL_S))
+
+    def clear_watching(self) -> None:
+        self.link.do(lambda r: r.delete(self.key("watching")))
 
     def is_watched(self) -> bool:
         return bool(self.link.do(lambda r: r.exists(self.key("watching"))))

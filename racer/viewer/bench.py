@@ -1,0 +1,186 @@
+"""`racer bench viewer`: how much one open viewer page slows the experience rate of a training.
+
+A real `racer train` run (4 workers by default, the live page on a loopback port) alternates iteration by
+iteration between no page and one page open in a headless Chromium (Debian's `chromium`): the workers publish
+frames only in the second case, the viewer server answers the page's polls, the browser draws. Each iteration's
+experience rate (steps played / rollout wall time, from the trainer's iteration records) is compared with the
+mean of its neighbours under the other condition, so the learning trend (longer episodes, more steps/s) and the
+load of other processes cancel out as far as they can. Prints one JSON line; progress on stderr.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import socket
+import statistics
+import subprocess
+import tempfile
+import time
+from pathlib import Path
+
+import click
+
+from racer.shared.config import LocalStoreSettings, RedisSettings, ServiceSettings
+from racer.shared.redis_connection import RedisLink
+from racer.shared.run_layout import WORLDS
+from racer.shared.services import PROJECT_ROOT, _die_with_parent
+from racer.shared.transport.channels import RunChannel
+from racer.shared.transport.frames import FrameChannel
+
+CENTRE_LINE_REWARD = PROJECT_ROOT.parent / "shared/deepracer-data/reward_functions/awsdoc_example_1.py"
+
+
+def _free_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+def _tree_cpu_s(root_pid: int) -> float:
+    """User + system CPU seconds of a process and its live descendants (Chromium's renderer and GPU processes)."""
+    ticks = os.sysconf("SC_CLK_TCK")
+    parents: dict[int, int] = {}
+    times: dict[int, float] = {}
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            fields = (entry / "stat").read_text().rsplit(")", 1)[1].split()
+        except (FileNotFoundError, ProcessLookupError):
+            continue
+        parents[int(entry.name)] = int(fields[1])
+        times[int(entry.name)] = (int(fields[11]) + int(fields[12])) / ticks
+    total = 0.0
+    for pid, cpu_s in times.items():
+        ancestor = pid
+        while ancestor > 1 and ancestor != root_pid:
+            ancestor = parents.get(ancestor, 1)
+        if ancestor == root_pid:
+            total += cpu_s
+    return total
+
+
+class HeadlessPage:
+    """One viewer page open in headless Chromium, as a person would keep it open in a tab."""
+
+    def __init__(self, url: str, profile: Path):
+        self.process = subprocess.Popen(
+            ["chromium", "--headless=new", "--no-sandbox", "--disable-gpu", "--window-size=1500,1900",
+             f"--user-data-dir={profile}", "--remote-debugging-port=0", url],
+            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, preexec_fn=_die_with_parent)
+
+    def cpu_s(self) -> float:
+        return _tree_cpu_s(self.process.pid)
+
+    def close(self) -> None:
+        self.process.terminate()
+        try:
+            self.process.wait(15)
+        except subprocess.TimeoutExpired:
+            self.process.kill()
+            self.process.wait()
+
+
+def _write_custom_files(folder: Path, episodes_per_iteration: int) -> None:
+    folder.mkdir(parents=True)
+    (folder / "reward_function.py").write_bytes(CENTRE_LINE_REWARD.read_bytes())
+    actions = [{"steering_angle": angle, "speed": 1.0, "index": i} for i, angle in enumerate([-30, -15, 0, 15, 30])]
+    (folder / "model_metadata.json").write_text(json.dumps({
+        "action_space": actions, "action_space_type": "discrete", "sensor": ["FRONT_FACING_CAMERA"],
+        "neural_network": "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW", "training_algorithm": "clipped_ppo", "version": "5"}))
+    (folder / "hyperparameters.json").write_text(json.dumps({"num_episodes_between_training": episodes_per_iteration}))
+    (folder / "workers.json").write_text(json.dumps({"MIN_EVAL_TRIALS": 1}))
+
+
+def _paired_ratios(records: list[dict]) -> list[float]:
+    """Each page-open iteration's rate over the mean of its page-closed neighbours."""
+    ratios = []
+    for index, record in enumerate(records):
+        if not record["page_open"]:
+            continue
+        neighbours = [records[j]["experience_steps_per_s"] for j in (index - 1, index + 1)
+                      if 0 <= j < len(records) and not records[j]["page_open"]]
+        if neighbours:
+            ratios.append(record["experience_steps_per_s"] / statistics.fmean(neighbours))
+    return ratios
+
+
+@click.command(name="viewer")
+@click.option("--iterations", type=int, default=16, show_default=True, help="Measured iterations (half with the page).")
+@click.option("--warmup-iterations", type=int, default=2, show_default=True)
+@click.option("--workers", "num_workers", type=int, default=4, show_default=True)
+@click.option("--episodes-per-iteration", type=int, default=8, show_default=True)
+@click.option("--track", default="racer_oval", show_default=True)
+def viewer_bench_command(iterations, warmup_iterations, num_workers, episodes_per_iteration, track) -> None:
+    """Experience steps/s with one viewer page open vs none, in one training run."""
+    from racer.local_run import LocalRun, LocalRunPlan
+
+    if shutil.which("chromium") is None:
+        raise click.ClickException("chromium is needed (scripts/setup.sh installs Debian's chromium)")
+    if not CENTRE_LINE_REWARD.is_file():
+        raise click.ClickException(f"reward function not found: {CENTRE_LINE_REWARD}")
+    workdir = Path(tempfile.mkdtemp(prefix="racer-bench-viewer-"))
+    custom = workdir / "custom_files"
+    _write_custom_files(custom, episodes_per_iteration)
+    port = _free_port()
+    plan = LocalRunPlan(model_prefix="bench-viewer", custom_files=custom, num_workers=num_workers, worlds=WORLDS,
+                        track=track, max_episodes=10**6, max_minutes=None, use_minio=False, log_dir=workdir / "logs",
+                        viewer_port=port)
+    run = LocalRun(plan, ServiceSettings(redis=RedisSettings(), store=LocalStoreSettings(root=workdir / "store")))
+    url = f"http://127.0.0.1:{port}/"
+    records: list[dict] = []
+    page: HeadlessPage | None = None
+    page_cpu_s = page_wall_s = 0.0
+    viewer_cpu_open_s = viewer_cpu_at_open = page_opened = 0.0
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        settings = run.start_services()
+        run.start_processes()
+        link = RedisLink(settings.redis)
+        channel, frames = RunChannel(link, plan.model_prefix), FrameChannel(link, plan.model_prefix)
+        viewer_pid = run.children["viewer"].pid
+        last_id = "0"
+        total = warmup_iterations + iterations
+        while len(records) < total:
+            if run.children["trainer"].poll() is not None:
+                raise click.ClickException(f"the trainer stopped; see {plan.log_dir / 'trainer.log'}")
+            for stream_id, record in channel.read_records("iterations", last_id, block_s=5.0):
+                last_id = stream_id
+                record["page_open"] = page is not None
+                records.append(record)
+                if page is not None:  # the iteration that just ended ran with the page: close it
+                    page_cpu_s += page.cpu_s()
+                    page_wall_s += time.monotonic() - page_opened
+                    viewer_cpu_open_s += _tree_cpu_s(viewer_pid) - viewer_cpu_at_open
+                    page.close()
+                    page = None
+                    frames.clear_watching()  # as if its key had expired: the next iteration runs without frames
+                elif len(records) >= warmup_iterations:
+                    viewer_cpu_at_open = _tree_cpu_s(viewer_pid)
+                    page = HeadlessPage(url, workdir / f"profile-{len(records)}")
+                    page_opened = time.monotonic()
+                click.echo(f"iteration {record['iteration']:>3}: {record['experience_steps_per_s']:6.1f} steps/s "
+                           f"{'(page open)' if record['page_open'] else ''}", err=True)
+    finally:
+        if page is not None:
+            page.close()
+        run.stop(grace_s=30)
+        signal.signal(signal.SIGINT, previous)
+    measured = records[warmup_iterations:]
+    ratios = _paired_ratios(measured)
+    closed = [r["experience_steps_per_s"] for r in measured if not r["page_open"]]
+    opened = [r["experience_steps_per_s"] for r in measured if r["page_open"]]
+    slowdown = 1.0 - statistics.median(ratios) if ratios else None
+    click.echo(json.dumps({
+        "workers": num_workers, "iterations_measured": len(measured),
+        "steps_per_s_page_closed": round(statistics.fmean(closed), 1) if closed else None,
+        "steps_per_s_page_open": round(statistics.fmean(opened), 1) if opened else None,
+        "paired_ratios": [round(r, 3) for r in ratios],
+        "slowdown_median": None if slowdown is None else round(slowdown, 4),
+        "browser_cpu_share_of_machine": round(page_cpu_s / max(page_wall_s, 1e-9) / os.cpu_count(), 4),
+        "viewer_server_cpu_share_of_machine": round(viewer_cpu_open_s / max(page_wall_s, 1e-9) / os.cpu_count(), 4),
+        "cpus": os.cpu_count(),
+    }))
