@@ -14,6 +14,7 @@ import math
 import os
 import re
 import threading
+import time
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 
@@ -99,6 +100,7 @@ class RunFiles:
         self._lock = threading.Lock()
         self._cache: dict[tuple[str, str], tuple[int, object]] = {}
         self.laps = BestLapFinder(self.store, self.prefix)
+        self._workers: tuple[float, list[dict]] | None = None
 
     def key(self, *parts: str) -> str:
         return join_key(self.prefix, *parts)
@@ -141,7 +143,19 @@ class RunFiles:
         return found
 
     def workers(self) -> list[dict]:
-        """[{id, world, track}] for NUM_WORKERS workers, from the params files."""
+        """[{id, world, track}] for NUM_WORKERS workers, from the params files (listed again at most every 15 s:
+        the live page asks on every poll)."""
+        now = time.monotonic()
+        with self._lock:
+            cached = self._workers
+        if cached is not None and now - cached[0] < (15.0 if cached[1] else 2.0):
+            return cached[1]
+        found = self._read_workers()
+        with self._lock:
+            self._workers = (now, found)
+        return found
+
+    def _read_workers(self) -> list[dict]:
         params = self.worker_params()
         if not params:
             return []

@@ -44,7 +44,12 @@ class LocalStore:
 
     def list_keys(self, prefix: str) -> list[str]:
         keys = []
-        for dirpath, dirnames, filenames in os.walk(self.root):
+        # Walk only below the prefix's folder part ("m/model/x" -> <root>/m/model): a store holds many runs.
+        folder = prefix.rpartition("/")[0]
+        start = self.root
+        if folder and not any(part in {"", ".", ".."} for part in folder.split("/")):
+            start = self.root / folder
+        for dirpath, dirnames, filenames in os.walk(start):
             if Path(dirpath) == self.root and _STAGING_DIR in dirnames:
                 dirnames.remove(_STAGING_DIR)
             rel_dir = Path(dirpath).relative_to(self.root).as_posix()
