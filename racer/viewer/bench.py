@@ -5,7 +5,9 @@ iteration between no page and one page open in a headless Chromium (Debian's `ch
 frames only in the second case, the viewer server answers the page's polls, the browser draws. Each iteration's
 experience rate (steps played / rollout wall time, from the trainer's iteration records) is compared with the
 mean of its neighbours under the other condition, so the learning trend (longer episodes, more steps/s) and the
-load of other processes cancel out as far as they can. Prints one JSON line; progress on stderr.
+load of other processes cancel out as far as they can. Before the training starts, the frame tap is also timed
+alone in this process (per step unwatched, per published frame watched), which a busy machine disturbs less.
+Prints one JSON line; progress on stderr.
 """
 
 from __future__ import annotations
@@ -22,13 +24,16 @@ import time
 from pathlib import Path
 
 import click
+import numpy as np
 
 from racer.shared.config import LocalStoreSettings, RedisSettings, ServiceSettings
 from racer.shared.redis_connection import RedisLink
 from racer.shared.run_layout import WORLDS
 from racer.shared.services import PROJECT_ROOT, _die_with_parent
+from racer.shared.sim.config import EnvConfig
+from racer.shared.sim.env import DeepRacerEnv
 from racer.shared.transport.channels import RunChannel
-from racer.shared.transport.frames import FrameChannel
+from racer.shared.transport.frames import FrameChannel, FrameSettings, FrameTap
 
 CENTRE_LINE_REWARD = PROJECT_ROOT.parent / "shared/deepracer-data/reward_functions/awsdoc_example_1.py"
 
@@ -84,6 +89,44 @@ class HeadlessPage:
             self.process.wait()
 
 
+def frame_cost(redis: RedisSettings, track: str, observations: int = 120, frames: int = 300,
+               steps: int = 3000) -> dict:
+    """What the frame tap costs a worker: per step while nobody watches, per published frame while watched
+    (real camera images of the track, JPEG encode and SET on the run's Redis), timed in the worker's own process."""
+    env = DeepRacerEnv(EnvConfig(track=track))
+    try:
+        env.reset(seed=0)
+        rng = np.random.default_rng(0)
+        recorded = []
+        for _ in range(observations):
+            observation, reward, terminated, truncated, info = env.step(int(rng.integers(env.action_space.n)))
+            recorded.append((observation, float(reward), info))
+            if terminated or truncated:
+                env.reset()
+    finally:
+        env.close()
+    channel = FrameChannel(RedisLink(redis), "bench-frame-cost")
+    channel.clear_watching()
+    idle = FrameTap(channel, worker_id=0, world="base")
+    wall_s, cpu_s = time.perf_counter(), time.process_time()
+    for index in range(steps):
+        idle(*recorded[index % len(recorded)])
+    idle_wall_s, idle_cpu_s = time.perf_counter() - wall_s, time.process_time() - cpu_s
+    channel.mark_watching()
+    busy = FrameTap(channel, worker_id=0, world="base", settings=FrameSettings(max_fps=1e9))
+    wall_s, cpu_s = time.perf_counter(), time.process_time()
+    for index in range(frames):
+        busy(*recorded[index % len(recorded)])
+    busy_wall_s, busy_cpu_s = time.perf_counter() - wall_s, time.process_time() - cpu_s
+    channel.clear_watching()
+    jpeg_bytes = len(channel.latest(0).jpeg)
+    return {"tap_us_per_step_unwatched": round(1e6 * idle_wall_s / steps, 2),
+            "tap_cpu_us_per_step_unwatched": round(1e6 * idle_cpu_s / steps, 2),
+            "frame_ms_published": round(1e3 * busy_wall_s / busy.published, 3),
+            "frame_cpu_ms_published": round(1e3 * busy_cpu_s / busy.published, 3),
+            "jpeg_bytes": jpeg_bytes}
+
+
 def _write_custom_files(folder: Path, episodes_per_iteration: int) -> None:
     folder.mkdir(parents=True)
     (folder / "reward_function.py").write_bytes(CENTRE_LINE_REWARD.read_bytes())
@@ -135,9 +178,13 @@ def viewer_bench_command(iterations, warmup_iterations, num_workers, episodes_pe
     page: HeadlessPage | None = None
     page_cpu_s = page_wall_s = 0.0
     viewer_cpu_open_s = viewer_cpu_at_open = page_opened = 0.0
+    tap_cost: dict = {}
     previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
         settings = run.start_services()
+        click.echo("timing the frame tap alone ...", err=True)
+        tap_cost = frame_cost(settings.redis, track)
+        click.echo(json.dumps(tap_cost), err=True)
         run.start_processes()
         link = RedisLink(settings.redis)
         channel, frames = RunChannel(link, plan.model_prefix), FrameChannel(link, plan.model_prefix)
@@ -182,5 +229,7 @@ def viewer_bench_command(iterations, warmup_iterations, num_workers, episodes_pe
         "slowdown_median": None if slowdown is None else round(slowdown, 4),
         "browser_cpu_share_of_machine": round(page_cpu_s / max(page_wall_s, 1e-9) / os.cpu_count(), 4),
         "viewer_server_cpu_share_of_machine": round(viewer_cpu_open_s / max(page_wall_s, 1e-9) / os.cpu_count(), 4),
-        "cpus": os.cpu_count(),
+        "cpus": os.cpu_count(), **tap_cost,
+        # A worker playing at full speed loses at most max_fps frames' time per second to the tap while watched.
+        "tap_share_of_a_worker_at_4_fps": round(4 * tap_cost["frame_ms_published"] / 1000, 4),
     }))
