@@ -28,10 +28,10 @@ import numpy as np
 
 from racer.shared.config import LocalStoreSettings, RedisSettings, ServiceSettings
 from racer.shared.redis_connection import RedisLink
-from racer.shared.run_layout import WORLDS
 from racer.shared.services import PROJECT_ROOT, _die_with_parent
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
+from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
 from racer.shared.transport.channels import RunChannel
 from racer.shared.transport.frames import FrameChannel, FrameSettings, FrameTap
 

@@ -19,16 +19,25 @@ from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 
 from racer.shared.config import settings_from_env
+from racer.shared.deepracer.episode_status import EpisodeStatus
 from racer.shared.deepracer.metrics import MetricsError, read_training_metrics
-from racer.shared.deepracer.simtrace import EpisodeStatus
 from racer.shared.deepracer.training_params import TrainingParamsError, parse_training_params
+from racer.shared.model_layout import (
+    DEEPRACER_CHECKPOINTS,
+    EVALUATION_PREFIX,
+    FINISHED,
+    ITERATIONS_LOG,
+    TRAINING_PARAMS,
+    checkpoint_name,
+    training_metrics,
+)
 from racer.shared.sim.track import Track, TrackError
 from racer.shared.store import LocalStore, ObjectNotFoundError, ObjectStore, join_key, open_store
 from racer.viewer.laps import BestLapFinder
 
 _TRAINING_PARAMS = re.compile(r"^training_params(?:_(\d+))?\.yaml$")
-_EVALUATION_SUMMARY = re.compile(r"^(evaluation-[^/]+)/summary\.json$")
-_VIDEO = re.compile(r"^(evaluation-[^/]+)/(camera-[a-z0-9]+)/\d+-video\.mp4$")
+_EVALUATION_SUMMARY = re.compile(rf"^({EVALUATION_PREFIX}[^/]+)/summary\.json$")
+_VIDEO = re.compile(rf"^({EVALUATION_PREFIX}[^/]+)/(camera-[a-z0-9]+)/\d+-video\.mp4$")
 
 
 class RunNotFoundError(Exception):
@@ -63,7 +72,7 @@ def resolve_run(target: str) -> RunLocation:
 
 def checkpoint_label(number: int, env_steps: int | None) -> str:
     """DeepRacer's checkpoint name `<N>_Step-<M>.ckpt` (the files may be gone: only 4 + best are kept)."""
-    return f"{number}_Step-{env_steps}.ckpt" if env_steps is not None else f"checkpoint {number}"
+    return checkpoint_name(number, env_steps) if env_steps is not None else f"checkpoint {number}"
 
 
 def _finite(value) -> float | None:
@@ -129,7 +138,7 @@ class RunFiles:
     def worker_params(self) -> dict[int, dict[str, str]]:
         """training_params of each worker that has its own file (worker 0's applies to all others too)."""
         found = {}
-        for key in self.store.list_keys(self.prefix + "/training_params"):
+        for key in self.store.list_keys(self.key(TRAINING_PARAMS.removesuffix(".yaml"))):
             match = _TRAINING_PARAMS.match(PurePosixPath(key).name)
             if match is None:
                 continue
@@ -193,20 +202,20 @@ class RunFiles:
                         break  # a line being appended to (S3 replaces the whole object, a local file too)
             return records
 
-        records = self._read("metrics/iterations.jsonl", parse)
+        records = self._read(ITERATIONS_LOG, parse)
         if records is not None:
             return records
-        return self._read("metrics/TrainingMetrics.json", _iterations_from_training_metrics) or []
+        return self._read(training_metrics(0), _iterations_from_training_metrics) or []
 
     def evaluations(self) -> list[dict]:
         """Worker 0's greedy evaluation of each checkpoint: trials, laps, mean progress, best lap, best flag."""
-        metrics = self._read("metrics/TrainingMetrics.json",
+        metrics = self._read(training_metrics(0),
                              lambda data, name: read_training_metrics(data, source=name))
         if metrics is None:
             return []
         steps_after = {int(r["iteration"]): r["env_steps_total"] for r in self.iterations()
                        if r.get("env_steps_total") is not None}
-        best_and_last = self._read("model/deepracer_checkpoints.json", lambda data, name: json.loads(data)) or {}
+        best_and_last = self._read(DEEPRACER_CHECKPOINTS, lambda data, name: json.loads(data)) or {}
         best = (best_and_last.get("best_checkpoint") or {}).get("name")
         by_checkpoint: dict[int, list] = {}
         iteration = -1
@@ -230,7 +239,7 @@ class RunFiles:
     def evaluation_runs(self) -> list[dict]:
         """`racer evaluate` runs: their summary (laps) and the URLs of their videos."""
         runs: dict[str, dict] = {}
-        for key in self.store.list_keys(self.prefix + "/evaluation-"):
+        for key in self.store.list_keys(self.key(EVALUATION_PREFIX)):
             relative = key[len(self.prefix) + 1:]
             summary = _EVALUATION_SUMMARY.match(relative)
             video = _VIDEO.match(relative)
@@ -254,7 +263,7 @@ class RunFiles:
         return result
 
     def finished(self) -> bool:
-        return self.store.exists(self.key("model", ".finished"))
+        return self.store.exists(self.key(FINISHED))
 
     def progress(self) -> dict:
         try:
