@@ -5,6 +5,9 @@ from __future__ import annotations
 
 import http.client
 import json
+import os
+import subprocess
+import sys
 import time
 import urllib.error
 import urllib.request
@@ -24,7 +27,7 @@ from racer.shared.transport.frames import Frame, FrameChannel, jpeg_bytes
 from racer.viewer.app import create_app
 from racer.viewer.live import LiveRun
 from racer.viewer.run_files import RunFiles, RunLocation, RunNotFoundError, resolve_run
-from tests.viewer.conftest import DRFC_MODEL, EVALUATION_RUN, ServedApp
+from tests.viewer.conftest import DRFC_MODEL, EVALUATION_RUN, ServedApp, free_port
 
 
 def get(url: str, headers: dict | None = None) -> tuple[int, str, bytes]:
@@ -183,3 +186,27 @@ def test_live_endpoints_show_workers_frames_and_a_lost_redis(tmp_path, redis_ser
         run.beat(1, {"state": "playing", "world": "carpet"})
         live = json.loads(get(served.url + "/api/live")[2])
         assert {w["id"]: w["up"] for w in live["workers"]}[1]
+
+
+def test_racer_view_serves_a_model_folder_and_refuses_anything_else(drfc_store, tmp_path):
+    port = free_port()
+    env = dict(os.environ, RACER_STORE=str(tmp_path / "elsewhere"))
+    server = subprocess.Popen([sys.executable, "-m", "racer.cli", "view", str(drfc_store / DRFC_MODEL), "--port",
+                               str(port)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env)
+    try:
+        deadline = time.monotonic() + 60
+        while True:
+            try:
+                status, _kind, body = get(f"http://127.0.0.1:{port}/api/run")
+                break
+            except urllib.error.URLError:
+                assert server.poll() is None and time.monotonic() < deadline, server.stdout.read()
+                time.sleep(0.3)
+        assert status == 200 and json.loads(body)["model"] == DRFC_MODEL
+    finally:
+        server.terminate()
+        output, _ = server.communicate(timeout=30)
+    assert f"at http://localhost:{port}/" in output
+    refused = subprocess.run([sys.executable, "-m", "racer.cli", "view", "no-such-model"], capture_output=True,
+                             text=True, env=env, timeout=60)
+    assert refused.returncode != 0 and "no-such-model" in refused.stderr and "no model folder" in refused.stderr

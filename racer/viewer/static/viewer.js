@@ -152,8 +152,13 @@ function updateWorkers(live) {
     view.card.classList.toggle("down", !up && live.redis.ok);
     view.card.classList.toggle("unknown", !live.redis.ok);
     view.card.dataset.up = live.redis.ok ? String(up) : "unknown";
+    const finished = state.progress && state.progress.finished;
     if (!live.redis.ok) {
       view.pill.textContent = "unknown";
+    } else if (!up && finished) {
+      view.card.classList.remove("down"); // training is over: workers exit, nothing is wrong
+      view.pill.textContent = "finished";
+      view.overlay.hidden = !view.img.hidden;
     } else if (up) {
       view.pill.textContent = worker.state || "up";
       view.overlay.textContent = "waiting for the first frame…";
