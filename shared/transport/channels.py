@@ -10,6 +10,7 @@ Keys (all under `racer:<run>:`, `<run>` = the model prefix):
 | `heartbeat:<worker>` | string with TTL | workers | JSON status (state, iteration, episodes, steps/s); absent = dead |
 | `evaluations` | stream | worker 0 | greedy evaluation results per checkpoint |
 | `iterations` | stream | trainer | per-iteration training summary (for progress displays and benchmarks) |
+| `watching`, `frame:<worker>` | strings with TTL | viewer, workers | live camera frames for `racer view` (frames.py) |
 
 Why streams: unlike DeepRacer's pub/sub, a stream entry waits until it is read, so nothing is lost when
 a reader is busy or restarting; the consumer group keeps unacknowledged batches for a restarted trainer.
