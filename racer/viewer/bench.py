@@ -1,7 +1,8 @@
 """`racer bench viewer`: how much one open viewer page slows the experience rate of a training.
 
 A real `racer train` run (4 workers by default, the live page on a loopback port) alternates iteration by
-iteration between no page and one page open in a headless Chromium (Debian's `chromium`): the workers publish
+iteration between no page and one page open in a headless Chromium (Debian's `chromium`, kept running for the
+whole run and switched between the page and about:blank by selenium): the workers publish
 frames only in the second case, the viewer server answers the page's polls, the browser draws. Each iteration's
 experience rate (steps played / rollout wall time, from the trainer's iteration records) is compared with the
 mean of its neighbours under the other condition, so the learning trend (longer episodes, more steps/s) and the
@@ -14,11 +15,9 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
 import signal
 import socket
 import statistics
-import subprocess
 import tempfile
 import time
 from pathlib import Path
@@ -28,7 +27,7 @@ import numpy as np
 
 from racer.shared.config import LocalStoreSettings, RedisSettings, ServiceSettings
 from racer.shared.redis_connection import RedisLink
-from racer.shared.services import PROJECT_ROOT, _die_with_parent
+from racer.shared.services import PROJECT_ROOT
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
 from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
@@ -36,6 +35,8 @@ from racer.shared.transport.channels import RunChannel
 from racer.shared.transport.frames import FrameChannel, FrameSettings, FrameTap
 
 CENTRE_LINE_REWARD = PROJECT_ROOT.parent / "shared/deepracer-data/reward_functions/awsdoc_example_1.py"
+CHROMIUM = "/usr/bin/chromium"
+CHROMEDRIVER = "/usr/bin/chromedriver"
 
 
 def _free_port() -> int:
@@ -68,25 +69,36 @@ def _tree_cpu_s(root_pid: int) -> float:
     return total
 
 
-class HeadlessPage:
-    """One viewer page open in headless Chromium, as a person would keep it open in a tab."""
+class HeadlessBrowser:
+    """One headless Chromium (Debian's, driven by selenium) kept open for the whole run; `open()` shows the viewer
+    page, `close()` navigates to about:blank: the page's cost, without the browser's start-up in it."""
 
-    def __init__(self, url: str, profile: Path):
-        self.process = subprocess.Popen(
-            ["chromium", "--headless=new", "--no-sandbox", "--disable-gpu", "--window-size=1500,1900",
-             f"--user-data-dir={profile}", "--remote-debugging-port=0", url],
-            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, preexec_fn=_die_with_parent)
+    def __init__(self, url: str):
+        try:
+            from selenium import webdriver
+            from selenium.webdriver.chrome.service import Service
+        except ImportError as error:
+            raise click.ClickException("selenium is needed: pip install -e '.[test]'") from error
+        options = webdriver.ChromeOptions()
+        options.binary_location = CHROMIUM
+        for argument in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage", "--window-size=1500,1900"):
+            options.add_argument(argument)
+        self.url = url
+        self.service = Service(executable_path=CHROMEDRIVER)  # explicit: selenium-manager never runs
+        self.driver = webdriver.Chrome(service=self.service, options=options)
+        self.driver.get("about:blank")
 
     def cpu_s(self) -> float:
-        return _tree_cpu_s(self.process.pid)
+        return _tree_cpu_s(self.service.process.pid)
+
+    def open(self) -> None:
+        self.driver.get(self.url)
 
     def close(self) -> None:
-        self.process.terminate()
-        try:
-            self.process.wait(15)
-        except subprocess.TimeoutExpired:
-            self.process.kill()
-            self.process.wait()
+        self.driver.get("about:blank")
+
+    def quit(self) -> None:
+        self.driver.quit()
 
 
 def frame_cost(redis: RedisSettings, track: str, observations: int = 120, frames: int = 300,
@@ -161,8 +173,8 @@ def viewer_bench_command(iterations, warmup_iterations, num_workers, episodes_pe
     """Experience steps/s with one viewer page open vs none, in one training run."""
     from racer.local_run import LocalRun, LocalRunPlan
 
-    if shutil.which("chromium") is None:
-        raise click.ClickException("chromium is needed (scripts/setup.sh installs Debian's chromium)")
+    if not (Path(CHROMIUM).is_file() and Path(CHROMEDRIVER).is_file()):
+        raise click.ClickException(f"{CHROMIUM} and {CHROMEDRIVER} are needed (scripts/setup.sh installs them)")
     if not CENTRE_LINE_REWARD.is_file():
         raise click.ClickException(f"reward function not found: {CENTRE_LINE_REWARD}")
     workdir = Path(tempfile.mkdtemp(prefix="racer-bench-viewer-"))
@@ -175,9 +187,10 @@ def viewer_bench_command(iterations, warmup_iterations, num_workers, episodes_pe
     run = LocalRun(plan, ServiceSettings(redis=RedisSettings(), store=LocalStoreSettings(root=workdir / "store")))
     url = f"http://127.0.0.1:{port}/"
     records: list[dict] = []
-    page: HeadlessPage | None = None
+    browser: HeadlessBrowser | None = None
+    page_open = False
     page_cpu_s = page_wall_s = 0.0
-    viewer_cpu_open_s = viewer_cpu_at_open = page_opened = 0.0
+    viewer_cpu_open_s = viewer_cpu_at_open = browser_cpu_at_open = page_opened = 0.0
     tap_cost: dict = {}
     previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
@@ -186,6 +199,7 @@ def viewer_bench_command(iterations, warmup_iterations, num_workers, episodes_pe
         tap_cost = frame_cost(settings.redis, track)
         click.echo(json.dumps(tap_cost), err=True)
         run.start_processes()
+        browser = HeadlessBrowser(url)
         link = RedisLink(settings.redis)
         channel, frames = RunChannel(link, plan.model_prefix), FrameChannel(link, plan.model_prefix)
         viewer_pid = run.children["viewer"].pid
@@ -196,24 +210,25 @@ def viewer_bench_command(iterations, warmup_iterations, num_workers, episodes_pe
                 raise click.ClickException(f"the trainer stopped; see {plan.log_dir / 'trainer.log'}")
             for stream_id, record in channel.read_records("iterations", last_id, block_s=5.0):
                 last_id = stream_id
-                record["page_open"] = page is not None
+                record["page_open"] = page_open
                 records.append(record)
-                if page is not None:  # the iteration that just ended ran with the page: close it
-                    page_cpu_s += page.cpu_s()
+                if page_open:  # the iteration that just ended ran with the page: close it
+                    page_cpu_s += browser.cpu_s() - browser_cpu_at_open
                     page_wall_s += time.monotonic() - page_opened
                     viewer_cpu_open_s += _tree_cpu_s(viewer_pid) - viewer_cpu_at_open
-                    page.close()
-                    page = None
+                    browser.close()
+                    page_open = False
                     frames.clear_watching()  # as if its key had expired: the next iteration runs without frames
                 elif len(records) >= warmup_iterations:
-                    viewer_cpu_at_open = _tree_cpu_s(viewer_pid)
-                    page = HeadlessPage(url, workdir / f"profile-{len(records)}")
+                    viewer_cpu_at_open, browser_cpu_at_open = _tree_cpu_s(viewer_pid), browser.cpu_s()
+                    browser.open()
+                    page_open = True
                     page_opened = time.monotonic()
                 click.echo(f"iteration {record['iteration']:>3}: {record['experience_steps_per_s']:6.1f} steps/s "
                            f"{'(page open)' if record['page_open'] else ''}", err=True)
     finally:
-        if page is not None:
-            page.close()
+        if browser is not None:
+            browser.quit()
         run.stop(grace_s=30)
         signal.signal(signal.SIGINT, previous)
     measured = records[warmup_iterations:]

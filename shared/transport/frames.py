@@ -33,7 +33,7 @@ WATCHING_TTL_S = 5
 """The viewer renews `watching` on every page poll (2.5 per second); a closed page stops the frames within this."""
 FRAME_TTL_S = 30
 """A frame outlives its worker by this much at most: the heartbeat, not the frame, says whether a worker is up."""
-TRAIL_POINTS = 400
+TRAIL_POINTS = 250
 JPEG_QUALITY = 85
 
 

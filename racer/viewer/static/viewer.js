@@ -12,7 +12,8 @@ Chart.defaults.borderColor = "#1e2b47";
 Chart.defaults.font.family = "system-ui, sans-serif";
 Chart.defaults.animation = false; // redraw only what changed, cheaply: the rollout shares the CPU
 
-const state = { run: null, live: null, progress: null, workers: new Map(), charts: {}, pids: new Map() };
+const state = { run: null, live: null, progress: null, progressSignature: null, workers: new Map(), charts: {},
+                pids: new Map() };
 window.racerViewer = state; // read by the browser tests
 
 function $(id) { return document.getElementById(id); }
@@ -122,9 +123,9 @@ function ensureWorkers(list) {
 }
 
 function showFrame(view, frame) {
-  if (!frame) return;
-  if (frame.id !== view.frameId && frame.has_image) {
-    view.frameId = frame.id;
+  if (!frame || frame.id === view.frameId) return; // nothing new: draw nothing (the page shares the CPU)
+  view.frameId = frame.id;
+  if (frame.has_image) {
     const url = `/api/workers/${view.card.dataset.worker}/frame.jpg?f=${encodeURIComponent(frame.id)}`;
     const next = new Image();
     next.onload = () => {
@@ -339,9 +340,15 @@ async function pollProgress() {
   try {
     const progress = await getJSON("/api/progress");
     state.progress = progress;
-    updateCurves(progress);
-    updateEvaluations(progress.evaluations);
-    updateBestLap(progress.best_lap);
+    const signature = JSON.stringify([progress.iterations.length, progress.evaluations,
+      progress.best_lap && [progress.best_lap.lap_time_s, progress.best_lap.progress, progress.best_lap.run,
+                            progress.best_lap.iteration, progress.best_lap.episode], !!(state.run && state.run.track && state.run.track.outer)]);
+    if (signature !== state.progressSignature) { // redraw the charts only when something changed
+      state.progressSignature = signature;
+      updateCurves(progress);
+      updateEvaluations(progress.evaluations);
+      updateBestLap(progress.best_lap);
+    }
     updateEvaluationRuns(progress.evaluation_runs);
     if (progress.finished) {
       $("mode-badge").className = "badge done";
