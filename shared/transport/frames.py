@@ -30,7 +30,7 @@ import numpy as np
 from racer.shared.redis_connection import RedisLink
 
 WATCHING_TTL_S = 5
-"""The viewer renews `watching` on every page poll (2.5 per second); a closed page stops the frames within this."""
+"""The viewer renews `watching` on every page poll (twice a second); a closed page stops the frames within this."""
 FRAME_TTL_S = 30
 """A frame outlives its worker by this much at most: the heartbeat, not the frame, says whether a worker is up."""
 TRAIL_POINTS = 250

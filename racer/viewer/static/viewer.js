@@ -1,7 +1,7 @@
 // racer viewer: polls the JSON endpoints and draws with Chart.js (vendored, no build step).
 "use strict";
 
-const LIVE_POLL_MS = 400;
+const LIVE_POLL_MS = 500;
 const PROGRESS_POLL_MS = 3000;
 const WORLD_COLOURS = { base: "#60a5fa", carpet: "#f87171", concrete: "#cbd5e1", wood: "#f59e0b" };
 const EXTRA_COLOURS = ["#a78bfa", "#34d399", "#f472b6", "#22d3ee"];
