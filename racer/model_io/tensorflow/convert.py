@@ -21,7 +21,7 @@ from racer.model_io.tensorflow.coach_layout import (
 )
 from racer.model_io.tensorflow.errors import UnsupportedGraphError
 from racer.model_io.tensorflow.runner import run_tool
-from racer.shared.policy.networks import ActorCritic, PolicyConfig
+from racer.shared.policy.networks import PIXEL_SCALE, ActorCritic, PolicyConfig
 
 __all__ = ["ExportJob", "ImportedNetwork", "TF_CHECKPOINT_SUFFIXES", "UnsupportedGraphError", "network_from_frozen_graph",
            "network_from_tf_checkpoint", "tensorflow_files"]
@@ -145,6 +145,13 @@ def network_from_frozen_graph(frozen_path: Path, config: PolicyConfig) -> Import
         if shape and shape[1:] != wanted_inputs[name][1:]:
             raise UnsupportedGraphError(f"{frozen_path}: input {name} has shape {shape}, racer needs "
                                         f"{wanted_inputs[name]}")
+    scalars = result.get("scalars", {})
+    for spec in config.inputs:  # RL Coach divides camera pixels by 255 inside the graph, lidar values by 1
+        wanted_scale = PIXEL_SCALE if spec.kind == "camera" else 1.0
+        scale = scalars.get(f"{POLICY_NETWORK}/{spec.name}/truediv/y", wanted_scale)
+        if scale != wanted_scale:
+            raise UnsupportedGraphError(f"{frozen_path}: input {spec.name} is divided by {scale} inside the graph; "
+                                        f"racer's network divides it by {wanted_scale}")
     weights = {name: value for name, value in tensors.items() if name.endswith(("/kernel", "/bias", "policy_log_std"))}
     if config.is_continuous:
         weights.setdefault("main_level/agent/main/online/network_1/ppo_head_0/policy_log_std",
