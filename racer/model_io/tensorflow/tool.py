@@ -55,8 +55,9 @@ def _tower(spec: dict, network: str, placeholders: dict, created: dict):
     for embedder in spec["embedders"]:
         sensor = embedder["sensor"]
         scope = f"{network}/{sensor}"
-        x = tf.math.truediv(placeholders[sensor], tf.constant(float(embedder["rescale"])), name=f"{scope}/truediv")
-        x = tf.math.subtract(x, tf.constant(0.0), name=f"{scope}/sub")
+        rescale = tf.constant(float(embedder["rescale"]), name=f"{scope}/truediv/y")  # RL Coach's input_rescaling
+        x = tf.math.truediv(placeholders[sensor], rescale, name=f"{scope}/truediv")
+        x = tf.math.subtract(x, tf.constant(0.0, name=f"{scope}/sub/y"), name=f"{scope}/sub")  # input_offset
         for layer in embedder["layers"]:
             prefix = f"{scope}/{layer['scope']}"
             kernel = _variable(f"{prefix}/kernel", layer["kernel"], created)
