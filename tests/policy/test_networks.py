@@ -182,15 +182,22 @@ def test_discrete_head_is_softmax_floored_at_1e8():
     assert torch.allclose(distribution.log_prob(torch.tensor([1, 1])), torch.full((2,), math.log(1e-8)))
 
 
-def test_continuous_head_mean_in_unit_box_and_log_std_clipped():
-    network = build_actor_critic(metadata(["FRONT_FACING_CAMERA"], action_space=CONTINUOUS))
+def test_continuous_head_mean_is_deepracers_linear_output_and_log_std_clipped():
+    """DeepRacer's continuous head: the mean is the dense layer's output itself (RL Coach's tf.identity `policy`),
+    not squashed; the environment clips to [-1, 1] when it scales the action. The log-std is clipped to [-20, 3].
+    (racer squashed the mean with tanh before issue 21 made the head DeepRacer's.)"""
+    model_metadata = metadata(["FRONT_FACING_CAMERA"], action_space=CONTINUOUS)
+    network = build_actor_critic(model_metadata)
     assert torch.equal(network.log_std.detach(), torch.zeros(2))
     with torch.no_grad():
         network.policy_head.bias.copy_(torch.tensor([50.0, -50.0]))
         network.log_std.copy_(torch.tensor([-100.0, 100.0]))
         distribution = network.distribution({"FRONT_FACING_CAMERA": torch.zeros(1, 120, 160, 1)})
     assert isinstance(distribution, GaussianPolicy)
-    assert distribution.mean.abs().max().item() <= 1.0
+    assert distribution.mean.tolist() == [[50.0, -50.0]]  # zero image: zero features, so the mean is the bias
+    space = model_metadata.continuous_action_space
+    assert model_metadata.scale_continuous_action(distribution.mean[0].tolist()) == (
+        space.steering_angle_high_deg, space.speed_low_mps)
     assert distribution.log_std.tolist() == [-20.0, 3.0]
     # Log-probability and entropy agree with torch's Normal.
     normal = torch.distributions.Normal(distribution.mean, distribution.log_std.exp())
