@@ -28,6 +28,7 @@ from racer.shared.sim._mujoco import mujoco
 from racer.shared.sim.car import STEERING_JOINTS, WHEEL_NAMES, WHEEL_RADIUS_M, Car, clip_command
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
+from racer.shared.sim.fidelity_floor import heading_floor_deg
 
 HORIZONS_S: tuple[float, ...] = (1.0, 2.0)
 SPEED_BANDS_MPS: tuple[tuple[float, float], ...] = ((0.0, 0.75), (0.75, 1.25), (1.25, 1.75), (1.75, 10.0))
@@ -205,6 +206,15 @@ def summarise(errors: Sequence[SegmentError]) -> dict[str, dict]:
     return table
 
 
+def add_heading_floor(bands: dict[str, dict], segments: Sequence[Segment], errors: Sequence[SegmentError]) -> None:
+    """Per band, the median 1 s heading error of a linear predictor fitted on the other files (fidelity_floor.py)."""
+    floor = heading_floor_deg(segments, 1.0)
+    for low, high in SPEED_BANDS_MPS:
+        members = [f for f, e in zip(floor, errors, strict=True) if f is not None and low <= e.start_speed_mps < high]
+        if members:
+            bands[band_label(low, high)]["heading_floor_deg_1s_median"] = round(float(np.median(members)), 2)
+
+
 def run_fidelity(simtraces: Sequence[Path], route: Path, progress: bool = False) -> dict:
     segments = load_segments(simtraces)
     if not segments:
@@ -220,6 +230,7 @@ def run_fidelity(simtraces: Sequence[Path], route: Path, progress: bool = False)
     finally:
         replay.close()
     bands = summarise(errors)
+    add_heading_floor(bands, segments, errors)
     goal_met = all(entry.get("position_m_1s_median", math.inf) <= 0.05 for entry in bands.values() if entry["segments"])
     return {"segments": len(segments), "files": len(simtraces), "bands": bands,
             "goal_median_position_1s_le_0_05_m": goal_met}
