@@ -28,6 +28,7 @@ from racer.shared.sim._mujoco import mujoco
 from racer.shared.sim.car import STEERING_JOINTS, WHEEL_NAMES, WHEEL_RADIUS_M, Car, clip_command
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
+from racer.shared.sim.fidelity_floor import heading_floor_deg
 
 HORIZONS_S: tuple[float, ...] = (1.0, 2.0)
 SPEED_BANDS_MPS: tuple[tuple[float, float], ...] = ((0.0, 0.75), (0.75, 1.25), (1.25, 1.75), (1.75, 10.0))
@@ -147,18 +148,32 @@ class SegmentError:
     start_speed_mps: float
     position_m: dict[float, float]
     heading_deg: dict[float, float]
+    along_track_m: dict[float, float]
+    """Signed, along the logged heading at the compared pose: negative = racer's car is behind the real one."""
+    cross_track_m: dict[float, float]
+    """Signed, to the left of the logged heading at the compared pose."""
+    turn_deg: dict[float, float]
+    """Heading change since the start, racer's minus the log's, signed so that negative = racer turns less."""
 
 
 def segment_errors(segment: Segment, predicted_xy: np.ndarray, predicted_yaw: np.ndarray) -> SegmentError:
     """Errors at the logged poses nearest to each horizon after the start pose."""
     times = segment.times_s[2:]
-    position, heading = {}, {}
+    logged_yaw, racer_yaw = np.unwrap(segment.yaw_rad), np.unwrap(predicted_yaw)
+    position, heading, along, cross, turn = {}, {}, {}, {}, {}
     for horizon in HORIZONS_S:
         k = int(np.argmin(np.abs(times - times[0] - horizon)))
-        position[horizon] = float(np.hypot(*(predicted_xy[k] - segment.model_xy[2 + k])))
+        dx, dy = predicted_xy[k] - segment.model_xy[2 + k]
+        position[horizon] = float(math.hypot(dx, dy))
         difference = (predicted_yaw[k] - segment.yaw_rad[2 + k] + math.pi) % (2 * math.pi) - math.pi
         heading[horizon] = abs(math.degrees(difference))
-    return SegmentError(segment.start_speed_mps, position, heading)
+        cos_h, sin_h = math.cos(segment.yaw_rad[2 + k]), math.sin(segment.yaw_rad[2 + k])
+        along[horizon] = float(dx * cos_h + dy * sin_h)
+        cross[horizon] = float(-dx * sin_h + dy * cos_h)
+        logged_turn = logged_yaw[2 + k] - logged_yaw[2]
+        racer_turn = racer_yaw[k] - racer_yaw[0]
+        turn[horizon] = math.degrees((racer_turn - logged_turn) * (1.0 if logged_turn >= 0 else -1.0))
+    return SegmentError(segment.start_speed_mps, position, heading, along, cross, turn)
 
 
 def band_label(low: float, high: float) -> str:
@@ -166,7 +181,8 @@ def band_label(low: float, high: float) -> str:
 
 
 def summarise(errors: Sequence[SegmentError]) -> dict[str, dict]:
-    """Median and 90th percentile per speed band and horizon: position error in m, heading error in degrees."""
+    """Median and 90th percentile per speed band and horizon: position error in m, heading error in degrees; the
+    median signed along-track error, absolute cross-track error and turn error (racer minus log) split them up."""
     table: dict[str, dict] = {}
     for low, high in SPEED_BANDS_MPS:
         members = [e for e in errors if low <= e.start_speed_mps < high]
@@ -180,8 +196,23 @@ def summarise(errors: Sequence[SegmentError]) -> dict[str, dict]:
             entry[f"position_m_{horizon:g}s_p90"] = round(float(np.percentile(position, 90)), 4)
             entry[f"heading_deg_{horizon:g}s_median"] = round(float(np.median(heading)), 2)
             entry[f"heading_deg_{horizon:g}s_p90"] = round(float(np.percentile(heading, 90)), 2)
+            # Where the error comes from: a speed bias shows in along-track, a steering one in cross-track and turn.
+            along = [e.along_track_m[horizon] for e in members]
+            entry[f"along_track_m_{horizon:g}s_median"] = round(float(np.median(along)), 4)
+            entry[f"cross_track_m_{horizon:g}s_median_abs"] = round(
+                float(np.median([abs(e.cross_track_m[horizon]) for e in members])), 4)
+            entry[f"turn_deg_{horizon:g}s_median"] = round(float(np.median([e.turn_deg[horizon] for e in members])), 2)
         table[band_label(low, high)] = entry
     return table
+
+
+def add_heading_floor(bands: dict[str, dict], segments: Sequence[Segment], errors: Sequence[SegmentError]) -> None:
+    """Per band, the median 1 s heading error of a linear predictor fitted on the other files (fidelity_floor.py)."""
+    floor = heading_floor_deg(segments, 1.0)
+    for low, high in SPEED_BANDS_MPS:
+        members = [f for f, e in zip(floor, errors, strict=True) if f is not None and low <= e.start_speed_mps < high]
+        if members:
+            bands[band_label(low, high)]["heading_floor_deg_1s_median"] = round(float(np.median(members)), 2)
 
 
 def run_fidelity(simtraces: Sequence[Path], route: Path, progress: bool = False) -> dict:
@@ -199,6 +230,7 @@ def run_fidelity(simtraces: Sequence[Path], route: Path, progress: bool = False)
     finally:
         replay.close()
     bands = summarise(errors)
+    add_heading_floor(bands, segments, errors)
     goal_met = all(entry.get("position_m_1s_median", math.inf) <= 0.05 for entry in bands.values() if entry["segments"])
     return {"segments": len(segments), "files": len(simtraces), "bands": bands,
             "goal_median_position_1s_le_0_05_m": goal_met}

@@ -8,7 +8,7 @@ import math
 import numpy as np
 from click.testing import CliRunner
 
-from racer.shared.sim.fidelity import CarReplay, fidelity_bench_command, load_segments
+from racer.shared.sim.fidelity import HORIZONS_S, CarReplay, fidelity_bench_command, load_segments, segment_errors
 
 
 def test_segments_follow_the_simapps_timing(deepracer_data):
@@ -40,6 +40,26 @@ def test_the_replay_starts_on_the_logged_pose_and_stays_near_it(deepracer_data):
     assert float(np.median(one_second)) < 0.35  # README: 17-25 cm medians over all real files
 
 
+def test_error_split_adds_up_and_says_which_way(deepracer_data):
+    path = deepracer_data / "simtrace" / "drfc1_evaluation_0-iteration.csv"
+    segment = load_segments([path])[0]
+    replay = CarReplay(deepracer_data / "routes" / "reinvent_base.npy")
+    try:
+        points, yaws = replay.run(segment)
+    finally:
+        replay.close()
+    error = segment_errors(segment, points, yaws)
+    for horizon in HORIZONS_S:
+        assert math.isclose(math.hypot(error.along_track_m[horizon], error.cross_track_m[horizon]),
+                            error.position_m[horizon], rel_tol=1e-9, abs_tol=1e-12)
+    # A prediction that stands still at the start pose is behind the real car and has turned less than it.
+    k = int(np.argmin(np.abs(segment.times_s[2:] - segment.times_s[2] - 1.0)))
+    logged_turn = abs(math.degrees(np.unwrap(segment.yaw_rad)[2 + k] - segment.yaw_rad[2]))
+    still = segment_errors(segment, np.repeat(segment.model_xy[2:3], len(points), axis=0), np.full(len(yaws), segment.yaw_rad[2]))
+    assert still.along_track_m[1.0] < -0.3
+    assert math.isclose(still.turn_deg[1.0], -logged_turn, abs_tol=1e-9)
+
+
 def test_bench_prints_one_json_line_with_every_band(deepracer_data):
     result = CliRunner().invoke(fidelity_bench_command, [
         "--simtraces", str(deepracer_data / "simtrace" / "drfc1_evaluation_0-iteration.csv"),
@@ -51,7 +71,10 @@ def test_bench_prints_one_json_line_with_every_band(deepracer_data):
     populated = [band for band in numbers["bands"].values() if band["segments"]]
     assert populated
     for band in populated:
-        for key in ("position_m_1s_median", "position_m_1s_p90", "heading_deg_2s_median", "heading_deg_2s_p90"):
+        for key in ("position_m_1s_median", "position_m_1s_p90", "heading_deg_2s_median", "heading_deg_2s_p90",
+                    "cross_track_m_1s_median_abs"):
             assert math.isfinite(band[key]) and band[key] >= 0
         assert band["position_m_1s_median"] <= band["position_m_1s_p90"]
+        assert abs(band["along_track_m_1s_median"]) <= band["position_m_1s_p90"]
+        assert math.isfinite(band["turn_deg_2s_median"])
     assert isinstance(numbers["goal_median_position_1s_le_0_05_m"], bool)
