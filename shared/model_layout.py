@@ -139,6 +139,11 @@ def simtrace_iteration(file_name: str) -> int | None:
     return None if match is None else int(match["iteration"])
 
 
+def droa_training_metrics(name: str) -> str:
+    """DeepRacer on AWS's import folder keeps training metrics as `metrics/training/training-<name>.json`."""
+    return f"metrics/training/training-{name}.json"
+
+
 def training_params(worker_id: int) -> str:
     return TRAINING_PARAMS if worker_id == 0 else f"training_params_{worker_id}.yaml"
 

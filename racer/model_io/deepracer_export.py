@@ -19,6 +19,7 @@ import re
 from racer.model_io import checkpoints as ck
 from racer.model_io.problems import ImportPlan
 from racer.model_io.sources import StoreSource
+from racer.shared import model_layout
 from racer.shared.model_layout import RACER_CHECKPOINT_SUFFIXES, CheckpointName
 
 __all__ = ["EXPORT_LAYOUTS", "droa_plan", "droa_targets", "tensorflow_exports"]
@@ -56,7 +57,7 @@ def droa_plan(plan: ImportPlan) -> ImportPlan:
 def droa_targets(key: str) -> str:
     """Where DRoA's import expects a copied file: training metrics go to metrics/training/training-<name>.json."""
     match = _TRAINING_METRICS.match(key)
-    return f"metrics/training/training-{match.group(1)}.json" if match else key
+    return model_layout.droa_training_metrics(match.group(1)) if match else key
 
 
 def _is_racer_part(key: str) -> bool:

@@ -67,7 +67,7 @@ def find_model_root(source: ModelSource) -> ModelSource | None:
 
 def car_bundle_graph(files: dict[str, int]) -> str | None:
     """The frozen graph to import when the source is a car bundle or a graph-only folder (no checkpoint)."""
-    if "model_metadata.json" not in files and "model/model_metadata.json" not in files:
+    if "model_metadata.json" not in files and model_layout.MODEL_METADATA not in files:
         return None
     if ck.all_checkpoint_names(files):
         return None
@@ -139,7 +139,7 @@ def import_frozen_graph(source: ModelSource, graph_key: str, store: ObjectStore,
     from racer.shared.policy.checkpoints import CheckpointRecord, CheckpointStore
 
     files = source.list_files()
-    metadata_key = "model_metadata.json" if "model_metadata.json" in files else "model/model_metadata.json"
+    metadata_key = "model_metadata.json" if "model_metadata.json" in files else model_layout.MODEL_METADATA
     metadata = parse_model_metadata(json.loads(source.read(metadata_key).decode("utf-8-sig")),
                                     source=f"{source.describe()}/{metadata_key}")
     config = _policy_config(metadata)
