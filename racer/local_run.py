@@ -47,6 +47,8 @@ class LocalRunPlan:
     viewer_host: str = "127.0.0.1"
     viewer_port: int | None = None
     """The live web page (`racer view --live`) listens here; None: no viewer."""
+    trainer_options: tuple[str, ...] = ()
+    """Further `racer trainer` options, e.g. ("--sac-updates-per-transition", "0.5")."""
 
 
 def service_environment(settings: ServiceSettings) -> dict[str, str]:
@@ -126,6 +128,7 @@ class LocalRun:
         if plan.pretrained_prefix:
             trainer_args += ["--pretrained-prefix", plan.pretrained_prefix,
                              "--pretrained-checkpoint", plan.pretrained_checkpoint]
+        trainer_args += list(plan.trainer_options)
         self._spawn("trainer", trainer_args)
         for worker_id in range(plan.num_workers):
             self._spawn(f"worker-{worker_id}", ["rollout", "--model-prefix", plan.model_prefix,
@@ -217,8 +220,27 @@ class ProgressDisplay:
         return f"{seconds // 60:02d}:{seconds % 60:02d}"
 
 
+def check_before_start(plan: LocalRunPlan, base_settings: ServiceSettings) -> None:
+    """The trainer's preflight, here, before Redis or any process starts: a model that cannot train is refused with
+    one message (file, field, fix). A clone source is checked too when the store is a local directory."""
+    from racer.shared.user_errors import user_error_types
+    from racer.trainer.preflight import preflight
+
+    local_store = isinstance(base_settings.store, LocalStoreSettings) and not plan.use_minio
+    try:
+        report = preflight(plan.custom_files, plan.num_workers, plan.track, plan.worlds,
+                           pretrained_prefix=plan.pretrained_prefix,
+                           store=open_store(base_settings.store) if local_store else None)
+    except user_error_types() as error:
+        raise click.ClickException(str(error)) from error
+    for warning in report.warnings:
+        click.echo(f"note: {warning}", err=True)
+
+
 def run_local_training(plan: LocalRunPlan, base_settings: ServiceSettings, on_evaluation=None) -> int:
-    """Run until the trainer exits; returns its exit status. `on_evaluation(record)` may return True to stop early."""
+    """Run until the trainer exits; returns its exit status. `on_evaluation(record)` may return True to stop early.
+    Nothing starts unless the custom files pass the preflight."""
+    check_before_start(plan, base_settings)
     run = LocalRun(plan, base_settings)
     started = time.monotonic()
     interrupted = False
@@ -312,16 +334,29 @@ def train_command(model_prefix, custom_files, num_workers, worlds, track, max_ep
 @click.option("--track", required=True, help="Route name or .npy path (reference: reinvent_base.npy).")
 @click.option("--reward-function", type=click.Path(exists=True, dir_okay=False, path_type=Path), default=None,
               help="Default: the AWS 'follow the centre line' example from ../shared/deepracer-data.")
+@click.option("--algorithm", type=click.Choice(["clipped_ppo", "sac"]), default="clipped_ppo", show_default=True,
+              help="training_algorithm of the model (SAC: continuous only).")
+@click.option("--action-space", type=click.Choice(["discrete", "continuous"]), default=None,
+              help="Default: discrete for clipped_ppo (5 steering angles at --speed), continuous for sac "
+                   "(steering -30..30 deg, speed --min-speed..--max-speed).")
 @click.option("--speed", type=float, default=1.0, show_default=True, help="The one speed (m/s) of the 5 actions.")
+@click.option("--min-speed", type=float, default=1.0, show_default=True, help="Continuous: lowest speed (m/s).")
+@click.option("--max-speed", type=float, default=2.0, show_default=True, help="Continuous: highest speed (m/s).")
 @click.option("--workers", "num_workers", type=int, default=4, show_default=True)
 @click.option("--time-limit-minutes", type=float, default=30.0, show_default=True)
 @click.option("--episodes-per-iteration", type=int, default=20, show_default=True)
+@click.option("--sac-updates-per-transition", type=float, default=1.0, show_default=True,
+              help="SAC: gradient steps per transition (DeepRacer: 1).")
 @click.option("--seed", type=int, default=0, show_default=True)
-def time_to_lap_command(track, reward_function, speed, num_workers, time_limit_minutes, episodes_per_iteration, seed):
+def time_to_lap_command(track, reward_function, algorithm, action_space, speed, min_speed, max_speed, num_workers,
+                        time_limit_minutes, episodes_per_iteration, sac_updates_per_transition, seed):
     """Train from scratch until greedy evaluation completes 3 of 3 laps (from three starts a third of a lap
-    apart); print one JSON line."""
+    apart); print one JSON line. Hyperparameters: the SimApp's defaults for the algorithm."""
     import tempfile
 
+    action_space = action_space or ("continuous" if algorithm == "sac" else "discrete")
+    if algorithm == "sac" and action_space != "continuous":
+        raise click.UsageError("--algorithm sac needs --action-space continuous (DeepRacer's SAC is continuous only)")
     reward_function = reward_function or PROJECT_ROOT.parent / "shared/deepracer-data/reward_functions/awsdoc_example_1.py"
     if not Path(reward_function).is_file():
         raise click.UsageError(f"reward function not found: {reward_function}; pass --reward-function")
@@ -329,18 +364,24 @@ def time_to_lap_command(track, reward_function, speed, num_workers, time_limit_m
     custom = workdir / "custom_files"
     custom.mkdir()
     (custom / "reward_function.py").write_bytes(Path(reward_function).read_bytes())
-    actions = [{"steering_angle": angle, "speed": speed, "index": i} for i, angle in enumerate([-30, -15, 0, 15, 30])]
+    if action_space == "continuous":
+        actions: object = {"steering_angle": {"low": -30, "high": 30}, "speed": {"low": min_speed, "high": max_speed}}
+    else:
+        actions = [{"steering_angle": angle, "speed": speed, "index": i}
+                   for i, angle in enumerate([-30, -15, 0, 15, 30])]
     (custom / "model_metadata.json").write_text(json.dumps({
-        "action_space": actions, "action_space_type": "discrete", "sensor": ["FRONT_FACING_CAMERA"],
-        "neural_network": "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW", "training_algorithm": "clipped_ppo", "version": "5"}))
+        "action_space": actions, "action_space_type": action_space, "sensor": ["FRONT_FACING_CAMERA"],
+        "neural_network": "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW", "training_algorithm": algorithm, "version": "5"}))
     (custom / "hyperparameters.json").write_text(json.dumps({"num_episodes_between_training": episodes_per_iteration}))
     # Three greedy laps from three places on the lap (0, 1/3, 2/3 on from the round-robin start): the simulator is
     # deterministic, so three trials from one place would be one drive three times.
     (custom / "workers.json").write_text(json.dumps({"MIN_EVAL_TRIALS": 3, "RACER_EVAL_SPREAD_STARTS": "True"}))
     plan = LocalRunPlan(model_prefix="time-to-lap", custom_files=custom, num_workers=num_workers,
                         worlds=WORLDS, track=str(track), max_episodes=None, max_minutes=time_limit_minutes,
-                        use_minio=False, log_dir=workdir / "logs", seed=seed)
-    result = {"minutes": None, "env_steps": None, "iterations": None}
+                        use_minio=False, log_dir=workdir / "logs", seed=seed,
+                        trainer_options=("--sac-updates-per-transition", str(sac_updates_per_transition)))
+    result = {"algorithm": algorithm, "action_space": action_space, "minutes": None, "env_steps": None,
+              "iterations": None}
     started = time.monotonic()
     rates: list[float] = []
 

@@ -17,9 +17,11 @@ def user_error_types() -> tuple[type[Exception], ...]:
     from racer.shared.sim.reward import RewardFunctionError
     from racer.shared.sim.track import TrackError
     from racer.shared.store import StoreError
+    from racer.trainer.preflight import UnsupportedConfigurationError
 
     return (HyperparametersError, ModelMetadataError, SimtraceError, RedisUnavailableError, GLBackendError,
-            RewardFunctionError, TrackError, StoreError, CloneError, RunConfigError, CheckpointError)
+            RewardFunctionError, TrackError, StoreError, CloneError, RunConfigError, CheckpointError,
+            UnsupportedConfigurationError)
 
 
 class CloneError(ValueError):

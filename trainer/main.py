@@ -33,24 +33,36 @@ from racer.shared.user_errors import user_error_types
               help="ENABLE_DOMAIN_RANDOMIZATION for every worker (random light colours per episode, as DeepRacer).")
 @click.option("--car-randomization", type=bool, default=False, show_default=True,
               help="racer's RACER_CAR_RANDOMIZATION for every worker (tint, blur, noise, camera jitter).")
+@click.option("--sac-replay-memory-mb", type=click.FloatRange(1.0), default=1024.0, show_default=True,
+              help="SAC: memory for the trainer's replay ring (1 GiB holds ~55,000 single-camera transitions).")
+@click.option("--sac-updates-per-transition", type=click.FloatRange(0.0, min_open=True), default=1.0,
+              show_default=True, help="SAC: gradient steps per transition received (DeepRacer: 1).")
 def trainer_command(model_prefix, custom_files, num_workers, track, worlds, max_episodes, max_minutes,
                     pretrained_prefix, pretrained_checkpoint, seed, max_memory_steps, domain_randomization,
-                    car_randomization) -> None:
-    """Run the clipped-PPO trainer: Redis and the store come from RACER_REDIS_URL / RACER_STORE."""
+                    car_randomization, sac_replay_memory_mb, sac_updates_per_transition) -> None:
+    """Run the trainer (clipped PPO or SAC, as model_metadata.json says): Redis and the store come from
+    RACER_REDIS_URL / RACER_STORE. The custom files are checked before anything connects."""
     from racer.shared.config import max_memory_steps_from_env
+    from racer.trainer.preflight import preflight
     from racer.trainer.training_loop import TrainerOptions, run_trainer
 
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    world_names = tuple(w.strip() for w in worlds.split(",") if w.strip())
     try:
         memory_cap = max_memory_steps if max_memory_steps is not None else max_memory_steps_from_env()
     except ValueError as error:
         raise click.ClickException(str(error)) from error
+    try:
+        preflight(custom_files, num_workers, track, world_names)  # the trainer logs its warnings
+    except user_error_types() as error:
+        raise click.ClickException(str(error)) from error
     options = TrainerOptions(
         model_prefix=model_prefix, custom_files=custom_files, num_workers=num_workers, track=track,
-        worlds=tuple(w.strip() for w in worlds.split(",") if w.strip()), max_episodes=max_episodes,
+        worlds=world_names, max_episodes=max_episodes,
         max_minutes=max_minutes, seed=seed, pretrained_prefix=pretrained_prefix,
-        pretrained_checkpoint=pretrained_checkpoint,
-        max_memory_steps=memory_cap, domain_randomization=domain_randomization, car_randomization=car_randomization,
+        pretrained_checkpoint=pretrained_checkpoint, max_memory_steps=memory_cap,
+        domain_randomization=domain_randomization, car_randomization=car_randomization,
+        sac_replay_memory_mb=sac_replay_memory_mb, sac_updates_per_transition=sac_updates_per_transition,
     )
     try:
         run_trainer(settings_from_env(), options)

@@ -1,10 +1,12 @@
-"""The trainer process: iteration after iteration, collect every worker's share, update PPO, publish a checkpoint.
+"""The trainer process: iteration after iteration, collect every worker's share, update the policy (clipped PPO or
+SAC, as model_metadata.json says), publish a checkpoint.
 
 One iteration k, top to bottom:
 1. announce checkpoint k on the control stream (it is already complete in the store);
 2. collect one batch per share from the episode stream (consumer group `trainer`): batches of an older
-   policy are dropped (strictly on-policy), a second batch for the same share is dropped (a restarted or
-   replaying worker), and a share whose worker has no heartbeat is re-assigned to a live worker;
+   policy are dropped (PPO is strictly on-policy; SAC keeps a late batch of checkpoint k-1 in its replay memory
+   without counting it as a share, and drops older ones), a second batch for the same share is dropped (a
+   restarted or replaying worker), and a share whose worker has no heartbeat is re-assigned to a live worker;
 3. print DeepRacer's `Training>` line per episode, run the clipped-PPO update, print `Policy training>` lines;
 4. save checkpoint k+1 to the store (files first, then `.coach_checkpoint`), then acknowledge the batches.
 A trainer killed at any point restarts from the newest checkpoint: unacknowledged batches are read again.
@@ -26,22 +28,22 @@ import torch
 
 from racer.shared import model_layout
 from racer.shared.config import ServiceSettings
-from racer.shared.deepracer.hyperparameters import Hyperparameters, hyperparameters_to_json_bytes, load_hyperparameters
-from racer.shared.deepracer.model_metadata import ModelMetadata, load_model_metadata, parse_model_metadata
+from racer.shared.deepracer.hyperparameters import Hyperparameters, hyperparameters_to_json_bytes
+from racer.shared.deepracer.model_metadata import ModelMetadata
 from racer.shared.deepracer.training_params import training_params_to_yaml
 from racer.shared.episode import Episode
 from racer.shared.model_layout import ModelLayout
 from racer.shared.policy.checkpoints import CheckpointStore
-from racer.shared.policy.networks import build_actor_critic
+from racer.shared.policy.factory import build_network_for_metadata
+from racer.shared.policy.sac_networks import SACNetworks
 from racer.shared.redis_connection import RedisLink
-from racer.shared.sim.reward import load_reward_function
-from racer.shared.sim.track import Track, TrackError
 from racer.shared.store import ObjectNotFoundError, open_store
 from racer.shared.transport.channels import ReceivedBatch, RunChannel, share_sizes
-from racer.shared.user_errors import CloneError, RunConfigError
-from racer.shared.worker_settings import WorkerSettings, default_worker_settings
+from racer.shared.worker_settings import WorkerSettings
 from racer.trainer.memory_cap import cap_episodes, default_max_memory_steps, global_episode_order
 from racer.trainer.ppo import PPOSettings, PPOTrainer, format_policy_training_line, format_training_episode_line
+from racer.trainer.preflight import check_clone_source, preflight
+from racer.trainer.sac import SACSettings, SACTrainer, format_sac_training_line
 
 log = logging.getLogger(__name__)
 
@@ -77,39 +79,10 @@ class TrainerOptions:
     announcement_check_s: float = 30.0
     """While collecting, how often to check that Redis still holds this iteration's announcement (a restarted
     Redis may have lost the newest writes); a lost one is announced again."""
-
-
-def load_worker_settings(custom_files: Path, num_workers: int, track: str, worlds: tuple[str, ...],
-                         domain_randomization: bool = False, car_randomization: bool = False) -> list[WorkerSettings]:
-    """Defaults (world i to worker i, one track) plus the optional custom_files/workers.json.
-
-    workers.json holds DeepRacer training_params keys applied to every worker, and optionally
-    `"workers": [{...}, {...}]` with per-worker overrides (like DeepRacer-for-Cloud's worker-N.env).
-    """
-    settings = default_worker_settings(num_workers, track, worlds, domain_randomization, car_randomization)
-    path = custom_files / "workers.json"
-    if not path.is_file():
-        return settings
-    try:
-        data = json.loads(path.read_text())
-    except json.JSONDecodeError as error:
-        raise RunConfigError(f"{path}: line {error.lineno} column {error.colno}: {error.msg}") from error
-    if not isinstance(data, dict):
-        raise RunConfigError(f"{path}: expected a JSON object of training_params keys")
-    per_worker = data.pop("workers", [])
-    if not isinstance(per_worker, list):
-        raise RunConfigError(f"{path}: workers: expected a list with one object per worker")
-    result = []
-    for worker_id, base in enumerate(settings):
-        params = base.to_training_params("", num_workers)
-        params.update({k: str(v) for k, v in data.items()})
-        if worker_id < len(per_worker):
-            params.update({k: str(v) for k, v in per_worker[worker_id].items()})
-        try:
-            result.append(WorkerSettings.from_training_params(params, source=f"{path} (worker {worker_id})"))
-        except ValueError as error:
-            raise RunConfigError(str(error)) from error
-    return result
+    sac_replay_memory_mb: float = 1024.0
+    """SAC: memory budget of the replay ring on the trainer (its capacity in transitions follows from it)."""
+    sac_updates_per_transition: float = 1.0
+    """SAC: gradient steps per transition received (DeepRacer: 1)."""
 
 
 def _world_steps_per_s(episodes: list[Episode]) -> float:
@@ -134,19 +107,13 @@ class Trainer:
     # ---- set-up ----------------------------------------------------------------------------------
     def _read_custom_files(self) -> tuple[ModelMetadata, Hyperparameters, bytes, list[WorkerSettings]]:
         folder = self.options.custom_files
-        metadata = load_model_metadata(folder / "model_metadata.json")
-        hyperparameters, warnings = load_hyperparameters(folder / "hyperparameters.json")
-        for warning in warnings:
+        report = preflight(folder, self.options.num_workers, self.options.track, self.options.worlds,
+                           domain_randomization=self.options.domain_randomization,
+                           car_randomization=self.options.car_randomization)
+        for warning in report.warnings:
             log.warning(warning)
-        load_reward_function(folder / "reward_function.py")  # fail now, with the file and line, not in a worker
-        workers = load_worker_settings(folder, self.options.num_workers, self.options.track, self.options.worlds,
-                                       self.options.domain_randomization, self.options.car_randomization)
-        for worker_id, worker in enumerate(workers):
-            try:  # a track name no worker could find fails here, listing where it looked, not in every worker
-                Track.load(worker.track)
-            except TrackError as error:
-                raise RunConfigError(f"worker {worker_id}: track {worker.track!r}: {error}") from error
-        return metadata, hyperparameters, (folder / "reward_function.py").read_bytes(), workers
+        return (report.model_metadata, report.hyperparameters, (folder / "reward_function.py").read_bytes(),
+                list(report.workers))
 
     def _upload_run_files(self, metadata_bytes: bytes, hyperparameters: Hyperparameters, metadata: ModelMetadata,
                           reward_bytes: bytes, workers: list[WorkerSettings]) -> None:
@@ -166,11 +133,18 @@ class Trainer:
         torch.manual_seed(self.options.seed)
         metadata, hyperparameters, reward_bytes, workers = self._read_custom_files()
         self.metadata, self.hyperparameters = metadata, hyperparameters
-        self.network = build_actor_critic(metadata)
-        self.ppo = PPOTrainer(self.network, hyperparameters, PPOSettings(seed=self.options.seed))
+        self.network = build_network_for_metadata(metadata)
+        if isinstance(self.network, SACNetworks):
+            self.learner = SACTrainer(self.network, hyperparameters, SACSettings(
+                replay_memory_bytes=int(self.options.sac_replay_memory_mb * 2**20),
+                updates_per_transition=self.options.sac_updates_per_transition, seed=self.options.seed))
+            log.info("SAC replay memory: %d transitions in %.0f MB", self.learner.replay.capacity,
+                     self.options.sac_replay_memory_mb)
+        else:
+            self.learner = PPOTrainer(self.network, hyperparameters, PPOSettings(seed=self.options.seed))
         latest = self.checkpoints.latest_name()
         if latest is not None:
-            iteration, self.env_steps = self.checkpoints.restore(latest, self.network, self.ppo.optimizer)
+            iteration, self.env_steps = self.checkpoints.restore(latest, self.network, self.learner.optimizer)
             log.info("resuming %s from checkpoint %s", self.options.model_prefix, latest)
             self.store.delete(self.layout.finished)  # training goes on: the model is not finished any more
             self.episodes_consumed = iteration * hyperparameters.num_episodes_between_training
@@ -189,32 +163,15 @@ class Trainer:
     def _clone_from_pretrained(self) -> None:
         """Start from another model's weights. Action values may change; the number of actions may not."""
         source_prefix = self.options.pretrained_prefix
-        source_layout = ModelLayout(source_prefix)
-        try:
-            source_metadata = parse_model_metadata(json.loads(self.store.get_bytes(source_layout.model_metadata)),
-                                                   source=f"{self.store.describe()}/{source_layout.model_metadata}")
-        except ObjectNotFoundError as error:
-            raise CloneError(f"cannot clone {source_prefix!r}: it has no model/model_metadata.json in "
-                             f"{self.store.describe()}") from error
-        ours = f"{self.options.custom_files / 'model_metadata.json'}"
-        if source_metadata.action_space_type != self.metadata.action_space_type:
-            raise CloneError(f"cannot clone {source_prefix!r}: its action space is {source_metadata.action_space_type}, "
-                             f"{ours} is {self.metadata.action_space_type}")
-        if source_metadata.num_actions != self.metadata.num_actions:
-            raise CloneError(f"cannot clone {source_prefix!r}: it has {source_metadata.num_actions} actions, "
-                             f"{ours} has {self.metadata.num_actions} actions; the number of actions must match "
-                             f"(their values may change)")
-        if (source_metadata.sensors, source_metadata.neural_network) != (self.metadata.sensors, self.metadata.neural_network):
-            raise CloneError(f"cannot clone {source_prefix!r}: sensors/network {source_metadata.sensors} "
-                             f"{source_metadata.neural_network} differ from {ours}: {self.metadata.sensors} "
-                             f"{self.metadata.neural_network}")
+        check_clone_source(self.store, source_prefix, self.metadata,
+                           str(self.options.custom_files / "model_metadata.json"))
         source = CheckpointStore(self.store, source_prefix)
         name = source.select(self.options.pretrained_checkpoint)
         source.restore(name, self.network)  # weights only: a clone starts a fresh optimiser
         print(f"Cloned weights from {source_prefix}/model/{name}", flush=True)
 
     def _save(self, iteration: int) -> str:
-        name = self.checkpoints.save(iteration, self.env_steps, self.network, self.ppo.optimizer, self.metadata,
+        name = self.checkpoints.save(iteration, self.env_steps, self.network, self.learner.optimizer, self.metadata,
                                      self.hyperparameters)
         print(f"Checkpoint> Saving in path=['{self.layout.key(model_layout.MODEL_DIR, name)}']", flush=True)
         return name
@@ -231,7 +188,12 @@ class Trainer:
 
         def consider(received: ReceivedBatch) -> None:
             batch = received.batch
-            if batch.iteration != iteration or batch.policy_version != iteration:
+            if self._keep_as_replay(batch, iteration):
+                log.info("SAC: %d episodes of checkpoint %d (one behind) from worker %d go into the replay memory",
+                         len(batch.episodes), batch.policy_version, batch.worker_id)
+                self.learner.add_experience(batch.episodes)
+                self.channel.ack(received.stream_id)
+            elif batch.iteration != iteration or batch.policy_version != iteration:
                 log.info("dropping a stale batch (iteration %d, policy %d) while training iteration %d",
                          batch.iteration, batch.policy_version, iteration)
                 self.channel.ack(received.stream_id)
@@ -282,6 +244,13 @@ class Trainer:
                     f"are the rollout workers running against {self.channel.key('episodes')}?")
         return got
 
+    def _keep_as_replay(self, batch, iteration: int) -> bool:
+        """SAC learns off-policy: a late batch played with the previous checkpoint (a share re-played for a worker
+        that came back, a worker that finished after the trainer moved on) is still good experience. Anything older
+        is dropped: what enters the memory during iteration k was played by checkpoint k or k-1."""
+        sac = isinstance(self.learner, SACTrainer)
+        return sac and batch.policy_version == iteration - 1 and batch.iteration < iteration
+
     def _announce_again_if_lost(self, iteration: int) -> None:
         """Workers learn of an iteration only from the control stream: if Redis lost the announcement (restarted
         before its append-only file had it), nobody would ever play the iteration."""
@@ -312,9 +281,10 @@ class Trainer:
             print(format_training_episode_line(episode.worker_id, self.episodes_consumed, episode.total_reward,
                                                self.env_steps, iteration), flush=True)
         self.episodes_consumed += len(capped.dropped)  # played, so they count towards the episode limit
-        epoch_stats = self.ppo.update(episodes)
-        for stats in epoch_stats:
-            print(format_policy_training_line(stats), flush=True)
+        for stats in self.learner.update(episodes):
+            line = format_sac_training_line(stats) if isinstance(self.learner, SACTrainer) else \
+                format_policy_training_line(stats)
+            print(line, flush=True)
         summary = self._summary(iteration, episodes, rollout_wall_s)
         summary.update(episodes_dropped=len(capped.dropped), steps_dropped=capped.dropped_steps)
         return summary

@@ -10,7 +10,7 @@ from pathlib import Path
 import pandas as pd
 import yaml
 
-from racer.analysis import aggregate, plots, training_metrics, whatif
+from racer.analysis import action_distributions, aggregate, plots, training_metrics, whatif
 from racer.analysis.loading import load_steps
 from racer.analysis.report import Report, write_html
 from racer.analysis.sources import EVALUATION, TRAINING, RunFiles, open_source
@@ -178,11 +178,14 @@ def draw_pictures(analysis: Analysis, out_dir: Path, *, sections: int, top_laps:
             analysis.iterations, analysis.iterations_by_worker, out_dir / "training_progress.png",
             metrics_table=analysis.metrics_iterations,
         )
+    steps = for_pictures(analysis.steps, analysis)
+    training_steps = steps[steps["phase"] == TRAINING]
+    if len(training_steps) and action_distributions.is_continuous(training_steps):  # needs no track
+        analysis.pictures["action_distributions"] = action_distributions.action_distributions(
+            training_steps, out_dir / "action_distributions.png")
     if analysis.track is None:
         return
     track = analysis.track
-    steps = for_pictures(analysis.steps, analysis)
-    training_steps = steps[steps["phase"] == TRAINING]
     best_training = aggregate.best_laps(for_pictures(analysis.episodes, analysis), TRAINING, top_laps)
     if len(best_training):
         title = ("Fastest training laps" if best_training["lap_complete"].all()
@@ -222,6 +225,8 @@ _PICTURE_TEXT = {
     "evaluation_laps": ("Evaluation laps on the track", "Driven path coloured by speed; green dot = start of the lap, red cross = where a reset happened."),
     "reward_heatmap": ("Reward heatmap", "Mean step reward of all training steps in each cell of the track."),
     "action_usage": ("Action usage per track section", "Share of the steps in each section that used each action."),
+    "action_distributions": ("Continuous actions", "Commanded steering and speed of the training steps: histograms "
+                             "for early, middle and late iterations, and steering against speed."),
     "reward_comparison": ("Reward what-if", "Logged reward and the candidate's along the fastest lap, and episode "
                           "totals of both for every training episode."),
 }
@@ -246,6 +251,7 @@ def build_report(analysis: Analysis, out_dir: Path) -> Path:
         ("picture", "best_laps"),
         ("picture", "reward_heatmap"),
         ("picture", "action_usage"),
+        ("picture", "action_distributions"),
         ("table", "Evaluations", analysis.evaluations, "One row per evaluation run."),
         ("table", "Evaluation laps", analysis.evaluation_laps, "Per lap: time, progress, resets and penalty time."),
         ("picture", "evaluation_laps"),

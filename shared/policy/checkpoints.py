@@ -55,6 +55,7 @@ from racer.shared.policy.best_and_last import (
     best_and_last_to_bytes,
     read_best_and_last,
 )
+from racer.shared.policy.factory import PolicyNetwork, build_network
 from racer.shared.policy.manifest import (
     CheckpointError,
     CheckpointInfo,
@@ -62,7 +63,7 @@ from racer.shared.policy.manifest import (
     sha256_hex,
     tensors_to_bytes,
 )
-from racer.shared.policy.networks import LOG_STD_MAX, LOG_STD_MIN, ActorCritic
+from racer.shared.policy.networks import LOG_STD_MAX, LOG_STD_MIN
 from racer.shared.policy.onnx_export import export_onnx
 from racer.shared.policy.optimizer_files import (
     load_optimizer_state,
@@ -156,11 +157,12 @@ class CheckpointStore:
         if name + OPTIMIZER_TENSORS_SUFFIX in info.files:
             tensors = load_safetensors(self._read_verified(info, name + OPTIMIZER_TENSORS_SUFFIX))
             scalars = json.loads(self._read_verified(info, name + OPTIMIZER_SCALARS_SUFFIX))
-            network = ActorCritic(info.policy_config)
+            network = build_network(info.policy_config)
             optimizer_state = optimizer_state_from_files(tensors, scalars, network)
         return LoadedCheckpoint(info=info, network_state=network_state, optimizer_state=optimizer_state)
 
-    def restore(self, name: str, network: ActorCritic, optimizer: torch.optim.Optimizer | None = None) -> tuple[int, int]:
+    def restore(self, name: str, network: PolicyNetwork,
+                optimizer: torch.optim.Optimizer | None = None) -> tuple[int, int]:
         """Load a checkpoint into an existing network (and optimiser, if given). Returns (number, env_steps).
 
         The network must have the checkpoint's structure (same PolicyConfig); without an optimiser only the weights
@@ -196,13 +198,13 @@ class CheckpointStore:
                                   f"have {', '.join(self.names()) or 'none'}")
         return which
 
-    def load_policy(self, name: str | None = None) -> ActorCritic:
+    def load_policy(self, name: str | None = None) -> PolicyNetwork:
         """The network of a checkpoint, ready to act (eval mode). Reads the weights only, not the optimiser."""
         name = name or self.latest_name()
         if name is None:
             raise self._nothing_to_load()
         info = self.read_info(name)
-        network = ActorCritic(info.policy_config)
+        network = build_network(info.policy_config)
         network.load_state_dict(load_safetensors(self._read_verified(info, name + WEIGHTS_SUFFIX)))
         return network.eval()
 
@@ -213,17 +215,19 @@ class CheckpointStore:
         cheaper per observation, because single-frame inference is mostly framework overhead. No torch network is
         built: workers load a policy every iteration, so this stays cheap.
         """
-        from racer.shared.policy.onnx_policy import OnnxPolicy
+        from racer.shared.policy.onnx_policy import OnnxPolicy, SacOnnxPolicy
 
         name = name or self.latest_name()
         if name is None:
             raise self._nothing_to_load()
         info = self.read_info(name)
+        onnx_file = model_layout.inference_model(info.number, "onnx").removeprefix(model_layout.MODEL_DIR + "/")
+        if info.policy_config.training_algorithm == "sac":  # state-dependent std: the graph outputs it
+            return SacOnnxPolicy(self._read_verified(info, onnx_file), info.policy_config)
         log_std = None
         if info.policy_config.is_continuous:  # the Gaussian's state-independent log-std is a weight, not in the graph
             weights = load_safetensors(self._read_verified(info, name + WEIGHTS_SUFFIX))
             log_std = weights["log_std"].clamp(LOG_STD_MIN, LOG_STD_MAX)
-        onnx_file = model_layout.inference_model(info.number, "onnx").removeprefix(model_layout.MODEL_DIR + "/")
         return OnnxPolicy(self._read_verified(info, onnx_file), info.policy_config, log_std)
 
     def read_best_and_last(self) -> BestAndLast | None:
@@ -242,7 +246,7 @@ class CheckpointStore:
         self,
         number: int,
         env_steps: int,
-        network: ActorCritic,
+        network: PolicyNetwork,
         optimizer: torch.optim.Optimizer | None = None,
         model_metadata: ModelMetadata | None = None,
         hyperparameters: Hyperparameters | None = None,
@@ -267,7 +271,8 @@ class CheckpointStore:
             env_steps=env_steps,
             policy_config=network.config,
             model_metadata=None if model_metadata is None else model_metadata_to_dict(model_metadata),
-            hyperparameters=None if hyperparameters is None else resolved_hyperparameters(hyperparameters),
+            hyperparameters=None if hyperparameters is None else resolved_hyperparameters(
+                hyperparameters, network.config.training_algorithm),
             created_unix_s=time.time(),
             versions=package_versions(),
             files={file: {"sha256": sha256_hex(data), "size_bytes": len(data)} for file, data in files.items()},

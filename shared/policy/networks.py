@@ -165,6 +165,8 @@ class PolicyConfig:
     """`discrete` or `continuous`."""
     num_actions: int
     """Number of discrete actions, or 2 (steering, speed) when continuous."""
+    training_algorithm: str = "clipped_ppo"
+    """`clipped_ppo` (ActorCritic here) or `sac` (racer.shared.policy.sac_networks.SACNetworks)."""
 
     def __post_init__(self) -> None:
         if self.neural_network not in NETWORK_ARCHITECTURES:
@@ -175,6 +177,10 @@ class PolicyConfig:
             raise ValueError(f"a continuous policy has 2 outputs (steering, speed), got {self.num_actions}")
         if self.num_actions < 1:
             raise ValueError(f"num_actions must be positive, got {self.num_actions}")
+        if self.training_algorithm not in ("clipped_ppo", "sac"):
+            raise ValueError(f"training_algorithm must be 'clipped_ppo' or 'sac', got {self.training_algorithm!r}")
+        if self.training_algorithm == "sac" and not self.is_continuous:
+            raise ValueError("SAC needs a continuous action space")
         names = [spec.name for spec in self.inputs]
         if not names or names != sorted(names) or len(set(names)) != len(names):
             raise ValueError(f"inputs must be non-empty, unique and sorted by name, got {names}")
@@ -192,6 +198,7 @@ class PolicyConfig:
             "inputs": [{"name": spec.name, "kind": spec.kind, "shape": list(spec.shape)} for spec in self.inputs],
             "action_space_type": self.action_space_type,
             "num_actions": self.num_actions,
+            "training_algorithm": self.training_algorithm,
         }
 
     @classmethod
@@ -204,6 +211,7 @@ class PolicyConfig:
             ),
             action_space_type=str(data["action_space_type"]),
             num_actions=int(data["num_actions"]),
+            training_algorithm=str(data.get("training_algorithm", "clipped_ppo")),
         )
 
 
@@ -219,14 +227,13 @@ def _input_spec(sensor: str, metadata: ModelMetadata) -> InputSpec:
 
 
 def policy_config_from_metadata(metadata: ModelMetadata) -> PolicyConfig:
-    """The network a parsed model_metadata.json asks for (clipped PPO; SAC models are rejected)."""
-    if metadata.training_algorithm != "clipped_ppo":
-        raise ValueError(f"training_algorithm {metadata.training_algorithm!r} is not supported by the PPO trainer")
+    """The network a parsed model_metadata.json asks for (clipped PPO or SAC)."""
     return PolicyConfig(
         neural_network=metadata.neural_network,
         inputs=tuple(_input_spec(sensor, metadata) for sensor in sorted(metadata.sensors)),
         action_space_type=metadata.action_space_type,
         num_actions=metadata.num_actions,
+        training_algorithm=metadata.training_algorithm,
     )
 
 
@@ -495,8 +502,12 @@ def select_action(
 
 
 def build_actor_critic(metadata: ModelMetadata) -> ActorCritic:
-    """The freshly initialised network a model_metadata.json asks for."""
-    return ActorCritic(policy_config_from_metadata(metadata))
+    """The freshly initialised clipped-PPO network a model_metadata.json asks for (SAC: racer.shared.policy.factory)."""
+    config = policy_config_from_metadata(metadata)
+    if config.training_algorithm != "clipped_ppo":
+        raise ValueError(f"training_algorithm {config.training_algorithm!r}: build it with "
+                         f"racer.shared.policy.factory.build_network")
+    return ActorCritic(config)
 
 
 E_GREEDY_EVALUATION_EPSILON = 0.05

@@ -1,4 +1,9 @@
-"""The inference model racer writes beside each checkpoint (`model/model_<N>.onnx`, DeepRacer's `model_<N>.pb`)."""
+"""The inference model racer writes beside each checkpoint (`model/model_<N>.onnx`, DeepRacer's `model_<N>.pb`).
+
+Clipped PPO: one output `policy` (action probabilities, or the Gaussian mean, linear as DeepRacer's head). SAC: `policy` = tanh(mean),
+the deterministic action evaluation and the car drive, then `policy_mean` and `policy_log_std` (before the squash),
+which rollout workers sample from. Policy network only; critics stay out.
+"""
 
 from __future__ import annotations
 
@@ -9,8 +14,10 @@ import torch
 from torch import nn
 
 from racer.shared.policy.networks import ActorCritic
+from racer.shared.policy.sac_networks import SACNetworks
 
 ONNX_OPSET = 17
+SAC_OUTPUTS = ("policy", "policy_mean", "policy_log_std")
 
 
 class _InferenceModel(nn.Module):
@@ -24,9 +31,22 @@ class _InferenceModel(nn.Module):
         return self.network.policy_output(dict(zip(self.network.input_names, inputs, strict=True)))
 
 
-def export_onnx(network: ActorCritic) -> bytes:
+class _SacInferenceModel(nn.Module):
+    """Positional inputs in sorted sensor order -> (tanh(mean), mean, log_std)."""
+
+    def __init__(self, networks: SACNetworks):
+        super().__init__()
+        self.networks = networks
+
+    def forward(self, *inputs: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        mean, log_std = self.networks.policy_distribution(dict(zip(self.networks.input_names, inputs, strict=True)))
+        return torch.tanh(mean), mean, log_std
+
+
+def export_onnx(network: ActorCritic | SACNetworks) -> bytes:
     """The inference model of a network: inputs named by sensor (raw 0-255 grayscale float [1, 120, 160, C],
-    lidar [1, n]), output `policy` = action probabilities or the Gaussian mean (linear, as DeepRacer). Policy tower only."""
+    lidar [1, n]), outputs as the module docstring says. Policy tower only."""
+    sac = isinstance(network, SACNetworks)
     examples = tuple(torch.zeros(1, *spec.shape) for spec in network.config.inputs)
     buffer = io.BytesIO()
     was_training = network.training
@@ -37,11 +57,11 @@ def export_onnx(network: ActorCritic) -> bytes:
             # handles these plain conv/dense graphs and warns that it is the legacy path.
             warnings.simplefilter("ignore", DeprecationWarning)
             torch.onnx.export(
-                _InferenceModel(network),
+                _SacInferenceModel(network) if sac else _InferenceModel(network),
                 examples,
                 buffer,
                 input_names=list(network.input_names),
-                output_names=["policy"],
+                output_names=list(SAC_OUTPUTS) if sac else ["policy"],
                 opset_version=ONNX_OPSET,
                 dynamo=False,
             )

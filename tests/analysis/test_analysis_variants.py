@@ -234,3 +234,30 @@ def test_simtraces_written_by_racer_itself(tmp_path, deepracer_data, read_csv_ep
         assert sorted(mine.index) == sorted(expected)
         assert mine["lap_complete"].sum() == sum(e.complete for e in expected.values())
         assert mine["lap_time_s"].min() == pytest.approx(min(e.time_s for e in expected.values() if e.complete))
+
+
+def test_continuous_actions_get_their_distributions_drawn(tmp_path, deepracer_data):
+    """Continuous models (PPO or SAC) log '[steer speed]': steering and speed histograms over training, drawn even
+    without a track; discrete files do not get the picture."""
+    from racer.analysis import action_distributions
+
+    rows = read_rows(deepracer_data / "simtrace/console2022_training_27-iteration.csv")
+    action = rows[0].index("action")
+    rng = np.random.default_rng(0)
+    for row in rows[1:]:
+        steer, speed = rng.uniform(-30, 30), rng.uniform(1, 2)
+        row[5], row[6], row[action] = f"{steer:.2f}", f"{speed:.2f}", f"[{steer:.2f} {speed:.2f}]"
+    folder = write_rows(tmp_path / "c/training-simtrace/0-iteration.csv", rows).parents[1]
+    write_rows(folder / "training-simtrace/1-iteration.csv", rows)
+    steps = load_steps(open_source(str(folder)), progress=False)
+    assert action_distributions.is_continuous(steps)
+    path = action_distributions.action_distributions(steps, tmp_path / "distributions.png")
+    assert path.stat().st_size > 10_000
+
+    result = CliRunner().invoke(analyze_command, [str(folder), "--out", str(tmp_path / "out")])
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / "out" / "action_distributions.png").is_file()
+    assert "Continuous actions" in (tmp_path / "out" / "report.html").read_text()
+    discrete = load_steps(open_source(str(deepracer_data / "simtrace/console2022_training_27-iteration.csv")),
+                          progress=False)
+    assert not action_distributions.is_continuous(discrete)

@@ -1,0 +1,29 @@
+"""One place that turns a model's configuration into its network: clipped PPO's ActorCritic or SAC's SACNetworks.
+
+Checkpoints, the trainer and the tools call `build_network` so no caller has to know which algorithm trained a model.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from racer.shared.policy.networks import ActorCritic, PolicyConfig, policy_config_from_metadata
+from racer.shared.policy.sac_networks import SACNetworks
+
+if TYPE_CHECKING:
+    from racer.shared.deepracer.model_metadata import ModelMetadata
+
+__all__ = ["PolicyNetwork", "build_network", "build_network_for_metadata"]
+
+PolicyNetwork = ActorCritic | SACNetworks
+
+
+def build_network(config: PolicyConfig) -> PolicyNetwork:
+    if config.training_algorithm == "sac":
+        return SACNetworks(config)
+    return ActorCritic(config)
+
+
+def build_network_for_metadata(metadata: ModelMetadata) -> PolicyNetwork:
+    """The freshly initialised network a model_metadata.json asks for."""
+    return build_network(policy_config_from_metadata(metadata))

@@ -1,0 +1,216 @@
+"""Preflight: every check a training run can make before any process or server starts.
+
+`racer train`, `racer trainer` (and so the compose trainer service) call `preflight()` first. A model a user brings
+either passes, or is refused here with one message naming the file, the field, the problem and the fix -- never
+later, from inside a running trainer, after Redis and the workers were started.
+
+Checks, in the order a user would fix them:
+1. the three custom files exist;
+2. model_metadata.json and hyperparameters.json parse (their own modules name file, field and allowed values);
+3. the combination is one racer trains (`UNSUPPORTED` below: what DeepRacer itself refuses, and what racer does
+   not simulate yet, each with the reason);
+4. the reward function imports and defines `reward_function(params)`;
+5. workers.json parses, and every worker's track loads;
+6. a clone source (`--pretrained-prefix`) in a local store has the same algorithm, action space and network.
+Notes that do not stop training (keys the chosen algorithm ignores, idle workers) come back as warnings.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+from racer.shared.deepracer.hyperparameters import Hyperparameters, load_hyperparameters
+from racer.shared.deepracer.model_metadata import ModelMetadata, load_model_metadata, parse_model_metadata
+from racer.shared.model_layout import ModelLayout
+from racer.shared.sim.reward import load_reward_function
+from racer.shared.sim.track import Track, TrackError
+from racer.shared.store import ObjectNotFoundError, ObjectStore
+from racer.shared.user_errors import CloneError, RunConfigError
+from racer.shared.worker_settings import WorkerSettings, default_worker_settings
+
+__all__ = [
+    "PreflightReport",
+    "UnsupportedConfigurationError",
+    "check_clone_source",
+    "load_worker_settings",
+    "preflight",
+]
+
+CUSTOM_FILES = ("model_metadata.json", "hyperparameters.json", "reward_function.py")
+PPO_EXPLORATION_TYPES = ("categorical", "e-greedy")
+"""What DeepRacer's clipped-PPO agent accepts; anything else ends its job with 'Unknown exploration_type'."""
+SAC_IGNORED_KEYS = ("beta_entropy", "num_epochs", "exploration_type", "e_greedy_value", "epsilon_steps")
+"""Keys DeepRacer's SAC agent does not read (users' SAC files still carry some of them)."""
+RACE_TYPES_SIMULATED = ("TIME_TRIAL",)
+OBJECT_KEYS = ("NUMBER_OF_OBSTACLES", "NUMBER_OF_BOT_CARS")
+"""training_params keys that add objects to the track; racer's worlds have none yet."""
+
+
+class UnsupportedConfigurationError(ValueError):
+    """A configuration DeepRacer refuses, or one racer cannot train yet: names the file, the field, why and the fix."""
+
+
+def _refuse(source: str, field: str, problem: str, fix: str) -> UnsupportedConfigurationError:
+    return UnsupportedConfigurationError(f"{source}: {field}: {problem}; fix: {fix}")
+
+
+@dataclass(frozen=True)
+class PreflightReport:
+    model_metadata: ModelMetadata
+    hyperparameters: Hyperparameters
+    workers: tuple[WorkerSettings, ...]
+    warnings: tuple[str, ...]
+
+
+def _check_files_present(folder: Path) -> None:
+    missing = [name for name in CUSTOM_FILES if not (folder / name).is_file()]
+    if missing:
+        raise RunConfigError(f"{folder}: missing {', '.join(missing)}; fix: put the file(s) in the custom files "
+                             f"folder (examples in custom_files/ of this repository)")
+
+
+def _check_combination(metadata: ModelMetadata, hyperparameters: Hyperparameters, metadata_path: Path,
+                       hyperparameters_path: Path, given_keys: set[str]) -> list[str]:
+    """Refuse what cannot train; return notes about settings the algorithm ignores."""
+    warnings: list[str] = []
+    if metadata.training_algorithm == "clipped_ppo":
+        if "exploration_type" in given_keys and hyperparameters.exploration_type not in PPO_EXPLORATION_TYPES:
+            raise _refuse(str(hyperparameters_path), "exploration_type",
+                          f"{hyperparameters.exploration_type!r} is for SAC; DeepRacer's clipped PPO stops with "
+                          f"'Unknown exploration_type' ({metadata_path} has training_algorithm clipped_ppo)",
+                          "set exploration_type to 'categorical' (or 'e-greedy' for a discrete action space), "
+                          "or training_algorithm to 'sac' with a continuous action space")
+        if metadata.is_continuous and hyperparameters.exploration_type == "e-greedy":
+            warnings.append(f"{hyperparameters_path}: exploration_type: 'e-greedy' has no effect on a continuous "
+                            f"action space; the policy samples its Gaussian (as DeepRacer does)")
+    elif metadata.training_algorithm == "sac":
+        ignored = sorted(key for key in SAC_IGNORED_KEYS if key in given_keys)
+        if ignored:
+            warnings.append(f"{hyperparameters_path}: {', '.join(ignored)}: not used by SAC (DeepRacer ignores "
+                            f"them too)")
+    return warnings
+
+
+def _given_keys(path: Path) -> set[str]:
+    data = json.loads(path.read_text(encoding="utf-8-sig"))  # already parsed once: cannot fail here
+    return set(data) if isinstance(data, dict) else set()
+
+
+def _check_workers_json(folder: Path) -> list[str]:
+    """Keys of workers.json racer cannot honour yet are refused, not silently ignored."""
+    path = folder / "workers.json"
+    if not path.is_file():
+        return []
+    try:
+        data = json.loads(path.read_text())
+    except json.JSONDecodeError as error:
+        raise RunConfigError(f"{path}: line {error.lineno} column {error.colno}: {error.msg}") from error
+    if not isinstance(data, dict):
+        raise RunConfigError(f"{path}: expected a JSON object of training_params keys")
+    per_worker = data.get("workers", [])
+    scopes = [("", data)] + [(f"workers[{i}].", item) for i, item in enumerate(per_worker) if isinstance(item, dict)]
+    for prefix, scope in scopes:
+        race_type = str(scope.get("RACE_TYPE", "TIME_TRIAL")).strip().upper()
+        if race_type not in RACE_TYPES_SIMULATED:
+            raise _refuse(str(path), f"{prefix}RACE_TYPE",
+                          f"{race_type!r} is not simulated yet: racer's worlds have no obstacles or bot cars, "
+                          f"only the time trial", "remove the key (or set it to TIME_TRIAL)")
+        for key in OBJECT_KEYS:
+            if key in scope and str(scope[key]).strip() not in ("0", ""):
+                raise _refuse(str(path), f"{prefix}{key}",
+                              f"{scope[key]!r}: racer's worlds have no obstacles or bot cars yet",
+                              "remove the key (or set it to 0)")
+    return []
+
+
+def load_worker_settings(custom_files: Path, num_workers: int, track: str, worlds: tuple[str, ...],
+                         domain_randomization: bool = False, car_randomization: bool = False) -> list[WorkerSettings]:
+    """Defaults (world i to worker i, one track) plus the optional custom_files/workers.json.
+
+    workers.json holds DeepRacer training_params keys applied to every worker, and optionally
+    `"workers": [{...}, {...}]` with per-worker overrides (like DeepRacer-for-Cloud's worker-N.env).
+    """
+    settings = default_worker_settings(num_workers, track, worlds, domain_randomization, car_randomization)
+    path = custom_files / "workers.json"
+    if not path.is_file():
+        return settings
+    try:
+        data = json.loads(path.read_text())
+    except json.JSONDecodeError as error:
+        raise RunConfigError(f"{path}: line {error.lineno} column {error.colno}: {error.msg}") from error
+    if not isinstance(data, dict):
+        raise RunConfigError(f"{path}: expected a JSON object of training_params keys")
+    per_worker = data.pop("workers", [])
+    if not isinstance(per_worker, list):
+        raise RunConfigError(f"{path}: workers: expected a list with one object per worker")
+    result = []
+    for worker_id, base in enumerate(settings):
+        params = base.to_training_params("", num_workers)
+        params.update({k: str(v) for k, v in data.items()})
+        if worker_id < len(per_worker):
+            params.update({k: str(v) for k, v in per_worker[worker_id].items()})
+        try:
+            result.append(WorkerSettings.from_training_params(params, source=f"{path} (worker {worker_id})"))
+        except ValueError as error:
+            raise RunConfigError(str(error)) from error
+    return result
+
+
+def check_clone_source(store: ObjectStore, source_prefix: str, metadata: ModelMetadata, ours: str) -> None:
+    """A clone continues another model's weights: same algorithm, action-space type, number of actions, sensors and
+    network. Raises CloneError naming what differs and the fix."""
+    source_layout = ModelLayout(source_prefix)
+    try:
+        raw = store.get_bytes(source_layout.model_metadata)
+    except ObjectNotFoundError as error:
+        raise CloneError(f"cannot clone {source_prefix!r}: it has no model/model_metadata.json in "
+                         f"{store.describe()}") from error
+    source = parse_model_metadata(json.loads(raw), source=f"{store.describe()}/{source_layout.model_metadata}")
+    if source.training_algorithm != metadata.training_algorithm:
+        raise CloneError(f"{ours}: training_algorithm: cannot clone {source_prefix!r}: it was trained with "
+                         f"{source.training_algorithm}, this model asks for {metadata.training_algorithm}; the "
+                         f"networks differ (SAC clones only SAC, clipped PPO only clipped PPO); fix: clone a "
+                         f"{metadata.training_algorithm} model, or train this one from scratch")
+    if source.action_space_type != metadata.action_space_type:
+        raise CloneError(f"cannot clone {source_prefix!r}: its action space is {source.action_space_type}, "
+                         f"{ours} is {metadata.action_space_type}")
+    if source.num_actions != metadata.num_actions:
+        raise CloneError(f"cannot clone {source_prefix!r}: it has {source.num_actions} actions, "
+                         f"{ours} has {metadata.num_actions} actions; the number of actions must match "
+                         f"(their values may change)")
+    if (source.sensors, source.neural_network) != (metadata.sensors, metadata.neural_network):
+        raise CloneError(f"cannot clone {source_prefix!r}: sensors/network {source.sensors} "
+                         f"{source.neural_network} differ from {ours}: {metadata.sensors} "
+                         f"{metadata.neural_network}")
+
+
+def preflight(custom_files: Path, num_workers: int, track: str, worlds: tuple[str, ...],
+              pretrained_prefix: str | None = None, store: ObjectStore | None = None,
+              domain_randomization: bool = False, car_randomization: bool = False) -> PreflightReport:
+    """Every check that needs no running server. Raises a user error (file, field, fix) or returns the parsed
+    settings and warnings. `store`: where a clone source is looked up (only when it needs no server to read)."""
+    folder = Path(custom_files)
+    _check_files_present(folder)
+    metadata_path, hyperparameters_path = folder / "model_metadata.json", folder / "hyperparameters.json"
+    metadata = load_model_metadata(metadata_path)
+    hyperparameters, warnings = load_hyperparameters(hyperparameters_path)
+    warnings += _check_combination(metadata, hyperparameters, metadata_path, hyperparameters_path,
+                                   _given_keys(hyperparameters_path))
+    load_reward_function(folder / "reward_function.py")
+    warnings += _check_workers_json(folder)
+    workers = load_worker_settings(folder, num_workers, track, worlds, domain_randomization, car_randomization)
+    for worker_id, worker in enumerate(workers):
+        try:  # a track name no worker could find fails here, listing where it looked, not in every worker
+            Track.load(worker.track)
+        except TrackError as error:
+            raise RunConfigError(f"worker {worker_id}: track {worker.track!r}: {error}") from error
+    if hyperparameters.num_episodes_between_training < num_workers:
+        idle = num_workers - hyperparameters.num_episodes_between_training
+        warnings.append(f"{hyperparameters_path}: num_episodes_between_training: "
+                        f"{hyperparameters.num_episodes_between_training} episodes per iteration for {num_workers} "
+                        f"workers: {idle} worker(s) only wait (worker 0 still evaluates)")
+    if pretrained_prefix and store is not None:
+        check_clone_source(store, pretrained_prefix, metadata, str(metadata_path))
+    return PreflightReport(metadata, hyperparameters, tuple(workers), tuple(warnings))

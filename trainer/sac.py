@@ -1,0 +1,216 @@
+"""DeepRacer's SAC update (SimApp `get_sac_params`, `SoftActorCriticAgent.learn_from_batch`, `training_worker.py`).
+
+Public API
+----------
+    trainer = SACTrainer(networks, hyperparameters, SACSettings())   # one Adam over policy, Q and V
+    stats = trainer.update(episodes)            # list[SACStats] (one entry, [] when nothing was trained)
+    print(format_sac_training_line(stats[0]))
+    trainer.optimizer, trainer.learning_rate, trainer.replay
+
+One iteration, as DeepRacer's trainer runs it:
+
+1. The iteration's episodes go into the replay memory (`racer.trainer.replay`; every episode end is terminal).
+2. Gradient steps: as many as the iteration brought transitions (`num_consecutive_training_steps = rollout steps`),
+   times `SACSettings.updates_per_transition` (1.0 = DeepRacer). Minibatch: `batch_size` transitions sampled
+   uniformly, or 2^floor(log2(iteration transitions)) while the memory holds no more than `batch_size`.
+3. Each step, from one minibatch (s, a, r, done, s'):
+       a~, log pi(a~|s) = reparameterised squashed-Gaussian sample of the policy
+       policy loss = mean(sac_alpha * log pi(a~|s) - min(Q1, Q2)(s, a~))
+       V loss      = mse(V(s), min(Q1, Q2)(s, a~) - sac_alpha * log pi(a~|s))     (Huber with loss_type huber)
+       Q loss      = 0.5 mean((Q1(s, a) - y)^2) + 0.5 mean((Q2(s, a) - y)^2),  y = r + gamma (1 - done) V_target(s')
+   The policy gradient does not reach Q's weights; all three use the networks as they were before the step, so one
+   Adam step over all of them (lr, betas 0.9/0.999, eps 1e-5, no clipping) equals DeepRacer's three.
+4. V_target = V, copied once per iteration after its first gradient step (tau = 1 with DeepRacer's
+   `num_steps_between_copying_online_weights_to_target = EnvironmentSteps(episodes)`, which passes once per fetch).
+Non-finite numbers roll back to the state before the update and halve the learning rate, as for PPO
+(`racer.trainer.nan_guard`).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+from torch import nn
+
+from racer.shared.deepracer.hyperparameters import Hyperparameters
+from racer.shared.episode import Episode
+from racer.shared.policy.sac_networks import SACNetworks
+from racer.trainer.nan_guard import (
+    LastGoodState,
+    NonFiniteError,
+    check_finite,
+    first_non_finite_parameter,
+    gradient_norm,
+)
+from racer.trainer.ppo import ADAM_BETAS, ADAM_EPSILON, HUBER_DELTA, _finite_episodes, native_bf16_available
+from racer.trainer.replay import ReplayBuffer
+
+__all__ = ["SACSettings", "SACStats", "SACTrainer", "format_sac_training_line", "sac_minibatch_size"]
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class SACSettings:
+    replay_memory_bytes: int = 1 << 30
+    """Memory budget of the replay ring (see racer.trainer.replay): 1 GiB by default."""
+    updates_per_transition: float = 1.0
+    """Gradient steps per transition received; DeepRacer: 1. Lower trades sample efficiency for trainer time."""
+    max_nan_retries: int = 3
+    seed: int | None = None
+    threads: int | None = None
+    """torch intra-op threads during an update (restored afterwards); None = the process's setting."""
+    bf16_towers: bool | None = None
+    """Towers under bf16 autocast where the CPU computes bf16 natively (as PPOSettings.bf16_towers)."""
+
+
+@dataclass(frozen=True)
+class SACStats:
+    gradient_steps: int
+    minibatch_size: int
+    policy_loss: float
+    q_loss: float
+    value_loss: float
+    entropy: float
+    """-mean log pi(a~|s) of the sampled actions."""
+    mean_q: float
+    learning_rate: float
+    gradient_norm: float
+    replay_transitions: int
+
+
+def sac_minibatch_size(replay_transitions: int, iteration_transitions: int, batch_size: int) -> int:
+    """DeepRacer's training_worker: `batch_size` once the memory holds more, else 2^floor(log2(iteration steps))."""
+    if replay_transitions > batch_size:
+        return batch_size
+    return 2 ** int(math.floor(math.log2(max(1, iteration_transitions))))
+
+
+class SACTrainer:
+    def __init__(self, networks: SACNetworks, hyperparameters: Hyperparameters, settings: SACSettings | None = None):
+        self.networks = networks
+        self.hyperparameters = hyperparameters
+        settings = settings or SACSettings()
+        self.settings = settings
+        self.optimizer = torch.optim.Adam(networks.trainable_parameters(), lr=hyperparameters.lr, betas=ADAM_BETAS,
+                                          eps=ADAM_EPSILON, fused=True)
+        seed = settings.seed if settings.seed is not None else int(np.random.SeedSequence().generate_state(1)[0])
+        self.rng = np.random.default_rng(seed)
+        self.generator = torch.Generator().manual_seed(seed)
+        self.replay = ReplayBuffer(networks.config.inputs, settings.replay_memory_bytes)
+        self.last_good = LastGoodState(networks, self.optimizer)
+        use_bf16 = settings.bf16_towers if settings.bf16_towers is not None else native_bf16_available()
+        self.tower_dtype: torch.dtype | None = torch.bfloat16 if use_bf16 else None
+        self.nan_rollbacks = 0
+
+    @property
+    def learning_rate(self) -> float:
+        return float(self.optimizer.param_groups[0]["lr"])
+
+    @learning_rate.setter
+    def learning_rate(self, value: float) -> None:
+        for group in self.optimizer.param_groups:
+            group["lr"] = value
+
+    def add_experience(self, episodes: Sequence[Episode]) -> int:
+        """Store finite episodes in the replay memory (also used for late batches of the previous checkpoint)."""
+        kept = _finite_episodes(episodes)
+        for episode in kept:
+            self.replay.add_episode(episode)
+        return sum(episode.steps for episode in kept)
+
+    def update(self, episodes: Sequence[Episode]) -> list[SACStats]:
+        transitions = self.add_experience(episodes)
+        if transitions == 0:
+            return []
+        steps = max(1, round(transitions * self.settings.updates_per_transition))
+        if first_non_finite_parameter(self.networks) is not None:
+            self._roll_back("weights were not finite at the start of the update")
+        self.last_good.capture()
+        minibatch = sac_minibatch_size(len(self.replay), transitions, self.hyperparameters.batch_size)
+        for attempt in range(1, self.settings.max_nan_retries + 2):
+            try:
+                return [self._train(steps, minibatch)]
+            except NonFiniteError as error:
+                self._roll_back(f"{error.what} (attempt {attempt} of {self.settings.max_nan_retries + 1})")
+        log.warning("NaN guard: skipped this iteration's %d gradient steps; training continues from the last good "
+                    "weights with learning rate %g", steps, self.learning_rate)
+        return []
+
+    def _roll_back(self, reason: str) -> None:
+        old_rate = self.learning_rate
+        self.last_good.restore()
+        self.learning_rate = old_rate / 2
+        self.nan_rollbacks += 1
+        log.warning("NaN guard: %s; rolled back to the weights before this update and halved the learning rate "
+                    "%g -> %g", reason, old_rate, self.learning_rate)
+
+    def _train(self, steps: int, minibatch: int) -> SACStats:
+        previous_threads = torch.get_num_threads()
+        if self.settings.threads is not None:
+            torch.set_num_threads(self.settings.threads)
+        try:
+            sums = dict.fromkeys(("policy", "q", "v", "entropy", "mean_q", "grad_norm"), 0.0)
+            for step in range(steps):
+                for key, value in self._step(minibatch, step).items():
+                    sums[key] += value
+                if step == 0:
+                    self.networks.sync_target()
+            bad_weight = first_non_finite_parameter(self.networks)
+            if bad_weight is not None:
+                raise NonFiniteError(f"weight {bad_weight} after {steps} gradient steps")
+        finally:
+            torch.set_num_threads(previous_threads)
+        return SACStats(gradient_steps=steps, minibatch_size=minibatch, policy_loss=sums["policy"] / steps,
+                        q_loss=sums["q"] / steps, value_loss=sums["v"] / steps, entropy=sums["entropy"] / steps,
+                        mean_q=sums["mean_q"] / steps, learning_rate=self.learning_rate,
+                        gradient_norm=sums["grad_norm"] / steps, replay_transitions=len(self.replay))
+
+    def _step(self, minibatch: int, step: int) -> dict[str, float]:
+        hp, nets, dtype = self.hyperparameters, self.networks, self.tower_dtype
+        batch = self.replay.sample(minibatch, self.rng)
+        self.optimizer.zero_grad(set_to_none=True)
+
+        # Policy: reparameterised sample, scored by the twin Q on the same states (Q's weights get no gradient).
+        sample = nets.sample(batch.observations, self.generator, dtype)
+        q_features = nets.q_features(batch.observations, dtype)
+        q1_new, q2_new = nets.q_values(q_features.detach(), sample.action)
+        min_q_new = torch.min(q1_new, q2_new)
+        policy_loss = (hp.sac_alpha * sample.log_prob - min_q_new).mean()
+        policy_loss.backward()
+        for parameter in nets.q_head.parameters():
+            parameter.grad = None
+
+        # V towards the soft value of the sampled action; Q towards r + gamma (1 - done) V_target(s').
+        value_target = (min_q_new - hp.sac_alpha * sample.log_prob).detach()
+        value = nets.value(batch.observations, dtype)
+        if hp.loss_type == "huber":
+            value_loss = nn.functional.huber_loss(value, value_target, delta=HUBER_DELTA)
+        else:
+            value_loss = nn.functional.mse_loss(value, value_target)
+        next_value = nets.target_value(batch.next_observations, dtype)
+        td_target = batch.rewards + hp.discount_factor * (1.0 - batch.dones) * next_value
+        q1, q2 = nets.q_values(q_features, batch.actions)
+        q_loss = 0.5 * (q1 - td_target).square().mean() + 0.5 * (q2 - td_target).square().mean()
+        (value_loss + q_loss).backward()
+
+        losses = float(policy_loss) + float(value_loss) + float(q_loss)
+        check_finite(losses, f"loss at gradient step {step}")
+        grad_norm = gradient_norm(nets.trainable_parameters())
+        check_finite(grad_norm, f"gradient at gradient step {step}")
+        self.optimizer.step()
+        return {"policy": float(policy_loss), "q": float(q_loss), "v": float(value_loss),
+                "entropy": -float(sample.log_prob.mean()), "mean_q": float(min_q_new.mean()), "grad_norm": grad_norm}
+
+
+def format_sac_training_line(stats: SACStats) -> str:
+    """One line per iteration, in the spirit of DeepRacer's `Policy training>` line."""
+    return (f"Policy training> Policy loss={stats.policy_loss}, Q loss={stats.q_loss}, V loss={stats.value_loss}, "
+            f"Entropy={stats.entropy}, Mean Q={stats.mean_q}, training steps={stats.gradient_steps}, "
+            f"batch size={stats.minibatch_size}, replay transitions={stats.replay_transitions}, "
+            f"learning_rate={stats.learning_rate}")
