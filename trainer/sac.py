@@ -199,13 +199,13 @@ class SACTrainer:
         q_loss = 0.5 * (q1 - td_target).square().mean() + 0.5 * (q2 - td_target).square().mean()
         (value_loss + q_loss).backward()
 
-        losses = float(policy_loss) + float(value_loss) + float(q_loss)
-        check_finite(losses, f"loss at gradient step {step}")
+        policy_value, value_value, q_value = (float(loss.detach()) for loss in (policy_loss, value_loss, q_loss))
+        check_finite(policy_value + value_value + q_value, f"loss at gradient step {step}")
         grad_norm = gradient_norm(nets.trainable_parameters())
         check_finite(grad_norm, f"gradient at gradient step {step}")
         self.optimizer.step()
-        return {"policy": float(policy_loss), "q": float(q_loss), "v": float(value_loss),
-                "entropy": -float(sample.log_prob.mean()), "mean_q": float(min_q_new.mean()), "grad_norm": grad_norm}
+        return {"policy": policy_value, "q": q_value, "v": value_value, "entropy": -float(sample.log_prob.detach().mean()),
+                "mean_q": float(min_q_new.detach().mean()), "grad_norm": grad_norm}
 
 
 def format_sac_training_line(stats: SACStats) -> str:

@@ -111,7 +111,7 @@ def test_minibatch_follows_deepracers_rule():
 def test_sac_learns_a_one_step_task():
     torch.manual_seed(0)
     networks = SACNetworks(LIDAR_ONLY)
-    trainer = SACTrainer(networks, Hyperparameters(batch_size=64, lr=1e-3, sac_alpha=0.01),
+    trainer = SACTrainer(networks, Hyperparameters(batch_size=64, lr=3e-3, sac_alpha=0.01),
                          SACSettings(replay_memory_bytes=8 << 20, seed=0, updates_per_transition=1.0))
     rng = np.random.default_rng(0)
     probe = {"LIDAR": torch.from_numpy(rng.uniform(0.15, 1.0, (64, 64)).astype(np.float32))}
@@ -119,17 +119,16 @@ def test_sac_learns_a_one_step_task():
         before = float(np.square(networks.policy_output(probe).numpy() - TARGET_ACTION).sum(axis=1).mean())
     target_before = [p.clone() for p in networks.target_value_head.parameters()]
     stats = []
-    for _ in range(8):
-        stats += trainer.update(bandit_episodes(networks, 100, rng))
+    for _ in range(6):
+        stats += trainer.update(bandit_episodes(networks, 80, rng))
     with torch.no_grad():
         after = float(np.square(networks.policy_output(probe).numpy() - TARGET_ACTION).sum(axis=1).mean())
-    assert stats[0].gradient_steps == 100 and stats[0].minibatch_size == 64
+    assert stats[0].gradient_steps == 80 and stats[0].minibatch_size == 64
     assert after < 0.05 < before
     assert all(math.isfinite(s.q_loss) for s in stats)
     # The target V was synced from V (once per iteration), so it moved.
     assert any(not torch.equal(a, b) for a, b in zip(target_before, networks.target_value_head.parameters(),
                                                        strict=True))
-    assert torch.equal(networks.target_value_head.weight, networks.target_value_head.weight)
 
 
 def test_non_finite_weights_roll_back_and_halve_the_learning_rate(caplog):
