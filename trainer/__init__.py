@@ -1,6 +1,8 @@
-"""The SageMaker side: DeepRacer's clipped-PPO trainer. Import name: `racer.trainer`.
+"""The SageMaker side: DeepRacer's clipped-PPO and SAC trainers. Import name: `racer.trainer`.
 
-`racer.trainer.ppo` (PPOTrainer.update, DeepRacer's log lines), `racer.trainer.gae`, `racer.trainer.nan_guard`,
+`racer.trainer.preflight` (custom files checked before anything starts), `racer.trainer.ppo` (PPOTrainer.update,
+DeepRacer's log lines), `racer.trainer.sac` (SACTrainer.update) with `racer.trainer.replay` (its replay memory),
+`racer.trainer.gae`, `racer.trainer.nan_guard`,
 `racer.trainer.bench` (`racer bench ppo`); the process loop is `racer.trainer.training_loop` / `racer.trainer.main`.
 Networks and checkpoints live in `racer.shared.policy`, because the rollout and evaluation workers load them too.
 """
