@@ -12,8 +12,8 @@ import pytest
 import torch
 
 from racer.model_io import FolderDestination, export_model, import_model, validate_location
-from racer.shared.config import LocalStoreSettings, RedisSettings, ServiceSettings
-from racer.shared.deepracer.hyperparameters import Hyperparameters
+from racer.shared.config import LocalStoreSettings, ServiceSettings
+from racer.shared.deepracer.hyperparameters import hyperparameters_to_json_bytes, load_hyperparameters
 from racer.shared.deepracer.model_metadata import parse_model_metadata
 from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.policy.factory import build_network_for_metadata
@@ -22,6 +22,7 @@ from racer.shared.store import LocalStore
 from racer.shared.user_errors import CloneError
 from racer.trainer.training_loop import Trainer, TrainerOptions
 from tests.conftest import write_custom_files
+from tests.model_io.model_io_builders import real_files
 
 SAC_METADATA = {"action_space": {"steering_angle": {"low": -30, "high": 30}, "speed": {"low": 1, "high": 2}},
                 "action_space_type": "continuous", "training_algorithm": "sac", "sensor": ["FRONT_FACING_CAMERA"],
@@ -34,17 +35,20 @@ def frames(count: int, seed: int) -> list[dict[str, np.ndarray]]:
 
 
 @pytest.fixture
-def sac_store(tmp_path):
+def sac_store(tmp_path, deepracer_data):
     store = LocalStore(tmp_path / "store")
     metadata = parse_model_metadata(SAC_METADATA, "SAC_METADATA")
     checkpoints = CheckpointStore(store, "sac")
     checkpoints.put_model_metadata(metadata)
-    store.put_bytes("sac/reward_function.py", b"def reward_function(params):\n    return 1.0\n")
+    hyperparameters, _ = load_hyperparameters(deepracer_data / "config" / "dots_hyperparameters_sac.json")
+    store.put_bytes("sac/ip/hyperparameters.json", hyperparameters_to_json_bytes(hyperparameters, "sac"))
+    store.put_bytes("sac/reward_function.py", real_files().reward_function)
+    store.put_bytes("sac/training_params.yaml", real_files().training_params)
     networks = {}
     for number in range(2):
         torch.manual_seed(number)
         network = build_network_for_metadata(metadata)
-        checkpoints.save(number, 100 * number, network, None, metadata, Hyperparameters())
+        checkpoints.save(number, 100 * number, network, None, metadata, hyperparameters)
         networks[number] = network.eval()
     checkpoints.record_evaluation("1_Step-100.ckpt", 60.0, 1.0)
     return store, networks
@@ -79,7 +83,7 @@ def test_a_sac_model_exports_validates_and_imports(sac_store, tmp_path):
 
 
 @pytest.mark.parametrize("ours", ["clipped_ppo", "sac"])
-def test_cloning_across_algorithms_is_refused(sac_store, tmp_path, ours):
+def test_cloning_across_algorithms_is_refused(sac_store, tmp_path, ours, redis_settings):
     store, _ = sac_store
     custom = write_custom_files(tmp_path / "custom", min_eval_trials=None)
     metadata = json.loads((custom / "model_metadata.json").read_text())
@@ -89,7 +93,7 @@ def test_cloning_across_algorithms_is_refused(sac_store, tmp_path, ours):
                                                                     "training_algorithm": "clipped_ppo"}).encode())
     (custom / "model_metadata.json").write_text(json.dumps(metadata))
     source = "sac" if ours == "clipped_ppo" else "ppo"
-    settings = ServiceSettings(redis=RedisSettings(url="redis://127.0.0.1:1/0"), store=LocalStoreSettings(store.root))
+    settings = ServiceSettings(redis=redis_settings, store=LocalStoreSettings(store.root))
     trainer = Trainer(settings, TrainerOptions(model_prefix="clone", custom_files=custom, num_workers=1,
                                                track="racer_oval", worlds=("base",), pretrained_prefix=source))
     with pytest.raises(CloneError, match="training_algorithm: cannot clone .*SAC clones only SAC"):
