@@ -99,3 +99,18 @@ def test_cloning_across_algorithms_is_refused(sac_store, tmp_path, ours, redis_s
     with pytest.raises(CloneError, match="training_algorithm: cannot clone .*SAC clones only SAC"):
         trainer.setup()
     assert not (store.root / "clone").exists()  # refused before anything of the new model was written
+
+
+def test_sac_clones_sac(sac_store, tmp_path, redis_settings):
+    store, networks = sac_store
+    custom = write_custom_files(tmp_path / "custom", min_eval_trials=None)
+    (custom / "model_metadata.json").write_text(json.dumps(SAC_METADATA))
+    settings = ServiceSettings(redis=redis_settings, store=LocalStoreSettings(store.root))
+    trainer = Trainer(settings, TrainerOptions(model_prefix="clone", custom_files=custom, num_workers=1,
+                                               track="racer_oval", worlds=("base",), pretrained_prefix="sac",
+                                               sac_replay_memory_mb=16))
+    assert trainer.setup() == 0
+    for (key, cloned), original in zip(trainer.network.state_dict().items(), networks[1].state_dict().values(),
+                                       strict=True):
+        assert torch.equal(cloned, original), key  # the last checkpoint's weights, target V included
+    assert CheckpointStore(store, "clone").latest_name() == "0_Step-0.ckpt"
