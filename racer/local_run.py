@@ -345,8 +345,9 @@ def train_command(model_prefix, custom_files, num_workers, worlds, track, max_ep
 @click.option("--workers", "num_workers", type=int, default=4, show_default=True)
 @click.option("--time-limit-minutes", type=float, default=30.0, show_default=True)
 @click.option("--episodes-per-iteration", type=int, default=20, show_default=True)
-@click.option("--sac-updates-per-transition", type=float, default=1.0, show_default=True,
-              help="SAC: gradient steps per transition (DeepRacer: 1).")
+@click.option("--sac-updates-per-transition", type=float, default=0.05, show_default=True,
+              help="SAC: gradient steps per transition. DeepRacer takes 1, which on two CPU cores leaves the trainer "
+                   "far behind the workers (see `racer bench sac`).")
 @click.option("--seed", type=int, default=0, show_default=True)
 def time_to_lap_command(track, reward_function, algorithm, action_space, speed, min_speed, max_speed, num_workers,
                         time_limit_minutes, episodes_per_iteration, sac_updates_per_transition, seed):
@@ -382,6 +383,8 @@ def time_to_lap_command(track, reward_function, algorithm, action_space, speed, 
                         trainer_options=("--sac-updates-per-transition", str(sac_updates_per_transition)))
     result = {"algorithm": algorithm, "action_space": action_space, "minutes": None, "env_steps": None,
               "iterations": None}
+    if algorithm == "sac":
+        result["sac_updates_per_transition"] = sac_updates_per_transition
     started = time.monotonic()
     rates: list[float] = []
 
