@@ -7,10 +7,10 @@ later, from inside a running trainer, after Redis and the workers were started.
 Checks, in the order a user would fix them:
 1. the three custom files exist;
 2. model_metadata.json and hyperparameters.json parse (their own modules name file, field and allowed values);
-3. the combination is one racer trains (`UNSUPPORTED` below: what DeepRacer itself refuses, and what racer does
-   not simulate yet, each with the reason);
+3. the combination is one racer trains (`_check_combination`: what DeepRacer itself refuses, with the reason);
 4. the reward function imports and defines `reward_function(params)`;
-5. workers.json parses, and every worker's track loads;
+5. workers.json parses (race types racer does not simulate yet -- obstacles, bot cars -- are refused by name,
+   racer.shared.worker_settings), and every worker's track loads;
 6. a clone source (`--pretrained-prefix`) in a local store has the same algorithm, action space and network.
 Notes that do not stop training (keys the chosen algorithm ignores, idle workers) come back as warnings.
 """
@@ -43,9 +43,6 @@ PPO_EXPLORATION_TYPES = ("categorical", "e-greedy")
 """What DeepRacer's clipped-PPO agent accepts; anything else ends its job with 'Unknown exploration_type'."""
 SAC_IGNORED_KEYS = ("beta_entropy", "num_epochs", "exploration_type", "e_greedy_value", "epsilon_steps")
 """Keys DeepRacer's SAC agent does not read (users' SAC files still carry some of them)."""
-RACE_TYPES_SIMULATED = ("TIME_TRIAL",)
-OBJECT_KEYS = ("NUMBER_OF_OBSTACLES", "NUMBER_OF_BOT_CARS")
-"""training_params keys that add objects to the track; racer's worlds have none yet."""
 
 
 class UnsupportedConfigurationError(ValueError):
@@ -96,33 +93,6 @@ def _check_combination(metadata: ModelMetadata, hyperparameters: Hyperparameters
 def _given_keys(path: Path) -> set[str]:
     data = json.loads(path.read_text(encoding="utf-8-sig"))  # already parsed once: cannot fail here
     return set(data) if isinstance(data, dict) else set()
-
-
-def _check_workers_json(folder: Path) -> list[str]:
-    """Keys of workers.json racer cannot honour yet are refused, not silently ignored."""
-    path = folder / "workers.json"
-    if not path.is_file():
-        return []
-    try:
-        data = json.loads(path.read_text())
-    except json.JSONDecodeError as error:
-        raise RunConfigError(f"{path}: line {error.lineno} column {error.colno}: {error.msg}") from error
-    if not isinstance(data, dict):
-        raise RunConfigError(f"{path}: expected a JSON object of training_params keys")
-    per_worker = data.get("workers", [])
-    scopes = [("", data)] + [(f"workers[{i}].", item) for i, item in enumerate(per_worker) if isinstance(item, dict)]
-    for prefix, scope in scopes:
-        race_type = str(scope.get("RACE_TYPE", "TIME_TRIAL")).strip().upper()
-        if race_type not in RACE_TYPES_SIMULATED:
-            raise _refuse(str(path), f"{prefix}RACE_TYPE",
-                          f"{race_type!r} is not simulated yet: racer's worlds have no obstacles or bot cars, "
-                          f"only the time trial", "remove the key (or set it to TIME_TRIAL)")
-        for key in OBJECT_KEYS:
-            if key in scope and str(scope[key]).strip() not in ("0", ""):
-                raise _refuse(str(path), f"{prefix}{key}",
-                              f"{scope[key]!r}: racer's worlds have no obstacles or bot cars yet",
-                              "remove the key (or set it to 0)")
-    return []
 
 
 def load_worker_settings(custom_files: Path, num_workers: int, track: str, worlds: tuple[str, ...],
@@ -199,7 +169,6 @@ def preflight(custom_files: Path, num_workers: int, track: str, worlds: tuple[st
     warnings += _check_combination(metadata, hyperparameters, metadata_path, hyperparameters_path,
                                    _given_keys(hyperparameters_path))
     load_reward_function(folder / "reward_function.py")
-    warnings += _check_workers_json(folder)
     workers = load_worker_settings(folder, num_workers, track, worlds, domain_randomization, car_randomization)
     for worker_id, worker in enumerate(workers):
         try:  # a track name no worker could find fails here, listing where it looked, not in every worker
