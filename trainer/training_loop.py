@@ -36,7 +36,7 @@ from racer.shared.model_layout import ModelLayout
 from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.policy.factory import build_network_for_metadata
 from racer.shared.policy.sac_networks import SACNetworks
-from racer.shared.redis_connection import RedisLink
+from racer.shared.redis_connection import RedisLink, RedisUnavailableError
 from racer.shared.store import ObjectNotFoundError, open_store
 from racer.shared.transport.channels import ReceivedBatch, RunChannel, share_sizes
 from racer.shared.worker_settings import WorkerSettings
@@ -96,13 +96,16 @@ class Trainer:
         self.options = options
         self.store = open_store(settings.store)
         self.layout = ModelLayout(options.model_prefix)
-        self.channel = RunChannel(RedisLink(settings.redis), options.model_prefix)
-        self.checkpoints = CheckpointStore(self.store, options.model_prefix)
         self.stop_event = threading.Event()
+        """Set by SIGTERM / Ctrl-C or the wall-time limit; it also cuts Redis retries short (see RedisLink)."""
+        self.channel = RunChannel(RedisLink(settings.redis, stop=self.stop_event), options.model_prefix)
+        self.checkpoints = CheckpointStore(self.store, options.model_prefix)
         self.consumer = "trainer-0"
         self.started = time.monotonic()
         self.episodes_consumed = 0
         self.env_steps = 0
+        self.iteration = 0
+        """The newest saved checkpoint's number: the iteration being collected."""
 
     # ---- set-up ----------------------------------------------------------------------------------
     def _read_custom_files(self) -> tuple[ModelMetadata, Hyperparameters, bytes, list[WorkerSettings]]:
@@ -313,13 +316,13 @@ class Trainer:
         }
 
     def _record_summary(self, summary: dict) -> None:
-        self.channel.publish("iterations", summary)
-        key = self.layout.iterations_log
+        key = self.layout.iterations_log  # the store first: it is the record, the stream only feeds displays
         try:
             existing = self.store.get_bytes(key)
         except ObjectNotFoundError:
             existing = b""
         self.store.put_bytes(key, existing + json.dumps(summary).encode() + b"\n")
+        self.channel.publish("iterations", summary)
 
     def _should_stop(self) -> bool:
         max_episodes = self.options.max_episodes or self.hyperparameters.term_cond_max_episodes
@@ -337,34 +340,70 @@ class Trainer:
         A failure (an exception) writes neither: the run stays resumable, and a restarted trainer continues from
         the newest checkpoint with the workers still waiting for it.
         """
-        iteration = self.setup()
+        self.iteration = self.setup()
+        time_limit = self._start_time_limit()
         stopped_cleanly = False
         try:
             while True:
-                name = self.checkpoints.latest_name()
-                self.channel.announce_iteration(iteration, name, self.hyperparameters.num_episodes_between_training,
-                                                self.options.num_workers)
-                announced = time.monotonic()
                 try:
-                    batches = self.collect(iteration)
+                    self._iterate(self.iteration)
                 except StopRequested:
                     break
-                summary = self.train_iteration(iteration, batches, time.monotonic() - announced)
-                self._save(iteration + 1)
-                self.channel.ack(*[b.stream_id for b in batches.values()])
-                self._record_summary(summary)
-                iteration += 1
+                except RedisUnavailableError as error:
+                    if not self.stop_event.is_set():
+                        raise
+                    # Stopping with Redis gone: the newest checkpoint is complete in the store; batches not
+                    # acknowledged are of an older policy by now and a resumed trainer drops them.
+                    log.warning("stopping without Redis: %s", error)
+                    break
                 if self._should_stop():
                     break
             stopped_cleanly = True
         finally:
+            if time_limit is not None:
+                time_limit.cancel()
             if not stopped_cleanly:
-                print(f"Trainer failed during iteration {iteration}; the run is not finished: restart the trainer "
+                print(f"Trainer failed during iteration {self.iteration}; the run is not finished: restart the trainer "
                       f"to resume from {self.checkpoints.latest_name()}", flush=True)
+        iteration = self.iteration
         self.store.put_bytes(self.layout.finished, b"")
-        self.channel.announce_finished(iteration)
+        try:
+            self.channel.announce_finished(iteration)
+        except RedisUnavailableError as error:
+            log.warning("could not tell the workers that training finished (%s); they stop on their own signal "
+                        "or time-out", error)
         print(f"Training finished at checkpoint {iteration} ({self.episodes_consumed} episodes, "
               f"{self.env_steps} steps)", flush=True)
+
+    def _iterate(self, iteration: int) -> None:
+        """Announce, collect, train and save one iteration (`self.iteration` moves on once its checkpoint is
+        saved)."""
+        name = self.checkpoints.latest_name()
+        self.channel.announce_iteration(iteration, name, self.hyperparameters.num_episodes_between_training,
+                                        self.options.num_workers)
+        announced = time.monotonic()
+        batches = self.collect(iteration)
+        summary = self.train_iteration(iteration, batches, time.monotonic() - announced)
+        self._save(iteration + 1)
+        self.iteration = iteration + 1
+        self._record_summary(summary)
+        self.channel.ack(*[b.stream_id for b in batches.values()])
+
+    def _start_time_limit(self) -> threading.Timer | None:
+        """`max_minutes` as a timer on the stop event: honoured while the trainer waits for episodes or for Redis,
+        not only between iterations."""
+        if self.options.max_minutes is None:
+            return None
+
+        def time_is_up() -> None:
+            log.info("stopping: wall-time limit of %.1f minutes reached", self.options.max_minutes)
+            self.stop_event.set()
+
+        delay_s = max(0.0, 60 * self.options.max_minutes - (time.monotonic() - self.started))
+        timer = threading.Timer(delay_s, time_is_up)
+        timer.daemon = True
+        timer.start()
+        return timer
 
 
 def run_trainer(settings: ServiceSettings, options: TrainerOptions) -> None:
