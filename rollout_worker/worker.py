@@ -32,7 +32,7 @@ from racer.shared.deepracer.model_metadata import ModelMetadata
 from racer.shared.episode_runner import PlayedEpisode, play_episode
 from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.policy.networks import E_GREEDY_EVALUATION_EPSILON, e_greedy_epsilon
-from racer.shared.redis_connection import RedisLink
+from racer.shared.redis_connection import RedisLink, RedisUnavailableError
 from racer.shared.sim.env import DeepRacerEnv, EnvConfig
 from racer.shared.store import open_store
 from racer.shared.transport.channels import Announcement, RunChannel, share_sizes
@@ -100,13 +100,13 @@ class RolloutWorker:
         self.options = options
         self.worker_id = options.worker_id
         self.store = open_store(settings.store)
-        link = RedisLink(settings.redis)
+        self._stop = threading.Event()  # also cuts Redis retries short: stopping never waits for Redis
+        link = RedisLink(settings.redis, stop=self._stop)
         self.channel = RunChannel(link, options.model_prefix)
         self.frames = FrameChannel(link, options.model_prefix)
         self.frame_tap: FrameTap | None = None
         self.checkpoints = CheckpointStore(self.store, options.model_prefix)
         self.state = _WorkerState()
-        self._stop = threading.Event()
         self._workdir = Path(tempfile.mkdtemp(prefix=f"racer-worker{self.worker_id}-"))
         self.run: RunFiles | None = None
         self.env: DeepRacerEnv | None = None
@@ -121,7 +121,10 @@ class RolloutWorker:
 
     def _heartbeat_loop(self) -> None:
         while not self._stop.wait(3.0):
-            self._beat()
+            try:
+                self._beat()
+            except RedisUnavailableError as error:  # beat again once Redis is back; the run goes on
+                log.warning("worker %d: heartbeat not sent: %s", self.worker_id, error)
 
     def _beat(self) -> None:
         world = self.run.worker.world if self.run else self.options.world_override or "?"
@@ -147,6 +150,10 @@ class RolloutWorker:
                     self._handle(announcement)
                     if announcement.kind == "finished":
                         break
+        except RedisUnavailableError as error:
+            if not self._stop.is_set():
+                raise
+            log.info("worker %d: stopped while Redis was unreachable (%s)", self.worker_id, error)
         finally:
             self._stop.set()
             if self.env is not None:
