@@ -19,11 +19,11 @@ class RedisUnavailableError(ConnectionError):
     """Redis could not be reached within the configured time budget."""
 
 
-OPERATION_SOCKET_TIMEOUT_S = 10.0
+OPERATION_SOCKET_TIMEOUT_S = 7.0
 """Socket timeout of the returned client: longer than any blocking stream read the run makes (at most 5 s), short
 enough that a hung server (stopped, not dead) cannot hold a stopping process past its 30 s."""
 
-STOPPING_BUDGET_S = 3.0
+STOPPING_BUDGET_S = 2.0
 """Once a process is stopping, how long it still tries to reach Redis (to announce `finished`, acknowledge) before
 it gives up: stopping never waits for Redis."""
 
@@ -53,7 +53,8 @@ class _Budget:
 
 
 def connect_redis(settings: RedisSettings, *, first_backoff_s: float = 0.1, max_backoff_s: float = 2.0,
-                  stop: threading.Event | None = None) -> redis.Redis:
+                  stop: threading.Event | None = None,
+                  operation_timeout_s: float = OPERATION_SOCKET_TIMEOUT_S) -> redis.Redis:
     """Return a client once the server answered PING, retrying with exponential backoff until `connect_timeout_s`
     is spent, or `STOPPING_BUDGET_S` after `stop` is set (a stopping process must not wait for Redis).
 
@@ -88,7 +89,7 @@ def connect_redis(settings: RedisSettings, *, first_backoff_s: float = 0.1, max_
         return redis.Redis.from_url(
             settings.url,
             socket_connect_timeout=min(2.0, settings.connect_timeout_s),
-            socket_timeout=OPERATION_SOCKET_TIMEOUT_S,
+            socket_timeout=operation_timeout_s,
             health_check_interval=15,
             retry_on_timeout=False,
             retry=_no_retry(),
@@ -115,17 +116,24 @@ class RedisLink:
     """
 
     def __init__(self, settings: RedisSettings, reconnect_budget_s: float = 300.0,
-                 stop: threading.Event | None = None):
+                 stop: threading.Event | None = None, operation_timeout_s: float = OPERATION_SOCKET_TIMEOUT_S):
         self.settings = settings
         self.reconnect_budget_s = reconnect_budget_s
         self.stop = stop
-        self._client = connect_redis(settings, stop=stop)
+        self.operation_timeout_s = operation_timeout_s
+        self._client = connect_redis(settings, stop=stop, operation_timeout_s=operation_timeout_s)
 
     @property
     def client(self) -> redis.Redis:
         return self._client
 
     def do(self, operation):
+        if self.stop is not None and self.stop.is_set() and self.operation_timeout_s > STOPPING_BUDGET_S:
+            # Stopping: a hung server may hold each command only this long.
+            self.operation_timeout_s = STOPPING_BUDGET_S
+            self._client.close()
+            self._client = redis.Redis.from_url(self.settings.url, socket_connect_timeout=STOPPING_BUDGET_S,
+                                                socket_timeout=STOPPING_BUDGET_S, retry=_no_retry())
         budget = _Budget(self.reconnect_budget_s, self.stop)
         full_wait_s = 0.5
         while True:
@@ -153,7 +161,8 @@ class RedisLink:
                 log.warning("Redis connection lost (%s); reconnecting to %s", error, self.settings.url)
                 self._client.close()
                 self._client = connect_redis(
-                    RedisSettings(url=self.settings.url, connect_timeout_s=max(0.5, remaining_s)), stop=self.stop)
+                    RedisSettings(url=self.settings.url, connect_timeout_s=max(0.5, remaining_s)), stop=self.stop,
+                    operation_timeout_s=self.operation_timeout_s)
 
     def close(self) -> None:
         self._client.close()

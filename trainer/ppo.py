@@ -45,7 +45,7 @@ from __future__ import annotations
 import logging
 import math
 import os
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
@@ -86,6 +86,10 @@ ADAM_EPSILON = 1e-5
 ADAM_BETAS = (0.9, 0.999)
 ADVANTAGE_STD_EPSILON = 1e-8
 HUBER_DELTA = 1.0
+
+
+class UpdateAbandoned(Exception):
+    """`update(abandon=...)` said stop: the network holds a partial update and must not be saved."""
 
 
 @dataclass(frozen=True)
@@ -255,8 +259,11 @@ class PPOTrainer:
 
     # -- public entry point ------------------------------------------------------------------------------------------
 
-    def update(self, episodes: Sequence[Episode]) -> list[EpochStats]:
-        """One PPO iteration on these episodes. Returns per-epoch stats ([] when nothing was trained)."""
+    def update(self, episodes: Sequence[Episode], abandon: Callable[[], bool] | None = None) -> list[EpochStats]:
+        """One PPO iteration on these episodes. Returns per-epoch stats ([] when nothing was trained).
+
+        `abandon()` is asked before every minibatch; True raises `UpdateAbandoned` (a stopping trainer that cannot
+        wait for a long update)."""
         episodes = _finite_episodes(episodes)
         if not episodes:
             return []
@@ -266,7 +273,7 @@ class PPOTrainer:
         self.last_good.capture()
         for attempt in range(1, self.settings.max_nan_retries + 2):
             try:
-                return self._train(batch)
+                return self._train(batch, abandon)
             except NonFiniteError as error:
                 self._roll_back(f"{error.what} (attempt {attempt} of {self.settings.max_nan_retries + 1})")
         log.warning("NaN guard: skipped this iteration's %d transitions; training continues from the last good "
@@ -308,17 +315,17 @@ class PPOTrainer:
         value_loss.backward()
         return value_loss.detach()
 
-    def _train(self, batch: TrainingBatch) -> list[EpochStats]:
+    def _train(self, batch: TrainingBatch, abandon: Callable[[], bool] | None = None) -> list[EpochStats]:
         threads = self.settings.threads_per_tower or max(1, len(os.sched_getaffinity(0)) // 2)
         previous_threads = torch.get_num_threads()
         torch.set_num_threads(threads)
         try:
             with ThreadPoolExecutor(max_workers=1, thread_name_prefix="value-tower") as towers:
-                return self._epochs(batch, towers)
+                return self._epochs(batch, towers, abandon)
         finally:
             torch.set_num_threads(previous_threads)
 
-    def _epochs(self, batch: TrainingBatch, towers: ThreadPoolExecutor) -> list[EpochStats]:
+    def _epochs(self, batch: TrainingBatch, towers: ThreadPoolExecutor, abandon: Callable[[], bool] | None = None) -> list[EpochStats]:
         hp = self.hyperparameters
         clip = self.settings.clip_epsilon
 
@@ -340,6 +347,8 @@ class PPOTrainer:
             sums = dict.fromkeys(("surrogate", "kl", "entropy", "value", "clipped", "grad_norm"), 0.0)
             minibatches = shuffled_minibatches(batch.size, minibatch_size, self.generator)
             for number, indices in enumerate(minibatches):
+                if abandon is not None and abandon():
+                    raise UpdateAbandoned()
                 observations = batch.select(indices)
                 self.optimizer.zero_grad(set_to_none=True)
 

@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -47,7 +47,14 @@ from racer.trainer.nan_guard import (
     first_non_finite_parameter,
     gradient_norm,
 )
-from racer.trainer.ppo import ADAM_BETAS, ADAM_EPSILON, HUBER_DELTA, _finite_episodes, native_bf16_available
+from racer.trainer.ppo import (
+    ADAM_BETAS,
+    ADAM_EPSILON,
+    HUBER_DELTA,
+    UpdateAbandoned,
+    _finite_episodes,
+    native_bf16_available,
+)
 from racer.trainer.replay import ReplayBuffer
 
 __all__ = ["SACSettings", "SACStats", "SACTrainer", "format_sac_training_line", "sac_minibatch_size"]
@@ -124,7 +131,9 @@ class SACTrainer:
             self.replay.add_episode(episode)
         return sum(episode.steps for episode in kept)
 
-    def update(self, episodes: Sequence[Episode]) -> list[SACStats]:
+    def update(self, episodes: Sequence[Episode], abandon: Callable[[], bool] | None = None) -> list[SACStats]:
+        """Store the episodes, then train; `abandon()` is asked before every gradient step (True raises
+        `UpdateAbandoned`: a stopping trainer that cannot wait for a long update)."""
         transitions = self.add_experience(episodes)
         if transitions == 0:
             return []
@@ -135,7 +144,7 @@ class SACTrainer:
         minibatch = sac_minibatch_size(len(self.replay), transitions, self.hyperparameters.batch_size)
         for attempt in range(1, self.settings.max_nan_retries + 2):
             try:
-                return [self._train(steps, minibatch)]
+                return [self._train(steps, minibatch, abandon)]
             except NonFiniteError as error:
                 self._roll_back(f"{error.what} (attempt {attempt} of {self.settings.max_nan_retries + 1})")
         log.warning("NaN guard: skipped this iteration's %d gradient steps; training continues from the last good "
@@ -150,13 +159,15 @@ class SACTrainer:
         log.warning("NaN guard: %s; rolled back to the weights before this update and halved the learning rate "
                     "%g -> %g", reason, old_rate, self.learning_rate)
 
-    def _train(self, steps: int, minibatch: int) -> SACStats:
+    def _train(self, steps: int, minibatch: int, abandon: Callable[[], bool] | None = None) -> SACStats:
         previous_threads = torch.get_num_threads()
         if self.settings.threads is not None:
             torch.set_num_threads(self.settings.threads)
         try:
             sums = dict.fromkeys(("policy", "q", "v", "entropy", "mean_q", "grad_norm"), 0.0)
             for step in range(steps):
+                if abandon is not None and abandon():
+                    raise UpdateAbandoned()
                 for key, value in self._step(minibatch, step).items():
                     sums[key] += value
                 if step == 0:

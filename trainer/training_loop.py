@@ -41,7 +41,13 @@ from racer.shared.store import ObjectNotFoundError, open_store
 from racer.shared.transport.channels import ReceivedBatch, RunChannel, share_sizes
 from racer.shared.worker_settings import WorkerSettings
 from racer.trainer.memory_cap import cap_episodes, default_max_memory_steps, global_episode_order
-from racer.trainer.ppo import PPOSettings, PPOTrainer, format_policy_training_line, format_training_episode_line
+from racer.trainer.ppo import (
+    PPOSettings,
+    PPOTrainer,
+    UpdateAbandoned,
+    format_policy_training_line,
+    format_training_episode_line,
+)
 from racer.trainer.preflight import check_clone_source, preflight
 from racer.trainer.sac import SACSettings, SACTrainer, format_sac_training_line
 
@@ -50,6 +56,11 @@ log = logging.getLogger(__name__)
 
 class StopRequested(Exception):
     """SIGTERM / Ctrl-C / a stop condition: finish cleanly."""
+
+
+STOP_UPDATE_GRACE_S = 10.0
+"""A stop that arrives during the PPO update lets it run this much longer (then save the checkpoint); a longer
+update is abandoned, the newest saved checkpoint stays the final one, so every process is gone within 30 s."""
 
 
 @dataclass(frozen=True)
@@ -284,7 +295,21 @@ class Trainer:
             print(format_training_episode_line(episode.worker_id, self.episodes_consumed, episode.total_reward,
                                                self.env_steps, iteration), flush=True)
         self.episodes_consumed += len(capped.dropped)  # played, so they count towards the episode limit
-        for stats in self.learner.update(episodes):
+        stop_seen: list[float] = []
+
+        def abandon() -> bool:
+            if not self.stop_event.is_set():
+                return False
+            stop_seen[:] = stop_seen or [time.monotonic()]
+            return time.monotonic() - stop_seen[0] > STOP_UPDATE_GRACE_S
+
+        try:
+            all_stats = self.learner.update(episodes, abandon=abandon)
+        except UpdateAbandoned:
+            log.warning("stopping: abandoned the update of iteration %d after %.0f s; the final checkpoint is %s",
+                        iteration, STOP_UPDATE_GRACE_S, self.checkpoints.latest_name())
+            raise StopRequested() from None
+        for stats in all_stats:
             line = format_sac_training_line(stats) if isinstance(self.learner, SACTrainer) else \
                 format_policy_training_line(stats)
             print(line, flush=True)
