@@ -12,6 +12,7 @@ import os
 import signal
 import subprocess
 import sys
+import threading
 import time
 from dataclasses import dataclass
 from datetime import datetime
@@ -21,13 +22,14 @@ import click
 
 from racer.shared import model_layout
 from racer.shared.config import LocalStoreSettings, RedisSettings, S3Settings, ServiceSettings, settings_from_env
-from racer.shared.redis_connection import RedisLink
+from racer.shared.redis_connection import RedisLink, RedisUnavailableError
 from racer.shared.services import PROJECT_ROOT, MinioServer, RedisServer, _die_with_parent
 from racer.shared.sim.config import DEFAULT_TRACK
 from racer.shared.sim.gl import ensure_gl_backend
 from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
 from racer.shared.store import S3Store, open_store
 from racer.shared.transport.channels import RunChannel
+from racer.supervisor import RunSupervisor, stop_children
 
 
 @dataclass(frozen=True)
@@ -137,39 +139,21 @@ class LocalRun:
             self._spawn(VIEWER, ["view", "--live", plan.model_prefix, "--host", plan.viewer_host,
                                  "--port", str(plan.viewer_port)])
 
-    def stop_processes(self, grace_s: float = 60.0) -> None:
-        """Ask the trainer to finish (final checkpoint, .finished), then stop the workers that are left."""
-        trainer = self.children.get("trainer")
-        if trainer is not None and trainer.poll() is None:
-            trainer.send_signal(signal.SIGTERM)
-            try:
-                trainer.wait(grace_s)
-            except subprocess.TimeoutExpired:
-                trainer.kill()
-        viewer = self.children.get(VIEWER)
-        if viewer is not None and viewer.poll() is None:
-            viewer.terminate()  # it never ends by itself
-        deadline = time.monotonic() + 15
-        for child in self.children.values():
-            if child.poll() is None:
-                try:
-                    child.wait(max(0.1, deadline - time.monotonic()))
-                except subprocess.TimeoutExpired:
-                    child.terminate()
-        for child in self.children.values():
-            if child.poll() is None:
-                try:
-                    child.wait(5)
-                except subprocess.TimeoutExpired:
-                    child.kill()
-                    child.wait()
+    def restart_worker(self, worker_id: int) -> None:
+        self._spawn(f"worker-{worker_id}", ["rollout", "--model-prefix", self.plan.model_prefix, "--worker-id",
+                                            str(worker_id), "--seed", str(self.plan.seed + worker_id + 1000)])
 
-    def stop(self, grace_s: float = 60.0) -> None:
-        self.stop_processes(grace_s)
+    def stop_processes(self, interrupted: bool = False) -> None:
+        """Interrupted: SIGTERM to all (the trainer writes its final checkpoint and .finished), killed after
+        racer.supervisor's budget whatever Redis does; else the trainer has ended the run and the workers follow."""
+        stop_children(self.children, trainer="trainer", at_once=interrupted, never_ending=(VIEWER,))
+
+    def stop(self, interrupted: bool = True) -> None:
+        self.stop_processes(interrupted)
         if self.minio:
-            self.minio.stop()
+            self.minio.stop(timeout_s=3)
         if self.redis:
-            self.redis.stop()
+            self.redis.stop(timeout_s=3)
 
 
 class ProgressDisplay:
@@ -244,10 +228,12 @@ def run_local_training(plan: LocalRunPlan, base_settings: ServiceSettings, on_ev
     run = LocalRun(plan, base_settings)
     started = time.monotonic()
     interrupted = False
+    stopping = threading.Event()  # cuts the display's Redis retries short
 
     def request_stop(signum, frame):
         nonlocal interrupted
         interrupted = True
+        stopping.set()
 
     previous = {sig: signal.signal(sig, request_stop) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
@@ -259,38 +245,44 @@ def run_local_training(plan: LocalRunPlan, base_settings: ServiceSettings, on_ev
         if plan.viewer_port is not None:
             click.echo(f"racer train: watch it live at {viewer_url(plan.viewer_host, plan.viewer_port)}")
         viewer_reported = False
-        channel = RunChannel(RedisLink(settings.redis), plan.model_prefix)
+        # The display never waits for Redis: short timeouts, and the supervisor says when Redis is down.
+        channel = RunChannel(RedisLink(settings.redis, reconnect_budget_s=2.0, stop=stopping, operation_timeout_s=2.0),
+                             plan.model_prefix)
         display = ProgressDisplay(channel, plan.num_workers, started)
+        supervisor = RunSupervisor(run.redis, run.children, run.restart_worker, num_workers=plan.num_workers,
+                                   say=lambda text: click.echo(f"[{display._elapsed()}] {text}", err=True))
         trainer = run.children["trainer"]
         while trainer.poll() is None and not interrupted:
-            for record in display.poll():
-                if on_evaluation is not None and on_evaluation(record):
-                    interrupted = True
+            supervisor.check_processes()
+            if supervisor.redis_up:
+                try:
+                    for record in display.poll():
+                        if on_evaluation is not None and on_evaluation(record):
+                            interrupted = True
+                    supervisor.check_heartbeats(channel.live_workers())
+                except RedisUnavailableError:
+                    pass  # a dead server shows in the next check_processes; a hung one keeps the display quiet
             viewer = run.children.get(VIEWER)
             if viewer is not None and viewer.poll() not in (None, 0) and not viewer_reported:
                 viewer_reported = True  # training goes on without the page (e.g. the port is taken)
                 click.echo(f"the viewer exited with status {viewer.returncode}; training goes on without it (see "
                            f"{plan.log_dir / (VIEWER + '.log')})", err=True)
-            crashed = [name for name, child in run.children.items()
-                       if name.startswith("worker-") and child.poll() not in (None, 0)]
-            for name in crashed:
-                click.echo(f"{name} exited with status {run.children[name].returncode}; restarting it "
-                           f"(see {plan.log_dir / (name + '.log')})", err=True)
-                worker_id = int(name.split("-")[1])
-                run._spawn(name, ["rollout", "--model-prefix", plan.model_prefix, "--worker-id", str(worker_id),
-                                  "--seed", str(plan.seed + worker_id + 1000)])
             time.sleep(1.0)
         if interrupted:
             click.echo("stopping: the trainer writes a final checkpoint and .finished ...", err=True)
-        run.stop_processes()
-        display.poll()  # the last iteration and evaluation lines, while Redis is still up
+            stopping.set()
+        run.stop_processes(interrupted)
+        try:
+            display.poll()  # the last iteration and evaluation lines, while Redis is still up
+        except RedisUnavailableError:
+            pass
         status = run.children["trainer"].returncode
         if status not in (0, None) and not interrupted:
             click.echo(f"trainer exited with status {status}; see {plan.log_dir / 'trainer.log'}:", err=True)
             click.echo((plan.log_dir / "trainer.log").read_text(errors="replace")[-3000:], err=True)
         return 0 if interrupted else (status or 0)
     finally:
-        run.stop(grace_s=5)
+        run.stop()
         for sig, handler in previous.items():
             signal.signal(sig, handler)
 

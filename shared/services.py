@@ -76,6 +76,11 @@ class _ServerProcess:
         return self._process is not None and self._process.poll() is None
 
     @property
+    def exit_status(self) -> int | None:
+        """The exit status of a server that has exited (negative: killed by that signal), else None."""
+        return self._process.poll() if self._process is not None else None
+
+    @property
     def pid(self) -> int | None:
         return self._process.pid if self._process else None
 

@@ -325,7 +325,8 @@ class PPOTrainer:
         finally:
             torch.set_num_threads(previous_threads)
 
-    def _epochs(self, batch: TrainingBatch, towers: ThreadPoolExecutor, abandon: Callable[[], bool] | None = None) -> list[EpochStats]:
+    def _epochs(self, batch: TrainingBatch, towers: ThreadPoolExecutor,
+                abandon: Callable[[], bool] | None = None) -> list[EpochStats]:
         hp = self.hyperparameters
         clip = self.settings.clip_epsilon
 
