@@ -126,3 +126,32 @@ def _alive(pid: int) -> bool:
         return False
     state = next(line for line in status.splitlines() if line.startswith("State:"))
     return "zombie" not in state
+
+
+def test_a_stop_request_ends_the_retries_for_a_dead_server(redis_server):
+    """Stopping never waits for Redis: the link's 300 s reconnect budget shrinks to STOPPING_BUDGET_S once its
+    stop event is set, and its backoff sleeps wake at once."""
+    import threading
+
+    from racer.shared.redis_connection import STOPPING_BUDGET_S
+
+    stop = threading.Event()
+    link = RedisLink(RedisSettings(url=redis_server.url, connect_timeout_s=5), reconnect_budget_s=300, stop=stop)
+    assert link.do(lambda client: client.ping())
+    redis_server.kill()
+    threading.Timer(1.0, stop.set).start()
+    started = time.monotonic()
+    with pytest.raises(RedisUnavailableError, match="the process is stopping"):
+        link.do(lambda client: client.ping())
+    assert 1.0 <= time.monotonic() - started < 1.0 + STOPPING_BUDGET_S + 1.0
+
+
+def test_a_dead_server_is_seen_at_once_not_after_silent_client_retries(redis_server):
+    """redis-py retries every command itself by default (10 times with backoff); the link's clients do not, so a
+    dead server reaches RedisLink's retry loop (and its stop checks) at once."""
+    client = connect_redis(RedisSettings(url=redis_server.url, connect_timeout_s=5))
+    redis_server.kill()
+    started = time.monotonic()
+    with pytest.raises(redis.ConnectionError):
+        client.ping()
+    assert time.monotonic() - started < 0.5

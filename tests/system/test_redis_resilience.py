@@ -123,3 +123,40 @@ def test_sigterm_with_redis_hung_stops_everything_within_30_s(tmp_path, small_cu
     assert (model / ".finished").is_file()
     checkpoints = CheckpointStore(LocalStore(tmp_path / "store"), "local-model")
     checkpoints.load_policy(checkpoints.latest_name())  # the final checkpoint is complete
+
+
+def test_with_redis_dead_the_trainer_honours_max_minutes_and_workers_stop_on_sigterm(redis_server, tmp_path,
+                                                                                     small_custom_files):
+    """docker compose's case: Redis is gone for good and nobody restarts it."""
+    from racer.shared.config import LocalStoreSettings, RedisSettings, ServiceSettings
+    from racer.shared.redis_connection import RedisLink
+    from racer.shared.transport.channels import RunChannel
+    from tests.system.test_distributed_training import SystemRun
+
+    settings = ServiceSettings(redis=RedisSettings(url=redis_server.url, connect_timeout_s=10),
+                               store=LocalStoreSettings(root=tmp_path / "store"))
+    run = SystemRun(settings, "dead-redis", small_custom_files, tmp_path / "logs")
+    try:
+        trainer_started = time.monotonic()
+        trainer = run.start_trainer(1000, "--max-minutes", "2")
+        workers = [run.start_worker(0), run.start_worker(1)]
+        channel = RunChannel(RedisLink(settings.redis), run.prefix)
+        wait_for(lambda: set(channel.live_workers()) == {0, 1}, 100, "both workers' heartbeats",
+                 lambda: run.log_text("worker-0")[-2000:])
+        assert newest_checkpoint(tmp_path / "store" / run.prefix / "model") >= 0
+        redis_server.kill()
+        killed_at_s = time.monotonic() - trainer_started
+        assert killed_at_s < 110, "the machine is too slow for this test's time limit"
+        assert trainer.wait(timeout=120 - killed_at_s + 20) == 0, run.log_text("trainer")[-3000:]
+        assert time.monotonic() - trainer_started < 120 + 15
+        assert "wall-time limit of 2.0 minutes reached" in run.log_text("trainer")
+        assert (tmp_path / "store" / run.prefix / "model" / ".finished").is_file()
+        assert "Training finished at checkpoint" in run.log_text("trainer")
+
+        started = time.monotonic()
+        for worker in workers:
+            worker.send_signal(signal.SIGTERM)
+        assert [worker.wait(30) for worker in workers] == [0, 0], run.log_text("worker-1")[-3000:]
+        assert time.monotonic() - started < 30
+    finally:
+        run.stop_all()
