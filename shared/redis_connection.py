@@ -43,10 +43,10 @@ class _Budget:
         return self.deadline - time.monotonic()
 
     def sleep(self, seconds: float) -> None:
-        if self.stop is None:
-            time.sleep(seconds)
+        if self.stop is None or self.stop.is_set():
+            time.sleep(max(0.0, min(seconds, self.remaining_s())))
         else:
-            self.stop.wait(seconds)
+            self.stop.wait(seconds)  # a stop wakes it: the budget shrinks at once
 
     def why(self) -> str:
         return " (the process is stopping)" if self.stopping else ""

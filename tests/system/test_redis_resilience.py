@@ -10,6 +10,7 @@ import json
 import os
 import signal
 import time
+from datetime import datetime
 from pathlib import Path
 
 import pytest
@@ -141,16 +142,19 @@ def test_with_redis_dead_the_trainer_honours_max_minutes_and_workers_stop_on_sig
         trainer = run.start_trainer(1000, "--max-minutes", "2")
         workers = [run.start_worker(0), run.start_worker(1)]
         channel = RunChannel(RedisLink(settings.redis), run.prefix)
-        wait_for(lambda: set(channel.live_workers()) == {0, 1}, 100, "both workers' heartbeats",
-                 lambda: run.log_text("worker-0")[-2000:])
-        assert newest_checkpoint(tmp_path / "store" / run.prefix / "model") >= 0
+        model = tmp_path / "store" / run.prefix / "model"
+        wait_for(lambda: set(channel.live_workers()) == {0, 1} and newest_checkpoint(model) >= 0, 100,
+                 "checkpoint 0 and both workers' heartbeats", lambda: run.log_text("trainer")[-2000:])
         redis_server.kill()
-        killed_at_s = time.monotonic() - trainer_started
-        assert killed_at_s < 110, "the machine is too slow for this test's time limit"
-        assert trainer.wait(timeout=120 - killed_at_s + 20) == 0, run.log_text("trainer")[-3000:]
-        assert time.monotonic() - trainer_started < 120 + 15
-        assert "wall-time limit of 2.0 minutes reached" in run.log_text("trainer")
-        assert (tmp_path / "store" / run.prefix / "model" / ".finished").is_file()
+        assert time.monotonic() - trainer_started < 110, "the machine is too slow for this test's time limit"
+        assert trainer.wait(timeout=200) == 0, run.log_text("trainer")[-3000:]
+        exited = datetime.now()
+        # The limit counts from the trainer's start (after its imports): read when it fired from its log.
+        limit_line = next(line for line in run.log_text("trainer").splitlines()
+                          if "wall-time limit of 2.0 minutes reached" in line)
+        fired = datetime.strptime(limit_line[:23], "%Y-%m-%d %H:%M:%S,%f")
+        assert (exited - fired).total_seconds() < 15, run.log_text("trainer")[-3000:]
+        assert (model / ".finished").is_file()
         assert "Training finished at checkpoint" in run.log_text("trainer")
 
         started = time.monotonic()
