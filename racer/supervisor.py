@@ -76,7 +76,7 @@ class RunSupervisor:
         if now < self._next_redis_attempt:
             return
         try:
-            self.redis.start(timeout_s=20)
+            self.redis.start(timeout_s=10)
         except (RuntimeError, TimeoutError, OSError) as error:
             self._next_redis_attempt = now + self._redis_retry_s
             self._redis_retry_s = min(2 * self._redis_retry_s, 10.0)
