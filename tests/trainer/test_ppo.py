@@ -16,6 +16,7 @@ from racer.trainer.ppo import (
     EpochStats,
     PPOSettings,
     PPOTrainer,
+    UpdateAbandoned,
     format_policy_training_line,
     format_training_episode_line,
     minibatch_size_for,
@@ -71,6 +72,23 @@ def test_one_update_changes_the_weights_and_keeps_losses_finite():
     changed = [name for name in before if not torch.equal(before[name], after[name])]
     assert any(name.startswith("policy_") for name in changed) and any(name.startswith("value_") for name in changed)
     assert stats[1].kl_divergence > 0.0 and trainer.nan_rollbacks == 0
+
+
+def test_a_stopping_trainer_abandons_the_update_between_minibatches():
+    """`abandon()` is asked before each minibatch; the trainer uses it to stop within 30 s of a signal."""
+    network = task_network(3)
+    trainer = PPOTrainer(network, HP, PPOSettings(seed=1))
+    asked = []
+
+    def abandon() -> bool:
+        asked.append(True)
+        return len(asked) > 4  # after four of the six minibatches (2 epochs x 3)
+
+    with pytest.raises(UpdateAbandoned):
+        trainer.update(random_episodes(network, [30, 20, 50], np.random.default_rng(1)), abandon=abandon)
+    assert len(asked) == 5
+    assert len(trainer.update(random_episodes(network, [30, 20, 50], np.random.default_rng(1)),
+                              abandon=lambda: False)) == 2
 
 
 @pytest.mark.parametrize(("loss_type", "expected"), [("huber", lambda e: np.abs(e) - 0.5), ("mean squared error", np.square)])
