@@ -75,7 +75,9 @@ class RaceRules:
         if self.reset_penalty_s < 0:
             raise EvaluationConfigError(f"--race-reset-penalty must be >= 0, got {self.reset_penalty_s}")
         if self.put_back not in RESET_POSITIONS:
-            raise EvaluationConfigError(f"--race-put-back must be one of {', '.join(RESET_POSITIONS)}, got {self.put_back!r}")
+            raise EvaluationConfigError(
+                f"--race-put-back must be one of {', '.join(RESET_POSITIONS)}, got {self.put_back!r}"
+            )
 
 
 @dataclass(frozen=True)
@@ -93,7 +95,9 @@ class VideoOptions:
                 f"--video-size must be within 16x16 .. 640x480 (the scene's offscreen buffer), got {self.width_px}x{self.height_px}"
             )
         if self.width_px % 2 or self.height_px % 2:
-            raise EvaluationConfigError(f"--video-size needs even sizes (H.264 yuv420p), got {self.width_px}x{self.height_px}")
+            raise EvaluationConfigError(
+                f"--video-size needs even sizes (H.264 yuv420p), got {self.width_px}x{self.height_px}"
+            )
 
 
 @dataclass(frozen=True)

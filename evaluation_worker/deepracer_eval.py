@@ -15,7 +15,9 @@ from racer.evaluation_worker.laps import LapCallback, LapResult, LapTally, ignor
 from racer.shared.deepracer.episode_status import EpisodeStatus
 
 
-def run_deepracer_evaluation(driver: EvaluationDriver, rules: DeepRacerRules, on_lap: LapCallback = ignore_lap) -> list[LapResult]:
+def run_deepracer_evaluation(
+    driver: EvaluationDriver, rules: DeepRacerRules, on_lap: LapCallback = ignore_lap
+) -> list[LapResult]:
     if rules.is_continuous:
         return _continuous(driver, rules, on_lap)
     laps: list[LapResult] = []

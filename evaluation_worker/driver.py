@@ -31,7 +31,11 @@ class Policy(Protocol):
     """What the driver asks of a policy: `ActorCritic.act`, or a scripted stand-in in tests."""
 
     def act(
-        self, observation: Mapping[str, np.ndarray], greedy: bool, generator: np.random.Generator | None = None, epsilon: float = 0.0
+        self,
+        observation: Mapping[str, np.ndarray],
+        greedy: bool,
+        generator: np.random.Generator | None = None,
+        epsilon: float = 0.0,
     ) -> tuple[Any, float]: ...
 
 
@@ -194,8 +198,14 @@ class EvaluationDriver:
         self._observation = next_observation
         row = dict(info["simtrace"])
         self._pending = StepOutcome(
-            row=row, reward=float(reward), terminated=bool(terminated), truncated=bool(truncated),
-            lap_time_s=info.get("lap_time_s"), action=action, observation=observation, car=car,
+            row=row,
+            reward=float(reward),
+            terminated=bool(terminated),
+            truncated=bool(truncated),
+            lap_time_s=info.get("lap_time_s"),
+            action=action,
+            observation=observation,
+            car=car,
         )
         return self._pending
 
@@ -214,8 +224,13 @@ class EvaluationDriver:
             self.lap_resets += 1
         self.steps_total += 1
         record = StepRecord(
-            lap_index=self.lap_index, row=row, action=outcome.action, reward=outcome.reward,
-            observation=outcome.observation, car=outcome.car, lap_resets=self.lap_resets,
+            lap_index=self.lap_index,
+            row=row,
+            action=outcome.action,
+            reward=outcome.reward,
+            observation=outcome.observation,
+            car=outcome.car,
+            lap_resets=self.lap_resets,
         )
         for observer in self.observers:
             started = time.perf_counter()

@@ -19,44 +19,118 @@ def _video_size(text: str) -> tuple[int, int]:
     try:
         width, height = (int(part) for part in text.lower().split("x"))
     except ValueError:
-        raise click.BadParameter(f"expected WIDTHxHEIGHT such as 480x360, got {text!r}", param_hint="--video-size") from None
+        raise click.BadParameter(
+            f"expected WIDTHxHEIGHT such as 480x360, got {text!r}", param_hint="--video-size"
+        ) from None
     return width, height
 
 
 @click.command(name="evaluate")
 @click.option("--model-prefix", required=True, help="The model's prefix in the store (the training run's name).")
-@click.option("--checkpoint", default="best", show_default=True,
-              help="best, last, or a checkpoint name such as 3_Step-1234.ckpt (EVAL_CHECKPOINT).")
-@click.option("--mode", type=click.Choice(MODES), default="deepracer", show_default=True,
-              help="deepracer: NUMBER_OF_TRIALS laps with DeepRacer's rules; race: the 4-minute, 3-resets-per-lap rule.")
+@click.option(
+    "--checkpoint",
+    default="best",
+    show_default=True,
+    help="best, last, or a checkpoint name such as 3_Step-1234.ckpt (EVAL_CHECKPOINT).",
+)
+@click.option(
+    "--mode",
+    type=click.Choice(MODES),
+    default="deepracer",
+    show_default=True,
+    help="deepracer: NUMBER_OF_TRIALS laps with DeepRacer's rules; race: the 4-minute, 3-resets-per-lap rule.",
+)
 @click.option("--track", default=DEFAULT_TRACK, show_default=True, help="Track name in tracks/ or a route .npy path.")
 @click.option("--world", type=click.Choice(WORLD_NAMES), default="base", show_default=True)
-@click.option("--reverse/--no-reverse", default=False, show_default=True, help="Drive the route the other way (REVERSE_DIR).")
-@click.option("--trials", type=click.IntRange(min=1), default=3, show_default=True, help="NUMBER_OF_TRIALS (deepracer mode).")
-@click.option("--continuous/--no-continuous", default=None,
-              help="IS_CONTINUOUS: laps run into each other. Default: off in deepracer mode, on in race mode.")
-@click.option("--resets", type=click.IntRange(min=0), default=CONSOLE_NUMBER_OF_RESETS, show_default=True,
-              help="NUMBER_OF_RESETS (deepracer mode): put-backs before a rule ends the trial; 0 or >= 2 "
-                   "(default: the console's value, so an exit costs the penalty and the lap goes on).")
-@click.option("--off-track-penalty", type=click.FloatRange(min=0.0), default=2.0, show_default=True,
-              help="OFF_TRACK_PENALTY seconds (deepracer mode; also the reversed penalty).")
-@click.option("--race-minutes", type=click.FloatRange(min=0.0, min_open=True), default=4.0, show_default=True,
-              help="Race duration in simulated minutes (race mode).")
-@click.option("--race-resets-per-lap", type=click.IntRange(min=0), default=3, show_default=True,
-              help="Put-backs allowed per lap; the next exit ends the lap attempt (race mode).")
-@click.option("--race-reset-penalty", type=click.FloatRange(min=0.0), default=2.0, show_default=True,
-              help="Seconds the car is held after a put-back (race mode, the marshal's time); the clock keeps running.")
-@click.option("--race-put-back", type=click.Choice(RESET_POSITIONS), default="where_it_left", show_default=True,
-              help="Where a put-back sets the car (race mode): where it last had four wheels on the road, half a "
-                   "step back (the seed's rule), or DeepRacer's respawn spot.")
+@click.option(
+    "--reverse/--no-reverse", default=False, show_default=True, help="Drive the route the other way (REVERSE_DIR)."
+)
+@click.option(
+    "--trials", type=click.IntRange(min=1), default=3, show_default=True, help="NUMBER_OF_TRIALS (deepracer mode)."
+)
+@click.option(
+    "--continuous/--no-continuous",
+    default=None,
+    help="IS_CONTINUOUS: laps run into each other. Default: off in deepracer mode, on in race mode.",
+)
+@click.option(
+    "--resets",
+    type=click.IntRange(min=0),
+    default=CONSOLE_NUMBER_OF_RESETS,
+    show_default=True,
+    help="NUMBER_OF_RESETS (deepracer mode): put-backs before a rule ends the trial; 0 or >= 2 "
+    "(default: the console's value, so an exit costs the penalty and the lap goes on).",
+)
+@click.option(
+    "--off-track-penalty",
+    type=click.FloatRange(min=0.0),
+    default=2.0,
+    show_default=True,
+    help="OFF_TRACK_PENALTY seconds (deepracer mode; also the reversed penalty).",
+)
+@click.option(
+    "--race-minutes",
+    type=click.FloatRange(min=0.0, min_open=True),
+    default=4.0,
+    show_default=True,
+    help="Race duration in simulated minutes (race mode).",
+)
+@click.option(
+    "--race-resets-per-lap",
+    type=click.IntRange(min=0),
+    default=3,
+    show_default=True,
+    help="Put-backs allowed per lap; the next exit ends the lap attempt (race mode).",
+)
+@click.option(
+    "--race-reset-penalty",
+    type=click.FloatRange(min=0.0),
+    default=2.0,
+    show_default=True,
+    help="Seconds the car is held after a put-back (race mode, the marshal's time); the clock keeps running.",
+)
+@click.option(
+    "--race-put-back",
+    type=click.Choice(RESET_POSITIONS),
+    default="where_it_left",
+    show_default=True,
+    help="Where a put-back sets the car (race mode): where it last had four wheels on the road, half a "
+    "step back (the seed's rule), or DeepRacer's respawn spot.",
+)
 @click.option("--video/--no-video", default=True, show_default=True, help="MP4s: in-car, top view, 45-degree follow.")
-@click.option("--video-size", default="480x360", show_default=True, help="Top and follow video size, WIDTHxHEIGHT (<= 640x480).")
+@click.option(
+    "--video-size", default="480x360", show_default=True, help="Top and follow video size, WIDTHxHEIGHT (<= 640x480)."
+)
 @click.option("--mcap/--no-mcap", default=True, show_default=True, help="An MCAP recording for Foxglove.")
-@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path), default=None,
-              help="Also keep a local copy of the outputs here (same layout as under the model prefix).")
+@click.option(
+    "--out",
+    "out_dir",
+    type=click.Path(file_okay=False, path_type=Path),
+    default=None,
+    help="Also keep a local copy of the outputs here (same layout as under the model prefix).",
+)
 @click.option("--seed", type=int, default=0, show_default=True, help="Seeds sensor noise; the sim clock starts at 0.")
-def evaluate_command(model_prefix, checkpoint, mode, track, world, reverse, trials, continuous, resets, off_track_penalty,
-                     race_minutes, race_resets_per_lap, race_reset_penalty, race_put_back, video, video_size, mcap, out_dir, seed) -> None:
+def evaluate_command(
+    model_prefix,
+    checkpoint,
+    mode,
+    track,
+    world,
+    reverse,
+    trials,
+    continuous,
+    resets,
+    off_track_penalty,
+    race_minutes,
+    race_resets_per_lap,
+    race_reset_penalty,
+    race_put_back,
+    video,
+    video_size,
+    mcap,
+    out_dir,
+    seed,
+) -> None:
     """Evaluate a model from the store (RACER_STORE) and write metrics, simtrace, videos and an MCAP next to it."""
     from racer.evaluation_worker.config import (
         DeepRacerRules,
@@ -75,14 +149,28 @@ def evaluate_command(model_prefix, checkpoint, mode, track, world, reverse, tria
     width_px, height_px = _video_size(video_size)
     try:
         config = EvaluationConfig(
-            model_prefix=model_prefix, mode=mode, checkpoint=checkpoint, track=track, world=world, reverse_dir=reverse,
-            deepracer=DeepRacerRules(number_of_trials=trials, is_continuous=bool(continuous), number_of_resets=resets,
-                                     off_track_penalty_s=off_track_penalty),
-            race=RaceRules(race_duration_s=race_minutes * 60.0, resets_per_lap=race_resets_per_lap,
-                           reset_penalty_s=race_reset_penalty, put_back=race_put_back,
-                           continuous=True if continuous is None else continuous),
+            model_prefix=model_prefix,
+            mode=mode,
+            checkpoint=checkpoint,
+            track=track,
+            world=world,
+            reverse_dir=reverse,
+            deepracer=DeepRacerRules(
+                number_of_trials=trials,
+                is_continuous=bool(continuous),
+                number_of_resets=resets,
+                off_track_penalty_s=off_track_penalty,
+            ),
+            race=RaceRules(
+                race_duration_s=race_minutes * 60.0,
+                resets_per_lap=race_resets_per_lap,
+                reset_penalty_s=race_reset_penalty,
+                put_back=race_put_back,
+                continuous=True if continuous is None else continuous,
+            ),
             video=VideoOptions(enabled=video, width_px=width_px, height_px=height_px),
-            mcap=mcap, seed=seed,
+            mcap=mcap,
+            seed=seed,
         )
         store = open_store(settings_from_env().store)
         session = EvaluationSession(store, config, out_dir=out_dir)
@@ -92,8 +180,10 @@ def evaluate_command(model_prefix, checkpoint, mode, track, world, reverse, tria
     click.echo("")
     click.echo(report.table)
     timings = report.summary["timings"]
-    click.echo(f"{timings['steps']} steps, {timings['sim_time_s']:.1f} s simulated in {timings['wall_time_s']:.1f} s "
-               f"({timings['steps_per_s']} steps/s)")
+    click.echo(
+        f"{timings['steps']} steps, {timings['sim_time_s']:.1f} s simulated in {timings['wall_time_s']:.1f} s "
+        f"({timings['steps_per_s']} steps/s)"
+    )
     click.echo(f"files in {store.describe()}:")
     for name, key in report.keys.items():
         click.echo(f"  {name:<16} {key}")

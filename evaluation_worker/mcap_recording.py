@@ -54,27 +54,37 @@ JPEG_QUALITY = 85
 _NUMBER = {"type": "number"}
 _JSON_SCHEMAS: dict[str, dict[str, Any]] = {
     "/car/action": {
-        "title": "racer.Action", "type": "object",
+        "title": "racer.Action",
+        "type": "object",
         "properties": {
-            "lap": {"type": "integer"}, "step": _NUMBER,
+            "lap": {"type": "integer"},
+            "step": _NUMBER,
             "action": {"description": "discrete index, or [steering, speed] in [-1, 1] for a continuous space"},
-            "steering_angle_deg": _NUMBER, "speed_mps": _NUMBER,
+            "steering_angle_deg": _NUMBER,
+            "speed_mps": _NUMBER,
         },
     },
     "/car/reward": {
-        "title": "racer.Reward", "type": "object",
+        "title": "racer.Reward",
+        "type": "object",
         "properties": {"lap": {"type": "integer"}, "reward": _NUMBER, "progress_pct": _NUMBER},
     },
     "/car/status": {
-        "title": "racer.Status", "type": "object",
+        "title": "racer.Status",
+        "type": "object",
         "properties": {
-            "lap": {"type": "integer"}, "episode_status": {"type": "string"}, "done": {"type": "boolean"},
-            "all_wheels_on_track": {"type": "boolean"}, "lap_resets": {"type": "integer"}, "pause_duration_s": _NUMBER,
+            "lap": {"type": "integer"},
+            "episode_status": {"type": "string"},
+            "done": {"type": "boolean"},
+            "all_wheels_on_track": {"type": "boolean"},
+            "lap_resets": {"type": "integer"},
+            "pause_duration_s": _NUMBER,
         },
     },
     "/simtrace": {"title": "racer.SimtraceRow", "type": "object", "description": "DeepRacer's simtrace columns"},
     "/sensors": {
-        "title": "racer.SensorVector", "type": "object",
+        "title": "racer.SensorVector",
+        "type": "object",
         "properties": {"lap": {"type": "integer"}, "values": {"type": "array", "items": _NUMBER}},
     },
 }
@@ -117,7 +127,9 @@ class McapRecorder:
             name = message_class.DESCRIPTOR.full_name
             if name not in self._schemas:
                 self._schemas[name] = register_schema(self._writer, message_class)
-            self._channels[topic] = self._writer.register_channel(topic=topic, message_encoding="protobuf", schema_id=self._schemas[name])
+            self._channels[topic] = self._writer.register_channel(
+                topic=topic, message_encoding="protobuf", schema_id=self._schemas[name]
+            )
         return self._channels[topic]
 
     def _json_channel(self, topic: str) -> int:
@@ -125,12 +137,19 @@ class McapRecorder:
             definition = _JSON_SCHEMAS["/sensors" if topic.startswith("/sensors/") else topic]
             schema = json.dumps(definition).encode()
             schema_id = self._writer.register_schema(name=definition["title"], encoding="jsonschema", data=schema)
-            self._channels[topic] = self._writer.register_channel(topic=topic, message_encoding="json", schema_id=schema_id)
+            self._channels[topic] = self._writer.register_channel(
+                topic=topic, message_encoding="json", schema_id=schema_id
+            )
         return self._channels[topic]
 
     def _write(self, topic: str, channel_id: int, time_ns: int, data: bytes) -> None:
-        self._writer.add_message(channel_id=channel_id, log_time=time_ns, publish_time=time_ns, data=data,
-                                 sequence=self.message_counts[topic])
+        self._writer.add_message(
+            channel_id=channel_id,
+            log_time=time_ns,
+            publish_time=time_ns,
+            data=data,
+            sequence=self.message_counts[topic],
+        )
         self.message_counts[topic] += 1
 
     def _write_protobuf(self, topic: str, message: Any, time_ns: int) -> None:
@@ -153,8 +172,10 @@ class McapRecorder:
             self._track_written = True
         car = record.car
         half_yaw = car.yaw_rad / 2.0
-        car_pose = Pose(position=Vector3(x=car.origin_x_m, y=car.origin_y_m, z=0.0),
-                        orientation=Quaternion(x=0.0, y=0.0, z=math.sin(half_yaw), w=math.cos(half_yaw)))
+        car_pose = Pose(
+            position=Vector3(x=car.origin_x_m, y=car.origin_y_m, z=0.0),
+            orientation=Quaternion(x=0.0, y=0.0, z=math.sin(half_yaw), w=math.cos(half_yaw)),
+        )
         for sensor, value in record.observation.items():
             image = np.asarray(value)
             if image.ndim == 1:
@@ -163,43 +184,100 @@ class McapRecorder:
             for index in range(image.shape[2]):
                 topic = f"/camera/{sensor}" if image.shape[2] == 1 else f"/camera/{sensor}/{index}"
                 plane = np.ascontiguousarray(image[:, :, index])
-                self._write_protobuf(topic, RawImage(
-                    timestamp=stamp, frame_id="camera", width=plane.shape[1], height=plane.shape[0],
-                    encoding="mono8", step=plane.shape[1], data=plane.tobytes()), time_ns)
+                self._write_protobuf(
+                    topic,
+                    RawImage(
+                        timestamp=stamp,
+                        frame_id="camera",
+                        width=plane.shape[1],
+                        height=plane.shape[0],
+                        encoding="mono8",
+                        step=plane.shape[1],
+                        data=plane.tobytes(),
+                    ),
+                    time_ns,
+                )
         if self._rgb is not None:
-            ok, jpeg = cv2.imencode(".jpg", cv2.cvtColor(self._rgb, cv2.COLOR_RGB2BGR), [cv2.IMWRITE_JPEG_QUALITY, JPEG_QUALITY])
+            ok, jpeg = cv2.imencode(
+                ".jpg", cv2.cvtColor(self._rgb, cv2.COLOR_RGB2BGR), [cv2.IMWRITE_JPEG_QUALITY, JPEG_QUALITY]
+            )
             if ok:
-                self._write_protobuf("/camera/rgb", CompressedImage(timestamp=stamp, frame_id="camera", data=jpeg.tobytes(), format="jpeg"), time_ns)
+                self._write_protobuf(
+                    "/camera/rgb",
+                    CompressedImage(timestamp=stamp, frame_id="camera", data=jpeg.tobytes(), format="jpeg"),
+                    time_ns,
+                )
             self._rgb = None
         self._write_protobuf("/car/pose", PoseInFrame(timestamp=stamp, frame_id=FRAME_ID, pose=car_pose), time_ns)
         lap = record.lap_index
-        self._write_json("/car/action", {"lap": lap, "step": row["steps"], "action": _plain(record.action),
-                                         "steering_angle_deg": row["steer"], "speed_mps": row["throttle"]}, time_ns)
+        self._write_json(
+            "/car/action",
+            {
+                "lap": lap,
+                "step": row["steps"],
+                "action": _plain(record.action),
+                "steering_angle_deg": row["steer"],
+                "speed_mps": row["throttle"],
+            },
+            time_ns,
+        )
         self._write_json("/car/reward", {"lap": lap, "reward": record.reward, "progress_pct": row["progress"]}, time_ns)
-        self._write_json("/car/status", {"lap": lap, "episode_status": row["episode_status"], "done": bool(row["done"]),
-                                         "all_wheels_on_track": bool(row["all_wheels_on_track"]),
-                                         "lap_resets": record.lap_resets, "pause_duration_s": row["pause_duration"]}, time_ns)
+        self._write_json(
+            "/car/status",
+            {
+                "lap": lap,
+                "episode_status": row["episode_status"],
+                "done": bool(row["done"]),
+                "all_wheels_on_track": bool(row["all_wheels_on_track"]),
+                "lap_resets": record.lap_resets,
+                "pause_duration_s": row["pause_duration"],
+            },
+            time_ns,
+        )
         self._write_json("/simtrace", {key: _plain(value) for key, value in row.items()}, time_ns)
 
-    def _write_vector(self, sensor: str, values: np.ndarray, lap: int, car_pose: Pose, stamp: Timestamp, time_ns: int) -> None:
+    def _write_vector(
+        self, sensor: str, values: np.ndarray, lap: int, car_pose: Pose, stamp: Timestamp, time_ns: int
+    ) -> None:
         if sensor == "LIDAR":
-            self._write_protobuf("/lidar/LIDAR", LaserScan(
-                timestamp=stamp, frame_id=FRAME_ID, pose=car_pose, start_angle=MIN_ANGLE_RAD, end_angle=MAX_ANGLE_RAD,
-                ranges=[float(v) for v in values]), time_ns)
+            self._write_protobuf(
+                "/lidar/LIDAR",
+                LaserScan(
+                    timestamp=stamp,
+                    frame_id=FRAME_ID,
+                    pose=car_pose,
+                    start_angle=MIN_ANGLE_RAD,
+                    end_angle=MAX_ANGLE_RAD,
+                    ranges=[float(v) for v in values],
+                ),
+                time_ns,
+            )
         else:
             self._write_json(f"/sensors/{sensor}", {"lap": lap, "values": [float(v) for v in values]}, time_ns)
 
     def _track_scene(self, stamp: Timestamp) -> SceneUpdate:
         track = self._env.base_track
         lines = []
-        for points, color, thickness in ((track.center_line, Color(r=1.0, g=0.8, b=0.0, a=1.0), 0.02),
-                                         (track.inner_border, Color(r=1.0, g=1.0, b=1.0, a=1.0), 0.05),
-                                         (track.outer_border, Color(r=1.0, g=1.0, b=1.0, a=1.0), 0.05)):
-            lines.append(LinePrimitive(
-                type=LinePrimitive.Type.LINE_STRIP, thickness=thickness, scale_invariant=False, color=color,
-                pose=Pose(position=Vector3(x=0.0, y=0.0, z=0.0), orientation=Quaternion(x=0.0, y=0.0, z=0.0, w=1.0)),
-                points=[Point3(x=float(x), y=float(y), z=0.0) for x, y in points]))
-        entity = SceneEntity(timestamp=stamp, frame_id=FRAME_ID, id=f"track/{track.name}", frame_locked=True, lines=lines)
+        for points, color, thickness in (
+            (track.center_line, Color(r=1.0, g=0.8, b=0.0, a=1.0), 0.02),
+            (track.inner_border, Color(r=1.0, g=1.0, b=1.0, a=1.0), 0.05),
+            (track.outer_border, Color(r=1.0, g=1.0, b=1.0, a=1.0), 0.05),
+        ):
+            lines.append(
+                LinePrimitive(
+                    type=LinePrimitive.Type.LINE_STRIP,
+                    thickness=thickness,
+                    scale_invariant=False,
+                    color=color,
+                    pose=Pose(
+                        position=Vector3(x=0.0, y=0.0, z=0.0), orientation=Quaternion(x=0.0, y=0.0, z=0.0, w=1.0)
+                    ),
+                    points=[Point3(x=float(x), y=float(y), z=0.0) for x, y in points],
+                )
+            )
+        entity = SceneEntity(
+            timestamp=stamp, frame_id=FRAME_ID, id=f"track/{track.name}", frame_locked=True, lines=lines
+        )
         return SceneUpdate(entities=[entity])
 
     def close(self) -> None:

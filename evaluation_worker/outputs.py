@@ -64,9 +64,14 @@ class SimtraceRecorder:
 def evaluation_metrics(laps: list[LapResult] | tuple[LapResult, ...]) -> EvaluationMetrics:
     return EvaluationMetrics(
         EvaluationMetricsEntry.from_lap(
-            progress_pct=lap.progress_pct, start_time_s=lap.start_time_s, end_time_s=lap.end_time_s,
-            status=EpisodeStatus(lap.status), trial=lap.trial, crash_count=lap.crash_count,
-            immobilized_count=lap.immobilized_count, off_track_count=lap.off_track_count,
+            progress_pct=lap.progress_pct,
+            start_time_s=lap.start_time_s,
+            end_time_s=lap.end_time_s,
+            status=EpisodeStatus(lap.status),
+            trial=lap.trial,
+            crash_count=lap.crash_count,
+            immobilized_count=lap.immobilized_count,
+            off_track_count=lap.off_track_count,
             reversed_count=lap.reversed_count,
         )
         for lap in laps
@@ -94,23 +99,27 @@ def evaluation_params(config: EvaluationConfig, layout: EvaluationLayout, checkp
     }
     if config.mode == "race":
         race = config.race
-        params.update({
-            "RACE_DURATION": str(race.race_duration_s),
-            "NUMBER_OF_RESETS": str(race.resets_per_lap),
-            "OFF_TRACK_PENALTY": str(race.reset_penalty_s),
-            "RACER_PUT_BACK": race.put_back,
-            "IS_CONTINUOUS": str(race.continuous).lower(),
-        })
+        params.update(
+            {
+                "RACE_DURATION": str(race.race_duration_s),
+                "NUMBER_OF_RESETS": str(race.resets_per_lap),
+                "OFF_TRACK_PENALTY": str(race.reset_penalty_s),
+                "RACER_PUT_BACK": race.put_back,
+                "IS_CONTINUOUS": str(race.continuous).lower(),
+            }
+        )
     else:
         rules = config.deepracer
-        params.update({
-            "NUMBER_OF_TRIALS": str(rules.number_of_trials),
-            "IS_CONTINUOUS": str(rules.is_continuous).lower(),
-            "NUMBER_OF_RESETS": str(rules.number_of_resets),
-            "OFF_TRACK_PENALTY": str(rules.off_track_penalty_s),
-            "COLLISION_PENALTY": str(rules.collision_penalty_s),
-            "IMMOBILIZED_PENALTY": str(rules.immobilized_penalty_s),
-        })
+        params.update(
+            {
+                "NUMBER_OF_TRIALS": str(rules.number_of_trials),
+                "IS_CONTINUOUS": str(rules.is_continuous).lower(),
+                "NUMBER_OF_RESETS": str(rules.number_of_resets),
+                "OFF_TRACK_PENALTY": str(rules.off_track_penalty_s),
+                "COLLISION_PENALTY": str(rules.collision_penalty_s),
+                "IMMOBILIZED_PENALTY": str(rules.immobilized_penalty_s),
+            }
+        )
     return params
 
 
@@ -172,7 +181,9 @@ def summary_dict(
         summary["race"] = {
             "race_start_s": _round(race.race_start_s),
             "race_end_s": _round(race.race_end_s),
-            "ended_by": "time_up" if race.laps and race.laps[-1].status == "time_up" else "no time left for another attempt",
+            "ended_by": "time_up"
+            if race.laps and race.laps[-1].status == "time_up"
+            else "no time left for another attempt",
         }
     summary["laps"] = [lap_dict(lap) for lap in laps]
     summary["timings"] = timings
@@ -185,7 +196,9 @@ def format_table(laps: list[LapResult] | tuple[LapResult, ...], track_length_m: 
     header = f"{'lap':>4}  {'time (s)':>9}  {'resets':>6}  {'progress':>9}  status"
     lines = [header, "-" * (len(header) + 8)]
     for lap in laps:
-        time_text = f"{lap.lap_time_s:9.3f}" if lap.lap_time_s is not None else f"{'(' + format(lap.elapsed_s, '.3f') + ')':>9}"
+        time_text = (
+            f"{lap.lap_time_s:9.3f}" if lap.lap_time_s is not None else f"{'(' + format(lap.elapsed_s, '.3f') + ')':>9}"
+        )
         lines.append(f"{lap.lap_index + 1:>4}  {time_text}  {lap.put_backs:>6}  {lap.progress_pct:>8.2f}%  {lap.label}")
     stats = lap_statistics(laps, track_length_m)
     best = stats["best_lap_time_s"]
@@ -196,4 +209,3 @@ def format_table(laps: list[LapResult] | tuple[LapResult, ...], track_length_m: 
         f"put back {stats['put_backs']} times"
     )
     return "\n".join(lines)
-

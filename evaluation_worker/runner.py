@@ -66,7 +66,9 @@ class EvaluationReport:
     mcap_messages: dict[str, int]
 
 
-def read_model_metadata(store: ObjectStore, checkpoints: CheckpointStore, model_prefix: str, checkpoint: str) -> ModelMetadata:
+def read_model_metadata(
+    store: ObjectStore, checkpoints: CheckpointStore, model_prefix: str, checkpoint: str
+) -> ModelMetadata:
     """`<prefix>/model/model_metadata.json`, or the copy in the checkpoint's manifest when the file is absent."""
     key = ModelLayout(model_prefix).model_metadata
     source = f"{store.describe()}/{key}"
@@ -75,7 +77,9 @@ def read_model_metadata(store: ObjectStore, checkpoints: CheckpointStore, model_
     except ObjectNotFoundError:
         info = checkpoints.read_info(checkpoint)
         if info.model_metadata is None:
-            raise CheckpointError(f"{source} is missing and checkpoint {checkpoint} does not record its model_metadata") from None
+            raise CheckpointError(
+                f"{source} is missing and checkpoint {checkpoint} does not record its model_metadata"
+            ) from None
         return parse_model_metadata(info.model_metadata, source=f"{source} (from the manifest of {checkpoint})")
     try:
         data = json.loads(raw)
@@ -120,7 +124,9 @@ class EvaluationSession:
         self.model_metadata = model_metadata
         timestamp = (now or dt.datetime.now(dt.UTC)).strftime("%Y%m%d%H%M%S")
         self.layout = EvaluationLayout(prefix, choose_run_name(store, prefix, timestamp))
-        self.env = DeepRacerEnv(self._env_config(), render_mode="rgb_array" if (config.video.enabled or config.mcap) else None)
+        self.env = DeepRacerEnv(
+            self._env_config(), render_mode="rgb_array" if (config.video.enabled or config.mcap) else None
+        )
         self._keep_dir = out_dir is not None
         self.simtrace = SimtraceRecorder()
         observers: list[StepObserver] = [self.simtrace]
@@ -154,15 +160,27 @@ class EvaluationSession:
         if config.mode == "race":
             penalty = config.race.reset_penalty_s
             return make_env_config(
-                track=config.track, world=config.world, model_metadata=self.model_metadata, reverse_dir=config.reverse_dir,
-                number_of_resets=config.race.resets_per_lap, off_track_penalty_s=penalty, collision_penalty_s=penalty,
-                immobilized_penalty_s=penalty, reverse_penalty_s=penalty, reset_position=config.race.put_back,
+                track=config.track,
+                world=config.world,
+                model_metadata=self.model_metadata,
+                reverse_dir=config.reverse_dir,
+                number_of_resets=config.race.resets_per_lap,
+                off_track_penalty_s=penalty,
+                collision_penalty_s=penalty,
+                immobilized_penalty_s=penalty,
+                reverse_penalty_s=penalty,
+                reset_position=config.race.put_back,
             )
         rules = config.deepracer
         return make_env_config(
-            track=config.track, world=config.world, model_metadata=self.model_metadata, reverse_dir=config.reverse_dir,
-            number_of_resets=rules.number_of_resets, off_track_penalty_s=rules.off_track_penalty_s,
-            collision_penalty_s=rules.collision_penalty_s, immobilized_penalty_s=rules.immobilized_penalty_s,
+            track=config.track,
+            world=config.world,
+            model_metadata=self.model_metadata,
+            reverse_dir=config.reverse_dir,
+            number_of_resets=rules.number_of_resets,
+            off_track_penalty_s=rules.off_track_penalty_s,
+            collision_penalty_s=rules.collision_penalty_s,
+            immobilized_penalty_s=rules.immobilized_penalty_s,
             reverse_penalty_s=None,
         )
 
@@ -184,9 +202,11 @@ class EvaluationSession:
     def run(self, log: ProgressLog = no_log) -> EvaluationReport:
         config = self.config
         torch.set_num_threads(1)
-        log(f"evaluating {self.layout.model_prefix} checkpoint {self.checkpoint or '(given policy)'}: mode {config.mode}, "
+        log(
+            f"evaluating {self.layout.model_prefix} checkpoint {self.checkpoint or '(given policy)'}: mode {config.mode}, "
             f"track {config.track} ({self.env.base_track.length_m:.2f} m){' reversed' if config.reverse_dir else ''}, "
-            f"world {config.world} -> {self.layout.key(self.layout.run_name)}")
+            f"world {config.world} -> {self.layout.key(self.layout.run_name)}"
+        )
         started = time.perf_counter()
         race: RaceResult | None = None
         finished: list[LapResult] = []
@@ -217,8 +237,12 @@ class EvaluationSession:
     def _write(self, laps: tuple[LapResult, ...], race: RaceResult | None, wall_s: float) -> EvaluationReport:
         config, layout = self.config, self.layout
         steps = self.driver.steps_total
-        files: dict[str, str] = {"metrics": layout.relative("metrics"), "simtrace": layout.relative("simtrace"),
-                                 "summary": layout.relative("summary"), "params": layout.relative("params")}
+        files: dict[str, str] = {
+            "metrics": layout.relative("metrics"),
+            "simtrace": layout.relative("simtrace"),
+            "summary": layout.relative("summary"),
+            "params": layout.relative("params"),
+        }
         if self.video is not None:
             files.update({view: layout.video(view) for view in VIEWS})
         if self.mcap is not None:
@@ -233,14 +257,23 @@ class EvaluationSession:
             "sim_time_s": round(sim_s, 3),
             "real_time_factor": round(sim_s / wall_s, 3) if wall_s > 0 else None,
             "recorder_wall_s": recorder_s,
-            "video_ms_per_frame": round(1000.0 * recorder_s.get("VideoRecorder", 0.0) / steps, 2) if video_frames and steps else None,
+            "video_ms_per_frame": round(1000.0 * recorder_s.get("VideoRecorder", 0.0) / steps, 2)
+            if video_frames and steps
+            else None,
             "video_frames": video_frames,
         }
         rules = config.race if config.mode == "race" else config.deepracer
         metrics = evaluation_metrics(laps)
-        summary = summary_dict(mode=config.mode, header=self._header(), rules=rules, laps=laps, race=race,
-                               track_length_m=self.env.base_track.length_m, timings=timings,
-                               files={name: layout.key(relative) for name, relative in files.items()})
+        summary = summary_dict(
+            mode=config.mode,
+            header=self._header(),
+            rules=rules,
+            laps=laps,
+            race=race,
+            track_length_m=self.env.base_track.length_m,
+            timings=timings,
+            files={name: layout.key(relative) for name, relative in files.items()},
+        )
         contents = {
             files["metrics"]: metrics.to_bytes(),
             files["simtrace"]: self.simtrace.writer.to_bytes(),
@@ -254,9 +287,15 @@ class EvaluationSession:
         for relative in files.values():
             self.store.put_bytes(layout.key(relative), (self.workdir / relative).read_bytes())
         return EvaluationReport(
-            layout=layout, checkpoint=self.checkpoint, laps=laps, race=race, metrics=metrics, summary=summary,
+            layout=layout,
+            checkpoint=self.checkpoint,
+            laps=laps,
+            race=race,
+            metrics=metrics,
+            summary=summary,
             table=format_table(laps, self.env.base_track.length_m),
             keys={name: layout.key(relative) for name, relative in files.items()},
-            local_dir=self.workdir if self._keep_dir else None, video_frames=video_frames,
+            local_dir=self.workdir if self._keep_dir else None,
+            video_frames=video_frames,
             mcap_messages=dict(self.mcap.message_counts) if self.mcap is not None else {},
         )

@@ -67,8 +67,19 @@ class Projection:
         half_height = (left.frustum_top - left.frustum_bottom) / 2.0
         # MuJoCo leaves frustum_width at 0 and derives it from the viewport's aspect ratio when rendering.
         half_width = left.frustum_width if left.frustum_width > 0 else half_height * width_px / height_px
-        return cls(position, np.cross(forward, up), up, forward, float(left.frustum_near), float(half_height),
-                   float(half_width), float(left.frustum_center), width_px, height_px, bool(left.orthographic))
+        return cls(
+            position,
+            np.cross(forward, up),
+            up,
+            forward,
+            float(left.frustum_near),
+            float(half_height),
+            float(half_width),
+            float(left.frustum_center),
+            width_px,
+            height_px,
+            bool(left.orthographic),
+        )
 
     def to_pixels(self, points_xyz: np.ndarray) -> np.ndarray:
         rel = np.atleast_2d(points_xyz) - self.position
@@ -98,15 +109,22 @@ def top_view_camera(env: DeepRacerEnv, width_px: int, height_px: int) -> mujoco.
 
 def _car_outline(x_m: float, y_m: float, yaw_rad: float) -> np.ndarray:
     c, s = math.cos(yaw_rad), math.sin(yaw_rad)
-    corners = [(-CAR_LENGTH_M / 2, -CAR_WIDTH_M / 2), (CAR_LENGTH_M / 2, -CAR_WIDTH_M / 2),
-               (CAR_LENGTH_M / 2 + 0.06, 0.0), (CAR_LENGTH_M / 2, CAR_WIDTH_M / 2), (-CAR_LENGTH_M / 2, CAR_WIDTH_M / 2)]
+    corners = [
+        (-CAR_LENGTH_M / 2, -CAR_WIDTH_M / 2),
+        (CAR_LENGTH_M / 2, -CAR_WIDTH_M / 2),
+        (CAR_LENGTH_M / 2 + 0.06, 0.0),
+        (CAR_LENGTH_M / 2, CAR_WIDTH_M / 2),
+        (-CAR_LENGTH_M / 2, CAR_WIDTH_M / 2),
+    ]
     return np.array([(x_m + c * dx - s * dy, y_m + s * dx + c * dy, 0.0) for dx, dy in corners])
 
 
 def _hud(image: np.ndarray, record: StepRecord, scale: float) -> None:
     row = record.row
-    text = (f"t {float(row['tstamp']):6.2f}s  lap {record.lap_index + 1}  {float(row['progress']):5.1f}%  "
-            f"resets {record.lap_resets}  {row['episode_status']}")
+    text = (
+        f"t {float(row['tstamp']):6.2f}s  lap {record.lap_index + 1}  {float(row['progress']):5.1f}%  "
+        f"resets {record.lap_resets}  {row['episode_status']}"
+    )
     thickness = max(1, int(round(scale * 1.5)))
     origin = (4, int(14 * scale) + 2)
     cv2.putText(image, text, origin, _HUD_FONT, 0.4 * scale, (0, 0, 0), thickness + 2, cv2.LINE_AA)
@@ -119,8 +137,14 @@ class _Encoder:
         self.path = path
         self.frames = 0
         self._writer = imageio.get_writer(
-            str(path), fps=FPS, codec="libx264", quality=None, pixelformat="yuv420p", macro_block_size=2,
-            ffmpeg_log_level="error", output_params=["-preset", "ultrafast", "-crf", "23"],
+            str(path),
+            fps=FPS,
+            codec="libx264",
+            quality=None,
+            pixelformat="yuv420p",
+            macro_block_size=2,
+            ffmpeg_log_level="error",
+            output_params=["-preset", "ultrafast", "-crf", "23"],
         )
 
     def add(self, frame: np.ndarray) -> None:
@@ -139,7 +163,9 @@ class VideoRecorder:
 
     def __init__(self, env: DeepRacerEnv, out_dir: Path, options: VideoOptions) -> None:
         if env.render_mode != "rgb_array":
-            raise ValueError("VideoRecorder needs the env made with render_mode='rgb_array' (its camera frame is the in-car view)")
+            raise ValueError(
+                "VideoRecorder needs the env made with render_mode='rgb_array' (its camera frame is the in-car view)"
+            )
         self.options = options
         self.paths = {view: out_dir / view / VIDEO_FILE for view in VIEWS}
         width, height = options.width_px, options.height_px

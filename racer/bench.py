@@ -7,13 +7,34 @@ import click
 from racer.lazy_group import LazyGroup
 
 BENCHMARKS: dict[str, tuple[str, str]] = {
-    "sim": ("racer.shared.sim.bench:sim_bench_command", "Environment steps/s with the front camera vs the raw MuJoCo bound."),
-    "camera": ("racer.shared.sim.camera_bench:camera_bench_command", "racer's camera frames vs DeepRacer's Gazebo frames, per world; frame cost."),
-    "ppo": ("racer.trainer.bench:ppo_bench_command", "One PPO update: samples/s of the trainer vs a plain fp32 baseline."),
-    "fidelity": ("racer.shared.sim.fidelity:fidelity_bench_command", "Open-loop replay of real simtraces: pose error after 1 s and 2 s per speed band."),
-    "tf-proof": ("racer.model_io.tensorflow.proof:tf_proof_command", "48 models: racer vs TensorFlow, OpenVINO and LiteRT (fp32, fp16) outputs."),
-    "sac": ("racer.trainer.sac_bench:sac_bench_command", "SAC gradient steps/s (one step per transition in DeepRacer)."),
-    "time-to-lap": ("racer.local_run:time_to_lap_command", "Minutes from scratch until greedy evaluation completes 3 of 3 laps."),
+    "sim": (
+        "racer.shared.sim.bench:sim_bench_command",
+        "Environment steps/s with the front camera vs the raw MuJoCo bound.",
+    ),
+    "camera": (
+        "racer.shared.sim.camera_bench:camera_bench_command",
+        "racer's camera frames vs DeepRacer's Gazebo frames, per world; frame cost.",
+    ),
+    "ppo": (
+        "racer.trainer.bench:ppo_bench_command",
+        "One PPO update: samples/s of the trainer vs a plain fp32 baseline.",
+    ),
+    "fidelity": (
+        "racer.shared.sim.fidelity:fidelity_bench_command",
+        "Open-loop replay of real simtraces: pose error after 1 s and 2 s per speed band.",
+    ),
+    "tf-proof": (
+        "racer.model_io.tensorflow.proof:tf_proof_command",
+        "48 models: racer vs TensorFlow, OpenVINO and LiteRT (fp32, fp16) outputs.",
+    ),
+    "sac": (
+        "racer.trainer.sac_bench:sac_bench_command",
+        "SAC gradient steps/s (one step per transition in DeepRacer).",
+    ),
+    "time-to-lap": (
+        "racer.local_run:time_to_lap_command",
+        "Minutes from scratch until greedy evaluation completes 3 of 3 laps.",
+    ),
     "viewer": ("racer.viewer.bench:viewer_bench_command", "Experience steps/s with one live viewer page open vs none."),
 }
 

@@ -8,19 +8,30 @@ from racer.lazy_group import LazyGroup
 
 # name -> (module:attribute of a click command, one-line help). Each module owns its command.
 COMMANDS: dict[str, tuple[str, str]] = {
-    "train": ("racer.local_run:train_command", "Train a model: Redis, store, trainer and N rollout workers as local processes."),
+    "train": (
+        "racer.local_run:train_command",
+        "Train a model: Redis, store, trainer and N rollout workers as local processes.",
+    ),
     "trainer": ("racer.trainer.main:trainer_command", "Run the PPO trainer process alone (one per training run)."),
     "rollout": ("racer.rollout_worker.main:rollout_command", "Run one rollout worker (one world) alone."),
-    "evaluate": ("racer.evaluation_worker.main:evaluate_command", "Evaluate a model: DeepRacer trials or the 4-minute race rule."),
+    "evaluate": (
+        "racer.evaluation_worker.main:evaluate_command",
+        "Evaluate a model: DeepRacer trials or the 4-minute race rule.",
+    ),
     "analyze": ("racer.analysis.cli:analyze_command", "Analyse simtrace logs into tables, plots and an HTML report."),
     "model": ("racer.model_io.cli:model_group", "Validate, import and export models in DeepRacer's layout."),
     "bench": ("racer.bench:bench_group", "Benchmarks that print one JSON line (sim, ppo, time-to-lap, viewer)."),
     "track": ("racer.shared.sim.track_cli:track_group", "List, inspect and plot tracks."),
-    "view": ("racer.viewer.cli:view_command", "Watch a run in the browser: camera streams, curves, evaluations, best lap."),
+    "view": (
+        "racer.viewer.cli:view_command",
+        "Watch a run in the browser: camera streams, curves, evaluations, best lap.",
+    ),
 }
 
 
-@click.group(cls=LazyGroup, commands=COMMANDS, context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 120})
+@click.group(
+    cls=LazyGroup, commands=COMMANDS, context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 120}
+)
 @click.version_option(package_name="racer")
 def main() -> None:
     """Train, evaluate and analyse DeepRacer-style models locally (MuJoCo, PyTorch PPO, Redis, S3/MinIO)."""

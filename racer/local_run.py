@@ -104,8 +104,12 @@ class LocalRun:
         if self.plan.use_minio:
             self.minio = MinioServer(self.plan.log_dir / "minio")
             self.minio.start(timeout_s=60)
-            store = S3Settings(bucket="racer", endpoint_url=self.minio.endpoint_url,
-                               access_key_id=self.minio.access_key, secret_access_key=self.minio.secret_key)
+            store = S3Settings(
+                bucket="racer",
+                endpoint_url=self.minio.endpoint_url,
+                access_key_id=self.minio.access_key,
+                secret_access_key=self.minio.secret_key,
+            )
             S3Store(store).ensure_bucket()
         self.settings = ServiceSettings(redis=RedisSettings(url=self.redis.url, connect_timeout_s=10), store=store)
         return self.settings
@@ -114,34 +118,75 @@ class LocalRun:
         log_path = self.plan.log_dir / f"{name}.log"
         with open(log_path, "ab") as log:
             self.children[name] = subprocess.Popen(
-                [sys.executable, "-m", "racer.cli", *args], stdout=log, stderr=subprocess.STDOUT,
-                env=service_environment(self.settings), preexec_fn=_die_with_parent,
+                [sys.executable, "-m", "racer.cli", *args],
+                stdout=log,
+                stderr=subprocess.STDOUT,
+                env=service_environment(self.settings),
+                preexec_fn=_die_with_parent,
             )
 
     def start_processes(self) -> None:
         plan = self.plan
-        trainer_args = ["trainer", "--model-prefix", plan.model_prefix, "--custom-files", str(plan.custom_files),
-                        "--workers", str(plan.num_workers), "--track", plan.track,
-                        "--worlds", ",".join(plan.worlds), "--seed", str(plan.seed)]
+        trainer_args = [
+            "trainer",
+            "--model-prefix",
+            plan.model_prefix,
+            "--custom-files",
+            str(plan.custom_files),
+            "--workers",
+            str(plan.num_workers),
+            "--track",
+            plan.track,
+            "--worlds",
+            ",".join(plan.worlds),
+            "--seed",
+            str(plan.seed),
+        ]
         if plan.max_episodes is not None:
             trainer_args += ["--max-episodes", str(plan.max_episodes)]
         if plan.max_minutes is not None:
             trainer_args += ["--max-minutes", str(plan.max_minutes)]
         if plan.pretrained_prefix:
-            trainer_args += ["--pretrained-prefix", plan.pretrained_prefix,
-                             "--pretrained-checkpoint", plan.pretrained_checkpoint]
+            trainer_args += [
+                "--pretrained-prefix",
+                plan.pretrained_prefix,
+                "--pretrained-checkpoint",
+                plan.pretrained_checkpoint,
+            ]
         trainer_args += list(plan.trainer_options)
         self._spawn("trainer", trainer_args)
         for worker_id in range(plan.num_workers):
-            self._spawn(f"worker-{worker_id}", ["rollout", "--model-prefix", plan.model_prefix,
-                                                "--worker-id", str(worker_id), "--seed", str(plan.seed + worker_id)])
+            self._spawn(
+                f"worker-{worker_id}",
+                [
+                    "rollout",
+                    "--model-prefix",
+                    plan.model_prefix,
+                    "--worker-id",
+                    str(worker_id),
+                    "--seed",
+                    str(plan.seed + worker_id),
+                ],
+            )
         if plan.viewer_port is not None:
-            self._spawn(VIEWER, ["view", "--live", plan.model_prefix, "--host", plan.viewer_host,
-                                 "--port", str(plan.viewer_port)])
+            self._spawn(
+                VIEWER,
+                ["view", "--live", plan.model_prefix, "--host", plan.viewer_host, "--port", str(plan.viewer_port)],
+            )
 
     def restart_worker(self, worker_id: int) -> None:
-        self._spawn(f"worker-{worker_id}", ["rollout", "--model-prefix", self.plan.model_prefix, "--worker-id",
-                                            str(worker_id), "--seed", str(self.plan.seed + worker_id + 1000)])
+        self._spawn(
+            f"worker-{worker_id}",
+            [
+                "rollout",
+                "--model-prefix",
+                self.plan.model_prefix,
+                "--worker-id",
+                str(worker_id),
+                "--seed",
+                str(self.plan.seed + worker_id + 1000),
+            ],
+        )
 
     def stop_processes(self, interrupted: bool = False) -> None:
         """Interrupted: SIGTERM to all (the trainer writes its final checkpoint and .finished), killed after
@@ -194,8 +239,9 @@ class ProgressDisplay:
         if time.monotonic() - self.last_status > 30:
             self.last_status = time.monotonic()
             live = self.channel.live_workers()
-            states = ", ".join(f"w{i}:{live[i].get('state', '?')}" if i in live else f"w{i}:DOWN"
-                               for i in range(self.num_workers))
+            states = ", ".join(
+                f"w{i}:{live[i].get('state', '?')}" if i in live else f"w{i}:DOWN" for i in range(self.num_workers)
+            )
             self.echo(f"[{self._elapsed()}] workers {states}", err=True)
         return evaluations
 
@@ -212,9 +258,14 @@ def check_before_start(plan: LocalRunPlan, base_settings: ServiceSettings) -> No
 
     local_store = isinstance(base_settings.store, LocalStoreSettings) and not plan.use_minio
     try:
-        report = preflight(plan.custom_files, plan.num_workers, plan.track, plan.worlds,
-                           pretrained_prefix=plan.pretrained_prefix,
-                           store=open_store(base_settings.store) if local_store else None)
+        report = preflight(
+            plan.custom_files,
+            plan.num_workers,
+            plan.track,
+            plan.worlds,
+            pretrained_prefix=plan.pretrained_prefix,
+            store=open_store(base_settings.store) if local_store else None,
+        )
     except user_error_types() as error:
         raise click.ClickException(str(error)) from error
     for warning in report.warnings:
@@ -238,19 +289,27 @@ def run_local_training(plan: LocalRunPlan, base_settings: ServiceSettings, on_ev
     previous = {sig: signal.signal(sig, request_stop) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
         settings = run.start_services()
-        click.echo(f"racer train: model {plan.model_prefix!r} in {open_store(settings.store).describe()}, "
-                   f"{plan.num_workers} workers ({', '.join(plan.worlds[:plan.num_workers])}) on track {plan.track}; "
-                   f"logs in {plan.log_dir}")
+        click.echo(
+            f"racer train: model {plan.model_prefix!r} in {open_store(settings.store).describe()}, "
+            f"{plan.num_workers} workers ({', '.join(plan.worlds[: plan.num_workers])}) on track {plan.track}; "
+            f"logs in {plan.log_dir}"
+        )
         run.start_processes()
         if plan.viewer_port is not None:
             click.echo(f"racer train: watch it live at {viewer_url(plan.viewer_host, plan.viewer_port)}")
         viewer_reported = False
         # The display never waits for Redis: short timeouts, and the supervisor says when Redis is down.
-        channel = RunChannel(RedisLink(settings.redis, reconnect_budget_s=2.0, stop=stopping, operation_timeout_s=2.0),
-                             plan.model_prefix)
+        channel = RunChannel(
+            RedisLink(settings.redis, reconnect_budget_s=2.0, stop=stopping, operation_timeout_s=2.0), plan.model_prefix
+        )
         display = ProgressDisplay(channel, plan.num_workers, started)
-        supervisor = RunSupervisor(run.redis, run.children, run.restart_worker, num_workers=plan.num_workers,
-                                   say=lambda text: click.echo(f"[{display._elapsed()}] {text}", err=True))
+        supervisor = RunSupervisor(
+            run.redis,
+            run.children,
+            run.restart_worker,
+            num_workers=plan.num_workers,
+            say=lambda text: click.echo(f"[{display._elapsed()}] {text}", err=True),
+        )
         trainer = run.children["trainer"]
         while trainer.poll() is None and not interrupted:
             supervisor.check_processes()
@@ -265,8 +324,11 @@ def run_local_training(plan: LocalRunPlan, base_settings: ServiceSettings, on_ev
             viewer = run.children.get(VIEWER)
             if viewer is not None and viewer.poll() not in (None, 0) and not viewer_reported:
                 viewer_reported = True  # training goes on without the page (e.g. the port is taken)
-                click.echo(f"the viewer exited with status {viewer.returncode}; training goes on without it (see "
-                           f"{plan.log_dir / (VIEWER + '.log')})", err=True)
+                click.echo(
+                    f"the viewer exited with status {viewer.returncode}; training goes on without it (see "
+                    f"{plan.log_dir / (VIEWER + '.log')})",
+                    err=True,
+                )
             time.sleep(1.0)
         if interrupted:
             click.echo("stopping: the trainer writes a final checkpoint and .finished ...", err=True)
@@ -289,60 +351,129 @@ def run_local_training(plan: LocalRunPlan, base_settings: ServiceSettings, on_ev
 
 @click.command(name="train")
 @click.option("--model-prefix", default=None, help="Model name (store prefix). Default: racer-<date>-<time>.")
-@click.option("--custom-files", type=click.Path(exists=True, file_okay=False, path_type=Path),
-              default=PROJECT_ROOT / "custom_files", show_default=True,
-              help="Folder with reward_function.py, model_metadata.json, hyperparameters.json.")
+@click.option(
+    "--custom-files",
+    type=click.Path(exists=True, file_okay=False, path_type=Path),
+    default=PROJECT_ROOT / "custom_files",
+    show_default=True,
+    help="Folder with reward_function.py, model_metadata.json, hyperparameters.json.",
+)
 @click.option("--workers", "num_workers", type=click.IntRange(1, 32), default=4, show_default=True)
 @click.option("--worlds", default=",".join(WORLDS), show_default=True, help="Worlds given to workers in turn.")
 @click.option("--track", default=DEFAULT_TRACK, show_default=True, help="Track name in tracks/ or a .npy route path.")
-@click.option("--max-episodes", type=int, default=None, help="Stop after this many training episodes "
-              "(default: hyperparameters' term_cond_max_episodes).")
+@click.option(
+    "--max-episodes",
+    type=int,
+    default=None,
+    help="Stop after this many training episodes (default: hyperparameters' term_cond_max_episodes).",
+)
 @click.option("--max-minutes", type=float, default=None, help="Stop after this much wall time.")
 @click.option("--minio", "use_minio", is_flag=True, help="Store in a local MinIO server instead of a directory.")
 @click.option("--pretrained-prefix", default=None, help="Clone: start from this model's checkpoint.")
 @click.option("--pretrained-checkpoint", type=click.Choice(["last", "best"]), default="last", show_default=True)
 @click.option("--seed", type=int, default=0, show_default=True)
-@click.option("--viewer-port", type=click.IntRange(0, 65535), default=8100, show_default=True,
-              help="Port of the live web page (camera streams, curves, evaluations); 0: no page.")
-@click.option("--viewer-host", default="127.0.0.1", show_default=True,
-              help="Address the page listens on; the default is reachable from this machine only.")
-def train_command(model_prefix, custom_files, num_workers, worlds, track, max_episodes, max_minutes, use_minio,
-                  pretrained_prefix, pretrained_checkpoint, seed, viewer_port, viewer_host) -> None:
+@click.option(
+    "--viewer-port",
+    type=click.IntRange(0, 65535),
+    default=8100,
+    show_default=True,
+    help="Port of the live web page (camera streams, curves, evaluations); 0: no page.",
+)
+@click.option(
+    "--viewer-host",
+    default="127.0.0.1",
+    show_default=True,
+    help="Address the page listens on; the default is reachable from this machine only.",
+)
+def train_command(
+    model_prefix,
+    custom_files,
+    num_workers,
+    worlds,
+    track,
+    max_episodes,
+    max_minutes,
+    use_minio,
+    pretrained_prefix,
+    pretrained_checkpoint,
+    seed,
+    viewer_port,
+    viewer_host,
+) -> None:
     """Train with the embedded default: Redis, store, trainer and rollout workers as local processes."""
     base_settings = settings_from_env()
     model_prefix = model_prefix or datetime.now().strftime("racer-%Y%m%d-%H%M%S")
     store_root = base_settings.store.root if isinstance(base_settings.store, LocalStoreSettings) else Path("racer-data")
     plan = LocalRunPlan(
-        model_prefix=model_prefix, custom_files=custom_files.resolve(), num_workers=num_workers,
-        worlds=tuple(w.strip() for w in worlds.split(",") if w.strip()), track=track, max_episodes=max_episodes,
-        max_minutes=max_minutes, use_minio=use_minio, log_dir=Path(store_root) / ".runs" / model_prefix,
-        seed=seed, pretrained_prefix=pretrained_prefix, pretrained_checkpoint=pretrained_checkpoint,
-        viewer_host=viewer_host, viewer_port=viewer_port or None,
+        model_prefix=model_prefix,
+        custom_files=custom_files.resolve(),
+        num_workers=num_workers,
+        worlds=tuple(w.strip() for w in worlds.split(",") if w.strip()),
+        track=track,
+        max_episodes=max_episodes,
+        max_minutes=max_minutes,
+        use_minio=use_minio,
+        log_dir=Path(store_root) / ".runs" / model_prefix,
+        seed=seed,
+        pretrained_prefix=pretrained_prefix,
+        pretrained_checkpoint=pretrained_checkpoint,
+        viewer_host=viewer_host,
+        viewer_port=viewer_port or None,
     )
     sys.exit(run_local_training(plan, base_settings))
 
 
 @click.command(name="time-to-lap")
 @click.option("--track", required=True, help="Route name or .npy path (reference: reinvent_base.npy).")
-@click.option("--reward-function", type=click.Path(exists=True, dir_okay=False, path_type=Path), default=None,
-              help="Default: the AWS 'follow the centre line' example from ../shared/deepracer-data.")
-@click.option("--algorithm", type=click.Choice(["clipped_ppo", "sac"]), default="clipped_ppo", show_default=True,
-              help="training_algorithm of the model (SAC: continuous only).")
-@click.option("--action-space", type=click.Choice(["discrete", "continuous"]), default=None,
-              help="Default: discrete for clipped_ppo (5 steering angles at --speed), continuous for sac "
-                   "(steering -30..30 deg, speed --min-speed..--max-speed).")
+@click.option(
+    "--reward-function",
+    type=click.Path(exists=True, dir_okay=False, path_type=Path),
+    default=None,
+    help="Default: the AWS 'follow the centre line' example from ../shared/deepracer-data.",
+)
+@click.option(
+    "--algorithm",
+    type=click.Choice(["clipped_ppo", "sac"]),
+    default="clipped_ppo",
+    show_default=True,
+    help="training_algorithm of the model (SAC: continuous only).",
+)
+@click.option(
+    "--action-space",
+    type=click.Choice(["discrete", "continuous"]),
+    default=None,
+    help="Default: discrete for clipped_ppo (5 steering angles at --speed), continuous for sac "
+    "(steering -30..30 deg, speed --min-speed..--max-speed).",
+)
 @click.option("--speed", type=float, default=1.0, show_default=True, help="The one speed (m/s) of the 5 actions.")
 @click.option("--min-speed", type=float, default=1.0, show_default=True, help="Continuous: lowest speed (m/s).")
 @click.option("--max-speed", type=float, default=2.0, show_default=True, help="Continuous: highest speed (m/s).")
 @click.option("--workers", "num_workers", type=int, default=4, show_default=True)
 @click.option("--time-limit-minutes", type=float, default=30.0, show_default=True)
 @click.option("--episodes-per-iteration", type=int, default=20, show_default=True)
-@click.option("--sac-updates-per-transition", type=float, default=0.05, show_default=True,
-              help="SAC: gradient steps per transition. DeepRacer takes 1, which on two CPU cores leaves the trainer "
-                   "far behind the workers (see `racer bench sac`).")
+@click.option(
+    "--sac-updates-per-transition",
+    type=float,
+    default=0.05,
+    show_default=True,
+    help="SAC: gradient steps per transition. DeepRacer takes 1, which on two CPU cores leaves the trainer "
+    "far behind the workers (see `racer bench sac`).",
+)
 @click.option("--seed", type=int, default=0, show_default=True)
-def time_to_lap_command(track, reward_function, algorithm, action_space, speed, min_speed, max_speed, num_workers,
-                        time_limit_minutes, episodes_per_iteration, sac_updates_per_transition, seed):
+def time_to_lap_command(
+    track,
+    reward_function,
+    algorithm,
+    action_space,
+    speed,
+    min_speed,
+    max_speed,
+    num_workers,
+    time_limit_minutes,
+    episodes_per_iteration,
+    sac_updates_per_transition,
+    seed,
+):
     """Train from scratch until greedy evaluation completes 3 of 3 laps (from three starts a third of a lap
     apart); print one JSON line. Hyperparameters: the SimApp's defaults for the algorithm."""
     import tempfile
@@ -350,7 +481,9 @@ def time_to_lap_command(track, reward_function, algorithm, action_space, speed, 
     action_space = action_space or ("continuous" if algorithm == "sac" else "discrete")
     if algorithm == "sac" and action_space != "continuous":
         raise click.UsageError("--algorithm sac needs --action-space continuous (DeepRacer's SAC is continuous only)")
-    reward_function = reward_function or PROJECT_ROOT.parent / "shared/deepracer-data/reward_functions/awsdoc_example_1.py"
+    reward_function = (
+        reward_function or PROJECT_ROOT.parent / "shared/deepracer-data/reward_functions/awsdoc_example_1.py"
+    )
     if not Path(reward_function).is_file():
         raise click.UsageError(f"reward function not found: {reward_function}; pass --reward-function")
     workdir = Path(tempfile.mkdtemp(prefix="racer-time-to-lap-"))
@@ -360,21 +493,45 @@ def time_to_lap_command(track, reward_function, algorithm, action_space, speed, 
     if action_space == "continuous":
         actions: object = {"steering_angle": {"low": -30, "high": 30}, "speed": {"low": min_speed, "high": max_speed}}
     else:
-        actions = [{"steering_angle": angle, "speed": speed, "index": i}
-                   for i, angle in enumerate([-30, -15, 0, 15, 30])]
-    (custom / "model_metadata.json").write_text(json.dumps({
-        "action_space": actions, "action_space_type": action_space, "sensor": ["FRONT_FACING_CAMERA"],
-        "neural_network": "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW", "training_algorithm": algorithm, "version": "5"}))
+        actions = [
+            {"steering_angle": angle, "speed": speed, "index": i} for i, angle in enumerate([-30, -15, 0, 15, 30])
+        ]
+    (custom / "model_metadata.json").write_text(
+        json.dumps(
+            {
+                "action_space": actions,
+                "action_space_type": action_space,
+                "sensor": ["FRONT_FACING_CAMERA"],
+                "neural_network": "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW",
+                "training_algorithm": algorithm,
+                "version": "5",
+            }
+        )
+    )
     (custom / "hyperparameters.json").write_text(json.dumps({"num_episodes_between_training": episodes_per_iteration}))
     # Three greedy laps from three places on the lap (0, 1/3, 2/3 on from the round-robin start): the simulator is
     # deterministic, so three trials from one place would be one drive three times.
     (custom / "workers.json").write_text(json.dumps({"MIN_EVAL_TRIALS": 3, "RACER_EVAL_SPREAD_STARTS": "True"}))
-    plan = LocalRunPlan(model_prefix="time-to-lap", custom_files=custom, num_workers=num_workers,
-                        worlds=WORLDS, track=str(track), max_episodes=None, max_minutes=time_limit_minutes,
-                        use_minio=False, log_dir=workdir / "logs", seed=seed,
-                        trainer_options=("--sac-updates-per-transition", str(sac_updates_per_transition)))
-    result = {"algorithm": algorithm, "action_space": action_space, "minutes": None, "env_steps": None,
-              "iterations": None}
+    plan = LocalRunPlan(
+        model_prefix="time-to-lap",
+        custom_files=custom,
+        num_workers=num_workers,
+        worlds=WORLDS,
+        track=str(track),
+        max_episodes=None,
+        max_minutes=time_limit_minutes,
+        use_minio=False,
+        log_dir=workdir / "logs",
+        seed=seed,
+        trainer_options=("--sac-updates-per-transition", str(sac_updates_per_transition)),
+    )
+    result = {
+        "algorithm": algorithm,
+        "action_space": action_space,
+        "minutes": None,
+        "env_steps": None,
+        "iterations": None,
+    }
     if algorithm == "sac":
         result["sac_updates_per_transition"] = sac_updates_per_transition
     started = time.monotonic()
@@ -382,8 +539,11 @@ def time_to_lap_command(track, reward_function, algorithm, action_space, speed, 
 
     def on_evaluation(record: dict) -> bool:
         if record["trials"] >= 3 and record["laps_completed"] >= 3 and result["minutes"] is None:
-            result.update(minutes=round((time.monotonic() - started) / 60, 2), env_steps=record["env_steps_total"],
-                          iterations=record["iteration"])
+            result.update(
+                minutes=round((time.monotonic() - started) / 60, 2),
+                env_steps=record["env_steps_total"],
+                iterations=record["iteration"],
+            )
             return True
         return False
 

@@ -22,8 +22,14 @@ they are killed; with Redis and MinIO stopped afterwards, everything is gone wit
 class RunSupervisor:
     """Checked once a second by the `racer train` loop; reports through `say` (one line per change)."""
 
-    def __init__(self, redis: RedisServer, children: Mapping[str, subprocess.Popen],
-                 restart_worker: Callable[[int], None], say: Callable[[str], None], num_workers: int):
+    def __init__(
+        self,
+        redis: RedisServer,
+        children: Mapping[str, subprocess.Popen],
+        restart_worker: Callable[[int], None],
+        say: Callable[[str], None],
+        num_workers: int,
+    ):
         self.redis = redis
         self.children = children
         self.restart_worker = restart_worker
@@ -71,8 +77,10 @@ class RunSupervisor:
         now = time.monotonic()
         if self.redis_down_since is None:
             self.redis_down_since = now
-            self.say(f"Redis is DOWN (redis-server exited with status {self.redis.exit_status}); restarting it "
-                     f"from its append-only file")
+            self.say(
+                f"Redis is DOWN (redis-server exited with status {self.redis.exit_status}); restarting it "
+                f"from its append-only file"
+            )
         if now < self._next_redis_attempt:
             return
         try:
@@ -87,9 +95,15 @@ class RunSupervisor:
         self._redis_retry_s = 1.0
 
 
-def stop_children(children: Mapping[str, subprocess.Popen], *, trainer: str, at_once: bool,
-                  never_ending: Iterable[str] = (), budget_s: float = STOP_CHILDREN_BUDGET_S,
-                  workers_after_trainer_s: float = 15.0) -> None:
+def stop_children(
+    children: Mapping[str, subprocess.Popen],
+    *,
+    trainer: str,
+    at_once: bool,
+    never_ending: Iterable[str] = (),
+    budget_s: float = STOP_CHILDREN_BUDGET_S,
+    workers_after_trainer_s: float = 15.0,
+) -> None:
     """Stop the run's processes.
 
     `at_once` (Ctrl-C, SIGTERM): every process gets SIGTERM together and `budget_s` in all; what is left is killed.

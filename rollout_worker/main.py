@@ -18,17 +18,30 @@ from racer.shared.user_errors import user_error_types
 @click.option("--world", type=click.Choice(WORLDS), default=None, help="Override the world from training_params.")
 @click.option("--track", default=None, help="Override the track from training_params.")
 @click.option("--seed", type=int, default=0, show_default=True)
-@click.option("--wait-timeout-s", type=float, default=3600.0, show_default=True,
-              help="Longest wait for the trainer's next checkpoint before exiting with an error.")
+@click.option(
+    "--wait-timeout-s",
+    type=float,
+    default=3600.0,
+    show_default=True,
+    help="Longest wait for the trainer's next checkpoint before exiting with an error.",
+)
 def rollout_command(model_prefix, worker_id, world, track, seed, wait_timeout_s) -> None:
     """Simulate one world and feed episodes to the trainer (Redis and store from RACER_REDIS_URL / RACER_STORE)."""
     from racer.rollout_worker.worker import RolloutOptions, RolloutWorker
 
     logging.basicConfig(level=logging.INFO, format=f"%(asctime)s %(levelname)s worker-{worker_id}: %(message)s")
     try:
-        worker = RolloutWorker(settings_from_env(), RolloutOptions(
-            model_prefix=model_prefix, worker_id=worker_id, seed=seed, wait_timeout_s=wait_timeout_s,
-            world_override=world, track_override=track))
+        worker = RolloutWorker(
+            settings_from_env(),
+            RolloutOptions(
+                model_prefix=model_prefix,
+                worker_id=worker_id,
+                seed=seed,
+                wait_timeout_s=wait_timeout_s,
+                world_override=world,
+                track_override=track,
+            ),
+        )
         signal.signal(signal.SIGTERM, lambda signum, frame: worker.stop())
         signal.signal(signal.SIGINT, lambda signum, frame: worker.stop())
         worker.run_forever()

@@ -40,8 +40,14 @@ def read_training_params(store: ObjectStore, layout: ModelLayout, worker_id: int
     raise ObjectNotFoundError(store.describe(), layout.training_params(0))
 
 
-def load_run_files(store: ObjectStore, model_prefix: str, worker_id: int, workdir: Path,
-                   world_override: str | None = None, track_override: str | None = None) -> RunFiles:
+def load_run_files(
+    store: ObjectStore,
+    model_prefix: str,
+    worker_id: int,
+    workdir: Path,
+    world_override: str | None = None,
+    track_override: str | None = None,
+) -> RunFiles:
     layout = ModelLayout(model_prefix)
     metadata_source = f"{store.describe()}/{layout.model_metadata}"
     try:
@@ -61,5 +67,10 @@ def load_run_files(store: ObjectStore, model_prefix: str, worker_id: int, workdi
     params, params_key = read_training_params(store, layout, worker_id)
     worker = WorkerSettings.from_training_params(params, source=f"{store.describe()}/{params_key}")
     worker = worker.replace(world=world_override, track=track_override)
-    return RunFiles(layout=layout, model_metadata=metadata, hyperparameters=hyperparameters,
-                    reward_function_path=reward_path, worker=worker)
+    return RunFiles(
+        layout=layout,
+        model_metadata=metadata,
+        hyperparameters=hyperparameters,
+        reward_function_path=reward_path,
+        worker=worker,
+    )

@@ -41,8 +41,9 @@ class WorkerLog:
 
     def _load_metrics(self) -> TrainingMetrics:
         try:
-            return read_training_metrics(self.store.get_bytes(self.metrics_key),
-                                         source=f"{self.store.describe()}/{self.metrics_key}")
+            return read_training_metrics(
+                self.store.get_bytes(self.metrics_key), source=f"{self.store.describe()}/{self.metrics_key}"
+            )
         except ObjectNotFoundError:
             return TrainingMetrics(best_model_metric=self.run.worker.best_model_metric)
 
@@ -55,9 +56,15 @@ class WorkerLog:
     @staticmethod
     def _entry(played: PlayedEpisode, episode: int, trial: int, phase: str) -> TrainingMetricsEntry:
         return TrainingMetricsEntry.from_episode(
-            total_reward=played.total_reward, start_time_s=played.start_time_s, end_time_s=played.end_time_s,
-            episode=episode, trial=trial, phase=phase, progress_pct=played.progress,
-            status=EpisodeStatus(played.final_status))
+            total_reward=played.total_reward,
+            start_time_s=played.start_time_s,
+            end_time_s=played.end_time_s,
+            episode=episode,
+            trial=trial,
+            phase=phase,
+            progress_pct=played.progress,
+            status=EpisodeStatus(played.final_status),
+        )
 
     def record_training_episode(self, played: PlayedEpisode, iteration: int) -> None:
         if iteration != self._trial_iteration:
@@ -87,11 +94,15 @@ class WorkerLog:
         elif metric_name == "reward":
             value = float(np.mean([p.total_reward for p in results]))
         else:
-            value = float(np.mean([p.lap_time_s * 1000 if p.lap_completed and p.lap_time_s else UNFINISHED_LAP_MS
-                                   for p in results]))
+            value = float(
+                np.mean(
+                    [p.lap_time_s * 1000 if p.lap_completed and p.lap_time_s else UNFINISHED_LAP_MS for p in results]
+                )
+            )
         time_stamp = max(p.end_time_s for p in results)
-        best_and_last = checkpoints.record_evaluation(announcement.checkpoint, value, time_stamp,
-                                                      higher_is_better=(metric_name != "laptime"))
+        best_and_last = checkpoints.record_evaluation(
+            announcement.checkpoint, value, time_stamp, higher_is_better=(metric_name != "laptime")
+        )
         best = best_and_last.best.name if best_and_last.best else None
         laps = [p for p in results if p.lap_completed]
         checkpoint = CheckpointName.find(announcement.checkpoint)
@@ -108,5 +119,12 @@ class WorkerLog:
             "env_steps_total": checkpoint.env_steps if checkpoint else None,
         }
         channel.publish("evaluations", record)
-        log.info("evaluation of %s: %d/%d laps, %s %.2f (best: %s)", announcement.checkpoint, len(laps),
-                 len(results), metric_name, value, best)
+        log.info(
+            "evaluation of %s: %d/%d laps, %s %.2f (best: %s)",
+            announcement.checkpoint,
+            len(laps),
+            len(results),
+            metric_name,
+            value,
+            best,
+        )

@@ -128,9 +128,17 @@ class RolloutWorker:
 
     def _beat(self) -> None:
         world = self.run.worker.world if self.run else self.options.world_override or "?"
-        self.channel.beat(self.worker_id, {"state": self.state.status, "iteration": self.state.iteration,
-                                           "episodes": self.state.episodes_played, "world": world,
-                                           "steps_per_s": round(self.state.steps_per_s, 1), "pid": os.getpid()})
+        self.channel.beat(
+            self.worker_id,
+            {
+                "state": self.state.status,
+                "iteration": self.state.iteration,
+                "episodes": self.state.episodes_played,
+                "world": world,
+                "steps_per_s": round(self.state.steps_per_s, 1),
+                "pid": os.getpid(),
+            },
+        )
 
     def run_forever(self) -> None:
         torch.set_num_threads(1)
@@ -167,8 +175,10 @@ class RolloutWorker:
             if announcement is not None:
                 return announcement
             if time.monotonic() > deadline:
-                raise TimeoutError(f"worker {self.worker_id}: no trainer announced a checkpoint on "
-                                   f"{self.channel.key('control')} within {self.options.wait_timeout_s:.0f} s")
+                raise TimeoutError(
+                    f"worker {self.worker_id}: no trainer announced a checkpoint on "
+                    f"{self.channel.key('control')} within {self.options.wait_timeout_s:.0f} s"
+                )
             self.channel.next_announcements("$", block_s=5.0)
         raise InterruptedError("stopped before the trainer started")
 
@@ -184,25 +194,40 @@ class RolloutWorker:
             if now > started + self.options.wait_timeout_s:
                 raise TimeoutError(
                     f"worker {self.worker_id}: waited {self.options.wait_timeout_s:.0f} s for checkpoint "
-                    f"{self.state.iteration + 1} from the trainer on {self.channel.key('control')}; is the trainer alive?")
+                    f"{self.state.iteration + 1} from the trainer on {self.channel.key('control')}; is the trainer alive?"
+                )
             if now > next_notice:
-                log.info("worker %d: still waiting for checkpoint %d from the trainer (%.0f s)",
-                         self.worker_id, self.state.iteration + 1, now - started)
+                log.info(
+                    "worker %d: still waiting for checkpoint %d from the trainer (%.0f s)",
+                    self.worker_id,
+                    self.state.iteration + 1,
+                    now - started,
+                )
                 next_notice = now + 60
         return []
 
     # ---- set-up ----------------------------------------------------------------------------------
     def _prepare(self, announcement: Announcement) -> None:
-        self.run = load_run_files(self.store, self.options.model_prefix, self.worker_id, self._workdir,
-                                  world_override=self.options.world_override,
-                                  track_override=self.options.track_override)
+        self.run = load_run_files(
+            self.store,
+            self.options.model_prefix,
+            self.worker_id,
+            self._workdir,
+            world_override=self.options.world_override,
+            track_override=self.options.track_override,
+        )
         worker = self.run.worker
         self.env = DeepRacerEnv(training_env_config(self.run))
         self.env.reset(seed=self.options.seed)
         self.log = WorkerLog(self.store, self.run, self.worker_id)
         self.frame_tap = FrameTap(self.frames, self.worker_id, worker.world)
-        log.info("worker %d ready: world %s, track %s, model %s", self.worker_id, worker.world, worker.track,
-                 self.options.model_prefix)
+        log.info(
+            "worker %d ready: world %s, track %s, model %s",
+            self.worker_id,
+            worker.world,
+            worker.track,
+            self.options.model_prefix,
+        )
 
     def _load_policy(self, announcement: Announcement) -> None:
         if self.policy_version == announcement.iteration:
@@ -229,16 +254,21 @@ class RolloutWorker:
         elif announcement.kind == "replay" and announcement.target_worker == self.worker_id:
             if announcement.iteration != self.policy_version:
                 return  # an old request; the trainer has moved on
-            log.info("worker %d: replaying share %d of iteration %d for a dead worker",
-                     self.worker_id, announcement.share, announcement.iteration)
+            log.info(
+                "worker %d: replaying share %d of iteration %d for a dead worker",
+                self.worker_id,
+                announcement.share,
+                announcement.iteration,
+            )
             latest = self.channel.latest_iteration_announcement()
             self._play_share(latest, share=announcement.share)
             self.log.finish_iteration(announcement.iteration, latest.num_workers)
 
     def _play_share(self, announcement: Announcement, share: int) -> None:
         if share in self.channel.received_shares(announcement.iteration):
-            log.info("worker %d: share %d of iteration %d already delivered", self.worker_id, share,
-                     announcement.iteration)
+            log.info(
+                "worker %d: share %d of iteration %d already delivered", self.worker_id, share, announcement.iteration
+            )
             return
         count = share_sizes(announcement.episodes_per_iteration, announcement.num_workers)[share]
         if count == 0:
@@ -257,24 +287,45 @@ class RolloutWorker:
             epsilon = 0.0
             if self._uses_e_greedy():
                 epsilon = e_greedy_epsilon(self.log.training_steps, hp.e_greedy_value, hp.epsilon_steps)
-            episode = play_episode(self.env, self.policy, greedy=False, generator=self.rng, epsilon=epsilon,
-                                   policy_version=announcement.iteration, worker_id=self.worker_id,
-                                   world=self.run.worker.world, episode_index=episode_counter,
-                                   simtrace_episode=episode_counter, on_step=self.frame_tap)
+            episode = play_episode(
+                self.env,
+                self.policy,
+                greedy=False,
+                generator=self.rng,
+                epsilon=epsilon,
+                policy_version=announcement.iteration,
+                worker_id=self.worker_id,
+                world=self.run.worker.world,
+                episode_index=episode_counter,
+                simtrace_episode=episode_counter,
+                on_step=self.frame_tap,
+            )
             played.append(episode)
             steps += episode.steps
             self.state.episodes_played += 1
             self.state.steps_per_s = steps / max(1e-6, time.monotonic() - started)
             self.log.record_training_episode(episode, announcement.iteration)
         elapsed_s = time.monotonic() - started
-        batch = EpisodeBatch(iteration=announcement.iteration, share=share, worker_id=self.worker_id,
-                             world=self.run.worker.world, policy_version=announcement.iteration,
-                             episodes=tuple(p.episode for p in played))
+        batch = EpisodeBatch(
+            iteration=announcement.iteration,
+            share=share,
+            worker_id=self.worker_id,
+            world=self.run.worker.world,
+            policy_version=announcement.iteration,
+            episodes=tuple(p.episode for p in played),
+        )
         for p in played:
             p.episode.info.update(rollout_steps_per_s=round(steps / max(elapsed_s, 1e-6), 1))
         self.channel.push_batch(batch)
-        log.info("worker %d: pushed share %d of iteration %d (%d episodes, %d steps, %.0f steps/s)",
-                 self.worker_id, share, announcement.iteration, len(played), steps, steps / max(elapsed_s, 1e-6))
+        log.info(
+            "worker %d: pushed share %d of iteration %d (%d episodes, %d steps, %.0f steps/s)",
+            self.worker_id,
+            share,
+            announcement.iteration,
+            len(played),
+            steps,
+            steps / max(elapsed_s, 1e-6),
+        )
 
     def _uses_e_greedy(self) -> bool:
         return uses_e_greedy(self.run.hyperparameters, self.run.model_metadata)
@@ -292,11 +343,28 @@ class RolloutWorker:
             if self._stop.is_set():
                 return
             start = (first_start + trial / trials) % 1.0 if self.run.worker.eval_spread_starts else None
-            results.append(play_episode(self.env, self.policy, greedy=True, generator=self.rng, epsilon=epsilon,
-                                        policy_version=announcement.iteration, worker_id=self.worker_id,
-                                        world=self.run.worker.world, episode_index=trial, start_ndist=start,
-                                        on_step=self.frame_tap))
-            log.info("worker %d: evaluation trial %d of checkpoint %d from %.3f of the lap: %s, progress %.1f%%",
-                     self.worker_id, trial, announcement.iteration, first_start if start is None else start,
-                     results[-1].final_status, results[-1].progress)
+            results.append(
+                play_episode(
+                    self.env,
+                    self.policy,
+                    greedy=True,
+                    generator=self.rng,
+                    epsilon=epsilon,
+                    policy_version=announcement.iteration,
+                    worker_id=self.worker_id,
+                    world=self.run.worker.world,
+                    episode_index=trial,
+                    start_ndist=start,
+                    on_step=self.frame_tap,
+                )
+            )
+            log.info(
+                "worker %d: evaluation trial %d of checkpoint %d from %.3f of the lap: %s, progress %.1f%%",
+                self.worker_id,
+                trial,
+                announcement.iteration,
+                first_start if start is None else start,
+                results[-1].final_status,
+                results[-1].progress,
+            )
         self.log.record_evaluation(announcement, results, self.checkpoints, self.channel)

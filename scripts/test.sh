@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Sets everything up (idempotent) and runs the whole test suite:
-#   1. the linter (ruff check, configured in pyproject.toml), first because it takes a second;
+#   1. the linter and the formatter check (ruff, configured in pyproject.toml), first because they take a second;
 #   2. the docker compose smoke test (scripts/compose-smoke-test.sh: builds the images without a registry,
 #      trains two iterations in containers, checks MinIO, then the same on a single-node swarm);
 #   3. pytest against real redis-server and MinIO processes.
@@ -10,8 +10,9 @@ cd "$(dirname "$0")/.."
 ./scripts/setup.sh
 export PATH="$PWD/.venv/bin:$PATH"
 export MUJOCO_GL="${MUJOCO_GL:-egl}"
-echo "[test] ruff check"
+echo "[test] ruff check, ruff format --check"
 .venv/bin/ruff check .
+.venv/bin/ruff format --check .
 if [ "${RACER_TEST_DOCKER:-1}" != "0" ]; then
   ./scripts/compose-smoke-test.sh
 fi

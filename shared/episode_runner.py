@@ -40,10 +40,21 @@ class PlayedEpisode:
         return self.final_status == "lap_complete"
 
 
-def play_episode(env, policy, *, greedy: bool, generator: np.random.Generator, policy_version: int,
-                 worker_id: int, world: str, episode_index: int, epsilon: float = 0.0,
-                 simtrace_episode: int | None = None, start_ndist: float | None = None,
-                 on_step: Callable[[dict, float, dict], None] | None = None) -> PlayedEpisode:
+def play_episode(
+    env,
+    policy,
+    *,
+    greedy: bool,
+    generator: np.random.Generator,
+    policy_version: int,
+    worker_id: int,
+    world: str,
+    episode_index: int,
+    epsilon: float = 0.0,
+    simtrace_episode: int | None = None,
+    start_ndist: float | None = None,
+    on_step: Callable[[dict, float, dict], None] | None = None,
+) -> PlayedEpisode:
     """One episode from reset to termination. Evaluation episodes (`greedy=True`) do not advance the start line.
 
     `simtrace_episode` overrides the simtrace `episode` column (the worker owns that counter so it survives restarts).

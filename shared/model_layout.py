@@ -164,6 +164,8 @@ EVALUATION_PREFIX = "evaluation-"
 def evaluation_folder(timestamp: str) -> str:
     """`evaluation-<ts>`: one evaluation's folder under the model prefix."""
     return EVALUATION_PREFIX + timestamp
+
+
 _EVALUATION_FILES = {
     "simtrace": f"{EVALUATION_SIMTRACE_DIR}/0-iteration.csv",
     "summary": "summary.json",

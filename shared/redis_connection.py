@@ -52,9 +52,14 @@ class _Budget:
         return " (the process is stopping)" if self.stopping else ""
 
 
-def connect_redis(settings: RedisSettings, *, first_backoff_s: float = 0.1, max_backoff_s: float = 2.0,
-                  stop: threading.Event | None = None,
-                  operation_timeout_s: float = OPERATION_SOCKET_TIMEOUT_S) -> redis.Redis:
+def connect_redis(
+    settings: RedisSettings,
+    *,
+    first_backoff_s: float = 0.1,
+    max_backoff_s: float = 2.0,
+    stop: threading.Event | None = None,
+    operation_timeout_s: float = OPERATION_SOCKET_TIMEOUT_S,
+) -> redis.Redis:
     """Return a client once the server answered PING, retrying with exponential backoff until `connect_timeout_s`
     is spent, or `STOPPING_BUDGET_S` after `stop` is set (a stopping process must not wait for Redis).
 
@@ -69,8 +74,13 @@ def connect_redis(settings: RedisSettings, *, first_backoff_s: float = 0.1, max_
     while True:
         attempts += 1
         budget_s = max(0.1, min(2.0, budget.remaining_s()))
-        probe = redis.Redis.from_url(settings.url, socket_connect_timeout=budget_s, socket_timeout=budget_s,
-                                     retry_on_timeout=False, retry=_no_retry())
+        probe = redis.Redis.from_url(
+            settings.url,
+            socket_connect_timeout=budget_s,
+            socket_timeout=budget_s,
+            retry_on_timeout=False,
+            retry=_no_retry(),
+        )
         try:
             probe.ping()
         except (redis.ConnectionError, redis.TimeoutError) as error:
@@ -115,8 +125,13 @@ class RedisLink:
     depends on the state Redis is in.
     """
 
-    def __init__(self, settings: RedisSettings, reconnect_budget_s: float = 300.0,
-                 stop: threading.Event | None = None, operation_timeout_s: float = OPERATION_SOCKET_TIMEOUT_S):
+    def __init__(
+        self,
+        settings: RedisSettings,
+        reconnect_budget_s: float = 300.0,
+        stop: threading.Event | None = None,
+        operation_timeout_s: float = OPERATION_SOCKET_TIMEOUT_S,
+    ):
         self.settings = settings
         self.reconnect_budget_s = reconnect_budget_s
         self.stop = stop
@@ -132,8 +147,12 @@ class RedisLink:
             # Stopping: a hung server may hold each command only this long.
             self.operation_timeout_s = STOPPING_BUDGET_S
             self._client.close()
-            self._client = redis.Redis.from_url(self.settings.url, socket_connect_timeout=STOPPING_BUDGET_S,
-                                                socket_timeout=STOPPING_BUDGET_S, retry=_no_retry())
+            self._client = redis.Redis.from_url(
+                self.settings.url,
+                socket_connect_timeout=STOPPING_BUDGET_S,
+                socket_timeout=STOPPING_BUDGET_S,
+                retry=_no_retry(),
+            )
         budget = _Budget(self.reconnect_budget_s, self.stop)
         full_wait_s = 0.5
         while True:
@@ -146,9 +165,11 @@ class RedisLink:
                     raise RedisUnavailableError(
                         f"Redis at {self.settings.url} stayed full (maxmemory){budget.why()} for "
                         f"{self.reconnect_budget_s:.0f} s: {error}. Is the trainer consuming episodes? Raise "
-                        f"maxmemory in redis.conf for larger iterations") from error
-                log.warning("Redis is full (maxmemory); retrying in %.1f s while the trainer consumes episodes",
-                            full_wait_s)
+                        f"maxmemory in redis.conf for larger iterations"
+                    ) from error
+                log.warning(
+                    "Redis is full (maxmemory); retrying in %.1f s while the trainer consumes episodes", full_wait_s
+                )
                 budget.sleep(full_wait_s)
                 full_wait_s = min(2 * full_wait_s, 10.0)
             except (redis.ConnectionError, redis.TimeoutError) as error:
@@ -161,8 +182,10 @@ class RedisLink:
                 log.warning("Redis connection lost (%s); reconnecting to %s", error, self.settings.url)
                 self._client.close()
                 self._client = connect_redis(
-                    RedisSettings(url=self.settings.url, connect_timeout_s=max(0.5, remaining_s)), stop=self.stop,
-                    operation_timeout_s=self.operation_timeout_s)
+                    RedisSettings(url=self.settings.url, connect_timeout_s=max(0.5, remaining_s)),
+                    stop=self.stop,
+                    operation_timeout_s=self.operation_timeout_s,
+                )
 
     def close(self) -> None:
         self._client.close()

@@ -103,7 +103,9 @@ class _ServerProcess:
                 return
             time.sleep(0.05)
         self.stop()
-        raise TimeoutError(f"{self.name} did not become ready on port {self.port} within {timeout_s} s; see {self.log_path}")
+        raise TimeoutError(
+            f"{self.name} did not become ready on port {self.port} within {timeout_s} s; see {self.log_path}"
+        )
 
     def stop(self, timeout_s: float = 10.0) -> None:
         if self._process is None:
@@ -153,11 +155,16 @@ class RedisServer(_ServerProcess):
         return [
             find_executable("redis-server"),
             str(self.conf_path),
-            "--port", str(self.port),
-            "--bind", "127.0.0.1",
-            "--dir", str(self.data_dir),
-            "--daemonize", "no",
-            "--logfile", "",
+            "--port",
+            str(self.port),
+            "--bind",
+            "127.0.0.1",
+            "--dir",
+            str(self.data_dir),
+            "--daemonize",
+            "no",
+            "--logfile",
+            "",
         ]
 
     def _is_ready(self) -> bool:
@@ -174,8 +181,14 @@ class MinioServer(_ServerProcess):
 
     name = "minio"
 
-    def __init__(self, data_dir: Path, port: int | None = None, access_key: str = "racer-admin",
-                 secret_key: str = "racer-admin-secret", **kwargs):
+    def __init__(
+        self,
+        data_dir: Path,
+        port: int | None = None,
+        access_key: str = "racer-admin",
+        secret_key: str = "racer-admin-secret",
+        **kwargs,
+    ):
         super().__init__(data_dir, port, **kwargs)
         self.console_port = free_port()
         self.access_key = access_key
@@ -187,16 +200,24 @@ class MinioServer(_ServerProcess):
 
     def _command(self) -> list[str]:
         return [
-            find_executable("minio"), "server", str(self.data_dir / "data"),
-            "--address", f"127.0.0.1:{self.port}",
-            "--console-address", f"127.0.0.1:{self.console_port}",
+            find_executable("minio"),
+            "server",
+            str(self.data_dir / "data"),
+            "--address",
+            f"127.0.0.1:{self.port}",
+            "--console-address",
+            f"127.0.0.1:{self.console_port}",
             "--quiet",
         ]
 
     def _environment(self) -> dict[str, str]:
         env = dict(os.environ)
-        env.update(MINIO_ROOT_USER=self.access_key, MINIO_ROOT_PASSWORD=self.secret_key,
-                   MINIO_BROWSER="off", MINIO_UPDATE="off")
+        env.update(
+            MINIO_ROOT_USER=self.access_key,
+            MINIO_ROOT_PASSWORD=self.secret_key,
+            MINIO_BROWSER="off",
+            MINIO_UPDATE="off",
+        )
         return env
 
     def _is_ready(self) -> bool:

@@ -19,9 +19,20 @@ def user_error_types() -> tuple[type[Exception], ...]:
     from racer.shared.store import StoreError
     from racer.trainer.preflight import UnsupportedConfigurationError
 
-    return (HyperparametersError, ModelMetadataError, SimtraceError, RedisUnavailableError, GLBackendError,
-            RewardFunctionError, TrackError, StoreError, CloneError, RunConfigError, CheckpointError,
-            UnsupportedConfigurationError)
+    return (
+        HyperparametersError,
+        ModelMetadataError,
+        SimtraceError,
+        RedisUnavailableError,
+        GLBackendError,
+        RewardFunctionError,
+        TrackError,
+        StoreError,
+        CloneError,
+        RunConfigError,
+        CheckpointError,
+        UnsupportedConfigurationError,
+    )
 
 
 class CloneError(ValueError):

@@ -64,8 +64,10 @@ class WorkerSettings:
         if not 0.0 <= self.round_robin_advance_dist <= 1.0:
             raise ValueError(f"ROUND_ROBIN_ADVANCE_DIST {self.round_robin_advance_dist} is outside [0, 1]")
         if self.number_of_resets < 0 or self.number_of_reverse_counts < 1:
-            raise ValueError(f"NUMBER_OF_RESETS must be >= 0 and NUMBER_OF_REVERSE_COUNTS >= 1, got "
-                             f"{self.number_of_resets} and {self.number_of_reverse_counts}")
+            raise ValueError(
+                f"NUMBER_OF_RESETS must be >= 0 and NUMBER_OF_REVERSE_COUNTS >= 1, got "
+                f"{self.number_of_resets} and {self.number_of_reverse_counts}"
+            )
         if self.off_track_penalty_s < 0 or self.collision_penalty_s < 0:
             raise ValueError("OFF_TRACK_PENALTY and COLLISION_PENALTY must be >= 0 seconds")
 
@@ -113,8 +115,10 @@ class WorkerSettings:
         for key, supported in TIME_TRIAL_ONLY.items():
             value = str(params.get(key, supported)).strip()
             if value.upper() != supported:
-                raise ValueError(f"{source}: {key}: {value!r} is not supported yet; racer trains time trials only "
-                                 f"(RACE_TYPE TIME_TRIAL, NUMBER_OF_OBSTACLES 0, NUMBER_OF_BOT_CARS 0)")
+                raise ValueError(
+                    f"{source}: {key}: {value!r} is not supported yet; racer trains time trials only "
+                    f"(RACE_TYPE TIME_TRIAL, NUMBER_OF_OBSTACLES 0, NUMBER_OF_BOT_CARS 0)"
+                )
         clockwise = flag("TRACK_DIRECTION_CLOCKWISE", False) if "TRACK_DIRECTION_CLOCKWISE" in params else None
         try:
             return cls(
@@ -123,7 +127,9 @@ class WorkerSettings:
                 reverse_dir=flag("REVERSE_DIR", defaults.reverse_dir),
                 alternate_driving_direction=flag("ALTERNATE_DRIVING_DIRECTION", defaults.alternate_driving_direction),
                 change_start_position=flag("CHANGE_START_POSITION", defaults.change_start_position),
-                round_robin_advance_dist=float(params.get("ROUND_ROBIN_ADVANCE_DIST", defaults.round_robin_advance_dist)),
+                round_robin_advance_dist=float(
+                    params.get("ROUND_ROBIN_ADVANCE_DIST", defaults.round_robin_advance_dist)
+                ),
                 start_position_offset=float(params.get("START_POSITION_OFFSET", defaults.start_position_offset)),
                 min_eval_trials=int(params.get("MIN_EVAL_TRIALS", defaults.min_eval_trials)),
                 best_model_metric=str(params.get("BEST_MODEL_METRIC", defaults.best_model_metric)).lower(),
@@ -145,8 +151,20 @@ class WorkerSettings:
         return WorkerSettings(**values)
 
 
-def default_worker_settings(num_workers: int, track: str = DEFAULT_TRACK, worlds: tuple[str, ...] = WORLDS,
-                            domain_randomization: bool = False, car_randomization: bool = False) -> list[WorkerSettings]:
+def default_worker_settings(
+    num_workers: int,
+    track: str = DEFAULT_TRACK,
+    worlds: tuple[str, ...] = WORLDS,
+    domain_randomization: bool = False,
+    car_randomization: bool = False,
+) -> list[WorkerSettings]:
     """Worker i gets world i (cycling through `worlds`) on the same track."""
-    return [WorkerSettings(world=worlds[i % len(worlds)], track=track, domain_randomization=domain_randomization,
-                           car_randomization=car_randomization) for i in range(num_workers)]
+    return [
+        WorkerSettings(
+            world=worlds[i % len(worlds)],
+            track=track,
+            domain_randomization=domain_randomization,
+            car_randomization=car_randomization,
+        )
+        for i in range(num_workers)
+    ]

@@ -17,11 +17,12 @@ from tests.shared_data import SHARED_DATA
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 
-
 def _missing_data_message(count: int) -> str:
-    return (f"{count} selected tests read real DeepRacer files from {SHARED_DATA}, which is missing. The folder "
-            f"comes with the project's shared/ folder, checked out beside this repository (../shared/deepracer-data; "
-            f"README, 'Test data'). Run from such a checkout, or deselect those tests.")
+    return (
+        f"{count} selected tests read real DeepRacer files from {SHARED_DATA}, which is missing. The folder "
+        f"comes with the project's shared/ folder, checked out beside this repository (../shared/deepracer-data; "
+        f"README, 'Test data'). Run from such a checkout, or deselect those tests."
+    )
 
 
 def pytest_collection_modifyitems(config, items):
@@ -80,8 +81,9 @@ def s3_settings(minio_server, request) -> S3Settings:
     return settings
 
 
-def make_episode(steps: int, seed: int, continuous: bool = False, worker_id: int = 1, world: str = "carpet",
-                 policy_version: int = 3):
+def make_episode(
+    steps: int, seed: int, continuous: bool = False, worker_id: int = 1, world: str = "carpet", policy_version: int = 3
+):
     """A synthetic episode with camera frames and lidar, for transport and trainer-plumbing tests."""
     from racer.shared.episode import Episode
 
@@ -94,8 +96,13 @@ def make_episode(steps: int, seed: int, continuous: bool = False, worker_id: int
         actions=actions,
         rewards=rng.uniform(0, 1, steps).astype(np.float32),
         log_probs=rng.uniform(-2, 0, steps).astype(np.float32),
-        policy_version=policy_version, worker_id=worker_id, world=world, episode_index=seed,
-        final_status="off_track", progress=12.5, info={"lap_time_s": 0.0},
+        policy_version=policy_version,
+        worker_id=worker_id,
+        world=world,
+        episode_index=seed,
+        final_status="off_track",
+        progress=12.5,
+        info={"lap_time_s": 0.0},
     )
 
 
@@ -107,18 +114,32 @@ def episode_factory():
 CONSTANT_REWARD = "def reward_function(params):\n    return 1.0\n"
 
 
-def write_custom_files(folder: Path, *, steering_deg: tuple[float, ...] = (-30, 0, 30),
-                       reward_source: str = CONSTANT_REWARD, min_eval_trials: int | None = 1) -> Path:
+def write_custom_files(
+    folder: Path,
+    *,
+    steering_deg: tuple[float, ...] = (-30, 0, 30),
+    reward_source: str = CONSTANT_REWARD,
+    min_eval_trials: int | None = 1,
+) -> Path:
     """A small custom_files folder, as users bring it, for tests that train: shallow camera network, one speed,
     2 episodes per iteration; `min_eval_trials` None writes no workers.json."""
     folder.mkdir(parents=True)
     (folder / "reward_function.py").write_text(reward_source)
     actions = [{"steering_angle": angle, "speed": 1.0} for angle in steering_deg]
-    (folder / "model_metadata.json").write_text(json.dumps({
-        "action_space": actions, "sensor": ["FRONT_FACING_CAMERA"], "version": "5",
-        "neural_network": "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW", "training_algorithm": "clipped_ppo"}))
-    (folder / "hyperparameters.json").write_text(json.dumps({
-        "num_episodes_between_training": 2, "batch_size": 32, "num_epochs": 3}))
+    (folder / "model_metadata.json").write_text(
+        json.dumps(
+            {
+                "action_space": actions,
+                "sensor": ["FRONT_FACING_CAMERA"],
+                "version": "5",
+                "neural_network": "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW",
+                "training_algorithm": "clipped_ppo",
+            }
+        )
+    )
+    (folder / "hyperparameters.json").write_text(
+        json.dumps({"num_episodes_between_training": 2, "batch_size": 32, "num_epochs": 3})
+    )
     if min_eval_trials is not None:
         (folder / "workers.json").write_text(json.dumps({"MIN_EVAL_TRIALS": min_eval_trials}))
     return folder

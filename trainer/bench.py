@@ -58,8 +58,14 @@ EPISODE_STEPS = 100
 def bench_network(num_actions: int = 5, seed: int = 0) -> ActorCritic:
     torch.manual_seed(seed)
     actions = [{"steering_angle": -30 + 60 * i / max(1, num_actions - 1), "speed": 1.0} for i in range(num_actions)]
-    metadata = parse_model_metadata({"action_space": actions, "sensor": ["FRONT_FACING_CAMERA"],
-                                     "neural_network": "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW", "version": "5"})
+    metadata = parse_model_metadata(
+        {
+            "action_space": actions,
+            "sensor": ["FRONT_FACING_CAMERA"],
+            "neural_network": "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW",
+            "version": "5",
+        }
+    )
     return build_actor_critic(metadata)
 
 
@@ -69,18 +75,24 @@ def synthetic_episodes(transitions: int, num_actions: int, seed: int = 0) -> lis
     episodes = []
     for index, start in enumerate(range(0, transitions, EPISODE_STEPS)):
         steps = min(EPISODE_STEPS, transitions - start)
-        episodes.append(Episode(
-            observations={"FRONT_FACING_CAMERA": rng.integers(0, 256, size=(steps, 120, 160, 1), dtype=np.uint8)},
-            actions=rng.integers(0, num_actions, size=steps).astype(np.int64),
-            rewards=rng.uniform(0, 2, size=steps).astype(np.float32),
-            log_probs=np.full(steps, -np.log(num_actions), dtype=np.float32),
-            policy_version=0, worker_id=0, world="bench", episode_index=index,
-        ))
+        episodes.append(
+            Episode(
+                observations={"FRONT_FACING_CAMERA": rng.integers(0, 256, size=(steps, 120, 160, 1), dtype=np.uint8)},
+                actions=rng.integers(0, num_actions, size=steps).astype(np.int64),
+                rewards=rng.uniform(0, 2, size=steps).astype(np.float32),
+                log_probs=np.full(steps, -np.log(num_actions), dtype=np.float32),
+                policy_version=0,
+                worker_id=0,
+                world="bench",
+                episode_index=index,
+            )
+        )
     return episodes
 
 
-def plain_ppo_update(network: ActorCritic, hyperparameters: Hyperparameters, episodes: list[Episode],
-                     seed: int) -> list[dict[str, float]]:
+def plain_ppo_update(
+    network: ActorCritic, hyperparameters: Hyperparameters, episodes: list[Episode], seed: int
+) -> list[dict[str, float]]:
     """The baseline: the same clipped-PPO update written the obvious way, fp32 eager, no speed work.
 
     Also an independent cross-check of `PPOTrainer` (tests compare their results).
@@ -92,12 +104,15 @@ def plain_ppo_update(network: ActorCritic, hyperparameters: Hyperparameters, epi
     batch = make_training_batch(episodes, network.input_names)
 
     with torch.no_grad():
-        values = torch.cat([network.value(batch.select(torch.arange(i, min(i + 256, batch.size))))
-                            for i in range(0, batch.size, 256)])
-    advantages, targets = compute_gae(batch.rewards.numpy(), values.numpy(), batch.episode_ends.numpy(),
-                                      hp.discount_factor, GAE_LAMBDA)
-    advantages = torch.from_numpy(((advantages - advantages.mean()) / (advantages.std() + ADVANTAGE_STD_EPSILON))
-                                  .astype(np.float32))
+        values = torch.cat(
+            [network.value(batch.select(torch.arange(i, min(i + 256, batch.size)))) for i in range(0, batch.size, 256)]
+        )
+    advantages, targets = compute_gae(
+        batch.rewards.numpy(), values.numpy(), batch.episode_ends.numpy(), hp.discount_factor, GAE_LAMBDA
+    )
+    advantages = torch.from_numpy(
+        ((advantages - advantages.mean()) / (advantages.std() + ADVANTAGE_STD_EPSILON)).astype(np.float32)
+    )
     targets = torch.from_numpy(targets.astype(np.float32))
 
     stats = []
@@ -112,8 +127,9 @@ def plain_ppo_update(network: ActorCritic, hyperparameters: Hyperparameters, epi
             new = network.distribution(observations)
             ratio = torch.exp(new.log_prob(actions) - old.log_prob(actions))
             advantage = advantages[indices]
-            surrogate = -torch.min(ratio * advantage,
-                                   torch.clamp(ratio, 1 - CLIP_EPSILON, 1 + CLIP_EPSILON) * advantage).mean()
+            surrogate = -torch.min(
+                ratio * advantage, torch.clamp(ratio, 1 - CLIP_EPSILON, 1 + CLIP_EPSILON) * advantage
+            ).mean()
             value = network.value(observations)
             if hp.loss_type == "huber":
                 value_loss = nn.functional.huber_loss(value, targets[indices], delta=HUBER_DELTA)
@@ -132,18 +148,26 @@ def plain_ppo_update(network: ActorCritic, hyperparameters: Hyperparameters, epi
     return stats
 
 
-def _time_trainer(network: ActorCritic, hp: Hyperparameters, episodes: list[Episode], seed: int,
-                  threads: int, bf16_towers: bool | None) -> tuple[float, float]:
+def _time_trainer(
+    network: ActorCritic,
+    hp: Hyperparameters,
+    episodes: list[Episode],
+    seed: int,
+    threads: int,
+    bf16_towers: bool | None,
+) -> tuple[float, float]:
     """(wall s, CPU s) of one PPOTrainer.update; the two towers share the `threads` cores."""
-    trainer = PPOTrainer(network, hp, PPOSettings(seed=seed, threads_per_tower=max(1, threads // 2),
-                                                  bf16_towers=bf16_towers))
+    trainer = PPOTrainer(
+        network, hp, PPOSettings(seed=seed, threads_per_tower=max(1, threads // 2), bf16_towers=bf16_towers)
+    )
     start, cpu_start = time.perf_counter(), time.process_time()
     trainer.update(episodes)
     return time.perf_counter() - start, time.process_time() - cpu_start
 
 
-def _time_baseline(network: ActorCritic, hp: Hyperparameters, episodes: list[Episode], seed: int,
-                   threads: int) -> tuple[float, float]:
+def _time_baseline(
+    network: ActorCritic, hp: Hyperparameters, episodes: list[Episode], seed: int, threads: int
+) -> tuple[float, float]:
     torch.set_num_threads(threads)
     start, cpu_start = time.perf_counter(), time.process_time()
     plain_ppo_update(network, hp, episodes, seed)
@@ -155,16 +179,22 @@ def _time_baseline(network: ActorCritic, hp: Hyperparameters, episodes: list[Epi
 @click.option("--epochs", default=10, show_default=True, help="num_epochs.")
 @click.option("--batch-size", default=64, show_default=True, help="Minibatch size.")
 @click.option("--actions", "num_actions", default=5, show_default=True, help="Discrete actions.")
-@click.option("--threads", default=2, show_default=True,
-              help="Cores for each path: baseline intra-op threads; trainer threads_per_tower = threads // 2.")
+@click.option(
+    "--threads",
+    default=2,
+    show_default=True,
+    help="Cores for each path: baseline intra-op threads; trainer threads_per_tower = threads // 2.",
+)
 @click.option("--repeats", default=1, show_default=True, help="Timed runs per path (alternating); medians reported.")
 @click.option("--seed", default=0, show_default=True)
 @click.option("--fp32", is_flag=True, help="Keep the trainer's towers in fp32 even where the CPU has native bf16.")
-def ppo_bench_command(transitions: int, epochs: int, batch_size: int, num_actions: int, threads: int, repeats: int,
-                      seed: int, fp32: bool) -> None:
+def ppo_bench_command(
+    transitions: int, epochs: int, batch_size: int, num_actions: int, threads: int, repeats: int, seed: int, fp32: bool
+) -> None:
     """One PPO update: samples/s of the project trainer vs a plain fp32 eager baseline, as one JSON line."""
-    hp = Hyperparameters(batch_size=batch_size, num_epochs=epochs, lr=3e-4, beta_entropy=0.01, discount_factor=0.999,
-                         loss_type="huber")
+    hp = Hyperparameters(
+        batch_size=batch_size, num_epochs=epochs, lr=3e-4, beta_entropy=0.01, discount_factor=0.999, loss_type="huber"
+    )
     initial = bench_network(num_actions, seed)
     episodes = synthetic_episodes(transitions, num_actions, seed)
     warm_up = synthetic_episodes(2 * batch_size, num_actions, seed + 1)
@@ -184,26 +214,31 @@ def ppo_bench_command(transitions: int, epochs: int, batch_size: int, num_action
     trainer_s, trainer_cpu_s = zip(*trainer_runs, strict=True)
     baseline_s, baseline_cpu_s = zip(*baseline_runs, strict=True)
     trainer_median, baseline_median = statistics.median(trainer_s), statistics.median(baseline_s)
-    print(json.dumps({
-        "benchmark": "ppo",
-        "network": "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW",
-        "transitions": transitions,
-        "epochs": epochs,
-        "batch_size": batch_size,
-        "actions": num_actions,
-        "threads": threads,
-        "repeats": repeats,
-        "samples_per_s": round(samples / trainer_median, 1),
-        "baseline_samples_per_s": round(samples / baseline_median, 1),
-        "speedup": round(baseline_median / trainer_median, 3),
-        "trainer_s": [round(s, 2) for s in trainer_s],
-        "baseline_s": [round(s, 2) for s in baseline_s],
-        "trainer_cpu_s": [round(s, 2) for s in trainer_cpu_s],
-        "baseline_cpu_s": [round(s, 2) for s in baseline_cpu_s],
-        "cpu_capability": torch.backends.cpu.get_cpu_capability(),
-        "machine": platform.machine(),
-        "torch": torch.__version__,
-        "bf16_towers": (not fp32) and native_bf16_available(),
-        "fast_path": "policy/value towers on one core each, fused Adam, old policy once per update, bf16 towers "
-                     "where the CPU has native bf16; channels-last in both paths; no torch.compile",
-    }), flush=True)
+    print(
+        json.dumps(
+            {
+                "benchmark": "ppo",
+                "network": "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW",
+                "transitions": transitions,
+                "epochs": epochs,
+                "batch_size": batch_size,
+                "actions": num_actions,
+                "threads": threads,
+                "repeats": repeats,
+                "samples_per_s": round(samples / trainer_median, 1),
+                "baseline_samples_per_s": round(samples / baseline_median, 1),
+                "speedup": round(baseline_median / trainer_median, 3),
+                "trainer_s": [round(s, 2) for s in trainer_s],
+                "baseline_s": [round(s, 2) for s in baseline_s],
+                "trainer_cpu_s": [round(s, 2) for s in trainer_cpu_s],
+                "baseline_cpu_s": [round(s, 2) for s in baseline_cpu_s],
+                "cpu_capability": torch.backends.cpu.get_cpu_capability(),
+                "machine": platform.machine(),
+                "torch": torch.__version__,
+                "bf16_towers": (not fp32) and native_bf16_available(),
+                "fast_path": "policy/value towers on one core each, fused Adam, old policy once per update, bf16 towers "
+                "where the CPU has native bf16; channels-last in both paths; no torch.compile",
+            }
+        ),
+        flush=True,
+    )

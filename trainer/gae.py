@@ -34,7 +34,9 @@ def compute_gae(
     values = np.asarray(values, dtype=np.float64)
     ends = np.asarray(episode_ends, dtype=bool)
     if not (rewards.shape == values.shape == ends.shape) or rewards.ndim != 1:
-        raise ValueError(f"rewards {rewards.shape}, values {values.shape} and episode_ends {ends.shape} must be equal 1-D")
+        raise ValueError(
+            f"rewards {rewards.shape}, values {values.shape} and episode_ends {ends.shape} must be equal 1-D"
+        )
     if rewards.size and not ends[-1]:
         raise ValueError("the last transition must end an episode (DeepRacer bootstraps 0 after every episode)")
     advantages = np.zeros_like(rewards)

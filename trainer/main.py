@@ -15,10 +15,20 @@ from racer.shared.user_errors import user_error_types
 
 @click.command(name="trainer")
 @click.option("--model-prefix", required=True, help="Model name: the store prefix of this training run.")
-@click.option("--custom-files", type=click.Path(exists=True, file_okay=False, path_type=Path), required=True,
-              help="Folder with reward_function.py, model_metadata.json, hyperparameters.json [, workers.json].")
-@click.option("--workers", "num_workers", type=click.IntRange(1, 64), default=4, show_default=True,
-              help="Number of rollout workers that share each iteration's episodes.")
+@click.option(
+    "--custom-files",
+    type=click.Path(exists=True, file_okay=False, path_type=Path),
+    required=True,
+    help="Folder with reward_function.py, model_metadata.json, hyperparameters.json [, workers.json].",
+)
+@click.option(
+    "--workers",
+    "num_workers",
+    type=click.IntRange(1, 64),
+    default=4,
+    show_default=True,
+    help="Number of rollout workers that share each iteration's episodes.",
+)
 @click.option("--track", default=DEFAULT_TRACK, show_default=True)
 @click.option("--worlds", default=",".join(WORLDS), show_default=True)
 @click.option("--max-episodes", type=int, default=None, help="Default: term_cond_max_episodes.")
@@ -26,20 +36,58 @@ from racer.shared.user_errors import user_error_types
 @click.option("--pretrained-prefix", default=None, help="Clone the weights of this model's checkpoint.")
 @click.option("--pretrained-checkpoint", type=click.Choice(["last", "best"]), default="last", show_default=True)
 @click.option("--seed", type=int, default=0, show_default=True)
-@click.option("--max-memory-steps", type=click.IntRange(min=0), default=None,
-              help="Transitions one iteration trains on; later episodes are dropped as in DeepRacer. Default: "
-                   "MAX_MEMORY_STEPS, else DeepRacer's 10000 (shallow network) / 3000 (others); 0 = no cap.")
-@click.option("--domain-randomization", type=bool, default=False, show_default=True,
-              help="ENABLE_DOMAIN_RANDOMIZATION for every worker (random light colours per episode, as DeepRacer).")
-@click.option("--car-randomization", type=bool, default=False, show_default=True,
-              help="racer's RACER_CAR_RANDOMIZATION for every worker (tint, blur, noise, camera jitter).")
-@click.option("--sac-replay-memory-mb", type=click.FloatRange(1.0), default=1024.0, show_default=True,
-              help="SAC: memory for the trainer's replay ring (1 GiB holds ~55,000 single-camera transitions).")
-@click.option("--sac-updates-per-transition", type=click.FloatRange(0.0, min_open=True), default=1.0,
-              show_default=True, help="SAC: gradient steps per transition received (DeepRacer: 1).")
-def trainer_command(model_prefix, custom_files, num_workers, track, worlds, max_episodes, max_minutes,
-                    pretrained_prefix, pretrained_checkpoint, seed, max_memory_steps, domain_randomization,
-                    car_randomization, sac_replay_memory_mb, sac_updates_per_transition) -> None:
+@click.option(
+    "--max-memory-steps",
+    type=click.IntRange(min=0),
+    default=None,
+    help="Transitions one iteration trains on; later episodes are dropped as in DeepRacer. Default: "
+    "MAX_MEMORY_STEPS, else DeepRacer's 10000 (shallow network) / 3000 (others); 0 = no cap.",
+)
+@click.option(
+    "--domain-randomization",
+    type=bool,
+    default=False,
+    show_default=True,
+    help="ENABLE_DOMAIN_RANDOMIZATION for every worker (random light colours per episode, as DeepRacer).",
+)
+@click.option(
+    "--car-randomization",
+    type=bool,
+    default=False,
+    show_default=True,
+    help="racer's RACER_CAR_RANDOMIZATION for every worker (tint, blur, noise, camera jitter).",
+)
+@click.option(
+    "--sac-replay-memory-mb",
+    type=click.FloatRange(1.0),
+    default=1024.0,
+    show_default=True,
+    help="SAC: memory for the trainer's replay ring (1 GiB holds ~55,000 single-camera transitions).",
+)
+@click.option(
+    "--sac-updates-per-transition",
+    type=click.FloatRange(0.0, min_open=True),
+    default=1.0,
+    show_default=True,
+    help="SAC: gradient steps per transition received (DeepRacer: 1).",
+)
+def trainer_command(
+    model_prefix,
+    custom_files,
+    num_workers,
+    track,
+    worlds,
+    max_episodes,
+    max_minutes,
+    pretrained_prefix,
+    pretrained_checkpoint,
+    seed,
+    max_memory_steps,
+    domain_randomization,
+    car_randomization,
+    sac_replay_memory_mb,
+    sac_updates_per_transition,
+) -> None:
     """Run the trainer (clipped PPO or SAC, as model_metadata.json says): Redis and the store come from
     RACER_REDIS_URL / RACER_STORE. The custom files are checked before anything connects."""
     from racer.shared.config import max_memory_steps_from_env
@@ -57,12 +105,21 @@ def trainer_command(model_prefix, custom_files, num_workers, track, worlds, max_
     except user_error_types() as error:
         raise click.ClickException(str(error)) from error
     options = TrainerOptions(
-        model_prefix=model_prefix, custom_files=custom_files, num_workers=num_workers, track=track,
-        worlds=world_names, max_episodes=max_episodes,
-        max_minutes=max_minutes, seed=seed, pretrained_prefix=pretrained_prefix,
-        pretrained_checkpoint=pretrained_checkpoint, max_memory_steps=memory_cap,
-        domain_randomization=domain_randomization, car_randomization=car_randomization,
-        sac_replay_memory_mb=sac_replay_memory_mb, sac_updates_per_transition=sac_updates_per_transition,
+        model_prefix=model_prefix,
+        custom_files=custom_files,
+        num_workers=num_workers,
+        track=track,
+        worlds=world_names,
+        max_episodes=max_episodes,
+        max_minutes=max_minutes,
+        seed=seed,
+        pretrained_prefix=pretrained_prefix,
+        pretrained_checkpoint=pretrained_checkpoint,
+        max_memory_steps=memory_cap,
+        domain_randomization=domain_randomization,
+        car_randomization=car_randomization,
+        sac_replay_memory_mb=sac_replay_memory_mb,
+        sac_updates_per_transition=sac_updates_per_transition,
     )
     try:
         run_trainer(settings_from_env(), options)

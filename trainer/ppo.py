@@ -165,9 +165,12 @@ def make_training_batch(episodes: Sequence[Episode], input_names: Sequence[str])
     for episode in episodes:
         missing = [name for name in input_names if name not in episode.observations]
         if missing:
-            raise ValueError(f"episode {episode.episode_index} of worker {episode.worker_id} lacks observations {missing}")
+            raise ValueError(
+                f"episode {episode.episode_index} of worker {episode.worker_id} lacks observations {missing}"
+            )
     observations = {
-        name: torch.from_numpy(np.concatenate([episode.observations[name] for episode in episodes])) for name in input_names
+        name: torch.from_numpy(np.concatenate([episode.observations[name] for episode in episodes]))
+        for name in input_names
     }
     return TrainingBatch(
         observations=observations,
@@ -202,7 +205,9 @@ def _finite_episodes(episodes: Sequence[Episode]) -> list[Episode]:
         if bad:
             log.warning(
                 "NaN guard: dropped episode %d of worker %d (world %s): it contains NaN or infinite values",
-                episode.episode_index, episode.worker_id, episode.world,
+                episode.episode_index,
+                episode.worker_id,
+                episode.world,
             )
             continue
         kept.append(episode)
@@ -276,8 +281,12 @@ class PPOTrainer:
                 return self._train(batch, abandon)
             except NonFiniteError as error:
                 self._roll_back(f"{error.what} (attempt {attempt} of {self.settings.max_nan_retries + 1})")
-        log.warning("NaN guard: skipped this iteration's %d transitions; training continues from the last good "
-                    "weights with learning rate %g", batch.size, self.learning_rate)
+        log.warning(
+            "NaN guard: skipped this iteration's %d transitions; training continues from the last good "
+            "weights with learning rate %g",
+            batch.size,
+            self.learning_rate,
+        )
         return []
 
     def _roll_back(self, reason: str) -> None:
@@ -285,8 +294,12 @@ class PPOTrainer:
         self.last_good.restore()
         self.learning_rate = old_rate / 2
         self.nan_rollbacks += 1
-        log.warning("NaN guard: %s; rolled back to the weights before this update and halved the learning rate "
-                    "%g -> %g", reason, old_rate, self.learning_rate)
+        log.warning(
+            "NaN guard: %s; rolled back to the weights before this update and halved the learning rate %g -> %g",
+            reason,
+            old_rate,
+            self.learning_rate,
+        )
 
     # -- the algorithm -----------------------------------------------------------------------------------------------
 
@@ -295,8 +308,10 @@ class PPOTrainer:
         self, batch: TrainingBatch, towers: ThreadPoolExecutor
     ) -> tuple[ActionDistribution, torch.Tensor]:
         """The frozen old policy and V(s) for every transition, in chunks; the value tower on the second thread."""
-        chunks = [torch.arange(start, min(start + self.settings.inference_chunk_size, batch.size))
-                  for start in range(0, batch.size, self.settings.inference_chunk_size)]
+        chunks = [
+            torch.arange(start, min(start + self.settings.inference_chunk_size, batch.size))
+            for start in range(0, batch.size, self.settings.inference_chunk_size)
+        ]
         values = towers.submit(self._values, batch, chunks)  # grad mode is per thread: _values has its own no_grad
         distributions = [self.network.distribution(batch.select(chunk), self.tower_dtype) for chunk in chunks]
         return _cat_distributions(distributions), values.result()
@@ -325,8 +340,9 @@ class PPOTrainer:
         finally:
             torch.set_num_threads(previous_threads)
 
-    def _epochs(self, batch: TrainingBatch, towers: ThreadPoolExecutor,
-                abandon: Callable[[], bool] | None = None) -> list[EpochStats]:
+    def _epochs(
+        self, batch: TrainingBatch, towers: ThreadPoolExecutor, abandon: Callable[[], bool] | None = None
+    ) -> list[EpochStats]:
         hp = self.hyperparameters
         clip = self.settings.clip_epsilon
 
@@ -336,7 +352,11 @@ class PPOTrainer:
 
         # GAE with zero bootstrap after every episode, then advantages standardised over the iteration.
         advantages, value_targets = compute_gae(
-            batch.rewards.numpy(), values.numpy(), batch.episode_ends.numpy(), hp.discount_factor, self.settings.gae_lambda
+            batch.rewards.numpy(),
+            values.numpy(),
+            batch.episode_ends.numpy(),
+            hp.discount_factor,
+            self.settings.gae_lambda,
         )
         advantages = (advantages - advantages.mean()) / (advantages.std() + ADVANTAGE_STD_EPSILON)
         advantages = torch.from_numpy(advantages.astype(np.float32))

@@ -64,29 +64,42 @@ class PreflightReport:
 def _check_files_present(folder: Path) -> None:
     missing = [name for name in CUSTOM_FILES if not (folder / name).is_file()]
     if missing:
-        raise RunConfigError(f"{folder}: missing {', '.join(missing)}; fix: put the file(s) in the custom files "
-                             f"folder (examples in custom_files/ of this repository)")
+        raise RunConfigError(
+            f"{folder}: missing {', '.join(missing)}; fix: put the file(s) in the custom files "
+            f"folder (examples in custom_files/ of this repository)"
+        )
 
 
-def _check_combination(metadata: ModelMetadata, hyperparameters: Hyperparameters, metadata_path: Path,
-                       hyperparameters_path: Path, given_keys: set[str]) -> list[str]:
+def _check_combination(
+    metadata: ModelMetadata,
+    hyperparameters: Hyperparameters,
+    metadata_path: Path,
+    hyperparameters_path: Path,
+    given_keys: set[str],
+) -> list[str]:
     """Refuse what cannot train; return notes about settings the algorithm ignores."""
     warnings: list[str] = []
     if metadata.training_algorithm == "clipped_ppo":
         if "exploration_type" in given_keys and hyperparameters.exploration_type not in PPO_EXPLORATION_TYPES:
-            raise _refuse(str(hyperparameters_path), "exploration_type",
-                          f"{hyperparameters.exploration_type!r} is for SAC; DeepRacer's clipped PPO stops with "
-                          f"'Unknown exploration_type' ({metadata_path} has training_algorithm clipped_ppo)",
-                          "set exploration_type to 'categorical' (or 'e-greedy' for a discrete action space), "
-                          "or training_algorithm to 'sac' with a continuous action space")
+            raise _refuse(
+                str(hyperparameters_path),
+                "exploration_type",
+                f"{hyperparameters.exploration_type!r} is for SAC; DeepRacer's clipped PPO stops with "
+                f"'Unknown exploration_type' ({metadata_path} has training_algorithm clipped_ppo)",
+                "set exploration_type to 'categorical' (or 'e-greedy' for a discrete action space), "
+                "or training_algorithm to 'sac' with a continuous action space",
+            )
         if metadata.is_continuous and hyperparameters.exploration_type == "e-greedy":
-            warnings.append(f"{hyperparameters_path}: exploration_type: 'e-greedy' has no effect on a continuous "
-                            f"action space; the policy samples its Gaussian (as DeepRacer does)")
+            warnings.append(
+                f"{hyperparameters_path}: exploration_type: 'e-greedy' has no effect on a continuous "
+                f"action space; the policy samples its Gaussian (as DeepRacer does)"
+            )
     elif metadata.training_algorithm == "sac":
         ignored = sorted(key for key in SAC_IGNORED_KEYS if key in given_keys)
         if ignored:
-            warnings.append(f"{hyperparameters_path}: {', '.join(ignored)}: not used by SAC (DeepRacer ignores "
-                            f"them too)")
+            warnings.append(
+                f"{hyperparameters_path}: {', '.join(ignored)}: not used by SAC (DeepRacer ignores them too)"
+            )
     return warnings
 
 
@@ -95,8 +108,14 @@ def _given_keys(path: Path) -> set[str]:
     return set(data) if isinstance(data, dict) else set()
 
 
-def load_worker_settings(custom_files: Path, num_workers: int, track: str, worlds: tuple[str, ...],
-                         domain_randomization: bool = False, car_randomization: bool = False) -> list[WorkerSettings]:
+def load_worker_settings(
+    custom_files: Path,
+    num_workers: int,
+    track: str,
+    worlds: tuple[str, ...],
+    domain_randomization: bool = False,
+    car_randomization: bool = False,
+) -> list[WorkerSettings]:
     """Defaults (world i to worker i, one track) plus the optional custom_files/workers.json.
 
     workers.json holds DeepRacer training_params keys applied to every worker, and optionally
@@ -135,30 +154,46 @@ def check_clone_source(store: ObjectStore, source_prefix: str, metadata: ModelMe
     try:
         raw = store.get_bytes(source_layout.model_metadata)
     except ObjectNotFoundError as error:
-        raise CloneError(f"cannot clone {source_prefix!r}: it has no model/model_metadata.json in "
-                         f"{store.describe()}") from error
+        raise CloneError(
+            f"cannot clone {source_prefix!r}: it has no model/model_metadata.json in {store.describe()}"
+        ) from error
     source = parse_model_metadata(json.loads(raw), source=f"{store.describe()}/{source_layout.model_metadata}")
     if source.training_algorithm != metadata.training_algorithm:
-        raise CloneError(f"{ours}: training_algorithm: cannot clone {source_prefix!r}: it was trained with "
-                         f"{source.training_algorithm}, this model asks for {metadata.training_algorithm}; the "
-                         f"networks differ (SAC clones only SAC, clipped PPO only clipped PPO); fix: clone a "
-                         f"{metadata.training_algorithm} model, or train this one from scratch")
+        raise CloneError(
+            f"{ours}: training_algorithm: cannot clone {source_prefix!r}: it was trained with "
+            f"{source.training_algorithm}, this model asks for {metadata.training_algorithm}; the "
+            f"networks differ (SAC clones only SAC, clipped PPO only clipped PPO); fix: clone a "
+            f"{metadata.training_algorithm} model, or train this one from scratch"
+        )
     if source.action_space_type != metadata.action_space_type:
-        raise CloneError(f"cannot clone {source_prefix!r}: its action space is {source.action_space_type}, "
-                         f"{ours} is {metadata.action_space_type}")
+        raise CloneError(
+            f"cannot clone {source_prefix!r}: its action space is {source.action_space_type}, "
+            f"{ours} is {metadata.action_space_type}"
+        )
     if source.num_actions != metadata.num_actions:
-        raise CloneError(f"cannot clone {source_prefix!r}: it has {source.num_actions} actions, "
-                         f"{ours} has {metadata.num_actions} actions; the number of actions must match "
-                         f"(their values may change)")
+        raise CloneError(
+            f"cannot clone {source_prefix!r}: it has {source.num_actions} actions, "
+            f"{ours} has {metadata.num_actions} actions; the number of actions must match "
+            f"(their values may change)"
+        )
     if (source.sensors, source.neural_network) != (metadata.sensors, metadata.neural_network):
-        raise CloneError(f"cannot clone {source_prefix!r}: sensors/network {source.sensors} "
-                         f"{source.neural_network} differ from {ours}: {metadata.sensors} "
-                         f"{metadata.neural_network}")
+        raise CloneError(
+            f"cannot clone {source_prefix!r}: sensors/network {source.sensors} "
+            f"{source.neural_network} differ from {ours}: {metadata.sensors} "
+            f"{metadata.neural_network}"
+        )
 
 
-def preflight(custom_files: Path, num_workers: int, track: str, worlds: tuple[str, ...],
-              pretrained_prefix: str | None = None, store: ObjectStore | None = None,
-              domain_randomization: bool = False, car_randomization: bool = False) -> PreflightReport:
+def preflight(
+    custom_files: Path,
+    num_workers: int,
+    track: str,
+    worlds: tuple[str, ...],
+    pretrained_prefix: str | None = None,
+    store: ObjectStore | None = None,
+    domain_randomization: bool = False,
+    car_randomization: bool = False,
+) -> PreflightReport:
     """Every check that needs no running server. Raises a user error (file, field, fix) or returns the parsed
     settings and warnings. `store`: where a clone source is looked up (only when it needs no server to read)."""
     folder = Path(custom_files)
@@ -166,8 +201,9 @@ def preflight(custom_files: Path, num_workers: int, track: str, worlds: tuple[st
     metadata_path, hyperparameters_path = folder / "model_metadata.json", folder / "hyperparameters.json"
     metadata = load_model_metadata(metadata_path)
     hyperparameters, warnings = load_hyperparameters(hyperparameters_path)
-    warnings += _check_combination(metadata, hyperparameters, metadata_path, hyperparameters_path,
-                                   _given_keys(hyperparameters_path))
+    warnings += _check_combination(
+        metadata, hyperparameters, metadata_path, hyperparameters_path, _given_keys(hyperparameters_path)
+    )
     load_reward_function(folder / "reward_function.py")
     workers = load_worker_settings(folder, num_workers, track, worlds, domain_randomization, car_randomization)
     for worker_id, worker in enumerate(workers):
@@ -177,9 +213,11 @@ def preflight(custom_files: Path, num_workers: int, track: str, worlds: tuple[st
             raise RunConfigError(f"worker {worker_id}: track {worker.track!r}: {error}") from error
     if hyperparameters.num_episodes_between_training < num_workers:
         idle = num_workers - hyperparameters.num_episodes_between_training
-        warnings.append(f"{hyperparameters_path}: num_episodes_between_training: "
-                        f"{hyperparameters.num_episodes_between_training} episodes per iteration for {num_workers} "
-                        f"workers: {idle} worker(s) only wait (worker 0 still evaluates)")
+        warnings.append(
+            f"{hyperparameters_path}: num_episodes_between_training: "
+            f"{hyperparameters.num_episodes_between_training} episodes per iteration for {num_workers} "
+            f"workers: {idle} worker(s) only wait (worker 0 still evaluates)"
+        )
     if pretrained_prefix and store is not None:
         check_clone_source(store, pretrained_prefix, metadata, str(metadata_path))
     return PreflightReport(metadata, hyperparameters, tuple(workers), tuple(warnings))

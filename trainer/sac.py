@@ -104,8 +104,9 @@ class SACTrainer:
         self.hyperparameters = hyperparameters
         settings = settings or SACSettings()
         self.settings = settings
-        self.optimizer = torch.optim.Adam(networks.trainable_parameters(), lr=hyperparameters.lr, betas=ADAM_BETAS,
-                                          eps=ADAM_EPSILON, fused=True)
+        self.optimizer = torch.optim.Adam(
+            networks.trainable_parameters(), lr=hyperparameters.lr, betas=ADAM_BETAS, eps=ADAM_EPSILON, fused=True
+        )
         seed = settings.seed if settings.seed is not None else int(np.random.SeedSequence().generate_state(1)[0])
         self.rng = np.random.default_rng(seed)
         self.generator = torch.Generator().manual_seed(seed)
@@ -147,8 +148,12 @@ class SACTrainer:
                 return [self._train(steps, minibatch, abandon)]
             except NonFiniteError as error:
                 self._roll_back(f"{error.what} (attempt {attempt} of {self.settings.max_nan_retries + 1})")
-        log.warning("NaN guard: skipped this iteration's %d gradient steps; training continues from the last good "
-                    "weights with learning rate %g", steps, self.learning_rate)
+        log.warning(
+            "NaN guard: skipped this iteration's %d gradient steps; training continues from the last good "
+            "weights with learning rate %g",
+            steps,
+            self.learning_rate,
+        )
         return []
 
     def _roll_back(self, reason: str) -> None:
@@ -156,8 +161,12 @@ class SACTrainer:
         self.last_good.restore()
         self.learning_rate = old_rate / 2
         self.nan_rollbacks += 1
-        log.warning("NaN guard: %s; rolled back to the weights before this update and halved the learning rate "
-                    "%g -> %g", reason, old_rate, self.learning_rate)
+        log.warning(
+            "NaN guard: %s; rolled back to the weights before this update and halved the learning rate %g -> %g",
+            reason,
+            old_rate,
+            self.learning_rate,
+        )
 
     def _train(self, steps: int, minibatch: int, abandon: Callable[[], bool] | None = None) -> SACStats:
         previous_threads = torch.get_num_threads()
@@ -177,10 +186,18 @@ class SACTrainer:
                 raise NonFiniteError(f"weight {bad_weight} after {steps} gradient steps")
         finally:
             torch.set_num_threads(previous_threads)
-        return SACStats(gradient_steps=steps, minibatch_size=minibatch, policy_loss=sums["policy"] / steps,
-                        q_loss=sums["q"] / steps, value_loss=sums["v"] / steps, entropy=sums["entropy"] / steps,
-                        mean_q=sums["mean_q"] / steps, learning_rate=self.learning_rate,
-                        gradient_norm=sums["grad_norm"] / steps, replay_transitions=len(self.replay))
+        return SACStats(
+            gradient_steps=steps,
+            minibatch_size=minibatch,
+            policy_loss=sums["policy"] / steps,
+            q_loss=sums["q"] / steps,
+            value_loss=sums["v"] / steps,
+            entropy=sums["entropy"] / steps,
+            mean_q=sums["mean_q"] / steps,
+            learning_rate=self.learning_rate,
+            gradient_norm=sums["grad_norm"] / steps,
+            replay_transitions=len(self.replay),
+        )
 
     def _step(self, minibatch: int, step: int) -> dict[str, float]:
         hp, nets, dtype = self.hyperparameters, self.networks, self.tower_dtype
@@ -215,13 +232,21 @@ class SACTrainer:
         grad_norm = gradient_norm(nets.trainable_parameters())
         check_finite(grad_norm, f"gradient at gradient step {step}")
         self.optimizer.step()
-        return {"policy": policy_value, "q": q_value, "v": value_value, "entropy": -float(sample.log_prob.detach().mean()),
-                "mean_q": float(min_q_new.detach().mean()), "grad_norm": grad_norm}
+        return {
+            "policy": policy_value,
+            "q": q_value,
+            "v": value_value,
+            "entropy": -float(sample.log_prob.detach().mean()),
+            "mean_q": float(min_q_new.detach().mean()),
+            "grad_norm": grad_norm,
+        }
 
 
 def format_sac_training_line(stats: SACStats) -> str:
     """One line per iteration, in the spirit of DeepRacer's `Policy training>` line."""
-    return (f"Policy training> Policy loss={stats.policy_loss}, Q loss={stats.q_loss}, V loss={stats.value_loss}, "
-            f"Entropy={stats.entropy}, Mean Q={stats.mean_q}, training steps={stats.gradient_steps}, "
-            f"batch size={stats.minibatch_size}, replay transitions={stats.replay_transitions}, "
-            f"learning_rate={stats.learning_rate}")
+    return (
+        f"Policy training> Policy loss={stats.policy_loss}, Q loss={stats.q_loss}, V loss={stats.value_loss}, "
+        f"Entropy={stats.entropy}, Mean Q={stats.mean_q}, training steps={stats.gradient_steps}, "
+        f"batch size={stats.minibatch_size}, replay transitions={stats.replay_transitions}, "
+        f"learning_rate={stats.learning_rate}"
+    )

@@ -121,25 +121,42 @@ class Trainer:
     # ---- set-up ----------------------------------------------------------------------------------
     def _read_custom_files(self) -> tuple[ModelMetadata, Hyperparameters, bytes, list[WorkerSettings]]:
         folder = self.options.custom_files
-        report = preflight(folder, self.options.num_workers, self.options.track, self.options.worlds,
-                           domain_randomization=self.options.domain_randomization,
-                           car_randomization=self.options.car_randomization)
+        report = preflight(
+            folder,
+            self.options.num_workers,
+            self.options.track,
+            self.options.worlds,
+            domain_randomization=self.options.domain_randomization,
+            car_randomization=self.options.car_randomization,
+        )
         for warning in report.warnings:
             log.warning(warning)
-        return (report.model_metadata, report.hyperparameters, (folder / "reward_function.py").read_bytes(),
-                list(report.workers))
+        return (
+            report.model_metadata,
+            report.hyperparameters,
+            (folder / "reward_function.py").read_bytes(),
+            list(report.workers),
+        )
 
-    def _upload_run_files(self, metadata_bytes: bytes, hyperparameters: Hyperparameters, metadata: ModelMetadata,
-                          reward_bytes: bytes, workers: list[WorkerSettings]) -> None:
+    def _upload_run_files(
+        self,
+        metadata_bytes: bytes,
+        hyperparameters: Hyperparameters,
+        metadata: ModelMetadata,
+        reward_bytes: bytes,
+        workers: list[WorkerSettings],
+    ) -> None:
         self.store.put_bytes(self.layout.model_metadata, metadata_bytes)
-        self.store.put_bytes(self.layout.hyperparameters,
-                             hyperparameters_to_json_bytes(hyperparameters, metadata.training_algorithm))
+        self.store.put_bytes(
+            self.layout.hyperparameters, hyperparameters_to_json_bytes(hyperparameters, metadata.training_algorithm)
+        )
         self.store.put_bytes(self.layout.reward_function, reward_bytes)
         params = [w.to_training_params(self.options.model_prefix, len(workers)) for w in workers]
         for worker_id, worker_params in enumerate(params):
             if worker_id == 0 or worker_params != params[0]:
-                self.store.put_bytes(self.layout.training_params(worker_id),
-                                     training_params_to_yaml(worker_params).encode())
+                self.store.put_bytes(
+                    self.layout.training_params(worker_id), training_params_to_yaml(worker_params).encode()
+                )
         self.store.put_bytes(self.layout.ip_done, b"done")
 
     def setup(self) -> int:
@@ -149,11 +166,20 @@ class Trainer:
         self.metadata, self.hyperparameters = metadata, hyperparameters
         self.network = build_network_for_metadata(metadata)
         if isinstance(self.network, SACNetworks):
-            self.learner = SACTrainer(self.network, hyperparameters, SACSettings(
-                replay_memory_bytes=int(self.options.sac_replay_memory_mb * 2**20),
-                updates_per_transition=self.options.sac_updates_per_transition, seed=self.options.seed))
-            log.info("SAC replay memory: %d transitions in %.0f MB", self.learner.replay.capacity,
-                     self.options.sac_replay_memory_mb)
+            self.learner = SACTrainer(
+                self.network,
+                hyperparameters,
+                SACSettings(
+                    replay_memory_bytes=int(self.options.sac_replay_memory_mb * 2**20),
+                    updates_per_transition=self.options.sac_updates_per_transition,
+                    seed=self.options.seed,
+                ),
+            )
+            log.info(
+                "SAC replay memory: %d transitions in %.0f MB",
+                self.learner.replay.capacity,
+                self.options.sac_replay_memory_mb,
+            )
         else:
             self.learner = PPOTrainer(self.network, hyperparameters, PPOSettings(seed=self.options.seed))
         latest = self.checkpoints.latest_name()
@@ -177,16 +203,18 @@ class Trainer:
     def _clone_from_pretrained(self) -> None:
         """Start from another model's weights. Action values may change; the number of actions may not."""
         source_prefix = self.options.pretrained_prefix
-        check_clone_source(self.store, source_prefix, self.metadata,
-                           str(self.options.custom_files / "model_metadata.json"))
+        check_clone_source(
+            self.store, source_prefix, self.metadata, str(self.options.custom_files / "model_metadata.json")
+        )
         source = CheckpointStore(self.store, source_prefix)
         name = source.select(self.options.pretrained_checkpoint)
         source.restore(name, self.network)  # weights only: a clone starts a fresh optimiser
         print(f"Cloned weights from {source_prefix}/model/{name}", flush=True)
 
     def _save(self, iteration: int) -> str:
-        name = self.checkpoints.save(iteration, self.env_steps, self.network, self.learner.optimizer, self.metadata,
-                                     self.hyperparameters)
+        name = self.checkpoints.save(
+            iteration, self.env_steps, self.network, self.learner.optimizer, self.metadata, self.hyperparameters
+        )
         print(f"Checkpoint> Saving in path=['{self.layout.key(model_layout.MODEL_DIR, name)}']", flush=True)
         return name
 
@@ -203,17 +231,29 @@ class Trainer:
         def consider(received: ReceivedBatch) -> None:
             batch = received.batch
             if self._keep_as_replay(batch, iteration):
-                log.info("SAC: %d episodes of checkpoint %d (one behind) from worker %d go into the replay memory",
-                         len(batch.episodes), batch.policy_version, batch.worker_id)
+                log.info(
+                    "SAC: %d episodes of checkpoint %d (one behind) from worker %d go into the replay memory",
+                    len(batch.episodes),
+                    batch.policy_version,
+                    batch.worker_id,
+                )
                 self.learner.add_experience(batch.episodes)
                 self.channel.ack(received.stream_id)
             elif batch.iteration != iteration or batch.policy_version != iteration:
-                log.info("dropping a stale batch (iteration %d, policy %d) while training iteration %d",
-                         batch.iteration, batch.policy_version, iteration)
+                log.info(
+                    "dropping a stale batch (iteration %d, policy %d) while training iteration %d",
+                    batch.iteration,
+                    batch.policy_version,
+                    iteration,
+                )
                 self.channel.ack(received.stream_id)
             elif batch.share in got or batch.share not in expected:
-                log.info("dropping a duplicate batch for share %d of iteration %d from worker %d",
-                         batch.share, iteration, batch.worker_id)
+                log.info(
+                    "dropping a duplicate batch for share %d of iteration %d from worker %d",
+                    batch.share,
+                    iteration,
+                    batch.worker_id,
+                )
                 self.channel.ack(received.stream_id)
             else:
                 got[batch.share] = received
@@ -241,21 +281,31 @@ class Trainer:
                     if not candidates:
                         continue
                     replays[share] = (candidates[0], now)
-                    log.warning("worker %d (share %d of iteration %d) has no heartbeat; worker %d replays it",
-                                share, share, iteration, candidates[0])
+                    log.warning(
+                        "worker %d (share %d of iteration %d) has no heartbeat; worker %d replays it",
+                        share,
+                        share,
+                        iteration,
+                        candidates[0],
+                    )
                     self.channel.request_replay(iteration, share, candidates[0])
             if now > next_announcement_check:
                 next_announcement_check = now + self.options.announcement_check_s
                 self._announce_again_if_lost(iteration)
             if now > next_notice:
-                log.info("iteration %d: waiting for the episodes of shares %s (live workers %s)",
-                         iteration, missing, sorted(live))
+                log.info(
+                    "iteration %d: waiting for the episodes of shares %s (live workers %s)",
+                    iteration,
+                    missing,
+                    sorted(live),
+                )
                 next_notice = now + 60
             if now - waiting_since > self.options.share_timeout_s:
                 raise TimeoutError(
                     f"iteration {iteration}: no episodes for shares {missing} after "
                     f"{self.options.share_timeout_s:.0f} s (live workers: {sorted(live) or 'none'}); "
-                    f"are the rollout workers running against {self.channel.key('episodes')}?")
+                    f"are the rollout workers running against {self.channel.key('episodes')}?"
+                )
         return got
 
     def _keep_as_replay(self, batch, iteration: int) -> bool:
@@ -271,10 +321,16 @@ class Trainer:
         latest = self.channel.latest_iteration_announcement()
         if latest is not None and latest.kind == "iteration" and latest.iteration == iteration:
             return
-        log.warning("the announcement of iteration %d is no longer in Redis (restarted without it?); announcing it "
-                    "again", iteration)
-        self.channel.announce_iteration(iteration, self.checkpoints.latest_name(),
-                                        self.hyperparameters.num_episodes_between_training, self.options.num_workers)
+        log.warning(
+            "the announcement of iteration %d is no longer in Redis (restarted without it?); announcing it again",
+            iteration,
+        )
+        self.channel.announce_iteration(
+            iteration,
+            self.checkpoints.latest_name(),
+            self.hyperparameters.num_episodes_between_training,
+            self.options.num_workers,
+        )
 
     def _memory_cap(self) -> int | None:
         if self.options.max_memory_steps is not None:
@@ -286,14 +342,25 @@ class Trainer:
         capped = cap_episodes(global_episode_order(shares, self.options.num_workers), self._memory_cap())
         episodes = list(capped.kept)
         if capped.dropped:
-            log.info("iteration %d: training on the first %d episodes (%d steps); %d later episodes (%d steps) are "
-                     "beyond the MAX_MEMORY_STEPS cap of %d steps, as in DeepRacer", iteration, len(episodes),
-                     capped.kept_steps, len(capped.dropped), capped.dropped_steps, capped.max_steps)
+            log.info(
+                "iteration %d: training on the first %d episodes (%d steps); %d later episodes (%d steps) are "
+                "beyond the MAX_MEMORY_STEPS cap of %d steps, as in DeepRacer",
+                iteration,
+                len(episodes),
+                capped.kept_steps,
+                len(capped.dropped),
+                capped.dropped_steps,
+                capped.max_steps,
+            )
         for episode in episodes:
             self.episodes_consumed += 1
             self.env_steps += episode.steps
-            print(format_training_episode_line(episode.worker_id, self.episodes_consumed, episode.total_reward,
-                                               self.env_steps, iteration), flush=True)
+            print(
+                format_training_episode_line(
+                    episode.worker_id, self.episodes_consumed, episode.total_reward, self.env_steps, iteration
+                ),
+                flush=True,
+            )
         self.episodes_consumed += len(capped.dropped)  # played, so they count towards the episode limit
         stop_seen: list[float] = []
 
@@ -306,12 +373,19 @@ class Trainer:
         try:
             all_stats = self.learner.update(episodes, abandon=abandon)
         except UpdateAbandoned:
-            log.warning("stopping: abandoned the update of iteration %d after %.0f s; the final checkpoint is %s",
-                        iteration, STOP_UPDATE_GRACE_S, self.checkpoints.latest_name())
+            log.warning(
+                "stopping: abandoned the update of iteration %d after %.0f s; the final checkpoint is %s",
+                iteration,
+                STOP_UPDATE_GRACE_S,
+                self.checkpoints.latest_name(),
+            )
             raise StopRequested() from None
         for stats in all_stats:
-            line = format_sac_training_line(stats) if isinstance(self.learner, SACTrainer) else \
-                format_policy_training_line(stats)
+            line = (
+                format_sac_training_line(stats)
+                if isinstance(self.learner, SACTrainer)
+                else format_policy_training_line(stats)
+            )
             print(line, flush=True)
         summary = self._summary(iteration, episodes, rollout_wall_s)
         summary.update(episodes_dropped=len(capped.dropped), steps_dropped=capped.dropped_steps)
@@ -332,10 +406,13 @@ class Trainer:
             "experience_steps_per_s": steps / max(rollout_wall_s, 1e-6),
             "elapsed_s": time.monotonic() - self.started,
             "worlds": {
-                world: {"episodes": len(items), "mean_reward": float(np.mean([e.total_reward for e in items])),
-                        "mean_progress": float(np.mean([e.progress for e in items])),
-                        "completion_rate": float(np.mean([e.final_status == "lap_complete" for e in items])),
-                        "steps_per_s": _world_steps_per_s(items)}
+                world: {
+                    "episodes": len(items),
+                    "mean_reward": float(np.mean([e.total_reward for e in items])),
+                    "mean_progress": float(np.mean([e.progress for e in items])),
+                    "completion_rate": float(np.mean([e.final_status == "lap_complete" for e in items])),
+                    "steps_per_s": _world_steps_per_s(items),
+                }
                 for world, items in by_world.items()
             },
         }
@@ -388,24 +465,32 @@ class Trainer:
             if time_limit is not None:
                 time_limit.cancel()
             if not stopped_cleanly:
-                print(f"Trainer failed during iteration {self.iteration}; the run is not finished: restart the trainer "
-                      f"to resume from {self.checkpoints.latest_name()}", flush=True)
+                print(
+                    f"Trainer failed during iteration {self.iteration}; the run is not finished: restart the trainer "
+                    f"to resume from {self.checkpoints.latest_name()}",
+                    flush=True,
+                )
         iteration = self.iteration
         self.store.put_bytes(self.layout.finished, b"")
         try:
             self.channel.announce_finished(iteration)
         except RedisUnavailableError as error:
-            log.warning("could not tell the workers that training finished (%s); they stop on their own signal "
-                        "or time-out", error)
-        print(f"Training finished at checkpoint {iteration} ({self.episodes_consumed} episodes, "
-              f"{self.env_steps} steps)", flush=True)
+            log.warning(
+                "could not tell the workers that training finished (%s); they stop on their own signal or time-out",
+                error,
+            )
+        print(
+            f"Training finished at checkpoint {iteration} ({self.episodes_consumed} episodes, {self.env_steps} steps)",
+            flush=True,
+        )
 
     def _iterate(self, iteration: int) -> None:
         """Announce, collect, train and save one iteration (`self.iteration` moves on once its checkpoint is
         saved)."""
         name = self.checkpoints.latest_name()
-        self.channel.announce_iteration(iteration, name, self.hyperparameters.num_episodes_between_training,
-                                        self.options.num_workers)
+        self.channel.announce_iteration(
+            iteration, name, self.hyperparameters.num_episodes_between_training, self.options.num_workers
+        )
         announced = time.monotonic()
         batches = self.collect(iteration)
         summary = self.train_iteration(iteration, batches, time.monotonic() - announced)

@@ -33,10 +33,24 @@ def action_distributions(steps: pd.DataFrame, path: Path) -> Path:
     for number, span in enumerate(spans):
         chosen = driving[driving["iteration"].isin(span)]
         label = f"iterations {span[0]}-{span[-1]} ({len(chosen)} steps)"
-        steer_ax.hist(chosen["steer"], bins=steer_bins, density=True, histtype="step", linewidth=1.6,
-                      color=f"C{number}", label=label)
-        speed_ax.hist(chosen["throttle"], bins=speed_bins, density=True, histtype="step", linewidth=1.6,
-                      color=f"C{number}", label=label)
+        steer_ax.hist(
+            chosen["steer"],
+            bins=steer_bins,
+            density=True,
+            histtype="step",
+            linewidth=1.6,
+            color=f"C{number}",
+            label=label,
+        )
+        speed_ax.hist(
+            chosen["throttle"],
+            bins=speed_bins,
+            density=True,
+            histtype="step",
+            linewidth=1.6,
+            color=f"C{number}",
+            label=label,
+        )
     steer_ax.set_xlabel("steering (deg, + = left)")
     speed_ax.set_xlabel("speed (m/s)")
     for ax in (steer_ax, speed_ax):
@@ -45,8 +59,9 @@ def action_distributions(steps: pd.DataFrame, path: Path) -> Path:
         ax.grid(alpha=0.3)
     steer_ax.set_title("steering over training")
     speed_ax.set_title("speed over training")
-    cells = joint_ax.hist2d(driving["steer"], driving["throttle"], bins=[steer_bins, speed_bins], cmap="Blues",
-                            cmin=1)[3]
+    cells = joint_ax.hist2d(driving["steer"], driving["throttle"], bins=[steer_bins, speed_bins], cmap="Blues", cmin=1)[
+        3
+    ]
     figure.colorbar(cells, ax=joint_ax, label="steps")
     joint_ax.set_xlabel("steering (deg)")
     joint_ax.set_ylabel("speed (m/s)")

@@ -51,9 +51,30 @@ def episodes(steps: pd.DataFrame) -> pd.DataFrame:
         progress_pct = table["progress_pct"].where(table["progress_pct"] > 0)
         table["projected_lap_time_s"] = table["time_s"] * 100.0 / progress_pct
     table["lap_time_s"] = table["time_s"].where(table["lap_complete"])
-    order = ["phase", "run", "worker", "iteration", "episode", "steps", "start_waypoint", "progress_pct", "time_s",
-             "distance_m", "speed_mps", "throttle_mps", "reward", "status", "lap_complete", "lap_time_s",
-             "projected_lap_time_s", "resets", "off_track", "crashed", "penalty_s", "start_tstamp_s"]
+    order = [
+        "phase",
+        "run",
+        "worker",
+        "iteration",
+        "episode",
+        "steps",
+        "start_waypoint",
+        "progress_pct",
+        "time_s",
+        "distance_m",
+        "speed_mps",
+        "throttle_mps",
+        "reward",
+        "status",
+        "lap_complete",
+        "lap_time_s",
+        "projected_lap_time_s",
+        "resets",
+        "off_track",
+        "crashed",
+        "penalty_s",
+        "start_tstamp_s",
+    ]
     return table[order].sort_values(["phase", "run", "worker", "start_tstamp_s"], ignore_index=True)
 
 
@@ -89,8 +110,21 @@ def evaluation_laps(episode_table: pd.DataFrame) -> pd.DataFrame:
     """One row per evaluation lap (trial), numbered from 1 per evaluation run like EvaluationMetrics' `trial`."""
     laps = episode_table[episode_table["phase"] == EVALUATION].copy()
     laps["lap"] = laps.groupby("run").cumcount() + 1
-    columns = ["run", "lap", "lap_time_s", "time_s", "progress_pct", "lap_complete", "status", "resets", "off_track",
-               "crashed", "penalty_s", "steps", "speed_mps"]
+    columns = [
+        "run",
+        "lap",
+        "lap_time_s",
+        "time_s",
+        "progress_pct",
+        "lap_complete",
+        "status",
+        "resets",
+        "off_track",
+        "crashed",
+        "penalty_s",
+        "steps",
+        "speed_mps",
+    ]
     return laps[columns].reset_index(drop=True)
 
 

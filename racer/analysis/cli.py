@@ -60,48 +60,124 @@ def print_summary(analysis: Analysis) -> None:
     for note in analysis.notes:
         click.secho(f"note: {note}", fg="yellow")
     _echo_table(
-        f"Training iterations (last {TERMINAL_ITERATIONS})" if len(analysis.iterations) > TERMINAL_ITERATIONS
+        f"Training iterations (last {TERMINAL_ITERATIONS})"
+        if len(analysis.iterations) > TERMINAL_ITERATIONS
         else "Training iterations",
         analysis.iterations.tail(TERMINAL_ITERATIONS),
-        ["iteration", "episodes", "reward_mean", "reward_std", "progress_mean_pct", "progress_std_pct",
-         "completion_rate", "best_lap_time_s", "mean_lap_time_s"],
+        [
+            "iteration",
+            "episodes",
+            "reward_mean",
+            "reward_std",
+            "progress_mean_pct",
+            "progress_std_pct",
+            "completion_rate",
+            "best_lap_time_s",
+            "mean_lap_time_s",
+        ],
     )
     if analysis.metrics_iterations is not None:
-        _echo_table("In-training evaluations (TrainingMetrics, last iterations)",
-                    analysis.metrics_iterations.tail(TERMINAL_ITERATIONS),
-                    ["iteration", "training_episodes", "training_progress_mean_pct", "evaluation_episodes",
-                     "evaluation_progress_mean_pct", "evaluation_completion_rate", "evaluation_best_lap_time_s"])
+        _echo_table(
+            "In-training evaluations (TrainingMetrics, last iterations)",
+            analysis.metrics_iterations.tail(TERMINAL_ITERATIONS),
+            [
+                "iteration",
+                "training_episodes",
+                "training_progress_mean_pct",
+                "evaluation_episodes",
+                "evaluation_progress_mean_pct",
+                "evaluation_completion_rate",
+                "evaluation_best_lap_time_s",
+            ],
+        )
     if analysis.workers["worker"].nunique() > 1:
-        _echo_table("Training by worker", analysis.workers,
-                    ["worker", "episodes", "reward_mean", "progress_mean_pct", "completion_rate", "best_lap_time_s"])
-    _echo_table("Fastest training laps", aggregate.best_laps(episodes, TRAINING, 5)[lambda t: t["lap_complete"]],
-                ["iteration", "worker", "episode", "start_waypoint", "lap_time_s", "speed_mps", "throttle_mps",
-                 "reward", "steps"])
-    _echo_table("Evaluation laps", analysis.evaluation_laps,
-                ["run", "lap", "lap_time_s", "progress_pct", "status", "resets", "off_track", "crashed", "penalty_s"])
+        _echo_table(
+            "Training by worker",
+            analysis.workers,
+            ["worker", "episodes", "reward_mean", "progress_mean_pct", "completion_rate", "best_lap_time_s"],
+        )
+    _echo_table(
+        "Fastest training laps",
+        aggregate.best_laps(episodes, TRAINING, 5)[lambda t: t["lap_complete"]],
+        [
+            "iteration",
+            "worker",
+            "episode",
+            "start_waypoint",
+            "lap_time_s",
+            "speed_mps",
+            "throttle_mps",
+            "reward",
+            "steps",
+        ],
+    )
+    _echo_table(
+        "Evaluation laps",
+        analysis.evaluation_laps,
+        ["run", "lap", "lap_time_s", "progress_pct", "status", "resets", "off_track", "crashed", "penalty_s"],
+    )
 
 
 @click.command("analyze")
 @click.argument("source")
-@click.option("--track", "track", metavar="NAME|PATH",
-              help="Route by name or .npy path. Default: the run's WORLD_NAME, if that route is in the tracks folder.")
-@click.option("--tracks-dir", type=click.Path(exists=True, file_okay=False, path_type=Path),
-              help="Folder of route .npy files to find track names in [default: the project's tracks/].")
-@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path),
-              help="Folder for report.html, PNGs and CSVs [default: ./analysis/<source name>].")
-@click.option("--reward-function", "reward_path", type=click.Path(exists=True, dir_okay=False, path_type=Path),
-              help="Candidate reward_function.py to replay over the logged training steps (needs the track).")
-@click.option("--iterations", "iterations", metavar="A[-B]", callback=lambda ctx, param, value: parse_range(value),
-              help="Training iterations for the track pictures and the what-if: '27', '20-27' or '20-' "
-                   "(default: all; tables always show all).")
-@click.option("--sections", default=10, show_default=True, type=click.IntRange(2, 50),
-              help="Number of equal-length track sections for the action-usage picture.")
-@click.option("--top", "top_laps", default=4, show_default=True, type=click.IntRange(1, 12),
-              help="How many of the fastest laps to draw.")
+@click.option(
+    "--track",
+    "track",
+    metavar="NAME|PATH",
+    help="Route by name or .npy path. Default: the run's WORLD_NAME, if that route is in the tracks folder.",
+)
+@click.option(
+    "--tracks-dir",
+    type=click.Path(exists=True, file_okay=False, path_type=Path),
+    help="Folder of route .npy files to find track names in [default: the project's tracks/].",
+)
+@click.option(
+    "--out",
+    "out_dir",
+    type=click.Path(file_okay=False, path_type=Path),
+    help="Folder for report.html, PNGs and CSVs [default: ./analysis/<source name>].",
+)
+@click.option(
+    "--reward-function",
+    "reward_path",
+    type=click.Path(exists=True, dir_okay=False, path_type=Path),
+    help="Candidate reward_function.py to replay over the logged training steps (needs the track).",
+)
+@click.option(
+    "--iterations",
+    "iterations",
+    metavar="A[-B]",
+    callback=lambda ctx, param, value: parse_range(value),
+    help="Training iterations for the track pictures and the what-if: '27', '20-27' or '20-' "
+    "(default: all; tables always show all).",
+)
+@click.option(
+    "--sections",
+    default=10,
+    show_default=True,
+    type=click.IntRange(2, 50),
+    help="Number of equal-length track sections for the action-usage picture.",
+)
+@click.option(
+    "--top",
+    "top_laps",
+    default=4,
+    show_default=True,
+    type=click.IntRange(1, 12),
+    help="How many of the fastest laps to draw.",
+)
 @click.option("--no-pictures", is_flag=True, help="Tables and CSVs only (faster).")
-def analyze_command(source: str, track: str | None, tracks_dir: Path | None, out_dir: Path | None,
-                    reward_path: Path | None, iterations: tuple[int, int | None] | None, sections: int, top_laps: int,
-                    no_pictures: bool) -> None:
+def analyze_command(
+    source: str,
+    track: str | None,
+    tracks_dir: Path | None,
+    out_dir: Path | None,
+    reward_path: Path | None,
+    iterations: tuple[int, int | None] | None,
+    sections: int,
+    top_laps: int,
+    no_pictures: bool,
+) -> None:
     """Analyse DeepRacer/racer simtrace logs. SOURCE is a model folder, a .tar.gz export, s3://bucket/prefix,
     a model prefix in RACER_STORE, one simtrace .csv, or a simulation .log with SIM_TRACE_LOG lines.
 
@@ -110,12 +186,26 @@ def analyze_command(source: str, track: str | None, tracks_dir: Path | None, out
     """
     out_dir = out_dir or default_out_dir(source)
     try:
-        analysis = analyze(source, out_dir, track=track, tracks_dir=tracks_dir, reward_function=reward_path,
-                           iterations=iterations, sections=sections, top_laps=top_laps, pictures=not no_pictures)
+        analysis = analyze(
+            source,
+            out_dir,
+            track=track,
+            tracks_dir=tracks_dir,
+            reward_function=reward_path,
+            iterations=iterations,
+            sections=sections,
+            top_laps=top_laps,
+            pictures=not no_pictures,
+        )
     except (SourceError, SimtraceError, TrackError, StoreError, RewardFunctionError) as error:
         raise click.ClickException(str(error)) from error
     print_summary(analysis)
     if analysis.reward_comparison is not None:
-        _echo_table(f"Reward what-if: {reward_path}", analysis.reward_comparison,
-                    ["iteration", "episodes", "reward_mean", "new_reward_mean", "episode_reward_correlation"])
-    click.echo(f"\nreport: {analysis.report_path}  (tables: {', '.join(p.name for p in analysis.tables_written.values())})")
+        _echo_table(
+            f"Reward what-if: {reward_path}",
+            analysis.reward_comparison,
+            ["iteration", "episodes", "reward_mean", "new_reward_mean", "episode_reward_correlation"],
+        )
+    click.echo(
+        f"\nreport: {analysis.report_path}  (tables: {', '.join(p.name for p in analysis.tables_written.values())})"
+    )

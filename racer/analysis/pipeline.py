@@ -68,8 +68,9 @@ def run_tracks(files: RunFiles) -> dict[int | str, str]:
     return tracks
 
 
-def resolve_track(files: RunFiles, track_arg: str | None, tracks_dir: Path | None,
-                  notes: list[str]) -> tuple[Track | None, set[int] | None]:
+def resolve_track(
+    files: RunFiles, track_arg: str | None, tracks_dir: Path | None, notes: list[str]
+) -> tuple[Track | None, set[int] | None]:
     """(track, training workers that drove it; None = all).
 
     --track wins and is used for every worker. Otherwise the run's own WORLD_NAME (worker 0's first), if a route
@@ -80,24 +81,32 @@ def resolve_track(files: RunFiles, track_arg: str | None, tracks_dir: Path | Non
     several = len(set(by_worker.values())) > 1
     if track_arg:
         if several:
-            notes.append(f"The workers trained on several tracks ({_listing(by_worker)}); all are drawn on {track_arg}.")
+            notes.append(
+                f"The workers trained on several tracks ({_listing(by_worker)}); all are drawn on {track_arg}."
+            )
         return load_track(track_arg, tracks_dir), None  # an explicit track that cannot be loaded is an error
     if not tracks:
-        notes.append("No track given (--track NAME|PATH.npy) and none named by the run: tables only, no track pictures.")
+        notes.append(
+            "No track given (--track NAME|PATH.npy) and none named by the run: tables only, no track pictures."
+        )
         return None, None
     world = by_worker[min(by_worker)] if by_worker else tracks[EVALUATION]
     try:
         track = load_track(world, tracks_dir)
     except TrackError:
-        notes.append(f"The run was on track {world!r}, which is not in the tracks folder; give its route with "
-                     "--track PATH.npy (or --tracks-dir): tables only, no track pictures.")
+        notes.append(
+            f"The run was on track {world!r}, which is not in the tracks folder; give its route with "
+            "--track PATH.npy (or --tracks-dir): tables only, no track pictures."
+        )
         return None, None
     notes.append(f"Track {world!r} taken from the run's params yaml.")
     if not several:
         return track, None
     others = {worker: name for worker, name in by_worker.items() if name != world}
-    notes.append(f"Workers on other tracks ({_listing(others)}) are left out of the track pictures and the reward "
-                 "what-if; analyse them with --track.")
+    notes.append(
+        f"Workers on other tracks ({_listing(others)}) are left out of the track pictures and the reward "
+        "what-if; analyse them with --track."
+    )
     return track, {worker for worker, name in by_worker.items() if name == world}
 
 
@@ -105,8 +114,14 @@ def _listing(by_worker: dict[int, str]) -> str:
     return ", ".join(f"worker {worker}: {name}" for worker, name in sorted(by_worker.items()))
 
 
-def build_tables(files: RunFiles, track_arg: str | None = None, tracks_dir: Path | None = None, *,
-                 track_required: bool = False, show_progress: bool = True) -> Analysis:
+def build_tables(
+    files: RunFiles,
+    track_arg: str | None = None,
+    tracks_dir: Path | None = None,
+    *,
+    track_required: bool = False,
+    show_progress: bool = True,
+) -> Analysis:
     notes: list[str] = []
     # The track first: a wrong --track fails before the long read.
     track, track_workers = resolve_track(files, track_arg, tracks_dir, notes)
@@ -119,12 +134,16 @@ def build_tables(files: RunFiles, track_arg: str | None = None, tracks_dir: Path
     if track is not None:
         logged_length_m = float(on_track(steps, track_workers)["track_len"].median())
         if abs(logged_length_m - track.length_m) > 0.005 * track.length_m:
-            notes.append(f"The simtraces say the track is {logged_length_m:.2f} m long, but {track.name} is "
-                         f"{track.length_m:.2f} m: probably the wrong track for this run.")
+            notes.append(
+                f"The simtraces say the track is {logged_length_m:.2f} m long, but {track.name} is "
+                f"{track.length_m:.2f} m: probably the wrong track for this run."
+            )
         reversed_by_episode = reversed_episodes(on_track(steps, track_workers), track)
         if reversed_by_episode.any():
-            notes.append(f"{int(reversed_by_episode.sum())} of {len(reversed_by_episode)} episodes were driven in the "
-                         "reverse direction of the route (told by their closest_waypoint).")
+            notes.append(
+                f"{int(reversed_by_episode.sum())} of {len(reversed_by_episode)} episodes were driven in the "
+                "reverse direction of the route (told by their closest_waypoint)."
+            )
     return Analysis(
         files=files,
         steps=steps,
@@ -175,25 +194,33 @@ def draw_pictures(analysis: Analysis, out_dir: Path, *, sections: int, top_laps:
     print("drawing pictures", file=sys.stderr)
     if len(analysis.iterations):
         analysis.pictures["training_progress"] = plots.training_progress(
-            analysis.iterations, analysis.iterations_by_worker, out_dir / "training_progress.png",
+            analysis.iterations,
+            analysis.iterations_by_worker,
+            out_dir / "training_progress.png",
             metrics_table=analysis.metrics_iterations,
         )
     steps = for_pictures(analysis.steps, analysis)
     training_steps = steps[steps["phase"] == TRAINING]
     if len(training_steps) and action_distributions.is_continuous(training_steps):  # needs no track
         analysis.pictures["action_distributions"] = action_distributions.action_distributions(
-            training_steps, out_dir / "action_distributions.png")
+            training_steps, out_dir / "action_distributions.png"
+        )
     if analysis.track is None:
         return
     track = analysis.track
     best_training = aggregate.best_laps(for_pictures(analysis.episodes, analysis), TRAINING, top_laps)
     if len(best_training):
-        title = ("Fastest training laps" if best_training["lap_complete"].all()
-                 else "Furthest training episodes (no lap completed)")
+        title = (
+            "Fastest training laps"
+            if best_training["lap_complete"].all()
+            else "Furthest training episodes (no lap completed)"
+        )
         analysis.pictures["best_laps"] = plots.laps_by_speed(
             analysis.steps, best_training, track, out_dir / "best_laps.png", f"{title} (speed colour)"
         )
-        analysis.pictures["reward_heatmap"] = plots.reward_heatmap(training_steps, track, out_dir / "reward_heatmap.png")
+        analysis.pictures["reward_heatmap"] = plots.reward_heatmap(
+            training_steps, track, out_dir / "reward_heatmap.png"
+        )
         waypoint = forward_waypoint(training_steps, analysis.reversed_episodes, track)
         picture, _ = plots.action_usage(training_steps, waypoint, track, sections, out_dir / "action_usage.png")
         analysis.pictures["action_usage"] = picture
@@ -207,8 +234,15 @@ def draw_pictures(analysis: Analysis, out_dir: Path, *, sections: int, top_laps:
 
 def write_tables(analysis: Analysis, out_dir: Path) -> None:
     """CSV copies of every table, for spreadsheets and notebooks."""
-    for name in ("episodes", "iterations", "iterations_by_worker", "workers", "evaluation_laps", "evaluations",
-                 "metrics_iterations"):
+    for name in (
+        "episodes",
+        "iterations",
+        "iterations_by_worker",
+        "workers",
+        "evaluation_laps",
+        "evaluations",
+        "metrics_iterations",
+    ):
         table = getattr(analysis, name)
         if table is not None and len(table):
             path = out_dir / f"{name}.csv"
@@ -217,18 +251,33 @@ def write_tables(analysis: Analysis, out_dir: Path) -> None:
 
 
 _PICTURE_TEXT = {
-    "training_progress": ("Training progress", "Mean ± std of episode reward and progress per iteration, share of "
-                          "episodes that completed a lap, best lap time; dashed: the in-training evaluations of "
-                          "TrainingMetrics, when present."),
-    "best_laps": ("Fastest training laps on the track", "Driven path coloured by speed (distance / time over 1/3 s); green dot = start, red cross = off track, crash, "
-                  "immobilized or reversed."),
-    "evaluation_laps": ("Evaluation laps on the track", "Driven path coloured by speed; green dot = start of the lap, red cross = where a reset happened."),
+    "training_progress": (
+        "Training progress",
+        "Mean ± std of episode reward and progress per iteration, share of "
+        "episodes that completed a lap, best lap time; dashed: the in-training evaluations of "
+        "TrainingMetrics, when present.",
+    ),
+    "best_laps": (
+        "Fastest training laps on the track",
+        "Driven path coloured by speed (distance / time over 1/3 s); green dot = start, red cross = off track, crash, "
+        "immobilized or reversed.",
+    ),
+    "evaluation_laps": (
+        "Evaluation laps on the track",
+        "Driven path coloured by speed; green dot = start of the lap, red cross = where a reset happened.",
+    ),
     "reward_heatmap": ("Reward heatmap", "Mean step reward of all training steps in each cell of the track."),
     "action_usage": ("Action usage per track section", "Share of the steps in each section that used each action."),
-    "action_distributions": ("Continuous actions", "Commanded steering and speed of the training steps: histograms "
-                             "for early, middle and late iterations, and steering against speed."),
-    "reward_comparison": ("Reward what-if", "Logged reward and the candidate's along the fastest lap, and episode "
-                          "totals of both for every training episode."),
+    "action_distributions": (
+        "Continuous actions",
+        "Commanded steering and speed of the training steps: histograms "
+        "for early, middle and late iterations, and steering against speed.",
+    ),
+    "reward_comparison": (
+        "Reward what-if",
+        "Logged reward and the candidate's along the fastest lap, and episode "
+        "totals of both for every training episode.",
+    ),
 }
 
 
@@ -241,13 +290,25 @@ def build_report(analysis: Analysis, out_dir: Path) -> Path:
     sections = [
         ("table", "Training iterations", analysis.iterations, "All workers together."),
         ("picture", "training_progress"),
-        ("table", "Training by worker", analysis.workers if analysis.workers["worker"].nunique() > 1 else pd.DataFrame(),
-         "One row per worker (world)."),
-        ("table", "In-training evaluations (TrainingMetrics)", metrics,
-         "From DeepRacer's TrainingMetrics JSON (worker 0): training episodes and the greedy evaluation episodes run "
-         "after each checkpoint; its times include the prepare step."),
-        ("table", "Fastest training laps", aggregate.best_laps(training, TRAINING, 10),
-         "Complete laps, fastest first (when no lap was completed: the episodes that got furthest)."),
+        (
+            "table",
+            "Training by worker",
+            analysis.workers if analysis.workers["worker"].nunique() > 1 else pd.DataFrame(),
+            "One row per worker (world).",
+        ),
+        (
+            "table",
+            "In-training evaluations (TrainingMetrics)",
+            metrics,
+            "From DeepRacer's TrainingMetrics JSON (worker 0): training episodes and the greedy evaluation episodes run "
+            "after each checkpoint; its times include the prepare step.",
+        ),
+        (
+            "table",
+            "Fastest training laps",
+            aggregate.best_laps(training, TRAINING, 10),
+            "Complete laps, fastest first (when no lap was completed: the episodes that got furthest).",
+        ),
         ("picture", "best_laps"),
         ("picture", "reward_heatmap"),
         ("picture", "action_usage"),
@@ -257,8 +318,12 @@ def build_report(analysis: Analysis, out_dir: Path) -> Path:
         ("picture", "evaluation_laps"),
         ("table", "Reward what-if by iteration", comparison, "Logged reward and the candidate's, per iteration."),
         ("picture", "reward_comparison"),
-        ("table", "Training episodes (latest)", training.tail(HTML_EPISODES),
-         f"The last {HTML_EPISODES} training episodes; every episode is in episodes.csv."),
+        (
+            "table",
+            "Training episodes (latest)",
+            training.tail(HTML_EPISODES),
+            f"The last {HTML_EPISODES} training episodes; every episode is in episodes.csv.",
+        ),
     ]
     for kind, key, *rest in sections:
         if kind == "picture" and key in analysis.pictures:
@@ -270,36 +335,57 @@ def build_report(analysis: Analysis, out_dir: Path) -> Path:
     return analysis.report_path
 
 
-def compare_reward(analysis: Analysis, reward_path: Path, out_dir: Path, *, picture: bool,
-                   show_progress: bool = True) -> None:
+def compare_reward(
+    analysis: Analysis, reward_path: Path, out_dir: Path, *, picture: bool, show_progress: bool = True
+) -> None:
     """The reward what-if: table (and CSV), plus its picture."""
     if analysis.track is None:
         raise TrackError(NEEDS_TRACK)
-    new_reward = whatif.replay_reward(for_pictures(analysis.steps, analysis), analysis.track, reward_path,
-                                      reversed_by_episode=analysis.reversed_episodes, show_progress=show_progress)
+    new_reward = whatif.replay_reward(
+        for_pictures(analysis.steps, analysis),
+        analysis.track,
+        reward_path,
+        reversed_by_episode=analysis.reversed_episodes,
+        show_progress=show_progress,
+    )
     compared, by_iteration = whatif.compare(analysis.steps, new_reward, analysis.episodes)
     analysis.reward_comparison = by_iteration
     by_iteration.to_csv(out_dir / "reward_whatif.csv", index=False)
     analysis.tables_written["reward_whatif"] = out_dir / "reward_whatif.csv"
     if picture:
         analysis.pictures["reward_comparison"] = plots.reward_comparison(
-            whatif.lap_steps(analysis.steps, new_reward, analysis.episodes), compared, out_dir / "reward_whatif.png",
+            whatif.lap_steps(analysis.steps, new_reward, analysis.episodes),
+            compared,
+            out_dir / "reward_whatif.png",
             Path(reward_path).name,
         )
 
 
-def analyze(source: str, out_dir: Path, *, track: str | None = None, tracks_dir: Path | None = None,
-            reward_function: Path | None = None, iterations: tuple[int, int | None] | None = None,
-            sections: int = 10, top_laps: int = 4, pictures: bool = True, show_progress: bool = True) -> Analysis:
+def analyze(
+    source: str,
+    out_dir: Path,
+    *,
+    track: str | None = None,
+    tracks_dir: Path | None = None,
+    reward_function: Path | None = None,
+    iterations: tuple[int, int | None] | None = None,
+    sections: int = 10,
+    top_laps: int = 4,
+    pictures: bool = True,
+    show_progress: bool = True,
+) -> Analysis:
     """Everything `racer analyze` writes: CSV tables, PNGs, the optional reward what-if and report.html."""
     files = open_source(source)
-    analysis = build_tables(files, track, tracks_dir, track_required=reward_function is not None,
-                            show_progress=show_progress)
+    analysis = build_tables(
+        files, track, tracks_dir, track_required=reward_function is not None, show_progress=show_progress
+    )
     if iterations is not None:
         analysis.picture_iterations = iterations
         last = "the last" if iterations[1] is None else str(iterations[1])
-        analysis.notes.append(f"Track pictures and the reward what-if use training iterations {iterations[0]} to "
-                              f"{last}; the tables use all of them.")
+        analysis.notes.append(
+            f"Track pictures and the reward what-if use training iterations {iterations[0]} to "
+            f"{last}; the tables use all of them."
+        )
     out_dir.mkdir(parents=True, exist_ok=True)
     write_tables(analysis, out_dir)
     if pictures:

@@ -35,8 +35,9 @@ def _draw_track(ax, track: Track, *, centre: bool = True) -> None:
     ax.set_yticks([])
 
 
-def training_progress(iteration_table: pd.DataFrame, worker_table: pd.DataFrame, path: Path, *,
-                      metrics_table: pd.DataFrame | None = None) -> Path:
+def training_progress(
+    iteration_table: pd.DataFrame, worker_table: pd.DataFrame, path: Path, *, metrics_table: pd.DataFrame | None = None
+) -> Path:
     """Reward, progress and completion per iteration: is training still improving?
 
     `metrics_table` (training_metrics.iteration_table) adds the greedy in-training evaluations, as the console did.
@@ -55,8 +56,9 @@ def training_progress(iteration_table: pd.DataFrame, worker_table: pd.DataFrame,
         best = rows.dropna(subset=["best_lap_time_s"])
         if len(best):
             lap_ax = completion_ax.twinx()
-            lap_ax.plot(best["iteration"], best["best_lap_time_s"], "s", color="tab:red", markersize=4,
-                        label="best lap")
+            lap_ax.plot(
+                best["iteration"], best["best_lap_time_s"], "s", color="tab:red", markersize=4, label="best lap"
+            )
             lap_ax.set_ylabel("best lap time (s)", color="tab:red")
     if several_workers:
         for worker, rows in worker_table.groupby("worker"):
@@ -71,8 +73,13 @@ def training_progress(iteration_table: pd.DataFrame, worker_table: pd.DataFrame,
             progress_ax.plot(rows["iteration"], rows["evaluation_progress_mean_pct"], label=label, **style)
             training = metrics_table[(metrics_table["source"] == source) & (metrics_table["training_episodes"] > 0)]
             if not set(training["iteration"]) <= set(iteration_table["iteration"]):  # simtraces of some are missing
-                progress_ax.plot(training["iteration"], training["training_progress_mean_pct"], linestyle=":",
-                                 color="0.4", label=label.replace("evaluation", "training, TrainingMetrics"))
+                progress_ax.plot(
+                    training["iteration"],
+                    training["training_progress_mean_pct"],
+                    linestyle=":",
+                    color="0.4",
+                    label=label.replace("evaluation", "training, TrainingMetrics"),
+                )
             completion_ax.plot(rows["iteration"], 100 * rows["evaluation_completion_rate"], label=label, **style)
     reward_ax.set_ylabel("episode reward")
     progress_ax.set_ylabel("progress (%)")
@@ -117,7 +124,9 @@ def laps_by_speed(steps: pd.DataFrame, laps: pd.DataFrame, track: Track, path: P
         incidents = trace[trace["episode_status"].isin(INCIDENT_STATUSES)]
         ax.plot(incidents["X"], incidents["Y"], "x", color="red", markersize=8, markeredgewidth=2, zorder=4)
         time_text = f"{lap.lap_time_s:.2f} s" if lap.lap_complete else f"{lap.progress_pct:.0f} % in {lap.time_s:.1f} s"
-        where = f"iteration {lap.iteration}, episode {lap.episode}" if lap.phase == "training" else f"lap {lap.episode + 1}"
+        where = (
+            f"iteration {lap.iteration}, episode {lap.episode}" if lap.phase == "training" else f"lap {lap.episode + 1}"
+        )
         if lap.resets and lap.phase != "training":  # a training episode ends at its first incident
             time_text += f" ({lap.resets} reset{'s' if lap.resets > 1 else ''}, {lap.penalty_s:.1f} s penalty)"
         ax.set_title(f"{where}: {time_text}", fontsize=10)
@@ -136,8 +145,17 @@ def reward_heatmap(steps: pd.DataFrame, track: Track, path: Path) -> Path:
     _draw_track(ax, track)
     driving = steps[steps["episode_status"].isin(["in_progress", "off_track", "lap_complete", "crashed"])]
     extent_m = np.ptp(np.vstack([track.outer_border, track.inner_border]), axis=0)
-    cells = ax.hexbin(driving["X"], driving["Y"], C=driving["reward"], reduce_C_function=np.mean,
-                      gridsize=max(10, int(extent_m[0] / 0.12)), cmap="viridis", mincnt=1, zorder=2, alpha=0.9)
+    cells = ax.hexbin(
+        driving["X"],
+        driving["Y"],
+        C=driving["reward"],
+        reduce_C_function=np.mean,
+        gridsize=max(10, int(extent_m[0] / 0.12)),
+        cmap="viridis",
+        mincnt=1,
+        zorder=2,
+        alpha=0.9,
+    )
     figure.colorbar(cells, ax=ax, label="mean step reward", shrink=0.8)
     ax.set_title(f"Reward heatmap, {len(driving)} training steps")
     return _save(figure, path)
@@ -155,17 +173,20 @@ def _action_labels(steps: pd.DataFrame) -> pd.Series:
     speed_bins = pd.cut(steps["throttle"], bins=3)
     labels = [
         f"{s.left:+.0f}..{s.right:+.0f}° {v.left:.1f}..{v.right:.1f} m/s"
-        for s in steer_bins.cat.categories for v in speed_bins.cat.categories
+        for s in steer_bins.cat.categories
+        for v in speed_bins.cat.categories
     ]
     combined = [
-        f"{s.left:+.0f}..{s.right:+.0f}° {v.left:.1f}..{v.right:.1f} m/s" for s, v in zip(steer_bins, speed_bins, strict=True)
+        f"{s.left:+.0f}..{s.right:+.0f}° {v.left:.1f}..{v.right:.1f} m/s"
+        for s, v in zip(steer_bins, speed_bins, strict=True)
     ]
     used = [label for label in labels if label in set(combined)]
     return pd.Series(combined, index=steps.index, dtype=pd.CategoricalDtype(used, ordered=True))
 
 
-def action_usage(steps: pd.DataFrame, waypoint: pd.Series, track: Track, sections: int,
-                 path: Path) -> tuple[Path, pd.DataFrame]:
+def action_usage(
+    steps: pd.DataFrame, waypoint: pd.Series, track: Track, sections: int, path: Path
+) -> tuple[Path, pd.DataFrame]:
     """Share of each action per track section: e.g. whether the car brakes before a corner or steers on a straight.
 
     `waypoint` is each step's closest waypoint in the route file's order (see track_sections.forward_waypoint).
@@ -184,8 +205,15 @@ def action_usage(steps: pd.DataFrame, waypoint: pd.Series, track: Track, section
         members = np.flatnonzero(waypoint_section == number)
         map_ax.plot(*track.center_line[members].T, linewidth=4, alpha=0.6, color=f"C{number % 10}")
         middle = track.center_line[members[len(members) // 2]]
-        map_ax.annotate(str(number + 1), middle, ha="center", va="center", fontsize=9, fontweight="bold",
-                        bbox={"boxstyle": "circle", "facecolor": "white", "alpha": 0.9})
+        map_ax.annotate(
+            str(number + 1),
+            middle,
+            ha="center",
+            va="center",
+            fontsize=9,
+            fontweight="bold",
+            bbox={"boxstyle": "circle", "facecolor": "white", "alpha": 0.9},
+        )
     map_ax.plot(*track.center_line[0], "o", color="green", markersize=6)
     map_ax.set_title("track sections (● = waypoint 0)")
     image = table_ax.imshow(100 * usage.to_numpy(), aspect="auto", cmap="Blues", vmin=0)
@@ -194,8 +222,15 @@ def action_usage(steps: pd.DataFrame, waypoint: pd.Series, track: Track, section
     table_ax.set_ylabel("section")
     for (row, column), share in np.ndenumerate(usage.to_numpy()):
         if share >= 0.005:
-            table_ax.text(column, row, f"{100 * share:.0f}", ha="center", va="center", fontsize=7,
-                          color="white" if share > 0.5 * usage.to_numpy().max() else "black")
+            table_ax.text(
+                column,
+                row,
+                f"{100 * share:.0f}",
+                ha="center",
+                va="center",
+                fontsize=7,
+                color="white" if share > 0.5 * usage.to_numpy().max() else "black",
+            )
     figure.colorbar(image, ax=table_ax, label="% of steps in the section")
     table_ax.set_title("action usage per section")
     return _save(figure, path), usage
@@ -208,13 +243,23 @@ def reward_comparison(lap_steps: pd.DataFrame, episode_totals: pd.DataFrame, pat
     lap_ax.plot(lap_steps["steps"], lap_steps["reward"], label="logged", linewidth=1.2)
     lap_ax.plot(lap_steps["steps"], lap_steps["new_reward"], label=name, linewidth=1.2, alpha=0.8)
     first = lap_steps.iloc[0]
-    lap_ax.set_title(f"step reward along iteration {first['iteration']}, episode {first['episode']} "
-                     f"({lap_steps['progress'].max():.0f} %)", fontsize=10)
+    lap_ax.set_title(
+        f"step reward along iteration {first['iteration']}, episode {first['episode']} "
+        f"({lap_steps['progress'].max():.0f} %)",
+        fontsize=10,
+    )
     lap_ax.set_xlabel("step")
     lap_ax.set_ylabel("step reward")
     lap_ax.legend(fontsize=8)
-    points = episode_ax.scatter(episode_totals["reward"], episode_totals["new_reward"], s=14,
-                                c=episode_totals["progress_pct"], cmap="viridis", vmin=0, vmax=100)
+    points = episode_ax.scatter(
+        episode_totals["reward"],
+        episode_totals["new_reward"],
+        s=14,
+        c=episode_totals["progress_pct"],
+        cmap="viridis",
+        vmin=0,
+        vmax=100,
+    )
     figure.colorbar(points, ax=episode_ax, label="progress (%)")
     episode_ax.set_xlabel("logged episode reward")
     episode_ax.set_ylabel(f"{name} episode reward")

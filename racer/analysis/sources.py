@@ -148,8 +148,11 @@ def from_tar(path: Path) -> RunFiles:
                 member.name.removeprefix("./"): archive.extractfile(member).read()
                 for member in archive.getmembers()
                 if member.isfile()
-                and (classify(member.name) is not None or _PARAMS_FILE.match(PurePosixPath(member.name).name)
-                     or is_training_metrics(member.name))
+                and (
+                    classify(member.name) is not None
+                    or _PARAMS_FILE.match(PurePosixPath(member.name).name)
+                    or is_training_metrics(member.name)
+                )
             }
     except tarfile.TarError as error:
         raise SourceError(f"{path}: not a readable tar archive ({error})") from error

@@ -56,6 +56,11 @@ def forward_waypoint(steps: pd.DataFrame, reversed_by_episode: pd.Series, track:
 
 
 __all__ = [
-    "Track", "TrackError", "forward_waypoint", "load_track", "reversed_episodes", "section_of_waypoint",
+    "Track",
+    "TrackError",
+    "forward_waypoint",
+    "load_track",
+    "reversed_episodes",
+    "section_of_waypoint",
     "waypoint_distance_m",
 ]

@@ -22,31 +22,41 @@ def entries_table(metrics: TrainingMetrics) -> pd.DataFrame:
         if entry.phase == "training" and (entry.trial == 1 or iteration < 0):
             iteration += 1
         complete = entry.episode_status == EpisodeStatus.LAP_COMPLETE
-        rows.append({
-            "iteration": max(iteration, 0),
-            "phase": entry.phase,
-            "episode": entry.episode,
-            "progress_pct": float(entry.completion_percentage),
-            "reward": float(entry.reward_score),
-            "lap_complete": complete,
-            "lap_time_s": entry.elapsed_time_ms / 1000 if complete else float("nan"),
-        })
-    return pd.DataFrame(rows, columns=["iteration", "phase", "episode", "progress_pct", "reward", "lap_complete",
-                                       "lap_time_s"])
+        rows.append(
+            {
+                "iteration": max(iteration, 0),
+                "phase": entry.phase,
+                "episode": entry.episode,
+                "progress_pct": float(entry.completion_percentage),
+                "reward": float(entry.reward_score),
+                "lap_complete": complete,
+                "lap_time_s": entry.elapsed_time_ms / 1000 if complete else float("nan"),
+            }
+        )
+    return pd.DataFrame(
+        rows, columns=["iteration", "phase", "episode", "progress_pct", "reward", "lap_complete", "lap_time_s"]
+    )
 
 
 def iteration_table(metrics: TrainingMetrics) -> pd.DataFrame:
     """Per iteration: training and evaluation episodes, mean progress, completion rate and best lap."""
     entries = entries_table(metrics)
-    summary = entries.groupby(["iteration", "phase"]).agg(
-        episodes=("episode", "size"),
-        progress_mean_pct=("progress_pct", "mean"),
-        completion_rate=("lap_complete", "mean"),
-        best_lap_time_s=("lap_time_s", "min"),
-    ).unstack("phase")
+    summary = (
+        entries.groupby(["iteration", "phase"])
+        .agg(
+            episodes=("episode", "size"),
+            progress_mean_pct=("progress_pct", "mean"),
+            completion_rate=("lap_complete", "mean"),
+            best_lap_time_s=("lap_time_s", "min"),
+        )
+        .unstack("phase")
+    )
     summary.columns = [f"{phase}_{name}" for name, phase in summary.columns]
-    columns = [f"{phase}_{name}" for phase in ("training", "evaluation")
-               for name in ("episodes", "progress_mean_pct", "completion_rate", "best_lap_time_s")]
+    columns = [
+        f"{phase}_{name}"
+        for phase in ("training", "evaluation")
+        for name in ("episodes", "progress_mean_pct", "completion_rate", "best_lap_time_s")
+    ]
     summary = summary.reindex(columns=columns)
     for phase in ("training", "evaluation"):
         summary[f"{phase}_episodes"] = summary[f"{phase}_episodes"].fillna(0).astype(int)

@@ -25,8 +25,14 @@ from racer.shared.sim.track import Track
 NOT_CALLED_STATUSES = ("prepare", "pause")
 
 
-def replay_reward(steps: pd.DataFrame, track: Track, reward_path: str | Path, *,
-                  reversed_by_episode: pd.Series | None = None, show_progress: bool = True) -> pd.Series:
+def replay_reward(
+    steps: pd.DataFrame,
+    track: Track,
+    reward_path: str | Path,
+    *,
+    reversed_by_episode: pd.Series | None = None,
+    show_progress: bool = True,
+) -> pd.Series:
     """The candidate's reward for every training step (index aligned with `steps`).
 
     Episodes marked in `reversed_by_episode` (track_sections.reversed_episodes) see the reversed route, as in
@@ -39,7 +45,18 @@ def replay_reward(steps: pd.DataFrame, track: Track, reward_path: str | Path, *,
     else:
         is_reversed = pd.Series(False, index=training.index)
     tracks = {False: track, True: track.reversed() if is_reversed.any() else track}
-    columns = ["X", "Y", "yaw", "throttle", "steer", "steps", "progress", "all_wheels_on_track", "episode_status", "tstamp"]
+    columns = [
+        "X",
+        "Y",
+        "yaw",
+        "throttle",
+        "steer",
+        "steps",
+        "progress",
+        "all_wheels_on_track",
+        "episode_status",
+        "tstamp",
+    ]
     new_reward = np.zeros(len(training))
     total = len(training)
     rows = zip(training[columns].itertuples(index=False, name=None), is_reversed.to_numpy(), strict=True)
@@ -50,9 +67,18 @@ def replay_reward(steps: pd.DataFrame, track: Track, reward_path: str | Path, *,
         if status in NOT_CALLED_STATUSES:
             continue
         params = make_reward_params(
-            tracks[bool(backwards)], x=x, y=y, heading_deg=yaw, speed_mps=throttle, steering_angle_deg=steer, steps=step,
-            progress=progress, all_wheels_on_track=bool(on_track), is_offtrack=status == "off_track",
-            is_crashed=status == "crashed", sim_time_s=tstamp,
+            tracks[bool(backwards)],
+            x=x,
+            y=y,
+            heading_deg=yaw,
+            speed_mps=throttle,
+            steering_angle_deg=steer,
+            steps=step,
+            progress=progress,
+            all_wheels_on_track=bool(on_track),
+            is_offtrack=status == "off_track",
+            is_crashed=status == "crashed",
+            sim_time_s=tstamp,
         )
         new_reward[position] = reward_function(params)
     if show_progress:
@@ -60,7 +86,9 @@ def replay_reward(steps: pd.DataFrame, track: Track, reward_path: str | Path, *,
     return pd.Series(new_reward, index=training.index, name="new_reward")
 
 
-def compare(steps: pd.DataFrame, new_reward: pd.Series, episode_table: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame]:
+def compare(
+    steps: pd.DataFrame, new_reward: pd.Series, episode_table: pd.DataFrame
+) -> tuple[pd.DataFrame, pd.DataFrame]:
     """(episodes with logged and new reward totals, per-iteration summary with their correlation)."""
     replayed = steps.loc[new_reward.index].assign(new_reward=new_reward)
     totals = replayed.groupby(EPISODE_KEY, sort=False)["new_reward"].sum().rename("new_reward").reset_index()

@@ -80,6 +80,7 @@ def all_checkpoint_names(files: set[str] | dict[str, int]) -> list[CheckpointNam
 
 def previous_checkpoint(name: CheckpointName, files: set[str] | dict[str, int]) -> CheckpointName | None:
     """The complete checkpoint with the highest number below `name`'s (the console's "second from the last")."""
-    earlier = [other for other in all_checkpoint_names(files)
-               if other.number < name.number and not missing_parts(other, files)]
+    earlier = [
+        other for other in all_checkpoint_names(files) if other.number < name.number and not missing_parts(other, files)
+    ]
     return max(earlier, default=None)

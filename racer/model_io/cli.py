@@ -45,8 +45,10 @@ from racer.shared.config import S3Settings, parse_store_location, settings_from_
 from racer.shared.model_layout import COACH_CHECKPOINT, DEEPRACER_CHECKPOINTS
 from racer.shared.store import ObjectStore, S3Store, open_store
 
-STORE_HELP = ("This system's store: s3://bucket (endpoint and keys from S3_ENDPOINT_URL, AWS_*) or a folder. "
-              "Default: RACER_STORE.")
+STORE_HELP = (
+    "This system's store: s3://bucket (endpoint and keys from S3_ENDPOINT_URL, AWS_*) or a folder. "
+    "Default: RACER_STORE."
+)
 
 
 def _open_store(location: str | None) -> ObjectStore:
@@ -72,8 +74,10 @@ def _print_report(report: ValidationReport) -> None:
             chosen = f"{COACH_CHECKPOINT} names {selection.pointer}"
         else:
             chosen = f"{DEEPRACER_CHECKPOINTS}: best {selection.best}, last {selection.pointer}"
-        click.echo(f"OK  {report.source}: import-ready. Checkpoints {', '.join(selection.checkpoints)} ({chosen}); "
-                   f"{report.plan.total_bytes} bytes to copy.")
+        click.echo(
+            f"OK  {report.source}: import-ready. Checkpoints {', '.join(selection.checkpoints)} ({chosen}); "
+            f"{report.plan.total_bytes} bytes to copy."
+        )
     for note in report.notes:
         click.echo(f"note: {note}")
     if report.problems:
@@ -86,7 +90,9 @@ def model_group() -> None:
     """Validate, import and export models in DeepRacer's layout, with the console's import error codes."""
 
 
-@model_group.command("validate", short_help="Check a model folder, .tar.gz or s3://bucket/prefix like the console importer.")
+@model_group.command(
+    "validate", short_help="Check a model folder, .tar.gz or s3://bucket/prefix like the console importer."
+)
 @click.argument("location")
 @click.option("--json", "as_json", is_flag=True, help="Print the report as JSON.")
 def validate_command(location: str, as_json: bool) -> None:
@@ -119,8 +125,11 @@ def import_command(source: str, model_name: str, store_location: str | None, ove
     converted to racer checkpoints; a frozen graph (agent/model.pb) becomes checkpoint 0 with a fresh value network.
     """
     if not MODEL_NAME.match(model_name):
-        raise click.BadParameter(f"{model_name!r}: use 1-64 letters, digits and hyphens, starting with a letter or "
-                                 "digit (the console's rule)", param_hint="MODEL_NAME")
+        raise click.BadParameter(
+            f"{model_name!r}: use 1-64 letters, digits and hyphens, starting with a letter or "
+            "digit (the console's rule)",
+            param_hint="MODEL_NAME",
+        )
     report, opened = validate_location(source)
     if opened is not None and not report.ok:
         graph_key = car_bundle_graph(opened.list_files())
@@ -136,8 +145,10 @@ def import_command(source: str, model_name: str, store_location: str | None, ove
     if opened is None or not report.ok:
         _print_report(report)
         if opened is not None and not any(key.endswith((".pb", ".index")) for key in opened.list_files()):
-            click.echo("note: no model weights here (no checkpoint, no model.pb); a DRoA training-logs download "
-                       "holds logs and metrics only: download the model itself (\"virtual model\" or physical car)")
+            click.echo(
+                "note: no model weights here (no checkpoint, no model.pb); a DRoA training-logs download "
+                'holds logs and metrics only: download the model itself ("virtual model" or physical car)'
+            )
         sys.exit(1)
     store = _open_store(store_location)
     try:
@@ -149,35 +160,44 @@ def import_command(source: str, model_name: str, store_location: str | None, ove
     _finish(result, f"imported {source} as {result.destination}")
     if tensorflow_only_checkpoints(result.written):
         if not tensorflow_available():
-            click.echo(f"note: the TensorFlow checkpoints were copied but racer cannot run them until they are "
-                       f"converted: {INSTALL_HINT}; then import again with --overwrite")
+            click.echo(
+                f"note: the TensorFlow checkpoints were copied but racer cannot run them until they are "
+                f"converted: {INSTALL_HINT}; then import again with --overwrite"
+            )
             return
         click.echo("converting the TensorFlow checkpoints to racer checkpoints (a TensorFlow process) ...")
         try:
             outcome = convert_tf_checkpoints(store, model_name)
         except (UnsupportedGraphError, TensorFlowToolError) as error:
             reason = str(error).strip().splitlines()[-1]
-            click.echo(f"warning: {model_name} holds the files as they are, but racer cannot evaluate or train it: "
-                       f"its TensorFlow checkpoints cannot become racer checkpoints: {reason}")
+            click.echo(
+                f"warning: {model_name} holds the files as they are, but racer cannot evaluate or train it: "
+                f"its TensorFlow checkpoints cannot become racer checkpoints: {reason}"
+            )
             return
         for note in outcome.notes:
             click.echo(f"note: {note}")
         click.echo(f"converted {', '.join(outcome.written)} to racer checkpoints")
-    click.echo(f"model prefix {model_name!r}: clone it with `racer trainer --pretrained-prefix {model_name}`, "
-               "or give it as the model prefix to evaluate")
+    click.echo(
+        f"model prefix {model_name!r}: clone it with `racer trainer --pretrained-prefix {model_name}`, "
+        "or give it as the model prefix to evaluate"
+    )
 
 
-def _import_graph(opened, graph_key: str, source: str, model_name: str, store_location: str | None,
-                  overwrite: bool) -> None:
+def _import_graph(
+    opened, graph_key: str, source: str, model_name: str, store_location: str | None, overwrite: bool
+) -> None:
     """A car bundle / frozen graph: checkpoint 0 from the graph's policy, a fresh value network."""
     if not tensorflow_available():
-        raise click.ClickException(f"{source} holds a TensorFlow frozen graph ({graph_key}); reading it needs "
-                                   f"TensorFlow: {INSTALL_HINT}")
+        raise click.ClickException(
+            f"{source} holds a TensorFlow frozen graph ({graph_key}); reading it needs TensorFlow: {INSTALL_HINT}"
+        )
     store = _open_store(store_location)
     existing = store.list_keys(model_name + "/")
     if existing and not overwrite:
-        raise click.ClickException(f"{model_name} already holds a model ({len(existing)} files); choose another name "
-                                   "or pass --overwrite")
+        raise click.ClickException(
+            f"{model_name} already holds a model ({len(existing)} files); choose another name or pass --overwrite"
+        )
     for key in existing:
         store.delete(key)
     click.echo(f"reading the frozen graph {graph_key} (a TensorFlow process) ...")
@@ -188,17 +208,27 @@ def _import_graph(opened, graph_key: str, source: str, model_name: str, store_lo
     for note in outcome.notes:
         click.echo(f"note: {note}")
     click.echo(f"imported the policy of {source}:{graph_key} as {model_name}/model/{outcome.written[0]}")
-    click.echo(f"model prefix {model_name!r}: clone it with `racer trainer --pretrained-prefix {model_name}`, "
-               "or give it as the model prefix to evaluate")
+    click.echo(
+        f"model prefix {model_name!r}: clone it with `racer trainer --pretrained-prefix {model_name}`, "
+        "or give it as the model prefix to evaluate"
+    )
 
 
-@model_group.command("export", short_help="Write a stored model in the import-ready layout plus the car's model.tar.gz.")
+@model_group.command(
+    "export", short_help="Write a stored model in the import-ready layout plus the car's model.tar.gz."
+)
 @click.argument("model")
 @click.argument("dest")
 @click.option("--store", "store_location", default=None, help=STORE_HELP)
 @click.option("--overwrite", is_flag=True, help="Write into DEST even if it already holds files.")
-@click.option("--for", "target", type=click.Choice(EXPORT_LAYOUTS), default="racer", show_default=True,
-              help="racer: racer's layout plus DeepRacer's TensorFlow files; droa: the folder DeepRacer on AWS imports.")
+@click.option(
+    "--for",
+    "target",
+    type=click.Choice(EXPORT_LAYOUTS),
+    default="racer",
+    show_default=True,
+    help="racer: racer's layout plus DeepRacer's TensorFlow files; droa: the folder DeepRacer on AWS imports.",
+)
 def export_command(model: str, dest: str, store_location: str | None, overwrite: bool, target: str) -> None:
     """Write MODEL (its prefix in the store) to DEST (a folder, s3://bucket/prefix or a .tar.gz), ready to import.
 
@@ -210,11 +240,15 @@ def export_command(model: str, dest: str, store_location: str | None, overwrite:
     """
     tensorflow = tensorflow_available()
     if not tensorflow:
-        message = f"DeepRacer's TensorFlow files (model.pb for the car, checkpoints for DRoA) need TensorFlow: {INSTALL_HINT}"
+        message = (
+            f"DeepRacer's TensorFlow files (model.pb for the car, checkpoints for DRoA) need TensorFlow: {INSTALL_HINT}"
+        )
         if target == "droa":
             raise click.ClickException(message)
-        click.echo(f"note: {message}; exporting racer's files only (the car bundle holds agent/model.onnx, which no "
-                   "DeepRacer software loads)")
+        click.echo(
+            f"note: {message}; exporting racer's files only (the car bundle holds agent/model.onnx, which no "
+            "DeepRacer software loads)"
+        )
     store = _open_store(store_location)
     destination = _destination(dest, overwrite)
     if tensorflow:
@@ -223,9 +257,15 @@ def export_command(model: str, dest: str, store_location: str | None, overwrite:
         result = export_model(store, model, destination, tensorflow=tensorflow, layout=target)
     except (TensorFlowToolError, TensorFlowMissingError) as error:
         raise click.ClickException(str(error)) from None
-    _finish(result, f"exported {model} to {result.destination}"
-            + (f" (car bundle model.tar.gz: model_metadata.json + {result.car_bundle_model})"
-               if result.car_bundle_model else " (no inference model for the best checkpoint: no model.tar.gz)"))
+    _finish(
+        result,
+        f"exported {model} to {result.destination}"
+        + (
+            f" (car bundle model.tar.gz: model_metadata.json + {result.car_bundle_model})"
+            if result.car_bundle_model
+            else " (no inference model for the best checkpoint: no model.tar.gz)"
+        ),
+    )
 
 
 def _destination(dest: str, overwrite: bool) -> Destination:

@@ -48,8 +48,7 @@ def tensorflow_exports(source: StoreSource, plan: ImportPlan) -> dict[str, bytes
 
 def droa_plan(plan: ImportPlan) -> ImportPlan:
     """The plan without racer's own checkpoint files and ONNX models, and with only the training metrics."""
-    keep = tuple(key for key in plan.checkpoint_files
-                 if not key.endswith(".onnx") and not _is_racer_part(key))
+    keep = tuple(key for key in plan.checkpoint_files if not key.endswith(".onnx") and not _is_racer_part(key))
     optional = tuple(key for key in plan.optional_keys if _TRAINING_METRICS.match(key))
     return dataclasses.replace(plan, checkpoint_files=keep, optional_keys=optional)
 

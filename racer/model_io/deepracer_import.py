@@ -25,8 +25,15 @@ from racer.shared import model_layout
 from racer.shared.deepracer.model_metadata import ModelMetadata, parse_model_metadata
 from racer.shared.store import ObjectStore, join_key
 
-__all__ = ["ConversionOutcome", "SubfolderSource", "car_bundle_graph", "convert_tf_checkpoints",
-           "find_model_root", "import_frozen_graph", "tensorflow_only_checkpoints"]
+__all__ = [
+    "ConversionOutcome",
+    "SubfolderSource",
+    "car_bundle_graph",
+    "convert_tf_checkpoints",
+    "find_model_root",
+    "import_frozen_graph",
+    "tensorflow_only_checkpoints",
+]
 
 _CAR_GRAPHS = ("agent/model.pb", "model.pb")
 _NUMBERED_GRAPH = re.compile(r"^model/model_(\d+)\.pb$")
@@ -51,7 +58,9 @@ class SubfolderSource:
 
     def list_files(self) -> dict[str, int]:
         start = self.folder + "/"
-        return {key.removeprefix(start): size for key, size in self.source.list_files().items() if key.startswith(start)}
+        return {
+            key.removeprefix(start): size for key, size in self.source.list_files().items() if key.startswith(start)
+        }
 
     def read(self, key: str) -> bytes:
         return self.source.read(f"{self.folder}/{key}")
@@ -60,7 +69,11 @@ class SubfolderSource:
 def find_model_root(source: ModelSource) -> ModelSource | None:
     """The shallowest folder holding `model/.coach_checkpoint` or `model/deepracer_checkpoints.json`, when it is
     not the source's root (DRoA's training-logs download nests the model). None if there is none."""
-    pointers = [key for key in source.list_files() if key.endswith((model_layout.COACH_CHECKPOINT, model_layout.DEEPRACER_CHECKPOINTS))]
+    pointers = [
+        key
+        for key in source.list_files()
+        if key.endswith((model_layout.COACH_CHECKPOINT, model_layout.DEEPRACER_CHECKPOINTS))
+    ]
     folders = sorted({key.rsplit("/model/", 1)[0] for key in pointers if "/model/" in key}, key=lambda f: f.count("/"))
     return SubfolderSource(source, folders[0]) if folders else None
 
@@ -97,8 +110,11 @@ def _policy_config(metadata: ModelMetadata):
 def tensorflow_only_checkpoints(keys: list[str] | tuple[str, ...]) -> list[str]:
     """Names of the complete TensorFlow checkpoints among `keys` that have no racer checkpoint beside them."""
     files = dict.fromkeys(keys, 0)
-    return [name.name for name in ck.all_checkpoint_names(files)
-            if not ck.is_racer_checkpoint(name, files) and not ck.missing_parts(name, files)]
+    return [
+        name.name
+        for name in ck.all_checkpoint_names(files)
+        if not ck.is_racer_checkpoint(name, files) and not ck.missing_parts(name, files)
+    ]
 
 
 def convert_tf_checkpoints(store: ObjectStore, model_name: str) -> ConversionOutcome:
@@ -110,8 +126,11 @@ def convert_tf_checkpoints(store: ObjectStore, model_name: str) -> ConversionOut
 
     prefix = join_key(model_name, model_layout.MODEL_DIR) + "/"
     files = {key.removeprefix(model_name + "/"): 0 for key in store.list_keys(prefix)}
-    tf_names = [name for name in ck.all_checkpoint_names(files)
-                if not ck.is_racer_checkpoint(name, files) and not ck.missing_parts(name, files)]
+    tf_names = [
+        name
+        for name in ck.all_checkpoint_names(files)
+        if not ck.is_racer_checkpoint(name, files) and not ck.missing_parts(name, files)
+    ]
     if not tf_names:
         return ConversionOutcome((), ())
     metadata, _ = _metadata(store, model_name)
@@ -124,8 +143,13 @@ def convert_tf_checkpoints(store: ObjectStore, model_name: str) -> ConversionOut
             for key in ck.checkpoint_files(name, files):
                 (Path(folder) / key.removeprefix(ck.MODEL_DIR)).write_bytes(store.get_bytes(join_key(model_name, key)))
             imported = network_from_tf_checkpoint(Path(folder) / name.name, config)
-        checkpoints.save(name.number, name.env_steps, imported.network, model_metadata=metadata,
-                         extra={"imported_from": "tensorflow checkpoint", "value_restored": imported.value_restored})
+        checkpoints.save(
+            name.number,
+            name.env_steps,
+            imported.network,
+            model_metadata=metadata,
+            extra={"imported_from": "tensorflow checkpoint", "value_restored": imported.value_restored},
+        )
         written.append(name.name)
         notes += [f"{name}: {note}" for note in imported.notes]
     if pointer is not None:  # save() moved the pointer to each converted checkpoint in turn
@@ -140,8 +164,9 @@ def import_frozen_graph(source: ModelSource, graph_key: str, store: ObjectStore,
 
     files = source.list_files()
     metadata_key = "model_metadata.json" if "model_metadata.json" in files else model_layout.MODEL_METADATA
-    metadata = parse_model_metadata(json.loads(source.read(metadata_key).decode("utf-8-sig")),
-                                    source=f"{source.describe()}/{metadata_key}")
+    metadata = parse_model_metadata(
+        json.loads(source.read(metadata_key).decode("utf-8-sig")), source=f"{source.describe()}/{metadata_key}"
+    )
     config = _policy_config(metadata)
     with tempfile.TemporaryDirectory(prefix="racer-tf-import-") as folder:
         graph_path = Path(folder) / "model.pb"
@@ -152,7 +177,12 @@ def import_frozen_graph(source: ModelSource, graph_key: str, store: ObjectStore,
     for optional in ("reward_function.py", "training_params.yaml"):
         if optional in files:
             store.put_bytes(join_key(model_name, optional), source.read(optional))
-    name = checkpoints.save(0, 0, imported.network, model_metadata=metadata,
-                            extra={"imported_from": f"frozen graph {graph_key}", "value_restored": False})
+    name = checkpoints.save(
+        0,
+        0,
+        imported.network,
+        model_metadata=metadata,
+        extra={"imported_from": f"frozen graph {graph_key}", "value_restored": False},
+    )
     checkpoints.write_best_and_last(CheckpointRecord(name, None, None), CheckpointRecord(name, None, None))
     return ConversionOutcome((name,), imported.notes)

@@ -85,7 +85,9 @@ class TarSource:
             if name.is_absolute() or ".." in name.parts:
                 raise SourceFormatError(f"{self.path}: member {member.name!r} has an unsafe path")
             if member.issym() or member.islnk():
-                raise SourceFormatError(f"{self.path}: member {member.name!r} is a link; a model holds plain files only")
+                raise SourceFormatError(
+                    f"{self.path}: member {member.name!r} is a link; a model holds plain files only"
+                )
             if member.isfile():
                 regular[name.as_posix()] = member
         self._members = self._strip_wrapper_folder(regular)
@@ -173,4 +175,3 @@ def open_source(location: str) -> ModelSource:
     if location.endswith(TAR_SUFFIXES):
         return TarSource(path)
     raise SourceMissingError(f"{location}: no such folder or archive")
-

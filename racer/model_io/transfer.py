@@ -55,8 +55,15 @@ HYPERPARAMETERS_TARGET = model_layout.HYPERPARAMETERS
 CAR_BUNDLE_ONNX = "agent/model.onnx"
 CAR_BUNDLE_PB = "agent/model.pb"
 
-_SOURCE_ERRORS = (OSError, botocore.exceptions.BotoCoreError, botocore.exceptions.ClientError, AccessDeniedError,
-                  BucketNotFoundError, ObjectNotFoundError, StoreUnavailableError)
+_SOURCE_ERRORS = (
+    OSError,
+    botocore.exceptions.BotoCoreError,
+    botocore.exceptions.ClientError,
+    AccessDeniedError,
+    BucketNotFoundError,
+    ObjectNotFoundError,
+    StoreUnavailableError,
+)
 
 
 class Destination(Protocol):
@@ -162,11 +169,18 @@ class _CopyFailed(Exception):
         self.problem = problem
 
 
-def _copy_plan(source: ModelSource, plan: ImportPlan, destination: Destination, *,
-               metadata_targets: tuple[str, ...], hyperparameters_targets: tuple[str, ...],
-               deepracer_checkpoints: bytes | None,
-               car_bundle_from: str | None = None, extra_files: dict[str, bytes] | None = None,
-               optional_target: Callable[[str], str] = str) -> list[str]:
+def _copy_plan(
+    source: ModelSource,
+    plan: ImportPlan,
+    destination: Destination,
+    *,
+    metadata_targets: tuple[str, ...],
+    hyperparameters_targets: tuple[str, ...],
+    deepracer_checkpoints: bytes | None,
+    car_bundle_from: str | None = None,
+    extra_files: dict[str, bytes] | None = None,
+    optional_target: Callable[[str], str] = str,
+) -> list[str]:
     """Copy the planned files, then `extra_files` (made for the export, e.g. TensorFlow's), then the car bundle
     built from `car_bundle_from` (an inference model key, looked up in extra_files first) if given, then
     `.coach_checkpoint` last. Raises _CopyFailed with the problem on the first failure."""
@@ -174,8 +188,10 @@ def _copy_plan(source: ModelSource, plan: ImportPlan, destination: Destination, 
     copies: list[tuple[str, str]] = [(key, key) for key in plan.checkpoint_files]
     copies += [(plan.metadata_key, target) for target in metadata_targets]
     copies += [(plan.hyperparameters_key, target) for target in hyperparameters_targets]
-    copies += [(plan.reward_function_key, plan.reward_function_key),
-               (plan.training_params_key, plan.training_params_key)]
+    copies += [
+        (plan.reward_function_key, plan.reward_function_key),
+        (plan.training_params_key, plan.training_params_key),
+    ]
     copies += [(key, optional_target(key)) for key in plan.optional_keys]
     written: list[str] = []
 
@@ -191,10 +207,15 @@ def _copy_plan(source: ModelSource, plan: ImportPlan, destination: Destination, 
         try:
             destination.put_bytes(target, data)
         except (StoreError, OSError, botocore.exceptions.BotoCoreError, botocore.exceptions.ClientError) as error:
-            raise _CopyFailed(ValidationProblem(
-                ProblemCode.S3_COPY_ERROR, target, f"writing to {destination.describe()} failed: {error}",
-                "check that the destination store is reachable and writable (bucket exists, credentials may "
-                "s3:PutObject), then run the command again")) from error
+            raise _CopyFailed(
+                ValidationProblem(
+                    ProblemCode.S3_COPY_ERROR,
+                    target,
+                    f"writing to {destination.describe()} failed: {error}",
+                    "check that the destination store is reachable and writable (bucket exists, credentials may "
+                    "s3:PutObject), then run the command again",
+                )
+            ) from error
         written.append(target)
 
     last_read: tuple[str, bytes] | None = None  # the metadata is written twice on export: read it once
@@ -221,12 +242,20 @@ def _source_deepracer_checkpoints(source: ModelSource, plan: ImportPlan) -> byte
     return best_and_last_names_to_bytes(pointer, pointer)
 
 
-def import_model(source: ModelSource, store: ObjectStore, model_name: str, *, overwrite: bool = False,
-                 limits: SizeLimits = DEFAULT_LIMITS) -> TransferResult:
+def import_model(
+    source: ModelSource,
+    store: ObjectStore,
+    model_name: str,
+    *,
+    overwrite: bool = False,
+    limits: SizeLimits = DEFAULT_LIMITS,
+) -> TransferResult:
     """Validate `source` and copy it to `<model_name>/` in `store` with the console's checkpoint logic."""
     if not MODEL_NAME.match(model_name):
-        raise ValueError(f"model name {model_name!r}: use 1-64 letters, digits and hyphens, starting with a letter "
-                         "or digit (the console's rule)")
+        raise ValueError(
+            f"model name {model_name!r}: use 1-64 letters, digits and hyphens, starting with a letter "
+            "or digit (the console's rule)"
+        )
     destination = StoreDestination(store, model_name)
     report = validate_model(source, limits)
     if report.plan is None:
@@ -234,27 +263,46 @@ def import_model(source: ModelSource, store: ObjectStore, model_name: str, *, ov
     try:
         existing = store.list_keys(model_name + "/")
         if existing and not overwrite:
-            raise ModelExistsError(f"{destination.describe()} already holds a model ({len(existing)} files); "
-                                   "choose another name or pass --overwrite")
+            raise ModelExistsError(
+                f"{destination.describe()} already holds a model ({len(existing)} files); "
+                "choose another name or pass --overwrite"
+            )
         for key in existing:
             store.delete(key)
     except (StoreError, botocore.exceptions.BotoCoreError, botocore.exceptions.ClientError) as error:
-        return TransferResult(destination.describe(), report, problems=(ValidationProblem(
-            ProblemCode.S3_COPY_ERROR, "", f"can't prepare {destination.describe()}: {error}",
-            "check that the destination store is reachable, the bucket exists and the credentials may list, "
-            "write and delete there"),))
+        return TransferResult(
+            destination.describe(),
+            report,
+            problems=(
+                ValidationProblem(
+                    ProblemCode.S3_COPY_ERROR,
+                    "",
+                    f"can't prepare {destination.describe()}: {error}",
+                    "check that the destination store is reachable, the bucket exists and the credentials may list, "
+                    "write and delete there",
+                ),
+            ),
+        )
     try:
-        deepracer_checkpoints = source.read(report.plan.deepracer_checkpoints_key) \
-            if report.plan.deepracer_checkpoints_key else None
-        written = _copy_plan(source, report.plan, destination, metadata_targets=(METADATA_TARGET,),
-                             hyperparameters_targets=(HYPERPARAMETERS_TARGET,), deepracer_checkpoints=deepracer_checkpoints)
+        deepracer_checkpoints = (
+            source.read(report.plan.deepracer_checkpoints_key) if report.plan.deepracer_checkpoints_key else None
+        )
+        written = _copy_plan(
+            source,
+            report.plan,
+            destination,
+            metadata_targets=(METADATA_TARGET,),
+            hyperparameters_targets=(HYPERPARAMETERS_TARGET,),
+            deepracer_checkpoints=deepracer_checkpoints,
+        )
     except _CopyFailed as failure:
         _remove_partial(store, model_name)
         return TransferResult(destination.describe(), report, problems=(failure.problem,))
     except _SOURCE_ERRORS as error:
         _remove_partial(store, model_name)
-        return TransferResult(destination.describe(), report,
-                              problems=(problem_for_source_error(error, source.describe()),))
+        return TransferResult(
+            destination.describe(), report, problems=(problem_for_source_error(error, source.describe()),)
+        )
     return TransferResult(destination.describe(), report, written=tuple(written))
 
 
@@ -272,8 +320,10 @@ def car_bundle(metadata: bytes, inference_key: str, inference_model: bytes) -> t
     member = CAR_BUNDLE_ONNX if inference_key.endswith(".onnx") else CAR_BUNDLE_PB
     buffer = io.BytesIO()
     # gzip stamps the time into its header unless told otherwise; 0 keeps the bytes reproducible.
-    with gzip.GzipFile(fileobj=buffer, mode="wb", mtime=0) as compressed, \
-            tarfile.open(fileobj=compressed, mode="w", format=tarfile.PAX_FORMAT) as bundle:
+    with (
+        gzip.GzipFile(fileobj=buffer, mode="wb", mtime=0) as compressed,
+        tarfile.open(fileobj=compressed, mode="w", format=tarfile.PAX_FORMAT) as bundle,
+    ):
         for name, data in (("model_metadata.json", metadata), (member, inference_model)):
             info = tarfile.TarInfo(name)
             info.size = len(data)
@@ -283,9 +333,16 @@ def car_bundle(metadata: bytes, inference_key: str, inference_model: bytes) -> t
     return buffer.getvalue(), member
 
 
-def export_model(store: ObjectStore, model_prefix: str, destination: Destination, *,
-                 limits: SizeLimits = DEFAULT_LIMITS,
-                 check: bool = True, tensorflow: bool = False, layout: str = "racer") -> TransferResult:
+def export_model(
+    store: ObjectStore,
+    model_prefix: str,
+    destination: Destination,
+    *,
+    limits: SizeLimits = DEFAULT_LIMITS,
+    check: bool = True,
+    tensorflow: bool = False,
+    layout: str = "racer",
+) -> TransferResult:
     """Write `model_prefix` from `store` to `destination` in the import-ready layout plus model.tar.gz.
 
     tensorflow=True adds DeepRacer's TensorFlow files for each racer checkpoint (checkpoint + `model_<N>.pb`) and
@@ -300,18 +357,26 @@ def export_model(store: ObjectStore, model_prefix: str, destination: Destination
         return TransferResult(destination.describe(), report)
     plan = _exported_plan(report.plan)
     extra_files = tensorflow_exports(source, plan) if tensorflow else {}
-    metadata_targets, hyperparameters_targets = (METADATA_TARGET, "model_metadata.json"), \
-        (HYPERPARAMETERS_TARGET, "hyperparameters.json")
+    metadata_targets, hyperparameters_targets = (
+        (METADATA_TARGET, "model_metadata.json"),
+        (HYPERPARAMETERS_TARGET, "hyperparameters.json"),
+    )
     if layout == "droa":
         plan = droa_plan(plan)
         hyperparameters_targets = ("hyperparameters.json",)
     inference_key = _car_inference_model(plan, extra_files, prefer_pb=tensorflow)
     try:
-        written = _copy_plan(source, plan, destination, metadata_targets=metadata_targets,
-                             hyperparameters_targets=hyperparameters_targets,
-                             deepracer_checkpoints=_source_deepracer_checkpoints(source, plan),
-                             car_bundle_from=inference_key, extra_files=extra_files,
-                             optional_target=droa_targets if layout == "droa" else str)
+        written = _copy_plan(
+            source,
+            plan,
+            destination,
+            metadata_targets=metadata_targets,
+            hyperparameters_targets=hyperparameters_targets,
+            deepracer_checkpoints=_source_deepracer_checkpoints(source, plan),
+            car_bundle_from=inference_key,
+            extra_files=extra_files,
+            optional_target=droa_targets if layout == "droa" else str,
+        )
     except _CopyFailed as failure:
         if isinstance(destination, ArchiveDestination):
             destination.discard()
@@ -319,14 +384,18 @@ def export_model(store: ObjectStore, model_prefix: str, destination: Destination
     except _SOURCE_ERRORS as error:
         if isinstance(destination, ArchiveDestination):
             destination.discard()
-        return TransferResult(destination.describe(), report,
-                              problems=(problem_for_source_error(error, source.describe()),))
+        return TransferResult(
+            destination.describe(), report, problems=(problem_for_source_error(error, source.describe()),)
+        )
     if isinstance(destination, ArchiveDestination):
         destination.close()
     checked = validate_model(_source_for(destination), limits) if check else None
-    car_model = None if inference_key is None else (CAR_BUNDLE_ONNX if inference_key.endswith(".onnx") else CAR_BUNDLE_PB)
-    return TransferResult(destination.describe(), report, written=tuple(written), car_bundle_model=car_model,
-                          check=checked)
+    car_model = (
+        None if inference_key is None else (CAR_BUNDLE_ONNX if inference_key.endswith(".onnx") else CAR_BUNDLE_PB)
+    )
+    return TransferResult(
+        destination.describe(), report, written=tuple(written), car_bundle_model=car_model, check=checked
+    )
 
 
 def _car_inference_model(plan: ImportPlan, extra_files: dict[str, bytes], prefer_pb: bool) -> str | None:
@@ -346,8 +415,9 @@ def _exported_plan(plan: ImportPlan) -> ImportPlan:
         return plan
     pointer = CheckpointName.parse(plan.selection.pointer)
     assert pointer is not None  # validation accepted it
-    files = tuple(ck.checkpoint_files(pointer, plan.checkpoint_files)
-                  + ck.inference_model_files(pointer, plan.checkpoint_files))
+    files = tuple(
+        ck.checkpoint_files(pointer, plan.checkpoint_files) + ck.inference_model_files(pointer, plan.checkpoint_files)
+    )
     selection = dataclasses.replace(plan.selection, checkpoints=(pointer.name,))
     return dataclasses.replace(plan, selection=selection, checkpoint_files=files)
 

@@ -59,6 +59,7 @@ _WORKER_PARAMS = re.compile(r"^training_params_\d+\.yaml$")
 
 T = TypeVar("T")
 
+
 def _decode_json(data: bytes, key: str) -> object:
     """JSON with the byte-order mark some editors add; ValueError naming line and column."""
     try:
@@ -76,24 +77,39 @@ def _check_sizes(run: ValidationRun, limits: SizeLimits) -> None:
         if in_checkpoint or ck.is_inference_model(key):
             if size > limits.checkpoint_file_bytes:
                 run.oversized.add(key)
-                run.add(ProblemCode.CHECKPOINT_FILE_SIZE_LIMIT_EXCEEDED, key,
-                        f"{size} bytes; the limit for one checkpoint file is {limits.checkpoint_file_bytes} bytes",
-                        "this is not a checkpoint DeepRacer or racer writes; restore the file from the training run")
+                run.add(
+                    ProblemCode.CHECKPOINT_FILE_SIZE_LIMIT_EXCEEDED,
+                    key,
+                    f"{size} bytes; the limit for one checkpoint file is {limits.checkpoint_file_bytes} bytes",
+                    "this is not a checkpoint DeepRacer or racer writes; restore the file from the training run",
+                )
         elif key.endswith((".json", ".yaml", ".yml")) or key == model_layout.COACH_CHECKPOINT:
             if size > limits.json_yaml_bytes:
                 run.oversized.add(key)
-                run.add(ProblemCode.JSON_YAML_FILE_SIZE_LIMIT_EXCEEDED, key,
-                        f"{size} bytes; the limit for a JSON/YAML file is {limits.json_yaml_bytes} bytes",
-                        "restore the original file (real ones are a few kB); metrics files can be left out")
+                run.add(
+                    ProblemCode.JSON_YAML_FILE_SIZE_LIMIT_EXCEEDED,
+                    key,
+                    f"{size} bytes; the limit for a JSON/YAML file is {limits.json_yaml_bytes} bytes",
+                    "restore the original file (real ones are a few kB); metrics files can be left out",
+                )
         elif key == CAR_BUNDLE_KEY and size > limits.model_bytes:
             run.oversized.add(key)
-            run.add(ProblemCode.MODEL_TAR_FILE_SIZE_LIMIT_EXCEEDED, key,
-                    f"{size} bytes; the limit for the model archive is {limits.model_bytes} bytes",
-                    "rebuild model.tar.gz with only model_metadata.json and agent/model.* (racer model export)")
+            run.add(
+                ProblemCode.MODEL_TAR_FILE_SIZE_LIMIT_EXCEEDED,
+                key,
+                f"{size} bytes; the limit for the model archive is {limits.model_bytes} bytes",
+                "rebuild model.tar.gz with only model_metadata.json and agent/model.* (racer model export)",
+            )
 
 
-def _check_json_copies(run: ValidationRun, keys: tuple[str, ...], parse: Callable[[object, str], T],
-                       missing: str, fix_missing: str, fix_invalid: str) -> tuple[str | None, T | None]:
+def _check_json_copies(
+    run: ValidationRun,
+    keys: tuple[str, ...],
+    parse: Callable[[object, str], T],
+    missing: str,
+    fix_missing: str,
+    fix_invalid: str,
+) -> tuple[str | None, T | None]:
     """A JSON file that may sit in two places (trainer layout, DeepRacer-on-AWS root): each copy present must
     parse, and two copies must hold the same document. Returns the key to use and the parsed value."""
     present = [key for key in keys if key in run.files]
@@ -115,19 +131,25 @@ def _check_json_copies(run: ValidationRun, keys: tuple[str, ...], parse: Callabl
         documents[key] = document
         parsed = value if parsed is None else parsed
     if len(documents) == 2 and documents[keys[0]] != documents[keys[1]]:
-        run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, keys[1],
-                f"differs from {keys[0]}; the two copies must describe the same model",
-                f"copy {keys[0]} (what the trainer used) over {keys[1]}")
+        run.add(
+            ProblemCode.MODEL_VALIDATION_SERVICE_ERROR,
+            keys[1],
+            f"differs from {keys[0]}; the two copies must describe the same model",
+            f"copy {keys[0]} (what the trainer used) over {keys[1]}",
+        )
         return present[0], None
     return present[0], parsed
 
 
 def _check_metadata(run: ValidationRun) -> tuple[str | None, ModelMetadata | None]:
     return _check_json_copies(
-        run, METADATA_KEYS, lambda document, key: parse_model_metadata(document, source=key),
+        run,
+        METADATA_KEYS,
+        lambda document, key: parse_model_metadata(document, source=key),
         "neither model/model_metadata.json nor model_metadata.json (prefix root) exists",
         "restore model_metadata.json (action space, sensors, network) from the training run",
-        "restore the model_metadata.json the model was trained with; the network's outputs depend on it")
+        "restore the model_metadata.json the model was trained with; the network's outputs depend on it",
+    )
 
 
 def _without_source(message: str, key: str) -> str:
@@ -137,10 +159,13 @@ def _without_source(message: str, key: str) -> str:
 
 def _check_hyperparameters(run: ValidationRun) -> str | None:
     key, parsed = _check_json_copies(
-        run, HYPERPARAMETER_KEYS, lambda document, key: parse_hyperparameters(document, source=key),
+        run,
+        HYPERPARAMETER_KEYS,
+        lambda document, key: parse_hyperparameters(document, source=key),
         "neither ip/hyperparameters.json nor hyperparameters.json (prefix root) exists",
         "restore ip/hyperparameters.json from the training run (or write the hyperparameters you trained with)",
-        "restore the original hyperparameters.json; values must be within the console's ranges")
+        "restore the original hyperparameters.json; values must be within the console's ranges",
+    )
     if parsed is not None:
         run.notes.extend(parsed[1])
     return key
@@ -148,8 +173,12 @@ def _check_hyperparameters(run: ValidationRun) -> str | None:
 
 def _check_reward_function(run: ValidationRun) -> None:
     if REWARD_FUNCTION_KEY not in run.files:
-        run.add(ProblemCode.FILE_DOES_NOT_EXIST, REWARD_FUNCTION_KEY, "reward_function.py is missing",
-                "put the reward function the model was trained with at the prefix root as reward_function.py")
+        run.add(
+            ProblemCode.FILE_DOES_NOT_EXIST,
+            REWARD_FUNCTION_KEY,
+            "reward_function.py is missing",
+            "put the reward function the model was trained with at the prefix root as reward_function.py",
+        )
         return
     data = run.read(REWARD_FUNCTION_KEY)
     if data is None:
@@ -157,20 +186,31 @@ def _check_reward_function(run: ValidationRun) -> None:
     try:
         tree = ast.parse(data.decode("utf-8-sig"), filename=REWARD_FUNCTION_KEY)
     except (SyntaxError, UnicodeDecodeError, ValueError) as error:
-        run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, REWARD_FUNCTION_KEY, f"is not valid Python: {error}",
-                "restore the reward function file the model was trained with")
+        run.add(
+            ProblemCode.MODEL_VALIDATION_SERVICE_ERROR,
+            REWARD_FUNCTION_KEY,
+            f"is not valid Python: {error}",
+            "restore the reward function file the model was trained with",
+        )
         return
     if not any(isinstance(node, ast.FunctionDef) and node.name == "reward_function" for node in tree.body):
-        run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, REWARD_FUNCTION_KEY,
-                "defines no top-level function reward_function(params)",
-                "restore the reward function file; DeepRacer calls reward_function(params)")
+        run.add(
+            ProblemCode.MODEL_VALIDATION_SERVICE_ERROR,
+            REWARD_FUNCTION_KEY,
+            "defines no top-level function reward_function(params)",
+            "restore the reward function file; DeepRacer calls reward_function(params)",
+        )
 
 
 def _check_training_params(run: ValidationRun) -> None:
     """training_params.yaml (required) and any per-worker training_params_<i>.yaml: YAML mappings."""
     if TRAINING_PARAMS_KEY not in run.files:
-        run.add(ProblemCode.FILE_DOES_NOT_EXIST, TRAINING_PARAMS_KEY, "training_params.yaml is missing",
-                "restore training_params.yaml (track, race type, ...) at the prefix root")
+        run.add(
+            ProblemCode.FILE_DOES_NOT_EXIST,
+            TRAINING_PARAMS_KEY,
+            "training_params.yaml is missing",
+            "restore training_params.yaml (track, race type, ...) at the prefix root",
+        )
     for key in sorted(key for key in run.files if key == TRAINING_PARAMS_KEY or _WORKER_PARAMS.match(key)):
         data = run.read(key)
         if data is None:
@@ -178,12 +218,20 @@ def _check_training_params(run: ValidationRun) -> None:
         try:
             document = yaml.safe_load(data.decode("utf-8-sig"))
         except (yaml.YAMLError, UnicodeDecodeError) as error:
-            run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, key, f"is not valid YAML: {error}",
-                    f"restore the original {key}")
+            run.add(
+                ProblemCode.MODEL_VALIDATION_SERVICE_ERROR,
+                key,
+                f"is not valid YAML: {error}",
+                f"restore the original {key}",
+            )
             continue
         if not isinstance(document, dict):
-            run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, key,
-                    f"must be a YAML mapping of KEY: value, got {type(document).__name__}", f"restore the original {key}")
+            run.add(
+                ProblemCode.MODEL_VALIDATION_SERVICE_ERROR,
+                key,
+                f"must be a YAML mapping of KEY: value, got {type(document).__name__}",
+                f"restore the original {key}",
+            )
 
 
 def _check_inference_models(run: ValidationRun, keys: list[str], metadata: ModelMetadata | None) -> None:
@@ -201,21 +249,30 @@ def _check_inference_models(run: ValidationRun, keys: list[str], metadata: Model
             graph = onnx.load_from_string(data)
             onnx.checker.check_model(graph)
         except (DecodeError, onnx.checker.ValidationError, ValueError) as error:
-            run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, key, f"is not a valid ONNX model: {error}",
-                    "restore the file from the training run (racer writes model_<N>.onnx with every checkpoint)")
+            run.add(
+                ProblemCode.MODEL_VALIDATION_SERVICE_ERROR,
+                key,
+                f"is not a valid ONNX model: {error}",
+                "restore the file from the training run (racer writes model_<N>.onnx with every checkpoint)",
+            )
             continue
         if metadata is None or not graph.graph.output:
             continue
         dims = graph.graph.output[0].type.tensor_type.shape.dim
         width = dims[-1].dim_value if dims else 0
         if width and width != metadata.num_actions:
-            run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, key,
-                    f"outputs {width} values per observation but model_metadata.json's action space has "
-                    f"{metadata.num_actions}", "restore the model_metadata.json the model was trained with")
+            run.add(
+                ProblemCode.MODEL_VALIDATION_SERVICE_ERROR,
+                key,
+                f"outputs {width} values per observation but model_metadata.json's action space has "
+                f"{metadata.num_actions}",
+                "restore the model_metadata.json the model was trained with",
+            )
 
 
-def _check_racer_checkpoints(run: ValidationRun, names: list[CheckpointName], metadata_key: str | None,
-                             metadata: ModelMetadata | None) -> bool:
+def _check_racer_checkpoints(
+    run: ValidationRun, names: list[CheckpointName], metadata_key: str | None, metadata: ModelMetadata | None
+) -> bool:
     """racer checkpoints carry a manifest with every file's size and sha256 and the network they were saved
     from: a file that doesn't match, or a model_metadata.json asking for another network, is an edited model.
     Returns True when the metadata disagrees with a checkpoint (the ONNX width check would repeat it)."""
@@ -237,22 +294,33 @@ def _check_racer_checkpoints(run: ValidationRun, names: list[CheckpointName], me
         try:
             info = CheckpointInfo.from_dict(_decode_json(data, manifest_key))
         except (CheckpointError, ValueError, KeyError, TypeError) as error:
-            run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, manifest_key, f"is not a racer checkpoint manifest: {error}",
-                    "restore the file from the training run; racer writes it last, after the checkpoint's files")
+            run.add(
+                ProblemCode.MODEL_VALIDATION_SERVICE_ERROR,
+                manifest_key,
+                f"is not a racer checkpoint manifest: {error}",
+                "restore the file from the training run; racer writes it last, after the checkpoint's files",
+            )
             continue
         for file_name, expected in sorted(info.files.items()):
             key = ck.MODEL_DIR + file_name
             if key not in run.files:
-                run.add(ProblemCode.CHECKPOINT_FILES_DOES_NOT_EXIST, key,
-                        f"listed by {manifest_key} but missing", CHECKPOINT_FIX)
+                run.add(
+                    ProblemCode.CHECKPOINT_FILES_DOES_NOT_EXIST,
+                    key,
+                    f"listed by {manifest_key} but missing",
+                    CHECKPOINT_FIX,
+                )
                 continue
             content = run.read(key)
             if content is None:
                 continue
             if len(content) != expected.get("size_bytes") or sha256_hex(content) != expected.get("sha256"):
-                run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, key,
-                        f"does not match the size and sha256 recorded in {manifest_key} (the file was changed)",
-                        "restore the checkpoint files exactly as the trainer wrote them")
+                run.add(
+                    ProblemCode.MODEL_VALIDATION_SERVICE_ERROR,
+                    key,
+                    f"does not match the size and sha256 recorded in {manifest_key} (the file was changed)",
+                    "restore the checkpoint files exactly as the trainer wrote them",
+                )
         if metadata is not None:
             try:
                 wanted = policy_config_from_metadata(metadata)
@@ -263,11 +331,14 @@ def _check_racer_checkpoints(run: ValidationRun, names: list[CheckpointName], me
                 disagreeing.append(name.name)
                 saved = info.policy_config
     if disagreeing and saved is not None:
-        run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, metadata_key or METADATA_KEYS[0],
-                f"asks for {wanted_text}, but checkpoint {', '.join(disagreeing)} was trained with "
-                f"{saved.num_actions} {saved.action_space_type} actions, {saved.neural_network}",
-                "restore the model_metadata.json the model was trained with (each racer checkpoint manifest "
-                "model/<N>_Step-<M>.ckpt.json holds a copy under model_metadata)")
+        run.add(
+            ProblemCode.MODEL_VALIDATION_SERVICE_ERROR,
+            metadata_key or METADATA_KEYS[0],
+            f"asks for {wanted_text}, but checkpoint {', '.join(disagreeing)} was trained with "
+            f"{saved.num_actions} {saved.action_space_type} actions, {saved.neural_network}",
+            "restore the model_metadata.json the model was trained with (each racer checkpoint manifest "
+            "model/<N>_Step-<M>.ckpt.json holds a copy under model_metadata)",
+        )
     return bool(disagreeing)
 
 
@@ -281,15 +352,23 @@ def _check_car_bundle(run: ValidationRun) -> None:
         with tarfile.open(fileobj=io.BytesIO(data), mode="r:*") as bundle:
             names = {member.name.removeprefix("./") for member in bundle.getmembers() if member.isfile()}
     except (tarfile.TarError, EOFError, OSError) as error:
-        run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, CAR_BUNDLE_KEY, f"is not a readable tar.gz ({error})",
-                "rebuild it with racer model export, or delete it (imports don't need it)")
+        run.add(
+            ProblemCode.MODEL_VALIDATION_SERVICE_ERROR,
+            CAR_BUNDLE_KEY,
+            f"is not a readable tar.gz ({error})",
+            "rebuild it with racer model export, or delete it (imports don't need it)",
+        )
         return
     missing = ["model_metadata.json"] if "model_metadata.json" not in names else []
     if not names.intersection(CAR_BUNDLE_MODELS):
         missing.append(" or ".join(CAR_BUNDLE_MODELS))
     if missing:
-        run.add(ProblemCode.MODEL_VALIDATION_SERVICE_ERROR, CAR_BUNDLE_KEY, f"lacks {', '.join(missing)}",
-                "rebuild it with racer model export, or delete it (imports don't need it)")
+        run.add(
+            ProblemCode.MODEL_VALIDATION_SERVICE_ERROR,
+            CAR_BUNDLE_KEY,
+            f"lacks {', '.join(missing)}",
+            "rebuild it with racer model export, or delete it (imports don't need it)",
+        )
 
 
 def validate_model(source: ModelSource, limits: SizeLimits = DEFAULT_LIMITS) -> ValidationReport:
@@ -297,21 +376,40 @@ def validate_model(source: ModelSource, limits: SizeLimits = DEFAULT_LIMITS) -> 
     where = source.describe()
     try:
         files = source.list_files()
-    except (OSError, botocore.exceptions.BotoCoreError, botocore.exceptions.ClientError, AccessDeniedError,
-            BucketNotFoundError, ObjectNotFoundError, StoreUnavailableError) as error:
+    except (
+        OSError,
+        botocore.exceptions.BotoCoreError,
+        botocore.exceptions.ClientError,
+        AccessDeniedError,
+        BucketNotFoundError,
+        ObjectNotFoundError,
+        StoreUnavailableError,
+    ) as error:
         return ValidationReport(where, (problem_for_source_error(error, where),))
     if not files:
-        return ValidationReport(where, (ValidationProblem(
-            ProblemCode.FILE_DOES_NOT_EXIST, "", f"{where}: there are no files here",
-            "check the prefix (it is the folder holding model/ and ip/); if the model was deleted, upload your copy"),))
+        return ValidationReport(
+            where,
+            (
+                ValidationProblem(
+                    ProblemCode.FILE_DOES_NOT_EXIST,
+                    "",
+                    f"{where}: there are no files here",
+                    "check the prefix (it is the folder holding model/ and ip/); if the model was deleted, upload your copy",
+                ),
+            ),
+        )
     run = ValidationRun(source, files)
     if isinstance(source, TarSource) or hasattr(source, "archive_bytes"):  # a tar or ZIP archive
         unpacked = sum(files.values())
         if source.archive_bytes > limits.model_bytes or unpacked > limits.model_bytes:
-            run.add(ProblemCode.MODEL_TAR_FILE_SIZE_LIMIT_EXCEEDED, "",
-                    f"archive {source.archive_bytes} bytes, {unpacked} bytes unpacked; the limit is "
-                    f"{limits.model_bytes} bytes", "leave out old checkpoints, videos and simtraces; keep the files "
-                    "the import needs (racer model export writes exactly those)")
+            run.add(
+                ProblemCode.MODEL_TAR_FILE_SIZE_LIMIT_EXCEEDED,
+                "",
+                f"archive {source.archive_bytes} bytes, {unpacked} bytes unpacked; the limit is "
+                f"{limits.model_bytes} bytes",
+                "leave out old checkpoints, videos and simtraces; keep the files "
+                "the import needs (racer model export writes exactly those)",
+            )
             return ValidationReport(where, tuple(run.problems))
     _check_sizes(run, limits)
     selection = select_checkpoints(run)
@@ -320,49 +418,88 @@ def validate_model(source: ModelSource, limits: SizeLimits = DEFAULT_LIMITS) -> 
     _check_reward_function(run)
     _check_training_params(run)
     _check_car_bundle(run)
-    ignored = sorted({key.removeprefix(ck.MODEL_DIR).partition(".ckpt.")[0] + ".ckpt" for key in files
-                      if key.startswith(ck.MODEL_DIR) and ".ckpt." in key
-                      and CheckpointName.of_file(key.removeprefix(ck.MODEL_DIR)) is None})
+    ignored = sorted(
+        {
+            key.removeprefix(ck.MODEL_DIR).partition(".ckpt.")[0] + ".ckpt"
+            for key in files
+            if key.startswith(ck.MODEL_DIR)
+            and ".ckpt." in key
+            and CheckpointName.of_file(key.removeprefix(ck.MODEL_DIR)) is None
+        }
+    )
     if ignored:
         run.notes.append(f"ignored (not named <N>_Step-<M>.ckpt): {', '.join(ignored)}")
 
     plan = None
     if selection is not None:
         names = [CheckpointName.find(name) for name in selection.checkpoints]
-        checkpoint_keys = sorted({key for name in names if name for key in
-                                  ck.checkpoint_files(name, files) + ck.inference_model_files(name, files)})
+        checkpoint_keys = sorted(
+            {
+                key
+                for name in names
+                if name
+                for key in ck.checkpoint_files(name, files) + ck.inference_model_files(name, files)
+            }
+        )
         metadata_disagrees = _check_racer_checkpoints(run, [name for name in names if name], metadata_key, metadata)
         _check_inference_models(run, checkpoint_keys, None if metadata_disagrees else metadata)
         if any(key.endswith(".ckpt.index") for key in checkpoint_keys):
-            run.notes.append("TensorFlow checkpoints (DeepRacer / DRoA / DRfC, or racer's export): `racer model "
-                             "import` converts them to racer checkpoints (with the TensorFlow extra installed)")
+            run.notes.append(
+                "TensorFlow checkpoints (DeepRacer / DRoA / DRfC, or racer's export): `racer model "
+                "import` converts them to racer checkpoints (with the TensorFlow extra installed)"
+            )
         optional = tuple(key for key in files if _OPTIONAL.match(key))
-        copied = [*checkpoint_keys, *optional, REWARD_FUNCTION_KEY, TRAINING_PARAMS_KEY, model_layout.DEEPRACER_CHECKPOINTS,
-                  *(key for key in (metadata_key, hyperparameters_key) if key)]
+        copied = [
+            *checkpoint_keys,
+            *optional,
+            REWARD_FUNCTION_KEY,
+            TRAINING_PARAMS_KEY,
+            model_layout.DEEPRACER_CHECKPOINTS,
+            *(key for key in (metadata_key, hyperparameters_key) if key),
+        ]
         total = sum(files.get(key, 0) for key in set(copied))
         if total > limits.model_bytes:
-            run.add(ProblemCode.MODEL_TAR_FILE_SIZE_LIMIT_EXCEEDED, "",
-                    f"the files an import copies total {total} bytes; the limit is {limits.model_bytes} bytes",
-                    "leave out metrics you don't need, or check for checkpoint files that don't belong to the model")
+            run.add(
+                ProblemCode.MODEL_TAR_FILE_SIZE_LIMIT_EXCEEDED,
+                "",
+                f"the files an import copies total {total} bytes; the limit is {limits.model_bytes} bytes",
+                "leave out metrics you don't need, or check for checkpoint files that don't belong to the model",
+            )
         if not run.problems and metadata_key and hyperparameters_key:
             plan = ImportPlan(
-                selection=selection, checkpoint_files=tuple(checkpoint_keys), metadata_key=metadata_key,
-                hyperparameters_key=hyperparameters_key, reward_function_key=REWARD_FUNCTION_KEY,
-                training_params_key=TRAINING_PARAMS_KEY, optional_keys=optional,
-                deepracer_checkpoints_key=model_layout.DEEPRACER_CHECKPOINTS if model_layout.DEEPRACER_CHECKPOINTS in files else None,
-                total_bytes=total)
+                selection=selection,
+                checkpoint_files=tuple(checkpoint_keys),
+                metadata_key=metadata_key,
+                hyperparameters_key=hyperparameters_key,
+                reward_function_key=REWARD_FUNCTION_KEY,
+                training_params_key=TRAINING_PARAMS_KEY,
+                optional_keys=optional,
+                deepracer_checkpoints_key=model_layout.DEEPRACER_CHECKPOINTS
+                if model_layout.DEEPRACER_CHECKPOINTS in files
+                else None,
+                total_bytes=total,
+            )
     return ValidationReport(where, tuple(run.problems), tuple(run.notes), plan)
 
 
-def validate_location(location: str, limits: SizeLimits = DEFAULT_LIMITS) -> tuple[ValidationReport, ModelSource | None]:
+def validate_location(
+    location: str, limits: SizeLimits = DEFAULT_LIMITS
+) -> tuple[ValidationReport, ModelSource | None]:
     """Open a folder, archive or s3://bucket/prefix and validate it; the source is returned for import."""
     path = Path(location).expanduser()
     if not location.startswith("s3://") and path.is_file() and path.stat().st_size > limits.model_bytes:
         # Checked before opening: listing a tar.gz means decompressing all of it.
-        return ValidationReport(location, (ValidationProblem(
-            ProblemCode.MODEL_TAR_FILE_SIZE_LIMIT_EXCEEDED, "",
-            f"archive is {path.stat().st_size} bytes; the limit is {limits.model_bytes} bytes",
-            "leave out old checkpoints, videos and simtraces (racer model export writes only what's needed)"),)), None
+        return ValidationReport(
+            location,
+            (
+                ValidationProblem(
+                    ProblemCode.MODEL_TAR_FILE_SIZE_LIMIT_EXCEEDED,
+                    "",
+                    f"archive is {path.stat().st_size} bytes; the limit is {limits.model_bytes} bytes",
+                    "leave out old checkpoints, videos and simtraces (racer model export writes only what's needed)",
+                ),
+            ),
+        ), None
     try:
         source = open_source(location)
     except (SourceMissingError, SourceFormatError) as error:

@@ -10,8 +10,10 @@ from racer.model_io.source_problems import problem_for_source_error
 from racer.model_io.sources import ModelSource, SourceFormatError
 from racer.shared.store import AccessDeniedError, BucketNotFoundError, ObjectNotFoundError, StoreUnavailableError
 
-CHECKPOINT_FIX = ("restore the missing files from your copy of the model, or point model/.coach_checkpoint "
-                   "(and model/deepracer_checkpoints.json) at a checkpoint whose files are all present")
+CHECKPOINT_FIX = (
+    "restore the missing files from your copy of the model, or point model/.coach_checkpoint "
+    "(and model/deepracer_checkpoints.json) at a checkpoint whose files are all present"
+)
 
 
 class ValidationRun:
@@ -35,8 +37,16 @@ class ValidationRun:
             return None
         try:
             return self.source.read(key)
-        except (OSError, SourceFormatError, botocore.exceptions.BotoCoreError, botocore.exceptions.ClientError,
-                AccessDeniedError, BucketNotFoundError, ObjectNotFoundError, StoreUnavailableError) as error:
+        except (
+            OSError,
+            SourceFormatError,
+            botocore.exceptions.BotoCoreError,
+            botocore.exceptions.ClientError,
+            AccessDeniedError,
+            BucketNotFoundError,
+            ObjectNotFoundError,
+            StoreUnavailableError,
+        ) as error:
             self.problems.append(problem_for_source_error(error, self.source.describe(), key))
             self.cut_off = not isinstance(error, ObjectNotFoundError | FileNotFoundError)
             return None

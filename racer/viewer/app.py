@@ -34,8 +34,14 @@ HEARTBEAT_STALE_S = 10.0
 """Workers beat every 3 s: a beat older than this means the worker is gone even if its key has not expired."""
 
 FILE_TYPES = {
-    ".mp4": "video/mp4", ".json": "application/json", ".jsonl": "application/json", ".csv": "text/csv",
-    ".png": "image/png", ".yaml": "text/plain", ".py": "text/plain", ".html": "text/html",
+    ".mp4": "video/mp4",
+    ".json": "application/json",
+    ".jsonl": "application/json",
+    ".csv": "text/csv",
+    ".png": "image/png",
+    ".yaml": "text/plain",
+    ".py": "text/plain",
+    ".html": "text/html",
     ".mcap": "application/octet-stream",
 }
 """What /files serves (by suffix) and as which type; everything else under the prefix is 404."""
@@ -51,10 +57,17 @@ def create_app(files: RunFiles, live: LiveRun | None) -> Starlette:
         return _no_store(FileResponse(STATIC_DIR / "index.html", media_type="text/html"))
 
     def run_info(request: Request) -> Response:
-        return _no_store(JSONResponse({
-            "model": files.prefix, "store": files.store.describe(), "live": live is not None,
-            "workers": files.workers(), "track": files.track(),
-        }))
+        return _no_store(
+            JSONResponse(
+                {
+                    "model": files.prefix,
+                    "store": files.store.describe(),
+                    "live": live is not None,
+                    "workers": files.workers(),
+                    "track": files.track(),
+                }
+            )
+        )
 
     def live_status(request: Request) -> Response:
         if live is None:
@@ -68,17 +81,29 @@ def create_app(files: RunFiles, live: LiveRun | None) -> Starlette:
             beat = snapshot.workers.get(worker_id)
             age_s = None if beat is None else max(0.0, now - float(beat.get("time", now)))
             frame = snapshot.frames.get(worker_id)
-            workers.append({
-                "id": worker_id, "world": (beat or {}).get("world") or worlds.get(worker_id, "?"),
-                "up": beat is not None and age_s <= HEARTBEAT_STALE_S,
-                "state": (beat or {}).get("state"), "iteration": (beat or {}).get("iteration"),
-                "episodes": (beat or {}).get("episodes"), "steps_per_s": (beat or {}).get("steps_per_s"),
-                "pid": (beat or {}).get("pid"), "heartbeat_age_s": None if age_s is None else round(age_s, 1),
-                "frame": None if frame is None else LiveRun.frame_summary(frame),
-            })
-        return _no_store(JSONResponse({"live": True, "redis": {"ok": snapshot.redis_error is None,
-                                                                "error": snapshot.redis_error},
-                                       "workers": workers}))
+            workers.append(
+                {
+                    "id": worker_id,
+                    "world": (beat or {}).get("world") or worlds.get(worker_id, "?"),
+                    "up": beat is not None and age_s <= HEARTBEAT_STALE_S,
+                    "state": (beat or {}).get("state"),
+                    "iteration": (beat or {}).get("iteration"),
+                    "episodes": (beat or {}).get("episodes"),
+                    "steps_per_s": (beat or {}).get("steps_per_s"),
+                    "pid": (beat or {}).get("pid"),
+                    "heartbeat_age_s": None if age_s is None else round(age_s, 1),
+                    "frame": None if frame is None else LiveRun.frame_summary(frame),
+                }
+            )
+        return _no_store(
+            JSONResponse(
+                {
+                    "live": True,
+                    "redis": {"ok": snapshot.redis_error is None, "error": snapshot.redis_error},
+                    "workers": workers,
+                }
+            )
+        )
 
     def progress(request: Request) -> Response:
         return _no_store(JSONResponse(files.progress()))

@@ -101,8 +101,7 @@ class HeadlessBrowser:
         self.driver.quit()
 
 
-def frame_cost(redis: RedisSettings, track: str, observations: int = 120, frames: int = 300,
-               steps: int = 3000) -> dict:
+def frame_cost(redis: RedisSettings, track: str, observations: int = 120, frames: int = 300, steps: int = 3000) -> dict:
     """What the frame tap costs a worker: per step while nobody watches, per published frame while watched
     (real camera images of the track, JPEG encode and SET on the run's Redis), timed in the worker's own process."""
     env = DeepRacerEnv(EnvConfig(track=track))
@@ -132,20 +131,31 @@ def frame_cost(redis: RedisSettings, track: str, observations: int = 120, frames
     busy_wall_s, busy_cpu_s = time.perf_counter() - wall_s, time.process_time() - cpu_s
     channel.clear_watching()
     jpeg_bytes = len(channel.latest(0).jpeg)
-    return {"tap_us_per_step_unwatched": round(1e6 * idle_wall_s / steps, 2),
-            "tap_cpu_us_per_step_unwatched": round(1e6 * idle_cpu_s / steps, 2),
-            "frame_ms_published": round(1e3 * busy_wall_s / busy.published, 3),
-            "frame_cpu_ms_published": round(1e3 * busy_cpu_s / busy.published, 3),
-            "jpeg_bytes": jpeg_bytes}
+    return {
+        "tap_us_per_step_unwatched": round(1e6 * idle_wall_s / steps, 2),
+        "tap_cpu_us_per_step_unwatched": round(1e6 * idle_cpu_s / steps, 2),
+        "frame_ms_published": round(1e3 * busy_wall_s / busy.published, 3),
+        "frame_cpu_ms_published": round(1e3 * busy_cpu_s / busy.published, 3),
+        "jpeg_bytes": jpeg_bytes,
+    }
 
 
 def _write_custom_files(folder: Path, episodes_per_iteration: int) -> None:
     folder.mkdir(parents=True)
     (folder / "reward_function.py").write_bytes(CENTRE_LINE_REWARD.read_bytes())
     actions = [{"steering_angle": angle, "speed": 1.0, "index": i} for i, angle in enumerate([-30, -15, 0, 15, 30])]
-    (folder / "model_metadata.json").write_text(json.dumps({
-        "action_space": actions, "action_space_type": "discrete", "sensor": ["FRONT_FACING_CAMERA"],
-        "neural_network": "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW", "training_algorithm": "clipped_ppo", "version": "5"}))
+    (folder / "model_metadata.json").write_text(
+        json.dumps(
+            {
+                "action_space": actions,
+                "action_space_type": "discrete",
+                "sensor": ["FRONT_FACING_CAMERA"],
+                "neural_network": "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW",
+                "training_algorithm": "clipped_ppo",
+                "version": "5",
+            }
+        )
+    )
     (folder / "hyperparameters.json").write_text(json.dumps({"num_episodes_between_training": episodes_per_iteration}))
     (folder / "workers.json").write_text(json.dumps({"MIN_EVAL_TRIALS": 1}))
 
@@ -156,8 +166,11 @@ def _paired_ratios(records: list[dict]) -> list[float]:
     for index, record in enumerate(records):
         if not record["page_open"]:
             continue
-        neighbours = [records[j]["experience_steps_per_s"] for j in (index - 1, index + 1)
-                      if 0 <= j < len(records) and not records[j]["page_open"]]
+        neighbours = [
+            records[j]["experience_steps_per_s"]
+            for j in (index - 1, index + 1)
+            if 0 <= j < len(records) and not records[j]["page_open"]
+        ]
         if neighbours:
             ratios.append(record["experience_steps_per_s"] / statistics.fmean(neighbours))
     return ratios
@@ -181,9 +194,18 @@ def viewer_bench_command(iterations, warmup_iterations, num_workers, episodes_pe
     custom = workdir / "custom_files"
     _write_custom_files(custom, episodes_per_iteration)
     port = _free_port()
-    plan = LocalRunPlan(model_prefix="bench-viewer", custom_files=custom, num_workers=num_workers, worlds=WORLDS,
-                        track=track, max_episodes=10**6, max_minutes=None, use_minio=False, log_dir=workdir / "logs",
-                        viewer_port=port)
+    plan = LocalRunPlan(
+        model_prefix="bench-viewer",
+        custom_files=custom,
+        num_workers=num_workers,
+        worlds=WORLDS,
+        track=track,
+        max_episodes=10**6,
+        max_minutes=None,
+        use_minio=False,
+        log_dir=workdir / "logs",
+        viewer_port=port,
+    )
     run = LocalRun(plan, ServiceSettings(redis=RedisSettings(), store=LocalStoreSettings(root=workdir / "store")))
     url = f"http://127.0.0.1:{port}/"
     records: list[dict] = []
@@ -224,8 +246,11 @@ def viewer_bench_command(iterations, warmup_iterations, num_workers, episodes_pe
                     browser.open()
                     page_open = True
                     page_opened = time.monotonic()
-                click.echo(f"iteration {record['iteration']:>3}: {record['experience_steps_per_s']:6.1f} steps/s "
-                           f"{'(page open)' if record['page_open'] else ''}", err=True)
+                click.echo(
+                    f"iteration {record['iteration']:>3}: {record['experience_steps_per_s']:6.1f} steps/s "
+                    f"{'(page open)' if record['page_open'] else ''}",
+                    err=True,
+                )
     finally:
         if browser is not None:
             browser.quit()
@@ -236,15 +261,23 @@ def viewer_bench_command(iterations, warmup_iterations, num_workers, episodes_pe
     closed = [r["experience_steps_per_s"] for r in measured if not r["page_open"]]
     opened = [r["experience_steps_per_s"] for r in measured if r["page_open"]]
     slowdown = 1.0 - statistics.median(ratios) if ratios else None
-    click.echo(json.dumps({
-        "workers": num_workers, "iterations_measured": len(measured),
-        "steps_per_s_page_closed": round(statistics.fmean(closed), 1) if closed else None,
-        "steps_per_s_page_open": round(statistics.fmean(opened), 1) if opened else None,
-        "paired_ratios": [round(r, 3) for r in ratios],
-        "slowdown_median": None if slowdown is None else round(slowdown, 4),
-        "browser_cpu_share_of_machine": round(page_cpu_s / max(page_wall_s, 1e-9) / os.cpu_count(), 4),
-        "viewer_server_cpu_share_of_machine": round(viewer_cpu_open_s / max(page_wall_s, 1e-9) / os.cpu_count(), 4),
-        "cpus": os.cpu_count(), **tap_cost,
-        # A worker playing at full speed loses at most max_fps frames' time per second to the tap while watched.
-        "tap_share_of_a_worker_at_4_fps": round(4 * tap_cost["frame_ms_published"] / 1000, 4),
-    }))
+    click.echo(
+        json.dumps(
+            {
+                "workers": num_workers,
+                "iterations_measured": len(measured),
+                "steps_per_s_page_closed": round(statistics.fmean(closed), 1) if closed else None,
+                "steps_per_s_page_open": round(statistics.fmean(opened), 1) if opened else None,
+                "paired_ratios": [round(r, 3) for r in ratios],
+                "slowdown_median": None if slowdown is None else round(slowdown, 4),
+                "browser_cpu_share_of_machine": round(page_cpu_s / max(page_wall_s, 1e-9) / os.cpu_count(), 4),
+                "viewer_server_cpu_share_of_machine": round(
+                    viewer_cpu_open_s / max(page_wall_s, 1e-9) / os.cpu_count(), 4
+                ),
+                "cpus": os.cpu_count(),
+                **tap_cost,
+                # A worker playing at full speed loses at most max_fps frames' time per second to the tap while watched.
+                "tap_share_of_a_worker_at_4_fps": round(4 * tap_cost["frame_ms_published"] / 1000, 4),
+            }
+        )
+    )

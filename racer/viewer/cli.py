@@ -20,10 +20,18 @@ def serve(app, host: str, port: int) -> None:
 
 @click.command(name="view")
 @click.argument("target")
-@click.option("--live", is_flag=True, help="Also show the workers' camera streams and status from Redis "
-              "(RACER_REDIS_URL); TARGET is then the model prefix of the running training in RACER_STORE.")
-@click.option("--host", default="127.0.0.1", show_default=True,
-              help="Address to listen on. The default is reachable from this machine only.")
+@click.option(
+    "--live",
+    is_flag=True,
+    help="Also show the workers' camera streams and status from Redis "
+    "(RACER_REDIS_URL); TARGET is then the model prefix of the running training in RACER_STORE.",
+)
+@click.option(
+    "--host",
+    default="127.0.0.1",
+    show_default=True,
+    help="Address to listen on. The default is reachable from this machine only.",
+)
 @click.option("--port", type=click.IntRange(1, 65535), default=DEFAULT_PORT, show_default=True)
 def view_command(target: str, live: bool, host: str, port: int) -> None:
     """Open a run in the browser: TARGET is a model folder (racer-data/MODEL), s3://bucket/MODEL or a model prefix.
@@ -49,6 +57,5 @@ def view_command(target: str, live: bool, host: str, port: int) -> None:
         live_run = None
     app = create_app(RunFiles(location), live_run)
     shown_host = "localhost" if host in {"127.0.0.1", "::1", "localhost"} else host
-    click.echo(f"racer view: {location.describe()}{' (live)' if live else ''} at http://{shown_host}:{port}/",
-               err=True)
+    click.echo(f"racer view: {location.describe()}{' (live)' if live else ''} at http://{shown_host}:{port}/", err=True)
     serve(app, host, port)

@@ -37,7 +37,7 @@ class BestLapFinder:
         self._lock = threading.Lock()
 
     def _candidate(self, key: str) -> dict | None:
-        relative = key[len(self.prefix) + 1:]
+        relative = key[len(self.prefix) + 1 :]
         found = classify(relative)
         if found is None:
             return None
@@ -58,9 +58,14 @@ class BestLapFinder:
         return {
             "complete": bool(row["lap_complete"]),
             "lap_time_s": round(float(row["lap_time_s"]), 3) if row["lap_complete"] else None,
-            "progress": round(float(row["progress_pct"]), 2), "time_s": round(float(row["time_s"]), 3),
-            "phase": phase, "run": run, "worker": int(worker), "iteration": int(iteration),
-            "episode": int(row["episode"]), "steps": int(row["steps"]),
+            "progress": round(float(row["progress_pct"]), 2),
+            "time_s": round(float(row["time_s"]), 3),
+            "phase": phase,
+            "run": run,
+            "worker": int(worker),
+            "iteration": int(iteration),
+            "episode": int(row["episode"]),
+            "steps": int(row["steps"]),
             "path": [[round(float(x), 3), round(float(y), 3)] for x, y in path[::stride]],
         }
 

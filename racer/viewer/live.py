@@ -74,8 +74,16 @@ class LiveRun:
     @staticmethod
     def frame_summary(frame: Frame) -> dict:
         return {
-            "id": frame.frame_id, "has_image": bool(frame.jpeg), "age_s": round(max(0.0, time.time() - frame.time), 1),
-            "x_m": frame.x_m, "y_m": frame.y_m, "heading_deg": frame.heading_deg,
-            "trail": [list(p) for p in frame.trail], "step": frame.step, "progress": round(frame.progress, 1),
-            "episode_reward": round(frame.episode_reward, 2), "status": frame.status, "phase": frame.phase,
+            "id": frame.frame_id,
+            "has_image": bool(frame.jpeg),
+            "age_s": round(max(0.0, time.time() - frame.time), 1),
+            "x_m": frame.x_m,
+            "y_m": frame.y_m,
+            "heading_deg": frame.heading_deg,
+            "trail": [list(p) for p in frame.trail],
+            "step": frame.step,
+            "progress": round(frame.progress, 1),
+            "episode_reward": round(frame.episode_reward, 2),
+            "status": frame.status,
+            "phase": frame.phase,
         }

@@ -65,8 +65,10 @@ def resolve_run(target: str) -> RunLocation:
     else:
         location = RunLocation(open_store(settings_from_env().store), target.strip("/"))
     if not location.prefix or not location.store.list_keys(location.prefix + "/"):
-        raise RunNotFoundError(f"{target}: no model folder (no files under {location.describe()}); give a folder "
-                               "such as racer-data/MODEL, s3://bucket/MODEL or a model prefix in RACER_STORE")
+        raise RunNotFoundError(
+            f"{target}: no model folder (no files under {location.describe()}); give a folder "
+            "such as racer-data/MODEL, s3://bucket/MODEL or a model prefix in RACER_STORE"
+        )
     return location
 
 
@@ -90,13 +92,20 @@ def _iterations_from_training_metrics(data: bytes, name: str) -> list[dict]:
             if entry.trial == 1 or iteration < 0:
                 iteration += 1
             by_iteration.setdefault(iteration, []).append(entry)
-    return [{
-        "iteration": number, "episodes": len(entries),
-        "mean_reward": sum(e.reward_score for e in entries) / len(entries),
-        "mean_progress": sum(e.completion_percentage for e in entries) / len(entries),
-        "completion_rate": sum(e.episode_status == EpisodeStatus.LAP_COMPLETE for e in entries) / len(entries),
-        "experience_steps_per_s": None, "env_steps_total": None, "elapsed_s": None, "worlds": {},
-    } for number, entries in sorted(by_iteration.items())]
+    return [
+        {
+            "iteration": number,
+            "episodes": len(entries),
+            "mean_reward": sum(e.reward_score for e in entries) / len(entries),
+            "mean_progress": sum(e.completion_percentage for e in entries) / len(entries),
+            "completion_rate": sum(e.episode_status == EpisodeStatus.LAP_COMPLETE for e in entries) / len(entries),
+            "experience_steps_per_s": None,
+            "env_steps_total": None,
+            "elapsed_s": None,
+            "worlds": {},
+        }
+        for number, entries in sorted(by_iteration.items())
+    ]
 
 
 class RunFiles:
@@ -143,8 +152,10 @@ class RunFiles:
             if match is None:
                 continue
             try:
-                params = self._read(key[len(self.prefix) + 1:],
-                                    lambda data, name: parse_training_params(data.decode("utf-8-sig"), name))
+                params = self._read(
+                    key[len(self.prefix) + 1 :],
+                    lambda data, name: parse_training_params(data.decode("utf-8-sig"), name),
+                )
             except (TrainingParamsError, UnicodeDecodeError):
                 continue
             if params is not None:
@@ -170,8 +181,14 @@ class RunFiles:
             return []
         first = params[min(params)]
         count = max(int(first.get("NUM_WORKERS", "1") or 1), max(params) + 1)
-        return [{"id": i, "world": params.get(i, first).get("RACER_WORLD", "base"),
-                 "track": params.get(i, first).get("WORLD_NAME", "")} for i in range(count)]
+        return [
+            {
+                "id": i,
+                "world": params.get(i, first).get("RACER_WORLD", "base"),
+                "track": params.get(i, first).get("WORLD_NAME", ""),
+            }
+            for i in range(count)
+        ]
 
     def track(self) -> dict | None:
         """Borders and centre line of worker 0's track (for the map), None when the route cannot be found."""
@@ -187,8 +204,13 @@ class RunFiles:
         def points(array) -> list[list[float]]:
             return [[round(float(x), 4), round(float(y), 4)] for x, y in array]
 
-        return {"name": name, "length_m": round(track.length_m, 3), "center": points(track.center_line),
-                "inner": points(track.inner_border), "outer": points(track.outer_border)}
+        return {
+            "name": name,
+            "length_m": round(track.length_m, 3),
+            "center": points(track.center_line),
+            "inner": points(track.inner_border),
+            "outer": points(track.outer_border),
+        }
 
     # ---- progress ----------------------------------------------------------------------------------
     def iterations(self) -> list[dict]:
@@ -209,12 +231,12 @@ class RunFiles:
 
     def evaluations(self) -> list[dict]:
         """Worker 0's greedy evaluation of each checkpoint: trials, laps, mean progress, best lap, best flag."""
-        metrics = self._read(training_metrics(0),
-                             lambda data, name: read_training_metrics(data, source=name))
+        metrics = self._read(training_metrics(0), lambda data, name: read_training_metrics(data, source=name))
         if metrics is None:
             return []
-        steps_after = {int(r["iteration"]): r["env_steps_total"] for r in self.iterations()
-                       if r.get("env_steps_total") is not None}
+        steps_after = {
+            int(r["iteration"]): r["env_steps_total"] for r in self.iterations() if r.get("env_steps_total") is not None
+        }
         best_and_last = self._read(DEEPRACER_CHECKPOINTS, lambda data, name: json.loads(data)) or {}
         best = (best_and_last.get("best_checkpoint") or {}).get("name")
         by_checkpoint: dict[int, list] = {}
@@ -229,37 +251,51 @@ class RunFiles:
             laps = [e.elapsed_time_ms / 1000 for e in entries if e.episode_status == EpisodeStatus.LAP_COMPLETE]
             steps = steps_after.get(number - 1) if number else (0 if steps_after else None)
             name = checkpoint_label(number, steps)
-            rows.append({
-                "checkpoint_number": number, "checkpoint": name, "trials": len(entries), "laps_completed": len(laps),
-                "mean_progress": round(sum(e.completion_percentage for e in entries) / len(entries), 2),
-                "best_lap_time_s": min(laps) if laps else None, "is_best": name == best,
-            })
+            rows.append(
+                {
+                    "checkpoint_number": number,
+                    "checkpoint": name,
+                    "trials": len(entries),
+                    "laps_completed": len(laps),
+                    "mean_progress": round(sum(e.completion_percentage for e in entries) / len(entries), 2),
+                    "best_lap_time_s": min(laps) if laps else None,
+                    "is_best": name == best,
+                }
+            )
         return rows
 
     def evaluation_runs(self) -> list[dict]:
         """`racer evaluate` runs: their summary (laps) and the URLs of their videos."""
         runs: dict[str, dict] = {}
         for key in self.store.list_keys(self.key(EVALUATION_PREFIX)):
-            relative = key[len(self.prefix) + 1:]
+            relative = key[len(self.prefix) + 1 :]
             summary = _EVALUATION_SUMMARY.match(relative)
             video = _VIDEO.match(relative)
             if summary:
                 runs.setdefault(summary.group(1), {"name": summary.group(1), "videos": []})["summary"] = relative
             elif video:
                 runs.setdefault(video.group(1), {"name": video.group(1), "videos": []})["videos"].append(
-                    {"view": video.group(2).removeprefix("camera-"), "url": "/files/" + relative})
+                    {"view": video.group(2).removeprefix("camera-"), "url": "/files/" + relative}
+                )
         result = []
         for name in sorted(runs, reverse=True):
             run = runs[name]
             summary = self._read(run["summary"], lambda data, key: json.loads(data)) if "summary" in run else None
-            laps = [{k: lap.get(k) for k in ("lap", "label", "lap_time_s", "elapsed_s", "progress_pct", "put_backs")}
-                    for lap in (summary or {}).get("laps", [])]
-            result.append({
-                "name": name, "mode": (summary or {}).get("mode"), "checkpoint": (summary or {}).get("checkpoint"),
-                "laps_completed": (summary or {}).get("laps_completed"),
-                "best_lap_time_s": _finite((summary or {}).get("best_lap_time_s")), "laps": laps,
-                "videos": sorted(run["videos"], key=lambda v: v["view"]),
-            })
+            laps = [
+                {k: lap.get(k) for k in ("lap", "label", "lap_time_s", "elapsed_s", "progress_pct", "put_backs")}
+                for lap in (summary or {}).get("laps", [])
+            ]
+            result.append(
+                {
+                    "name": name,
+                    "mode": (summary or {}).get("mode"),
+                    "checkpoint": (summary or {}).get("checkpoint"),
+                    "laps_completed": (summary or {}).get("laps_completed"),
+                    "best_lap_time_s": _finite((summary or {}).get("best_lap_time_s")),
+                    "laps": laps,
+                    "videos": sorted(run["videos"], key=lambda v: v["view"]),
+                }
+            )
         return result
 
     def finished(self) -> bool:
@@ -272,5 +308,11 @@ class RunFiles:
             evaluations, note = [], str(error)
         else:
             note = None
-        return {"iterations": self.iterations(), "evaluations": evaluations, "best_lap": self.laps.best(),
-                "evaluation_runs": self.evaluation_runs(), "finished": self.finished(), "note": note}
+        return {
+            "iterations": self.iterations(),
+            "evaluations": evaluations,
+            "best_lap": self.laps.best(),
+            "evaluation_runs": self.evaluation_runs(),
+            "finished": self.finished(),
+            "note": note,
+        }

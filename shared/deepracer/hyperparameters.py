@@ -161,9 +161,7 @@ def _parse_value(key: str, value: object, source: str) -> int | float | str:
     return number
 
 
-def parse_hyperparameters(
-    data: object, source: str = "hyperparameters.json"
-) -> tuple[Hyperparameters, list[str]]:
+def parse_hyperparameters(data: object, source: str = "hyperparameters.json") -> tuple[Hyperparameters, list[str]]:
     """Validate a decoded hyperparameters.json; returns the settings and one warning per unknown key."""
     if not isinstance(data, Mapping):
         raise HyperparametersError(f"{source}: expected a JSON object at the top level, got {type(data).__name__}")

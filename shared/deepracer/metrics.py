@@ -298,9 +298,7 @@ def _entry_dicts(data: object, name: str) -> tuple[Mapping[str, object], list[Ma
     return data, entries
 
 
-def _fields(
-    entry: Mapping[str, object], keys: tuple[str, ...], where: str
-) -> dict[str, int | str]:
+def _fields(entry: Mapping[str, object], keys: tuple[str, ...], where: str) -> dict[str, int | str]:
     """The entry's values with integer keys checked; unknown keys are ignored (the analysis tools ignore them too)."""
     values: dict[str, int | str] = {}
     for key in keys:
@@ -352,14 +350,10 @@ def read_training_metrics(path_or_bytes: str | PathLike[str] | bytes, source: st
                 episode_status=_status(values["episode_status"], where),
             )
         )
-    return TrainingMetrics(
-        entries, version=None if version is None else float(version), best_model_metric=best
-    )
+    return TrainingMetrics(entries, version=None if version is None else float(version), best_model_metric=best)
 
 
-def read_evaluation_metrics(
-    path_or_bytes: str | PathLike[str] | bytes, source: str | None = None
-) -> EvaluationMetrics:
+def read_evaluation_metrics(path_or_bytes: str | PathLike[str] | bytes, source: str | None = None) -> EvaluationMetrics:
     """Read an EvaluationMetrics JSON; errors name the file and the entry, e.g. 'x.json: metrics[0].trial: ...'."""
     data, name = _load(path_or_bytes, source, "<EvaluationMetrics bytes>")
     entries = []

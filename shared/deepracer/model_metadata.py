@@ -216,7 +216,8 @@ def _parse_discrete(check: _Checker, action_space: object) -> tuple[DiscreteActi
             index = check.integer(item["index"], f"{field}.index")
             if index != position:
                 raise check.error(
-                    f"{field}.index", f"{index} does not match the action's position {position} (list order is the index)"
+                    f"{field}.index",
+                    f"{index} does not match the action's position {position} (list order is the index)",
                 )
         actions.append(DiscreteAction(steering_angle_deg=steering, speed_mps=speed))
     return tuple(actions)
@@ -258,9 +259,7 @@ def _parse_continuous(check: _Checker, action_space: object) -> ContinuousAction
             f"low {space.steering_angle_low_deg} must be below high {space.steering_angle_high_deg}",
         )
     if not space.speed_low_mps < space.speed_high_mps:
-        raise check.error(
-            "action_space.speed", f"low {space.speed_low_mps} must be below high {space.speed_high_mps}"
-        )
+        raise check.error("action_space.speed", f"low {space.speed_low_mps} must be below high {space.speed_high_mps}")
     return space
 
 
@@ -270,7 +269,7 @@ def _parse_version(check: _Checker, value: object) -> float:
         try:
             version = float(value.strip())
         except ValueError:
-            raise check.error("version", f"{value!r} is not a number (e.g. \"5\" or 5.0)") from None
+            raise check.error("version", f'{value!r} is not a number (e.g. "5" or 5.0)') from None
     else:
         version = check.number(value, "version")
     if not math.isfinite(version) or version < 1.0:
@@ -291,9 +290,7 @@ def _parse_sensors(check: _Checker, value: object) -> tuple[str, ...]:
     cameras = [name for name in sensors if name in CAMERA_SENSORS]
     lidars = [name for name in sensors if name in LIDAR_SENSORS]
     if len(cameras) != 1:
-        raise check.error(
-            "sensor", f"needs exactly one camera of {', '.join(CAMERA_SENSORS)}; got {cameras or 'none'}"
-        )
+        raise check.error("sensor", f"needs exactly one camera of {', '.join(CAMERA_SENSORS)}; got {cameras or 'none'}")
     if len(lidars) > 1:
         raise check.error("sensor", f"at most one lidar of {', '.join(LIDAR_SENSORS)}; got {lidars}")
     return tuple(sensors)
@@ -319,7 +316,11 @@ def _parse_lidar_config(check: _Checker, value: object) -> LidarConfig:
     clipping = defaults.clipping_dist_m
     if "clipping_dist" in config:
         clipping = check.in_range(
-            config["clipping_dist"], "lidar_config.clipping_dist", LIDAR_MIN_CLIPPING_DIST_M, LIDAR_MAX_CLIPPING_DIST_M, "m"
+            config["clipping_dist"],
+            "lidar_config.clipping_dist",
+            LIDAR_MIN_CLIPPING_DIST_M,
+            LIDAR_MAX_CLIPPING_DIST_M,
+            "m",
         )
     return LidarConfig(num_sectors=num_sectors, num_values_per_sector=num_values, clipping_dist_m=clipping)
 

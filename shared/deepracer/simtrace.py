@@ -293,4 +293,3 @@ def read_simtrace(path_or_bytes: str | PathLike[str] | bytes, source: str | None
                 raise fail(row_index, column, field) from None
         data[column] = pd.Series(parsed, dtype=_DTYPES[column])
     return pd.DataFrame(data, columns=list(header))
-

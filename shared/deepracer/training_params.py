@@ -118,7 +118,9 @@ class TrainingParams:
             return default
         number = self.get_float(key, racecar_index=racecar_index)
         if not number.is_integer():
-            raise TrainingParamsError(f"{self.source}: {key}: {self._scalar(key, racecar_index)!r} is not a whole number")
+            raise TrainingParamsError(
+                f"{self.source}: {key}: {self._scalar(key, racecar_index)!r} is not a whole number"
+            )
         return int(number)
 
     def get_list(self, key: str) -> tuple[str, ...]:
@@ -223,7 +225,9 @@ def parse_training_params(text: str, source: str = "training_params.yaml") -> Tr
     if data is None:
         data = {}
     if not isinstance(data, Mapping):
-        raise TrainingParamsError(f"{source}: expected a mapping of KEY: value at the top level, got {type(data).__name__}")
+        raise TrainingParamsError(
+            f"{source}: expected a mapping of KEY: value at the top level, got {type(data).__name__}"
+        )
     return TrainingParams(values=data, source=source)
 
 
@@ -242,4 +246,6 @@ def training_params_to_yaml(params: TrainingParams | Mapping[str, object]) -> st
     if not isinstance(params, TrainingParams):
         params = TrainingParams(values=params)
     plain = {key: list(value) if isinstance(value, tuple) else value for key, value in params.values.items()}
-    return yaml.safe_dump(plain, default_style='"', explicit_start=True, sort_keys=False, allow_unicode=True, width=1000)
+    return yaml.safe_dump(
+        plain, default_style='"', explicit_start=True, sort_keys=False, allow_unicode=True, width=1000
+    )

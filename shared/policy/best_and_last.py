@@ -43,8 +43,9 @@ def read_best_and_last(data: bytes) -> BestAndLast | None:
     document = json.loads(data)
     if not isinstance(document, Mapping):
         return None
-    return BestAndLast(best=_lenient_record(document.get("best_checkpoint")),
-                       last=_lenient_record(document.get("last_checkpoint")))
+    return BestAndLast(
+        best=_lenient_record(document.get("best_checkpoint")), last=_lenient_record(document.get("last_checkpoint"))
+    )
 
 
 def best_and_last_to_bytes(best: CheckpointRecord | None, last: CheckpointRecord | None) -> bytes:
@@ -61,7 +62,12 @@ def after_evaluation(current: BestAndLast | None, record: CheckpointRecord, high
     metric is at least as good as the best so far (ties go to the newer checkpoint). Progress and reward are
     higher-is-better; lap time is lower-is-better."""
     best = current.best if current is not None else None
-    if best is None or best.avg_eval_metric is None or (higher_is_better and record.avg_eval_metric >= best.avg_eval_metric) or (not higher_is_better and record.avg_eval_metric <= best.avg_eval_metric):
+    if (
+        best is None
+        or best.avg_eval_metric is None
+        or (higher_is_better and record.avg_eval_metric >= best.avg_eval_metric)
+        or (not higher_is_better and record.avg_eval_metric <= best.avg_eval_metric)
+    ):
         best = record
     return BestAndLast(best=best, last=record)
 
@@ -89,10 +95,14 @@ def parse_best_and_last_names(data: bytes) -> BestAndLastNames:
     return BestAndLastNames(best=names["best_checkpoint"], last=names["last_checkpoint"])
 
 
-def names_to_bytes(best: CheckpointName, last: CheckpointName,
-                   best_metric: float | None = None, last_metric: float | None = None) -> bytes:
+def names_to_bytes(
+    best: CheckpointName, last: CheckpointName, best_metric: float | None = None, last_metric: float | None = None
+) -> bytes:
     """A deepracer_checkpoints.json naming `best` and `last` (metric fields only when known), for exported models."""
+
     def entry(name: CheckpointName, metric: float | None) -> dict[str, object]:
         return {"name": name.name} if metric is None else {"name": name.name, "avg_eval_metric": metric}
 
-    return json.dumps({"best_checkpoint": entry(best, best_metric), "last_checkpoint": entry(last, last_metric)}).encode()
+    return json.dumps(
+        {"best_checkpoint": entry(best, best_metric), "last_checkpoint": entry(last, last_metric)}
+    ).encode()

@@ -130,9 +130,12 @@ class CheckpointStore:
                 raise CheckpointError(
                     f"{self.store.describe()}: {self.layout.key(model_layout.MODEL_DIR, name)} is a TensorFlow "
                     f"checkpoint (AWS console or DeepRacer-for-Cloud): its files are kept, but racer evaluates and "
-                    f"clones only the PyTorch checkpoints it trains itself") from None
-            raise CheckpointError(f"{self.store.describe()}: checkpoint {name} has no manifest "
-                                  f"{self._file(name, MANIFEST_SUFFIX)!r} (not saved, or deleted by retention)") from None
+                    f"clones only the PyTorch checkpoints it trains itself"
+                ) from None
+            raise CheckpointError(
+                f"{self.store.describe()}: checkpoint {name} has no manifest "
+                f"{self._file(name, MANIFEST_SUFFIX)!r} (not saved, or deleted by retention)"
+            ) from None
         return CheckpointInfo.from_dict(data)
 
     def _read_verified(self, info: CheckpointInfo, file_name: str) -> bytes:
@@ -161,8 +164,9 @@ class CheckpointStore:
             optimizer_state = optimizer_state_from_files(tensors, scalars, network)
         return LoadedCheckpoint(info=info, network_state=network_state, optimizer_state=optimizer_state)
 
-    def restore(self, name: str, network: PolicyNetwork,
-                optimizer: torch.optim.Optimizer | None = None) -> tuple[int, int]:
+    def restore(
+        self, name: str, network: PolicyNetwork, optimizer: torch.optim.Optimizer | None = None
+    ) -> tuple[int, int]:
         """Load a checkpoint into an existing network (and optimiser, if given). Returns (number, env_steps).
 
         The network must have the checkpoint's structure (same PolicyConfig); without an optimiser only the weights
@@ -171,8 +175,9 @@ class CheckpointStore:
         loaded = self.load(name) if optimizer is not None else None
         info = loaded.info if loaded is not None else self.read_info(name)
         if info.policy_config != network.config:
-            raise CheckpointError(f"checkpoint {name} was saved from a different network: {info.policy_config} "
-                                  f"vs {network.config}")
+            raise CheckpointError(
+                f"checkpoint {name} was saved from a different network: {info.policy_config} vs {network.config}"
+            )
         if loaded is not None:
             network.load_state_dict(loaded.network_state)
             if loaded.optimizer_state is None:
@@ -190,12 +195,16 @@ class CheckpointStore:
                 return best_and_last.best.name
             name = self.latest_name()
             if name is None:
-                raise CheckpointError(f"{self.store.describe()}: {self.layout.coach_checkpoint!r} is missing; no checkpoint")
+                raise CheckpointError(
+                    f"{self.store.describe()}: {self.layout.coach_checkpoint!r} is missing; no checkpoint"
+                )
             return name
         CheckpointName.parse(which)
         if which not in self.names():
-            raise CheckpointError(f"{self.store.describe()}: no complete checkpoint {which} under {self.layout.model_dir!r}; "
-                                  f"have {', '.join(self.names()) or 'none'}")
+            raise CheckpointError(
+                f"{self.store.describe()}: no complete checkpoint {which} under {self.layout.model_dir!r}; "
+                f"have {', '.join(self.names()) or 'none'}"
+            )
         return which
 
     def load_policy(self, name: str | None = None) -> PolicyNetwork:
@@ -271,8 +280,9 @@ class CheckpointStore:
             env_steps=env_steps,
             policy_config=network.config,
             model_metadata=None if model_metadata is None else model_metadata_to_dict(model_metadata),
-            hyperparameters=None if hyperparameters is None else resolved_hyperparameters(
-                hyperparameters, network.config.training_algorithm),
+            hyperparameters=None
+            if hyperparameters is None
+            else resolved_hyperparameters(hyperparameters, network.config.training_algorithm),
             created_unix_s=time.time(),
             versions=package_versions(),
             files={file: {"sha256": sha256_hex(data), "size_bytes": len(data)} for file, data in files.items()},

@@ -101,7 +101,13 @@ class NetworkArchitecture:
 
 
 _SHALLOW_CONVS = (ConvLayer(32, 8, 4), ConvLayer(64, 4, 2), ConvLayer(64, 3, 1))
-_DEEP_STEREO_CONVS = (ConvLayer(32, 3, 1), ConvLayer(64, 3, 2), ConvLayer(64, 3, 1), ConvLayer(128, 3, 2), ConvLayer(128, 3, 1))
+_DEEP_STEREO_CONVS = (
+    ConvLayer(32, 3, 1),
+    ConvLayer(64, 3, 2),
+    ConvLayer(64, 3, 1),
+    ConvLayer(128, 3, 2),
+    ConvLayer(128, 3, 1),
+)
 
 NETWORK_ARCHITECTURES: dict[str, NetworkArchitecture] = {
     "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW": NetworkArchitecture(
@@ -170,7 +176,9 @@ class PolicyConfig:
 
     def __post_init__(self) -> None:
         if self.neural_network not in NETWORK_ARCHITECTURES:
-            raise ValueError(f"unknown neural_network {self.neural_network!r}; allowed: {', '.join(NETWORK_ARCHITECTURES)}")
+            raise ValueError(
+                f"unknown neural_network {self.neural_network!r}; allowed: {', '.join(NETWORK_ARCHITECTURES)}"
+            )
         if self.action_space_type not in ("discrete", "continuous"):
             raise ValueError(f"action_space_type must be 'discrete' or 'continuous', got {self.action_space_type!r}")
         if self.action_space_type == "continuous" and self.num_actions != 2:
@@ -378,8 +386,9 @@ ActionDistribution = CategoricalPolicy | GaussianPolicy
 # The actor-critic
 
 
-def _tower_features(tower: Tower, observations: Mapping[str, torch.Tensor],
-                    tower_dtype: torch.dtype | None) -> torch.Tensor:
+def _tower_features(
+    tower: Tower, observations: Mapping[str, torch.Tensor], tower_dtype: torch.dtype | None
+) -> torch.Tensor:
     """A tower's output in fp32. With `tower_dtype` (the trainer's bf16 option) the convs and dense layers run under
     CPU autocast; the heads, softmax and log-probabilities after it stay fp32."""
     if tower_dtype is None:
@@ -416,8 +425,9 @@ class ActorCritic(nn.Module):
 
     # -- batched, differentiable: what the trainer uses ---------------------------------------------------------------
 
-    def distribution(self, observations: Mapping[str, torch.Tensor],
-                     tower_dtype: torch.dtype | None = None) -> ActionDistribution:
+    def distribution(
+        self, observations: Mapping[str, torch.Tensor], tower_dtype: torch.dtype | None = None
+    ) -> ActionDistribution:
         head = self.policy_head(_tower_features(self.policy_tower, observations, tower_dtype))
         if self.config.is_continuous:
             log_std = self.log_std.clamp(LOG_STD_MIN, LOG_STD_MAX)
@@ -505,8 +515,9 @@ def build_actor_critic(metadata: ModelMetadata) -> ActorCritic:
     """The freshly initialised clipped-PPO network a model_metadata.json asks for (SAC: racer.shared.policy.factory)."""
     config = policy_config_from_metadata(metadata)
     if config.training_algorithm != "clipped_ppo":
-        raise ValueError(f"training_algorithm {config.training_algorithm!r}: build it with "
-                         f"racer.shared.policy.factory.build_network")
+        raise ValueError(
+            f"training_algorithm {config.training_algorithm!r}: build it with racer.shared.policy.factory.build_network"
+        )
     return ActorCritic(config)
 
 

@@ -47,8 +47,13 @@ class OnnxPolicy:
         (output,) = self._session.run(None, feed)
         return output[0]
 
-    def act(self, observation: Mapping[str, np.ndarray], greedy: bool, generator: np.random.Generator | None = None,
-            epsilon: float = 0.0) -> tuple[int | np.ndarray, float]:
+    def act(
+        self,
+        observation: Mapping[str, np.ndarray],
+        greedy: bool,
+        generator: np.random.Generator | None = None,
+        epsilon: float = 0.0,
+    ) -> tuple[int | np.ndarray, float]:
         output = torch.from_numpy(self.policy_output(observation)[None])
         if self._continuous:
             distribution = GaussianPolicy(mean=output, log_std=self._log_std)
@@ -86,8 +91,13 @@ class SacOnnxPolicy:
         """The deterministic action tanh(mean) in [-1, 1], shape (2,)."""
         return self._outputs(observation)[0][0]
 
-    def act(self, observation: Mapping[str, np.ndarray], greedy: bool, generator: np.random.Generator | None = None,
-            epsilon: float = 0.0) -> tuple[np.ndarray, float]:
+    def act(
+        self,
+        observation: Mapping[str, np.ndarray],
+        greedy: bool,
+        generator: np.random.Generator | None = None,
+        epsilon: float = 0.0,
+    ) -> tuple[np.ndarray, float]:
         from racer.shared.policy.sac_networks import squashed_gaussian_log_prob
 
         if epsilon > 0.0:

@@ -55,8 +55,9 @@ SQUASH_EPSILON = float(torch.finfo(torch.float32).eps)
 """RL Coach's `eps` in the tanh correction log(1 - a^2 + eps)."""
 
 
-def squashed_gaussian_log_prob(raw: torch.Tensor, action: torch.Tensor, mean: torch.Tensor,
-                               log_std: torch.Tensor) -> torch.Tensor:
+def squashed_gaussian_log_prob(
+    raw: torch.Tensor, action: torch.Tensor, mean: torch.Tensor, log_std: torch.Tensor
+) -> torch.Tensor:
     """log pi(a|s) of a = tanh(raw), raw ~ N(mean, exp(log_std)): Gaussian density minus sum log(1 - a^2 + eps), the
     correction clipped to [1e-10, 1] as in DeepRacer's head. Shapes (B, 2) -> (B,)."""
     z = (raw - mean) * torch.exp(-log_std)
@@ -94,9 +95,13 @@ class TwinQHead(nn.Module):
         super().__init__()
 
         def one_q() -> nn.Sequential:
-            return nn.Sequential(nn.Linear(in_features + num_actions, SAC_HIDDEN_UNITS), nn.ReLU(),
-                                 nn.Linear(SAC_HIDDEN_UNITS, SAC_HIDDEN_UNITS), nn.ReLU(),
-                                 nn.Linear(SAC_HIDDEN_UNITS, 1))
+            return nn.Sequential(
+                nn.Linear(in_features + num_actions, SAC_HIDDEN_UNITS),
+                nn.ReLU(),
+                nn.Linear(SAC_HIDDEN_UNITS, SAC_HIDDEN_UNITS),
+                nn.ReLU(),
+                nn.Linear(SAC_HIDDEN_UNITS, 1),
+            )
 
         self.q1 = one_q()
         self.q2 = one_q()
@@ -121,8 +126,10 @@ class SACNetworks(nn.Module):
     def __init__(self, config: PolicyConfig):
         super().__init__()
         if config.training_algorithm != "sac" or not config.is_continuous:
-            raise ValueError(f"SACNetworks need a continuous SAC configuration, got {config.training_algorithm} "
-                             f"{config.action_space_type}")
+            raise ValueError(
+                f"SACNetworks need a continuous SAC configuration, got {config.training_algorithm} "
+                f"{config.action_space_type}"
+            )
         self.config = config
         self.policy_tower = Tower(config)
         self.policy_head = SACPolicyHead(self.policy_tower.out_features, config.num_actions)
@@ -156,13 +163,18 @@ class SACNetworks(nn.Module):
 
     # -- policy -------------------------------------------------------------------------------------------------------
 
-    def policy_distribution(self, observations: Mapping[str, torch.Tensor],
-                            dtype: torch.dtype | None = None) -> tuple[torch.Tensor, torch.Tensor]:
+    def policy_distribution(
+        self, observations: Mapping[str, torch.Tensor], dtype: torch.dtype | None = None
+    ) -> tuple[torch.Tensor, torch.Tensor]:
         """(mean, log_std) of the Gaussian before the tanh squash, (B, 2) each."""
         return self.policy_head(_features(self.policy_tower, observations, dtype))
 
-    def sample(self, observations: Mapping[str, torch.Tensor], generator: torch.Generator | None = None,
-               dtype: torch.dtype | None = None) -> SquashedSample:
+    def sample(
+        self,
+        observations: Mapping[str, torch.Tensor],
+        generator: torch.Generator | None = None,
+        dtype: torch.dtype | None = None,
+    ) -> SquashedSample:
         mean, log_std = self.policy_distribution(observations, dtype)
         noise = torch.randn(mean.shape, generator=generator, dtype=mean.dtype)
         raw = mean + torch.exp(log_std) * noise

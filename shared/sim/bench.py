@@ -24,7 +24,7 @@ from racer.shared.sim.camera import CENTER_CAMERA, FULL_HEIGHT_PX, FULL_WIDTH_PX
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
 
-BENCH_REWARD = '''
+BENCH_REWARD = """
 def reward_function(params):
     width = params["track_width"]
     distance = params["distance_from_center"]
@@ -35,7 +35,7 @@ def reward_function(params):
     if distance <= 0.5 * width:
         return 0.1
     return 1e-3
-'''
+"""
 
 
 def _env_block(env: DeepRacerEnv, rng: np.random.Generator, steps: int) -> tuple[float, float]:
@@ -79,8 +79,11 @@ def run_benchmark(steps: int = 3000, blocks: int = 6, seed: int = 0, full_resolu
             env.reset(seed=seed)
             rng = np.random.default_rng(seed)
             raw_data = mujoco.MjData(env.model)
-            size = (FULL_HEIGHT_PX, FULL_WIDTH_PX) if full_resolution else (env.config.image_height_px,
-                                                                            env.config.image_width_px)
+            size = (
+                (FULL_HEIGHT_PX, FULL_WIDTH_PX)
+                if full_resolution
+                else (env.config.image_height_px, env.config.image_width_px)
+            )
             renderer = CameraRenderer(env.model, width_px=size[1], height_px=size[0])
             starts = [env.track.pose_at(i / 20.0) for i in range(20)]
             actions = env.config.model_metadata.discrete_actions
@@ -115,7 +118,9 @@ def run_benchmark(steps: int = 3000, blocks: int = 6, seed: int = 0, full_resolu
 @click.command("sim")
 @click.option("--steps", default=3000, show_default=True, help="Steps measured for each of env and raw bound.")
 @click.option("--seed", default=0, show_default=True)
-@click.option("--full-resolution", is_flag=True, help="Render 640x480 and resize, as DeepRacer (default: 160x120 directly).")
+@click.option(
+    "--full-resolution", is_flag=True, help="Render 640x480 and resize, as DeepRacer (default: 160x120 directly)."
+)
 def sim_bench_command(steps: int, seed: int, full_resolution: bool) -> None:
     """Measure simulator throughput; prints one JSON line."""
     click.echo(json.dumps(run_benchmark(steps=steps, seed=seed, full_resolution=full_resolution)))

@@ -28,6 +28,7 @@ CENTER_CAMERA = "front_camera"
 LEFT_CAMERA = "left_camera"
 RIGHT_CAMERA = "right_camera"
 
+
 def rgb_to_y(rgb: np.ndarray) -> np.ndarray:
     """RL Coach's RGB→Y filter then uint8 truncation: `uint8(0.2989 R + 0.5870 G + 0.1140 B)`."""
     return GrayConverter(rgb.shape[:2]).to_y(rgb)
@@ -199,7 +200,9 @@ class CameraRenderer:
         mujoco.mjr_readPixels(self._rgb, None, self._rect, self._context)
         image = self._rgb[::-1]  # OpenGL rows start at the bottom
         if self._resize_to is not None:
-            return np.asarray(Image.fromarray(np.ascontiguousarray(image)).resize(self._resize_to, resample=Image.BILINEAR))
+            return np.asarray(
+                Image.fromarray(np.ascontiguousarray(image)).resize(self._resize_to, resample=Image.BILINEAR)
+            )
         if not self._filter_frame:
             return image
         cv2.sepFilter2D(image, -1, RESIZE_KERNEL, RESIZE_KERNEL, dst=self._filtered, borderType=cv2.BORDER_REPLICATE)

@@ -211,14 +211,29 @@ def run_camera_benchmark(
 
 
 @click.command("camera")
-@click.option("--data", "data_dir", type=click.Path(file_okay=False, path_type=Path), default=DATA_DIR,
-              show_default=True, help="The shared deepracer-data folder (route and Gazebo frames).")
+@click.option(
+    "--data",
+    "data_dir",
+    type=click.Path(file_okay=False, path_type=Path),
+    default=DATA_DIR,
+    show_default=True,
+    help="The shared deepracer-data folder (route and Gazebo frames).",
+)
 @click.option("--poses", default=40, show_default=True, help="Poses around the re:Invent 2018 lap.")
 @click.option("--worlds", default=",".join(WORLD_NAMES), show_default=True, help="Comma-separated worlds.")
-@click.option("--checkpoint", type=click.Path(exists=True, file_okay=False, path_type=Path), default=None,
-              help="A racer model folder (e.g. racer-data/MODEL): its newest checkpoint's steering shares.")
-@click.option("--simapp", "simapp_dir", type=click.Path(exists=True, file_okay=False, path_type=Path), default=None,
-              help="Also measure each world drawn from DeepRacer's own meshes in this SimApp bundle/ folder.")
+@click.option(
+    "--checkpoint",
+    type=click.Path(exists=True, file_okay=False, path_type=Path),
+    default=None,
+    help="A racer model folder (e.g. racer-data/MODEL): its newest checkpoint's steering shares.",
+)
+@click.option(
+    "--simapp",
+    "simapp_dir",
+    type=click.Path(exists=True, file_okay=False, path_type=Path),
+    default=None,
+    help="Also measure each world drawn from DeepRacer's own meshes in this SimApp bundle/ folder.",
+)
 def camera_bench_command(
     data_dir: Path, poses: int, worlds: str, checkpoint: Path | None, simapp_dir: Path | None
 ) -> None:

@@ -84,7 +84,9 @@ def vertical_fov_deg(horizontal_fov_rad: float = CAMERA_HORIZONTAL_FOV_RAD, aspe
 
 def clip_command(speed_mps: float, steering_deg: float) -> tuple[float, float]:
     """What the SimApp actually sends: speed in [0.1, 4] m/s, steering in [-30, 30] degrees."""
-    return min(max(speed_mps, MIN_SPEED_MPS), MAX_SPEED_MPS), min(max(steering_deg, -MAX_STEERING_DEG), MAX_STEERING_DEG)
+    return min(max(speed_mps, MIN_SPEED_MPS), MAX_SPEED_MPS), min(
+        max(steering_deg, -MAX_STEERING_DEG), MAX_STEERING_DEG
+    )
 
 
 def camera_mount_m(simapp_version: float) -> tuple[float, float, float]:
@@ -93,7 +95,9 @@ def camera_mount_m(simapp_version: float) -> tuple[float, float, float]:
 
 
 def car_mjcf(
-    friction: float, camera_names: tuple[tuple[str, float], ...], camera_pos_m: tuple[float, float, float] = CAMERA_POS_M
+    friction: float,
+    camera_names: tuple[tuple[str, float], ...],
+    camera_pos_m: tuple[float, float, float] = CAMERA_POS_M,
 ) -> str:
     """The car body (free joint at the origin) with wheels, steering hinges, cameras and the LIDAR site."""
     fovy = vertical_fov_deg()

@@ -96,21 +96,30 @@ class EnvConfig:
         if self.world not in WORLD_NAMES:
             raise ValueError(f"EnvConfig.world: unknown world {self.world!r}; choose one of {', '.join(WORLD_NAMES)}")
         if not 0.0 <= self.round_robin_advance_dist < 1.0:
-            raise ValueError(f"EnvConfig.round_robin_advance_dist must be in [0, 1), got {self.round_robin_advance_dist}")
+            raise ValueError(
+                f"EnvConfig.round_robin_advance_dist must be in [0, 1), got {self.round_robin_advance_dist}"
+            )
         if self.number_of_resets < 0:
             raise ValueError(f"EnvConfig.number_of_resets must be >= 0, got {self.number_of_resets}")
         for name in ("off_track_penalty_s", "collision_penalty_s", "immobilized_penalty_s"):
             if getattr(self, name) < 0:
                 raise ValueError(f"EnvConfig.{name} must be >= 0, got {getattr(self, name)}")
         if self.reset_position not in RESET_POSITIONS:
-            raise ValueError(f"EnvConfig.reset_position must be one of {', '.join(RESET_POSITIONS)}, got {self.reset_position!r}")
+            raise ValueError(
+                f"EnvConfig.reset_position must be one of {', '.join(RESET_POSITIONS)}, got {self.reset_position!r}"
+            )
         if self.number_of_reverse_counts < 1 or self.immobilized_steps < 1:
             raise ValueError("EnvConfig.number_of_reverse_counts and immobilized_steps must be >= 1")
         if self.max_steps < 2:
             raise ValueError(f"EnvConfig.max_steps must be >= 2, got {self.max_steps}")
         if self.physics_substeps < 1:
             raise ValueError(f"EnvConfig.physics_substeps must be >= 1, got {self.physics_substeps}")
-        if self.image_width_px < 8 or self.image_height_px < 8 or self.image_width_px > 640 or self.image_height_px > 480:
+        if (
+            self.image_width_px < 8
+            or self.image_height_px < 8
+            or self.image_width_px > 640
+            or self.image_height_px > 480
+        ):
             raise ValueError("EnvConfig image size must be within 8x8 .. 640x480")
 
     @property

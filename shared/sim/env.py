@@ -36,9 +36,25 @@ from racer.shared.sim.track import PointGeometry, Track, compute_progress
 from racer.shared.sim.worlds import get_world
 
 SIMTRACE_COLUMNS: tuple[str, ...] = (
-    "episode", "steps", "X", "Y", "yaw", "steer", "throttle", "action", "reward", "done", "all_wheels_on_track",
-    "progress", "closest_waypoint", "track_len", "tstamp", "episode_status", "pause_duration",
-    "obstacle_crash_counter", "wall_clock",
+    "episode",
+    "steps",
+    "X",
+    "Y",
+    "yaw",
+    "steer",
+    "throttle",
+    "action",
+    "reward",
+    "done",
+    "all_wheels_on_track",
+    "progress",
+    "closest_waypoint",
+    "track_len",
+    "tstamp",
+    "episode_status",
+    "pause_duration",
+    "obstacle_crash_counter",
+    "wall_clock",
 )
 """DeepRacer's 19 simtrace columns, in order (reference §4)."""
 
@@ -109,7 +125,10 @@ class DeepRacerEnv(gym.Env):
     metadata = {"render_modes": ["rgb_array"], "render_fps": STEPS_PER_SECOND}
 
     def __init__(
-        self, config: EnvConfig | None = None, render_mode: str | None = None, wall_clock: Callable[[], float] = time.time
+        self,
+        config: EnvConfig | None = None,
+        render_mode: str | None = None,
+        wall_clock: Callable[[], float] = time.time,
     ) -> None:
         self.config = config or EnvConfig()
         self._wall_clock = wall_clock
@@ -184,11 +203,16 @@ class DeepRacerEnv(gym.Env):
         cfg = self.config
         channels = 2 if self._camera_key == "STEREO_CAMERAS" else 1
         entries: dict[str, spaces.Space] = {
-            self._camera_key: spaces.Box(0, 255, shape=(cfg.image_height_px, cfg.image_width_px, channels), dtype=np.uint8)
+            self._camera_key: spaces.Box(
+                0, 255, shape=(cfg.image_height_px, cfg.image_width_px, channels), dtype=np.uint8
+            )
         }
         if self._lidar_key == "LIDAR":
             entries["LIDAR"] = spaces.Box(
-                lidar_sensor.MIN_RANGE_M, lidar_sensor.LIDAR_CLIP_HIGH_M, shape=(lidar_sensor.NUM_RAYS,), dtype=np.float32
+                lidar_sensor.MIN_RANGE_M,
+                lidar_sensor.LIDAR_CLIP_HIGH_M,
+                shape=(lidar_sensor.NUM_RAYS,),
+                dtype=np.float32,
             )
         elif self._lidar_key == "SECTOR_LIDAR":
             entries["SECTOR_LIDAR"] = spaces.Box(0.0, 1.0, shape=(lidar_sensor.SECTOR_LIDAR_SECTORS,), dtype=np.float32)
@@ -266,8 +290,10 @@ class DeepRacerEnv(gym.Env):
         self._init_episode_state(evaluation=evaluation)
         if options.get("start_ndist") is not None:
             if not evaluation:
-                raise ValueError("reset option 'start_ndist' is for evaluation episodes; training episodes start at "
-                             "the round-robin position")
+                raise ValueError(
+                    "reset option 'start_ndist' is for evaluation episodes; training episodes start at "
+                    "the round-robin position"
+                )
             self._episode_start_ndist = float(options["start_ndist"]) % 1.0
         if self._randomizer.enabled:
             self._randomizer.randomize(self._model, self._scene_rng)
@@ -365,8 +391,10 @@ class DeepRacerEnv(gym.Env):
         else:
             self._pause_remaining_s = 0.0  # the SimApp clears it on every RUN step; a pause below sets the penalty
             status = self._counters.judge(
-                progress=progress, prev_progress=self._prev_progress,
-                origin=(pose.origin_x_m, pose.origin_y_m), any_wheel_on_track=any_on,
+                progress=progress,
+                prev_progress=self._prev_progress,
+                origin=(pose.origin_x_m, pose.origin_y_m),
+                any_wheel_on_track=any_on,
             )
             command = clip_command(speed_mps, steering_deg)
             if status == EpisodeStatus.LAP_COMPLETE:
@@ -400,9 +428,19 @@ class DeepRacerEnv(gym.Env):
         # then the reward and the simtrace row of the pose judged above.
         self._judged_pose(track)
         params = make_reward_params(
-            track, x=mx, y=my, heading_deg=math.degrees(pose.yaw_rad), speed_mps=speed_mps,
-            steering_angle_deg=steering_deg, steps=self._steps, progress=progress, all_wheels_on_track=all_on,
-            is_offtrack=not any_on, is_crashed=False, sim_time_s=now_s, geometry=geometry,
+            track,
+            x=mx,
+            y=my,
+            heading_deg=math.degrees(pose.yaw_rad),
+            speed_mps=speed_mps,
+            steering_angle_deg=steering_deg,
+            steps=self._steps,
+            progress=progress,
+            all_wheels_on_track=all_on,
+            is_offtrack=not any_on,
+            is_crashed=False,
+            sim_time_s=now_s,
+            geometry=geometry,
         )
         reward = 0.0
         if phase not in (EpisodeStatus.PREPARE, EpisodeStatus.PAUSE):
@@ -533,7 +571,9 @@ class DeepRacerEnv(gym.Env):
         if self._lidar_key == "LIDAR":
             return np.clip(ranges, lidar_sensor.MIN_RANGE_M, lidar_sensor.LIDAR_CLIP_HIGH_M).astype(np.float32)
         if self._lidar_key == "SECTOR_LIDAR":
-            return lidar_sensor.sector_bits(ranges, lidar_sensor.SECTOR_LIDAR_SECTORS, 1, lidar_sensor.SECTOR_LIDAR_CLIP_M)
+            return lidar_sensor.sector_bits(
+                ranges, lidar_sensor.SECTOR_LIDAR_SECTORS, 1, lidar_sensor.SECTOR_LIDAR_CLIP_M
+            )
         lc = self._metadata.lidar_config
         return lidar_sensor.sector_bits(ranges, lc.num_sectors, lc.num_values_per_sector, lc.clipping_dist_m)
 
@@ -556,4 +596,3 @@ class DeepRacerEnv(gym.Env):
     def teleport(self, x_m: float, y_m: float, yaw_rad: float) -> None:
         """Put the car (origin) at rest at a pose; the next step judges that pose. For tests and tools."""
         self._car.teleport(self._model, self._data, x_m, y_m, yaw_rad)
-

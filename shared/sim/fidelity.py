@@ -62,7 +62,14 @@ class Segment:
         origin, yaw, t = self.origin_xy, np.unwrap(self.yaw_rad), self.times_s
         dt = t[3] - t[1]
         vx, vy = (origin[3] - origin[1]) / dt
-        return float(origin[2, 0]), float(origin[2, 1]), float(yaw[2]), float(vx), float(vy), float((yaw[3] - yaw[1]) / dt)
+        return (
+            float(origin[2, 0]),
+            float(origin[2, 1]),
+            float(yaw[2]),
+            float(vx),
+            float(vy),
+            float((yaw[3] - yaw[1]) / dt),
+        )
 
     @property
     def start_speed_mps(self) -> float:
@@ -90,14 +97,17 @@ def load_segments(paths: Iterable[Path], horizon_s: float = max(HORIZONS_S)) -> 
                 window = slice(start - 2, end + 1)
                 if not all(s == "in_progress" for s in status[start - 2 : end + 1]):
                     continue
-                segments.append(Segment(
-                    source=Path(path).name, episode=int(episode),
-                    times_s=tstamp[start - 3 : end],
-                    model_xy=np.stack([columns["X"][window], columns["Y"][window]], axis=1),
-                    yaw_rad=np.radians(columns["yaw"][window]),
-                    steer_deg=columns["steer"][window],
-                    throttle_mps=columns["throttle"][window],
-                ))
+                segments.append(
+                    Segment(
+                        source=Path(path).name,
+                        episode=int(episode),
+                        times_s=tstamp[start - 3 : end],
+                        model_xy=np.stack([columns["X"][window], columns["Y"][window]], axis=1),
+                        yaw_rad=np.radians(columns["yaw"][window]),
+                        steer_deg=columns["steer"][window],
+                        throttle_mps=columns["throttle"][window],
+                    )
+                )
     return segments
 
 
@@ -200,7 +210,8 @@ def summarise(errors: Sequence[SegmentError]) -> dict[str, dict]:
             along = [e.along_track_m[horizon] for e in members]
             entry[f"along_track_m_{horizon:g}s_median"] = round(float(np.median(along)), 4)
             entry[f"cross_track_m_{horizon:g}s_median_abs"] = round(
-                float(np.median([abs(e.cross_track_m[horizon]) for e in members])), 4)
+                float(np.median([abs(e.cross_track_m[horizon]) for e in members])), 4
+            )
             entry[f"turn_deg_{horizon:g}s_median"] = round(float(np.median([e.turn_deg[horizon] for e in members])), 2)
         table[band_label(low, high)] = entry
     return table
@@ -218,8 +229,10 @@ def add_heading_floor(bands: dict[str, dict], segments: Sequence[Segment], error
 def run_fidelity(simtraces: Sequence[Path], route: Path, progress: bool = False) -> dict:
     segments = load_segments(simtraces)
     if not segments:
-        raise click.ClickException(f"no replayable segments ({max(HORIZONS_S):g} s of in_progress rows) in "
-                                   f"{', '.join(str(p) for p in simtraces)}")
+        raise click.ClickException(
+            f"no replayable segments ({max(HORIZONS_S):g} s of in_progress rows) in "
+            f"{', '.join(str(p) for p in simtraces)}"
+        )
     replay = CarReplay(route)
     errors = []
     try:
@@ -232,15 +245,29 @@ def run_fidelity(simtraces: Sequence[Path], route: Path, progress: bool = False)
     bands = summarise(errors)
     add_heading_floor(bands, segments, errors)
     goal_met = all(entry.get("position_m_1s_median", math.inf) <= 0.05 for entry in bands.values() if entry["segments"])
-    return {"segments": len(segments), "files": len(simtraces), "bands": bands,
-            "goal_median_position_1s_le_0_05_m": goal_met}
+    return {
+        "segments": len(segments),
+        "files": len(simtraces),
+        "bands": bands,
+        "goal_median_position_1s_le_0_05_m": goal_met,
+    }
 
 
 @click.command(name="fidelity")
-@click.option("--simtraces", type=click.Path(exists=True, path_type=Path), default=DEFAULT_SIMTRACES,
-              show_default=True, help="A real simtrace CSV or a folder of them (DeepRacer runs on re:Invent 2018).")
-@click.option("--route", type=click.Path(exists=True, dir_okay=False, path_type=Path), default=DEFAULT_ROUTE,
-              show_default=True, help="The route the simtraces were driven on (the floor the car replays on).")
+@click.option(
+    "--simtraces",
+    type=click.Path(exists=True, path_type=Path),
+    default=DEFAULT_SIMTRACES,
+    show_default=True,
+    help="A real simtrace CSV or a folder of them (DeepRacer runs on re:Invent 2018).",
+)
+@click.option(
+    "--route",
+    type=click.Path(exists=True, dir_okay=False, path_type=Path),
+    default=DEFAULT_ROUTE,
+    show_default=True,
+    help="The route the simtraces were driven on (the floor the car replays on).",
+)
 def fidelity_bench_command(simtraces: Path, route: Path) -> None:
     """Open-loop replay of real simtraces: median and p90 position/heading error after 1 s and 2 s per speed band."""
     paths = sorted(simtraces.glob("*.csv")) if simtraces.is_dir() else [simtraces]

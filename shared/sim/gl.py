@@ -39,7 +39,12 @@ def probe_backend(backend: str) -> str | None:
     env.pop("PYOPENGL_PLATFORM", None)
     try:
         result = subprocess.run(
-            [sys.executable, "-c", _PROBE], env=env, capture_output=True, text=True, timeout=PROBE_TIMEOUT_S, check=False
+            [sys.executable, "-c", _PROBE],
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=PROBE_TIMEOUT_S,
+            check=False,
         )
     except subprocess.TimeoutExpired:
         return f"timed out after {PROBE_TIMEOUT_S:g} s"

@@ -63,8 +63,20 @@ class Lidar:
         origin = data.site_xpos[self._site].copy()
         rotation = data.site_xmat[self._site].reshape(3, 3)
         directions = (self._local_dirs @ rotation.T).ravel()
-        mujoco.mj_multiRay(model, data, origin, directions, VISIBLE_GROUPS, 1, self._exclude_body,
-                           self._geomid, self._dist, None, NUM_RAYS, MAX_RANGE_M)
+        mujoco.mj_multiRay(
+            model,
+            data,
+            origin,
+            directions,
+            VISIBLE_GROUPS,
+            1,
+            self._exclude_body,
+            self._geomid,
+            self._dist,
+            None,
+            NUM_RAYS,
+            MAX_RANGE_M,
+        )
         ranges = np.where(self._geomid >= 0, self._dist, math.inf)
         ranges = ranges + rng.normal(0.0, NOISE_STD_M, NUM_RAYS)
         ranges = np.where(ranges > MAX_RANGE_M, math.inf, np.maximum(ranges, MIN_RANGE_M))

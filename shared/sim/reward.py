@@ -87,10 +87,14 @@ def load_reward_function(path: str | Path) -> RewardFunction:
     try:
         spec.loader.exec_module(module)
     except SyntaxError as exc:
-        raise RewardFunctionError(f"{path}:{exc.lineno}: syntax error: {exc.msg}\n{_user_traceback(exc, path)}") from exc
+        raise RewardFunctionError(
+            f"{path}:{exc.lineno}: syntax error: {exc.msg}\n{_user_traceback(exc, path)}"
+        ) from exc
     # Importing user code may raise anything; it is reported with its traceback.
     except Exception as exc:
-        raise RewardFunctionError(f"{path}: loading the reward file raised {type(exc).__name__}:\n{_user_traceback(exc, path)}") from exc
+        raise RewardFunctionError(
+            f"{path}: loading the reward file raised {type(exc).__name__}:\n{_user_traceback(exc, path)}"
+        ) from exc
     function = getattr(module, FUNCTION_NAME, None)
     if function is None:
         raise RewardFunctionError(f"{path}: defines no function named {FUNCTION_NAME!r}")

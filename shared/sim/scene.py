@@ -194,4 +194,6 @@ def build_model(spec: SceneSpec) -> mujoco.MjModel:
         xml, files = scene_mjcf_and_assets(spec)
         return mujoco.MjModel.from_xml_string(xml, assets=files)
     except ValueError as exc:
-        raise ValueError(f"building the MuJoCo scene for track {spec.track.source} in world {spec.world.name!r} failed: {exc}") from exc
+        raise ValueError(
+            f"building the MuJoCo scene for track {spec.track.source} in world {spec.world.name!r} failed: {exc}"
+        ) from exc

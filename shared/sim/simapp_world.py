@@ -71,7 +71,14 @@ def _floats(text: str | None, count: int, source: Path, what: str) -> tuple[floa
 def _pose_matrix(pose: tuple[float, ...]) -> np.ndarray:
     """SDF pose x y z roll pitch yaw as a 4x4 matrix (rotation Rz(yaw) Ry(pitch) Rx(roll))."""
     x, y, z, roll, pitch, yaw = pose
-    cr, sr, cp, sp, cy, sy = math.cos(roll), math.sin(roll), math.cos(pitch), math.sin(pitch), math.cos(yaw), math.sin(yaw)
+    cr, sr, cp, sp, cy, sy = (
+        math.cos(roll),
+        math.sin(roll),
+        math.cos(pitch),
+        math.sin(pitch),
+        math.cos(yaw),
+        math.sin(yaw),
+    )
     matrix = np.eye(4)
     matrix[:3, :3] = [
         [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
@@ -92,7 +99,7 @@ def _element_pose(element: ET.Element, source: Path) -> np.ndarray:
 def _resolve_uri(folder: Path, uri: str, source: Path) -> Path:
     if not uri.startswith("model://"):
         raise SimappWorldError(f"{source}: only model:// URIs are supported, got {uri!r}")
-    path = folder / uri[len("model://"):]
+    path = folder / uri[len("model://") :]
     if not path.exists():
         raise SimappWorldError(f"{source}: {uri!r} points to {path}, which does not exist")
     return path
@@ -122,7 +129,9 @@ def load_simapp_world(folder: Path, world: str) -> SimappWorld:
     if world_element is None:
         raise SimappWorldError(f"{world_file}: no <world> element")
     ambient_element = world_element.find("scene/ambient")
-    ambient = _floats(ambient_element.text, 3, world_file, "<scene><ambient>") if ambient_element is not None else (0.4,) * 3
+    ambient = (
+        _floats(ambient_element.text, 3, world_file, "<scene><ambient>") if ambient_element is not None else (0.4,) * 3
+    )
     lights = tuple(_light(element, world_file) for element in world_element.findall("light"))
     parts: list[MeshPart] = []
     for include in world_element.findall("include"):
@@ -162,7 +171,11 @@ def _light(element: ET.Element, source: Path) -> SimappLight:
         linear = float(attenuation.findtext("linear", "0"))
         quadratic = float(attenuation.findtext("quadratic", "0"))
     return SimappLight(
-        element.get("name", kind), kind == "directional", diffuse, tuple(pose[:3, 3]), direction,
+        element.get("name", kind),
+        kind == "directional",
+        diffuse,
+        tuple(pose[:3, 3]),
+        direction,
         (constant, linear, quadratic),
     )
 
@@ -271,7 +284,9 @@ def _geometry_parts(path, geometry, matrix, bindings, materials, prefix) -> list
     position_id = vertices_element.find("c:input[@semantic='POSITION']", COLLADA_NS).get("source").lstrip("#")
     positions = _source_array(mesh, position_id, path)[:, :3]
     parts = []
-    for index, primitive in enumerate(list(mesh.findall("c:triangles", COLLADA_NS)) + list(mesh.findall("c:polylist", COLLADA_NS))):
+    for index, primitive in enumerate(
+        list(mesh.findall("c:triangles", COLLADA_NS)) + list(mesh.findall("c:polylist", COLLADA_NS))
+    ):
         inputs = primitive.findall("c:input", COLLADA_NS)
         stride = 1 + max(int(i.get("offset", "0")) for i in inputs)
         indices = np.array((primitive.findtext("c:p", "", COLLADA_NS)).split(), dtype=np.int64).reshape(-1, stride)
@@ -336,9 +351,13 @@ def simapp_scene_xml(world: SimappWorld, light_scale: float) -> tuple[str, str, 
             asset_lines.append(f'    <texture name="{name}" type="2d" file="{name}.png"/>')
         material = f"simapp_mat_{index}"
         if part.texture is not None:
-            asset_lines.append(f'    <material name="{material}" texture="{textures[part.texture]}" specular="0" shininess="0"/>')
+            asset_lines.append(
+                f'    <material name="{material}" texture="{textures[part.texture]}" specular="0" shininess="0"/>'
+            )
         else:
-            asset_lines.append(f'    <material name="{material}" rgba="{_xml_floats(part.rgb)} 1" specular="0" shininess="0"/>')
+            asset_lines.append(
+                f'    <material name="{material}" rgba="{_xml_floats(part.rgb)} 1" specular="0" shininess="0"/>'
+            )
         # Lift each part by its order so coplanar layers (field, road, lines) do not z-fight; 0.1 mm per layer.
         vertices = part.vertices + np.array([0.0, 0.0, 1e-4 * index])
         asset_lines.append(
@@ -355,9 +374,7 @@ def simapp_scene_xml(world: SimappWorld, light_scale: float) -> tuple[str, str, 
         diffuse = light_scale * np.asarray(light.diffuse)
         # The scene ambient rides on the first light (MuJoCo has no separate ambient term).
         light_ambient = ambient if index == 0 else np.zeros(3)
-        common = (
-            f'diffuse="{_xml_floats(diffuse)}" ambient="{_xml_floats(light_ambient)}" specular="0 0 0" castshadow="false"'
-        )
+        common = f'diffuse="{_xml_floats(diffuse)}" ambient="{_xml_floats(light_ambient)}" specular="0 0 0" castshadow="false"'
         if light.directional:
             light_lines.append(
                 f'    <light name="simapp_light_{index}" type="directional" pos="{_xml_floats(light.position_m)}" '

@@ -31,8 +31,17 @@ from racer.shared.sim.route_search import (
     search_folders,
 )
 
-__all__ = ["ROUTE_SUFFIX", "PointGeometry", "Track", "TrackError", "available_tracks", "compute_progress", "default_tracks_dir",
-           "read_route_file"]
+__all__ = [
+    "ROUTE_SUFFIX",
+    "PointGeometry",
+    "Track",
+    "TrackError",
+    "available_tracks",
+    "compute_progress",
+    "default_tracks_dir",
+    "read_route_file",
+]
+
 
 class TrackError(ValueError):
     """A route file is missing or malformed; the message names the file and the problem."""
@@ -166,7 +175,9 @@ class Track:
         else:
             self.road_polygon = Polygon(np.vstack((self.outer_border, self.inner_border[::-1])))
         if not self.road_polygon.is_valid:
-            raise TrackError(f"{self.source}: the borders do not form a valid road polygon ({shapely.is_valid_reason(self.road_polygon)})")
+            raise TrackError(
+                f"{self.source}: the borders do not form a valid road polygon ({shapely.is_valid_reason(self.road_polygon)})"
+            )
         shapely.prepare(self.road_polygon)
         # DeepRacer's waypoint projections: coords[:-1] projected on the line, then 1.0 for the last one.
         self._waypoint_ndists = [self._center.project(x, y) / self._center.length for x, y in self.center_line[:-1]]
@@ -199,7 +210,9 @@ class Track:
 
     def reversed(self) -> Track:
         """The same route driven the other way (REVERSE_DIR / alternate direction): rows reversed."""
-        return Track(self.name, self.waypoints[::-1].copy(), direction_reversed=not self.direction_reversed, source=self.source)
+        return Track(
+            self.name, self.waypoints[::-1].copy(), direction_reversed=not self.direction_reversed, source=self.source
+        )
 
     @property
     def is_ccw(self) -> bool:

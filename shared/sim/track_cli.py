@@ -24,7 +24,9 @@ def track_group() -> None:
 
 
 @track_group.command("list")
-@click.option("--tracks-dir", type=click.Path(file_okay=False, path_type=Path), default=None, help="Folder of .npy routes.")
+@click.option(
+    "--tracks-dir", type=click.Path(file_okay=False, path_type=Path), default=None, help="Folder of .npy routes."
+)
 def list_command(tracks_dir: Path | None) -> None:
     """Names of the routes on the route search path (RACER_ROUTES_PATH, then tracks/), with length and width."""
     for name in available_tracks(tracks_dir):
@@ -55,8 +57,13 @@ def show_command(name: str, tracks_dir: Path | None) -> None:
 @click.argument("name")
 @click.argument("out", type=click.Path(dir_okay=False, path_type=Path))
 @click.option("--tracks-dir", type=click.Path(file_okay=False, path_type=Path), default=None)
-@click.option("--rendered", "world", type=click.Choice(WORLD_NAMES), default=None,
-              help="Draw what the simulator renders in this world, seen from above (PNG), instead of the diagram.")
+@click.option(
+    "--rendered",
+    "world",
+    type=click.Choice(WORLD_NAMES),
+    default=None,
+    help="Draw what the simulator renders in this world, seen from above (PNG), instead of the diagram.",
+)
 def plot_command(name: str, out: Path, tracks_dir: Path | None, world: str | None) -> None:
     """Draw the route (borders, centre line, start and direction) to an image file."""
     if world is not None:
@@ -82,7 +89,12 @@ def plot_command(name: str, out: Path, tracks_dir: Path | None, world: str | Non
     ax.plot(track.center_line[:, 0], track.center_line[:, 1], "--", color="gold", lw=1)
     x0, y0 = track.center_line[0]
     x1, y1 = track.center_line[1]
-    ax.annotate("", xy=(x1 + 4 * (x1 - x0), y1 + 4 * (y1 - y0)), xytext=(x0, y0), arrowprops={"arrowstyle": "->", "color": "red"})
+    ax.annotate(
+        "",
+        xy=(x1 + 4 * (x1 - x0), y1 + 4 * (y1 - y0)),
+        xytext=(x0, y0),
+        arrowprops={"arrowstyle": "->", "color": "red"},
+    )
     ax.plot([x0], [y0], "o", color="red")
     ax.set_aspect("equal")
     ax.set_title(f"{track.name}: {track.length_m:.2f} m")

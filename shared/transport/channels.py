@@ -77,9 +77,16 @@ class RunChannel:
         return self.prefix + name
 
     # ---- control stream -------------------------------------------------------------------------
-    def announce_iteration(self, iteration: int, checkpoint: str, episodes_per_iteration: int, num_workers: int) -> None:
-        fields = {"kind": "iteration", "iteration": iteration, "checkpoint": checkpoint,
-                  "episodes_per_iteration": episodes_per_iteration, "num_workers": num_workers}
+    def announce_iteration(
+        self, iteration: int, checkpoint: str, episodes_per_iteration: int, num_workers: int
+    ) -> None:
+        fields = {
+            "kind": "iteration",
+            "iteration": iteration,
+            "checkpoint": checkpoint,
+            "episodes_per_iteration": episodes_per_iteration,
+            "num_workers": num_workers,
+        }
         self.link.do(lambda r: r.xadd(self.key("control"), fields, maxlen=STREAM_MAX_ENTRIES, approximate=True))
 
     def request_replay(self, iteration: int, share: int, target_worker: int) -> None:
@@ -145,8 +152,13 @@ class RunChannel:
 
         def read(r: redis.Redis):
             try:
-                return r.xreadgroup(TRAINER_GROUP, consumer, {self.key("episodes"): start}, count=8,
-                                    block=None if pending else max(1, int(block_s * 1000)))
+                return r.xreadgroup(
+                    TRAINER_GROUP,
+                    consumer,
+                    {self.key("episodes"): start},
+                    count=8,
+                    block=None if pending else max(1, int(block_s * 1000)),
+                )
             except redis.ResponseError as error:
                 if "NOGROUP" not in str(error):
                     raise
@@ -171,8 +183,12 @@ class RunChannel:
 
     def ack(self, *stream_ids: str) -> None:
         if stream_ids:
-            self.link.do(lambda r: (r.xack(self.key("episodes"), TRAINER_GROUP, *stream_ids),
-                                    r.xdel(self.key("episodes"), *stream_ids)))
+            self.link.do(
+                lambda r: (
+                    r.xack(self.key("episodes"), TRAINER_GROUP, *stream_ids),
+                    r.xdel(self.key("episodes"), *stream_ids),
+                )
+            )
 
     def mark_received(self, iteration: int, share: int) -> None:
         key = self.key(f"received:{iteration}")
@@ -215,6 +231,7 @@ class RunChannel:
 
     def delete_run_keys(self) -> None:
         """Remove every key of this run (a fresh start with the same model prefix)."""
+
         def wipe(r: redis.Redis) -> None:
             keys = list(r.scan_iter(match=self.prefix + "*", count=500))
             if keys:

@@ -83,13 +83,15 @@ def encode_batch(batch: EpisodeBatch) -> bytes:
         }
         for name, observation in episode.observations.items():
             arrays[f"obs/{name}"] = _encode_array(observation)
-        episodes.append({
-            "episode_index": episode.episode_index,
-            "final_status": episode.final_status,
-            "progress": float(episode.progress),
-            "info": dict(episode.info),
-            "arrays": arrays,
-        })
+        episodes.append(
+            {
+                "episode_index": episode.episode_index,
+                "final_status": episode.final_status,
+                "progress": float(episode.progress),
+                "info": dict(episode.info),
+                "arrays": arrays,
+            }
+        )
     message = {
         "schema": SCHEMA,
         "iteration": batch.iteration,
@@ -108,7 +110,9 @@ def decode_batch(payload: bytes) -> EpisodeBatch:
     except (msgpack.ExtraData, msgpack.FormatError, msgpack.StackError, ValueError) as error:
         raise CodecError(f"episode batch is not valid msgpack: {error}") from error
     if not isinstance(message, dict) or message.get("schema") != SCHEMA:
-        raise CodecError(f"expected schema {SCHEMA!r}, got {message.get('schema') if isinstance(message, dict) else type(message)}")
+        raise CodecError(
+            f"expected schema {SCHEMA!r}, got {message.get('schema') if isinstance(message, dict) else type(message)}"
+        )
     episodes = []
     for number, raw_episode in enumerate(message["episodes"]):
         where = f"batch worker={message['worker_id']} iteration={message['iteration']} episode #{number}"

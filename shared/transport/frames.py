@@ -70,23 +70,46 @@ class Frame:
 
 
 def encode_frame(frame: Frame) -> bytes:
-    return msgpack.packb({
-        "worker_id": frame.worker_id, "world": frame.world, "session": frame.session, "seq": frame.seq,
-        "time": frame.time, "jpeg": frame.jpeg, "x_m": frame.x_m, "y_m": frame.y_m,
-        "heading_deg": frame.heading_deg, "trail": [list(p) for p in frame.trail], "step": frame.step,
-        "progress": frame.progress, "episode_reward": frame.episode_reward, "status": frame.status,
-        "phase": frame.phase,
-    }, use_bin_type=True)
+    return msgpack.packb(
+        {
+            "worker_id": frame.worker_id,
+            "world": frame.world,
+            "session": frame.session,
+            "seq": frame.seq,
+            "time": frame.time,
+            "jpeg": frame.jpeg,
+            "x_m": frame.x_m,
+            "y_m": frame.y_m,
+            "heading_deg": frame.heading_deg,
+            "trail": [list(p) for p in frame.trail],
+            "step": frame.step,
+            "progress": frame.progress,
+            "episode_reward": frame.episode_reward,
+            "status": frame.status,
+            "phase": frame.phase,
+        },
+        use_bin_type=True,
+    )
 
 
 def decode_frame(data: bytes) -> Frame:
     raw = msgpack.unpackb(data, raw=False)
     return Frame(
-        worker_id=int(raw["worker_id"]), world=str(raw["world"]), session=str(raw["session"]), seq=int(raw["seq"]),
-        time=float(raw["time"]), jpeg=bytes(raw["jpeg"]), x_m=float(raw["x_m"]), y_m=float(raw["y_m"]),
-        heading_deg=float(raw["heading_deg"]), trail=tuple((float(x), float(y)) for x, y in raw["trail"]),
-        step=int(raw["step"]), progress=float(raw["progress"]), episode_reward=float(raw["episode_reward"]),
-        status=str(raw["status"]), phase=str(raw["phase"]),
+        worker_id=int(raw["worker_id"]),
+        world=str(raw["world"]),
+        session=str(raw["session"]),
+        seq=int(raw["seq"]),
+        time=float(raw["time"]),
+        jpeg=bytes(raw["jpeg"]),
+        x_m=float(raw["x_m"]),
+        y_m=float(raw["y_m"]),
+        heading_deg=float(raw["heading_deg"]),
+        trail=tuple((float(x), float(y)) for x, y in raw["trail"]),
+        step=int(raw["step"]),
+        progress=float(raw["progress"]),
+        episode_reward=float(raw["episode_reward"]),
+        status=str(raw["status"]),
+        phase=str(raw["phase"]),
     )
 
 
@@ -146,8 +169,14 @@ def _thin(points: list[tuple[float, float]], limit: int) -> tuple[tuple[float, f
 class FrameTap:
     """Called by the episode loop after every step; publishes a frame now and then, only while watched."""
 
-    def __init__(self, channel: FrameChannel, worker_id: int, world: str, settings: FrameSettings = FrameSettings(),
-                 clock: Callable[[], float] = time.monotonic):
+    def __init__(
+        self,
+        channel: FrameChannel,
+        worker_id: int,
+        world: str,
+        settings: FrameSettings = FrameSettings(),
+        clock: Callable[[], float] = time.monotonic,
+    ):
         self.channel = channel
         self.worker_id = worker_id
         self.world = world
@@ -179,11 +208,23 @@ class FrameTap:
         self._next_frame = now + 1.0 / self.settings.max_fps
         image = camera_image(observation)
         self.seq += 1
-        self.channel.publish(Frame(
-            worker_id=self.worker_id, world=self.world, session=self.session, seq=self.seq, time=time.time(),
-            jpeg=b"" if image is None else jpeg_bytes(image), x_m=float(row["X"]), y_m=float(row["Y"]),
-            heading_deg=float(row["yaw"]), trail=_thin(self._trail, TRAIL_POINTS), step=int(row["steps"]),
-            progress=float(row["progress"]), episode_reward=self._episode_reward, status=str(row["episode_status"]),
-            phase=self.phase,
-        ))
+        self.channel.publish(
+            Frame(
+                worker_id=self.worker_id,
+                world=self.world,
+                session=self.session,
+                seq=self.seq,
+                time=time.time(),
+                jpeg=b"" if image is None else jpeg_bytes(image),
+                x_m=float(row["X"]),
+                y_m=float(row["Y"]),
+                heading_deg=float(row["yaw"]),
+                trail=_thin(self._trail, TRAIL_POINTS),
+                step=int(row["steps"]),
+                progress=float(row["progress"]),
+                episode_reward=self._episode_reward,
+                status=str(row["episode_status"]),
+                phase=self.phase,
+            )
+        )
         self.published += 1

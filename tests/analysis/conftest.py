@@ -24,10 +24,14 @@ def console_export(tmp_path, deepracer_data) -> Path:
     root = tmp_path / "console-model"
     simtrace = deepracer_data / "simtrace"
     for iteration in (0, 1, 27):
-        place(simtrace / f"console2022_training_{iteration}-iteration.csv",
-              root / "sim-trace/training/training-simtrace" / f"{iteration}-iteration.csv")
-    place(simtrace / "console2022_evaluation_0-iteration.csv",
-          root / "sim-trace/evaluation/20220612082523-IBZwYd0MRMqgwKlAe7bb0A/evaluation-simtrace/0-iteration.csv")
+        place(
+            simtrace / f"console2022_training_{iteration}-iteration.csv",
+            root / "sim-trace/training/training-simtrace" / f"{iteration}-iteration.csv",
+        )
+    place(
+        simtrace / "console2022_evaluation_0-iteration.csv",
+        root / "sim-trace/evaluation/20220612082523-IBZwYd0MRMqgwKlAe7bb0A/evaluation-simtrace/0-iteration.csv",
+    )
     return root
 
 
@@ -37,8 +41,14 @@ def drfc_single(tmp_path, deepracer_data) -> Path:
     root = tmp_path / "rl-deepracer-sagemaker"
     simtrace = deepracer_data / "simtrace"
     for iteration in (0, 26):
-        place(simtrace / f"drfc1_training_{iteration}-iteration.csv", root / "training-simtrace" / f"{iteration}-iteration.csv")
-    place(simtrace / "drfc1_evaluation_0-iteration.csv", root / "evaluation-20220709200242/evaluation-simtrace/0-iteration.csv")
+        place(
+            simtrace / f"drfc1_training_{iteration}-iteration.csv",
+            root / "training-simtrace" / f"{iteration}-iteration.csv",
+        )
+    place(
+        simtrace / "drfc1_evaluation_0-iteration.csv",
+        root / "evaluation-20220709200242/evaluation-simtrace/0-iteration.csv",
+    )
     return root
 
 

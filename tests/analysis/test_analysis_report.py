@@ -100,12 +100,14 @@ def test_reward_whatif_reproduces_the_logged_reward(drfc_single, reinvent_route,
     steps = load_steps(open_source(str(drfc_single)), progress=False)
     track = load_track(str(reinvent_route))
     logged = steps.loc[steps["phase"] == "training", "reward"]
-    same = whatif.replay_reward(steps, track, deepracer_data / "reward_functions/drfc1_follow_center_line.py",
-                                show_progress=False)
+    same = whatif.replay_reward(
+        steps, track, deepracer_data / "reward_functions/drfc1_follow_center_line.py", show_progress=False
+    )
     assert len(same) == len(logged) > 3000
     assert np.allclose(same, logged, rtol=0, atol=1e-12)
-    other = whatif.replay_reward(steps, track, deepracer_data / "reward_functions/dpr401_prevent_zig_zag.py",
-                                 show_progress=False)
+    other = whatif.replay_reward(
+        steps, track, deepracer_data / "reward_functions/dpr401_prevent_zig_zag.py", show_progress=False
+    )
     assert not np.allclose(other, logged)
     episodes, by_iteration = whatif.compare(steps, other, aggregate.episodes(steps))
     assert len(episodes) == (steps["phase"] == "training").groupby([steps["worker"], steps["episode"]]).any().sum()
@@ -147,12 +149,25 @@ def test_s3_source_on_minio(s3_settings, drfc_multi, console_export, monkeypatch
 def test_reward_function_errors_are_clear(drfc_single, reinvent_route, tmp_path):
     broken = tmp_path / "broken_reward.py"
     broken.write_text("def reward_function(params):\n    return params['no_such_key']\n")
-    result = CliRunner().invoke(analyze_command, [str(drfc_single), "--track", str(reinvent_route), "--no-pictures",
-                                                  "--out", str(tmp_path / "o"), "--reward-function", str(broken)])
+    result = CliRunner().invoke(
+        analyze_command,
+        [
+            str(drfc_single),
+            "--track",
+            str(reinvent_route),
+            "--no-pictures",
+            "--out",
+            str(tmp_path / "o"),
+            "--reward-function",
+            str(broken),
+        ],
+    )
     assert result.exit_code == 1
     assert str(broken) in result.output and "line 2" in result.output and "no_such_key" in result.output
-    result = CliRunner().invoke(analyze_command, [str(drfc_single), "--no-pictures", "--out", str(tmp_path / "o"),
-                                                  "--reward-function", str(broken)])
+    result = CliRunner().invoke(
+        analyze_command,
+        [str(drfc_single), "--no-pictures", "--out", str(tmp_path / "o"), "--reward-function", str(broken)],
+    )
     assert result.exit_code == 1 and "--track" in result.output
 
 
@@ -161,8 +176,16 @@ def test_workers_on_another_track_are_left_out_of_track_pictures(drfc_multi, dee
     (drfc_multi / "training_params.yaml").write_text("WORLD_NAME: reinvent_base\n")
     (drfc_multi / "training_params_1.yaml").write_text("WORLD_NAME: Vegas_track\n")
     out = tmp_path / "o"
-    result = run(drfc_multi, "--tracks-dir", deepracer_data / "routes", "--out", out, "--no-pictures",
-                 "--reward-function", deepracer_data / "reward_functions/drfc1_follow_center_line.py")
+    result = run(
+        drfc_multi,
+        "--tracks-dir",
+        deepracer_data / "routes",
+        "--out",
+        out,
+        "--no-pictures",
+        "--reward-function",
+        deepracer_data / "reward_functions/drfc1_follow_center_line.py",
+    )
     assert "worker 1: Vegas_track" in result.output and "left out of the track pictures" in result.output
     whatif_table = pd.read_csv(out / "reward_whatif.csv")
     episodes = pd.read_csv(out / "episodes.csv")
@@ -203,13 +226,25 @@ def test_action_usage_shares_add_up_to_the_logged_action_counts(console_export, 
     assert set(counts) <= set(labels)
 
 
-def test_iterations_option_limits_pictures_and_whatif_not_tables(console_export, reinvent_route, deepracer_data, tmp_path):
+def test_iterations_option_limits_pictures_and_whatif_not_tables(
+    console_export, reinvent_route, deepracer_data, tmp_path
+):
     from racer.analysis.cli import parse_range
 
     assert parse_range("27") == (27, 27) and parse_range("20-27") == (20, 27) and parse_range("3-") == (3, None)
     out = tmp_path / "o"
-    result = run(console_export, "--track", reinvent_route, "--out", out, "--no-pictures", "--iterations", "1-",
-                 "--reward-function", deepracer_data / "reward_functions/drfc1_follow_center_line.py")
+    result = run(
+        console_export,
+        "--track",
+        reinvent_route,
+        "--out",
+        out,
+        "--no-pictures",
+        "--iterations",
+        "1-",
+        "--reward-function",
+        deepracer_data / "reward_functions/drfc1_follow_center_line.py",
+    )
     assert "training iterations 1 to the last" in result.output
     assert list(pd.read_csv(out / "reward_whatif.csv")["iteration"]) == [1, 27]
     assert list(pd.read_csv(out / "iterations.csv")["iteration"]) == [0, 1, 27]
@@ -218,8 +253,9 @@ def test_iterations_option_limits_pictures_and_whatif_not_tables(console_export,
 
 
 def test_a_track_that_does_not_fit_the_run_is_flagged(drfc_single, reinvent_route, deepracer_data, tmp_path):
-    result = run(drfc_single, "--track", deepracer_data / "routes/Vegas_track.npy", "--out", tmp_path / "a",
-                 "--no-pictures")
+    result = run(
+        drfc_single, "--track", deepracer_data / "routes/Vegas_track.npy", "--out", tmp_path / "a", "--no-pictures"
+    )
     assert "probably the wrong track" in result.output and "17.71 m" in result.output
     result = run(drfc_single, "--track", reinvent_route, "--out", tmp_path / "b", "--no-pictures")
     assert "wrong track" not in result.output

@@ -29,8 +29,14 @@ def tables(source):
         ("training-simtrace/3-iteration.csv", ("training", ".", 0, 3)),
         ("model/2/training-simtrace/14-iteration.csv", ("training", "model", 2, 14)),
         ("sim-trace/training/training-simtrace/27-iteration.csv", ("training", ".", 0, 27)),
-        ("m/evaluation-20220709200242/evaluation-simtrace/0-iteration.csv", ("evaluation", "m/evaluation-20220709200242", 0, 0)),
-        ("sim-trace/evaluation/2022-abc/evaluation-simtrace/0-iteration.csv", ("evaluation", "sim-trace/evaluation/2022-abc", 0, 0)),
+        (
+            "m/evaluation-20220709200242/evaluation-simtrace/0-iteration.csv",
+            ("evaluation", "m/evaluation-20220709200242", 0, 0),
+        ),
+        (
+            "sim-trace/evaluation/2022-abc/evaluation-simtrace/0-iteration.csv",
+            ("evaluation", "sim-trace/evaluation/2022-abc", 0, 0),
+        ),
         ("training-simtrace/notes.csv", None),
         ("model/model_metadata.json", None),
     ],
@@ -85,7 +91,10 @@ def test_training_episodes_match_deepracer_training_metrics(request, deepracer_d
 
 @pytest.mark.parametrize(
     ("fixture", "metrics_file"),
-    [("console_export", "console2022_EvaluationMetrics.json"), ("drfc_single", "drfc1_EvaluationMetrics-20220709200242.json")],
+    [
+        ("console_export", "console2022_EvaluationMetrics.json"),
+        ("drfc_single", "drfc1_EvaluationMetrics-20220709200242.json"),
+    ],
 )
 def test_evaluation_laps_match_deepracer_evaluation_metrics(request, deepracer_data, fixture, metrics_file):
     _, episodes = tables(request.getfixturevalue(fixture))
@@ -106,7 +115,9 @@ def test_continuous_evaluation_laps_after_the_first_time_like_deepracer(drfc_sin
     """In a continuous evaluation laps 2.. have no prepare step, and then the times agree to the millisecond."""
     _, episodes = tables(drfc_single)
     laps = aggregate.evaluation_laps(episodes)
-    metrics = json.loads((deepracer_data / "metrics/drfc1_EvaluationMetrics-20220709200242.json").read_text())["metrics"]
+    metrics = json.loads((deepracer_data / "metrics/drfc1_EvaluationMetrics-20220709200242.json").read_text())[
+        "metrics"
+    ]
     for lap, logged in list(zip(laps.itertuples(), metrics, strict=True))[1:]:
         assert round(lap.lap_time_s * 1000) == logged["elapsed_time_in_milliseconds"]
 
@@ -116,8 +127,10 @@ def test_multi_worker_layout_keeps_workers_apart(drfc_multi, read_csv_episodes):
     assert {(f.worker, f.iteration) for f in files.simtraces} == {(0, 0), (0, 1), (1, 0)}
     workers = aggregate.workers(episodes).set_index("worker")
     worker1 = read_csv_episodes(drfc_multi / "1/training-simtrace/0-iteration.csv")
-    worker0 = {**read_csv_episodes(drfc_multi / "0/training-simtrace/0-iteration.csv"),
-               **read_csv_episodes(drfc_multi / "0/training-simtrace/1-iteration.csv")}
+    worker0 = {
+        **read_csv_episodes(drfc_multi / "0/training-simtrace/0-iteration.csv"),
+        **read_csv_episodes(drfc_multi / "0/training-simtrace/1-iteration.csv"),
+    }
     assert workers.loc[1, "episodes"] == len(worker1)
     assert workers.loc[0, "episodes"] == len(worker0)
     assert workers.loc[0, "laps_complete"] == sum(e.complete for e in worker0.values())

@@ -47,7 +47,9 @@ def test_every_column_variant_parses_with_the_same_episodes(tmp_path, deepracer_
     source = deepracer_data / "simtrace/drfc1_training_26-iteration.csv"
     rows = read_rows(source)
     reference = episode_table(write_rows(tmp_path / "ref/training-simtrace/26-iteration.csv", rows).parents[1])
-    variant = episode_table(write_rows(tmp_path / f"v{count}/training-simtrace/26-iteration.csv", with_columns(rows, count)).parents[1])
+    variant = episode_table(
+        write_rows(tmp_path / f"v{count}/training-simtrace/26-iteration.csv", with_columns(rows, count)).parents[1]
+    )
     assert len(variant) == len(reference) == len({r[0] for r in rows[1:]})
     assert variant["progress_pct"].tolist() == reference["progress_pct"].tolist()
     assert variant["reward"].tolist() == pytest.approx(reference["reward"].tolist())
@@ -116,8 +118,9 @@ def test_continuous_action_files_draw_action_usage(tmp_path, deepracer_data, rei
     folder = write_rows(tmp_path / "c/training-simtrace/0-iteration.csv", rows).parents[1]
     steps = load_steps(open_source(str(folder)), progress=False)
     assert steps["action"].str.startswith("[").all()
-    path, usage = plots.action_usage(steps, steps["closest_waypoint"], load_track(str(reinvent_route)), 6,
-                                     tmp_path / "actions.png")
+    path, usage = plots.action_usage(
+        steps, steps["closest_waypoint"], load_track(str(reinvent_route)), 6, tmp_path / "actions.png"
+    )
     assert path.stat().st_size > 10_000
     assert np.allclose(usage.sum(axis=1), 1.0)
     assert (usage.sum(axis=0) > 0).all()  # no column for a steering/speed bin nobody used
@@ -258,6 +261,7 @@ def test_continuous_actions_get_their_distributions_drawn(tmp_path, deepracer_da
     assert result.exit_code == 0, result.output
     assert (tmp_path / "out" / "action_distributions.png").is_file()
     assert "Continuous actions" in (tmp_path / "out" / "report.html").read_text()
-    discrete = load_steps(open_source(str(deepracer_data / "simtrace/console2022_training_27-iteration.csv")),
-                          progress=False)
+    discrete = load_steps(
+        open_source(str(deepracer_data / "simtrace/console2022_training_27-iteration.csv")), progress=False
+    )
     assert not action_distributions.is_continuous(discrete)

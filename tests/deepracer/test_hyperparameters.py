@@ -39,7 +39,11 @@ def test_simapp_defaults():
     assert defaults == Hyperparameters()
     assert (defaults.batch_size, defaults.discount_factor, defaults.num_epochs) == (64, 0.999, 10)
     assert (defaults.loss_type, defaults.exploration_type, defaults.lr) == ("mean squared error", "categorical", 0.0003)
-    assert (defaults.term_cond_max_episodes, defaults.term_cond_avg_score, defaults.sac_alpha) == (100000, 100000.0, 0.2)
+    assert (defaults.term_cond_max_episodes, defaults.term_cond_avg_score, defaults.sac_alpha) == (
+        100000,
+        100000.0,
+        0.2,
+    )
     assert (defaults.beta_entropy, defaults.e_greedy_value, defaults.epsilon_steps) == (0.01, 0.05, 10000)
     assert (defaults.num_episodes_between_training, defaults.stack_size) == (20, 1)
 
@@ -58,7 +62,11 @@ def test_every_real_file_parses_to_its_values(deepracer_data):
 
 def test_ip_hyperparameters_bytes_match_the_trainer_output(deepracer_data):
     """The console/DRfC trainers wrote these ip/ files from the same resolved dict (PPO)."""
-    for name in ("console2022_ip_hyperparameters.json", "drfc1_ip_hyperparameters.json", "drfc3_ip_hyperparameters.json"):
+    for name in (
+        "console2022_ip_hyperparameters.json",
+        "drfc1_ip_hyperparameters.json",
+        "drfc3_ip_hyperparameters.json",
+    ):
         path = deepracer_data / "config" / name
         hyperparameters, _ = load_hyperparameters(path)
         assert hyperparameters_to_json_bytes(hyperparameters) == path.read_bytes(), name
@@ -78,7 +86,13 @@ def test_resolved_dict_depends_on_the_algorithm():
 
 def test_numbers_given_as_strings_are_accepted():
     hyperparameters, _ = parse_hyperparameters(
-        {"batch_size": "128", "lr": "3e-4", "num_epochs": "5.0", "discount_factor": " 0.99 ", "term_cond_avg_score": "350"}
+        {
+            "batch_size": "128",
+            "lr": "3e-4",
+            "num_epochs": "5.0",
+            "discount_factor": " 0.99 ",
+            "term_cond_avg_score": "350",
+        }
     )
     assert hyperparameters.batch_size == 128 and type(hyperparameters.batch_size) is int
     assert hyperparameters.lr == 0.0003
@@ -93,7 +107,9 @@ def test_strings_are_normalised():
 
 
 def test_unknown_keys_are_warnings_naming_file_and_key():
-    hyperparameters, warnings = parse_hyperparameters({"lr": 0.0001, "learning_rate": 0.1, "gamma": 0.9}, source="hp.json")
+    hyperparameters, warnings = parse_hyperparameters(
+        {"lr": 0.0001, "learning_rate": 0.1, "gamma": 0.9}, source="hp.json"
+    )
     assert hyperparameters.lr == 0.0001
     assert len(warnings) == 2
     assert warnings[0].startswith("hp.json: learning_rate: unknown")

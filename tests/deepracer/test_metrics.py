@@ -132,8 +132,14 @@ def test_accumulating_and_serialising():
     metrics = TrainingMetrics(best_model_metric="laptime")
     metrics.append(
         TrainingMetricsEntry.from_episode(
-            total_reward=10.4, start_time_s=1.0, end_time_s=2.5, episode=1, trial=1, phase="training",
-            progress_pct=12.7, status=EpisodeStatus.OFF_TRACK,
+            total_reward=10.4,
+            start_time_s=1.0,
+            end_time_s=2.5,
+            episode=1,
+            trial=1,
+            phase="training",
+            progress_pct=12.7,
+            status=EpisodeStatus.OFF_TRACK,
         )  # fmt: skip
     )
     data = json.loads(metrics.to_bytes())

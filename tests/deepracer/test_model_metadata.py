@@ -191,7 +191,9 @@ def test_each_rule_rejects_bad_input_naming_file_and_field(base, path, value, fi
 def test_example_message_from_the_spec():
     data = changed(DISCRETE, ("action_space",), [dict(DISCRETE["action_space"][0]) for _ in range(4)])
     data["action_space"][3]["speed"] = 7.0
-    with pytest.raises(ModelMetadataError, match=r"^model_metadata\.json: action_space\[3\]\.speed: 7\.0 is above 4\.0 m/s$"):
+    with pytest.raises(
+        ModelMetadataError, match=r"^model_metadata\.json: action_space\[3\]\.speed: 7\.0 is above 4\.0 m/s$"
+    ):
         parse_model_metadata(data)
 
 

@@ -34,7 +34,13 @@ def data_lines(path):
 def test_column_names():
     assert len(SIMTRACE_COLUMNS) == 19
     assert SIMTRACE_COLUMNS[:3] == ("episode", "steps", "X")
-    assert SIMTRACE_COLUMNS[14:] == ("tstamp", "episode_status", "pause_duration", "obstacle_crash_counter", "wall_clock")
+    assert SIMTRACE_COLUMNS[14:] == (
+        "tstamp",
+        "episode_status",
+        "pause_duration",
+        "obstacle_crash_counter",
+        "wall_clock",
+    )
 
 
 def test_episode_status_labels():

@@ -86,8 +86,16 @@ def test_false_spellings(text):
 
 
 BAD_VALUES = [
-    ('CHANGE_START_POSITION: "yes please"', "change_start_position", "CHANGE_START_POSITION: 'yes please' is not true or false"),
-    ('ROUND_ROBIN_ADVANCE_DIST: "fast"', "round_robin_advance_dist", "ROUND_ROBIN_ADVANCE_DIST: 'fast' is not a number"),
+    (
+        'CHANGE_START_POSITION: "yes please"',
+        "change_start_position",
+        "CHANGE_START_POSITION: 'yes please' is not true or false",
+    ),
+    (
+        'ROUND_ROBIN_ADVANCE_DIST: "fast"',
+        "round_robin_advance_dist",
+        "ROUND_ROBIN_ADVANCE_DIST: 'fast' is not a number",
+    ),
     ('ROUND_ROBIN_ADVANCE_DIST: "nan"', "round_robin_advance_dist", "ROUND_ROBIN_ADVANCE_DIST: 'nan' is not a finite"),
     ('NUMBER_OF_RESETS: "2.5"', "number_of_resets", "NUMBER_OF_RESETS: '2.5' is not a whole number"),
     ('MIN_EVAL_TRIALS: ""', "min_eval_trials", "MIN_EVAL_TRIALS: '' is not a number"),

@@ -38,11 +38,19 @@ def run_scripted(
 ) -> tuple[EvaluationReport, ScriptedPolicy]:
     policy = ScriptedPolicy(speed_mps, exits, shortcut_m=shortcut_m)
     config = EvaluationConfig(
-        model_prefix=model_prefix, mode=mode, track=track, world=world, reverse_dir=reverse_dir,
-        deepracer=deepracer or DeepRacerRules(), race=race or RaceRules(), video=video, mcap=mcap,
+        model_prefix=model_prefix,
+        mode=mode,
+        track=track,
+        world=world,
+        reverse_dir=reverse_dir,
+        deepracer=deepracer or DeepRacerRules(),
+        race=race or RaceRules(),
+        video=video,
+        mcap=mcap,
     )
-    session = EvaluationSession(store or LocalStore(store_root), config, policy=policy, model_metadata=model_metadata,
-                                out_dir=out_dir, now=now)
+    session = EvaluationSession(
+        store or LocalStore(store_root), config, policy=policy, model_metadata=model_metadata, out_dir=out_dir, now=now
+    )
     policy.attach(session.driver)
     return session.run(), policy
 

@@ -31,8 +31,12 @@ LOOKAHEAD_M = 0.6
 class ScriptedPolicy:
     """`.act(observation, greedy, generator, epsilon)` like ActorCritic, for a continuous [steering, speed] space."""
 
-    def __init__(self, speed_mps: float = 2.0, exits: Mapping[int, Sequence[float]] | None = None,
-                 shortcut_m: float | None = None) -> None:
+    def __init__(
+        self,
+        speed_mps: float = 2.0,
+        exits: Mapping[int, Sequence[float]] | None = None,
+        shortcut_m: float | None = None,
+    ) -> None:
         """`shortcut_m`: an exit does not turn right off the road but heads straight for the centre-line point that
         many metres further on, across the infield (a corner cut)."""
         self.speed_mps = speed_mps

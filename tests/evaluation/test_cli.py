@@ -26,8 +26,11 @@ def save_model(store: ObjectStore, count: int = 1) -> list[str]:
     names = []
     for number in range(count):
         torch.manual_seed(number)
-        names.append(checkpoints.save(number, 100 * number, build_actor_critic(DEFAULT_MODEL_METADATA),
-                                      model_metadata=DEFAULT_MODEL_METADATA))
+        names.append(
+            checkpoints.save(
+                number, 100 * number, build_actor_critic(DEFAULT_MODEL_METADATA), model_metadata=DEFAULT_MODEL_METADATA
+            )
+        )
     return names
 
 
@@ -51,15 +54,35 @@ def files_of(store: ObjectStore, output: str) -> dict[str, str]:
 def test_race_on_a_local_store_prints_the_table_and_writes_every_file(tmp_path):
     store = LocalStore(tmp_path / "store")
     save_model(store)
-    result = invoke(str(tmp_path / "store"), "--mode", "race", "--race-minutes", "0.15", "--video-size", "160x120",
-                    "--out", str(tmp_path / "out"))
+    result = invoke(
+        str(tmp_path / "store"),
+        "--mode",
+        "race",
+        "--race-minutes",
+        "0.15",
+        "--video-size",
+        "160x120",
+        "--out",
+        str(tmp_path / "out"),
+    )
     assert result.exit_code == 0, result.output
     lines = result.output.splitlines()
     assert any(line.startswith("lap   1:") for line in lines)  # per-lap progress lines
-    header = next(index for index, line in enumerate(lines) if line.split()[:5] == ["lap", "time", "(s)", "resets", "progress"])
+    header = next(
+        index for index, line in enumerate(lines) if line.split()[:5] == ["lap", "time", "(s)", "resets", "progress"]
+    )
     assert "Time Up" in result.output.split("\n", header + 1)[-1]
     keys = files_of(store, result.output)
-    assert set(keys) == {"metrics", "simtrace", "summary", "params", "camera-incar", "camera-topview", "camera-45degree", "mcap"}
+    assert set(keys) == {
+        "metrics",
+        "simtrace",
+        "summary",
+        "params",
+        "camera-incar",
+        "camera-topview",
+        "camera-45degree",
+        "mcap",
+    }
     summary = json.loads(store.get_bytes(keys["summary"]))
     assert summary["mode"] == "race" and summary["checkpoint"] == "0_Step-0.ckpt"
     assert summary["rules"]["race_duration_s"] == 9.0 and summary["rules"]["resets_per_lap"] == 3
@@ -72,10 +95,23 @@ def test_race_on_a_local_store_prints_the_table_and_writes_every_file(tmp_path):
 def test_deepracer_evaluation_against_minio(s3_settings):
     store = S3Store(s3_settings)
     save_model(store)
-    extra = {"S3_ENDPOINT_URL": s3_settings.endpoint_url, "AWS_ACCESS_KEY_ID": s3_settings.access_key_id,
-             "AWS_SECRET_ACCESS_KEY": s3_settings.secret_access_key}
-    result = invoke(f"s3://{s3_settings.bucket}", "--trials", "2", "--resets", "0", "--no-video", "--mcap", "--checkpoint", "last",
-                    extra_env=extra)
+    extra = {
+        "S3_ENDPOINT_URL": s3_settings.endpoint_url,
+        "AWS_ACCESS_KEY_ID": s3_settings.access_key_id,
+        "AWS_SECRET_ACCESS_KEY": s3_settings.secret_access_key,
+    }
+    result = invoke(
+        f"s3://{s3_settings.bucket}",
+        "--trials",
+        "2",
+        "--resets",
+        "0",
+        "--no-video",
+        "--mcap",
+        "--checkpoint",
+        "last",
+        extra_env=extra,
+    )
     assert result.exit_code == 0, result.output
     keys = files_of(store, result.output)
     assert set(keys) == {"metrics", "simtrace", "summary", "params", "mcap"}
@@ -89,13 +125,16 @@ def test_deepracer_evaluation_against_minio(s3_settings):
 def test_best_checkpoint_comes_from_deepracer_checkpoints_json(tmp_path):
     store = LocalStore(tmp_path / "store")
     names = save_model(store, count=2)
-    CheckpointStore(store, PREFIX).write_best_and_last(CheckpointRecord(names[0], 50.0, 1.0), CheckpointRecord(names[1], 10.0, 2.0))
+    CheckpointStore(store, PREFIX).write_best_and_last(
+        CheckpointRecord(names[0], 50.0, 1.0), CheckpointRecord(names[1], 10.0, 2.0)
+    )
     result = invoke(str(tmp_path / "store"), "--trials", "1", "--resets", "0", "--no-video", "--no-mcap")
     assert result.exit_code == 0, result.output
     summary = json.loads(store.get_bytes(files_of(store, result.output)["summary"]))
     assert (summary["checkpoint"], summary["checkpoint_requested"]) == (names[0], "best")
-    named = invoke(str(tmp_path / "store"), "--trials", "1", "--resets", "0", "--no-video", "--no-mcap",
-                   "--checkpoint", names[1])
+    named = invoke(
+        str(tmp_path / "store"), "--trials", "1", "--resets", "0", "--no-video", "--no-mcap", "--checkpoint", names[1]
+    )
     assert named.exit_code == 0, named.output
     assert json.loads(store.get_bytes(files_of(store, named.output)["summary"]))["checkpoint"] == names[1]
 

@@ -15,7 +15,9 @@ from tests.evaluation.conftest import run_scripted, simtrace_of
 
 
 def test_each_trial_starts_at_the_line_and_ends_on_the_first_exit_without_resets(tmp_path):
-    report, _ = run_scripted(tmp_path, exits={1: [40.0]}, deepracer=DeepRacerRules(number_of_trials=3, number_of_resets=0))
+    report, _ = run_scripted(
+        tmp_path, exits={1: [40.0]}, deepracer=DeepRacerRules(number_of_trials=3, number_of_resets=0)
+    )
     entries = json.loads((tmp_path / report.keys["metrics"]).read_bytes())["metrics"]
     assert [entry["episode_status"] for entry in entries] == ["Lap complete", "Off track", "Lap complete"]
     assert [entry["trial"] for entry in entries] == [1, 2, 3]
@@ -88,7 +90,9 @@ def test_continuous_run_ends_with_lap_complete_after_the_last_trial(tmp_path):
 
 
 def test_metrics_file_has_deepracers_keys_order_and_types(tmp_path, deepracer_data):
-    report, _ = run_scripted(tmp_path, exits={0: [50.0]}, deepracer=DeepRacerRules(number_of_trials=2, number_of_resets=2))
+    report, _ = run_scripted(
+        tmp_path, exits={0: [50.0]}, deepracer=DeepRacerRules(number_of_trials=2, number_of_resets=2)
+    )
     ours_raw = (tmp_path / report.keys["metrics"]).read_bytes()
     assert report.keys["metrics"].startswith("scripted-model/metrics/EvaluationMetrics-")
     ours = json.loads(ours_raw)
@@ -100,13 +104,17 @@ def test_metrics_file_has_deepracers_keys_order_and_types(tmp_path, deepracer_da
         real_entry = real["metrics"][0]
         for entry in ours["metrics"]:
             assert list(entry) == list(real_entry), real_path.name
-            assert {key: type(value) for key, value in entry.items()} == {key: type(value) for key, value in real_entry.items()}
+            assert {key: type(value) for key, value in entry.items()} == {
+                key: type(value) for key, value in real_entry.items()
+            }
     # Same byte conventions as the SimApp's json.dumps (no indentation, no trailing newline); reads back.
     assert ours_raw == json.dumps(ours).encode()
     assert len(read_evaluation_metrics(ours_raw, source="ours")) == 2
 
 
-def test_default_reset_budget_is_the_consoles_so_an_exit_costs_the_penalty_and_the_lap_goes_on(tmp_path, deepracer_data):
+def test_default_reset_budget_is_the_consoles_so_an_exit_costs_the_penalty_and_the_lap_goes_on(
+    tmp_path, deepracer_data
+):
     log = (deepracer_data / "logs" / "console2022_evaluation_robomaker.log").read_text()
     console_resets = int(re.search(r"\* /NUMBER_OF_RESETS: (\d+)", log).group(1))
     assert DeepRacerRules().number_of_resets == console_resets == 10000
@@ -126,7 +134,9 @@ def test_reset_count_must_be_zero_or_at_least_two():
 
 def test_reversed_direction_in_another_world(tmp_path):
     forward, _ = run_scripted(tmp_path / "f", deepracer=DeepRacerRules(number_of_trials=1))
-    backward, _ = run_scripted(tmp_path / "b", deepracer=DeepRacerRules(number_of_trials=1), reverse_dir=True, world="concrete")
+    backward, _ = run_scripted(
+        tmp_path / "b", deepracer=DeepRacerRules(number_of_trials=1), reverse_dir=True, world="concrete"
+    )
     assert forward.laps[0].completed and backward.laps[0].completed
     assert backward.summary["reverse_dir"] is True and backward.summary["world"] == "concrete"
     yaw_forward = simtrace_of(tmp_path / "f", forward).yaw.iloc[0]
@@ -146,8 +156,9 @@ class RecordingStore(LocalStore):
 
 def test_metrics_file_is_rewritten_after_every_lap(tmp_path):
     store = RecordingStore(tmp_path)
-    report, _ = run_scripted(tmp_path, exits={0: [10.0]}, deepracer=DeepRacerRules(number_of_trials=3, number_of_resets=0),
-                             store=store)
+    report, _ = run_scripted(
+        tmp_path, exits={0: [10.0]}, deepracer=DeepRacerRules(number_of_trials=3, number_of_resets=0), store=store
+    )
     metrics_puts = [json.loads(data)["metrics"] for key, data in store.puts if key == report.keys["metrics"]]
     assert [len(entries) for entries in metrics_puts] == [1, 2, 3, 3]
     assert metrics_puts[0][0]["episode_status"] == "Off track"
@@ -155,8 +166,10 @@ def test_metrics_file_is_rewritten_after_every_lap(tmp_path):
 
 def _real_start_gaps_and_end_gaps(deepracer_data):
     """(prepare row tstamp - metrics start_time, metrics metric_time - last row tstamp) of the real evaluations, s."""
-    pairs = [("console2022_evaluation_0-iteration.csv", "console2022_EvaluationMetrics.json"),
-             ("drfc1_evaluation_0-iteration.csv", "drfc1_EvaluationMetrics-20220709200242.json")]
+    pairs = [
+        ("console2022_evaluation_0-iteration.csv", "console2022_EvaluationMetrics.json"),
+        ("drfc1_evaluation_0-iteration.csv", "drfc1_EvaluationMetrics-20220709200242.json"),
+    ]
     starts, ends = [], []
     for simtrace_name, metrics_name in pairs:
         path = deepracer_data / "simtrace" / simtrace_name

@@ -78,8 +78,12 @@ def test_the_time_limit_ends_the_race_mid_lap(tmp_path):
 
 def test_put_back_penalty_holds_the_car_while_the_race_clock_runs(tmp_path):
     exits = {0: [30.0]}
-    fast, _ = run_scripted(tmp_path / "a", mode="race", exits=exits, race=RaceRules(race_duration_s=9.0, reset_penalty_s=0.0))
-    held, _ = run_scripted(tmp_path / "b", mode="race", exits=exits, race=RaceRules(race_duration_s=9.0, reset_penalty_s=1.0))
+    fast, _ = run_scripted(
+        tmp_path / "a", mode="race", exits=exits, race=RaceRules(race_duration_s=9.0, reset_penalty_s=0.0)
+    )
+    held, _ = run_scripted(
+        tmp_path / "b", mode="race", exits=exits, race=RaceRules(race_duration_s=9.0, reset_penalty_s=1.0)
+    )
     rows = simtrace_of(tmp_path / "b", held)
     assert (simtrace_of(tmp_path / "a", fast).episode_status == "pause").sum() == 1  # a put-back takes one step
     pauses = rows[rows.episode_status == "pause"]
@@ -123,7 +127,9 @@ def test_an_off_track_shortcut_never_shortens_a_lap(tmp_path):
     cut_laps = []
     for shortcut_m, start_pct in ((1.5, 10.0), (3.0, 35.0), (5.0, 60.0)):
         exits = {0: [start_pct], 1: [start_pct]}
-        cut, _ = run_scripted(tmp_path / f"cut-{shortcut_m}", mode="race", race=rules, exits=exits, shortcut_m=shortcut_m)
+        cut, _ = run_scripted(
+            tmp_path / f"cut-{shortcut_m}", mode="race", race=rules, exits=exits, shortcut_m=shortcut_m
+        )
         cut_laps += [lap.lap_time_s for lap in cut.laps if lap.completed and lap.put_backs > 0]
     assert len(cut_laps) >= 3
     assert min(cut_laps) > clean_best + 1.5

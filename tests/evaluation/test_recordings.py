@@ -24,8 +24,13 @@ def recorded(tmp_path_factory):
     root = tmp_path_factory.mktemp("store")
     out = tmp_path_factory.mktemp("out")
     report, _ = run_scripted(
-        root, exits={0: [50.0]}, deepracer=DeepRacerRules(number_of_trials=1, number_of_resets=2, off_track_penalty_s=0.4),
-        video=VideoOptions(width_px=160, height_px=120), mcap=True, out_dir=out, now=NOW,
+        root,
+        exits={0: [50.0]},
+        deepracer=DeepRacerRules(number_of_trials=1, number_of_resets=2, off_track_penalty_s=0.4),
+        video=VideoOptions(width_px=160, height_px=120),
+        mcap=True,
+        out_dir=out,
+        now=NOW,
     )
     return root, out, report
 
@@ -112,7 +117,9 @@ def test_mcap_has_the_foxglove_channels_and_one_message_per_step(recorded):
             statuses.append(json.loads(message.data)["episode_status"])
         handle.seek(0)
         reader = make_reader(handle, decoder_factories=[DecoderFactory()])
-        for _, channel, message, decoded in reader.iter_decoded_messages(topics=["/car/pose", "/camera/FRONT_FACING_CAMERA"]):
+        for _, channel, message, decoded in reader.iter_decoded_messages(
+            topics=["/car/pose", "/camera/FRONT_FACING_CAMERA"]
+        ):
             (poses if channel.topic == "/car/pose" else images).append((message.log_time, decoded))
     assert statuses == list(rows.episode_status)
     assert [time for time, _ in poses] == [round(t * 1e9) for t in rows.tstamp]
@@ -142,8 +149,14 @@ def test_evaluation_params_use_deepracers_yaml_keys(recorded):
     root, _, report = recorded
     params = parse_training_params((root / report.keys["params"]).read_text(), source="evaluation_params.yaml")
     assert params.values["JOB_TYPE"] == "EVALUATION" and params.values["WORLD_NAME"] == "racer_oval"
-    assert (params.values["NUMBER_OF_TRIALS"], params.values["NUMBER_OF_RESETS"], params.values["OFF_TRACK_PENALTY"]) == ("1", "2", "0.4")
-    assert params.values["IS_CONTINUOUS"] == "false" and params.values["METRICS_S3_OBJECT_KEY"] == report.keys["metrics"]
+    assert (
+        params.values["NUMBER_OF_TRIALS"],
+        params.values["NUMBER_OF_RESETS"],
+        params.values["OFF_TRACK_PENALTY"],
+    ) == ("1", "2", "0.4")
+    assert (
+        params.values["IS_CONTINUOUS"] == "false" and params.values["METRICS_S3_OBJECT_KEY"] == report.keys["metrics"]
+    )
 
 
 def test_a_second_evaluation_in_the_same_second_gets_its_own_folder(tmp_path):
@@ -159,14 +172,24 @@ def test_lidar_models_record_a_laser_scan_per_step(tmp_path):
     from tests.evaluation.scripted import CONTINUOUS_METADATA
 
     lidar_metadata = parse_model_metadata(
-        {**model_metadata_to_dict(CONTINUOUS_METADATA), "sensor": ["FRONT_FACING_CAMERA", "LIDAR"]}, source="test")
-    report, _ = run_scripted(tmp_path, exits={0: [8.0]}, deepracer=DeepRacerRules(number_of_trials=1, number_of_resets=0), mcap=True,
-                             model_metadata=lidar_metadata)
+        {**model_metadata_to_dict(CONTINUOUS_METADATA), "sensor": ["FRONT_FACING_CAMERA", "LIDAR"]}, source="test"
+    )
+    report, _ = run_scripted(
+        tmp_path,
+        exits={0: [8.0]},
+        deepracer=DeepRacerRules(number_of_trials=1, number_of_resets=0),
+        mcap=True,
+        model_metadata=lidar_metadata,
+    )
     steps = len(simtrace_of(tmp_path, report))
     assert report.mcap_messages["/lidar/LIDAR"] == steps == report.mcap_messages["/car/pose"]
     with (tmp_path / report.keys["mcap"]).open("rb") as handle:
-        scans = [decoded for _, _, _, decoded in make_reader(handle, decoder_factories=[DecoderFactory()])
-                 .iter_decoded_messages(topics=["/lidar/LIDAR"])]
+        scans = [
+            decoded
+            for _, _, _, decoded in make_reader(handle, decoder_factories=[DecoderFactory()]).iter_decoded_messages(
+                topics=["/lidar/LIDAR"]
+            )
+        ]
     assert len(scans[0].ranges) == 64 and all(0.15 <= r <= 1.0 for r in scans[0].ranges)
 
 
@@ -174,9 +197,17 @@ def test_stereo_models_record_one_image_channel_per_eye_and_an_in_car_video(tmp_
     from racer.shared.deepracer.model_metadata import model_metadata_to_dict, parse_model_metadata
     from tests.evaluation.scripted import CONTINUOUS_METADATA
 
-    stereo = parse_model_metadata({**model_metadata_to_dict(CONTINUOUS_METADATA), "sensor": ["STEREO_CAMERAS"]}, source="test")
-    report, _ = run_scripted(tmp_path, exits={0: [6.0]}, deepracer=DeepRacerRules(number_of_trials=1, number_of_resets=0), mcap=True,
-                             video=VideoOptions(width_px=160, height_px=120), model_metadata=stereo)
+    stereo = parse_model_metadata(
+        {**model_metadata_to_dict(CONTINUOUS_METADATA), "sensor": ["STEREO_CAMERAS"]}, source="test"
+    )
+    report, _ = run_scripted(
+        tmp_path,
+        exits={0: [6.0]},
+        deepracer=DeepRacerRules(number_of_trials=1, number_of_resets=0),
+        mcap=True,
+        video=VideoOptions(width_px=160, height_px=120),
+        model_metadata=stereo,
+    )
     steps = len(simtrace_of(tmp_path, report))
     assert report.mcap_messages["/camera/STEREO_CAMERAS/0"] == report.mcap_messages["/camera/STEREO_CAMERAS/1"] == steps
     assert "/camera/STEREO_CAMERAS" not in report.mcap_messages

@@ -67,16 +67,29 @@ def test_invalid_keys_are_rejected(store):
 
 
 def test_missing_bucket(minio_server):
-    store = S3Store(S3Settings(bucket="no-such-bucket", endpoint_url=minio_server.endpoint_url,
-                               access_key_id=minio_server.access_key, secret_access_key=minio_server.secret_key))
+    store = S3Store(
+        S3Settings(
+            bucket="no-such-bucket",
+            endpoint_url=minio_server.endpoint_url,
+            access_key_id=minio_server.access_key,
+            secret_access_key=minio_server.secret_key,
+        )
+    )
     with pytest.raises(BucketNotFoundError, match="no-such-bucket"):
         store.get_bytes("k")
 
 
 def test_unreachable_minio_fails_fast():
     port = free_port()  # nothing listens here
-    store = S3Store(S3Settings(bucket="b", endpoint_url=f"http://127.0.0.1:{port}", access_key_id="x",
-                               secret_access_key="y", connect_timeout_s=2.0))
+    store = S3Store(
+        S3Settings(
+            bucket="b",
+            endpoint_url=f"http://127.0.0.1:{port}",
+            access_key_id="x",
+            secret_access_key="y",
+            connect_timeout_s=2.0,
+        )
+    )
     started = time.monotonic()
     with pytest.raises(StoreUnavailableError, match=f"127.0.0.1:{port}"):
         store.put_bytes("k", b"v")
@@ -92,11 +105,24 @@ def test_local_store_has_no_partial_files(tmp_path):
 def test_settings_from_environment_read_s3_and_session_token():
     from racer.shared.config import settings_from_env
 
-    settings = settings_from_env({"RACER_STORE": "s3://models", "S3_ENDPOINT_URL": "http://127.0.0.1:9000",
-                                  "AWS_ACCESS_KEY_ID": "id", "AWS_SECRET_ACCESS_KEY": "secret",
-                                  "AWS_SESSION_TOKEN": "token", "RACER_REDIS_URL": "redis://r:6379/1"})
-    assert settings.store == S3Settings(bucket="models", endpoint_url="http://127.0.0.1:9000", access_key_id="id",
-                                        secret_access_key="secret", session_token="token", connect_timeout_s=10.0)
+    settings = settings_from_env(
+        {
+            "RACER_STORE": "s3://models",
+            "S3_ENDPOINT_URL": "http://127.0.0.1:9000",
+            "AWS_ACCESS_KEY_ID": "id",
+            "AWS_SECRET_ACCESS_KEY": "secret",
+            "AWS_SESSION_TOKEN": "token",
+            "RACER_REDIS_URL": "redis://r:6379/1",
+        }
+    )
+    assert settings.store == S3Settings(
+        bucket="models",
+        endpoint_url="http://127.0.0.1:9000",
+        access_key_id="id",
+        secret_access_key="secret",
+        session_token="token",
+        connect_timeout_s=10.0,
+    )
     assert settings.redis.url == "redis://r:6379/1"
     with pytest.raises(ValueError, match="s3://<bucket>"):
         settings_from_env({"RACER_STORE": "s3://bucket/with/prefix"})
@@ -107,8 +133,15 @@ def test_a_restarted_minio_keeps_the_objects_and_the_store_reconnects(tmp_path):
     from racer.shared.services import MinioServer
 
     with MinioServer(tmp_path / "minio") as server:
-        store = S3Store(S3Settings(bucket="restart", endpoint_url=server.endpoint_url, access_key_id=server.access_key,
-                                   secret_access_key=server.secret_key, connect_timeout_s=10.0))
+        store = S3Store(
+            S3Settings(
+                bucket="restart",
+                endpoint_url=server.endpoint_url,
+                access_key_id=server.access_key,
+                secret_access_key=server.secret_key,
+                connect_timeout_s=10.0,
+            )
+        )
         store.ensure_bucket()
         store.put_bytes("model/.coach_checkpoint", b"3_Step-300.ckpt")
         old_pid = server.pid

@@ -55,9 +55,15 @@ def tf_checkpoint(root: Path, name: str, parts: tuple[str, ...] = TF_PARTS, size
         write(root, f"model/{name}.{part}", bytes([len(part)]) * size)
 
 
-def deepracer_model(root: Path, *, checkpoints: tuple[str, ...] = ("3_Step-124.ckpt", "4_Step-162.ckpt"),
-                    coach: str | None = "4_Step-162.ckpt", best: str | None = None, last: str | None = None,
-                    metadata_at_root: bool = False) -> Path:
+def deepracer_model(
+    root: Path,
+    *,
+    checkpoints: tuple[str, ...] = ("3_Step-124.ckpt", "4_Step-162.ckpt"),
+    coach: str | None = "4_Step-162.ckpt",
+    best: str | None = None,
+    last: str | None = None,
+    metadata_at_root: bool = False,
+) -> Path:
     """A console-style model prefix: TF checkpoints, model_<N>.pb, pointers, configs, metrics."""
     files = real_files()
     for name in checkpoints:
@@ -66,9 +72,16 @@ def deepracer_model(root: Path, *, checkpoints: tuple[str, ...] = ("3_Step-124.c
     if coach is not None:
         write(root, "model/.coach_checkpoint", coach)
     if best is not None and last is not None:
-        write(root, "model/deepracer_checkpoints.json", json.dumps(
-            {"best_checkpoint": {"name": best, "avg_eval_metric": 58.9, "time_stamp": 5502.2},
-             "last_checkpoint": {"name": last, "avg_eval_metric": 18.9, "time_stamp": 5734.3}}))
+        write(
+            root,
+            "model/deepracer_checkpoints.json",
+            json.dumps(
+                {
+                    "best_checkpoint": {"name": best, "avg_eval_metric": 58.9, "time_stamp": 5502.2},
+                    "last_checkpoint": {"name": last, "avg_eval_metric": 18.9, "time_stamp": 5734.3},
+                }
+            ),
+        )
     write(root, "model_metadata.json" if metadata_at_root else "model/model_metadata.json", files.model_metadata)
     write(root, "ip/hyperparameters.json", files.hyperparameters)
     write(root, "training_params.yaml", files.training_params)
@@ -90,14 +103,18 @@ def tiny_onnx(num_outputs: int) -> bytes:
     """An inference graph shaped like racer's: raw grayscale [1,120,160,1] in, action probabilities out."""
     weights = np.random.default_rng(0).normal(size=(120 * 160, num_outputs)).astype(np.float32) * 1e-3
     graph = helper.make_graph(
-        [helper.make_node("Reshape", ["observation", "shape"], ["flat"]),
-         helper.make_node("MatMul", ["flat", "weights"], ["logits"]),
-         helper.make_node("Softmax", ["logits"], ["probabilities"], axis=-1)],
+        [
+            helper.make_node("Reshape", ["observation", "shape"], ["flat"]),
+            helper.make_node("MatMul", ["flat", "weights"], ["logits"]),
+            helper.make_node("Softmax", ["logits"], ["probabilities"], axis=-1),
+        ],
         "policy",
         [helper.make_tensor_value_info("observation", TensorProto.FLOAT, [1, 120, 160, 1])],
         [helper.make_tensor_value_info("probabilities", TensorProto.FLOAT, [1, num_outputs])],
-        [numpy_helper.from_array(np.array([1, 120 * 160], dtype=np.int64), "shape"),
-         numpy_helper.from_array(weights, "weights")],
+        [
+            numpy_helper.from_array(np.array([1, 120 * 160], dtype=np.int64), "shape"),
+            numpy_helper.from_array(weights, "weights"),
+        ],
     )
     return helper.make_model(graph, opset_imports=[helper.make_opsetid("", 17)]).SerializeToString()
 
@@ -136,8 +153,13 @@ def seed_deepracer_checkpoints_example(root: Path) -> None:
     """The seed's failing example: best 319_Step-43282 / last 20_Step-43482, files only for 320..322."""
     for name in ("320_Step-43278.ckpt", "321_Step-43280.ckpt", "322_Step-43282.ckpt"):
         tf_checkpoint(root, name)
-    write(root, "model/deepracer_checkpoints.json", json.dumps(
-        {"best_checkpoint": {"name": "319_Step-43282.ckpt"}, "last_checkpoint": {"name": "20_Step-43482.ckpt"}}))
+    write(
+        root,
+        "model/deepracer_checkpoints.json",
+        json.dumps(
+            {"best_checkpoint": {"name": "319_Step-43282.ckpt"}, "last_checkpoint": {"name": "20_Step-43482.ckpt"}}
+        ),
+    )
 
 
 def car_bundle_without_model(root: Path) -> None:
@@ -157,36 +179,61 @@ BROKEN: dict[str, tuple[Callable[[Path], None], ProblemCode]] = {
     "no model_metadata.json": (remove("model/model_metadata.json"), Code.FILE_DOES_NOT_EXIST),
     "no pointer at all": (remove("model/.coach_checkpoint"), Code.COACH_CHECKPOINT_DOES_NOT_EXIST),
     "pointer names a missing checkpoint (seed)": (seed_coach_example, Code.CHECKPOINT_FILES_DOES_NOT_EXIST),
-    "deepracer_checkpoints.json names missing checkpoints (seed)":
-        (seed_deepracer_checkpoints_example, Code.CHECKPOINT_FILES_DOES_NOT_EXIST),
-    "named checkpoint lacks its data file": (remove("model/4_Step-162.ckpt.data-00000-of-00001"),
-                                             Code.CHECKPOINT_FILES_DOES_NOT_EXIST),
+    "deepracer_checkpoints.json names missing checkpoints (seed)": (
+        seed_deepracer_checkpoints_example,
+        Code.CHECKPOINT_FILES_DOES_NOT_EXIST,
+    ),
+    "named checkpoint lacks its data file": (
+        remove("model/4_Step-162.ckpt.data-00000-of-00001"),
+        Code.CHECKPOINT_FILES_DOES_NOT_EXIST,
+    ),
     "named checkpoint lacks its index": (remove("model/4_Step-162.ckpt.index"), Code.CHECKPOINT_FILES_DOES_NOT_EXIST),
     "metadata speed out of range": (edit_metadata_speed, Code.MODEL_VALIDATION_SERVICE_ERROR),
-    "metadata is not JSON": (replace("model/model_metadata.json", "{\"action_space\": ["),
-                             Code.MODEL_VALIDATION_SERVICE_ERROR),
+    "metadata is not JSON": (
+        replace("model/model_metadata.json", '{"action_space": ['),
+        Code.MODEL_VALIDATION_SERVICE_ERROR,
+    ),
     "two metadata copies differ": (second_metadata_differs, Code.MODEL_VALIDATION_SERVICE_ERROR),
-    "two hyperparameters copies differ": (replace("hyperparameters.json", json.dumps({"batch_size": 32})),
-                                          Code.MODEL_VALIDATION_SERVICE_ERROR),
-    "pointer does not follow <N>_Step-<M>.ckpt": (replace("model/.coach_checkpoint", "model.ckpt"),
-                                                  Code.MODEL_VALIDATION_SERVICE_ERROR),
-    "pointer holds two lines": (replace("model/.coach_checkpoint", "4_Step-162.ckpt\n3_Step-124.ckpt\n"),
-                                Code.MODEL_VALIDATION_SERVICE_ERROR),
+    "two hyperparameters copies differ": (
+        replace("hyperparameters.json", json.dumps({"batch_size": 32})),
+        Code.MODEL_VALIDATION_SERVICE_ERROR,
+    ),
+    "pointer does not follow <N>_Step-<M>.ckpt": (
+        replace("model/.coach_checkpoint", "model.ckpt"),
+        Code.MODEL_VALIDATION_SERVICE_ERROR,
+    ),
+    "pointer holds two lines": (
+        replace("model/.coach_checkpoint", "4_Step-162.ckpt\n3_Step-124.ckpt\n"),
+        Code.MODEL_VALIDATION_SERVICE_ERROR,
+    ),
     "deepracer_checkpoints.json without last_checkpoint": (
         replace("model/deepracer_checkpoints.json", json.dumps({"best_checkpoint": {"name": "4_Step-162.ckpt"}})),
-        Code.MODEL_VALIDATION_SERVICE_ERROR),
+        Code.MODEL_VALIDATION_SERVICE_ERROR,
+    ),
     "hyperparameter out of the console's range": (
-        replace("ip/hyperparameters.json", json.dumps({"batch_size": 64, "lr": 5.0})), Code.MODEL_VALIDATION_SERVICE_ERROR),
-    "training_params.yaml is not YAML": (replace("training_params.yaml", "WORLD_NAME: [unclosed\n"),
-                                         Code.MODEL_VALIDATION_SERVICE_ERROR),
-    "reward function has no reward_function": (replace("reward_function.py", "def reward(params):\n    return 1.0\n"),
-                                               Code.MODEL_VALIDATION_SERVICE_ERROR),
-    "reward function is not Python": (replace("reward_function.py", "def reward_function(params)\n  return 1\n"),
-                                      Code.MODEL_VALIDATION_SERVICE_ERROR),
-    "inference model outputs the wrong number of actions": (replace("model/model_4.onnx", tiny_onnx(5)),
-                                                             Code.MODEL_VALIDATION_SERVICE_ERROR),
-    "inference model is not ONNX": (replace("model/model_4.onnx", b"not a protobuf at all"),
-                                    Code.MODEL_VALIDATION_SERVICE_ERROR),
+        replace("ip/hyperparameters.json", json.dumps({"batch_size": 64, "lr": 5.0})),
+        Code.MODEL_VALIDATION_SERVICE_ERROR,
+    ),
+    "training_params.yaml is not YAML": (
+        replace("training_params.yaml", "WORLD_NAME: [unclosed\n"),
+        Code.MODEL_VALIDATION_SERVICE_ERROR,
+    ),
+    "reward function has no reward_function": (
+        replace("reward_function.py", "def reward(params):\n    return 1.0\n"),
+        Code.MODEL_VALIDATION_SERVICE_ERROR,
+    ),
+    "reward function is not Python": (
+        replace("reward_function.py", "def reward_function(params)\n  return 1\n"),
+        Code.MODEL_VALIDATION_SERVICE_ERROR,
+    ),
+    "inference model outputs the wrong number of actions": (
+        replace("model/model_4.onnx", tiny_onnx(5)),
+        Code.MODEL_VALIDATION_SERVICE_ERROR,
+    ),
+    "inference model is not ONNX": (
+        replace("model/model_4.onnx", b"not a protobuf at all"),
+        Code.MODEL_VALIDATION_SERVICE_ERROR,
+    ),
     "car bundle without the inference model": (car_bundle_without_model, Code.MODEL_VALIDATION_SERVICE_ERROR),
 }
 

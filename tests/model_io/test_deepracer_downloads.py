@@ -32,8 +32,12 @@ from tests.model_io.model_io_builders import real_files
 
 pytestmark = pytest.mark.slow
 
-METADATA = {"action_space": [{"steering_angle": angle, "speed": 1.0} for angle in (-30, 0, 30)],
-            "sensor": ["FRONT_FACING_CAMERA"], "neural_network": "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW", "version": "5"}
+METADATA = {
+    "action_space": [{"steering_angle": angle, "speed": 1.0} for angle in (-30, 0, 30)],
+    "sensor": ["FRONT_FACING_CAMERA"],
+    "neural_network": "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW",
+    "version": "5",
+}
 
 
 def frames(count: int = 10) -> dict[str, torch.Tensor]:
@@ -85,12 +89,26 @@ def test_exports_validate_with_no_problem_and_look_like_deepracers(trained):
         assert report.ok and not report.problems, (folder, report.problems)
         with tarfile.open(root / folder / "model.tar.gz") as bundle:
             assert sorted(bundle.getnames()) == ["agent/model.pb", "model_metadata.json"]
-    droa = sorted(path.relative_to(root / "droa-export").as_posix() for path in (root / "droa-export").rglob("*")
-                  if path.is_file())
-    assert droa == ["hyperparameters.json", "metrics/training/training-TrainingMetrics.json", "model.tar.gz",
-                    "model/.coach_checkpoint", "model/1_Step-200.ckpt.data-00000-of-00001", "model/1_Step-200.ckpt.index",
-                    "model/1_Step-200.ckpt.meta", "model/deepracer_checkpoints.json", "model/model_1.pb",
-                    "model/model_metadata.json", "model_metadata.json", "reward_function.py", "training_params.yaml"]
+    droa = sorted(
+        path.relative_to(root / "droa-export").as_posix()
+        for path in (root / "droa-export").rglob("*")
+        if path.is_file()
+    )
+    assert droa == [
+        "hyperparameters.json",
+        "metrics/training/training-TrainingMetrics.json",
+        "model.tar.gz",
+        "model/.coach_checkpoint",
+        "model/1_Step-200.ckpt.data-00000-of-00001",
+        "model/1_Step-200.ckpt.index",
+        "model/1_Step-200.ckpt.meta",
+        "model/deepracer_checkpoints.json",
+        "model/model_1.pb",
+        "model/model_metadata.json",
+        "model_metadata.json",
+        "reward_function.py",
+        "training_params.yaml",
+    ]
     racer = {path.name for path in (root / "racer-export" / "model").iterdir()}
     assert {"1_Step-200.ckpt.index", "1_Step-200.ckpt.weights.safetensors", "model_1.pb", "model_1.onnx"} <= racer
 
@@ -123,9 +141,22 @@ def test_a_zip_virtual_model_named_tar_gz_imports_evaluates_and_clones(trained, 
     clone.restore(clone.select("last"), network)
     with torch.inference_mode():
         np.testing.assert_allclose(network.eval().policy_output(frames()).numpy(), trained["expected"], atol=1e-6)
-    evaluation = CliRunner().invoke(main, ["evaluate", "--model-prefix", "from-zip", "--mode", "race",
-                                           "--race-minutes", "0.05", "--no-video", "--no-mcap"],
-                                    env={"RACER_STORE": str(tmp_path / "store")}, catch_exceptions=False)
+    evaluation = CliRunner().invoke(
+        main,
+        [
+            "evaluate",
+            "--model-prefix",
+            "from-zip",
+            "--mode",
+            "race",
+            "--race-minutes",
+            "0.05",
+            "--no-video",
+            "--no-mcap",
+        ],
+        env={"RACER_STORE": str(tmp_path / "store")},
+        catch_exceptions=False,
+    )
     assert evaluation.exit_code == 0, evaluation.output
 
 
@@ -144,8 +175,9 @@ def test_a_tar_gz_virtual_model_and_a_training_logs_tarball_import(trained, tmp_
     result = run("model", "import", str(archive), "from-logs", "--store", str(tmp_path / "store"))
     assert result.exit_code == 0, result.output
     assert "models/m" in result.output
-    np.testing.assert_allclose(policy_of(LocalStore(tmp_path / "store"), "from-logs", "1_Step-200.ckpt"),
-                               trained["expected"], atol=1e-6)
+    np.testing.assert_allclose(
+        policy_of(LocalStore(tmp_path / "store"), "from-logs", "1_Step-200.ckpt"), trained["expected"], atol=1e-6
+    )
 
 
 def test_the_physical_car_tarball_imports_with_a_fresh_value_network(trained, tmp_path):
@@ -174,8 +206,9 @@ def test_without_tensorflow_export_and_import_say_how_to_get_it(trained, tmp_pat
     result = run("model", "export", "m", str(tmp_path / "out"), "--store", str(trained["root"] / "store"))
     assert result.exit_code == 0, result.output
     assert "pip install -e '.[tensorflow]'" in result.output
-    result = run("model", "export", "m", str(tmp_path / "droa"), "--store", str(trained["root"] / "store"),
-                 "--for", "droa")
+    result = run(
+        "model", "export", "m", str(tmp_path / "droa"), "--store", str(trained["root"] / "store"), "--for", "droa"
+    )
     assert result.exit_code == 1 and "pip install -e '.[tensorflow]'" in result.output
     bundle = trained["root"] / "racer-export" / "model.tar.gz"
     result = run("model", "import", str(bundle), "car", "--store", str(tmp_path / "store"))
@@ -184,11 +217,20 @@ def test_without_tensorflow_export_and_import_say_how_to_get_it(trained, tmp_pat
 
 def test_an_old_racer_continuous_checkpoint_is_refused_clearly():
     """racer's continuous head used tanh before it became DeepRacer's linear mean: such checkpoints are refused."""
-    manifest = {"format": "racer-checkpoint-1", "name": "3_Step-9.ckpt", "number": 3, "env_steps": 9,
-                "policy_config": {"neural_network": "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW", "action_space_type":
-                                  "continuous", "num_actions": 2,
-                                  "inputs": [{"name": "FRONT_FACING_CAMERA", "kind": "camera", "shape": [120, 160, 1]}]},
-                "created_unix_s": 0.0, "files": {}}
+    manifest = {
+        "format": "racer-checkpoint-1",
+        "name": "3_Step-9.ckpt",
+        "number": 3,
+        "env_steps": 9,
+        "policy_config": {
+            "neural_network": "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW",
+            "action_space_type": "continuous",
+            "num_actions": 2,
+            "inputs": [{"name": "FRONT_FACING_CAMERA", "kind": "camera", "shape": [120, 160, 1]}],
+        },
+        "created_unix_s": 0.0,
+        "files": {},
+    }
     with pytest.raises(CheckpointError, match="tanh"):
         CheckpointInfo.from_dict(manifest)
     assert CheckpointInfo.from_dict({**manifest, "continuous_mean": "linear"}).policy_config.is_continuous

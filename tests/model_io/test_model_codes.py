@@ -18,8 +18,11 @@ def seed_text() -> str:
 
 
 def test_every_code_of_the_seed_table_is_known(seed_text):
-    table = [line.split(" ", 1)[0] for line in seed_text.splitlines()
-             if line.split(" ", 1)[0].isupper() and "_" in line.split(" ", 1)[0]]
+    table = [
+        line.split(" ", 1)[0]
+        for line in seed_text.splitlines()
+        if line.split(" ", 1)[0].isupper() and "_" in line.split(" ", 1)[0]
+    ]
     assert table, "the seed's error table was not found"
     assert sorted(table) == sorted(code.value for code in ProblemCode)
 

@@ -39,8 +39,11 @@ pytestmark = pytest.mark.usefixtures("deepracer_data")  # the builders read ../s
 Code = ProblemCode
 
 METADATA = {
-    "action_space": [{"steering_angle": -30, "speed": 1.0}, {"steering_angle": 0, "speed": 2.0},
-                     {"steering_angle": 30, "speed": 1.0}],
+    "action_space": [
+        {"steering_angle": -30, "speed": 1.0},
+        {"steering_angle": 0, "speed": 2.0},
+        {"steering_angle": 30, "speed": 1.0},
+    ],
     "sensor": ["FRONT_FACING_CAMERA"],
     "neural_network": "DEEP_CONVOLUTIONAL_NETWORK_DEEP",  # the smallest of the three (1152-wide flatten)
     "version": "5",
@@ -55,7 +58,7 @@ def observations(count: int, seed: int) -> list[dict[str, np.ndarray]]:
     for _ in range(count):
         image = np.full((120, 160, 1), rng.integers(0, 120), dtype=np.uint8)
         (x0, x1), (y0, y1) = sorted(rng.integers(0, 160, 2)), sorted(rng.integers(0, 120, 2))
-        image[y0:y1 + 1, x0:x1 + 1] = rng.integers(120, 256)
+        image[y0 : y1 + 1, x0 : x1 + 1] = rng.integers(120, 256)
         frames.append({"FRONT_FACING_CAMERA": image})
     return frames
 
@@ -122,8 +125,11 @@ def exported_copy(trained, tmp_path) -> Path:
 
 
 def test_validation_knows_every_file_the_checkpoint_store_writes(trained):
-    files = {str(path.relative_to(trained.exported)): path.stat().st_size
-             for path in trained.exported.rglob("*") if path.is_file()}
+    files = {
+        str(path.relative_to(trained.exported)): path.stat().st_size
+        for path in trained.exported.rglob("*")
+        if path.is_file()
+    }
     name = CheckpointName.parse("2_Step-1000.ckpt")
     written = checkpoint_files(name, files)
     assert written and is_racer_checkpoint(name, files) and missing_parts(name, files) == []
@@ -148,8 +154,9 @@ def test_export_import_load_gives_the_same_greedy_actions(trained, tmp_path):
         # What `racer evaluate` acts with: the imported checkpoint's ONNX model under ONNX Runtime.
         assert greedy_actions(imported.load_inference_policy(name), batch) == expected
     # The two checkpoints act differently, so loading the wrong one could not pass the comparison above.
-    assert greedy_actions(imported.load_policy("1_Step-500.ckpt"), batch) != \
-        greedy_actions(imported.load_policy("2_Step-1000.ckpt"), batch)
+    assert greedy_actions(imported.load_policy("1_Step-500.ckpt"), batch) != greedy_actions(
+        imported.load_policy("2_Step-1000.ckpt"), batch
+    )
 
 
 def test_the_car_bundle_runs_the_best_checkpoint(trained):
@@ -164,7 +171,9 @@ def test_the_car_bundle_runs_the_best_checkpoint(trained):
     batch = observations(12, seed=11)
     car_actions = []
     for frame in batch:
-        (probabilities,) = session.run(None, {"FRONT_FACING_CAMERA": frame["FRONT_FACING_CAMERA"][None].astype(np.float32)})
+        (probabilities,) = session.run(
+            None, {"FRONT_FACING_CAMERA": frame["FRONT_FACING_CAMERA"][None].astype(np.float32)}
+        )
         car_actions.append(int(np.argmax(probabilities)))
     assert car_actions == greedy_actions(network_with(trained.states["1_Step-500.ckpt"]), batch)
 
@@ -189,17 +198,30 @@ def flip_one_byte(path: Path) -> None:
 
 
 EDITS = {
-    "weights changed": (lambda root: flip_one_byte(root / "model/2_Step-1000.ckpt.weights.safetensors"),
-                        Code.MODEL_VALIDATION_SERVICE_ERROR),
-    "inference model changed": (lambda root: flip_one_byte(root / "model/model_1.onnx"),
-                                Code.MODEL_VALIDATION_SERVICE_ERROR),
-    "manifest is not a manifest": (lambda root: (root / "model/1_Step-500.ckpt.json").write_text('{"format": "x"}'),
-                                   Code.MODEL_VALIDATION_SERVICE_ERROR),
-    "optimiser state deleted": (lambda root: (root / "model/2_Step-1000.ckpt.optimizer.safetensors").unlink(),
-                                Code.CHECKPOINT_FILES_DOES_NOT_EXIST),
-    "manifest deleted": (lambda root: (root / "model/1_Step-500.ckpt.json").unlink(), Code.CHECKPOINT_FILES_DOES_NOT_EXIST),
-    "weights deleted": (lambda root: (root / "model/2_Step-1000.ckpt.weights.safetensors").unlink(),
-                        Code.CHECKPOINT_FILES_DOES_NOT_EXIST),
+    "weights changed": (
+        lambda root: flip_one_byte(root / "model/2_Step-1000.ckpt.weights.safetensors"),
+        Code.MODEL_VALIDATION_SERVICE_ERROR,
+    ),
+    "inference model changed": (
+        lambda root: flip_one_byte(root / "model/model_1.onnx"),
+        Code.MODEL_VALIDATION_SERVICE_ERROR,
+    ),
+    "manifest is not a manifest": (
+        lambda root: (root / "model/1_Step-500.ckpt.json").write_text('{"format": "x"}'),
+        Code.MODEL_VALIDATION_SERVICE_ERROR,
+    ),
+    "optimiser state deleted": (
+        lambda root: (root / "model/2_Step-1000.ckpt.optimizer.safetensors").unlink(),
+        Code.CHECKPOINT_FILES_DOES_NOT_EXIST,
+    ),
+    "manifest deleted": (
+        lambda root: (root / "model/1_Step-500.ckpt.json").unlink(),
+        Code.CHECKPOINT_FILES_DOES_NOT_EXIST,
+    ),
+    "weights deleted": (
+        lambda root: (root / "model/2_Step-1000.ckpt.weights.safetensors").unlink(),
+        Code.CHECKPOINT_FILES_DOES_NOT_EXIST,
+    ),
 }
 
 
@@ -233,8 +255,12 @@ def test_metadata_edited_to_another_action_space_is_caught(exported_copy):
 def test_command_line_round_trip_through_a_bucket(trained, s3_settings, tmp_path):
     """racer model export -> s3://bucket/prefix -> racer model validate -> racer model import, all as a user would."""
     runner = CliRunner()
-    env = {"S3_ENDPOINT_URL": s3_settings.endpoint_url, "AWS_ACCESS_KEY_ID": s3_settings.access_key_id,
-           "AWS_SECRET_ACCESS_KEY": s3_settings.secret_access_key, "RACER_CONNECT_TIMEOUT_S": "5"}
+    env = {
+        "S3_ENDPOINT_URL": s3_settings.endpoint_url,
+        "AWS_ACCESS_KEY_ID": s3_settings.access_key_id,
+        "AWS_SECRET_ACCESS_KEY": s3_settings.secret_access_key,
+        "RACER_CONNECT_TIMEOUT_S": "5",
+    }
     location = f"s3://{s3_settings.bucket}/exports/trained"
     result = runner.invoke(main, ["model", "export", "trained", location, "--store", str(trained.store.root)], env=env)
     assert result.exit_code == 0, result.output

@@ -29,10 +29,13 @@ PREFIX = "DeepRacer-SageMaker-RoboMaker-comm-1234-model"
 
 
 def session_policy(bucket: str, allow: list[str], deny: list[str]) -> str:
-    statements = [{"Effect": "Allow", "Action": allow, "Resource": [f"arn:aws:s3:::{bucket}", f"arn:aws:s3:::{bucket}/*"]}]
+    statements = [
+        {"Effect": "Allow", "Action": allow, "Resource": [f"arn:aws:s3:::{bucket}", f"arn:aws:s3:::{bucket}/*"]}
+    ]
     if deny:
-        statements.append({"Effect": "Deny", "Action": deny,
-                           "Resource": [f"arn:aws:s3:::{bucket}", f"arn:aws:s3:::{bucket}/*"]})
+        statements.append(
+            {"Effect": "Deny", "Action": deny, "Resource": [f"arn:aws:s3:::{bucket}", f"arn:aws:s3:::{bucket}/*"]}
+        )
     return json.dumps({"Version": "2012-10-17", "Statement": statements})
 
 
@@ -42,12 +45,18 @@ def restricted_credentials(minio_server, monkeypatch, tmp_path):
 
     S3Settings has no session-token field, so the temporary credentials reach boto3 through its standard
     environment variables (access key fields left empty)."""
-    sts = boto3.client("sts", endpoint_url=minio_server.endpoint_url, region_name="us-east-1",
-                       aws_access_key_id=minio_server.access_key, aws_secret_access_key=minio_server.secret_key)
+    sts = boto3.client(
+        "sts",
+        endpoint_url=minio_server.endpoint_url,
+        region_name="us-east-1",
+        aws_access_key_id=minio_server.access_key,
+        aws_secret_access_key=minio_server.secret_key,
+    )
 
     def make(bucket: str, policy: str) -> S3Settings:
-        credentials = sts.assume_role(RoleArn="arn:minio:iam:::role/racer-test", RoleSessionName="racer-test",
-                                      Policy=policy, DurationSeconds=900)["Credentials"]
+        credentials = sts.assume_role(
+            RoleArn="arn:minio:iam:::role/racer-test", RoleSessionName="racer-test", Policy=policy, DurationSeconds=900
+        )["Credentials"]
         monkeypatch.setenv("AWS_ACCESS_KEY_ID", credentials["AccessKeyId"])
         monkeypatch.setenv("AWS_SECRET_ACCESS_KEY", credentials["SecretAccessKey"])
         monkeypatch.setenv("AWS_SESSION_TOKEN", credentials["SessionToken"])
@@ -69,8 +78,12 @@ def s3_model(s3_settings, tmp_path):
 
 
 def cli_env(settings: S3Settings, **overrides: str) -> dict[str, str]:
-    env = {"S3_ENDPOINT_URL": settings.endpoint_url, "AWS_ACCESS_KEY_ID": settings.access_key_id,
-           "AWS_SECRET_ACCESS_KEY": settings.secret_access_key, "RACER_CONNECT_TIMEOUT_S": "3"}
+    env = {
+        "S3_ENDPOINT_URL": settings.endpoint_url,
+        "AWS_ACCESS_KEY_ID": settings.access_key_id,
+        "AWS_SECRET_ACCESS_KEY": settings.secret_access_key,
+        "RACER_CONNECT_TIMEOUT_S": "3",
+    }
     env.update(overrides)
     return env
 
@@ -82,15 +95,18 @@ def test_a_valid_model_in_a_bucket_passes(s3_model):
 
 
 def test_missing_bucket(s3_model):
-    result = CliRunner().invoke(main, ["model", "validate", f"s3://no-such-bucket-here/{PREFIX}"], env=cli_env(s3_model))
+    result = CliRunner().invoke(
+        main, ["model", "validate", f"s3://no-such-bucket-here/{PREFIX}"], env=cli_env(s3_model)
+    )
     assert result.exit_code == 1
     assert result.output.startswith("SRC_BUCKET_DOES_NOT_EXIST")
     assert result.output.count("fix:") == 1
 
 
 def test_nothing_under_the_prefix(s3_model):
-    result = CliRunner().invoke(main, ["model", "validate", f"s3://{s3_model.bucket}/deleted-model"],
-                                env=cli_env(s3_model))
+    result = CliRunner().invoke(
+        main, ["model", "validate", f"s3://{s3_model.bucket}/deleted-model"], env=cli_env(s3_model)
+    )
     assert result.exit_code == 1
     assert result.output.startswith("FILE_DOES_NOT_EXIST")
     assert result.output.count("fix:") == 1
@@ -131,13 +147,20 @@ def test_a_minio_user_whose_policy_denies_reads(s3_model, minio_server, denied):
     from minio import MinioAdmin
     from minio.credentials import StaticProvider
 
-    admin = MinioAdmin(endpoint=minio_server.endpoint_url.split("://", 1)[1], secure=False,
-                       credentials=StaticProvider(minio_server.access_key, minio_server.secret_key))
+    admin = MinioAdmin(
+        endpoint=minio_server.endpoint_url.split("://", 1)[1],
+        secure=False,
+        credentials=StaticProvider(minio_server.access_key, minio_server.secret_key),
+    )
     user, secret = f"reader-{denied.split(':')[1].lower()}", "reader-secret-123"
     policy_name = f"deny-{denied.split(':')[1].lower()}"
     admin.user_add(user, secret)
-    admin.policy_add(policy_name, policy=json.loads(session_policy(
-        s3_model.bucket, ["s3:ListBucket", "s3:GetObject", "s3:GetBucketLocation"], [denied])))
+    admin.policy_add(
+        policy_name,
+        policy=json.loads(
+            session_policy(s3_model.bucket, ["s3:ListBucket", "s3:GetObject", "s3:GetBucketLocation"], [denied])
+        ),
+    )
     admin.attach_policy([policy_name], user=user)
     env = cli_env(s3_model, AWS_ACCESS_KEY_ID=user, AWS_SECRET_ACCESS_KEY=secret)
     result = CliRunner().invoke(main, ["model", "validate", f"s3://{s3_model.bucket}/{PREFIX}"], env=env)
@@ -149,8 +172,12 @@ def test_a_minio_user_whose_policy_denies_reads(s3_model, minio_server, denied):
     assert root.exit_code == 0, root.output
 
 
-S3_CASES = ["no reward_function.py", "no pointer at all", "pointer names a missing checkpoint (seed)",
-            "metadata speed out of range"]
+S3_CASES = [
+    "no reward_function.py",
+    "no pointer at all",
+    "pointer names a missing checkpoint (seed)",
+    "metadata speed out of range",
+]
 
 
 @pytest.mark.parametrize("case", S3_CASES)
@@ -172,9 +199,13 @@ def test_size_limits_in_a_bucket(s3_model):
     store.put_bytes(f"{PREFIX}/metrics/TrainingMetrics.json", b'{"metrics": []}' + b" " * 200_001)
     limits = SizeLimits(checkpoint_file_bytes=4999, json_yaml_bytes=200_000, model_bytes=150_000)
     report = validate_model(StoreSource(store, PREFIX), limits)
-    assert sorted(report.codes) == sorted([Code.CHECKPOINT_FILE_SIZE_LIMIT_EXCEEDED,
-                                           Code.JSON_YAML_FILE_SIZE_LIMIT_EXCEEDED,
-                                           Code.MODEL_TAR_FILE_SIZE_LIMIT_EXCEEDED])
+    assert sorted(report.codes) == sorted(
+        [
+            Code.CHECKPOINT_FILE_SIZE_LIMIT_EXCEEDED,
+            Code.JSON_YAML_FILE_SIZE_LIMIT_EXCEEDED,
+            Code.MODEL_TAR_FILE_SIZE_LIMIT_EXCEEDED,
+        ]
+    )
     assert validate_model(StoreSource(store, PREFIX), SizeLimits()).ok  # the same files pass the default limits
 
 
@@ -188,8 +219,10 @@ def test_import_from_a_bucket_into_a_local_store(s3_model, tmp_path):
 
 def test_import_into_a_bucket_the_user_may_not_write(s3_settings, restricted_credentials, tmp_path):
     folder = deepracer_model(tmp_path / "model")
-    settings = restricted_credentials(s3_settings.bucket, session_policy(
-        s3_settings.bucket, ["s3:ListBucket", "s3:GetObject", "s3:GetBucketLocation"], ["s3:PutObject"]))
+    settings = restricted_credentials(
+        s3_settings.bucket,
+        session_policy(s3_settings.bucket, ["s3:ListBucket", "s3:GetObject", "s3:GetBucketLocation"], ["s3:PutObject"]),
+    )
     result = import_model(FolderSource(folder), S3Store(settings), "read-only")
     assert not result.ok and result.report.ok
     assert [problem.code for problem in result.problems] == [Code.S3_COPY_ERROR]

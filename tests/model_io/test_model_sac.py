@@ -24,9 +24,14 @@ from racer.trainer.training_loop import Trainer, TrainerOptions
 from tests.conftest import write_custom_files
 from tests.model_io.model_io_builders import real_files
 
-SAC_METADATA = {"action_space": {"steering_angle": {"low": -30, "high": 30}, "speed": {"low": 1, "high": 2}},
-                "action_space_type": "continuous", "training_algorithm": "sac", "sensor": ["FRONT_FACING_CAMERA"],
-                "neural_network": "DEEP_CONVOLUTIONAL_NETWORK_DEEP", "version": "5"}
+SAC_METADATA = {
+    "action_space": {"steering_angle": {"low": -30, "high": 30}, "speed": {"low": 1, "high": 2}},
+    "action_space_type": "continuous",
+    "training_algorithm": "sac",
+    "sensor": ["FRONT_FACING_CAMERA"],
+    "neural_network": "DEEP_CONVOLUTIONAL_NETWORK_DEEP",
+    "version": "5",
+}
 
 
 def frames(count: int, seed: int) -> list[dict[str, np.ndarray]]:
@@ -68,8 +73,11 @@ def test_a_sac_model_exports_validates_and_imports(sac_store, tmp_path):
     policy = imported.load_inference_policy(imported.select("best"))
     for observation in frames(5, seed=3):
         with torch.no_grad():
-            expected = networks[1].policy_output({"FRONT_FACING_CAMERA": torch.from_numpy(
-                observation["FRONT_FACING_CAMERA"][None])})[0].numpy()
+            expected = (
+                networks[1]
+                .policy_output({"FRONT_FACING_CAMERA": torch.from_numpy(observation["FRONT_FACING_CAMERA"][None])})[0]
+                .numpy()
+            )
         np.testing.assert_allclose(policy.act(observation, greedy=True)[0], expected, atol=1e-5)
     assert isinstance(imported.load_policy("1_Step-100.ckpt"), SACNetworks)
 
@@ -89,13 +97,23 @@ def test_cloning_across_algorithms_is_refused(sac_store, tmp_path, ours, redis_s
     metadata = json.loads((custom / "model_metadata.json").read_text())
     if ours == "sac":
         metadata = dict(SAC_METADATA)
-        store.put_bytes("ppo/model/model_metadata.json", json.dumps({**SAC_METADATA,
-                                                                    "training_algorithm": "clipped_ppo"}).encode())
+        store.put_bytes(
+            "ppo/model/model_metadata.json", json.dumps({**SAC_METADATA, "training_algorithm": "clipped_ppo"}).encode()
+        )
     (custom / "model_metadata.json").write_text(json.dumps(metadata))
     source = "sac" if ours == "clipped_ppo" else "ppo"
     settings = ServiceSettings(redis=redis_settings, store=LocalStoreSettings(store.root))
-    trainer = Trainer(settings, TrainerOptions(model_prefix="clone", custom_files=custom, num_workers=1,
-                                               track="racer_oval", worlds=("base",), pretrained_prefix=source))
+    trainer = Trainer(
+        settings,
+        TrainerOptions(
+            model_prefix="clone",
+            custom_files=custom,
+            num_workers=1,
+            track="racer_oval",
+            worlds=("base",),
+            pretrained_prefix=source,
+        ),
+    )
     with pytest.raises(CloneError, match="training_algorithm: cannot clone .*SAC clones only SAC"):
         trainer.setup()
     assert not (store.root / "clone").exists()  # refused before anything of the new model was written
@@ -106,11 +124,21 @@ def test_sac_clones_sac(sac_store, tmp_path, redis_settings):
     custom = write_custom_files(tmp_path / "custom", min_eval_trials=None)
     (custom / "model_metadata.json").write_text(json.dumps(SAC_METADATA))
     settings = ServiceSettings(redis=redis_settings, store=LocalStoreSettings(store.root))
-    trainer = Trainer(settings, TrainerOptions(model_prefix="clone", custom_files=custom, num_workers=1,
-                                               track="racer_oval", worlds=("base",), pretrained_prefix="sac",
-                                               sac_replay_memory_mb=16))
+    trainer = Trainer(
+        settings,
+        TrainerOptions(
+            model_prefix="clone",
+            custom_files=custom,
+            num_workers=1,
+            track="racer_oval",
+            worlds=("base",),
+            pretrained_prefix="sac",
+            sac_replay_memory_mb=16,
+        ),
+    )
     assert trainer.setup() == 0
-    for (key, cloned), original in zip(trainer.network.state_dict().items(), networks[1].state_dict().values(),
-                                       strict=True):
+    for (key, cloned), original in zip(
+        trainer.network.state_dict().items(), networks[1].state_dict().values(), strict=True
+    ):
         assert torch.equal(cloned, original), key  # the last checkpoint's weights, target V included
     assert CheckpointStore(store, "clone").latest_name() == "0_Step-0.ckpt"

@@ -42,15 +42,21 @@ def store(tmp_path) -> LocalStore:
 
 
 def test_import_with_only_coach_checkpoint_copies_the_named_and_the_previous(tmp_path, store):
-    source = deepracer_model(tmp_path / "m", checkpoints=("1_Step-42.ckpt", "2_Step-91.ckpt", "3_Step-124.ckpt",
-                                                          "4_Step-162.ckpt"))
+    source = deepracer_model(
+        tmp_path / "m", checkpoints=("1_Step-42.ckpt", "2_Step-91.ckpt", "3_Step-124.ckpt", "4_Step-162.ckpt")
+    )
     result = import_model(FolderSource(source), store, "console-model")
     assert result.ok, (result.report.problems, result.problems)
     expected = checkpoint_keys("console-model", "3_Step-124.ckpt", "4_Step-162.ckpt") | {
-        "console-model/model/model_3.pb", "console-model/model/model_4.pb", "console-model/model/.coach_checkpoint",
-        "console-model/model/model_metadata.json", "console-model/ip/hyperparameters.json",
-        "console-model/reward_function.py", "console-model/training_params.yaml",
-        "console-model/metrics/TrainingMetrics.json"}
+        "console-model/model/model_3.pb",
+        "console-model/model/model_4.pb",
+        "console-model/model/.coach_checkpoint",
+        "console-model/model/model_metadata.json",
+        "console-model/ip/hyperparameters.json",
+        "console-model/reward_function.py",
+        "console-model/training_params.yaml",
+        "console-model/metrics/TrainingMetrics.json",
+    }
     assert set(store.list_keys("console-model/")) == expected
     assert store.get_bytes("console-model/model/.coach_checkpoint") == b"4_Step-162.ckpt"
     index = "model/4_Step-162.ckpt.index"
@@ -73,14 +79,17 @@ def test_an_imported_tensorflow_checkpoint_cannot_be_run_and_says_why(tmp_path, 
 
 def test_import_with_deepracer_checkpoints_copies_best_and_last_only(tmp_path, store):
     names = ("2_Step-91.ckpt", "3_Step-124.ckpt", "4_Step-162.ckpt", "5_Step-200.ckpt")
-    source = deepracer_model(tmp_path / "m", checkpoints=names, coach="5_Step-200.ckpt",
-                             best="3_Step-124.ckpt", last="5_Step-200.ckpt")
+    source = deepracer_model(
+        tmp_path / "m", checkpoints=names, coach="5_Step-200.ckpt", best="3_Step-124.ckpt", last="5_Step-200.ckpt"
+    )
     result = import_model(FolderSource(source), store, "best-and-last")
     assert result.ok
     copied = {key for key in store.list_keys("best-and-last/model/") if ".ckpt." in key}
     assert copied == checkpoint_keys("best-and-last", "3_Step-124.ckpt", "5_Step-200.ckpt")
-    assert store.get_bytes("best-and-last/model/deepracer_checkpoints.json") == \
-        (source / "model/deepracer_checkpoints.json").read_bytes()
+    assert (
+        store.get_bytes("best-and-last/model/deepracer_checkpoints.json")
+        == (source / "model/deepracer_checkpoints.json").read_bytes()
+    )
     assert store.get_bytes("best-and-last/model/.coach_checkpoint") == b"5_Step-200.ckpt"
     again = validate_model(StoreSource(store, "best-and-last"))
     assert again.ok and again.plan.selection.checkpoints == ("3_Step-124.ckpt", "5_Step-200.ckpt")
@@ -126,6 +135,7 @@ def test_model_names_follow_the_console_rule(tmp_path, store, name):
 
 # --- export ---------------------------------------------------------------------------------------------------------
 
+
 def read_bundle(data: bytes) -> dict[str, bytes]:
     with tarfile.open(fileobj=io.BytesIO(data), mode="r:gz") as bundle:
         return {member.name: bundle.extractfile(member).read() for member in bundle.getmembers() if member.isfile()}
@@ -139,10 +149,20 @@ def test_export_writes_the_import_ready_layout_and_a_car_bundle(tmp_path, store)
     dest = tmp_path / "export"
     result = export_model(store, "racer-model", FolderDestination(dest))
     assert result.ok, (result.problems, result.check)
-    for key in ("ip/hyperparameters.json", "model/.coach_checkpoint", "model/deepracer_checkpoints.json",
-                "model/model_metadata.json", "model_metadata.json", "hyperparameters.json", "reward_function.py",
-                "training_params.yaml",
-                "metrics/TrainingMetrics.json", "model/4_Step-162.ckpt.index", "model/model_4.onnx", "model.tar.gz"):
+    for key in (
+        "ip/hyperparameters.json",
+        "model/.coach_checkpoint",
+        "model/deepracer_checkpoints.json",
+        "model/model_metadata.json",
+        "model_metadata.json",
+        "hyperparameters.json",
+        "reward_function.py",
+        "training_params.yaml",
+        "metrics/TrainingMetrics.json",
+        "model/4_Step-162.ckpt.index",
+        "model/model_4.onnx",
+        "model.tar.gz",
+    ):
         assert (dest / key).is_file(), key
     bundle = read_bundle((dest / "model.tar.gz").read_bytes())
     assert bundle == {"model_metadata.json": real_files().model_metadata, "agent/model.onnx": onnx_bytes}
@@ -229,6 +249,7 @@ def test_export_to_a_bucket_then_import_back(tmp_path, store, s3_settings):
 
 # --- command line ---------------------------------------------------------------------------------------------------
 
+
 def test_cli_validate_import_export(tmp_path):
     runner = CliRunner()
     source = deepracer_model(tmp_path / "m")
@@ -246,7 +267,9 @@ def test_cli_validate_import_export(tmp_path):
     result = runner.invoke(main, ["model", "validate", "--json", str(broken)])
     assert result.exit_code == 1
     assert {problem["code"] for problem in json.loads(result.output)["problems"]} == {
-        "COACH_CHECKPOINT_DOES_NOT_EXIST", "FILE_DOES_NOT_EXIST"}
+        "COACH_CHECKPOINT_DOES_NOT_EXIST",
+        "FILE_DOES_NOT_EXIST",
+    }
 
     result = runner.invoke(main, ["model", "import", str(broken), "nope", "--store", store_dir])
     assert result.exit_code == 1 and "COACH_CHECKPOINT_DOES_NOT_EXIST" in result.output
@@ -268,6 +291,8 @@ def test_cli_validate_import_export(tmp_path):
 def test_cli_store_defaults_to_racer_store(tmp_path):
     source = deepracer_model(tmp_path / "m")
     store_dir = tmp_path / "env-store"
-    result = CliRunner().invoke(main, ["model", "import", str(source), "env-model"], env={"RACER_STORE": str(store_dir)})
+    result = CliRunner().invoke(
+        main, ["model", "import", str(source), "env-model"], env={"RACER_STORE": str(store_dir)}
+    )
     assert result.exit_code == 0, result.output
     assert (store_dir / "env-model/model/.coach_checkpoint").read_bytes() == b"4_Step-162.ckpt"

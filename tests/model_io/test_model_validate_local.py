@@ -74,16 +74,20 @@ def test_every_problem_is_reported_not_just_the_first(model_dir):
     remove("model/.coach_checkpoint")(model_dir)
     edit_metadata_speed(model_dir)
     report, _ = validate_location(str(model_dir))
-    assert sorted(report.codes) == sorted([Code.FILE_DOES_NOT_EXIST, Code.COACH_CHECKPOINT_DOES_NOT_EXIST,
-                                           Code.MODEL_VALIDATION_SERVICE_ERROR])
+    assert sorted(report.codes) == sorted(
+        [Code.FILE_DOES_NOT_EXIST, Code.COACH_CHECKPOINT_DOES_NOT_EXIST, Code.MODEL_VALIDATION_SERVICE_ERROR]
+    )
 
 
 def test_deepracer_checkpoints_json_takes_precedence_over_coach_checkpoint(model_dir):
     # The pointer names a checkpoint that does not exist, but the json is consulted first and is fine.
     tf_checkpoint(model_dir, "5_Step-200.ckpt")
     write(model_dir, "model/.coach_checkpoint", "99_Step-99999.ckpt")
-    write(model_dir, "model/deepracer_checkpoints.json", json.dumps(
-        {"best_checkpoint": {"name": "3_Step-124.ckpt"}, "last_checkpoint": {"name": "5_Step-200.ckpt"}}))
+    write(
+        model_dir,
+        "model/deepracer_checkpoints.json",
+        json.dumps({"best_checkpoint": {"name": "3_Step-124.ckpt"}, "last_checkpoint": {"name": "5_Step-200.ckpt"}}),
+    )
     report, _ = validate_location(str(model_dir))
     assert report.ok, report.problems
     assert report.plan.selection.checkpoints == ("3_Step-124.ckpt", "5_Step-200.ckpt")
@@ -93,8 +97,9 @@ def test_deepracer_checkpoints_json_takes_precedence_over_coach_checkpoint(model
 
 def test_coach_checkpoint_picks_the_previous_complete_checkpoint(tmp_path):
     """Seed: pointer 4_Step-162.ckpt among 1..4 -> copy 3_Step-124 and 4_Step-162; a partial 3 is skipped."""
-    root = deepracer_model(tmp_path / "m", checkpoints=("1_Step-42.ckpt", "2_Step-91.ckpt", "3_Step-124.ckpt",
-                                                        "4_Step-162.ckpt"))
+    root = deepracer_model(
+        tmp_path / "m", checkpoints=("1_Step-42.ckpt", "2_Step-91.ckpt", "3_Step-124.ckpt", "4_Step-162.ckpt")
+    )
     report, _ = validate_location(str(root))
     assert report.plan.selection.checkpoints == ("3_Step-124.ckpt", "4_Step-162.ckpt")
     (root / "model/3_Step-124.ckpt.index").unlink()
@@ -114,7 +119,10 @@ def test_metadata_and_hyperparameters_at_the_prefix_root_are_accepted(tmp_path):
     (root / "ip/hyperparameters.json").rename(root / "hyperparameters.json")
     report, _ = validate_location(str(root))
     assert report.ok, report.problems
-    assert (report.plan.metadata_key, report.plan.hyperparameters_key) == ("model_metadata.json", "hyperparameters.json")
+    assert (report.plan.metadata_key, report.plan.hyperparameters_key) == (
+        "model_metadata.json",
+        "hyperparameters.json",
+    )
 
 
 def test_nothing_there(tmp_path):
@@ -125,6 +133,7 @@ def test_nothing_there(tmp_path):
 
 
 # --- archives ---------------------------------------------------------------------------------------------------
+
 
 @pytest.mark.parametrize("wrapper", [None, "my-model"])
 def test_a_tar_gz_of_a_valid_model_passes(model_dir, tmp_path, wrapper):
@@ -158,6 +167,7 @@ def test_an_archive_with_an_unsafe_member_path_is_refused(tmp_path):
 
 
 # --- size limits ------------------------------------------------------------------------------------------------
+
 
 def test_model_archive_over_the_limit(model_dir, tmp_path):
     archive = pack(model_dir, tmp_path / "model.tar.gz")
@@ -208,9 +218,13 @@ def test_default_limits_on_real_sized_files(model_dir):
     with open(model_dir / "model.tar.gz", "wb") as handle:
         handle.truncate((1 << 30) + 1)
     report, _ = validate_location(str(model_dir))
-    assert sorted(report.codes) == sorted([Code.JSON_YAML_FILE_SIZE_LIMIT_EXCEEDED,
-                                           Code.CHECKPOINT_FILE_SIZE_LIMIT_EXCEEDED,
-                                           Code.MODEL_TAR_FILE_SIZE_LIMIT_EXCEEDED])
+    assert sorted(report.codes) == sorted(
+        [
+            Code.JSON_YAML_FILE_SIZE_LIMIT_EXCEEDED,
+            Code.CHECKPOINT_FILE_SIZE_LIMIT_EXCEEDED,
+            Code.MODEL_TAR_FILE_SIZE_LIMIT_EXCEEDED,
+        ]
+    )
 
 
 def test_an_old_tensorflow_pointer_is_pointed_out(model_dir):

@@ -47,8 +47,12 @@ pytestmark = [pytest.mark.slow, pytest.mark.timeout(2400)]
 
 REAL_CHECKPOINT = CONFIG / "checkpoints" / "reInvent2019-TestModel" / "model"
 FRAMES = 100
-SUITE_SPECS = [spec for spec in all_specs() if spec.neural_network == NEURAL_NETWORKS[0]
-               or spec.sensors in (("FRONT_FACING_CAMERA",), ("FRONT_FACING_CAMERA", "LIDAR"))]
+SUITE_SPECS = [
+    spec
+    for spec in all_specs()
+    if spec.neural_network == NEURAL_NETWORKS[0]
+    or spec.sensors in (("FRONT_FACING_CAMERA",), ("FRONT_FACING_CAMERA", "LIDAR"))
+]
 
 
 @pytest.fixture(scope="module")
@@ -72,8 +76,10 @@ def test_every_network_sensor_set_and_action_space_is_covered(proof):
 
 @pytest.mark.parametrize("runtime", ["tensorflow", "openvino_fp32", "litert_fp32"])
 def test_fp32_runtimes_agree_with_racer_to_1e5(proof, runtime):
-    worst = {key: float(np.abs(proof["outputs"][f"{key}|{runtime}"] - expected).max())
-             for key, expected in proof["expected"].items()}
+    worst = {
+        key: float(np.abs(proof["outputs"][f"{key}|{runtime}"] - expected).max())
+        for key, expected in proof["expected"].items()
+    }
     bad = {key: value for key, value in worst.items() if value > FP32_TOLERANCE}
     assert not bad, f"{runtime}: outputs differ from racer's by more than {FP32_TOLERANCE}: {bad}"
 
@@ -95,8 +101,11 @@ def test_the_frames_are_real_and_the_policies_are_not_constant(frames, proof):
     assert front.shape == (FRAMES, 120, 160, 1) and frames["STEREO_CAMERAS"].shape == (FRAMES, 120, 160, 2)
     assert len({frame.tobytes() for frame in front}) > FRAMES // 2
     assert 20 < float(front.mean()) < 235
-    varied = [key for key, value in proof["expected"].items()
-              if key.endswith("discrete") and len(set(value.argmax(axis=1).tolist())) > 1]
+    varied = [
+        key
+        for key, value in proof["expected"].items()
+        if key.endswith("discrete") and len(set(value.argmax(axis=1).tolist())) > 1
+    ]
     assert len(varied) >= 6, varied
 
 
@@ -110,11 +119,16 @@ def test_deepracer_restores_a_racer_checkpoint_into_its_own_graph(frames, tmp_pa
     for name, data in files.items():
         (tmp_path / name).write_bytes(data)
     camera = frames["FRONT_FACING_CAMERA"][:20]
-    result, tensors = run_tool("restore_meta", {
-        "meta_path": str(REAL_CHECKPOINT / "11_Step-38428.ckpt.meta"),
-        "checkpoint_prefix": str(tmp_path / "11_Step-38428.ckpt"),
-        "inputs": [input_node("FRONT_FACING_CAMERA")], "output": POLICY_OUTPUT_NODE,
-    }, {input_node("FRONT_FACING_CAMERA"): camera})
+    result, tensors = run_tool(
+        "restore_meta",
+        {
+            "meta_path": str(REAL_CHECKPOINT / "11_Step-38428.ckpt.meta"),
+            "checkpoint_prefix": str(tmp_path / "11_Step-38428.ckpt"),
+            "inputs": [input_node("FRONT_FACING_CAMERA")],
+            "output": POLICY_OUTPUT_NODE,
+        },
+        {input_node("FRONT_FACING_CAMERA"): camera},
+    )
     assert result == {"missing": [], "mismatched": [], "restored": True}
     with torch.inference_mode():
         expected = network.policy_output({"FRONT_FACING_CAMERA": torch.from_numpy(camera)}).numpy()
@@ -124,8 +138,9 @@ def test_deepracer_restores_a_racer_checkpoint_into_its_own_graph(frames, tmp_pa
 def test_racer_names_every_variable_of_the_real_checkpoint():
     """The 22 tensors of DeepRacer's checkpoint index, names and shapes, are what racer writes for that metadata."""
     metadata = parse_model_metadata(json.loads((REAL_CHECKPOINT / "model_metadata.json").read_text()), "real")
-    result, _ = run_tool("read_checkpoint", {"checkpoint_prefix": str(REAL_CHECKPOINT / "11_Step-38428.ckpt"),
-                                             "values": False})
+    result, _ = run_tool(
+        "read_checkpoint", {"checkpoint_prefix": str(REAL_CHECKPOINT / "11_Step-38428.ckpt"), "values": False}
+    )
     real = {name: tuple(item["shape"]) for name, item in result["variables"].items()}
     ours = {variable.name: variable.shape for variable in coach_variables(build_actor_critic(metadata).config)}
     assert len(real) == 22
@@ -134,4 +149,6 @@ def test_racer_names_every_variable_of_the_real_checkpoint():
 
 def test_model_specs_name_each_model_once():
     assert len({spec.key for spec in all_specs()}) == 48
-    assert ModelSpec(NEURAL_NETWORKS[0], ("STEREO_CAMERAS", "LIDAR"), True).key.endswith("STEREO_CAMERAS+LIDAR:continuous")
+    assert ModelSpec(NEURAL_NETWORKS[0], ("STEREO_CAMERAS", "LIDAR"), True).key.endswith(
+        "STEREO_CAMERAS+LIDAR:continuous"
+    )

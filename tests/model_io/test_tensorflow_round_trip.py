@@ -33,12 +33,19 @@ from racer.shared.policy.networks import (
 
 pytestmark = pytest.mark.slow
 
-DISCRETE = {"action_space": [{"steering_angle": angle, "speed": 1.5} for angle in (-30, -10, 0, 10, 30)],
-            "sensor": ["FRONT_FACING_CAMERA", "LIDAR"], "neural_network": "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW",
-            "version": "5"}
-CONTINUOUS = {"action_space": {"steering_angle": {"low": -30, "high": 30}, "speed": {"low": 0.5, "high": 2}},
-              "action_space_type": "continuous", "sensor": ["FRONT_FACING_CAMERA"],
-              "neural_network": "DEEP_CONVOLUTIONAL_NETWORK_DEEP", "version": "5"}
+DISCRETE = {
+    "action_space": [{"steering_angle": angle, "speed": 1.5} for angle in (-30, -10, 0, 10, 30)],
+    "sensor": ["FRONT_FACING_CAMERA", "LIDAR"],
+    "neural_network": "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW",
+    "version": "5",
+}
+CONTINUOUS = {
+    "action_space": {"steering_angle": {"low": -30, "high": 30}, "speed": {"low": 0.5, "high": 2}},
+    "action_space_type": "continuous",
+    "sensor": ["FRONT_FACING_CAMERA"],
+    "neural_network": "DEEP_CONVOLUTIONAL_NETWORK_DEEP",
+    "version": "5",
+}
 
 
 def observations(config, count: int = 12, seed: int = 0) -> dict[str, np.ndarray]:
@@ -123,9 +130,20 @@ def test_the_continuous_output_is_deepracers_linear_mean(exported):
     path = exported["paths"]["continuous"] / "model_0.pb"
     path.write_bytes(files["model_0.pb"])
     batch = observations(network.config, count=4)
-    _, ran = run_tool("run", {"models": [{"key": "c", "frozen_path": str(path), "output": POLICY_OUTPUT_NODE,
-                                          "inputs": [input_node("FRONT_FACING_CAMERA")]}]},
-                      {f"c|{input_node('FRONT_FACING_CAMERA')}": batch["FRONT_FACING_CAMERA"]})
+    _, ran = run_tool(
+        "run",
+        {
+            "models": [
+                {
+                    "key": "c",
+                    "frozen_path": str(path),
+                    "output": POLICY_OUTPUT_NODE,
+                    "inputs": [input_node("FRONT_FACING_CAMERA")],
+                }
+            ]
+        },
+        {f"c|{input_node('FRONT_FACING_CAMERA')}": batch["FRONT_FACING_CAMERA"]},
+    )
     ours = outputs_of(network, batch)[0]
     assert float(np.abs(ran["c|tensorflow"] - ours).max()) <= 1e-5
     assert ours[:, 0].min() > 1.0 and ours[:, 1].max() < -1.0
@@ -136,16 +154,33 @@ def test_a_graph_tensorflow_wrote_from_deepracer_names_imports_into_racer(tmp_pa
     graph and writes the checkpoint and frozen graph; racer's imports of both compute what TensorFlow computes."""
     config = policy_config_from_metadata(parse_model_metadata(DISCRETE, "test"))
     rng = np.random.default_rng(9)
-    weights = {variable.name: (rng.normal(0.0, 0.05, variable.shape) if variable.shape else np.asarray(1.0))
-               .astype(np.float32) for variable in coach_variables(config)}
-    request = {"key": "w", "graph": graph_spec(config), "frozen_path": str(tmp_path / "model_3.pb"),
-               "checkpoint_prefix": str(tmp_path / "3_Step-30.ckpt")}
+    weights = {
+        variable.name: (rng.normal(0.0, 0.05, variable.shape) if variable.shape else np.asarray(1.0)).astype(np.float32)
+        for variable in coach_variables(config)
+    }
+    request = {
+        "key": "w",
+        "graph": graph_spec(config),
+        "frozen_path": str(tmp_path / "model_3.pb"),
+        "checkpoint_prefix": str(tmp_path / "3_Step-30.ckpt"),
+    }
     run_tool("export", {"jobs": [request]}, {f"w|{name}": value for name, value in weights.items()})
     batch = observations(config, seed=4)
     inputs = [input_node(name) for name in batch]
-    _, ran = run_tool("run", {"models": [{"key": "w", "frozen_path": str(tmp_path / "model_3.pb"),
-                                          "output": POLICY_OUTPUT_NODE, "inputs": inputs}]},
-                      {f"w|{input_node(name)}": value for name, value in batch.items()})
+    _, ran = run_tool(
+        "run",
+        {
+            "models": [
+                {
+                    "key": "w",
+                    "frozen_path": str(tmp_path / "model_3.pb"),
+                    "output": POLICY_OUTPUT_NODE,
+                    "inputs": inputs,
+                }
+            ]
+        },
+        {f"w|{input_node(name)}": value for name, value in batch.items()},
+    )
     from_checkpoint = network_from_tf_checkpoint(tmp_path / "3_Step-30.ckpt", config).network
     from_graph = network_from_frozen_graph(tmp_path / "model_3.pb", config).network
     for network in (from_checkpoint, from_graph):
@@ -158,8 +193,9 @@ def test_a_graph_tensorflow_wrote_from_deepracer_names_imports_into_racer(tmp_pa
 
 def test_a_graph_of_another_network_is_refused_naming_the_variables(exported):
     """model_metadata.json says shallow, the graph is a deeper network: racer names what does not fit."""
-    wrong = policy_config_from_metadata(parse_model_metadata({**CONTINUOUS, "neural_network":
-                                                              "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW"}, "test"))
+    wrong = policy_config_from_metadata(
+        parse_model_metadata({**CONTINUOUS, "neural_network": "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW"}, "test")
+    )
     with pytest.raises(UnsupportedGraphError) as error:
         network_from_frozen_graph(exported["paths"]["continuous"] / "model_7.pb", wrong)
     message = str(error.value)

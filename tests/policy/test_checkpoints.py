@@ -31,11 +31,17 @@ ACTIONS = [{"steering_angle": angle, "speed": 1.0} for angle in (-30, 0, 30)]
 
 def small_metadata(continuous: bool = False, sensors=("FRONT_FACING_CAMERA", "LIDAR")):
     """DEEP_CONVOLUTIONAL_NETWORK_DEEP: the smallest of the three (1152-wide flatten), keeps store tests quick."""
-    data = {"action_space": ACTIONS, "sensor": list(sensors), "neural_network": "DEEP_CONVOLUTIONAL_NETWORK_DEEP",
-            "version": "5"}
+    data = {
+        "action_space": ACTIONS,
+        "sensor": list(sensors),
+        "neural_network": "DEEP_CONVOLUTIONAL_NETWORK_DEEP",
+        "version": "5",
+    }
     if continuous:
-        data.update(action_space={"steering_angle": {"low": -30, "high": 30}, "speed": {"low": 0.5, "high": 2.0}},
-                    action_space_type="continuous")
+        data.update(
+            action_space={"steering_angle": {"low": -30, "high": 30}, "speed": {"low": 0.5, "high": 2.0}},
+            action_space_type="continuous",
+        )
     return parse_model_metadata(data)
 
 
@@ -166,13 +172,23 @@ def test_retention_keeps_four_newest_plus_best(tmp_path):
         elif number > 1:
             checkpoints.record_evaluation(names[-1], avg_eval_metric=10.0 * number, time_stamp=10.0 * number)
     assert checkpoints.read_best_and_last().best.name == "1_Step-100.ckpt"
-    assert checkpoints.names() == ["1_Step-100.ckpt", "3_Step-300.ckpt", "4_Step-400.ckpt", "5_Step-500.ckpt",
-                                   "6_Step-600.ckpt"]
+    assert checkpoints.names() == [
+        "1_Step-100.ckpt",
+        "3_Step-300.ckpt",
+        "4_Step-400.ckpt",
+        "5_Step-500.ckpt",
+        "6_Step-600.ckpt",
+    ]
     keys = store.list_keys(f"{PREFIX}/model/")
     for deleted in ("0_Step-0.ckpt", "2_Step-200.ckpt"):
         assert not [key for key in keys if deleted in key]
     assert sorted(key.rsplit("/", 1)[1] for key in keys if key.endswith(".onnx")) == [
-        "model_1.onnx", "model_3.onnx", "model_4.onnx", "model_5.onnx", "model_6.onnx"]
+        "model_1.onnx",
+        "model_3.onnx",
+        "model_4.onnx",
+        "model_5.onnx",
+        "model_6.onnx",
+    ]
     assert checkpoints.latest_name() == "6_Step-600.ckpt"
 
     # When a newer checkpoint becomes best, the old best is no longer protected.
@@ -278,15 +294,19 @@ def test_best_and_last_follow_deepracer_rules(tmp_path):
     result = checkpoints.record_evaluation("3_Step-30.ckpt", 40.0, 3.5)
     assert result.best.name == "2_Step-20.ckpt" and result.last.name == "3_Step-30.ckpt"
     data = json.loads(store.get_bytes(f"{PREFIX}/model/deepracer_checkpoints.json"))
-    assert data == {"best_checkpoint": {"name": "2_Step-20.ckpt", "avg_eval_metric": 50.0, "time_stamp": 2.5},
-                    "last_checkpoint": {"name": "3_Step-30.ckpt", "avg_eval_metric": 40.0, "time_stamp": 3.5}}
+    assert data == {
+        "best_checkpoint": {"name": "2_Step-20.ckpt", "avg_eval_metric": 50.0, "time_stamp": 2.5},
+        "last_checkpoint": {"name": "3_Step-30.ckpt", "avg_eval_metric": 40.0, "time_stamp": 3.5},
+    }
     # Lap time: lower is better.
     other = CheckpointStore(store, "laps")
     other.record_evaluation("1_Step-10.ckpt", 12000.0, 1.0, higher_is_better=False)
     assert other.record_evaluation("2_Step-20.ckpt", 11000.0, 2.0, higher_is_better=False).best.name == "2_Step-20.ckpt"
     # Older DRfC files carry avg_comp_pct instead of avg_eval_metric.
-    store.put_bytes("old/model/deepracer_checkpoints.json",
-                    b'{"best_checkpoint": {"name": "4_Step-9.ckpt", "avg_comp_pct": 71.5, "time_stamp": 3}}')
+    store.put_bytes(
+        "old/model/deepracer_checkpoints.json",
+        b'{"best_checkpoint": {"name": "4_Step-9.ckpt", "avg_comp_pct": 71.5, "time_stamp": 3}}',
+    )
     old = CheckpointStore(store, "old").read_best_and_last()
     assert old.best == CheckpointRecord("4_Step-9.ckpt", 71.5, 3.0) and old.last is None
 
@@ -326,7 +346,9 @@ def test_restore_select_and_names(tmp_path):
     assert checkpoints.restore("1_Step-519.ckpt", fresh, fresh_trainer.optimizer) == (1, 519)
     batch = observation_batch(fresh, seed=7)
     assert all(torch.equal(a, b) for a, b in zip(outputs(fresh, batch), outputs(trainer.network, batch), strict=True))
-    assert fresh_trainer.optimizer.state_dict()["state"][0]["step"] == trainer.optimizer.state_dict()["state"][0]["step"]
+    assert (
+        fresh_trainer.optimizer.state_dict()["state"][0]["step"] == trainer.optimizer.state_dict()["state"][0]["step"]
+    )
     weights_only = build_actor_critic(small_metadata())
     assert checkpoints.restore("0_Step-0.ckpt", weights_only) == (0, 0)
     other = build_actor_critic(small_metadata(continuous=True))

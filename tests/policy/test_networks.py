@@ -74,7 +74,10 @@ def test_layer_sizes_of_each_tower():
     shallow = build_actor_critic(metadata(["FRONT_FACING_CAMERA"]))
     convs = [m for m in shallow.policy_tower.modules() if isinstance(m, torch.nn.Conv2d)]
     assert [(c.in_channels, c.out_channels, c.kernel_size[0], c.stride[0], c.padding[0]) for c in convs] == [
-        (1, 32, 8, 4, 0), (32, 64, 4, 2, 0), (64, 64, 3, 1, 0)]
+        (1, 32, 8, 4, 0),
+        (32, 64, 4, 2, 0),
+        (64, 64, 3, 1, 0),
+    ]
     dense = [m for m in shallow.policy_tower.modules() if isinstance(m, torch.nn.Linear)]
     assert [(d.in_features, d.out_features) for d in dense] == [(11264, 512)]
     assert shallow.policy_head.in_features == 512 and shallow.policy_head.out_features == 5
@@ -110,7 +113,9 @@ def test_towers_are_independent_copies():
 
 
 def test_stereo_and_lidar_inputs_concatenated_in_sorted_name_order(deepracer_data):
-    md = load_model_metadata(deepracer_data / "config" / "dpr401_model_metadata_stereo_lidar_deep_two_speed_5steering.json")
+    md = load_model_metadata(
+        deepracer_data / "config" / "dpr401_model_metadata_stereo_lidar_deep_two_speed_5steering.json"
+    )
     config = policy_config_from_metadata(md)
     assert [spec.name for spec in config.inputs] == ["LIDAR", "STEREO_CAMERAS"]
     assert config.inputs[1].shape == (120, 160, 2) and config.inputs[0].shape == (64,)
@@ -139,7 +144,10 @@ def test_stereo_and_lidar_inputs_concatenated_in_sorted_name_order(deepracer_dat
     ("sensors", "expected"),
     [
         (["SECTOR_LIDAR", "FRONT_FACING_CAMERA"], [("FRONT_FACING_CAMERA", (120, 160, 1)), ("SECTOR_LIDAR", (8,))]),
-        (["LEFT_CAMERA", "DISCRETIZED_SECTOR_LIDAR"], [("DISCRETIZED_SECTOR_LIDAR", (16,)), ("LEFT_CAMERA", (120, 160, 1))]),
+        (
+            ["LEFT_CAMERA", "DISCRETIZED_SECTOR_LIDAR"],
+            [("DISCRETIZED_SECTOR_LIDAR", (16,)), ("LEFT_CAMERA", (120, 160, 1))],
+        ),
     ],
 )
 def test_input_shapes_from_metadata(sensors, expected):
@@ -197,7 +205,9 @@ def test_continuous_head_mean_is_deepracers_linear_output_and_log_std_clipped():
     assert distribution.mean.tolist() == [[50.0, -50.0]]  # zero image: zero features, so the mean is the bias
     space = model_metadata.continuous_action_space
     assert model_metadata.scale_continuous_action(distribution.mean[0].tolist()) == (
-        space.steering_angle_high_deg, space.speed_low_mps)
+        space.steering_angle_high_deg,
+        space.speed_low_mps,
+    )
     assert distribution.log_std.tolist() == [-20.0, 3.0]
     # Log-probability and entropy agree with torch's Normal.
     normal = torch.distributions.Normal(distribution.mean, distribution.log_std.exp())
@@ -220,12 +230,13 @@ def test_kl_divergence_is_zero_for_identical_and_positive_for_different_policies
     same = CategoricalPolicy(probs)
     other = CategoricalPolicy(torch.tensor([[0.1, 0.2, 0.7]]))
     assert same.kl_from(same).item() == pytest.approx(0.0, abs=1e-7)
-    expected = (0.7 * math.log(7) + 0.1 * math.log(1 / 7))
+    expected = 0.7 * math.log(7) + 0.1 * math.log(1 / 7)
     assert other.kl_from(same).item() == pytest.approx(expected, rel=1e-5)
     g_old = GaussianPolicy(torch.tensor([[0.0, 0.0]]), torch.tensor([0.0, 0.0]))
     g_new = GaussianPolicy(torch.tensor([[0.5, 0.0]]), torch.tensor([0.0, math.log(2.0)]))
     reference = torch.distributions.kl_divergence(
-        torch.distributions.Normal(g_old.mean, g_old.log_std.exp()), torch.distributions.Normal(g_new.mean, g_new.log_std.exp())
+        torch.distributions.Normal(g_old.mean, g_old.log_std.exp()),
+        torch.distributions.Normal(g_new.mean, g_new.log_std.exp()),
     ).sum(-1)
     torch.testing.assert_close(g_new.kl_from(g_old), reference)
 

@@ -9,10 +9,17 @@ from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.policy.networks import build_actor_critic
 from racer.shared.store import LocalStore
 
-DISCRETE = {"action_space": [{"steering_angle": a, "speed": 1.0} for a in (-30, -15, 0, 15, 30)],
-            "sensor": ["FRONT_FACING_CAMERA", "LIDAR"], "version": "5"}
-CONTINUOUS = {"action_space": {"steering_angle": {"low": -30, "high": 30}, "speed": {"low": 0.5, "high": 2.0}},
-              "action_space_type": "continuous", "sensor": ["FRONT_FACING_CAMERA"], "version": "5"}
+DISCRETE = {
+    "action_space": [{"steering_angle": a, "speed": 1.0} for a in (-30, -15, 0, 15, 30)],
+    "sensor": ["FRONT_FACING_CAMERA", "LIDAR"],
+    "version": "5",
+}
+CONTINUOUS = {
+    "action_space": {"steering_angle": {"low": -30, "high": 30}, "speed": {"low": 0.5, "high": 2.0}},
+    "action_space_type": "continuous",
+    "sensor": ["FRONT_FACING_CAMERA"],
+    "version": "5",
+}
 
 
 @pytest.mark.parametrize("metadata_json", [DISCRETE, CONTINUOUS], ids=["discrete+lidar", "continuous"])

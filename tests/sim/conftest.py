@@ -9,16 +9,18 @@ import pytest
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
 
-REWARD_RECORDING = '''
+REWARD_RECORDING = """
 calls = []
 
 def reward_function(params):
     calls.append(dict(params))
     return 1.0 if params["all_wheels_on_track"] else 0.25
-'''
+"""
 
 
-def place_front_at(env: DeepRacerEnv, ndist: float, backwards: bool = False, lateral_m: float = 0.0) -> tuple[float, float]:
+def place_front_at(
+    env: DeepRacerEnv, ndist: float, backwards: bool = False, lateral_m: float = 0.0
+) -> tuple[float, float]:
     """Teleport the car so its front-of-car point sits on the centre line at `ndist` (optionally shifted left)."""
     x, y, yaw = env.track.pose_at(ndist)
     if lateral_m:

@@ -91,7 +91,9 @@ def test_commands_are_clipped_and_old_models_use_their_wheel_radius():
     assert clip_command(0.0, -45.0) == (0.1, -30.0)
     assert command_wheel_radius_m(5.0) == 0.035 and command_wheel_radius_m(2.0) == 0.0277
     assert command_wheel_radius_m(1.0) == 0.1
-    v1 = parse_model_metadata({"action_space": [{"steering_angle": 0, "speed": 1.0}, {"steering_angle": 10, "speed": 1.0}]})
+    v1 = parse_model_metadata(
+        {"action_space": [{"steering_angle": 0, "speed": 1.0}, {"steering_angle": 10, "speed": 1.0}]}
+    )
     env = DeepRacerEnv(EnvConfig(model_metadata=v1))
     try:
         speed, _ = _drive(env, 1.0, 0.0, 1.5)
@@ -131,15 +133,22 @@ def test_acceleration_after_prepare_matches_real_simtraces(deepracer_data):
     assert len(real) >= 20
     real_mean = np.mean(real, axis=0)
 
-    metadata = parse_model_metadata({"action_space": [{"steering_angle": 0, "speed": 1.0}, {"steering_angle": 10, "speed": 1.0}],
-                                     "sensor": ["FRONT_FACING_CAMERA"], "version": "5"})
+    metadata = parse_model_metadata(
+        {
+            "action_space": [{"steering_angle": 0, "speed": 1.0}, {"steering_angle": 10, "speed": 1.0}],
+            "sensor": ["FRONT_FACING_CAMERA"],
+            "version": "5",
+        }
+    )
     env = DeepRacerEnv(EnvConfig(model_metadata=metadata, track="racer_circuit"))
     try:
         env.reset(seed=0)
         rows = [env.step(0)[-1]["simtrace"] for _ in range(5)]
     finally:
         env.close()
-    ours = [math.hypot(b["X"] - a["X"], b["Y"] - a["Y"]) / (b["tstamp"] - a["tstamp"]) for a, b in itertools.pairwise(rows)]
+    ours = [
+        math.hypot(b["X"] - a["X"], b["Y"] - a["Y"]) / (b["tstamp"] - a["tstamp"]) for a, b in itertools.pairwise(rows)
+    ]
     assert ours[0] < 0.01 and real_mean[0] < 0.01  # the prepare step sends zero
     np.testing.assert_allclose(ours[1:], real_mean[1:], atol=0.06)
 

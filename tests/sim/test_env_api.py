@@ -28,7 +28,9 @@ def test_registered_env_passes_check_env_without_warnings():
 
 
 def test_continuous_env_passes_check_env_and_scales_actions(deepracer_data):
-    metadata = load_model_metadata(deepracer_data / "config" / "dpr401_model_metadata_front_shallow_continuous_ppo.json")
+    metadata = load_model_metadata(
+        deepracer_data / "config" / "dpr401_model_metadata_front_shallow_continuous_ppo.json"
+    )
     env = DeepRacerEnv(EnvConfig(model_metadata=metadata), wall_clock=lambda: 0.0)
     try:
         check_env(env, skip_render_check=True)

@@ -25,12 +25,14 @@ def test_prepare_step_has_reward_zero_and_zero_command(make_env, recording_rewar
     assert reward == 0.0 and not terminated and not truncated
     assert row["episode_status"] == "prepare" and row["steps"] == 1.0
     assert row["steer"] == 30.0 and row["throttle"] == 2.0 and row["action"] == 9
-    moved = math.dist((start.origin_x_m, start.origin_y_m), (env.car.pose(env.data).origin_x_m, env.car.pose(env.data).origin_y_m))
+    moved = math.dist(
+        (start.origin_x_m, start.origin_y_m), (env.car.pose(env.data).origin_x_m, env.car.pose(env.data).origin_y_m)
+    )
     assert moved < 0.002
     assert tuple(row) == SIMTRACE_COLUMNS
     assert tuple(info["params"]) == PARAM_KEYS
     # First RUN step: reward function called with every key; steps is a float 2.0.
-    _, reward, *_ , info = env.step(STRAIGHT)
+    _, reward, *_, info = env.step(STRAIGHT)
     assert info["episode_status"] == "in_progress" and reward == 1.0
     assert info["params"]["steps"] == 2.0 and isinstance(info["params"]["steps"], float)
 
@@ -56,7 +58,9 @@ def test_centre_line_gives_zero_distance_from_center(make_env):
         assert params["all_wheels_on_track"] is True
     place_front_at(env, 0.3, lateral_m=0.2)
     *_, info = env.step(STRAIGHT)
-    assert info["params"]["distance_from_center"] == pytest.approx(0.2, abs=0.005)  # yaw is towards the next waypoint, not the local normal
+    assert info["params"]["distance_from_center"] == pytest.approx(
+        0.2, abs=0.005
+    )  # yaw is towards the next waypoint, not the local normal
     assert info["params"]["is_left_of_center"] is True
 
 
@@ -307,8 +311,10 @@ def test_respawn_is_measured_from_the_route_origin_on_the_lane_nearer_the_previo
     spots = [env.track.pose_at(prev_progress / 100.0, lane) for lane in ("inner", "outer")]
     assert min(math.dist((held.origin_x_m, held.origin_y_m), spot[:2]) for spot in spots) < 0.01
 
-    for lateral_m, expected in ((-0.15, "outer" if env.track.is_ccw else "inner"),
-                                (0.15, "inner" if env.track.is_ccw else "outer")):
+    for lateral_m, expected in (
+        (-0.15, "outer" if env.track.is_ccw else "inner"),
+        (0.15, "inner" if env.track.is_ccw else "outer"),
+    ):
         env = make_env(number_of_resets=2, off_track_penalty_s=0.0)
         env.reset(seed=0)
         env.step(STRAIGHT)

@@ -50,20 +50,32 @@ def test_error_split_adds_up_and_says_which_way(deepracer_data):
         replay.close()
     error = segment_errors(segment, points, yaws)
     for horizon in HORIZONS_S:
-        assert math.isclose(math.hypot(error.along_track_m[horizon], error.cross_track_m[horizon]),
-                            error.position_m[horizon], rel_tol=1e-9, abs_tol=1e-12)
+        assert math.isclose(
+            math.hypot(error.along_track_m[horizon], error.cross_track_m[horizon]),
+            error.position_m[horizon],
+            rel_tol=1e-9,
+            abs_tol=1e-12,
+        )
     # A prediction that stands still at the start pose is behind the real car and has turned less than it.
     k = int(np.argmin(np.abs(segment.times_s[2:] - segment.times_s[2] - 1.0)))
     logged_turn = abs(math.degrees(np.unwrap(segment.yaw_rad)[2 + k] - segment.yaw_rad[2]))
-    still = segment_errors(segment, np.repeat(segment.model_xy[2:3], len(points), axis=0), np.full(len(yaws), segment.yaw_rad[2]))
+    still = segment_errors(
+        segment, np.repeat(segment.model_xy[2:3], len(points), axis=0), np.full(len(yaws), segment.yaw_rad[2])
+    )
     assert still.along_track_m[1.0] < -0.3
     assert math.isclose(still.turn_deg[1.0], -logged_turn, abs_tol=1e-9)
 
 
 def test_bench_prints_one_json_line_with_every_band(deepracer_data):
-    result = CliRunner().invoke(fidelity_bench_command, [
-        "--simtraces", str(deepracer_data / "simtrace" / "drfc1_evaluation_0-iteration.csv"),
-        "--route", str(deepracer_data / "routes" / "reinvent_base.npy")])
+    result = CliRunner().invoke(
+        fidelity_bench_command,
+        [
+            "--simtraces",
+            str(deepracer_data / "simtrace" / "drfc1_evaluation_0-iteration.csv"),
+            "--route",
+            str(deepracer_data / "routes" / "reinvent_base.npy"),
+        ],
+    )
     assert result.exit_code == 0, result.output
     numbers = json.loads(result.stdout.strip().splitlines()[-1])
     assert numbers["files"] == 1 and numbers["segments"] >= 5
@@ -71,8 +83,13 @@ def test_bench_prints_one_json_line_with_every_band(deepracer_data):
     populated = [band for band in numbers["bands"].values() if band["segments"]]
     assert populated
     for band in populated:
-        for key in ("position_m_1s_median", "position_m_1s_p90", "heading_deg_2s_median", "heading_deg_2s_p90",
-                    "cross_track_m_1s_median_abs"):
+        for key in (
+            "position_m_1s_median",
+            "position_m_1s_p90",
+            "heading_deg_2s_median",
+            "heading_deg_2s_p90",
+            "cross_track_m_1s_median_abs",
+        ):
             assert math.isfinite(band[key]) and band[key] >= 0
         assert band["position_m_1s_median"] <= band["position_m_1s_p90"]
         assert abs(band["along_track_m_1s_median"]) <= band["position_m_1s_p90"]

@@ -17,8 +17,13 @@ def test_one_file_has_nothing_to_fit_on(deepracer_data):
 
 def test_predictor_fitted_on_other_files_beats_driving_straight(deepracer_data):
     folder = deepracer_data / "simtrace"
-    segments = load_segments([folder / "drfc1_evaluation_0-iteration.csv", folder / "console2022_evaluation_0-iteration.csv",
-                              folder / "drfc1_training_26-iteration.csv"])
+    segments = load_segments(
+        [
+            folder / "drfc1_evaluation_0-iteration.csv",
+            folder / "console2022_evaluation_0-iteration.csv",
+            folder / "drfc1_training_26-iteration.csv",
+        ]
+    )
     floor = heading_floor_deg(segments)
     assert all(error is not None and math.isfinite(error) for error in floor)
     straight = []

@@ -50,28 +50,71 @@ def test_params_have_every_key_with_deepracer_types(track, deepracer_data):
     assert isinstance(params["waypoints"], list) and isinstance(params["waypoints"][0], tuple)
     assert len(params["waypoints"]) == track.num_waypoints and params["waypoints"][0] == params["waypoints"][-1]
     assert params["closest_waypoints"] == [0, 1] and all(type(i) is int for i in params["closest_waypoints"])
-    for key in ("all_wheels_on_track", "is_left_of_center", "is_reversed", "is_crashed", "is_offtrack", "object_in_camera"):
+    for key in (
+        "all_wheels_on_track",
+        "is_left_of_center",
+        "is_reversed",
+        "is_crashed",
+        "is_offtrack",
+        "object_in_camera",
+    ):
         assert type(params[key]) is bool, key
-    for key in ("x", "y", "heading", "distance_from_center", "projection_distance", "speed", "steering_angle",
-                "track_width", "track_length", "sim_time"):
+    for key in (
+        "x",
+        "y",
+        "heading",
+        "distance_from_center",
+        "projection_distance",
+        "speed",
+        "steering_angle",
+        "track_width",
+        "track_length",
+        "sim_time",
+    ):
         assert type(params[key]) is float, key
     assert params["closest_objects"] == [0, 0] and params["objects_location"] == []
     assert params["track_length"] == pytest.approx(17.709159380834848, abs=1e-12)
     assert params["track_width"] == pytest.approx(0.762, abs=0.01)
     assert params["projection_distance"] == pytest.approx(0.14, abs=0.01)
     assert params["is_reversed"] is False
-    assert track.reversed().direction_reversed and make_reward_params(
-        track.reversed(), x=3.2, y=0.68, heading_deg=180.0, speed_mps=1.0, steering_angle_deg=0.0, steps=1.0,
-        progress=0.0, all_wheels_on_track=True, is_offtrack=False)["is_reversed"] is True
+    assert (
+        track.reversed().direction_reversed
+        and make_reward_params(
+            track.reversed(),
+            x=3.2,
+            y=0.68,
+            heading_deg=180.0,
+            speed_mps=1.0,
+            steering_angle_deg=0.0,
+            steps=1.0,
+            progress=0.0,
+            all_wheels_on_track=True,
+            is_offtrack=False,
+        )["is_reversed"]
+        is True
+    )
 
 
 def test_object_params(track):
     ahead = TrackObject(x=track.center_line[10, 0], y=track.center_line[10, 1])
-    behind = TrackObject(x=track.inner_border[60, 0] * 0.8 + track.center_line[60, 0] * 0.2,
-                         y=track.inner_border[60, 1] * 0.8 + track.center_line[60, 1] * 0.2)
+    behind = TrackObject(
+        x=track.inner_border[60, 0] * 0.8 + track.center_line[60, 0] * 0.2,
+        y=track.inner_border[60, 1] * 0.8 + track.center_line[60, 1] * 0.2,
+    )
     x, y = track.center_line[3]
-    params = make_reward_params(track, x=x, y=y, heading_deg=0.0, speed_mps=1.0, steering_angle_deg=0.0, steps=2.0,
-                                progress=1.0, all_wheels_on_track=True, is_offtrack=False, objects=[behind, ahead])
+    params = make_reward_params(
+        track,
+        x=x,
+        y=y,
+        heading_deg=0.0,
+        speed_mps=1.0,
+        steering_angle_deg=0.0,
+        steps=2.0,
+        progress=1.0,
+        all_wheels_on_track=True,
+        is_offtrack=False,
+        objects=[behind, ahead],
+    )
     assert params["closest_objects"] == [0, 1]
     assert params["objects_distance"][1] < params["objects_distance"][0]
     assert params["objects_distance_from_center"][1] == pytest.approx(0.0, abs=1e-12)
@@ -112,9 +155,21 @@ def test_module_state_persists_between_calls(track, deepracer_data):
 
 def test_reward_function_cannot_corrupt_the_callers_params(track, tmp_path):
     path = tmp_path / "mutating.py"
-    path.write_text("def reward_function(params):\n    params['waypoints'].clear()\n    params['closest_waypoints'][0] = 99\n    return 1.0\n")
-    params = make_reward_params(track, x=3.3, y=0.7, heading_deg=0.0, speed_mps=1.0, steering_angle_deg=0.0, steps=1.0,
-                                progress=0.0, all_wheels_on_track=True, is_offtrack=False)
+    path.write_text(
+        "def reward_function(params):\n    params['waypoints'].clear()\n    params['closest_waypoints'][0] = 99\n    return 1.0\n"
+    )
+    params = make_reward_params(
+        track,
+        x=3.3,
+        y=0.7,
+        heading_deg=0.0,
+        speed_mps=1.0,
+        steering_angle_deg=0.0,
+        steps=1.0,
+        progress=0.0,
+        all_wheels_on_track=True,
+        is_offtrack=False,
+    )
     load_reward_function(path)(params)
     assert len(params["waypoints"]) == track.num_waypoints and params["closest_waypoints"][0] != 99
 
@@ -135,8 +190,18 @@ def test_reward_function_cannot_corrupt_the_callers_params(track, tmp_path):
 def test_bad_results_give_clear_errors(tmp_path, track, body, message):
     path = tmp_path / "bad_reward.py"
     path.write_text("def reward_function(params):\n" + body)
-    params = make_reward_params(track, x=3.3, y=0.7, heading_deg=0.0, speed_mps=1.0, steering_angle_deg=0.0, steps=1.0,
-                                progress=0.0, all_wheels_on_track=True, is_offtrack=False)
+    params = make_reward_params(
+        track,
+        x=3.3,
+        y=0.7,
+        heading_deg=0.0,
+        speed_mps=1.0,
+        steering_angle_deg=0.0,
+        steps=1.0,
+        progress=0.0,
+        all_wheels_on_track=True,
+        is_offtrack=False,
+    )
     with pytest.raises(RewardFunctionError, match=message) as info:
         load_reward_function(path)(params)
     assert str(path) in str(info.value)
@@ -148,14 +213,26 @@ def test_a_numeric_string_is_a_reward_as_the_simapps_float_makes_it_one(tmp_path
     path.write_text("def reward_function(params):\n    return '1.5' if params['all_wheels_on_track'] else ' 2e-3 '\n")
     function = load_reward_function(path)
     for on_track, expected in ((True, 1.5), (False, 0.002)):
-        params = make_reward_params(track, x=3.3, y=0.7, heading_deg=0.0, speed_mps=1.0, steering_angle_deg=0.0,
-                                    steps=1.0, progress=0.0, all_wheels_on_track=on_track, is_offtrack=False)
+        params = make_reward_params(
+            track,
+            x=3.3,
+            y=0.7,
+            heading_deg=0.0,
+            speed_mps=1.0,
+            steering_angle_deg=0.0,
+            steps=1.0,
+            progress=0.0,
+            all_wheels_on_track=on_track,
+            is_offtrack=False,
+        )
         assert function(params) == expected
 
 
 def test_raising_function_shows_file_and_line(tmp_path):
     path = tmp_path / "raising.py"
-    path.write_text("import math\n\ndef reward_function(params):\n    width = params['track_width']\n    return math.sqrt(-width)\n")
+    path.write_text(
+        "import math\n\ndef reward_function(params):\n    width = params['track_width']\n    return math.sqrt(-width)\n"
+    )
     with pytest.raises(RewardFunctionError) as info:
         load_reward_function(path)({"track_width": 1.0})
     text = str(info.value)
@@ -191,10 +268,17 @@ def test_default_evaluation_reward_reproduces_real_evaluation_simtraces(track, d
         assert len(rows) > 500
         for row in rows:
             params = make_reward_params(
-                track, x=float(row["X"]), y=float(row["Y"]), heading_deg=float(row["yaw"]),
-                speed_mps=float(row["throttle"]), steering_angle_deg=float(row["steer"]), steps=float(row["steps"]),
-                progress=float(row["progress"]), all_wheels_on_track=row["all_wheels_on_track"] == "True",
-                is_offtrack=False)
+                track,
+                x=float(row["X"]),
+                y=float(row["Y"]),
+                heading_deg=float(row["yaw"]),
+                speed_mps=float(row["throttle"]),
+                steering_angle_deg=float(row["steer"]),
+                steps=float(row["steps"]),
+                progress=float(row["progress"]),
+                all_wheels_on_track=row["all_wheels_on_track"] == "True",
+                is_offtrack=False,
+            )
             assert default_evaluation_reward(params) == float(row["reward"]), (name, row["steps"])
 
 
@@ -214,21 +298,35 @@ def test_centre_line_reward_reproduces_real_training_rewards(track, deepracer_da
     assert len(rows) > 400
     for row in rows:
         params = make_reward_params(
-            track, x=float(row["X"]), y=float(row["Y"]), heading_deg=float(row["yaw"]),
-            speed_mps=float(row["throttle"]), steering_angle_deg=float(row["steer"]), steps=float(row["steps"]),
-            progress=float(row["progress"]), all_wheels_on_track=row["all_wheels_on_track"] == "True",
-            is_offtrack=row["episode_status"] == "off_track", sim_time_s=float(row["tstamp"]))
-        assert function(params) == pytest.approx(float(row["reward"]), abs=1e-12), (simtrace, row["episode"], row["steps"])
+            track,
+            x=float(row["X"]),
+            y=float(row["Y"]),
+            heading_deg=float(row["yaw"]),
+            speed_mps=float(row["throttle"]),
+            steering_angle_deg=float(row["steer"]),
+            steps=float(row["steps"]),
+            progress=float(row["progress"]),
+            all_wheels_on_track=row["all_wheels_on_track"] == "True",
+            is_offtrack=row["episode_status"] == "off_track",
+            sim_time_s=float(row["tstamp"]),
+        )
+        assert function(params) == pytest.approx(float(row["reward"]), abs=1e-12), (
+            simtrace,
+            row["episode"],
+            row["steps"],
+        )
 
 
 def test_a_reward_function_failing_inside_env_step_names_the_file_and_line(tmp_path, make_env):
     """The env calls the reward while the next frame renders; the error still carries the user's file and line,
     and the env can be reset and used afterwards."""
     path = tmp_path / "late_failure.py"
-    path.write_text("def reward_function(params):\n"
-                    "    if params['steps'] >= 3:\n"
-                    "        raise RuntimeError('bad step %d' % params['steps'])\n"
-                    "    return 1.0\n")
+    path.write_text(
+        "def reward_function(params):\n"
+        "    if params['steps'] >= 3:\n"
+        "        raise RuntimeError('bad step %d' % params['steps'])\n"
+        "    return 1.0\n"
+    )
     env = make_env(reward_function_path=path)
     env.reset(seed=0)
     env.step(2)  # prepare step: the reward function is not called

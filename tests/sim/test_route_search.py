@@ -42,7 +42,9 @@ def test_an_earlier_folder_wins(tmp_path, deepracer_data, monkeypatch):
     mine.mkdir()
     shutil.copy(deepracer_data / "routes" / "Oval_track.npy", mine / "reinvent_base.npy")
     monkeypatch.setenv("RACER_ROUTES_PATH", f"{mine}:{deepracer_data / 'routes'}")
-    assert np.array_equal(Track.load("reinvent_base").waypoints, Track.load(deepracer_data / "routes" / "Oval_track.npy").waypoints)
+    assert np.array_equal(
+        Track.load("reinvent_base").waypoints, Track.load(deepracer_data / "routes" / "Oval_track.npy").waypoints
+    )
 
 
 def test_an_unknown_name_lists_where_it_looked(routes_path):
@@ -64,7 +66,10 @@ def test_track_direction_clockwise_appends_cw_or_ccw_as_deepracer_on_aws(routes_
     assert counter.track == "reInvent2019_track_ccw"
     with pytest.raises(TrackError, match="reInvent2019_track_ccw.*looked in"):
         Track.load(counter.track)  # the test folder has no _ccw file; the SimApp's bundle/routes has one
-    assert WorkerSettings.from_training_params({"WORLD_NAME": "reInvent2019_track"}, source="t").track == "reInvent2019_track"
+    assert (
+        WorkerSettings.from_training_params({"WORLD_NAME": "reInvent2019_track"}, source="t").track
+        == "reInvent2019_track"
+    )
     # The written training_params carry the resolved name, so a worker reading them back does not add it twice.
     again = WorkerSettings.from_training_params(clockwise.to_training_params("m", 1), source="t")
     assert again.track == "reInvent2019_track_cw"

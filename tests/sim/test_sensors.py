@@ -32,7 +32,10 @@ EXPECTED_SHAPES = {
 
 
 def _metadata(sensors):
-    data = {"action_space": [{"steering_angle": 0.0, "speed": 1.0}, {"steering_angle": 20.0, "speed": 1.0}], "sensor": list(sensors)}
+    data = {
+        "action_space": [{"steering_angle": 0.0, "speed": 1.0}, {"steering_angle": 20.0, "speed": 1.0}],
+        "sensor": list(sensors),
+    }
     if "observation" in sensors:
         data = {"action_space": data["action_space"]}  # v1 models: no sensor list, camera key "observation"
     else:
@@ -55,7 +58,9 @@ def test_observation_shapes(world, sensors):
         for key in sensors:
             shape, dtype = EXPECTED_SHAPES[key]
             assert obs[key].shape == shape and obs[key].dtype == dtype, key
-        camera = next(k for k in sensors if k in ("FRONT_FACING_CAMERA", "STEREO_CAMERAS", "LEFT_CAMERA", "observation"))
+        camera = next(
+            k for k in sensors if k in ("FRONT_FACING_CAMERA", "STEREO_CAMERAS", "LEFT_CAMERA", "observation")
+        )
         image = obs[camera]
         assert image.std() > 5.0  # the road, its markings and the floor are visible
         # Upright: the frame correlates with mujoco.Renderer's picture of the same camera, not with its mirror image.
@@ -88,7 +93,7 @@ def test_worlds_look_different():
             env.close()
     names = list(frames)
     for i, first in enumerate(names):
-        for second in names[i + 1:]:
+        for second in names[i + 1 :]:
             assert np.abs(frames[first] - frames[second]).mean() > 8.0, (first, second)
 
 
@@ -150,9 +155,13 @@ def test_grayscale_is_exact_for_every_colour():
 
 def test_discretized_sector_lidar_defaults_to_8_by_8_with_stereo_cameras():
     """No lidar_config: DeepRacer's default 8 sectors x 8 values (64 one-hot bits), next to the stereo pair."""
-    metadata = parse_model_metadata({"action_space": [{"steering_angle": a, "speed": 1.0} for a in (0.0, 20.0)],
-                                     "version": "4",
-                                     "sensor": ["STEREO_CAMERAS", "DISCRETIZED_SECTOR_LIDAR"]})
+    metadata = parse_model_metadata(
+        {
+            "action_space": [{"steering_angle": a, "speed": 1.0} for a in (0.0, 20.0)],
+            "version": "4",
+            "sensor": ["STEREO_CAMERAS", "DISCRETIZED_SECTOR_LIDAR"],
+        }
+    )
     env = DeepRacerEnv(EnvConfig(model_metadata=metadata))
     try:
         obs, _ = env.reset(seed=0)

@@ -98,7 +98,7 @@ def test_closest_waypoints_bracket_the_projection(deepracer_data):
     assert track.closest_waypoints(*track.center_line[0]) == (0, 1)
     mid = (track.center_line[10] + track.center_line[11]) / 2
     assert track.closest_waypoints(*mid) == (10, 11)
-    last = (track.center_line[n - 2] * 0.3 + track.center_line[n - 1] * 0.7)
+    last = track.center_line[n - 2] * 0.3 + track.center_line[n - 1] * 0.7
     assert track.closest_waypoints(*last) == (n - 2, n - 1)
     assert track.closest_waypoint_for_simtrace(*last) == n - 1
 

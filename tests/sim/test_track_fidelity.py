@@ -82,10 +82,14 @@ def test_wheel_geometry_reproduces_all_wheels_on_track_and_off_track(deepracer_d
     from racer.shared.sim import car
 
     track = Track.load(deepracer_data / "routes" / "reinvent_base.npy")
-    local = np.array([
-        [car.REAR_AXLE_X_M, car.REAR_HALF_TRACK_M], [car.FRONT_AXLE_X_M, car.FRONT_HALF_TRACK_M],
-        [car.REAR_AXLE_X_M, -car.REAR_HALF_TRACK_M], [car.FRONT_AXLE_X_M, -car.FRONT_HALF_TRACK_M],
-    ])
+    local = np.array(
+        [
+            [car.REAR_AXLE_X_M, car.REAR_HALF_TRACK_M],
+            [car.FRONT_AXLE_X_M, car.FRONT_HALF_TRACK_M],
+            [car.REAR_AXLE_X_M, -car.REAR_HALF_TRACK_M],
+            [car.FRONT_AXLE_X_M, -car.FRONT_HALF_TRACK_M],
+        ]
+    )
     rows_checked = mismatches = off_track_rows = 0
     for path in _simtraces(deepracer_data):
         with path.open(newline="") as handle:
@@ -94,8 +98,9 @@ def test_wheel_geometry_reproduces_all_wheels_on_track_and_off_track(deepracer_d
                 cos, sin = math.cos(yaw), math.sin(yaw)
                 origin_x = float(row["X"]) - 0.14 * cos
                 origin_y = float(row["Y"]) - 0.14 * sin
-                inside = track.contains_points(origin_x + local[:, 0] * cos - local[:, 1] * sin,
-                                               origin_y + local[:, 0] * sin + local[:, 1] * cos)
+                inside = track.contains_points(
+                    origin_x + local[:, 0] * cos - local[:, 1] * sin, origin_y + local[:, 0] * sin + local[:, 1] * cos
+                )
                 rows_checked += 1
                 mismatches += bool(inside.all()) != (row["all_wheels_on_track"] == "True")
                 if row["episode_status"] == "off_track":
@@ -117,10 +122,14 @@ def test_reset_rules_reproduce_real_episode_statuses(deepracer_data):
     from racer.shared.sim import car, rules
 
     track = Track.load(deepracer_data / "routes" / "reinvent_base.npy")
-    local = np.array([
-        [car.REAR_AXLE_X_M, car.REAR_HALF_TRACK_M], [car.FRONT_AXLE_X_M, car.FRONT_HALF_TRACK_M],
-        [car.REAR_AXLE_X_M, -car.REAR_HALF_TRACK_M], [car.FRONT_AXLE_X_M, -car.FRONT_HALF_TRACK_M],
-    ])
+    local = np.array(
+        [
+            [car.REAR_AXLE_X_M, car.REAR_HALF_TRACK_M],
+            [car.FRONT_AXLE_X_M, car.FRONT_HALF_TRACK_M],
+            [car.REAR_AXLE_X_M, -car.REAR_HALF_TRACK_M],
+            [car.FRONT_AXLE_X_M, -car.FRONT_HALF_TRACK_M],
+        ]
+    )
     seen = set()
     for path in _simtraces(deepracer_data):
         if path.name.startswith("drfc1_evaluation"):
@@ -137,10 +146,12 @@ def test_reset_rules_reproduce_real_episode_statuses(deepracer_data):
                     counters.clear(origin)
                     prev_progress = progress
                     continue
-                inside = track.contains_points(origin[0] + local[:, 0] * cos - local[:, 1] * sin,
-                                               origin[1] + local[:, 0] * sin + local[:, 1] * cos)
-                status = counters.judge(progress=progress, prev_progress=prev_progress, origin=origin,
-                                        any_wheel_on_track=bool(inside.any()))
+                inside = track.contains_points(
+                    origin[0] + local[:, 0] * cos - local[:, 1] * sin, origin[1] + local[:, 0] * sin + local[:, 1] * cos
+                )
+                status = counters.judge(
+                    progress=progress, prev_progress=prev_progress, origin=origin, any_wheel_on_track=bool(inside.any())
+                )
                 assert status == row["episode_status"], (path.name, row["episode"], row["steps"])
                 seen.add(status)
                 prev_progress = 0.0 if progress == 100 else progress

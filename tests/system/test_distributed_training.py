@@ -33,8 +33,10 @@ CHECKPOINT_NAME = re.compile(r"^(\d+)_Step-(\d+)\.ckpt$")
 
 @pytest.fixture
 def custom_files(tmp_path: Path) -> Path:
-    centre_line = ("def reward_function(params):\n"
-                   "    return 1.0 - min(1.0, params['distance_from_center'] / (0.5 * params['track_width']))\n")
+    centre_line = (
+        "def reward_function(params):\n"
+        "    return 1.0 - min(1.0, params['distance_from_center'] / (0.5 * params['track_width']))\n"
+    )
     return write_custom_files(tmp_path / "custom_files", reward_source=centre_line)
 
 
@@ -52,19 +54,48 @@ class SystemRun:
 
     def start(self, name: str, *args: str) -> subprocess.Popen:
         log = open(self.logs / f"{name}.log", "ab")
-        process = subprocess.Popen([sys.executable, "-m", "racer.cli", *args], stdout=log, stderr=subprocess.STDOUT,
-                                   env=service_environment(self.settings), preexec_fn=_die_with_parent)
+        process = subprocess.Popen(
+            [sys.executable, "-m", "racer.cli", *args],
+            stdout=log,
+            stderr=subprocess.STDOUT,
+            env=service_environment(self.settings),
+            preexec_fn=_die_with_parent,
+        )
         self.processes[name] = process
         return process
 
     def start_trainer(self, max_episodes: int, *extra: str) -> subprocess.Popen:
-        return self.start("trainer", "trainer", "--model-prefix", self.prefix, "--custom-files",
-                          str(self.custom_files), "--workers", str(self.workers), "--track", TRACK,
-                          "--worlds", "base,carpet", "--max-episodes", str(max_episodes), *extra)
+        return self.start(
+            "trainer",
+            "trainer",
+            "--model-prefix",
+            self.prefix,
+            "--custom-files",
+            str(self.custom_files),
+            "--workers",
+            str(self.workers),
+            "--track",
+            TRACK,
+            "--worlds",
+            "base,carpet",
+            "--max-episodes",
+            str(max_episodes),
+            *extra,
+        )
 
     def start_worker(self, worker_id: int) -> subprocess.Popen:
-        return self.start(f"worker-{worker_id}", "rollout", "--model-prefix", self.prefix, "--worker-id",
-                          str(worker_id), "--seed", str(worker_id), "--wait-timeout-s", "300")
+        return self.start(
+            f"worker-{worker_id}",
+            "rollout",
+            "--model-prefix",
+            self.prefix,
+            "--worker-id",
+            str(worker_id),
+            "--seed",
+            str(worker_id),
+            "--wait-timeout-s",
+            "300",
+        )
 
     def log_text(self, name: str) -> str:
         path = self.logs / f"{name}.log"
@@ -74,8 +105,12 @@ class SystemRun:
         try:
             return self.processes["trainer"].wait(timeout_s)
         except subprocess.TimeoutExpired:
-            raise AssertionError("trainer did not finish in time; log tail:\n" + self.log_text("trainer")[-4000:]
-                                 + "\nworker-0 tail:\n" + self.log_text("worker-0")[-3000:]) from None
+            raise AssertionError(
+                "trainer did not finish in time; log tail:\n"
+                + self.log_text("trainer")[-4000:]
+                + "\nworker-0 tail:\n"
+                + self.log_text("worker-0")[-3000:]
+            ) from None
 
     def stop_all(self) -> None:
         for process in self.processes.values():
@@ -136,8 +171,11 @@ def test_two_workers_two_worlds_two_iterations(system):
     assert CHECKPOINT_NAME.match(best_last["last_checkpoint"]["name"])
     trainer_log = system.log_text("trainer")
     for worker_id in (0, 1):
-        assert re.search(rf"Training> Name=main_level/agent, Worker={worker_id}, Episode=\d+, Total reward=[-\d.e]+, "
-                         r"Steps=\d+, Training iteration=\d+", trainer_log)
+        assert re.search(
+            rf"Training> Name=main_level/agent, Worker={worker_id}, Episode=\d+, Total reward=[-\d.e]+, "
+            r"Steps=\d+, Training iteration=\d+",
+            trainer_log,
+        )
     assert len(re.findall(r"Policy training> Surrogate loss=", trainer_log)) == 2 * 3  # 2 iterations x 3 epochs
     metrics = json.loads(store.get_bytes(f"{prefix}/metrics/TrainingMetrics_1.json"))
     assert {e["phase"] for e in metrics["metrics"]} == {"training"}  # only worker 0 evaluates
@@ -149,8 +187,9 @@ def test_worker_killed_mid_iteration(system):
     """kill -9 one worker while it plays: the other replays its share; every iteration uses exactly E episodes."""
     store = open_store(system.settings.store)
     hyperparameters = json.loads((system.custom_files / "hyperparameters.json").read_text())
-    (system.custom_files / "hyperparameters.json").write_text(json.dumps({**hyperparameters,
-                                                                          "num_episodes_between_training": 6}))
+    (system.custom_files / "hyperparameters.json").write_text(
+        json.dumps({**hyperparameters, "num_episodes_between_training": 6})
+    )
     system.start_trainer(max_episodes=18)
     system.start_worker(0)
     victim = system.start_worker(1)
@@ -176,7 +215,7 @@ def test_worker_killed_mid_iteration(system):
     assert training == list(range(1, len(training) + 1)) and len(training) > 9
     last = read_simtrace(store.get_bytes(f"{system.prefix}/0/training-simtrace/2-iteration.csv"), source="2-iteration")
     episodes = sorted(last.episode.unique())
-    assert episodes == [episode - 1 for episode in training[-len(episodes):]]
+    assert episodes == [episode - 1 for episode in training[-len(episodes) :]]
 
 
 def test_trainer_killed_and_restarted_resumes(system):
@@ -196,7 +235,9 @@ def test_trainer_killed_and_restarted_resumes(system):
     assert "resuming model-e2e from checkpoint" in system.log_text("trainer")
     after = checkpoint_numbers(store, system.prefix)
     assert after[-1] == 3 and after[-1] > before[-1]
-    assert [r["iteration"] for r in iteration_records(store, system.prefix)] == [0, 1, 2][-len(iteration_records(store, system.prefix)):]
+    assert [r["iteration"] for r in iteration_records(store, system.prefix)] == [0, 1, 2][
+        -len(iteration_records(store, system.prefix)) :
+    ]
 
 
 def test_sigterm_stops_the_trainer_cleanly_and_the_workers_follow(system):

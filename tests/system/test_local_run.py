@@ -43,9 +43,27 @@ def small_custom_files(tmp_path: Path) -> Path:
 def racer_train(tmp_path: Path, custom_files: Path, *args: str) -> subprocess.Popen:
     env = dict(os.environ, RACER_STORE=str(tmp_path / "store"), MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"))
     return subprocess.Popen(
-        [sys.executable, "-m", "racer.cli", "train", "--custom-files", str(custom_files), "--workers", "2",
-         "--worlds", "base,wood", "--model-prefix", "local-model", *args],
-        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env, cwd=tmp_path)
+        [
+            sys.executable,
+            "-m",
+            "racer.cli",
+            "train",
+            "--custom-files",
+            str(custom_files),
+            "--workers",
+            "2",
+            "--worlds",
+            "base,wood",
+            "--model-prefix",
+            "local-model",
+            *args,
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        env=env,
+        cwd=tmp_path,
+    )
 
 
 def test_train_runs_to_the_episode_limit_and_cleans_up(tmp_path, small_custom_files):

@@ -89,8 +89,10 @@ def test_kill_9_of_the_embedded_redis_loses_no_episode(tmp_path, small_custom_fi
     assert [(r["episodes"], r["episodes_dropped"]) for r in records] == [(2, 0)] * 4
     previous_total = 0
     for record in records:
-        traces = [read_simtrace(store / str(worker) / "training-simtrace" / f"{record['iteration']}-iteration.csv")
-                  for worker in (0, 1)]
+        traces = [
+            read_simtrace(store / str(worker) / "training-simtrace" / f"{record['iteration']}-iteration.csv")
+            for worker in (0, 1)
+        ]
         assert [trace.episode.nunique() for trace in traces] == [1, 1]
         assert sum(len(trace) for trace in traces) == record["env_steps_total"] - previous_total
         previous_total = record["env_steps_total"]
@@ -126,16 +128,19 @@ def test_sigterm_with_redis_hung_stops_everything_within_30_s(tmp_path, small_cu
     checkpoints.load_policy(checkpoints.latest_name())  # the final checkpoint is complete
 
 
-def test_with_redis_dead_the_trainer_honours_max_minutes_and_workers_stop_on_sigterm(redis_server, tmp_path,
-                                                                                     small_custom_files):
+def test_with_redis_dead_the_trainer_honours_max_minutes_and_workers_stop_on_sigterm(
+    redis_server, tmp_path, small_custom_files
+):
     """docker compose's case: Redis is gone for good and nobody restarts it."""
     from racer.shared.config import LocalStoreSettings, RedisSettings, ServiceSettings
     from racer.shared.redis_connection import RedisLink
     from racer.shared.transport.channels import RunChannel
     from tests.system.test_distributed_training import SystemRun
 
-    settings = ServiceSettings(redis=RedisSettings(url=redis_server.url, connect_timeout_s=10),
-                               store=LocalStoreSettings(root=tmp_path / "store"))
+    settings = ServiceSettings(
+        redis=RedisSettings(url=redis_server.url, connect_timeout_s=10),
+        store=LocalStoreSettings(root=tmp_path / "store"),
+    )
     run = SystemRun(settings, "dead-redis", small_custom_files, tmp_path / "logs")
     try:
         trainer_started = time.monotonic()
@@ -143,15 +148,20 @@ def test_with_redis_dead_the_trainer_honours_max_minutes_and_workers_stop_on_sig
         workers = [run.start_worker(0), run.start_worker(1)]
         channel = RunChannel(RedisLink(settings.redis), run.prefix)
         model = tmp_path / "store" / run.prefix / "model"
-        wait_for(lambda: set(channel.live_workers()) == {0, 1} and newest_checkpoint(model) >= 0, 100,
-                 "checkpoint 0 and both workers' heartbeats", lambda: run.log_text("trainer")[-2000:])
+        wait_for(
+            lambda: set(channel.live_workers()) == {0, 1} and newest_checkpoint(model) >= 0,
+            100,
+            "checkpoint 0 and both workers' heartbeats",
+            lambda: run.log_text("trainer")[-2000:],
+        )
         redis_server.kill()
         assert time.monotonic() - trainer_started < 110, "the machine is too slow for this test's time limit"
         assert trainer.wait(timeout=200) == 0, run.log_text("trainer")[-3000:]
         exited = datetime.now()
         # The limit counts from the trainer's start (after its imports): read when it fired from its log.
-        limit_line = next(line for line in run.log_text("trainer").splitlines()
-                          if "wall-time limit of 2.0 minutes reached" in line)
+        limit_line = next(
+            line for line in run.log_text("trainer").splitlines() if "wall-time limit of 2.0 minutes reached" in line
+        )
         fired = datetime.strptime(limit_line[:23], "%Y-%m-%d %H:%M:%S,%f")
         assert (exited - fired).total_seconds() < 15, run.log_text("trainer")[-3000:]
         assert (model / ".finished").is_file()

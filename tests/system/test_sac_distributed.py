@@ -19,9 +19,14 @@ from tests.system.test_distributed_training import CHECKPOINT_NAME, SystemRun, c
 
 pytestmark = pytest.mark.slow
 
-SAC_METADATA = {"action_space": {"steering_angle": {"low": -30, "high": 30}, "speed": {"low": 1, "high": 2}},
-                "action_space_type": "continuous", "training_algorithm": "sac", "sensor": ["FRONT_FACING_CAMERA"],
-                "neural_network": "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW", "version": "5"}
+SAC_METADATA = {
+    "action_space": {"steering_angle": {"low": -30, "high": 30}, "speed": {"low": 1, "high": 2}},
+    "action_space_type": "continuous",
+    "training_algorithm": "sac",
+    "sensor": ["FRONT_FACING_CAMERA"],
+    "neural_network": "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW",
+    "version": "5",
+}
 
 
 @pytest.fixture
@@ -29,9 +34,19 @@ def sac_system(redis_server, s3_settings, tmp_path):
     custom = write_custom_files(tmp_path / "custom_files")
     (custom / "model_metadata.json").write_text(json.dumps(SAC_METADATA))
     # As users have SAC hyperparameters (dots_hyperparameters_sac.json), with 2 episodes per iteration.
-    (custom / "hyperparameters.json").write_text(json.dumps({
-        "batch_size": 64, "discount_factor": 0.999, "exploration_type": "additive_noise", "loss_type":
-        "mean squared error", "lr": 0.0003, "num_episodes_between_training": 2, "sac_alpha": 0.2}))
+    (custom / "hyperparameters.json").write_text(
+        json.dumps(
+            {
+                "batch_size": 64,
+                "discount_factor": 0.999,
+                "exploration_type": "additive_noise",
+                "loss_type": "mean squared error",
+                "lr": 0.0003,
+                "num_episodes_between_training": 2,
+                "sac_alpha": 0.2,
+            }
+        )
+    )
     settings = ServiceSettings(redis=RedisSettings(url=redis_server.url, connect_timeout_s=10), store=s3_settings)
     run = SystemRun(settings, "sac-e2e", custom, tmp_path / "logs")
     yield run
@@ -66,11 +81,17 @@ def test_sac_with_two_workers_in_two_worlds_trains_and_evaluates(sac_system, tmp
         assert rows["steer"].between(-30, 30).all() and rows["throttle"].between(1, 2).all()
         assert rows["action"].astype(str).str.startswith("[").all()
 
-    result = CliRunner().invoke(evaluate_command, [
-        "--model-prefix", prefix, "--trials", "1", "--video-size", "160x120", "--out", str(tmp_path / "eval")],
-        env={"RACER_STORE": f"s3://{store.settings.bucket}", "S3_ENDPOINT_URL": store.settings.endpoint_url,
-             "AWS_ACCESS_KEY_ID": store.settings.access_key_id,
-             "AWS_SECRET_ACCESS_KEY": store.settings.secret_access_key}, catch_exceptions=False)
+    result = CliRunner().invoke(
+        evaluate_command,
+        ["--model-prefix", prefix, "--trials", "1", "--video-size", "160x120", "--out", str(tmp_path / "eval")],
+        env={
+            "RACER_STORE": f"s3://{store.settings.bucket}",
+            "S3_ENDPOINT_URL": store.settings.endpoint_url,
+            "AWS_ACCESS_KEY_ID": store.settings.access_key_id,
+            "AWS_SECRET_ACCESS_KEY": store.settings.secret_access_key,
+        },
+        catch_exceptions=False,
+    )
     assert result.exit_code == 0, result.output
     simtraces = list(Path(tmp_path / "eval").rglob("0-iteration.csv"))
     assert simtraces, result.output

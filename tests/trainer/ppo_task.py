@@ -21,9 +21,15 @@ def task_network(num_actions: int = 3, seed: int = 0, sensors=(CAMERA,), continu
     if continuous:
         action_space = {"steering_angle": {"low": -30, "high": 30}, "speed": {"low": 0.5, "high": 2.0}}
     else:
-        action_space = [{"steering_angle": -30 + 60 * i / max(1, num_actions - 1), "speed": 1.0} for i in range(num_actions)]
-    data = {"action_space": action_space, "sensor": list(sensors), "neural_network": "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW",
-            "version": "5"}
+        action_space = [
+            {"steering_angle": -30 + 60 * i / max(1, num_actions - 1), "speed": 1.0} for i in range(num_actions)
+        ]
+    data = {
+        "action_space": action_space,
+        "sensor": list(sensors),
+        "neural_network": "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW",
+        "version": "5",
+    }
     if continuous:
         data["action_space_type"] = "continuous"
     return build_actor_critic(parse_model_metadata(data))
@@ -46,8 +52,9 @@ def observations_for(network: ActorCritic, images: np.ndarray, rng: np.random.Ge
     return observations
 
 
-def play(network: ActorCritic, episodes: int, num_actions: int, rng: np.random.Generator,
-         policy_version: int = 0) -> list[Episode]:
+def play(
+    network: ActorCritic, episodes: int, num_actions: int, rng: np.random.Generator, policy_version: int = 0
+) -> list[Episode]:
     """Sample `episodes` one-step episodes with the current policy (batched inference, as many workers would)."""
     labels = rng.integers(0, num_actions, size=episodes)
     observations = observations_for(network, bar_images(labels, num_actions, rng), rng)

@@ -15,8 +15,9 @@ from racer.trainer.ppo import PPOSettings, PPOTrainer
 
 
 def test_fast_path_gives_the_same_learning_result_as_the_plain_baseline():
-    hp = Hyperparameters(batch_size=32, num_epochs=3, lr=3e-4, beta_entropy=0.01, discount_factor=0.999,
-                         loss_type="huber")
+    hp = Hyperparameters(
+        batch_size=32, num_epochs=3, lr=3e-4, beta_entropy=0.01, discount_factor=0.999, loss_type="huber"
+    )
     initial = bench_network(num_actions=5, seed=1)
     episodes = synthetic_episodes(200, num_actions=5, seed=1)  # 2 episodes, 6 minibatches per epoch
     fast, plain = copy.deepcopy(initial), copy.deepcopy(initial)
@@ -34,7 +35,9 @@ def test_fast_path_gives_the_same_learning_result_as_the_plain_baseline():
     assert differ < moved * 0.05  # ... and both paths moved them to the same place (measured ratio ~0.006)
     batch = {"FRONT_FACING_CAMERA": torch.from_numpy(episodes[0].observations["FRONT_FACING_CAMERA"][:16])}
     with torch.no_grad():
-        torch.testing.assert_close(fast.distribution(batch).probs, plain.distribution(batch).probs, rtol=1e-3, atol=1e-5)
+        torch.testing.assert_close(
+            fast.distribution(batch).probs, plain.distribution(batch).probs, rtol=1e-3, atol=1e-5
+        )
         torch.testing.assert_close(fast.value(batch), plain.value(batch), rtol=1e-3, atol=1e-4)
 
 
@@ -44,8 +47,9 @@ def test_bf16_towers_track_the_fp32_baseline():
     Weights are not compared element by element: Adam turns tiny gradient differences in near-zero gradients into
     full-size steps. What must agree is what the update computes and what the network then outputs.
     """
-    hp = Hyperparameters(batch_size=32, num_epochs=3, lr=3e-4, beta_entropy=0.01, discount_factor=0.999,
-                         loss_type="huber")
+    hp = Hyperparameters(
+        batch_size=32, num_epochs=3, lr=3e-4, beta_entropy=0.01, discount_factor=0.999, loss_type="huber"
+    )
     initial = bench_network(num_actions=5, seed=1)
     episodes = synthetic_episodes(200, num_actions=5, seed=1)
     fast, plain = copy.deepcopy(initial), copy.deepcopy(initial)
@@ -66,8 +70,9 @@ def test_bf16_towers_track_the_fp32_baseline():
 
 
 def test_bench_command_prints_one_json_line():
-    result = CliRunner().invoke(ppo_bench_command, ["--transitions", "64", "--epochs", "1", "--batch-size", "32",
-                                                    "--threads", "1"])
+    result = CliRunner().invoke(
+        ppo_bench_command, ["--transitions", "64", "--epochs", "1", "--batch-size", "32", "--threads", "1"]
+    )
     assert result.exit_code == 0, result.output
     lines = [line for line in result.stdout.splitlines() if line.startswith("{")]
     assert len(lines) == 1

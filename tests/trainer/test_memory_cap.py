@@ -49,19 +49,32 @@ def test_episodes_are_kept_in_global_order_while_the_running_count_is_within_the
 
 
 def test_the_trainer_drops_episodes_beyond_the_cap_and_counts_only_trained_steps(redis_settings, tmp_path: Path):
-    custom_files = write_custom_files(tmp_path / "custom_files", steering_deg=(-30, -15, 0, 15, 30), min_eval_trials=None)
+    custom_files = write_custom_files(
+        tmp_path / "custom_files", steering_deg=(-30, -15, 0, 15, 30), min_eval_trials=None
+    )
     hyper = json.loads((custom_files / "hyperparameters.json").read_text())
     (custom_files / "hyperparameters.json").write_text(json.dumps({**hyper, "num_episodes_between_training": 4}))
     settings = ServiceSettings(redis=redis_settings, store=LocalStoreSettings(root=tmp_path / "store"))
-    trainer = Trainer(settings, TrainerOptions(model_prefix=PREFIX, custom_files=custom_files, num_workers=2,
-                                               track="racer_oval", worlds=("base",), max_memory_steps=70))
+    trainer = Trainer(
+        settings,
+        TrainerOptions(
+            model_prefix=PREFIX,
+            custom_files=custom_files,
+            num_workers=2,
+            track="racer_oval",
+            worlds=("base",),
+            max_memory_steps=70,
+        ),
+    )
     assert trainer.setup() == 0
     channel = RunChannel(RedisLink(redis_settings), PREFIX)
     for share, lengths in ((0, [30, 30]), (1, [30, 20])):
-        episodes = tuple(make_episode(n, seed=10 * share + i, worker_id=share, policy_version=0)
-                         for i, n in enumerate(lengths))
-        channel.push_batch(EpisodeBatch(iteration=0, share=share, worker_id=share, world="base", policy_version=0,
-                                        episodes=episodes))
+        episodes = tuple(
+            make_episode(n, seed=10 * share + i, worker_id=share, policy_version=0) for i, n in enumerate(lengths)
+        )
+        channel.push_batch(
+            EpisodeBatch(iteration=0, share=share, worker_id=share, world="base", policy_version=0, episodes=episodes)
+        )
     summary = trainer.train_iteration(0, trainer.collect(0), rollout_wall_s=1.0)
     # Global order 30 (s0), 30 (s1), 30 (s0), 20 (s1): 60 fits, 90 does not -> two trained, two dropped.
     assert (summary["episodes"], summary["episodes_dropped"], summary["steps_dropped"]) == (2, 2, 50)

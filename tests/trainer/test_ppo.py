@@ -87,11 +87,15 @@ def test_a_stopping_trainer_abandons_the_update_between_minibatches():
     with pytest.raises(UpdateAbandoned):
         trainer.update(random_episodes(network, [30, 20, 50], np.random.default_rng(1)), abandon=abandon)
     assert len(asked) == 5
-    assert len(trainer.update(random_episodes(network, [30, 20, 50], np.random.default_rng(1)),
-                              abandon=lambda: False)) == 2
+    assert (
+        len(trainer.update(random_episodes(network, [30, 20, 50], np.random.default_rng(1)), abandon=lambda: False))
+        == 2
+    )
 
 
-@pytest.mark.parametrize(("loss_type", "expected"), [("huber", lambda e: np.abs(e) - 0.5), ("mean squared error", np.square)])
+@pytest.mark.parametrize(
+    ("loss_type", "expected"), [("huber", lambda e: np.abs(e) - 0.5), ("mean squared error", np.square)]
+)
 def test_value_loss_type(loss_type, expected):
     network = task_network(3)
     with torch.no_grad():  # V(s) = 10 everywhere
@@ -220,15 +224,31 @@ def test_log_lines_match_the_real_console_log(deepracer_data):
     lines = (deepracer_data / "logs" / "console2022_training_sagemaker.log").read_text().splitlines()
     policy_line = next(line for line in lines if line.startswith("Policy training>"))
     numbers = re.findall(r"=([-\d.e]+)", policy_line)
-    stats = EpochStats(epoch=int(numbers[3]), surrogate_loss=float(numbers[0]), kl_divergence=float(numbers[1]),
-                       entropy=float(numbers[2]), value_loss=0.5, clip_fraction=0.1, learning_rate=float(numbers[4]),
-                       minibatches=8, gradient_norm=1.0)
+    stats = EpochStats(
+        epoch=int(numbers[3]),
+        surrogate_loss=float(numbers[0]),
+        kl_divergence=float(numbers[1]),
+        entropy=float(numbers[2]),
+        value_loss=0.5,
+        clip_fraction=0.1,
+        learning_rate=float(numbers[4]),
+        minibatches=8,
+        gradient_norm=1.0,
+    )
     assert format_policy_training_line(stats) == policy_line
 
     episode_line = next(line for line in lines if line.startswith("Training> ") and "Episode=20," in line)
     fields = dict(re.findall(r"(Worker|Episode|Total reward|Steps|Training iteration)=([-\d.]+)", episode_line))
-    assert format_training_episode_line(int(fields["Worker"]), int(fields["Episode"]), float(fields["Total reward"]),
-                                        int(fields["Steps"]), int(fields["Training iteration"])) == episode_line
+    assert (
+        format_training_episode_line(
+            int(fields["Worker"]),
+            int(fields["Episode"]),
+            float(fields["Total reward"]),
+            int(fields["Steps"]),
+            int(fields["Training iteration"]),
+        )
+        == episode_line
+    )
     assert "Total reward=12.35," in format_training_episode_line(1, 3, 12.3456, 100, 2)
     assert "Total reward=-3," in format_training_episode_line(1, 3, -3.0, 100, 2)
 
@@ -238,8 +258,9 @@ def test_ppo_learns_the_bar_task_within_a_fixed_budget(bf16_towers):
     """Five actions, the right one shown as a bright bar: > 95 % greedy accuracy within 8 iterations of 96 episodes."""
     num_actions = 5
     network = task_network(num_actions, seed=0)
-    hp = Hyperparameters(batch_size=32, num_epochs=3, lr=3e-4, beta_entropy=0.01, discount_factor=0.99,
-                         loss_type="huber")
+    hp = Hyperparameters(
+        batch_size=32, num_epochs=3, lr=3e-4, beta_entropy=0.01, discount_factor=0.99, loss_type="huber"
+    )
     trainer = PPOTrainer(network, hp, PPOSettings(seed=0, bf16_towers=bf16_towers))
     rng = np.random.default_rng(0)
     start_accuracy = greedy_accuracy(network, num_actions, rng)

@@ -75,15 +75,23 @@ def custom_files_from(tmp_path: Path, metadata: str, hyperparameters: str) -> Pa
 
 def first_steps(episode: Episode, steps: int) -> Episode:
     cut = min(steps, episode.steps)
-    return Episode(observations={name: array[:cut] for name, array in episode.observations.items()},
-                   actions=episode.actions[:cut], rewards=episode.rewards[:cut], log_probs=episode.log_probs[:cut],
-                   policy_version=episode.policy_version, worker_id=episode.worker_id, world=episode.world,
-                   final_status=episode.final_status, progress=episode.progress)
+    return Episode(
+        observations={name: array[:cut] for name, array in episode.observations.items()},
+        actions=episode.actions[:cut],
+        rewards=episode.rewards[:cut],
+        log_probs=episode.log_probs[:cut],
+        policy_version=episode.policy_version,
+        worker_id=episode.worker_id,
+        world=episode.world,
+        final_status=episode.final_status,
+        progress=episode.progress,
+    )
 
 
 @pytest.mark.parametrize(("metadata", "hyperparameters"), config_pairs(), ids=lambda name: name.removesuffix(".json"))
 def test_every_users_pair_trains_an_iteration_or_is_refused_before_anything_starts(
-        metadata, hyperparameters, tmp_path, redis_settings):
+    metadata, hyperparameters, tmp_path, redis_settings
+):
     custom = custom_files_from(tmp_path, metadata, hyperparameters)
     try:
         report = preflight(custom, 1, "racer_oval", ("base",))
@@ -99,25 +107,51 @@ def test_every_users_pair_trains_an_iteration_or_is_refused_before_anything_star
 def train_one_iteration(custom: Path, report, tmp_path: Path, redis_settings) -> None:
     episodes = report.hyperparameters.num_episodes_between_training
     settings = ServiceSettings(redis=redis_settings, store=LocalStoreSettings(root=tmp_path / "store"))
-    options = TrainerOptions(model_prefix="pair", custom_files=custom, num_workers=episodes, track="racer_oval",
-                             worlds=("base",), sac_replay_memory_mb=64, sac_updates_per_transition=0.05)
+    options = TrainerOptions(
+        model_prefix="pair",
+        custom_files=custom,
+        num_workers=episodes,
+        track="racer_oval",
+        worlds=("base",),
+        sac_replay_memory_mb=64,
+        sac_updates_per_transition=0.05,
+    )
     trainer = Trainer(settings, options)
     assert trainer.setup() == 0
 
     checkpoints = CheckpointStore(open_store(settings.store), "pair")
     policy = checkpoints.load_inference_policy()  # checkpoint 0's exported model, as a worker loads it
-    env = DeepRacerEnv(EnvConfig(track="racer_oval", model_metadata=report.model_metadata,
-                                 reward_function_path=custom / "reward_function.py"))
+    env = DeepRacerEnv(
+        EnvConfig(
+            track="racer_oval", model_metadata=report.model_metadata, reward_function_path=custom / "reward_function.py"
+        )
+    )
     try:
-        played = play_episode(env, policy, greedy=False, generator=np.random.default_rng(0), policy_version=0,
-                              worker_id=0, world="base", episode_index=0)
+        played = play_episode(
+            env,
+            policy,
+            greedy=False,
+            generator=np.random.default_rng(0),
+            policy_version=0,
+            worker_id=0,
+            world="base",
+            episode_index=0,
+        )
     finally:
         env.close()
     channel = RunChannel(RedisLink(redis_settings), "pair")
     for share, size in enumerate(share_sizes(episodes, episodes)):
         assert size == 1
-        channel.push_batch(EpisodeBatch(iteration=0, share=share, worker_id=share, world="base", policy_version=0,
-                                        episodes=(first_steps(played.episode, STEPS_PER_SHARE),)))
+        channel.push_batch(
+            EpisodeBatch(
+                iteration=0,
+                share=share,
+                worker_id=share,
+                world="base",
+                policy_version=0,
+                episodes=(first_steps(played.episode, STEPS_PER_SHARE),),
+            )
+        )
     summary = trainer.train_iteration(0, trainer.collect(0), rollout_wall_s=1.0)
     name = trainer._save(1)
 
@@ -145,9 +179,14 @@ def write_custom(tmp_path: Path, metadata: dict, hyperparameters: dict, workers:
 
 
 CONTINUOUS = {"steering_angle": {"low": -30, "high": 30}, "speed": {"low": 1, "high": 2}}
-SAC_METADATA = {"action_space": CONTINUOUS, "action_space_type": "continuous", "training_algorithm": "sac",
-                "sensor": ["FRONT_FACING_CAMERA"], "neural_network": "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW",
-                "version": "5"}
+SAC_METADATA = {
+    "action_space": CONTINUOUS,
+    "action_space_type": "continuous",
+    "training_algorithm": "sac",
+    "sensor": ["FRONT_FACING_CAMERA"],
+    "neural_network": "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW",
+    "version": "5",
+}
 PPO_METADATA = {**SAC_METADATA, "training_algorithm": "clipped_ppo"}
 
 
@@ -161,8 +200,11 @@ def test_ppo_with_sacs_exploration_type_is_refused_with_the_fix(tmp_path):
 
 
 def test_sac_on_a_discrete_action_space_is_refused(tmp_path):
-    discrete = {**SAC_METADATA, "action_space_type": "discrete",
-                "action_space": [{"steering_angle": 0, "speed": 1}, {"steering_angle": 30, "speed": 1}]}
+    discrete = {
+        **SAC_METADATA,
+        "action_space_type": "discrete",
+        "action_space": [{"steering_angle": 0, "speed": 1}, {"steering_angle": 30, "speed": 1}],
+    }
     custom = write_custom(tmp_path, discrete, {})
     with pytest.raises(user_error_types(), match=r"model_metadata.json: training_algorithm: 'sac' requires"):
         preflight(custom, 1, "racer_oval", ("base",))
@@ -172,15 +214,20 @@ def test_sac_settings_it_ignores_are_noted_not_refused(tmp_path):
     custom = write_custom(tmp_path, SAC_METADATA, json.loads((CONFIG / DEFAULT_HYPERPARAMETERS).read_text()))
     report = preflight(custom, 2, "racer_oval", ("base",))
     assert report.model_metadata.training_algorithm == "sac"
-    assert any("beta_entropy, e_greedy_value, epsilon_steps, exploration_type, num_epochs: not used by SAC" in w
-               for w in report.warnings)
+    assert any(
+        "beta_entropy, e_greedy_value, epsilon_steps, exploration_type, num_epochs: not used by SAC" in w
+        for w in report.warnings
+    )
 
 
-@pytest.mark.parametrize(("workers", "field"), [
-    ({"RACE_TYPE": "OBJECT_AVOIDANCE"}, "RACE_TYPE"),
-    ({"workers": [{}, {"RACE_TYPE": "HEAD_TO_BOT"}]}, "RACE_TYPE"),
-    ({"NUMBER_OF_OBSTACLES": 6}, "NUMBER_OF_OBSTACLES"),
-])
+@pytest.mark.parametrize(
+    ("workers", "field"),
+    [
+        ({"RACE_TYPE": "OBJECT_AVOIDANCE"}, "RACE_TYPE"),
+        ({"workers": [{}, {"RACE_TYPE": "HEAD_TO_BOT"}]}, "RACE_TYPE"),
+        ({"NUMBER_OF_OBSTACLES": 6}, "NUMBER_OF_OBSTACLES"),
+    ],
+)
 def test_race_types_racer_does_not_simulate_yet_are_refused_with_the_reason(tmp_path, workers, field):
     custom = write_custom(tmp_path, PPO_METADATA, {}, workers)
     with pytest.raises(user_error_types()) as refused:
@@ -203,8 +250,11 @@ def test_cloning_sac_from_ppo_is_refused_before_anything_starts(tmp_path):
     store = open_store(LocalStoreSettings(root=store_root))
     store.put_bytes("ppo-model/model/model_metadata.json", json.dumps(PPO_METADATA).encode())
     custom = write_custom(tmp_path, SAC_METADATA, {})
-    with pytest.raises(CloneError, match=r"training_algorithm: cannot clone 'ppo-model': it was trained with "
-                                         r"clipped_ppo, this model asks for sac.*fix: clone a sac model"):
+    with pytest.raises(
+        CloneError,
+        match=r"training_algorithm: cannot clone 'ppo-model': it was trained with "
+        r"clipped_ppo, this model asks for sac.*fix: clone a sac model",
+    ):
         preflight(custom, 1, "racer_oval", ("base",), pretrained_prefix="ppo-model", store=store)
 
 

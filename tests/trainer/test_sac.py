@@ -23,12 +23,21 @@ from racer.shared.store import open_store
 from racer.trainer.replay import ReplayBuffer, bytes_per_transition
 from racer.trainer.sac import SACSettings, SACTrainer, sac_minibatch_size
 
-LIDAR_ONLY = PolicyConfig(neural_network="DEEP_CONVOLUTIONAL_NETWORK_SHALLOW",
-                          inputs=(InputSpec("LIDAR", "vector", (64,)),), action_space_type="continuous",
-                          num_actions=2, training_algorithm="sac")
-SAC_METADATA = {"action_space": {"steering_angle": {"low": -30, "high": 30}, "speed": {"low": 1, "high": 2}},
-                "action_space_type": "continuous", "training_algorithm": "sac", "sensor": ["FRONT_FACING_CAMERA"],
-                "neural_network": "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW", "version": "5"}
+LIDAR_ONLY = PolicyConfig(
+    neural_network="DEEP_CONVOLUTIONAL_NETWORK_SHALLOW",
+    inputs=(InputSpec("LIDAR", "vector", (64,)),),
+    action_space_type="continuous",
+    num_actions=2,
+    training_algorithm="sac",
+)
+SAC_METADATA = {
+    "action_space": {"steering_angle": {"low": -30, "high": 30}, "speed": {"low": 1, "high": 2}},
+    "action_space_type": "continuous",
+    "training_algorithm": "sac",
+    "sensor": ["FRONT_FACING_CAMERA"],
+    "neural_network": "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW",
+    "version": "5",
+}
 TARGET_ACTION = np.array([0.5, -0.3], dtype=np.float32)
 
 
@@ -38,9 +47,18 @@ def bandit_episodes(networks: SACNetworks, count: int, rng: np.random.Generator)
     with torch.no_grad():
         actions = networks.sample({"LIDAR": torch.from_numpy(lidar)}).action.numpy()
     rewards = 1.0 - np.square(actions - TARGET_ACTION).sum(axis=1)
-    return [Episode(observations={"LIDAR": lidar[i : i + 1]}, actions=actions[i : i + 1],
-                    rewards=rewards[i : i + 1].astype(np.float32), log_probs=np.zeros(1, np.float32),
-                    policy_version=0, worker_id=0, world="base") for i in range(count)]
+    return [
+        Episode(
+            observations={"LIDAR": lidar[i : i + 1]},
+            actions=actions[i : i + 1],
+            rewards=rewards[i : i + 1].astype(np.float32),
+            log_probs=np.zeros(1, np.float32),
+            policy_version=0,
+            worker_id=0,
+            world="base",
+        )
+        for i in range(count)
+    ]
 
 
 def test_three_networks_on_deepracers_embedders_none_sharing_a_weight():
@@ -62,15 +80,21 @@ def test_three_networks_on_deepracers_embedders_none_sharing_a_weight():
 
 
 def test_users_sac_files_build_their_networks(deepracer_data):
-    for name in ("dots_model_metadata_sac.json", "dpr401_model_metadata_front_shallow_continuous_sac.json",
-                 "drfc_defaults_model_metadata_sac.json"):
+    for name in (
+        "dots_model_metadata_sac.json",
+        "dpr401_model_metadata_front_shallow_continuous_sac.json",
+        "drfc_defaults_model_metadata_sac.json",
+    ):
         networks = build_network_for_metadata(load_model_metadata(deepracer_data / "config" / name))
         assert isinstance(networks, SACNetworks)
     stereo = build_network_for_metadata(load_model_metadata(deepracer_data / "config" / "dots_model_metadata_sac.json"))
     assert stereo.config.inputs[0].shape == (120, 160, 2)
     hyperparameters, warnings = load_hyperparameters(deepracer_data / "config" / "dots_hyperparameters_sac.json")
     assert (hyperparameters.sac_alpha, hyperparameters.batch_size, hyperparameters.loss_type) == (
-        0.2, 64, "mean squared error")
+        0.2,
+        64,
+        "mean squared error",
+    )
     assert warnings == []
 
 
@@ -111,8 +135,11 @@ def test_minibatch_follows_deepracers_rule():
 def test_sac_learns_a_one_step_task():
     torch.manual_seed(0)
     networks = SACNetworks(LIDAR_ONLY)
-    trainer = SACTrainer(networks, Hyperparameters(batch_size=64, lr=3e-3, sac_alpha=0.01),
-                         SACSettings(replay_memory_bytes=8 << 20, seed=0, updates_per_transition=1.0))
+    trainer = SACTrainer(
+        networks,
+        Hyperparameters(batch_size=64, lr=3e-3, sac_alpha=0.01),
+        SACSettings(replay_memory_bytes=8 << 20, seed=0, updates_per_transition=1.0),
+    )
     rng = np.random.default_rng(0)
     probe = {"LIDAR": torch.from_numpy(rng.uniform(0.15, 1.0, (64, 64)).astype(np.float32))}
     with torch.no_grad():
@@ -127,8 +154,9 @@ def test_sac_learns_a_one_step_task():
     assert after < 0.05 < before
     assert all(math.isfinite(s.q_loss) for s in stats)
     # The target V was synced from V (once per iteration), so it moved.
-    assert any(not torch.equal(a, b) for a, b in zip(target_before, networks.target_value_head.parameters(),
-                                                       strict=True))
+    assert any(
+        not torch.equal(a, b) for a, b in zip(target_before, networks.target_value_head.parameters(), strict=True)
+    )
 
 
 def test_non_finite_weights_roll_back_and_halve_the_learning_rate(caplog):
@@ -157,9 +185,15 @@ def test_checkpoint_round_trip_and_the_exported_policy(tmp_path):
     rng = np.random.default_rng(2)
     frames = rng.integers(0, 255, (6, 120, 160, 1), dtype=np.uint8)
     actions = rng.uniform(-1, 1, (6, 2)).astype(np.float32)
-    episode = Episode(observations={"FRONT_FACING_CAMERA": frames}, actions=actions,
-                      rewards=np.ones(6, np.float32), log_probs=np.zeros(6, np.float32), policy_version=0,
-                      worker_id=0, world="base")
+    episode = Episode(
+        observations={"FRONT_FACING_CAMERA": frames},
+        actions=actions,
+        rewards=np.ones(6, np.float32),
+        log_probs=np.zeros(6, np.float32),
+        policy_version=0,
+        worker_id=0,
+        world="base",
+    )
     trainer.update([episode])
     store = open_store(LocalStoreSettings(root=tmp_path))
     checkpoints = CheckpointStore(store, "sac-model")

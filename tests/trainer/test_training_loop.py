@@ -31,25 +31,39 @@ def custom_files(tmp_path: Path) -> Path:
 
 def make_trainer(redis_settings, tmp_path: Path, custom_files: Path, **options) -> Trainer:
     settings = ServiceSettings(redis=redis_settings, store=LocalStoreSettings(root=tmp_path / "store"))
-    return Trainer(settings, TrainerOptions(model_prefix=PREFIX, custom_files=custom_files, num_workers=2,
-                                            track="racer_oval", worlds=("base", "carpet"), **options))
+    return Trainer(
+        settings,
+        TrainerOptions(
+            model_prefix=PREFIX,
+            custom_files=custom_files,
+            num_workers=2,
+            track="racer_oval",
+            worlds=("base", "carpet"),
+            **options,
+        ),
+    )
 
 
 def batch(iteration: int, share: int, worker_id: int, policy_version: int, seed: int) -> EpisodeBatch:
     episode = make_episode(20, seed=seed, worker_id=worker_id, world="base", policy_version=policy_version)
-    return EpisodeBatch(iteration=iteration, share=share, worker_id=worker_id, world="base",
-                        policy_version=policy_version, episodes=(episode,))
+    return EpisodeBatch(
+        iteration=iteration,
+        share=share,
+        worker_id=worker_id,
+        world="base",
+        policy_version=policy_version,
+        episodes=(episode,),
+    )
 
 
-def test_collect_trains_one_batch_per_share_and_drops_stale_and_duplicate_ones(redis_settings, tmp_path,
-                                                                                 custom_files):
+def test_collect_trains_one_batch_per_share_and_drops_stale_and_duplicate_ones(redis_settings, tmp_path, custom_files):
     trainer = make_trainer(redis_settings, tmp_path, custom_files)
     assert trainer.setup() == 0
     channel = RunChannel(RedisLink(redis_settings), PREFIX)
     channel.push_batch(batch(iteration=0, share=0, worker_id=0, policy_version=-1, seed=1))  # older policy
-    channel.push_batch(batch(iteration=0, share=0, worker_id=0, policy_version=0, seed=2))   # trains
-    channel.push_batch(batch(iteration=0, share=0, worker_id=1, policy_version=0, seed=3))   # replayed twice
-    channel.push_batch(batch(iteration=0, share=1, worker_id=1, policy_version=0, seed=4))   # trains
+    channel.push_batch(batch(iteration=0, share=0, worker_id=0, policy_version=0, seed=2))  # trains
+    channel.push_batch(batch(iteration=0, share=0, worker_id=1, policy_version=0, seed=3))  # replayed twice
+    channel.push_batch(batch(iteration=0, share=1, worker_id=1, policy_version=0, seed=4))  # trains
 
     got = trainer.collect(0)
 
@@ -94,12 +108,27 @@ def test_per_worker_settings_travel_from_workers_json_to_each_worker(redis_setti
     from racer.rollout_worker.run_files import read_training_params
     from racer.shared.worker_settings import WorkerSettings
 
-    (custom_files / "workers.json").write_text(json.dumps({
-        "MIN_EVAL_TRIALS": 2, "BEST_MODEL_METRIC": "laptime", "RACER_EVAL_SPREAD_STARTS": True,
-        "workers": [{"RACER_WORLD": "concrete", "RACER_SIMAPP_DIR": "/opt/simapp/bundle"},
-                    {"RACER_WORLD": "wood", "REVERSE_DIR": "True", "START_POSITION_OFFSET": 0.25,
-                     "CHANGE_START_POSITION": False, "WORLD_NAME": "racer_bean",
-                     "ENABLE_DOMAIN_RANDOMIZATION": "True", "RACER_CAR_RANDOMIZATION": True}]}))
+    (custom_files / "workers.json").write_text(
+        json.dumps(
+            {
+                "MIN_EVAL_TRIALS": 2,
+                "BEST_MODEL_METRIC": "laptime",
+                "RACER_EVAL_SPREAD_STARTS": True,
+                "workers": [
+                    {"RACER_WORLD": "concrete", "RACER_SIMAPP_DIR": "/opt/simapp/bundle"},
+                    {
+                        "RACER_WORLD": "wood",
+                        "REVERSE_DIR": "True",
+                        "START_POSITION_OFFSET": 0.25,
+                        "CHANGE_START_POSITION": False,
+                        "WORLD_NAME": "racer_bean",
+                        "ENABLE_DOMAIN_RANDOMIZATION": "True",
+                        "RACER_CAR_RANDOMIZATION": True,
+                    },
+                ],
+            }
+        )
+    )
     trainer = make_trainer(redis_settings, tmp_path, custom_files)
     trainer.setup()
     store = open_store(LocalStoreSettings(root=tmp_path / "store"))
@@ -109,13 +138,26 @@ def test_per_worker_settings_travel_from_workers_json_to_each_worker(redis_setti
         params, key = read_training_params(store, layout, worker_id)
         assert key == layout.training_params(worker_id)  # the workers differ: one file each
         read_back.append(WorkerSettings.from_training_params(params, source=key))
-    assert read_back[0] == WorkerSettings(world="concrete", track="racer_oval", min_eval_trials=2,
-                                          best_model_metric="laptime", eval_spread_starts=True,
-                                          simapp_dir="/opt/simapp/bundle")
-    assert read_back[1] == WorkerSettings(world="wood", track="racer_bean", reverse_dir=True,
-                                          start_position_offset=0.25, change_start_position=False,
-                                          min_eval_trials=2, best_model_metric="laptime", eval_spread_starts=True,
-                                          domain_randomization=True, car_randomization=True)
+    assert read_back[0] == WorkerSettings(
+        world="concrete",
+        track="racer_oval",
+        min_eval_trials=2,
+        best_model_metric="laptime",
+        eval_spread_starts=True,
+        simapp_dir="/opt/simapp/bundle",
+    )
+    assert read_back[1] == WorkerSettings(
+        world="wood",
+        track="racer_bean",
+        reverse_dir=True,
+        start_position_offset=0.25,
+        change_start_position=False,
+        min_eval_trials=2,
+        best_model_metric="laptime",
+        eval_spread_starts=True,
+        domain_randomization=True,
+        car_randomization=True,
+    )
 
 
 def test_a_malformed_workers_json_names_the_file_and_line(redis_settings, tmp_path, custom_files):
@@ -157,15 +199,17 @@ def test_an_announcement_lost_by_redis_is_announced_again(redis_settings, tmp_pa
     assert announcements == 1  # announced again once, not on every check
 
 
-def test_workers_json_names_deepracer_tracks_found_on_the_route_search_path(redis_settings, tmp_path, custom_files,
-                                                                          deepracer_data, monkeypatch):
+def test_workers_json_names_deepracer_tracks_found_on_the_route_search_path(
+    redis_settings, tmp_path, custom_files, deepracer_data, monkeypatch
+):
     """WORLD_NAME as in training_params.yaml, TRACK_DIRECTION_CLOCKWISE as DeepRacer-on-AWS sends it."""
     from racer.rollout_worker.run_files import read_training_params
     from racer.shared.user_errors import RunConfigError
 
     monkeypatch.setenv("RACER_ROUTES_PATH", str(deepracer_data / "routes"))
-    (custom_files / "workers.json").write_text(json.dumps({"WORLD_NAME": "reInvent2019_track",
-                                                           "TRACK_DIRECTION_CLOCKWISE": "true"}))
+    (custom_files / "workers.json").write_text(
+        json.dumps({"WORLD_NAME": "reInvent2019_track", "TRACK_DIRECTION_CLOCKWISE": "true"})
+    )
     trainer = make_trainer(redis_settings, tmp_path, custom_files)
     trainer.setup()
     store = open_store(LocalStoreSettings(root=tmp_path / "store"))
@@ -191,8 +235,16 @@ def test_training_params_keys_work_or_are_refused_by_name(redis_settings, tmp_pa
         with pytest.raises(RunConfigError, match=rf"workers.json.*{key}: '{value}' is not supported yet"):
             make_trainer(redis_settings, tmp_path / key, custom_files).setup()
 
-    (custom_files / "workers.json").write_text(json.dumps({"NUMBER_OF_RESETS": 2, "OFF_TRACK_PENALTY": "1.0",
-                                                           "NUMBER_OF_REVERSE_COUNTS": "5", "RACE_TYPE": "TIME_TRIAL"}))
+    (custom_files / "workers.json").write_text(
+        json.dumps(
+            {
+                "NUMBER_OF_RESETS": 2,
+                "OFF_TRACK_PENALTY": "1.0",
+                "NUMBER_OF_REVERSE_COUNTS": "5",
+                "RACE_TYPE": "TIME_TRIAL",
+            }
+        )
+    )
     make_trainer(redis_settings, tmp_path, custom_files).setup()
     store = open_store(LocalStoreSettings(root=tmp_path / "store"))
     run = load_run_files(store, PREFIX, 1, tmp_path / "worker-1")
@@ -208,6 +260,7 @@ def test_training_params_keys_work_or_are_refused_by_name(redis_settings, tmp_pa
         env.close()
     assert statuses.index("reversed") == 5  # 5 steps of decreasing progress (the SimApp's default would be 15)
     assert statuses[6] == "pause"  # with resets left it pauses for OFF_TRACK_PENALTY and goes on
+
 
 def test_the_iteration_summary_has_each_worlds_experience_rate(redis_settings, tmp_path, custom_files):
     """The viewer's steps/s curve per world: the rates the world's workers measured while playing, added up."""

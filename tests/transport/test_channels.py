@@ -61,8 +61,9 @@ def test_run_survives_redis_restart(redis_server, redis_settings, batch):
     channel.push_batch(batch(1, 1))  # reconnects transparently
     shares = sorted(b.batch.share for b in channel.read_batches("trainer-0", block_s=1))
     assert shares == [0, 1]
-    np.testing.assert_array_equal(channel.read_batches("trainer-0", 0, pending=True)[0].batch.episodes[0].rewards,
-                                  batch(1, 0).episodes[0].rewards)
+    np.testing.assert_array_equal(
+        channel.read_batches("trainer-0", 0, pending=True)[0].batch.episodes[0].rewards, batch(1, 0).episodes[0].rewards
+    )
 
 
 def test_heartbeats_expire(redis_settings):

@@ -9,8 +9,14 @@ from racer.shared.transport.codec import CodecError, EpisodeBatch, decode_batch,
 @pytest.mark.parametrize("continuous", [False, True])
 def test_round_trip_is_exact(continuous, episode_factory):
     make_episode = episode_factory
-    batch = EpisodeBatch(iteration=3, share=1, worker_id=1, world="carpet", policy_version=3,
-                         episodes=(make_episode(40, 1, continuous), make_episode(7, 2, continuous)))
+    batch = EpisodeBatch(
+        iteration=3,
+        share=1,
+        worker_id=1,
+        world="carpet",
+        policy_version=3,
+        episodes=(make_episode(40, 1, continuous), make_episode(7, 2, continuous)),
+    )
     decoded = decode_batch(encode_batch(batch))
     assert (decoded.iteration, decoded.share, decoded.worker_id, decoded.world) == (3, 1, 1, "carpet")
     for original, copy in zip(batch.episodes, decoded.episodes, strict=True):
@@ -41,7 +47,14 @@ def test_rejects_foreign_messages():
 def test_rejects_mismatched_lengths(episode_factory):
     make_episode = episode_factory
     good = make_episode(5, 4)
-    bad = Episode(observations=good.observations, actions=good.actions[:3], rewards=good.rewards,
-                  log_probs=good.log_probs, policy_version=0, worker_id=0, world="base")
+    bad = Episode(
+        observations=good.observations,
+        actions=good.actions[:3],
+        rewards=good.rewards,
+        log_probs=good.log_probs,
+        policy_version=0,
+        worker_id=0,
+        world="base",
+    )
     with pytest.raises(ValueError, match="actions has 3 steps"):
         encode_batch(EpisodeBatch(0, 0, 0, "base", 0, (bad,)))

@@ -30,8 +30,14 @@ def drive(tap: FrameTap, clock: SteppedClock, steps: int, seed: int = 0, first_s
     rows = []
     for step in range(first_step, first_step + steps):
         image = rng.integers(0, 255, size=(120, 160, 1), dtype=np.uint8)
-        row = {"steps": step, "X": 0.1 * step, "Y": 2.0, "yaw": 30.0 + step, "progress": step / 3,
-               "episode_status": "in_progress"}
+        row = {
+            "steps": step,
+            "X": 0.1 * step,
+            "Y": 2.0,
+            "yaw": 30.0 + step,
+            "progress": step / 3,
+            "episode_status": "in_progress",
+        }
         tap({"FRONT_FACING_CAMERA": image}, 1.0, {"simtrace": row})
         rows.append(row)
         clock.now_s += 1 / 15
@@ -52,8 +58,9 @@ def test_frames_are_capped_and_stop_when_the_viewer_leaves(redis_settings):
     link = RedisLink(redis_settings)
     channel = FrameChannel(link, "run-f")
     clock = SteppedClock()
-    tap = FrameTap(channel, worker_id=1, world="wood", settings=FrameSettings(max_fps=4.0, watch_check_s=1.0),
-                   clock=clock)
+    tap = FrameTap(
+        channel, worker_id=1, world="wood", settings=FrameSettings(max_fps=4.0, watch_check_s=1.0), clock=clock
+    )
     channel.mark_watching()
     rows = drive(tap, clock, 150)  # 10 s of env steps at real time
     assert 35 <= tap.published <= 41, tap.published  # about 4 per second, not 15

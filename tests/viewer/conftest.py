@@ -36,24 +36,43 @@ def write_drfc_run(store_root: Path, deepracer_data: Path) -> Path:
     evaluation = model / EVALUATION_RUN
     (evaluation / "evaluation-simtrace").mkdir(parents=True)
     (evaluation / "evaluation-simtrace" / "0-iteration.csv").write_bytes(
-        (simtrace / "drfc1_evaluation_0-iteration.csv").read_bytes())
+        (simtrace / "drfc1_evaluation_0-iteration.csv").read_bytes()
+    )
     (model / "metrics").mkdir()
     (model / "metrics" / "TrainingMetrics.json").write_bytes(
-        (deepracer_data / "metrics" / "drfc1_TrainingMetrics.json").read_bytes())
+        (deepracer_data / "metrics" / "drfc1_TrainingMetrics.json").read_bytes()
+    )
     route = deepracer_data / "routes" / "reinvent_base.npy"
     (model / "training_params.yaml").write_text(f"WORLD_NAME: {route}\nNUM_WORKERS: '1'\nRACER_WORLD: base\n")
     (model / "model").mkdir()
     (model / "model" / "model_metadata.json").write_bytes(
-        (deepracer_data / "config" / "drfc1_model_metadata.json").read_bytes())
+        (deepracer_data / "config" / "drfc1_model_metadata.json").read_bytes()
+    )
     video = evaluation / "camera-topview" / "0-video.mp4"
     video.parent.mkdir()
     frames = np.zeros((8, 48, 64, 3), dtype=np.uint8)
     frames[:, :, :, 1] = np.linspace(0, 255, 8, dtype=np.uint8)[:, None, None]
     iio.imwrite(video, frames, fps=15, codec="libx264")
-    (evaluation / "summary.json").write_text(json.dumps({
-        "mode": "deepracer", "checkpoint": "26_Step-52000.ckpt", "laps_completed": 1, "best_lap_time_s": 12.5,
-        "laps": [{"lap": 1, "label": "Lap complete", "lap_time_s": 12.5, "elapsed_s": 12.5, "progress_pct": 100.0,
-                  "put_backs": 0}]}))
+    (evaluation / "summary.json").write_text(
+        json.dumps(
+            {
+                "mode": "deepracer",
+                "checkpoint": "26_Step-52000.ckpt",
+                "laps_completed": 1,
+                "best_lap_time_s": 12.5,
+                "laps": [
+                    {
+                        "lap": 1,
+                        "label": "Lap complete",
+                        "lap_time_s": 12.5,
+                        "elapsed_s": 12.5,
+                        "progress_pct": 100.0,
+                        "put_backs": 0,
+                    }
+                ],
+            }
+        )
+    )
     (store_root / "secret.json").write_text('{"secret": true}')
     (store_root / (DRFC_MODEL + "-other")).mkdir()
     (store_root / (DRFC_MODEL + "-other") / "x.json").write_text('{"other": true}')

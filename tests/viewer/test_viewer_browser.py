@@ -45,12 +45,20 @@ return [img.dataset.frameId, hash, canvas.width, canvas.height];
 @pytest.fixture
 def browser():
     if not (Path(CHROMIUM).is_file() and Path(CHROMEDRIVER).is_file()):
-        raise FileNotFoundError(f"{CHROMIUM} and {CHROMEDRIVER} are needed (scripts/setup.sh installs Debian's "
-                                "chromium and chromium-driver)")
+        raise FileNotFoundError(
+            f"{CHROMIUM} and {CHROMEDRIVER} are needed (scripts/setup.sh installs Debian's "
+            "chromium and chromium-driver)"
+        )
     options = webdriver.ChromeOptions()
     options.binary_location = CHROMIUM
-    for argument in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage", "--window-size=1500,1900",
-                     "--disable-gpu", "--hide-scrollbars"):
+    for argument in (
+        "--headless=new",
+        "--no-sandbox",
+        "--disable-dev-shm-usage",
+        "--window-size=1500,1900",
+        "--disable-gpu",
+        "--hide-scrollbars",
+    ):
         options.add_argument(argument)
     # An explicit driver path: selenium-manager is never asked to find or download anything.
     driver = webdriver.Chrome(service=Service(executable_path=CHROMEDRIVER), options=options)
@@ -74,9 +82,30 @@ def test_live_page_follows_a_running_training(tmp_path, browser):
     port = free_port()
     env = dict(os.environ, RACER_STORE=str(store), MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"))
     train = subprocess.Popen(
-        [sys.executable, "-m", "racer.cli", "train", "--custom-files", str(custom_files), "--workers", "2",
-         "--worlds", "base,wood", "--model-prefix", MODEL, "--max-episodes", "400", "--viewer-port", str(port)],
-        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env, cwd=tmp_path)
+        [
+            sys.executable,
+            "-m",
+            "racer.cli",
+            "train",
+            "--custom-files",
+            str(custom_files),
+            "--workers",
+            "2",
+            "--worlds",
+            "base,wood",
+            "--model-prefix",
+            MODEL,
+            "--max-episodes",
+            "400",
+            "--viewer-port",
+            str(port),
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        env=env,
+        cwd=tmp_path,
+    )
     logs = store / ".runs" / MODEL
     replacement: subprocess.Popen | None = None
     url = f"http://127.0.0.1:{port}/"
@@ -98,6 +127,7 @@ def test_live_page_follows_a_running_training(tmp_path, browser):
         return {w["id"]: w for w in json.loads(body)["workers"]}
 
     try:
+
         def page_answers() -> bool:
             try:
                 return urllib.request.urlopen(url, timeout=2).status == 200
@@ -113,27 +143,43 @@ def test_live_page_follows_a_running_training(tmp_path, browser):
         # A camera frame arrives (an image decoded by the browser), then a different one.
         first = wait_for("worker 0's first camera frame", lambda: browser.execute_script(PIXEL_HASH), 180, describe)
         assert first[2:] == [160, 120]
-        second = wait_for("a new, different frame",
-                          lambda: (frame := browser.execute_script(PIXEL_HASH)) and frame[0] != first[0]
-                          and frame[1] != first[1] and frame, 120, describe)
+        second = wait_for(
+            "a new, different frame",
+            lambda: (
+                (frame := browser.execute_script(PIXEL_HASH))
+                and frame[0] != first[0]
+                and frame[1] != first[1]
+                and frame
+            ),
+            120,
+            describe,
+        )
         assert second[1] != first[1]
-        assert browser.execute_script(
-            "return window.racerViewer.workers.get(0).chart.data.datasets[4].data.length") == 1  # the car on the map
+        assert (
+            browser.execute_script("return window.racerViewer.workers.get(0).chart.data.datasets[4].data.length") == 1
+        )  # the car on the map
 
         # The curves gain a point after an iteration.
         points = lambda: int(browser.find_element("id", "curves").get_attribute("data-points"))  # noqa: E731
         before = wait_for("a first iteration", points, 180, describe)
         wait_for("one more iteration on the curves", lambda: points() > before, 180, describe)
         assert browser.execute_script("return window.racerViewer.charts.reward.data.labels.length") == points()
-        wait_for("an evaluation row", lambda: browser.find_elements("css selector", "#evaluations tbody tr:not(.empty)"),
-                 180, describe)
+        wait_for(
+            "an evaluation row",
+            lambda: browser.find_elements("css selector", "#evaluations tbody tr:not(.empty)"),
+            180,
+            describe,
+        )
 
         # Stop worker 1 (SIGTERM: it exits cleanly, so racer train does not restart it): the page says DOWN.
         card = lambda: browser.find_element("css selector", '.worker[data-worker="1"]')  # noqa: E731
         wait_for("worker 1 up", lambda: card().get_attribute("data-up") == "true", 60, describe)
         pid = live_workers()[1]["pid"]
-        worker_env = dict(entry.split("=", 1) for entry in
-                          Path(f"/proc/{pid}/environ").read_bytes().decode().split("\0") if "=" in entry)
+        worker_env = dict(
+            entry.split("=", 1)
+            for entry in Path(f"/proc/{pid}/environ").read_bytes().decode().split("\0")
+            if "=" in entry
+        )
         os.kill(pid, signal.SIGTERM)
         wait_for("worker 1 shown as down", lambda: card().get_attribute("data-up") == "false", 90, describe)
         assert "DOWN" in card().text
@@ -141,8 +187,11 @@ def test_live_page_follows_a_running_training(tmp_path, browser):
         # A worker 1 started again (as compose's restart policy or a user would) shows as up again.
         replacement = subprocess.Popen(
             [sys.executable, "-m", "racer.cli", "rollout", "--model-prefix", MODEL, "--worker-id", "1", "--seed", "11"],
-            stdout=open(logs / "worker-1-again.log", "ab"), stderr=subprocess.STDOUT, env=worker_env,
-            preexec_fn=_die_with_parent)
+            stdout=open(logs / "worker-1-again.log", "ab"),
+            stderr=subprocess.STDOUT,
+            env=worker_env,
+            preexec_fn=_die_with_parent,
+        )
         wait_for("worker 1 back up", lambda: card().get_attribute("data-up") == "true", 120, describe)
         assert "DOWN" not in card().find_element("css selector", ".pill").text
         assert "restarted" in card().text

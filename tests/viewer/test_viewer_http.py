@@ -59,8 +59,11 @@ def store_viewer(drfc_store):
 def test_page_and_static_files_have_their_content_types(store_viewer):
     status, kind, body = get(store_viewer.url + "/")
     assert status == 200 and kind.startswith("text/html") and b"/static/viewer.js" in body
-    for name, expected in [("viewer.js", "javascript"), ("style.css", "text/css"),
-                           ("chart-4.6.1.umd.min.js", "javascript")]:
+    for name, expected in [
+        ("viewer.js", "javascript"),
+        ("style.css", "text/css"),
+        ("chart-4.6.1.umd.min.js", "javascript"),
+    ]:
         status, kind, body = get(f"{store_viewer.url}/static/{name}")
         assert status == 200 and expected in kind and len(body) > 1000, name
     assert get(store_viewer.url + "/static/nothing.js")[0] == 404
@@ -116,9 +119,15 @@ def test_files_never_leave_the_model_folder(store_viewer):
     assert get(f"{url}/files/metrics/none.json")[0] == 404
     assert get(f"{url}/files/model")[0] == 404  # a folder
     assert get(f"{url}/files/reward_function.pyc")[0] == 404  # a type it does not serve
-    for path in ["/files/../secret.json", "/files/..%2Fsecret.json", "/files/%2E%2E/secret.json",
-                 f"/files/../{DRFC_MODEL}-other/x.json", "/files//etc/passwd", "/files/model/escape.json",
-                 "/files/model/..%2F..%2Fsecret.json"]:
+    for path in [
+        "/files/../secret.json",
+        "/files/..%2Fsecret.json",
+        "/files/%2E%2E/secret.json",
+        f"/files/../{DRFC_MODEL}-other/x.json",
+        "/files//etc/passwd",
+        "/files/model/escape.json",
+        "/files/model/..%2F..%2Fsecret.json",
+    ]:
         assert raw_get(port, path) == 404, path
 
 
@@ -130,9 +139,23 @@ def test_view_refuses_what_is_not_a_run(tmp_path, monkeypatch):
 
 def publish_frame(frames: FrameChannel, worker_id: int, seq: int, shade: int) -> Frame:
     image = np.full((120, 160), shade, dtype=np.uint8)
-    frame = Frame(worker_id=worker_id, world="carpet", session="s1", seq=seq, time=time.time(), jpeg=jpeg_bytes(image),
-                  x_m=1.5, y_m=-0.5, heading_deg=45.0, trail=((1.0, -0.5), (1.5, -0.5)), step=seq, progress=12.0,
-                  episode_reward=3.0, status="in_progress", phase="training")
+    frame = Frame(
+        worker_id=worker_id,
+        world="carpet",
+        session="s1",
+        seq=seq,
+        time=time.time(),
+        jpeg=jpeg_bytes(image),
+        x_m=1.5,
+        y_m=-0.5,
+        heading_deg=45.0,
+        trail=((1.0, -0.5), (1.5, -0.5)),
+        step=seq,
+        progress=12.0,
+        episode_reward=3.0,
+        status="in_progress",
+        phase="training",
+    )
     frames.publish(frame)
     return frame
 
@@ -151,8 +174,9 @@ def test_live_endpoints_show_workers_frames_and_a_lost_redis(tmp_path, redis_ser
         assert info["live"] and [w["world"] for w in info["workers"]] == ["base", "carpet"]
         assert info["track"]["name"] == "racer_oval" and info["track"]["length_m"] > 10
 
-        run.beat(1, {"state": "playing", "iteration": 3, "episodes": 7, "world": "carpet", "steps_per_s": 120.0,
-                     "pid": 4242})
+        run.beat(
+            1, {"state": "playing", "iteration": 3, "episodes": 7, "world": "carpet", "steps_per_s": 120.0, "pid": 4242}
+        )
         publish_frame(frames, 1, seq=5, shade=200)
         assert not frames.is_watched()
         status, kind, body = get(served.url + "/api/live")
@@ -191,8 +215,13 @@ def test_live_endpoints_show_workers_frames_and_a_lost_redis(tmp_path, redis_ser
 def test_racer_view_serves_a_model_folder_and_refuses_anything_else(drfc_store, tmp_path):
     port = free_port()
     env = dict(os.environ, RACER_STORE=str(tmp_path / "elsewhere"))
-    server = subprocess.Popen([sys.executable, "-m", "racer.cli", "view", str(drfc_store / DRFC_MODEL), "--port",
-                               str(port)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env)
+    server = subprocess.Popen(
+        [sys.executable, "-m", "racer.cli", "view", str(drfc_store / DRFC_MODEL), "--port", str(port)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        env=env,
+    )
     try:
         deadline = time.monotonic() + 60
         while True:
@@ -207,6 +236,11 @@ def test_racer_view_serves_a_model_folder_and_refuses_anything_else(drfc_store, 
         server.terminate()
         output, _ = server.communicate(timeout=30)
     assert f"at http://localhost:{port}/" in output
-    refused = subprocess.run([sys.executable, "-m", "racer.cli", "view", "no-such-model"], capture_output=True,
-                             text=True, env=env, timeout=60)
+    refused = subprocess.run(
+        [sys.executable, "-m", "racer.cli", "view", "no-such-model"],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=60,
+    )
     assert refused.returncode != 0 and "no-such-model" in refused.stderr and "no model folder" in refused.stderr

@@ -81,9 +81,15 @@ def _layers(config: PolicyConfig) -> list[dict]:
             dense = architecture.stereo_dense if stereo else architecture.camera_dense
             channels = spec.shape[2]
             for index, conv in enumerate(convs):
-                layers.append({"type": "conv", "scope": f"Conv2d_{2 * index}", "racer": f"convs.{2 * index}",
-                               "kernel": [conv.kernel_px, conv.kernel_px, channels, conv.filters],
-                               "stride": conv.stride_px})
+                layers.append(
+                    {
+                        "type": "conv",
+                        "scope": f"Conv2d_{2 * index}",
+                        "racer": f"convs.{2 * index}",
+                        "kernel": [conv.kernel_px, conv.kernel_px, channels, conv.filters],
+                        "stride": conv.stride_px,
+                    }
+                )
                 channels = conv.filters
             height, width = spec.shape[0], spec.shape[1]
             for conv in convs:
@@ -98,16 +104,29 @@ def _layers(config: PolicyConfig) -> list[dict]:
             first_dense = 0
             rescale = 1.0
         for index, units in enumerate(dense):
-            layers.append({"type": "dense", "scope": f"Dense_{first_dense + 2 * index}", "racer": f"dense.{2 * index}",
-                           "kernel": [features, units]})
+            layers.append(
+                {
+                    "type": "dense",
+                    "scope": f"Dense_{first_dense + 2 * index}",
+                    "racer": f"dense.{2 * index}",
+                    "kernel": [features, units],
+                }
+            )
             features = units
-        embedders.append({"sensor": spec.name, "shape": list(spec.shape), "rescale": rescale, "layers": layers,
-                          "features": features})
+        embedders.append(
+            {"sensor": spec.name, "shape": list(spec.shape), "rescale": rescale, "layers": layers, "features": features}
+        )
     merged = sum(embedder["features"] for embedder in embedders)
     middleware = []
     for index, units in enumerate(architecture.middleware_dense):
-        middleware.append({"type": "dense", "scope": f"Dense_{2 * index}", "racer": f"middleware.{2 * index}",
-                           "kernel": [merged, units]})
+        middleware.append(
+            {
+                "type": "dense",
+                "scope": f"Dense_{2 * index}",
+                "racer": f"middleware.{2 * index}",
+                "kernel": [merged, units],
+            }
+        )
         merged = units
     return [*embedders, {"middleware": middleware, "features": merged}]
 
@@ -124,8 +143,9 @@ def coach_variables(config: PolicyConfig, include_value: bool = True) -> list[Co
             for layer in embedder["layers"]:
                 prefix = f"{scope}/{embedder['sensor']}/{layer['scope']}"
                 key = f"{tower}.embedders.{embedder['sensor']}.{layer['racer']}"
-                variables.append(CoachVariable(f"{prefix}/kernel", tuple(layer["kernel"]), f"{key}.weight",
-                                               layer["type"]))
+                variables.append(
+                    CoachVariable(f"{prefix}/kernel", tuple(layer["kernel"]), f"{key}.weight", layer["type"])
+                )
                 variables.append(CoachVariable(f"{prefix}/bias", (layer["kernel"][-1],), f"{key}.bias", "same"))
         for layer in middleware["middleware"]:
             prefix = f"{scope}/{MIDDLEWARE_SCOPE}/{layer['scope']}"
@@ -141,12 +161,14 @@ def coach_variables(config: PolicyConfig, include_value: bool = True) -> list[Co
         else:
             fc = "policy_mean" if config.is_continuous else "policy_fc"
             head = f"{scope}/ppo_head_0/{fc}"
-            variables.append(CoachVariable(f"{head}/kernel", (features, config.num_actions), "policy_head.weight",
-                                           "dense"))
+            variables.append(
+                CoachVariable(f"{head}/kernel", (features, config.num_actions), "policy_head.weight", "dense")
+            )
             variables.append(CoachVariable(f"{head}/bias", (config.num_actions,), "policy_head.bias", "same"))
             if config.is_continuous:
-                variables.append(CoachVariable(f"{scope}/ppo_head_0/policy_log_std", (1, config.num_actions),
-                                               "log_std", "row"))
+                variables.append(
+                    CoachVariable(f"{scope}/ppo_head_0/policy_log_std", (1, config.num_actions), "log_std", "row")
+                )
     return variables
 
 
@@ -179,8 +201,10 @@ def coach_tensors_from_racer(config: PolicyConfig, state: Mapping[str, np.ndarra
         else:
             tensors[variable.name] = _to_coach(np.asarray(state[variable.racer_key], dtype=np.float32), variable.layout)
         if tensors[variable.name].shape != variable.shape:
-            raise ValueError(f"{variable.racer_key} has shape {tensors[variable.name].shape} in TensorFlow's layout, "
-                             f"RL Coach's {variable.name} has {variable.shape}")
+            raise ValueError(
+                f"{variable.racer_key} has shape {tensors[variable.name].shape} in TensorFlow's layout, "
+                f"RL Coach's {variable.name} has {variable.shape}"
+            )
     return tensors
 
 
@@ -188,8 +212,9 @@ class CoachMismatchError(ValueError):
     """TensorFlow variables that racer's network for the given model_metadata.json cannot take, listed one by one."""
 
 
-def racer_state_from_coach(config: PolicyConfig, tensors: Mapping[str, np.ndarray],
-                           include_value: bool) -> dict[str, np.ndarray]:
+def racer_state_from_coach(
+    config: PolicyConfig, tensors: Mapping[str, np.ndarray], include_value: bool
+) -> dict[str, np.ndarray]:
     """RL Coach's variables -> racer state_dict entries (policy tower and head; the value tower too if asked).
 
     Raises CoachMismatchError listing every missing variable, wrong shape and unexpected network variable, so the
@@ -205,15 +230,20 @@ def racer_state_from_coach(config: PolicyConfig, tensors: Mapping[str, np.ndarra
         if variable.shape == () and array.size == 1:  # a scalar (safetensors stores it as shape [1])
             array = array.reshape(())
         if tuple(array.shape) != variable.shape:
-            problems.append(f"{variable.name} has shape {list(array.shape)}, racer's network needs {list(variable.shape)}")
+            problems.append(
+                f"{variable.name} has shape {list(array.shape)}, racer's network needs {list(variable.shape)}"
+            )
             continue
         if variable.racer_key is not None:
             state[variable.racer_key] = _to_racer(array.astype(np.float32), variable.layout)
     known = {variable.name for variable in coach_variables(config, include_value=True)}
     scopes = (POLICY_NETWORK + "/", VALUE_NETWORK + "/") if include_value else (POLICY_NETWORK + "/",)
     extra = sorted(name for name in tensors if name.startswith(scopes) and name not in known)
-    problems += [f"unexpected {name} {list(np.shape(tensors[name]))} (no such layer in racer's "
-                 f"{config.neural_network} for these sensors)" for name in extra]
+    problems += [
+        f"unexpected {name} {list(np.shape(tensors[name]))} (no such layer in racer's "
+        f"{config.neural_network} for these sensors)"
+        for name in extra
+    ]
     if problems:
         raise CoachMismatchError("; ".join(problems))
     return state

@@ -23,8 +23,15 @@ from racer.model_io.tensorflow.errors import UnsupportedGraphError
 from racer.model_io.tensorflow.runner import run_tool
 from racer.shared.policy.networks import PIXEL_SCALE, ActorCritic, PolicyConfig
 
-__all__ = ["ExportJob", "ImportedNetwork", "TF_CHECKPOINT_SUFFIXES", "UnsupportedGraphError", "network_from_frozen_graph",
-           "network_from_tf_checkpoint", "tensorflow_files"]
+__all__ = [
+    "ExportJob",
+    "ImportedNetwork",
+    "TF_CHECKPOINT_SUFFIXES",
+    "UnsupportedGraphError",
+    "network_from_frozen_graph",
+    "network_from_tf_checkpoint",
+    "tensorflow_files",
+]
 
 TF_CHECKPOINT_SUFFIXES = (".index", ".data-00000-of-00001", ".meta")
 
@@ -77,7 +84,9 @@ def tensorflow_files(jobs: list[ExportJob]) -> list[dict[str, bytes]]:
                 files[f"model_{job.number}.pb"] = (work / str(index) / f"model_{job.number}.pb").read_bytes()
             if job.checkpoint_name is not None:
                 for suffix in TF_CHECKPOINT_SUFFIXES:
-                    files[job.checkpoint_name + suffix] = (work / str(index) / (job.checkpoint_name + suffix)).read_bytes()
+                    files[job.checkpoint_name + suffix] = (
+                        work / str(index) / (job.checkpoint_name + suffix)
+                    ).read_bytes()
             outputs.append(files)
     return outputs
 
@@ -96,8 +105,10 @@ def network_from_tf_checkpoint(checkpoint_prefix: Path, config: PolicyConfig) ->
     """A DeepRacer (RL Coach) TensorFlow checkpoint -> racer network; value network restored when it is there."""
     result, tensors = run_tool("read_checkpoint", {"checkpoint_prefix": str(checkpoint_prefix)})
     _refuse_foreign(result["variables"], config)
-    has_value = any(name.startswith("main_level/agent/main/online/network_0/") and "v_values_head_0" in name
-                    for name in result["variables"])
+    has_value = any(
+        name.startswith("main_level/agent/main/online/network_0/") and "v_values_head_0" in name
+        for name in result["variables"]
+    )
     try:
         state = racer_state_from_coach(config, tensors, include_value=has_value)
     except ValueError as error:
@@ -109,60 +120,85 @@ def network_from_tf_checkpoint(checkpoint_prefix: Path, config: PolicyConfig) ->
 def _refuse_foreign(variables: dict, config: PolicyConfig) -> None:
     names = list(variables)
     if any("/agent/policy/" in name or "sac_" in name for name in names):
-        raise UnsupportedGraphError("this is a SAC model (variables under main_level/agent/policy/...); racer's "
-                                    "trainer and evaluator run clipped-PPO networks only")
+        raise UnsupportedGraphError(
+            "this is a SAC model (variables under main_level/agent/policy/...); racer's "
+            "trainer and evaluator run clipped-PPO networks only"
+        )
     if not any(name.startswith("main_level/agent/main/online/network_1/") for name in names):
         sample = ", ".join(names[:5]) or "none"
-        raise UnsupportedGraphError(f"no RL Coach PPO policy network (main_level/agent/main/online/network_1/...) "
-                                    f"among the variables (first: {sample})")
+        raise UnsupportedGraphError(
+            f"no RL Coach PPO policy network (main_level/agent/main/online/network_1/...) "
+            f"among the variables (first: {sample})"
+        )
 
 
 def network_from_frozen_graph(frozen_path: Path, config: PolicyConfig) -> ImportedNetwork:
     """A DeepRacer frozen graph (`model_<N>.pb` or the car's `agent/model.pb`) -> racer network.
 
     The graph holds the policy only: the value network starts fresh (say so to the user)."""
-    result, tensors = run_tool("read_frozen", {"frozen_path": str(frozen_path), "output_nodes": [
-        POLICY_OUTPUT_NODE, "main_level/agent/policy/online/network_0/sac_policy_head_0/policy"]})
+    result, tensors = run_tool(
+        "read_frozen",
+        {
+            "frozen_path": str(frozen_path),
+            "output_nodes": [POLICY_OUTPUT_NODE, "main_level/agent/policy/online/network_0/sac_policy_head_0/policy"],
+        },
+    )
     output = result["output_node"]
     if output is None:
-        raise UnsupportedGraphError(f"{frozen_path}: no node {POLICY_OUTPUT_NODE} (the SimApp's PPO output); "
-                                    f"nodes include {', '.join(result.get('node_names_sample', []))}")
+        raise UnsupportedGraphError(
+            f"{frozen_path}: no node {POLICY_OUTPUT_NODE} (the SimApp's PPO output); "
+            f"nodes include {', '.join(result.get('node_names_sample', []))}"
+        )
     if "sac_policy_head" in output:
         raise UnsupportedGraphError(f"{frozen_path}: a SAC policy graph; racer runs clipped-PPO networks only")
     if result["unsupported_ops"]:
-        described = "; ".join(f"{op} at {', '.join(names[:3])}" for op, names in sorted(result["unsupported_ops"].items()))
+        described = "; ".join(
+            f"{op} at {', '.join(names[:3])}" for op, names in sorted(result["unsupported_ops"].items())
+        )
         raise UnsupportedGraphError(f"{frozen_path}: the graph has layers racer's networks do not have ({described})")
     expected_output_op = "Identity" if config.is_continuous else "Softmax"
     if result["output_op"] != expected_output_op:
-        raise UnsupportedGraphError(f"{frozen_path}: the output is a {result['output_op']} op; model_metadata.json's "
-                                    f"{config.action_space_type} action space needs {expected_output_op}")
-    wanted_inputs = {f"main_level/agent/main/online/network_0/{spec.name}/{spec.name}": [-1, *spec.shape]
-                     for spec in config.inputs}
+        raise UnsupportedGraphError(
+            f"{frozen_path}: the output is a {result['output_op']} op; model_metadata.json's "
+            f"{config.action_space_type} action space needs {expected_output_op}"
+        )
+    wanted_inputs = {
+        f"main_level/agent/main/online/network_0/{spec.name}/{spec.name}": [-1, *spec.shape] for spec in config.inputs
+    }
     if set(result["placeholders"]) != set(wanted_inputs):
-        raise UnsupportedGraphError(f"{frozen_path}: inputs {sorted(result['placeholders'])}, but model_metadata.json's "
-                                    f"sensors need {sorted(wanted_inputs)}")
+        raise UnsupportedGraphError(
+            f"{frozen_path}: inputs {sorted(result['placeholders'])}, but model_metadata.json's "
+            f"sensors need {sorted(wanted_inputs)}"
+        )
     for name, shape in result["placeholders"].items():
         if shape and shape[1:] != wanted_inputs[name][1:]:
-            raise UnsupportedGraphError(f"{frozen_path}: input {name} has shape {shape}, racer needs "
-                                        f"{wanted_inputs[name]}")
+            raise UnsupportedGraphError(
+                f"{frozen_path}: input {name} has shape {shape}, racer needs {wanted_inputs[name]}"
+            )
     scalars = result.get("scalars", {})
     for spec in config.inputs:  # RL Coach divides camera pixels by 255 inside the graph, lidar values by 1
         wanted_scale = PIXEL_SCALE if spec.kind == "camera" else 1.0
         scale = scalars.get(f"{POLICY_NETWORK}/{spec.name}/truediv/y", wanted_scale)
         if scale != wanted_scale:
-            raise UnsupportedGraphError(f"{frozen_path}: input {spec.name} is divided by {scale} inside the graph; "
-                                        f"racer's network divides it by {wanted_scale}")
+            raise UnsupportedGraphError(
+                f"{frozen_path}: input {spec.name} is divided by {scale} inside the graph; "
+                f"racer's network divides it by {wanted_scale}"
+            )
     weights = {name: value for name, value in tensors.items() if name.endswith(("/kernel", "/bias", "policy_log_std"))}
     if config.is_continuous:
-        weights.setdefault("main_level/agent/main/online/network_1/ppo_head_0/policy_log_std",
-                           np.zeros((1, config.num_actions), dtype=np.float32))
+        weights.setdefault(
+            "main_level/agent/main/online/network_1/ppo_head_0/policy_log_std",
+            np.zeros((1, config.num_actions), dtype=np.float32),
+        )
     weights["main_level/agent/main/online/network_1/gradients_from_head_0-0_rescalers"] = np.asarray(1.0, np.float32)
     try:
         state = racer_state_from_coach(config, weights, include_value=False)
     except ValueError as error:
         raise UnsupportedGraphError(f"{frozen_path}: {error}") from None
-    notes = ["a frozen graph holds the policy only: the value network starts fresh (its first iterations of "
-             "training learn it; expect a short dip)"]
+    notes = [
+        "a frozen graph holds the policy only: the value network starts fresh (its first iterations of "
+        "training learn it; expect a short dip)"
+    ]
     if config.is_continuous:
         notes.append("a frozen graph has no policy log-std: racer starts it at 0 (std 1.0), RL Coach's initial value")
     return ImportedNetwork(_network_with(config, state), False, tuple(notes))

@@ -26,12 +26,24 @@ from racer.model_io.tensorflow.runner import run_tool
 from racer.shared.deepracer.model_metadata import NEURAL_NETWORKS, parse_model_metadata
 from racer.shared.policy.networks import ActorCritic, build_actor_critic
 
-__all__ = ["FP16_TOLERANCE", "FP32_TOLERANCE", "ModelSpec", "RUNTIMES", "SENSOR_SETS", "all_specs", "make_model",
-           "render_frames", "run_proof", "summarize"]
+__all__ = [
+    "FP16_TOLERANCE",
+    "FP32_TOLERANCE",
+    "ModelSpec",
+    "RUNTIMES",
+    "SENSOR_SETS",
+    "all_specs",
+    "make_model",
+    "render_frames",
+    "run_proof",
+    "summarize",
+]
 
 SENSOR_SETS: tuple[tuple[str, ...], ...] = tuple(
-    (camera, *lidar) for camera in ("FRONT_FACING_CAMERA", "STEREO_CAMERAS")
-    for lidar in ((), ("LIDAR",), ("SECTOR_LIDAR",), ("DISCRETIZED_SECTOR_LIDAR",)))
+    (camera, *lidar)
+    for camera in ("FRONT_FACING_CAMERA", "STEREO_CAMERAS")
+    for lidar in ((), ("LIDAR",), ("SECTOR_LIDAR",), ("DISCRETIZED_SECTOR_LIDAR",))
+)
 """The SimApp's validation_worker.get_transition_data: a front camera or stereo cameras, alone or with one lidar."""
 RUNTIMES = ("tensorflow", "openvino_fp32", "litert_fp32", "openvino_fp16", "litert_fp16")
 FP32_TOLERANCE = 1e-5
@@ -54,15 +66,24 @@ class ModelSpec:
             space: object = {"steering_angle": {"low": -30, "high": 30}, "speed": {"low": 0.5, "high": 3}}
         else:
             space = [{"steering_angle": angle, "speed": speed} for angle in (-30, -15, 0, 15, 30) for speed in (1, 2)]
-        return {"action_space": space, "sensor": list(self.sensors), "neural_network": self.neural_network,
-                "action_space_type": "continuous" if self.continuous else "discrete",
-                "training_algorithm": "clipped_ppo", "version": "5",
-                "lidar_config": {"num_sectors": 8, "num_values_per_sector": 4, "clipping_dist": 2.0}}
+        return {
+            "action_space": space,
+            "sensor": list(self.sensors),
+            "neural_network": self.neural_network,
+            "action_space_type": "continuous" if self.continuous else "discrete",
+            "training_algorithm": "clipped_ppo",
+            "version": "5",
+            "lidar_config": {"num_sectors": 8, "num_values_per_sector": 4, "clipping_dist": 2.0},
+        }
 
 
 def all_specs() -> list[ModelSpec]:
-    return [ModelSpec(network, sensors, continuous) for network in NEURAL_NETWORKS for sensors in SENSOR_SETS
-            for continuous in (False, True)]
+    return [
+        ModelSpec(network, sensors, continuous)
+        for network in NEURAL_NETWORKS
+        for sensors in SENSOR_SETS
+        for continuous in (False, True)
+    ]
 
 
 def make_model(spec: ModelSpec, seed: int) -> ActorCritic:
@@ -81,8 +102,11 @@ def render_frames(count: int) -> dict[str, np.ndarray]:
     from racer.shared.sim.env import DeepRacerEnv
 
     rendered: dict[str, np.ndarray] = {}
-    for sensors in (("FRONT_FACING_CAMERA", "LIDAR"), ("STEREO_CAMERAS", "SECTOR_LIDAR"),
-                    ("FRONT_FACING_CAMERA", "DISCRETIZED_SECTOR_LIDAR")):
+    for sensors in (
+        ("FRONT_FACING_CAMERA", "LIDAR"),
+        ("STEREO_CAMERAS", "SECTOR_LIDAR"),
+        ("FRONT_FACING_CAMERA", "DISCRETIZED_SECTOR_LIDAR"),
+    ):
         metadata = parse_model_metadata(ModelSpec(NEURAL_NETWORKS[0], sensors, False).metadata(), "proof metadata")
         env = DeepRacerEnv(EnvConfig(model_metadata=metadata), wall_clock=lambda: 1700000000.0)
         try:
@@ -102,8 +126,7 @@ def render_frames(count: int) -> dict[str, np.ndarray]:
     return rendered
 
 
-def run_proof(specs: list[ModelSpec], frames: dict[str, np.ndarray],
-              runtimes: tuple[str, ...] = RUNTIMES) -> dict:
+def run_proof(specs: list[ModelSpec], frames: dict[str, np.ndarray], runtimes: tuple[str, ...] = RUNTIMES) -> dict:
     """racer's policy outputs and every runtime's, per model key; `cpu_s`: TensorFlow-process CPU seconds per
     model and runtime (conversion included)."""
     expected, requests = {}, []
@@ -113,14 +136,18 @@ def run_proof(specs: list[ModelSpec], frames: dict[str, np.ndarray],
             feeds = {name: torch.from_numpy(frames[name]) for name in model.input_names}
             with torch.inference_mode():
                 expected[spec.key] = model.policy_output(feeds).numpy()
-            weights = coach_tensors_from_racer(model.config, {name: value.numpy() for name, value
-                                                              in model.state_dict().items()})
+            weights = coach_tensors_from_racer(
+                model.config, {name: value.numpy() for name, value in model.state_dict().items()}
+            )
             path = Path(folder) / f"{index}.safetensors"
             save_file({name: value for name, value in weights.items() if name.startswith(POLICY_NETWORK)}, str(path))
             requests.append({"key": spec.key, "graph": graph_spec(model.config), "weights_path": str(path)})
             del model, weights
-        result, outputs = run_tool("prove", {"models": requests, "runtimes": list(runtimes)},
-                                   {input_node(name): value for name, value in frames.items()})
+        result, outputs = run_tool(
+            "prove",
+            {"models": requests, "runtimes": list(runtimes)},
+            {input_node(name): value for name, value in frames.items()},
+        )
     return {"expected": expected, "outputs": outputs, "cpu_s": result["cpu_s"], "runtimes": list(runtimes)}
 
 
@@ -129,10 +156,18 @@ def summarize(proof: dict) -> dict:
     figures: dict = {"models": len(proof["expected"])}
     ok = True
     for runtime in proof["runtimes"]:
-        worst = max(float(np.abs(proof["outputs"][f"{key}|{runtime}"] - value).max())
-                    for key, value in proof["expected"].items())
-        same = min((float(np.mean(proof["outputs"][f"{key}|{runtime}"].argmax(1) == value.argmax(1)))
-                    for key, value in proof["expected"].items() if key.endswith("discrete")), default=1.0)
+        worst = max(
+            float(np.abs(proof["outputs"][f"{key}|{runtime}"] - value).max())
+            for key, value in proof["expected"].items()
+        )
+        same = min(
+            (
+                float(np.mean(proof["outputs"][f"{key}|{runtime}"].argmax(1) == value.argmax(1)))
+                for key, value in proof["expected"].items()
+                if key.endswith("discrete")
+            ),
+            default=1.0,
+        )
         fp16 = runtime.endswith("fp16")
         ok = ok and worst <= (FP16_TOLERANCE if fp16 else FP32_TOLERANCE) and (not fp16 or same >= FP16_SAME_ACTION)
         cpu = sum(times.get(runtime, 0.0) for times in proof["cpu_s"].values())
@@ -148,8 +183,11 @@ def tf_proof_command(frame_count: int) -> None:
     started = time.monotonic()
     print(f"rendering {frame_count} frames per sensor ...", file=sys.stderr, flush=True)
     frames = render_frames(frame_count)
-    print("48 models through TensorFlow, OpenVINO and LiteRT in one TensorFlow process (several minutes) ...",
-          file=sys.stderr, flush=True)
+    print(
+        "48 models through TensorFlow, OpenVINO and LiteRT in one TensorFlow process (several minutes) ...",
+        file=sys.stderr,
+        flush=True,
+    )
     figures = summarize(run_proof(all_specs(), frames))
     figures["frames"] = frame_count
     figures["wall_s"] = round(time.monotonic() - started, 1)

@@ -19,13 +19,21 @@ from pathlib import Path
 import numpy as np
 from safetensors.numpy import load_file, save_file
 
-__all__ = ["INSTALL_HINT", "TensorFlowMissingError", "TensorFlowToolError", "require_tensorflow", "run_tool",
-           "tensorflow_available"]
+__all__ = [
+    "INSTALL_HINT",
+    "TensorFlowMissingError",
+    "TensorFlowToolError",
+    "require_tensorflow",
+    "run_tool",
+    "tensorflow_available",
+]
 
 TOOL_MODULE = "racer.model_io.tensorflow.tool"
-INSTALL_HINT = ("install racer's optional TensorFlow extra (tensorflow-cpu, openvino, ai-edge-litert, ~1 GB): "
-                "`.venv/bin/python -m pip install -e '.[tensorflow]'` in the racer checkout "
-                "(scripts/setup.sh installs it too)")
+INSTALL_HINT = (
+    "install racer's optional TensorFlow extra (tensorflow-cpu, openvino, ai-edge-litert, ~1 GB): "
+    "`.venv/bin/python -m pip install -e '.[tensorflow]'` in the racer checkout "
+    "(scripts/setup.sh installs it too)"
+)
 
 
 class TensorFlowMissingError(RuntimeError):
@@ -45,20 +53,32 @@ def require_tensorflow(what: str) -> None:
         raise TensorFlowMissingError(f"{what} needs TensorFlow, which is not installed: {INSTALL_HINT}")
 
 
-def run_tool(command: str, request: Mapping, arrays: Mapping[str, np.ndarray] | None = None,
-             timeout_s: float = 1800.0) -> tuple[dict, dict[str, np.ndarray]]:
+def run_tool(
+    command: str, request: Mapping, arrays: Mapping[str, np.ndarray] | None = None, timeout_s: float = 1800.0
+) -> tuple[dict, dict[str, np.ndarray]]:
     """Run `command` of tool.py in its own interpreter. Returns (result JSON, result arrays)."""
     require_tensorflow(f"`{command}`")
     with tempfile.TemporaryDirectory(prefix="racer-tf-") as folder:
         work = Path(folder)
         (work / "request.json").write_text(json.dumps({**request, "command": command}))
         if arrays:
-            save_file({name: np.ascontiguousarray(value) for name, value in arrays.items()},
-                      str(work / "arrays.safetensors"))
-        environment = {**os.environ, "TF_CPP_MIN_LOG_LEVEL": "2", "CUDA_VISIBLE_DEVICES": "",
-                       "PYTHONWARNINGS": "ignore"}
-        completed = subprocess.run([sys.executable, "-m", TOOL_MODULE, str(work)], capture_output=True, text=True,
-                                   env=environment, timeout=timeout_s, check=False)
+            save_file(
+                {name: np.ascontiguousarray(value) for name, value in arrays.items()}, str(work / "arrays.safetensors")
+            )
+        environment = {
+            **os.environ,
+            "TF_CPP_MIN_LOG_LEVEL": "2",
+            "CUDA_VISIBLE_DEVICES": "",
+            "PYTHONWARNINGS": "ignore",
+        }
+        completed = subprocess.run(
+            [sys.executable, "-m", TOOL_MODULE, str(work)],
+            capture_output=True,
+            text=True,
+            env=environment,
+            timeout=timeout_s,
+            check=False,
+        )
         if completed.returncode != 0:
             tail = "\n".join(completed.stderr.strip().splitlines()[-15:])
             raise TensorFlowToolError(f"TensorFlow step {command!r} failed (exit {completed.returncode}):\n{tail}")

@@ -33,10 +33,29 @@ from safetensors.numpy import load_file, save_file
 tf.compat.v1.disable_eager_execution()
 tf.compat.v1.disable_resource_variables()  # RL Coach's variables are VariableV2, as in DeepRacer's .meta
 
-INFERENCE_OPS = frozenset({
-    "Placeholder", "Const", "Identity", "RealDiv", "Sub", "Conv2D", "BiasAdd", "Relu", "Shape", "StridedSlice",
-    "Pack", "Reshape", "ConcatV2", "MatMul", "Mul", "Add", "AddV2", "StopGradient", "Softmax",
-})
+INFERENCE_OPS = frozenset(
+    {
+        "Placeholder",
+        "Const",
+        "Identity",
+        "RealDiv",
+        "Sub",
+        "Conv2D",
+        "BiasAdd",
+        "Relu",
+        "Shape",
+        "StridedSlice",
+        "Pack",
+        "Reshape",
+        "ConcatV2",
+        "MatMul",
+        "Mul",
+        "Add",
+        "AddV2",
+        "StopGradient",
+        "Softmax",
+    }
+)
 """Op types of RL Coach's PPO inference path; any other op is a layer racer's networks do not have."""
 
 
@@ -70,8 +89,9 @@ def _tower(spec: dict, network: str, placeholders: dict, created: dict):
                     x = tf.reshape(x, [-1, int(np.prod(x.shape[1:]))], name=f"{scope}/Flatten/flatten/Reshape")
                 x = tf.linalg.matmul(x, kernel, name=f"{prefix}/MatMul")
             x = tf.nn.bias_add(x, bias, name=f"{prefix}/BiasAdd")
-            x = tf.nn.relu(x, name=f"{scope}/BatchnormActivationDropout_{int(layer['scope'].rsplit('_', 1)[1]) + 1}"
-                                   "_activation")
+            x = tf.nn.relu(
+                x, name=f"{scope}/BatchnormActivationDropout_{int(layer['scope'].rsplit('_', 1)[1]) + 1}_activation"
+            )
         if len(x.shape) > 2:
             x = tf.reshape(x, [-1, int(np.prod(x.shape[1:]))], name=f"{scope}/Flatten/flatten/Reshape")
         features.append(x)
@@ -82,15 +102,21 @@ def _tower(spec: dict, network: str, placeholders: dict, created: dict):
         kernel = _variable(f"{prefix}/kernel", layer["kernel"], created)
         bias = _variable(f"{prefix}/bias", [layer["kernel"][-1]], created)
         x = tf.nn.bias_add(tf.linalg.matmul(x, kernel, name=f"{prefix}/MatMul"), bias, name=f"{prefix}/BiasAdd")
-        x = tf.nn.relu(x, name=f"{middleware}/BatchnormActivationDropout_{int(layer['scope'].rsplit('_', 1)[1]) + 1}"
-                               "_activation")
+        x = tf.nn.relu(
+            x, name=f"{middleware}/BatchnormActivationDropout_{int(layer['scope'].rsplit('_', 1)[1]) + 1}_activation"
+        )
     rescaler = tf.compat.v1.Variable(tf.constant(1.0), name=f"{network}/{spec['rescaler']}", dtype=tf.float32)
     created[f"{network}/{spec['rescaler']}"] = rescaler
     # RL Coach's head input: (1 - r) * stop_gradient(x) + r * x, which is x for every r.
     head_input = tf.math.add(
-        tf.math.multiply(tf.math.subtract(tf.constant(1.0), rescaler, name=f"{network}/sub"),
-                         tf.stop_gradient(x, name=f"{network}/StopGradient"), name=f"{network}/mul"),
-        tf.math.multiply(rescaler, x, name=f"{network}/mul_1"), name=f"{network}/add")
+        tf.math.multiply(
+            tf.math.subtract(tf.constant(1.0), rescaler, name=f"{network}/sub"),
+            tf.stop_gradient(x, name=f"{network}/StopGradient"),
+            name=f"{network}/mul",
+        ),
+        tf.math.multiply(rescaler, x, name=f"{network}/mul_1"),
+        name=f"{network}/add",
+    )
     return head_input
 
 
@@ -101,8 +127,9 @@ def build_graph(spec: dict, with_value: bool) -> tuple[tf.Graph, dict, dict, dic
     outputs = {}
     with graph.as_default():
         placeholders = {
-            embedder["sensor"]: tf.compat.v1.placeholder(tf.float32, [None, *embedder["shape"]],
-                                                         name=spec["input_nodes"][embedder["sensor"]])
+            embedder["sensor"]: tf.compat.v1.placeholder(
+                tf.float32, [None, *embedder["shape"]], name=spec["input_nodes"][embedder["sensor"]]
+            )
             for embedder in spec["embedders"]
         }
         if with_value:
@@ -110,8 +137,9 @@ def build_graph(spec: dict, with_value: bool) -> tuple[tf.Graph, dict, dict, dic
             head = f"{spec['value_network']}/v_values_head_0/output"
             kernel = _variable(f"{head}/kernel", [int(value_input.shape[-1]), 1], created)
             bias = _variable(f"{head}/bias", [1], created)
-            outputs["value"] = tf.nn.bias_add(tf.linalg.matmul(value_input, kernel, name=f"{head}/MatMul"), bias,
-                                              name=f"{head}/BiasAdd")
+            outputs["value"] = tf.nn.bias_add(
+                tf.linalg.matmul(value_input, kernel, name=f"{head}/MatMul"), bias, name=f"{head}/BiasAdd"
+            )
         policy_input = _tower(spec, spec["policy_network"], placeholders, created)
         head_scope = f"{spec['policy_network']}/ppo_head_0"
         fc = f"{head_scope}/policy_mean" if spec["continuous"] else f"{head_scope}/policy_fc"
@@ -128,9 +156,15 @@ def build_graph(spec: dict, with_value: bool) -> tuple[tf.Graph, dict, dict, dic
 
 def _load_weights(session, variables: dict, tensors: dict, default_rescaler: bool = False) -> None:
     if default_rescaler:  # the policy-only export does not send the log-std or rescaler: they are not on its path
-        tensors = {**{name: np.zeros(variable.shape.as_list(), np.float32) for name, variable in variables.items()
-                      if name.endswith("policy_log_std")},
-                   **{name: np.ones((), np.float32) for name in variables if name.endswith("_rescalers")}, **tensors}
+        tensors = {
+            **{
+                name: np.zeros(variable.shape.as_list(), np.float32)
+                for name, variable in variables.items()
+                if name.endswith("policy_log_std")
+            },
+            **{name: np.ones((), np.float32) for name in variables if name.endswith("_rescalers")},
+            **tensors,
+        }
     missing = sorted(set(variables) - set(tensors))
     if missing:
         raise KeyError(f"no weights for {', '.join(missing)}")
@@ -157,7 +191,8 @@ def _export_one(request: dict, arrays: dict) -> dict:
         with tf.compat.v1.Session(graph=graph) as session:
             _load_weights(session, variables, arrays, default_rescaler=True)
             frozen = tf.compat.v1.graph_util.convert_variables_to_constants(
-                session, graph.as_graph_def(), [spec["output_node"]])
+                session, graph.as_graph_def(), [spec["output_node"]]
+            )
         Path(request["frozen_path"]).write_bytes(frozen.SerializeToString())
         result["frozen_nodes"] = len(frozen.node)
     if request.get("checkpoint_prefix"):
@@ -197,8 +232,12 @@ def command_read_frozen(request: dict, arrays: dict) -> tuple[dict, dict]:
     graph_def = _graph_def(request["frozen_path"])
     nodes = {node.name: node for node in graph_def.node}
     outputs = [name for name in request["output_nodes"] if name in nodes]
-    result: dict = {"output_node": outputs[0] if outputs else None, "placeholders": {}, "unsupported_ops": {},
-                    "op_counts": {}}
+    result: dict = {
+        "output_node": outputs[0] if outputs else None,
+        "placeholders": {},
+        "unsupported_ops": {},
+        "op_counts": {},
+    }
     if not outputs:
         result["node_names_sample"] = sorted(nodes)[:20]
         return result, {}
@@ -246,8 +285,9 @@ def _run_openvino(path: str, feeds: dict, output: str, fp16: bool, work: Path) -
     import openvino as ov
 
     # OpenVINO's TensorFlow front end names tensors `<node>:0`. The car converts with a batch of one.
-    model = ov.convert_model(path, input=[(f"{name}:0", [1, *value.shape[1:]]) for name, value in feeds.items()],
-                             output=[f"{output}:0"])
+    model = ov.convert_model(
+        path, input=[(f"{name}:0", [1, *value.shape[1:]]) for name, value in feeds.items()], output=[f"{output}:0"]
+    )
     xml = work / f"openvino_{'fp16' if fp16 else 'fp32'}.xml"
     ov.save_model(model, str(xml), compress_to_fp16=fp16)
     core = ov.Core()
@@ -257,7 +297,7 @@ def _run_openvino(path: str, feeds: dict, output: str, fp16: bool, work: Path) -
     rows = []
     count = next(iter(feeds.values())).shape[0]
     for row in range(count):
-        request.infer({names[name]: value[row:row + 1] for name, value in feeds.items()})
+        request.infer({names[name]: value[row : row + 1] for name, value in feeds.items()})
         rows.append(np.array(request.get_output_tensor(0).data, copy=True)[0])
     return np.stack(rows)
 
@@ -266,8 +306,11 @@ def _run_litert(path: str, feeds: dict, output: str, fp16: bool) -> np.ndarray:
     from ai_edge_litert.interpreter import Interpreter
 
     converter = tf.compat.v1.lite.TFLiteConverter.from_frozen_graph(
-        path, input_arrays=list(feeds), output_arrays=[output],
-        input_shapes={name: [1, *value.shape[1:]] for name, value in feeds.items()})
+        path,
+        input_arrays=list(feeds),
+        output_arrays=[output],
+        input_shapes={name: [1, *value.shape[1:]] for name, value in feeds.items()},
+    )
     if fp16:
         converter.optimizations = [tf.lite.Optimize.DEFAULT]
         converter.target_spec.supported_types = [tf.float16]
@@ -279,7 +322,7 @@ def _run_litert(path: str, feeds: dict, output: str, fp16: bool) -> np.ndarray:
     count = next(iter(feeds.values())).shape[0]
     for row in range(count):
         for name, value in feeds.items():
-            interpreter.set_tensor(by_name[name], value[row:row + 1])
+            interpreter.set_tensor(by_name[name], value[row : row + 1])
         interpreter.invoke()
         rows.append(np.array(interpreter.get_tensor(output_index), copy=True)[0])
     return np.stack(rows)
@@ -298,8 +341,9 @@ def command_run(request: dict, arrays: dict) -> tuple[dict, dict]:
                 if runtime == "tensorflow":
                     value = _run_tensorflow(model["frozen_path"], feeds, model["output"])
                 elif runtime in ("openvino_fp32", "openvino_fp16"):
-                    value = _run_openvino(model["frozen_path"], feeds, model["output"], runtime.endswith("16"),
-                                          Path(work))
+                    value = _run_openvino(
+                        model["frozen_path"], feeds, model["output"], runtime.endswith("16"), Path(work)
+                    )
                 elif runtime in ("litert_fp32", "litert_fp16"):
                     value = _run_litert(model["frozen_path"], feeds, model["output"], runtime.endswith("16"))
                 else:
@@ -324,10 +368,16 @@ def command_prove(request: dict, arrays: dict) -> tuple[dict, dict]:
             del weights
             export_s = time.process_time() - started
             feeds = {node: arrays[node] for node in model["graph"]["input_nodes"].values()}
-            single = {"key": model["key"], "frozen_path": frozen, "inputs": list(feeds),
-                      "output": model["graph"]["output_node"]}
-            ran, produced = command_run({"models": [single], "runtimes": request["runtimes"]},
-                                        {f"{model['key']}|{node}": value for node, value in feeds.items()})
+            single = {
+                "key": model["key"],
+                "frozen_path": frozen,
+                "inputs": list(feeds),
+                "output": model["graph"]["output_node"],
+            }
+            ran, produced = command_run(
+                {"models": [single], "runtimes": request["runtimes"]},
+                {f"{model['key']}|{node}": value for node, value in feeds.items()},
+            )
         outputs.update(produced)
         cpu_s[model["key"]] = {"export": export_s, **ran["cpu_s"][model["key"]]}
     return {"runtimes": request["runtimes"], "cpu_s": cpu_s}, outputs
@@ -342,8 +392,11 @@ def command_restore_meta(request: dict, arrays: dict) -> tuple[dict, dict]:
         stored = reader.get_variable_to_shape_map()
         wanted = {variable.op.name: variable.shape.as_list() for variable in tf.compat.v1.global_variables()}
         missing = sorted(name for name in wanted if name not in stored and _saved_by(saver, name))
-        mismatched = sorted(f"{name}: checkpoint {list(stored[name])}, graph {shape}" for name, shape in wanted.items()
-                            if name in stored and list(stored[name]) != shape)
+        mismatched = sorted(
+            f"{name}: checkpoint {list(stored[name])}, graph {shape}"
+            for name, shape in wanted.items()
+            if name in stored and list(stored[name]) != shape
+        )
         result = {"missing": missing, "mismatched": mismatched, "restored": False}
         tensors = {}
         if not missing and not mismatched:
