@@ -35,29 +35,6 @@ from racer.shared.sim.simapp_world import load_simapp_world
 from racer.shared.sim.track import PointGeometry, Track, compute_progress
 from racer.shared.sim.worlds import get_world
 
-SIMTRACE_COLUMNS: tuple[str, ...] = (
-    "episode",
-    "steps",
-    "X",
-    "Y",
-    "yaw",
-    "steer",
-    "throttle",
-    "action",
-    "reward",
-    "done",
-    "all_wheels_on_track",
-    "progress",
-    "closest_waypoint",
-    "track_len",
-    "tstamp",
-    "episode_status",
-    "pause_duration",
-    "obstacle_crash_counter",
-    "wall_clock",
-)
-"""DeepRacer's 19 simtrace columns, in order (reference §4)."""
-
 _SCENE_RNG_STREAM = 22
 """Seeds the scene randomisation apart from the LIDAR noise (which uses `np_random`)."""
 

@@ -10,9 +10,10 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 from racer.shared.deepracer.model_metadata import load_model_metadata
+from racer.shared.deepracer.simtrace import SIMTRACE_COLUMNS
 from racer.shared.sim import ENV_ID
 from racer.shared.sim.config import EnvConfig
-from racer.shared.sim.env import SIMTRACE_COLUMNS, DeepRacerEnv
+from racer.shared.sim.env import DeepRacerEnv
 
 
 def test_registered_env_passes_check_env_without_warnings():

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from racer.shared.sim.env import SIMTRACE_COLUMNS
+from racer.shared.deepracer.simtrace import SIMTRACE_COLUMNS
 from racer.shared.sim.reward_params import PARAM_KEYS
 
 from .conftest import place_far_off_track, place_front_at
