@@ -254,7 +254,7 @@ def viewer_bench_command(iterations, warmup_iterations, num_workers, episodes_pe
     finally:
         if browser is not None:
             browser.quit()
-        run.stop(grace_s=30)
+        run.stop()
         signal.signal(signal.SIGINT, previous)
     measured = records[warmup_iterations:]
     ratios = _paired_ratios(measured)
