@@ -11,11 +11,14 @@ works before checkpoint 0 is uploaded and does not depend on the store being rea
 
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Iterable
 
 import torch
 from torch import nn
+
+log = logging.getLogger(__name__)
 
 __all__ = ["LastGoodState", "NonFiniteError", "check_finite", "first_non_finite_parameter", "gradient_norm"]
 
@@ -83,3 +86,15 @@ class LastGoodState:
         self.optimizer.load_state_dict(_clone(self._optimizer_state))
         for group, learning_rate in zip(self.optimizer.param_groups, learning_rates, strict=True):
             group["lr"] = learning_rate
+
+
+def roll_back(last_good: LastGoodState, learning_rate: float, reason: str) -> float:
+    """Restore the weights and optimiser from before the update and return the halved learning rate."""
+    last_good.restore()
+    log.warning(
+        "NaN guard: %s; rolled back to the weights before this update and halved the learning rate %g -> %g",
+        reason,
+        learning_rate,
+        learning_rate / 2,
+    )
+    return learning_rate / 2

@@ -46,6 +46,7 @@ from racer.trainer.nan_guard import (
     check_finite,
     first_non_finite_parameter,
     gradient_norm,
+    roll_back,
 )
 from racer.trainer.ppo import (
     ADAM_BETAS,
@@ -157,16 +158,8 @@ class SACTrainer:
         return []
 
     def _roll_back(self, reason: str) -> None:
-        old_rate = self.learning_rate
-        self.last_good.restore()
-        self.learning_rate = old_rate / 2
+        self.learning_rate = roll_back(self.last_good, self.learning_rate, reason)
         self.nan_rollbacks += 1
-        log.warning(
-            "NaN guard: %s; rolled back to the weights before this update and halved the learning rate %g -> %g",
-            reason,
-            old_rate,
-            self.learning_rate,
-        )
 
     def _train(self, steps: int, minibatch: int, abandon: Callable[[], bool] | None = None) -> SACStats:
         previous_threads = torch.get_num_threads()
