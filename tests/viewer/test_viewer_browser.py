@@ -155,9 +155,9 @@ def test_live_page_follows_a_running_training(tmp_path, browser):
             describe,
         )
         assert second[1] != first[1]
-        assert (
-            browser.execute_script("return window.racerViewer.workers.get(0).chart.data.datasets[4].data.length") == 1
-        )  # the car on the map
+        # The car on the map: the map needs the run's params, which may come after the first frames.
+        car_on_map = "const v = window.racerViewer.workers.get(0); return !!(v && v.chart && v.chart.data.datasets[4].data.length === 1);"
+        assert wait_for("worker 0's car on the track map", lambda: browser.execute_script(car_on_map), 60, describe)
 
         # The curves gain a point after an iteration.
         points = lambda: int(browser.find_element("id", "curves").get_attribute("data-points"))  # noqa: E731
