@@ -125,7 +125,8 @@ class BotCars:
             lanes = ["inner" if i % 2 == 0 else "outer" for i in range(count)]
         first_end = 0.0 if race.is_lane_change else math.inf
         self._bots = [
-            _Bot(d, lane, "outer" if lane == "inner" else "inner", first_end) for d, lane in zip(dists, lanes, strict=True)
+            _Bot(d, lane, "outer" if lane == "inner" else "inner", first_end)
+            for d, lane in zip(dists, lanes, strict=True)
         ]
         self._crash_count = 0
         self._paused_until_s = 0.0

@@ -35,7 +35,9 @@ def _inside(obj: RaceObject, px: float, py: float) -> bool:
     return abs(c * dx + s * dy) < 0.5 * size.length_m and abs(-s * dx + c * dy) < 0.5 * size.width_m
 
 
-def collided_object(car_x_m: float, car_y_m: float, car_yaw_rad: float, objects: Sequence[RaceObject]) -> RaceObject | None:
+def collided_object(
+    car_x_m: float, car_y_m: float, car_yaw_rad: float, objects: Sequence[RaceObject]
+) -> RaceObject | None:
     """The first object with a corner of the car's rectangle strictly inside its own, or None."""
     corners = rectangle_corners(car_x_m, car_y_m, car_yaw_rad, BOT_CAR_SIZE)
     for obj in objects:

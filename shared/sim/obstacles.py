@@ -42,7 +42,9 @@ def obstacle_dists_and_lanes(track: Track, race: RaceConfig, rng: np.random.Gene
     return list(zip(dists, lanes, strict=True))
 
 
-def spread_along_lap(count: int, start_m: float, end_m: float, randomize: bool, rng: np.random.Generator) -> list[float]:
+def spread_along_lap(
+    count: int, start_m: float, end_m: float, randomize: bool, rng: np.random.Generator
+) -> list[float]:
     """Equally spaced from start to end; randomised: each (in random order) moved uniformly between its neighbours
     less the spacing `start_m`, as the SimApp does for obstacles and bot cars."""
     dists = np.linspace(start_m, end_m, count)

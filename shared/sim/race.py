@@ -13,6 +13,8 @@ from collections.abc import Sequence
 import numpy as np
 
 from racer.shared.sim.bot_cars import BOT_CAR_NAME_PREFIX, BotCars
+from racer.shared.sim.car import CarPose
+from racer.shared.sim.collisions import CrashVerdict, collided_object, judge_crash, start_line_progress
 from racer.shared.sim.obstacles import OBSTACLE_NAME_PREFIX, place_obstacles
 from racer.shared.sim.race_config import RaceConfig
 from racer.shared.sim.race_objects import ObjectKind, RaceObject
@@ -59,12 +61,18 @@ class RaceObjects:
         if self._bots is not None:
             self._bots.advance(episode_time_s, rng)
 
-    def bot_progress(self, obj: RaceObject) -> float:
-        return self._bots.progress(obj) if self._bots is not None else 0.0
-
-    def bots_rear_ended(self, episode_time_s: float) -> None:
-        if self._bots is not None:
+    def judge_crash(
+        self, pose: CarPose, progress: float, start_ndist: float, episode_time_s: float
+    ) -> CrashVerdict | None:
+        """The SimApp's crash test on the judged pose and who is at fault; bots that hit the agent stop a while."""
+        hit = collided_object(pose.origin_x_m, pose.origin_y_m, pose.yaw_rad, self.objects)
+        if hit is None:
+            return None
+        bot_progress = self._bots.progress(hit) if self._bots is not None else 0.0
+        verdict = judge_crash(hit, progress, start_ndist, bot_progress)
+        if self._bots is not None and not verdict.static and start_line_progress(progress, start_ndist) > bot_progress:
             self._bots.rear_ended(episode_time_s)
+        return verdict
 
     def track_objects(self) -> list[TrackObject]:
         """The reward params' view: with bot cars present every object reports BOT_CAR_SPEED (as the SimApp)."""

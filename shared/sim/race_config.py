@@ -74,7 +74,10 @@ class RaceConfig:
             raise ValueError(f"RACE_TYPE: {self.race_type!r} is not one of {', '.join(RACE_TYPES)}")
         if self.obstacle_type not in OBSTACLE_TYPES:
             raise ValueError(f"OBSTACLE_TYPE: {self.obstacle_type!r} is not one of {', '.join(OBSTACLE_TYPES)}")
-        for key, value in (("NUMBER_OF_OBSTACLES", self.number_of_obstacles), ("NUMBER_OF_BOT_CARS", self.number_of_bot_cars)):
+        for key, value in (
+            ("NUMBER_OF_OBSTACLES", self.number_of_obstacles),
+            ("NUMBER_OF_BOT_CARS", self.number_of_bot_cars),
+        ):
             if not 0 <= value <= 20:
                 raise ValueError(f"{key}: {value} is outside 0..20")
         for position in self.object_positions:
@@ -104,6 +107,10 @@ class RaceConfig:
             )
         if self.max_resets_after_crash < 1:
             raise ValueError(f"MAX_RESETS_AFTER_CRASH: {self.max_resets_after_crash} must be >= 1")
+        if self.race_type == "OBJECT_AVOIDANCE" and self.num_obstacles == 0:
+            raise ValueError("NUMBER_OF_OBSTACLES: RACE_TYPE OBJECT_AVOIDANCE needs obstacles (or OBJECT_POSITIONS)")
+        if self.race_type == "HEAD_TO_BOT" and self.number_of_bot_cars == 0:
+            raise ValueError("NUMBER_OF_BOT_CARS: RACE_TYPE HEAD_TO_BOT needs at least one bot car")
         if self.race_type == "TIME_TRIAL" and self.has_objects:
             raise ValueError(
                 "RACE_TYPE: TIME_TRIAL with NUMBER_OF_OBSTACLES/OBJECT_POSITIONS/NUMBER_OF_BOT_CARS set; "
