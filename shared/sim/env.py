@@ -30,6 +30,7 @@ from racer.shared.sim.collisions import CrashVerdict
 from racer.shared.sim.config import STEPS_PER_SECOND, EnvConfig
 from racer.shared.sim.domain_randomization import SceneRandomizer
 from racer.shared.sim.race import RaceObjects
+from racer.shared.sim.race_objects import RaceObject
 from racer.shared.sim.reward import RewardFunction, default_evaluation_reward, load_reward_function
 from racer.shared.sim.reward_params import make_reward_params
 from racer.shared.sim.scene import SceneSpec, build_model
@@ -233,6 +234,11 @@ class DeepRacerEnv(gym.Env):
     def start_ndist(self) -> float:
         """Normalised start position of the next (or current, before its first step) training episode."""
         return self._start_ndist
+
+    @property
+    def race_objects(self) -> list[RaceObject]:
+        """The obstacles and bot cars where they stand now (empty in a time trial)."""
+        return self._race.objects if self._race is not None else []
 
     @property
     def sim_time_s(self) -> float:
