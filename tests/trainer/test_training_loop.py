@@ -253,7 +253,7 @@ def test_race_settings_travel_from_train_options_and_workers_json_to_each_worker
     layout = ModelLayout(PREFIX)
     yaml_text = store.get_bytes(layout.training_params(0)).decode()
     assert list(parse_training_params(yaml_text).values["OBJECT_POSITIONS"]) == ["0.25,1", "0.5,-1"]
-    assert "\"OBJECT_POSITIONS\":\n- \"0.25,1\"\n- \"0.5,-1\"" in yaml_text  # a YAML list, as in DeepRacer's yaml
+    assert '"OBJECT_POSITIONS":\n- "0.25,1"\n- "0.5,-1"' in yaml_text  # a YAML list, as in DeepRacer's yaml
     configs = [training_env_config(load_run_files(store, PREFIX, i, tmp_path / f"worker-{i}")) for i in (0, 1)]
     assert configs[0].race == RaceConfig(
         race_type="OBJECT_AVOIDANCE",
