@@ -26,6 +26,7 @@ from racer.shared.redis_connection import RedisLink, RedisUnavailableError
 from racer.shared.services import PROJECT_ROOT, MinioServer, RedisServer, _die_with_parent
 from racer.shared.sim.config import DEFAULT_TRACK
 from racer.shared.sim.gl import ensure_gl_backend
+from racer.shared.sim.race_cli import race_option_args, race_options, race_params_from_options
 from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
 from racer.shared.store import S3Store, open_store
 from racer.shared.transport.channels import RunChannel
@@ -51,6 +52,8 @@ class LocalRunPlan:
     """The live web page (`racer view --live`) listens here; None: no viewer."""
     trainer_options: tuple[str, ...] = ()
     """Further `racer trainer` options, e.g. ("--sac-updates-per-transition", "0.5")."""
+    race_params: tuple[tuple[str, str], ...] = ()
+    """RACE_TYPE and obstacle / bot-car training_params keys for every worker (`--race-type`, `--race-param`)."""
 
 
 def service_environment(settings: ServiceSettings) -> dict[str, str]:
@@ -153,7 +156,7 @@ class LocalRun:
                 "--pretrained-checkpoint",
                 plan.pretrained_checkpoint,
             ]
-        trainer_args += list(plan.trainer_options)
+        trainer_args += race_option_args(plan.race_params) + list(plan.trainer_options)
         self._spawn("trainer", trainer_args)
         for worker_id in range(plan.num_workers):
             self._spawn(
@@ -265,6 +268,7 @@ def check_before_start(plan: LocalRunPlan, base_settings: ServiceSettings) -> No
             plan.worlds,
             pretrained_prefix=plan.pretrained_prefix,
             store=open_store(base_settings.store) if local_store else None,
+            race_params=plan.race_params,
         )
     except user_error_types() as error:
         raise click.ClickException(str(error)) from error
@@ -385,6 +389,7 @@ def run_local_training(plan: LocalRunPlan, base_settings: ServiceSettings, on_ev
     show_default=True,
     help="Address the page listens on; the default is reachable from this machine only.",
 )
+@race_options
 def train_command(
     model_prefix,
     custom_files,
@@ -399,6 +404,8 @@ def train_command(
     seed,
     viewer_port,
     viewer_host,
+    race_type,
+    race_param,
 ) -> None:
     """Train with the embedded default: Redis, store, trainer and rollout workers as local processes."""
     base_settings = settings_from_env()
@@ -419,6 +426,7 @@ def train_command(
         pretrained_checkpoint=pretrained_checkpoint,
         viewer_host=viewer_host,
         viewer_port=viewer_port or None,
+        race_params=race_params_from_options(race_type, race_param),
     )
     sys.exit(run_local_training(plan, base_settings))
 

@@ -14,6 +14,7 @@ from racer.shared.deepracer.hyperparameters import Hyperparameters, parse_hyperp
 from racer.shared.deepracer.model_metadata import ModelMetadata, parse_model_metadata
 from racer.shared.deepracer.training_params import parse_training_params
 from racer.shared.model_layout import ModelLayout
+from racer.shared.sim.race_config import param_text
 from racer.shared.store import ObjectNotFoundError, ObjectStore
 from racer.shared.worker_settings import WorkerSettings
 
@@ -36,7 +37,7 @@ def read_training_params(store: ObjectStore, layout: ModelLayout, worker_id: int
         except ObjectNotFoundError:
             continue
         params = parse_training_params(text, source=f"{store.describe()}/{key}")
-        return {name: str(value) for name, value in params.values.items()}, key
+        return {name: param_text(value) for name, value in params.values.items()}, key
     raise ObjectNotFoundError(store.describe(), layout.training_params(0))
 
 

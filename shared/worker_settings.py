@@ -5,17 +5,15 @@ The keys of a model folder (where these settings are stored, per worker) live in
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, fields
 
 from racer.shared.sim.config import DEFAULT_TRACK
+from racer.shared.sim.race_config import RaceConfig
 from racer.shared.sim.route_search import world_name_for_direction
 from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
 
 __all__ = ["WorkerSettings", "default_worker_settings"]
-
-
-TIME_TRIAL_ONLY = {"RACE_TYPE": "TIME_TRIAL", "NUMBER_OF_OBSTACLES": "0", "NUMBER_OF_BOT_CARS": "0"}
-"""Keys racer reads only to refuse other race types until object avoidance and head-to-bot exist."""
 
 
 @dataclass(frozen=True)
@@ -55,6 +53,8 @@ class WorkerSettings:
     simapp_dir: str = ""
     """racer's RACER_SIMAPP_DIR: a SimApp bundle/ folder on the worker's machine whose world meshes and textures
     the camera draws instead of racer's look ("" = racer's look)."""
+    race: RaceConfig = RaceConfig()
+    """RACE_TYPE and the obstacle / bot-car keys (shared/sim/race_config.py)."""
 
     def __post_init__(self) -> None:
         if self.world not in WORLDS:
@@ -71,13 +71,15 @@ class WorkerSettings:
         if self.off_track_penalty_s < 0 or self.collision_penalty_s < 0:
             raise ValueError("OFF_TRACK_PENALTY and COLLISION_PENALTY must be >= 0 seconds")
 
-    def to_training_params(self, model_prefix: str, num_workers: int) -> dict[str, str]:
-        """DeepRacer's training_params.yaml keys, all values strings as DeepRacer-for-Cloud writes them."""
+    def to_training_params(self, model_prefix: str, num_workers: int) -> dict[str, object]:
+        """DeepRacer's training_params.yaml keys, values strings as DeepRacer-for-Cloud writes them (OBJECT_POSITIONS,
+        when set, a list of "ndist,lane" strings as in DeepRacer's yaml)."""
+        race = self.race.to_training_params()
         return {
             "JOB_TYPE": "TRAINING",
             "WORLD_NAME": self.track,
             "RACER_WORLD": self.world,
-            "RACE_TYPE": "TIME_TRIAL",
+            "RACE_TYPE": race.pop("RACE_TYPE"),
             "SAGEMAKER_SHARED_S3_PREFIX": model_prefix,
             "NUM_WORKERS": str(num_workers),
             "REVERSE_DIR": str(self.reverse_dir),
@@ -95,10 +97,11 @@ class WorkerSettings:
             "ENABLE_DOMAIN_RANDOMIZATION": str(self.domain_randomization),
             "RACER_CAR_RANDOMIZATION": str(self.car_randomization),
             "RACER_SIMAPP_DIR": self.simapp_dir,
+            **race,
         }
 
     @classmethod
-    def from_training_params(cls, params: dict[str, str], source: str) -> WorkerSettings:
+    def from_training_params(cls, params: Mapping[str, object], source: str) -> WorkerSettings:
         def whole(name: str, default: int) -> int:
             number = float(params.get(name, default))
             if not number.is_integer():
@@ -112,13 +115,6 @@ class WorkerSettings:
             return raw in {"true", "1"}
 
         defaults = cls()
-        for key, supported in TIME_TRIAL_ONLY.items():
-            value = str(params.get(key, supported)).strip()
-            if value.upper() != supported:
-                raise ValueError(
-                    f"{source}: {key}: {value!r} is not supported yet; racer trains time trials only "
-                    f"(RACE_TYPE TIME_TRIAL, NUMBER_OF_OBSTACLES 0, NUMBER_OF_BOT_CARS 0)"
-                )
         clockwise = flag("TRACK_DIRECTION_CLOCKWISE", False) if "TRACK_DIRECTION_CLOCKWISE" in params else None
         try:
             return cls(
@@ -141,6 +137,7 @@ class WorkerSettings:
                 domain_randomization=flag("ENABLE_DOMAIN_RANDOMIZATION", defaults.domain_randomization),
                 car_randomization=flag("RACER_CAR_RANDOMIZATION", defaults.car_randomization),
                 simapp_dir=str(params.get("RACER_SIMAPP_DIR") or defaults.simapp_dir),
+                race=RaceConfig.from_training_params(params),
             )
         except ValueError as error:
             raise ValueError(f"{source}: {error}") from error

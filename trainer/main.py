@@ -9,6 +9,7 @@ import click
 
 from racer.shared.config import settings_from_env
 from racer.shared.sim.config import DEFAULT_TRACK
+from racer.shared.sim.race_cli import race_options, race_params_from_options
 from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
 from racer.shared.user_errors import user_error_types
 
@@ -71,6 +72,7 @@ from racer.shared.user_errors import user_error_types
     show_default=True,
     help="SAC: gradient steps per transition received (DeepRacer: 1).",
 )
+@race_options
 def trainer_command(
     model_prefix,
     custom_files,
@@ -87,6 +89,8 @@ def trainer_command(
     car_randomization,
     sac_replay_memory_mb,
     sac_updates_per_transition,
+    race_type,
+    race_param,
 ) -> None:
     """Run the trainer (clipped PPO or SAC, as model_metadata.json says): Redis and the store come from
     RACER_REDIS_URL / RACER_STORE. The custom files are checked before anything connects."""
@@ -96,12 +100,13 @@ def trainer_command(
 
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
     world_names = tuple(w.strip() for w in worlds.split(",") if w.strip())
+    race_params = race_params_from_options(race_type, race_param)
     try:
         memory_cap = max_memory_steps if max_memory_steps is not None else max_memory_steps_from_env()
     except ValueError as error:
         raise click.ClickException(str(error)) from error
     try:
-        preflight(custom_files, num_workers, track, world_names)  # the trainer logs its warnings
+        preflight(custom_files, num_workers, track, world_names, race_params=race_params)  # the trainer logs warnings
     except user_error_types() as error:
         raise click.ClickException(str(error)) from error
     options = TrainerOptions(
@@ -120,6 +125,7 @@ def trainer_command(
         car_randomization=car_randomization,
         sac_replay_memory_mb=sac_replay_memory_mb,
         sac_updates_per_transition=sac_updates_per_transition,
+        race_params=race_params,
     )
     try:
         run_trainer(settings_from_env(), options)

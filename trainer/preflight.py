@@ -24,6 +24,7 @@ from pathlib import Path
 from racer.shared.deepracer.hyperparameters import Hyperparameters, load_hyperparameters
 from racer.shared.deepracer.model_metadata import ModelMetadata, load_model_metadata, parse_model_metadata
 from racer.shared.model_layout import ModelLayout
+from racer.shared.sim.race_config import param_text
 from racer.shared.sim.reward import load_reward_function
 from racer.shared.sim.track import Track, TrackError
 from racer.shared.store import ObjectNotFoundError, ObjectStore
@@ -115,14 +116,28 @@ def load_worker_settings(
     worlds: tuple[str, ...],
     domain_randomization: bool = False,
     car_randomization: bool = False,
+    race_params: tuple[tuple[str, str], ...] = (),
 ) -> list[WorkerSettings]:
     """Defaults (world i to worker i, one track) plus the optional custom_files/workers.json.
 
     workers.json holds DeepRacer training_params keys applied to every worker, and optionally
     `"workers": [{...}, {...}]` with per-worker overrides (like DeepRacer-for-Cloud's worker-N.env).
+    `race_params` (RACE_TYPE and obstacle / bot-car keys from `racer train` options) apply to every worker under
+    workers.json.
     """
     settings = default_worker_settings(num_workers, track, worlds, domain_randomization, car_randomization)
     path = custom_files / "workers.json"
+    if race_params:
+        source = "racer train options (--race-type / --race-param)"
+        try:
+            settings = [
+                WorkerSettings.from_training_params(
+                    {**w.to_training_params("", num_workers), **dict(race_params)}, source
+                )
+                for w in settings
+            ]
+        except ValueError as error:
+            raise RunConfigError(str(error)) from error
     if not path.is_file():
         return settings
     try:
@@ -136,10 +151,10 @@ def load_worker_settings(
         raise RunConfigError(f"{path}: workers: expected a list with one object per worker")
     result = []
     for worker_id, base in enumerate(settings):
-        params = base.to_training_params("", num_workers)
-        params.update({k: str(v) for k, v in data.items()})
+        params = {k: param_text(v) for k, v in base.to_training_params("", num_workers).items()}
+        params.update({k: param_text(v) for k, v in data.items()})
         if worker_id < len(per_worker):
-            params.update({k: str(v) for k, v in per_worker[worker_id].items()})
+            params.update({k: param_text(v) for k, v in per_worker[worker_id].items()})
         try:
             result.append(WorkerSettings.from_training_params(params, source=f"{path} (worker {worker_id})"))
         except ValueError as error:
@@ -193,6 +208,7 @@ def preflight(
     store: ObjectStore | None = None,
     domain_randomization: bool = False,
     car_randomization: bool = False,
+    race_params: tuple[tuple[str, str], ...] = (),
 ) -> PreflightReport:
     """Every check that needs no running server. Raises a user error (file, field, fix) or returns the parsed
     settings and warnings. `store`: where a clone source is looked up (only when it needs no server to read)."""
@@ -205,7 +221,9 @@ def preflight(
         metadata, hyperparameters, metadata_path, hyperparameters_path, _given_keys(hyperparameters_path)
     )
     load_reward_function(folder / "reward_function.py")
-    workers = load_worker_settings(folder, num_workers, track, worlds, domain_randomization, car_randomization)
+    workers = load_worker_settings(
+        folder, num_workers, track, worlds, domain_randomization, car_randomization, race_params
+    )
     for worker_id, worker in enumerate(workers):
         try:  # a track name no worker could find fails here, listing where it looked, not in every worker
             Track.load(worker.track)

@@ -80,6 +80,8 @@ class TrainerOptions:
     """Default ENABLE_DOMAIN_RANDOMIZATION of every worker (workers.json may override it per worker)."""
     car_randomization: bool = False
     """Default RACER_CAR_RANDOMIZATION of every worker."""
+    race_params: tuple[tuple[str, str], ...] = ()
+    """RACE_TYPE and obstacle / bot-car training_params keys for every worker (workers.json may override them)."""
     share_timeout_s: float = 3600.0
     """Longest wait for the episodes of one iteration before giving up with an error."""
     dead_worker_grace_s: float = 20.0
@@ -128,6 +130,7 @@ class Trainer:
             self.options.worlds,
             domain_randomization=self.options.domain_randomization,
             car_randomization=self.options.car_randomization,
+            race_params=self.options.race_params,
         )
         for warning in report.warnings:
             log.warning(warning)

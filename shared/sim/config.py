@@ -6,6 +6,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from racer.shared.deepracer.model_metadata import ModelMetadata, parse_model_metadata
+from racer.shared.sim.race_config import RaceConfig
 from racer.shared.sim.worlds import WORLD_NAMES
 
 DEFAULT_TRACK = "racer_oval"
@@ -91,6 +92,8 @@ class EnvConfig:
     render_full_resolution: bool = False
     """True = DeepRacer's path: render 640×480, bilinear-resize to the image size (PIL, as the SimApp).
     False (default) = render the image size directly, about 5-8x cheaper with software GL."""
+    race: RaceConfig = RaceConfig()
+    """RACE_TYPE and the obstacle / bot-car keys; the default is a time trial (nothing on the track)."""
 
     def __post_init__(self) -> None:
         if self.world not in WORLD_NAMES:

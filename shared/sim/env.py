@@ -26,8 +26,10 @@ from racer.shared.sim.car import (
     clip_command,
     command_wheel_radius_m,
 )
+from racer.shared.sim.collisions import CrashVerdict
 from racer.shared.sim.config import STEPS_PER_SECOND, EnvConfig
 from racer.shared.sim.domain_randomization import SceneRandomizer
+from racer.shared.sim.race import RaceObjects
 from racer.shared.sim.reward import RewardFunction, default_evaluation_reward, load_reward_function
 from racer.shared.sim.reward_params import make_reward_params
 from racer.shared.sim.scene import SceneSpec, build_model
@@ -154,6 +156,10 @@ class DeepRacerEnv(gym.Env):
         self._lidar = lidar_sensor.Lidar(self._model, self._car.body_id) if self._lidar_key else None
         self._last_rgb: np.ndarray | None = None
         self._judged_cache: tuple[tuple, tuple[CarPose, PointGeometry, np.ndarray]] | None = None
+        # Obstacles and bot cars; None in a time trial, so nothing of theirs runs per step.
+        self._race = RaceObjects(cfg.race) if cfg.race.has_objects else None
+        self._race_start_time_s = 0.0
+        self._object_bodies = None
 
         self.action_space = self._make_action_space()
         self.observation_space = self._make_observation_space()
@@ -275,6 +281,12 @@ class DeepRacerEnv(gym.Env):
         if self._randomizer.enabled:
             self._randomizer.randomize(self._model, self._scene_rng)
         x, y, yaw = self._track.pose_at(self._episode_start_ndist, "center")
+        if self._race is not None:
+            self._race_start_time_s = float(self._data.time)
+            self._race.restart(self._track, self._scene_rng)
+            if not evaluation:  # the SimApp moves only training starts away from an object
+                x, y, yaw = self._race.start_pose(self._track, self._episode_start_ndist) or (x, y, yaw)
+            self._place_objects()
         self._car.teleport(self._model, self._data, x, y, yaw)
         if self._lidar is not None:
             self._lidar.reset()
@@ -350,6 +362,8 @@ class DeepRacerEnv(gym.Env):
 
         phase = self._phase
         terminated = False
+        is_crashed = False
+        objects = self._race.track_objects() if self._race is not None else ()
         status = phase
         lap_time_s: float | None = None
         command = (0.0, 0.0)
@@ -367,19 +381,28 @@ class DeepRacerEnv(gym.Env):
                 self._counters.clear((pose.origin_x_m, pose.origin_y_m))
         else:
             self._pause_remaining_s = 0.0  # the SimApp clears it on every RUN step; a pause below sets the penalty
+            crash = None
+            if self._race is not None:
+                episode_time_s = now_s - self._race_start_time_s
+                crash = self._race.judge_crash(pose, progress, self._episode_start_ndist, episode_time_s)
             status = self._counters.judge(
                 progress=progress,
                 prev_progress=self._prev_progress,
                 origin=(pose.origin_x_m, pose.origin_y_m),
                 any_wheel_on_track=any_on,
+                crashed=crash is not None and crash.counts,
             )
+            if crash is not None:
+                is_crashed = crash.counts or status == EpisodeStatus.LAP_COMPLETE
+                if not crash.counts and status != EpisodeStatus.LAP_COMPLETE:
+                    status = EpisodeStatus.IN_PROGRESS  # hit from behind by a bot: no other rule is judged
             command = clip_command(speed_mps, steering_deg)
             if status == EpisodeStatus.LAP_COMPLETE:
                 terminated = True
             elif status in _PENALTY_STATUSES:
                 if self._reset_count < cfg.number_of_resets:
                     self._reset_count += 1
-                    self._start_pause(status, pose)
+                    self._start_pause(status, pose, progress, crash)
                 else:
                     terminated = True
         self._prev_progress = 0.0 if progress == 100 else progress
@@ -394,6 +417,9 @@ class DeepRacerEnv(gym.Env):
             command = (0.0, 0.0)
         self._car.command(self._data, command[0], command[1])
         mujoco.mj_step(self._model, self._data, self._substeps)
+        if self._race is not None:
+            self._race.advance(float(self._data.time) - self._race_start_time_s, self._scene_rng)
+            self._place_objects()
         # The SimApp stamps a row when the step's physics has run (judge_action after unpausing), so the prepare
         # row is one step after the episode start and the last row's time is the lap's end.
         tstamp_s = float(self._data.time)
@@ -415,8 +441,9 @@ class DeepRacerEnv(gym.Env):
             progress=progress,
             all_wheels_on_track=all_on,
             is_offtrack=not any_on,
-            is_crashed=False,
+            is_crashed=is_crashed,
             sim_time_s=now_s,
+            objects=objects,
             geometry=geometry,
         )
         reward = 0.0
@@ -442,7 +469,7 @@ class DeepRacerEnv(gym.Env):
             "tstamp": tstamp_s,
             "episode_status": status,
             "pause_duration": self._pause_remaining_s,
-            "obstacle_crash_counter": 0,
+            "obstacle_crash_counter": self._race.obstacle_crash_count if self._race is not None else 0,
             "wall_clock": self._wall_clock(),
         }
         info: dict[str, Any] = {
@@ -473,7 +500,12 @@ class DeepRacerEnv(gym.Env):
         self._judged_cache = (key, result)
         return result
 
-    def _start_pause(self, status: str, pose: CarPose) -> None:
+    def _place_objects(self) -> None:
+        """Hand the objects' poses to the scene (bodies the cameras and LIDAR see)."""
+        if self._object_bodies is not None and self._race is not None:
+            self._object_bodies.place(self._data, self._race.objects)
+
+    def _start_pause(self, status: str, pose: CarPose, progress: float, crash: CrashVerdict | None) -> None:
         """Pause for the rule's penalty, then continue on a lane at the last progress (reference §2.4).
 
         As the SimApp (`_get_car_reset_model_state`): the spot is the previous step's progress, as a share of the
@@ -489,6 +521,18 @@ class DeepRacerEnv(gym.Env):
         }[status]
         self._pause_remaining_s = penalty_s
         self._phase = EpisodeStatus.PAUSE
+        if crash is not None and not crash.static:
+            # A crash into a bot car ahead: the car waits where it is.
+            self._respawn_pose = (pose.origin_x_m, pose.origin_y_m, pose.yaw_rad)
+            return
+        if self._race is not None:
+            # Near a static obstacle the SimApp resets behind it on the other lane (or ahead: mercy rule); a crash
+            # measures from the progress of this step, the other rules from the previous step's.
+            spawn_progress = progress if status == EpisodeStatus.CRASHED else self._prev_progress
+            spot = self._race.reset_pose(self._track, spawn_progress / 100.0 * self._track.length_m)
+            if spot is not None:
+                self._respawn_pose = spot
+                return
         if cfg.reset_position == "where_it_left" and self._last_on_road_ndist is not None:
             # The seed's summit-rule code: back half the last step from where the car left, on the centre line.
             step_m = math.dist(pose.model_point, self._last_model_point or pose.model_point)

@@ -63,6 +63,9 @@ class TrackObject:
     heading_rad: float = 0.0
     speed_mps: float = 0.0
     is_bot_car: bool = False
+    length_m: float = 0.0
+    """Rectangle along the heading; with `width_m` its corners count for `object_in_camera` (0 = the centre only)."""
+    width_m: float = 0.0
 
 
 def front_of_car(x_m: float, y_m: float, yaw_rad: float) -> tuple[float, float]:
@@ -168,19 +171,31 @@ def object_params(
 
 
 def _in_camera(obj: TrackObject, x: float, y: float, heading_deg: float) -> bool:
-    """Whether an object lies in the camera's horizontal field of view (a 2-D simplification of the frustum)."""
+    """Whether the object's centre or a corner of its floor rectangle lies in the camera's horizontal field of view
+    beyond the near plane (the SimApp tests the same points against its frustum; a 2-D simplification)."""
     yaw = math.radians(heading_deg)
     origin_x = x - FRONT_OF_CAR_M * math.cos(yaw)
     origin_y = y - FRONT_OF_CAR_M * math.sin(yaw)
     cam_x = origin_x + CAMERA_OFFSET_M * math.cos(yaw)
     cam_y = origin_y + CAMERA_OFFSET_M * math.sin(yaw)
-    dx, dy = obj.x - cam_x, obj.y - cam_y
-    forward = dx * math.cos(yaw) + dy * math.sin(yaw)
-    if forward < CAMERA_NEAR_M:
-        return False
-    bearing = math.atan2(dy, dx) - yaw
-    bearing = (bearing + math.pi) % (2 * math.pi) - math.pi
-    return abs(bearing) <= CAMERA_HORIZONTAL_FOV_RAD / 2
+    points = [(obj.x, obj.y)]
+    if obj.length_m > 0 and obj.width_m > 0:
+        c, s = math.cos(obj.heading_rad), math.sin(obj.heading_rad)
+        half_l, half_w = obj.length_m / 2, obj.width_m / 2
+        points += [
+            (obj.x + c * lx - s * ly, obj.y + s * lx + c * ly)
+            for lx, ly in ((half_l, half_w), (half_l, -half_w), (-half_l, -half_w), (-half_l, half_w))
+        ]
+    for px, py in points:
+        dx, dy = px - cam_x, py - cam_y
+        forward = dx * math.cos(yaw) + dy * math.sin(yaw)
+        if forward < CAMERA_NEAR_M:
+            continue
+        bearing = math.atan2(dy, dx) - yaw
+        bearing = (bearing + math.pi) % (2 * math.pi) - math.pi
+        if abs(bearing) <= CAMERA_HORIZONTAL_FOV_RAD / 2:
+            return True
+    return False
 
 
 def copy_params(params: dict) -> dict:

@@ -1,0 +1,133 @@
+"""`RaceObjects`: the obstacles and bot cars of one env, what the env asks of them each episode and step.
+
+The env stays a time-trial env that calls this when `RaceConfig.has_objects`: the objects' poses (for the scene's
+bodies, the sensors, the reward params and the crash test), the start lane, the reset spot near an obstacle
+(with the mercy rule) and the bots' pause after they hit the agent.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from racer.shared.sim.bot_cars import BOT_CAR_NAME_PREFIX, BotCars
+from racer.shared.sim.car import CarPose
+from racer.shared.sim.collisions import CrashVerdict, collided_object, judge_crash, start_line_progress
+from racer.shared.sim.obstacles import OBSTACLE_NAME_PREFIX, place_obstacles
+from racer.shared.sim.race_config import RaceConfig
+from racer.shared.sim.race_objects import ObjectKind, RaceObject
+from racer.shared.sim.reward_params import TrackObject
+from racer.shared.sim.track import Track
+
+CLOSEST_OBJ_GAP_M = 1.0
+"""An object nearer than this (along the centre line) to a start or reset spot moves the car (SimApp constant)."""
+
+
+def object_slots(race: RaceConfig) -> tuple[tuple[str, ObjectKind], ...]:
+    """(name, kind) of every object the run will have: the scene builds one body per slot."""
+    kind = ObjectKind.BOT_CAR if race.is_obstacle_bot_car else ObjectKind.BOX_OBSTACLE
+    obstacles = tuple((f"{OBSTACLE_NAME_PREFIX}_{i}", kind) for i in range(race.num_obstacles))
+    bots = tuple((f"{BOT_CAR_NAME_PREFIX}_{i}", ObjectKind.BOT_CAR) for i in range(race.number_of_bot_cars))
+    return obstacles + bots
+
+
+class RaceObjects:
+    def __init__(self, race: RaceConfig) -> None:
+        self.race = race
+        self._bots = BotCars(race) if race.number_of_bot_cars else None
+        self._obstacles: list[RaceObject] = []
+        self._track: Track | None = None
+        self._last_obstacle: str | None = None
+        self.obstacle_crash_count = 0
+        """The simtrace's obstacle_crash_counter: resets behind the same obstacle in a row (mercy rule only)."""
+
+    @property
+    def objects(self) -> list[RaceObject]:
+        return self._obstacles + (self._bots.objects if self._bots else [])
+
+    def restart(self, track: Track, rng: np.random.Generator) -> list[RaceObject]:
+        """A new episode: obstacles placed again (the same unless randomised), bots back at their starts."""
+        self._track = track
+        self._obstacles = place_obstacles(track, self.race, rng)
+        if self._bots is not None:
+            self._bots.restart(track, rng)
+        self._last_obstacle = None
+        self.obstacle_crash_count = 0
+        return self.objects
+
+    def advance(self, episode_time_s: float, rng: np.random.Generator) -> None:
+        if self._bots is not None:
+            self._bots.advance(episode_time_s, rng)
+
+    def judge_crash(
+        self, pose: CarPose, progress: float, start_ndist: float, episode_time_s: float
+    ) -> CrashVerdict | None:
+        """The SimApp's crash test on the judged pose and who is at fault; bots that hit the agent stop a while."""
+        hit = collided_object(pose.origin_x_m, pose.origin_y_m, pose.yaw_rad, self.objects)
+        if hit is None:
+            return None
+        bot_progress = self._bots.progress(hit) if self._bots is not None else 0.0
+        verdict = judge_crash(hit, progress, start_ndist, bot_progress)
+        if self._bots is not None and not verdict.static and start_line_progress(progress, start_ndist) > bot_progress:
+            self._bots.rear_ended(episode_time_s)
+        return verdict
+
+    def track_objects(self) -> list[TrackObject]:
+        """The reward params' view: with bot cars present every object reports BOT_CAR_SPEED (as the SimApp)."""
+        speed = self.race.bot_car_speed_mps if self.race.number_of_bot_cars else 0.0
+        return [
+            TrackObject(
+                o.x_m,
+                o.y_m,
+                o.yaw_rad,
+                speed,
+                is_bot_car=o.name.startswith(BOT_CAR_NAME_PREFIX),
+                length_m=o.size.length_m,
+                width_m=o.size.width_m,
+            )
+            for o in self.objects
+        ]
+
+    def _closest(self, track: Track, dist_m: float, obstacles_only: bool) -> tuple[float, RaceObject] | None:
+        """The object nearest along the centre line within CLOSEST_OBJ_GAP_M of `dist_m` (SimApp `_get_closest_obj`)."""
+        best: tuple[float, RaceObject] | None = None
+        gap_limit = CLOSEST_OBJ_GAP_M
+        candidates: Sequence[RaceObject] = self._obstacles if obstacles_only else self.objects
+        for obj in candidates:
+            obj_dist = track.project_normalized(obj.x_m, obj.y_m) * track.length_m
+            gap = abs(obj_dist - dist_m) % track.length_m
+            if gap < gap_limit:
+                gap_limit, best = gap, (obj_dist, obj)
+        return best
+
+    def start_pose(self, track: Track, start_ndist: float) -> tuple[float, float, float] | None:
+        """A training start with an object within 1 m: the lane away from the object; None = the centre line."""
+        found = self._closest(track, start_ndist * track.length_m, obstacles_only=False)
+        if found is None:
+            return None
+        lane = "outer" if track.nearer_lane(found[1].x_m, found[1].y_m) == "inner" else "inner"
+        return track.pose_at(start_ndist, lane)
+
+    def reset_pose(self, track: Track, spawn_dist_m: float) -> tuple[float, float, float] | None:
+        """Where a reset near a static obstacle puts the car: RESET_BEHIND_DIST behind it on the other lane, or with
+        ENABLE_MERCY_RESET RESET_AHEAD_DIST ahead of it after MAX_RESETS_AFTER_CRASH resets behind the same one.
+        None = no obstacle within 1 m of the spot (the env's usual reset)."""
+        found = self._closest(track, spawn_dist_m, obstacles_only=True)
+        if found is None:
+            return None
+        obj_dist_m, obj = found
+        race = self.race
+        dist_m = obj_dist_m - race.reset_behind_dist_m
+        if race.enable_mercy_reset:
+            if self._last_obstacle != obj.name:
+                self._last_obstacle, self.obstacle_crash_count = obj.name, 1
+            else:
+                self.obstacle_crash_count += 1
+            if self.obstacle_crash_count == race.max_resets_after_crash:
+                dist_m = obj_dist_m + race.reset_ahead_dist_m
+                self.obstacle_crash_count = 0
+        lane = "outer" if track.nearer_lane(obj.x_m, obj.y_m) == "inner" else "inner"
+        pose = track.pose_at(dist_m / track.length_m, lane)
+        return pose if all(math.isfinite(v) for v in pose) else None
