@@ -7,6 +7,10 @@ Definitions (deepracer-utils' where one exists, user-expectations §3.1):
 - resets: DeepRacer's reset_count, the episode's off_track + crashed + immobilized + reversed events (each such
   row, whether the car was put back, with or without penalty pause rows, or the event ended the episode);
   penalty_s: time spent in pause rows.
+- crashed: the episode's `crashed` rows (collisions with an obstacle or bot car that paused or ended it);
+  obstacle_crash_counter: the largest value of that simtrace column in the episode, when the files have it (the
+  SimApp's count of resets behind the same obstacle in a row). Per iteration: crashes (sum) and crashed_episodes
+  (episodes with at least one crash).
 """
 
 from __future__ import annotations
@@ -43,6 +47,7 @@ def episodes(steps: pd.DataFrame) -> pd.DataFrame:
         off_track=("is_off_track", "sum"),
         crashed=("is_crashed", "sum"),
         penalty_s=("pause_dt_s", "sum"),
+        **({"obstacle_crash_counter": ("obstacle_crash_counter", "max")} if "obstacle_crash_counter" in steps else {}),
     )
     table = table.reset_index()
     table["lap_complete"] = table["progress_pct"] >= 100.0
@@ -73,12 +78,14 @@ def episodes(steps: pd.DataFrame) -> pd.DataFrame:
         "off_track",
         "crashed",
         "penalty_s",
+        *(["obstacle_crash_counter"] if "obstacle_crash_counter" in table else []),
         "start_tstamp_s",
     ]
     return table[order].sort_values(["phase", "run", "worker", "start_tstamp_s"], ignore_index=True)
 
 
 def _summary(episode_table: pd.DataFrame, by: list[str]) -> pd.DataFrame:
+    episode_table = episode_table.assign(has_crash=episode_table["crashed"] > 0)
     table = episode_table.groupby(by, sort=True).agg(
         episodes=("episode", "size"),
         reward_mean=("reward", "mean"),
@@ -91,6 +98,8 @@ def _summary(episode_table: pd.DataFrame, by: list[str]) -> pd.DataFrame:
         mean_lap_time_s=("lap_time_s", "mean"),
         time_mean_s=("time_s", "mean"),
         speed_mean_mps=("speed_mps", "mean"),
+        crashes=("crashed", "sum"),
+        crashed_episodes=("has_crash", "sum"),
     )
     return table.reset_index()
 

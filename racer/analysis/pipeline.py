@@ -12,6 +12,7 @@ import yaml
 
 from racer.analysis import action_distributions, aggregate, plots, training_metrics, whatif
 from racer.analysis.loading import load_steps
+from racer.analysis.race_layout import RaceLayout, race_layout
 from racer.analysis.report import Report, write_html
 from racer.analysis.sources import EVALUATION, TRAINING, RunFiles, open_source
 from racer.analysis.track_sections import Track, TrackError, forward_waypoint, load_track, reversed_episodes
@@ -46,6 +47,12 @@ class Analysis:
     """Per iteration from TrainingMetrics JSON (training and in-training evaluation), when the source has it."""
     picture_iterations: tuple[int, int | None] | None = None
     """(first, last or None = to the end): training iterations the track pictures and the what-if use."""
+    layout: RaceLayout = field(default_factory=RaceLayout)
+    """Race type and fixed obstacles from the run's params yaml (drawn on the track maps)."""
+
+    @property
+    def has_crashes(self) -> bool:
+        return bool((self.steps["episode_status"] == "crashed").any())
 
 
 def run_tracks(files: RunFiles) -> dict[int | str, str]:
@@ -144,8 +151,11 @@ def build_tables(
                 f"{int(reversed_by_episode.sum())} of {len(reversed_by_episode)} episodes were driven in the "
                 "reverse direction of the route (told by their closest_waypoint)."
             )
+    layout = race_layout(files.params_yaml, track)
+    notes.extend(layout.notes)
     return Analysis(
         files=files,
+        layout=layout,
         steps=steps,
         episodes=episodes,
         iterations=aggregate.iterations(episodes),
@@ -208,6 +218,11 @@ def draw_pictures(analysis: Analysis, out_dir: Path, *, sections: int, top_laps:
     if analysis.track is None:
         return
     track = analysis.track
+    obstacles = analysis.layout.obstacles
+    if analysis.has_crashes or obstacles:
+        analysis.pictures["crashes"] = plots.crashes_on_track(
+            steps, analysis.iterations, track, out_dir / "crashes.png", obstacles
+        )
     best_training = aggregate.best_laps(for_pictures(analysis.episodes, analysis), TRAINING, top_laps)
     if len(best_training):
         title = (
@@ -216,10 +231,10 @@ def draw_pictures(analysis: Analysis, out_dir: Path, *, sections: int, top_laps:
             else "Furthest training episodes (no lap completed)"
         )
         analysis.pictures["best_laps"] = plots.laps_by_speed(
-            analysis.steps, best_training, track, out_dir / "best_laps.png", f"{title} (speed colour)"
+            analysis.steps, best_training, track, out_dir / "best_laps.png", f"{title} (speed colour)", obstacles
         )
         analysis.pictures["reward_heatmap"] = plots.reward_heatmap(
-            training_steps, track, out_dir / "reward_heatmap.png"
+            training_steps, track, out_dir / "reward_heatmap.png", obstacles
         )
         waypoint = forward_waypoint(training_steps, analysis.reversed_episodes, track)
         picture, _ = plots.action_usage(training_steps, waypoint, track, sections, out_dir / "action_usage.png")
@@ -228,7 +243,12 @@ def draw_pictures(analysis: Analysis, out_dir: Path, *, sections: int, top_laps:
     if len(evaluation):
         shown = evaluation.sort_values(["run", "start_tstamp_s"]).head(6)
         analysis.pictures["evaluation_laps"] = plots.laps_by_speed(
-            analysis.steps, shown, track, out_dir / "evaluation_laps.png", "Evaluation laps (speed colour)"
+            analysis.steps,
+            shown,
+            track,
+            out_dir / "evaluation_laps.png",
+            "Evaluation laps (speed colour)",
+            obstacles,
         )
 
 
@@ -267,6 +287,12 @@ _PICTURE_TEXT = {
         "Driven path coloured by speed; green dot = start of the lap, red cross = where a reset happened.",
     ),
     "reward_heatmap": ("Reward heatmap", "Mean step reward of all training steps in each cell of the track."),
+    "crashes": (
+        "Crashes",
+        "Left: every crashed row on the track (training coloured by iteration, evaluation as black crosses) and the "
+        "run's fixed obstacles (collision rectangles). Right: crashes per training iteration and the share of "
+        "episodes with one.",
+    ),
     "action_usage": ("Action usage per track section", "Share of the steps in each section that used each action."),
     "action_distributions": (
         "Continuous actions",
@@ -309,6 +335,14 @@ def build_report(analysis: Analysis, out_dir: Path) -> Path:
             aggregate.best_laps(training, TRAINING, 10),
             "Complete laps, fastest first (when no lap was completed: the episodes that got furthest).",
         ),
+        (
+            "table",
+            "Crashes by iteration",
+            _crash_table(analysis),
+            "Training episodes with a collision (status crashed) per iteration; obstacle_crash_counter is the "
+            "simtrace column's largest value (resets behind the same obstacle in a row).",
+        ),
+        ("picture", "crashes"),
         ("picture", "best_laps"),
         ("picture", "reward_heatmap"),
         ("picture", "action_usage"),
@@ -333,6 +367,22 @@ def build_report(analysis: Analysis, out_dir: Path) -> Path:
             report.add_table(key, rest[0], rest[1])
     analysis.report_path = write_html(report, out_dir / "report.html")
     return analysis.report_path
+
+
+def _crash_table(analysis: Analysis) -> pd.DataFrame:
+    """Per training iteration: episodes, crashes, episodes with a crash (empty for a run without any)."""
+    if not analysis.has_crashes and not analysis.layout.obstacles:
+        return pd.DataFrame()
+    columns = ["run", "iteration", "episodes", "crashes", "crashed_episodes"]
+    table = analysis.iterations[columns].copy()
+    table["crashed_episodes_pct"] = 100.0 * table["crashed_episodes"] / table["episodes"]
+    training = analysis.episodes[analysis.episodes["phase"] == TRAINING]
+    if "obstacle_crash_counter" in training:
+        counter = (
+            training.groupby(["run", "iteration"])["obstacle_crash_counter"].max().rename("obstacle_crash_counter")
+        )
+        table = table.merge(counter.reset_index(), on=["run", "iteration"], how="left")
+    return table
 
 
 def compare_reward(

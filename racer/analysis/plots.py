@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -9,10 +11,12 @@ import pandas as pd
 from matplotlib.collections import LineCollection
 from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
+from matplotlib.patches import Polygon
 from matplotlib.ticker import MaxNLocator
 
 from racer.analysis.loading import EPISODE_KEY
 from racer.analysis.track_sections import Track, section_of_waypoint
+from racer.shared.sim.race_objects import ObjectKind, RaceObject
 
 DPI = 110
 INCIDENT_STATUSES = ("off_track", "crashed", "immobilized", "reversed")
@@ -24,12 +28,37 @@ def _save(figure: Figure, path: Path) -> Path:
     return path
 
 
-def _draw_track(ax, track: Track, *, centre: bool = True) -> None:
+OBSTACLE_COLORS = {ObjectKind.BOX_OBSTACLE: "#7b614f", ObjectKind.BOT_CAR: "#282828"}
+"""The SimApp's box brown and DeepRacer's dark grey shell."""
+
+
+def object_outline(obj: RaceObject) -> np.ndarray:
+    """The object's collision rectangle on the floor (the SimApp's crash test uses it), 4 corners (x, y)."""
+    half_length, half_width = obj.size.length_m / 2, obj.size.width_m / 2
+    c, s = math.cos(obj.yaw_rad), math.sin(obj.yaw_rad)
+    local = np.array(
+        [[half_length, half_width], [half_length, -half_width], [-half_length, -half_width], [-half_length, half_width]]
+    )
+    return np.array([obj.x_m, obj.y_m]) + local @ np.array([[c, s], [-s, c]])
+
+
+def _draw_track(ax, track: Track, *, centre: bool = True, obstacles: Sequence[RaceObject] = ()) -> None:
     ax.fill(*np.vstack([track.outer_border, track.inner_border[::-1]]).T, color="0.93", zorder=0)
     for border in (track.inner_border, track.outer_border):
         ax.plot(*border.T, color="0.35", linewidth=1.0, zorder=1)
     if centre:
         ax.plot(*track.center_line.T, color="0.6", linewidth=0.6, linestyle="--", zorder=1)
+    for obj in obstacles:
+        ax.add_patch(
+            Polygon(
+                object_outline(obj),
+                closed=True,
+                facecolor=OBSTACLE_COLORS[obj.kind],
+                edgecolor="black",
+                linewidth=0.8,
+                zorder=1.5,
+            )
+        )
     ax.set_aspect("equal")
     ax.set_xticks([])
     ax.set_yticks([])
@@ -94,7 +123,14 @@ def training_progress(
     return _save(figure, path)
 
 
-def laps_by_speed(steps: pd.DataFrame, laps: pd.DataFrame, track: Track, path: Path, title: str) -> Path:
+def laps_by_speed(
+    steps: pd.DataFrame,
+    laps: pd.DataFrame,
+    track: Track,
+    path: Path,
+    title: str,
+    obstacles: Sequence[RaceObject] = (),
+) -> Path:
     """One small map per lap with the driven path coloured by speed: where the car is slow or wide."""
     count = len(laps)
     columns = min(count, 2)
@@ -110,7 +146,7 @@ def laps_by_speed(steps: pd.DataFrame, laps: pd.DataFrame, track: Track, path: P
     norm = Normalize(float(np.nanpercentile(speeds, 1)), max(0.5, float(np.nanpercentile(speeds, 99))))
     collection = None
     for ax, lap, trace in zip(axes, laps.itertuples(index=False), traces, strict=False):
-        _draw_track(ax, track, centre=False)
+        _draw_track(ax, track, centre=False, obstacles=obstacles)
         points = trace[["X", "Y"]].to_numpy()
         # No segment out of an off-track/crash row: after it the car was put back on the track (a reset).
         driven = ~trace["episode_status"].isin(INCIDENT_STATUSES).to_numpy()[:-1]
@@ -138,11 +174,11 @@ def laps_by_speed(steps: pd.DataFrame, laps: pd.DataFrame, track: Track, path: P
     return _save(figure, path)
 
 
-def reward_heatmap(steps: pd.DataFrame, track: Track, path: Path) -> Path:
+def reward_heatmap(steps: pd.DataFrame, track: Track, path: Path, obstacles: Sequence[RaceObject] = ()) -> Path:
     """Mean step reward where the car was: shows what the reward function pays for on each part of the track."""
     figure = Figure(figsize=(10, 7))
     ax = figure.subplots()
-    _draw_track(ax, track)
+    _draw_track(ax, track, obstacles=obstacles)
     driving = steps[steps["episode_status"].isin(["in_progress", "off_track", "lap_complete", "crashed"])]
     extent_m = np.ptp(np.vstack([track.outer_border, track.inner_border]), axis=0)
     cells = ax.hexbin(
@@ -158,6 +194,55 @@ def reward_heatmap(steps: pd.DataFrame, track: Track, path: Path) -> Path:
     )
     figure.colorbar(cells, ax=ax, label="mean step reward", shrink=0.8)
     ax.set_title(f"Reward heatmap, {len(driving)} training steps")
+    return _save(figure, path)
+
+
+def crashes_on_track(
+    steps: pd.DataFrame, crash_table: pd.DataFrame, track: Track, path: Path, obstacles: Sequence[RaceObject] = ()
+) -> Path:
+    """Where the car crashed (every `crashed` row, coloured by iteration; evaluations as black crosses) beside the
+    number of crashes per iteration: which obstacle catches the car, and whether that gets rarer."""
+    figure = Figure(figsize=(15, 6), layout="constrained")
+    map_ax, count_ax = figure.subplots(1, 2, width_ratios=[1.3, 1])
+    _draw_track(map_ax, track, obstacles=obstacles)
+    crashes = steps[steps["episode_status"] == "crashed"]
+    training = crashes[crashes["phase"] == "training"]
+    if len(training):
+        points = map_ax.scatter(
+            training["X"], training["Y"], c=training["iteration"], cmap="viridis", s=18, marker="x", zorder=3
+        )
+        figure.colorbar(points, ax=map_ax, label="iteration", shrink=0.8)
+    evaluation = crashes[crashes["phase"] != "training"]
+    if len(evaluation):
+        map_ax.plot(
+            evaluation["X"],
+            evaluation["Y"],
+            "x",
+            color="black",
+            markersize=8,
+            markeredgewidth=2,
+            label="evaluation",
+            zorder=4,
+        )
+        map_ax.legend(loc="upper right", fontsize=8)
+    map_ax.set_title(f"{len(crashes)} crashes ({len(obstacles)} fixed obstacles drawn)")
+    for run, rows in crash_table.groupby("run"):
+        label = "" if crash_table["run"].nunique() == 1 else f" ({run})"
+        count_ax.bar(rows["iteration"], rows["crashes"], alpha=0.6, label=f"crashes{label}")
+        count_ax.plot(
+            rows["iteration"],
+            100 * rows["crashed_episodes"] / rows["episodes"],
+            "o-",
+            color="tab:red",
+            markersize=3,
+            label=f"% of episodes with a crash{label}",
+        )
+    count_ax.set_xlabel("iteration")
+    count_ax.set_ylabel("crashes / % of episodes")
+    count_ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+    count_ax.grid(alpha=0.3)
+    count_ax.legend(loc="upper right", fontsize=8)
+    count_ax.set_title("crashes per iteration (training)")
     return _save(figure, path)
 
 

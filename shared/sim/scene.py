@@ -16,6 +16,7 @@ import numpy as np
 from racer.shared.sim import car as car_geometry
 from racer.shared.sim import world_look
 from racer.shared.sim._mujoco import mujoco
+from racer.shared.sim.object_bodies import ObjectSlot, object_bodies_mjcf
 from racer.shared.sim.simapp_world import SimappWorld, simapp_scene_xml
 from racer.shared.sim.track import Track
 from racer.shared.sim.worlds import World
@@ -40,6 +41,8 @@ class SceneSpec:
     """Camera mount (x, z used; y per camera) on the car."""
     simapp: SimappWorld | None = field(default=None, compare=False)
     """DeepRacer's own world meshes and lights to draw instead of racer's look (`EnvConfig.simapp_dir`)."""
+    object_slots: tuple[ObjectSlot, ...] = ()
+    """One mocap body per obstacle or bot car (`object_bodies.py`), moved by `ObjectBodies.place` every step."""
 
 
 def _floats(values: np.ndarray) -> str:
@@ -180,6 +183,7 @@ def scene_mjcf_and_assets(spec: SceneSpec) -> tuple[str, dict[str, bytes]]:
     <geom name="floor" type="plane" pos="{mid[0]:.4f} {mid[1]:.4f} 0" size="{half[0]:.3f} {half[1]:.3f} {2 * max(half):.3f}"
           {floor_look} friction="{mu} 0.005 0.0001" contype="1" conaffinity="2"/>
 {geoms_xml}
+{object_bodies_mjcf(spec.object_slots)}
 {car_geometry.car_mjcf(mu, spec.camera_names, spec.camera_pos_m)}
   </worldbody>
 {car_geometry.car_actuators_mjcf()}

@@ -1,0 +1,83 @@
+"""Where a run's static obstacles stood, from its params yaml, for the track maps.
+
+The obstacle keys (`OBJECT_POSITIONS`, `NUMBER_OF_OBSTACLES`, ...) are read as the env reads them
+(`RaceConfig.from_training_params`) and placed by the env's own placement (`obstacles.place_obstacles`), so the map
+shows the boxes where the car met them. Randomised layouts change every episode and are not drawn; bot cars move
+and are not drawn either (their crashes are still on the maps).
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from racer.shared.sim.obstacles import place_obstacles
+from racer.shared.sim.race_config import RaceConfig
+from racer.shared.sim.race_objects import RaceObject
+from racer.shared.sim.track import Track
+
+_TRAINING_PARAMS = re.compile(r"training_params(?:_(\d+))?\.ya?ml$")
+
+
+@dataclass(frozen=True)
+class RaceLayout:
+    race_type: str = "TIME_TRIAL"
+    obstacles: tuple[RaceObject, ...] = ()
+    """Static obstacles in the route's own direction (empty when there are none or they were randomised)."""
+    notes: tuple[str, ...] = field(default=())
+
+
+def _first_params(params_yaml: dict[str, bytes]) -> tuple[str, dict] | None:
+    """Worker 0's training params (the lowest worker number), else the first evaluation params file."""
+    parsed: list[tuple[int, str, dict]] = []
+    for name, data in params_yaml.items():
+        try:
+            params = yaml.safe_load(data)
+        except yaml.YAMLError:
+            continue  # run_tracks already warned about it
+        if not isinstance(params, dict):
+            continue
+        worker = _TRAINING_PARAMS.search(Path(name).name)
+        rank = int(worker.group(1) or 0) if worker else 1_000_000
+        parsed.append((rank, name, params))
+    if not parsed:
+        return None
+    _rank, name, params = min(parsed, key=lambda item: (item[0], item[1]))
+    return name, params
+
+
+def race_layout(params_yaml: dict[str, bytes], track: Track | None) -> RaceLayout:
+    """The run's race type and fixed obstacles; what cannot be drawn is said in `notes`."""
+    found = _first_params(params_yaml)
+    if found is None:
+        return RaceLayout()
+    name, params = found
+    try:
+        race = RaceConfig.from_training_params(params)
+    except ValueError as error:
+        return RaceLayout(notes=(f"{name}: {error}; obstacles not drawn.",))
+    if race.num_obstacles == 0:
+        return RaceLayout(race.race_type)
+    if race.randomize_obstacle_locations and not race.object_positions:
+        return RaceLayout(
+            race.race_type,
+            notes=(
+                f"{name}: the {race.num_obstacles} obstacles moved every episode (RANDOMIZE_OBSTACLE_LOCATIONS); "
+                "the maps do not draw them.",
+            ),
+        )
+    if track is None:
+        return RaceLayout(race.race_type)
+    reverse = str(params.get("REVERSE_DIR", "false")).strip().lower() in ("true", "1")
+    notes = [f"{race.race_type}: {race.num_obstacles} fixed obstacles from {name} drawn on the track maps."]
+    if str(params.get("ALTERNATE_DRIVING_DIRECTION", "false")).strip().lower() in ("true", "1"):
+        notes.append(
+            "The driving direction alternated; the maps draw the obstacles of the route's own direction (the "
+            "reversed episodes had them at the same share of the lap counted the other way)."
+        )
+    placed = place_obstacles(track.reversed() if reverse else track, race, np.random.default_rng(0))
+    return RaceLayout(race.race_type, tuple(placed), tuple(notes))

@@ -1,0 +1,197 @@
+"""Obstacles and bot cars as MuJoCo bodies: what the cameras draw and the LIDAR hits (the race logic moves them).
+
+One mocap body per `ObjectSlot`, compiled into the scene (`SceneSpec.object_slots`). Its geoms are in group 0,
+which the cameras draw and the LIDAR's rays see, and collide with nothing (contype/conaffinity 0): crashes are the
+race logic's rectangle test, as in the SimApp. Looks, from the SimApp's models (`bundle/models/*/model.sdf`):
+
+* box_obstacle: a plain brown box (#7b614f) 0.4 m along its heading, 0.3 m across, 0.25 m high. Its collision
+  rectangle (`race_objects.BOX_OBSTACLE_SIZE`, 0.5 x 0.4 m) is the box plus the SimApp's 0.1 m buffer.
+* bot_car: DeepRacer's car (the `car_body_link_v3` shell, dark grey 0x28, and four wheels), drawn as boxes and
+  cylinders that follow the shell mesh's outline: a low body over the full length and width, a narrower upper body
+  and the sensor tower at the front, which is what a LIDAR 0.16 m above the floor hits.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from racer.shared.sim._mujoco import mujoco
+from racer.shared.sim.race_objects import BOT_CAR_SIZE, BOX_OBSTACLE_SIZE, ObjectKind, RaceObject
+
+PARK_Z_M = -100.0
+"""Where an unused slot waits: below the floor, beyond every camera's far clip (60 m) and the LIDAR's range."""
+PARK_SPACING_M = 1.0
+
+BOX_BUFFER_M = 0.1
+"""The SimApp's collision rectangle is the box plus 0.1 m in each direction (`ObstacleDimensions`)."""
+BOX_LENGTH_M = BOX_OBSTACLE_SIZE.length_m - BOX_BUFFER_M
+BOX_WIDTH_M = BOX_OBSTACLE_SIZE.width_m - BOX_BUFFER_M
+BOX_HEIGHT_M = 0.25
+"""`models/box_obstacle/model.sdf`: box 0.4 x 0.3 x 0.25 m."""
+BOX_RGB = (0.482, 0.38, 0.309)
+
+BOT_BODY_RGB = (0.156, 0.156, 0.156)
+BOT_WHEEL_RGB = (0.1, 0.1, 0.1)
+BOT_WHEEL_RADIUS_M = 0.036
+BOT_WHEEL_HALF_WIDTH_M = 0.017
+BOT_AXLES_X_M = (-0.081663, 0.082311)
+BOT_HALF_TRACK_M = (0.08105, 0.079601)
+_BOT_HALF_LENGTH_M = BOT_CAR_SIZE.length_m / 2
+_BOT_HALF_WIDTH_M = BOT_CAR_SIZE.width_m / 2 - 0.004  # the wheels stick out 4 mm past the shell
+_BOT_BOXES = (
+    # (centre x, z), (half x, y, z): shell outline at heights 0.02-0.10, 0.10-0.175 and 0.175-0.205 m
+    ((0.004, 0.0625), (_BOT_HALF_LENGTH_M - 0.003, _BOT_HALF_WIDTH_M, 0.0375)),
+    ((0.05, 0.1375), (0.11, 0.066, 0.0375)),
+    ((0.1225, 0.19), (0.0325, 0.04, 0.015)),
+)
+
+
+@dataclass(frozen=True)
+class ObjectSlot:
+    """A place in the compiled scene for one race object, matched to `RaceObject.name` at every `place()`."""
+
+    name: str
+    kind: ObjectKind
+
+
+def _rgba(rgb: tuple[float, float, float]) -> str:
+    return f"{rgb[0]} {rgb[1]} {rgb[2]} 1"
+
+
+def body_name(index: int) -> str:
+    return f"race_object_{index}"
+
+
+def _geoms_xml(kind: ObjectKind) -> list[str]:
+    """The geoms of one object in its body frame (origin on the floor at the object's centre, x along its heading)."""
+    common = 'contype="0" conaffinity="0" group="0" mass="0"'
+    if kind is ObjectKind.BOX_OBSTACLE:
+        half = (BOX_LENGTH_M / 2, BOX_WIDTH_M / 2, BOX_HEIGHT_M / 2)
+        return [
+            f'<geom type="box" size="{half[0]} {half[1]} {half[2]}" pos="0 0 {half[2]}" rgba="{_rgba(BOX_RGB)}" {common}/>'
+        ]
+    geoms = [
+        f'<geom type="box" size="{hx} {hy} {hz}" pos="{x} 0 {z}" rgba="{_rgba(BOT_BODY_RGB)}" {common}/>'
+        for (x, z), (hx, hy, hz) in _BOT_BOXES
+    ]
+    for axle_x, half_track in zip(BOT_AXLES_X_M, BOT_HALF_TRACK_M, strict=True):
+        for side in (1, -1):
+            geoms.append(
+                f'<geom type="cylinder" size="{BOT_WHEEL_RADIUS_M} {BOT_WHEEL_HALF_WIDTH_M}" '
+                f'pos="{axle_x} {side * half_track} {BOT_WHEEL_RADIUS_M}" quat="0.70710678 0.70710678 0 0" '
+                f'rgba="{_rgba(BOT_WHEEL_RGB)}" {common}/>'
+            )
+    return geoms
+
+
+def _check_slots(slots: Sequence[ObjectSlot]) -> None:
+    names = [slot.name for slot in slots]
+    duplicates = sorted({name for name in names if names.count(name) > 1})
+    if duplicates:
+        raise ValueError(f"object slots must have distinct names; repeated: {duplicates}")
+
+
+def _park_position(index: int) -> tuple[float, float, float]:
+    return (index * PARK_SPACING_M, 0.0, PARK_Z_M)
+
+
+def object_bodies_mjcf(slots: Sequence[ObjectSlot]) -> str:
+    """Worldbody elements: one parked mocap body per slot."""
+    _check_slots(slots)
+    bodies = []
+    for index, slot in enumerate(slots):
+        x, y, z = _park_position(index)
+        geoms = "\n".join(f"      {geom}" for geom in _geoms_xml(slot.kind))
+        bodies.append(f'    <body name="{body_name(index)}" mocap="true" pos="{x} {y} {z}">\n{geoms}\n    </body>')
+    return "\n".join(bodies)
+
+
+class ObjectBodies:
+    """Moves the slots' mocap bodies to the race objects' poses; cheap enough for every env step.
+
+    `place()` also writes the bodies' and geoms' world poses, so the camera and the LIDAR see the objects at once,
+    whether it runs before or after `mj_step` (whose kinematics come first). It takes them from `mj_kinematics` on a
+    private `MjData` (a few microseconds for the whole model): the env's own data keeps the car's poses as `mj_step`
+    left them.
+    """
+
+    def __init__(self, model: mujoco.MjModel, slots: Sequence[ObjectSlot]) -> None:
+        _check_slots(slots)
+        self.slots = tuple(slots)
+        self._model = model
+        self._index = {slot.name: i for i, slot in enumerate(self.slots)}
+        n = len(self.slots)
+        try:
+            body_ids = [model.body(body_name(i)).id for i in range(n)]
+        except KeyError as exc:
+            raise ValueError(f"the model has no bodies for these {n} object slots (build it with them): {exc}") from exc
+        mocap_ids = [int(model.body_mocapid[body]) for body in body_ids]
+        geom_ids = []
+        for body in body_ids:
+            start = int(model.body_geomadr[body])
+            geom_ids.extend(range(start, start + int(model.body_geomnum[body])))
+        # object_bodies_mjcf writes the bodies one after another, so bodies, mocap ids and geoms are ranges.
+        self._bodies = _as_range(body_ids)
+        self._mocaps = _as_range(mocap_ids)
+        self._geoms = _as_range(geom_ids)
+        self._first_mocap = mocap_ids[0] if mocap_ids else 0
+        self._scratch = mujoco.MjData(model)
+        self._park = self._scratch.mocap_pos[self._mocaps].copy()
+        self._placed: tuple[int, tuple[RaceObject, ...]] | None = None
+
+    def place(self, data: mujoco.MjData, objects: Sequence[RaceObject]) -> None:
+        """Put each slot's body at its object's pose (standing on the floor); slots without an object are parked."""
+        objects = tuple(objects)
+        scratch, mocaps = self._scratch, self._mocaps
+        if (
+            self._placed is not None
+            and self._placed == (id(data), objects)
+            and np.array_equal(data.mocap_pos[mocaps], scratch.mocap_pos[mocaps])
+        ):
+            return  # nothing moved (static obstacles): the world poses derived from mocap_pos are still right
+        if not self.slots:
+            if objects:
+                raise ValueError(f"no object slots in this scene for {[obj.name for obj in objects]}")
+            return
+        pos, quat = scratch.mocap_pos, scratch.mocap_quat
+        pos[mocaps] = self._park
+        quat[mocaps] = (1.0, 0.0, 0.0, 0.0)
+        for obj in objects:
+            i = self._index.get(obj.name)
+            if i is None:
+                raise ValueError(f"race object {obj.name!r} has no slot in the scene; slots: {sorted(self._index)}")
+            if obj.kind is not self.slots[i].kind:
+                raise ValueError(
+                    f"race object {obj.name!r} is a {obj.kind.value}, its slot was built for a {self.slots[i].kind.value}"
+                )
+            k = self._first_mocap + i
+            pos[k] = (obj.x_m, obj.y_m, 0.0)
+            quat[k] = (math.cos(0.5 * obj.yaw_rad), 0.0, 0.0, math.sin(0.5 * obj.yaw_rad))
+        mujoco.mj_kinematics(self._model, scratch)
+        bodies, geoms = self._bodies, self._geoms
+        data.mocap_pos[mocaps] = pos[mocaps]
+        data.mocap_quat[mocaps] = quat[mocaps]
+        data.xpos[bodies] = scratch.xpos[bodies]
+        data.xquat[bodies] = scratch.xquat[bodies]
+        data.xmat[bodies] = scratch.xmat[bodies]
+        data.geom_xpos[geoms] = scratch.geom_xpos[geoms]
+        data.geom_xmat[geoms] = scratch.geom_xmat[geoms]
+        self._placed = (id(data), objects)
+
+
+def _as_range(ids: list[int]) -> slice:
+    if ids and ids != list(range(ids[0], ids[0] + len(ids))):
+        raise ValueError(f"object bodies are expected one after another in the model, got ids {ids}")
+    return slice(ids[0], ids[0] + len(ids)) if ids else slice(0, 0)
+
+
+def slot_for(obj: RaceObject) -> ObjectSlot:
+    """The slot an object needs (same name and kind)."""
+    return ObjectSlot(obj.name, obj.kind)
+
+
+__all__ = ["ObjectBodies", "ObjectSlot", "object_bodies_mjcf", "slot_for", "PARK_Z_M"]
