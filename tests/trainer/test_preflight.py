@@ -297,5 +297,5 @@ def test_racer_trainer_refuses_before_connecting(tmp_path, monkeypatch):
     monkeypatch.setenv("RACER_STORE", str(tmp_path / "racer-data"))
     result = CliRunner().invoke(trainer_command, ["--model-prefix", "m", "--custom-files", str(custom)])
     assert result.exit_code == 1
-    assert "RACE_TYPE" in result.output and "not supported yet" in result.output
+    assert "NUMBER_OF_OBSTACLES" in result.output and "OBJECT_AVOIDANCE needs obstacles" in result.output
     assert not (tmp_path / "racer-data").exists()
