@@ -1,8 +1,9 @@
 """The car's 2-D LIDAR and DeepRacer's three ways of feeding it to the network (reference §8.1).
 
 64 rays over ±2.61799 rad (300°) in the car's horizontal plane, 0.15–12 m, Gaussian noise σ = 0.01 m, 10 Hz
-(the env runs at 15 Hz, so a scan is reused until the next one is due). Rays see only geoms of group 0
-(obstacles, walls); the floor, the road markings and the car itself are in other groups.
+(the env runs at 15 Hz, so a scan is reused until the next one is due). Rays see only geoms of group 0: the
+obstacles and bot cars (`object_bodies.py`); the floor, road, walls and the car itself are in other groups, and the
+car's own body is excluded as well.
 """
 
 from __future__ import annotations

@@ -22,6 +22,8 @@ import numpy as np
 from racer.shared.sim._mujoco import mujoco
 from racer.shared.sim.race_objects import BOT_CAR_SIZE, BOX_OBSTACLE_SIZE, ObjectKind, RaceObject
 
+OBJECT_GEOM_GROUP = 0
+"""The group the cameras draw and the LIDAR sees; nothing else in the scene uses it (a top view can hide it)."""
 PARK_Z_M = -100.0
 """Where an unused slot waits: below the floor, beyond every camera's far clip (60 m) and the LIDAR's range."""
 PARK_SPACING_M = 1.0
@@ -40,6 +42,8 @@ BOT_WHEEL_RADIUS_M = 0.036
 BOT_WHEEL_HALF_WIDTH_M = 0.017
 BOT_AXLES_X_M = (-0.081663, 0.082311)
 BOT_HALF_TRACK_M = (0.08105, 0.079601)
+BOT_HEIGHT_M = 0.205
+"""Top of the shell's sensor tower (`car_body_link_v3.STL`)."""
 _BOT_HALF_LENGTH_M = BOT_CAR_SIZE.length_m / 2
 _BOT_HALF_WIDTH_M = BOT_CAR_SIZE.width_m / 2 - 0.004  # the wheels stick out 4 mm past the shell
 _BOT_BOXES = (
@@ -48,6 +52,14 @@ _BOT_BOXES = (
     ((0.05, 0.1375), (0.11, 0.066, 0.0375)),
     ((0.1225, 0.19), (0.0325, 0.04, 0.015)),
 )
+
+
+def drawn_size(kind: ObjectKind) -> tuple[float, float, float]:
+    """(length along the heading, width, height) in metres of what the scene draws: the box, or the bot car's
+    overall outline (its collision rectangle, up to the top of the sensor tower)."""
+    if kind is ObjectKind.BOX_OBSTACLE:
+        return BOX_LENGTH_M, BOX_WIDTH_M, BOX_HEIGHT_M
+    return BOT_CAR_SIZE.length_m, BOT_CAR_SIZE.width_m, BOT_HEIGHT_M
 
 
 @dataclass(frozen=True)
@@ -68,7 +80,7 @@ def body_name(index: int) -> str:
 
 def _geoms_xml(kind: ObjectKind) -> list[str]:
     """The geoms of one object in its body frame (origin on the floor at the object's centre, x along its heading)."""
-    common = 'contype="0" conaffinity="0" group="0" mass="0"'
+    common = f'contype="0" conaffinity="0" group="{OBJECT_GEOM_GROUP}" mass="0"'
     if kind is ObjectKind.BOX_OBSTACLE:
         half = (BOX_LENGTH_M / 2, BOX_WIDTH_M / 2, BOX_HEIGHT_M / 2)
         return [
