@@ -6,6 +6,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from racer.shared.sim.config import DEFAULT_TRACK, RESET_POSITIONS
+from racer.shared.sim.race_config import RaceConfig
 from racer.shared.sim.worlds import WORLD_NAMES
 
 MODES: tuple[str, ...] = ("deepracer", "race")
@@ -113,6 +114,9 @@ class EvaluationConfig:
     reverse_dir: bool = False
     deepracer: DeepRacerRules = field(default_factory=DeepRacerRules)
     race: RaceRules = field(default_factory=RaceRules)
+    race_setup: RaceConfig = RaceConfig()
+    """RACE_TYPE and the obstacles / bot cars on the track (both modes); crashes cost COLLISION_PENALTY (deepracer
+    mode) or the put-back penalty (race mode) and count as a reset."""
     video: VideoOptions = field(default_factory=VideoOptions)
     mcap: bool = True
     seed: int = 0

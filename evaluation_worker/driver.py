@@ -22,6 +22,7 @@ import numpy as np
 from racer.shared.deepracer.model_metadata import ModelMetadata
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
+from racer.shared.sim.race_config import RaceConfig
 
 PENALTY_STATUSES: tuple[str, ...] = ("crashed", "immobilized", "off_track", "reversed")
 """Statuses a reset rule produces; each such step counts once in EvaluationMetrics (`<status>_count`)."""
@@ -114,6 +115,7 @@ def make_env_config(
     immobilized_penalty_s: float,
     reverse_penalty_s: float | None,
     reset_position: str = "deepracer",
+    race: RaceConfig | None = None,
 ) -> EnvConfig:
     """The env of an evaluation job: default evaluation reward, start at the line, the job's reset budget."""
     return EnvConfig(
@@ -130,6 +132,7 @@ def make_env_config(
         immobilized_penalty_s=immobilized_penalty_s,
         reverse_penalty_s=reverse_penalty_s,
         reset_position=reset_position,
+        race=race or RaceConfig(),
     )
 
 

@@ -12,6 +12,7 @@ import click
 
 from racer.evaluation_worker.config import CONSOLE_NUMBER_OF_RESETS, MODES
 from racer.shared.sim.config import DEFAULT_TRACK, RESET_POSITIONS
+from racer.shared.sim.race_cli import race_options, race_params_from_options
 from racer.shared.sim.worlds import WORLD_NAMES
 
 
@@ -69,6 +70,13 @@ def _video_size(text: str) -> tuple[int, int]:
     help="OFF_TRACK_PENALTY seconds (deepracer mode; also the reversed penalty).",
 )
 @click.option(
+    "--collision-penalty",
+    type=click.FloatRange(min=0.0),
+    default=5.0,
+    show_default=True,
+    help="COLLISION_PENALTY seconds after a crash into an obstacle or a bot car (deepracer mode).",
+)
+@click.option(
     "--race-minutes",
     type=click.FloatRange(min=0.0, min_open=True),
     default=4.0,
@@ -110,6 +118,7 @@ def _video_size(text: str) -> tuple[int, int]:
     help="Also keep a local copy of the outputs here (same layout as under the model prefix).",
 )
 @click.option("--seed", type=int, default=0, show_default=True, help="Seeds sensor noise; the sim clock starts at 0.")
+@race_options
 def evaluate_command(
     model_prefix,
     checkpoint,
@@ -121,6 +130,7 @@ def evaluate_command(
     continuous,
     resets,
     off_track_penalty,
+    collision_penalty,
     race_minutes,
     race_resets_per_lap,
     race_reset_penalty,
@@ -130,6 +140,8 @@ def evaluate_command(
     mcap,
     out_dir,
     seed,
+    race_type,
+    race_param,
 ) -> None:
     """Evaluate a model from the store (RACER_STORE) and write metrics, simtrace, videos and an MCAP next to it."""
     from racer.evaluation_worker.config import (
@@ -143,10 +155,12 @@ def evaluate_command(
     from racer.evaluation_worker.video import VideoError
     from racer.shared.config import settings_from_env
     from racer.shared.policy.manifest import CheckpointError
+    from racer.shared.sim.race_config import RaceConfig
     from racer.shared.store import open_store
     from racer.shared.user_errors import user_error_types
 
     width_px, height_px = _video_size(video_size)
+    race_setup = RaceConfig.from_training_params(dict(race_params_from_options(race_type, race_param)))
     try:
         config = EvaluationConfig(
             model_prefix=model_prefix,
@@ -160,6 +174,7 @@ def evaluate_command(
                 is_continuous=bool(continuous),
                 number_of_resets=resets,
                 off_track_penalty_s=off_track_penalty,
+                collision_penalty_s=collision_penalty,
             ),
             race=RaceRules(
                 race_duration_s=race_minutes * 60.0,
@@ -171,6 +186,7 @@ def evaluate_command(
             video=VideoOptions(enabled=video, width_px=width_px, height_px=height_px),
             mcap=mcap,
             seed=seed,
+            race_setup=race_setup,
         )
         store = open_store(settings_from_env().store)
         session = EvaluationSession(store, config, out_dir=out_dir)

@@ -32,6 +32,7 @@ from racer.shared.deepracer.metrics import EvaluationMetrics, EvaluationMetricsE
 from racer.shared.deepracer.simtrace import SimtraceWriter
 from racer.shared.model_layout import EvaluationLayout
 from racer.shared.sim.env import DeepRacerEnv
+from racer.shared.sim.race_config import param_text
 from racer.shared.store import ObjectStore, join_key
 
 
@@ -86,7 +87,7 @@ def evaluation_params(config: EvaluationConfig, layout: EvaluationLayout, checkp
     """
     params = {
         "JOB_TYPE": "EVALUATION",
-        "RACE_TYPE": "TIME_TRIAL",
+        "RACE_TYPE": config.race_setup.race_type,
         "WORLD_NAME": str(config.track),
         "RACER_WORLD": config.world,
         "REVERSE_DIR": str(config.reverse_dir).lower(),
@@ -97,6 +98,8 @@ def evaluation_params(config: EvaluationConfig, layout: EvaluationLayout, checkp
         "MP4_S3_OBJECT_PREFIX": layout.key(layout.run_name),
         "RACER_EVALUATION_MODE": config.mode,
     }
+    if config.race_setup.has_objects:
+        params.update({k: param_text(v) for k, v in config.race_setup.to_training_params().items()})
     if config.mode == "race":
         race = config.race
         params.update(

@@ -170,6 +170,7 @@ class EvaluationSession:
                 immobilized_penalty_s=penalty,
                 reverse_penalty_s=penalty,
                 reset_position=config.race.put_back,
+                race=config.race_setup,
             )
         rules = config.deepracer
         return make_env_config(
@@ -182,6 +183,7 @@ class EvaluationSession:
             collision_penalty_s=rules.collision_penalty_s,
             immobilized_penalty_s=rules.immobilized_penalty_s,
             reverse_penalty_s=None,
+            race=config.race_setup,
         )
 
     def _header(self) -> dict[str, Any]:

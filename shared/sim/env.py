@@ -29,7 +29,9 @@ from racer.shared.sim.car import (
 from racer.shared.sim.collisions import CrashVerdict
 from racer.shared.sim.config import STEPS_PER_SECOND, EnvConfig
 from racer.shared.sim.domain_randomization import SceneRandomizer
-from racer.shared.sim.race import RaceObjects
+from racer.shared.sim.object_bodies import ObjectBodies
+from racer.shared.sim.race import RaceObjects, object_slots
+from racer.shared.sim.race_objects import RaceObject
 from racer.shared.sim.reward import RewardFunction, default_evaluation_reward, load_reward_function
 from racer.shared.sim.reward_params import make_reward_params
 from racer.shared.sim.scene import SceneSpec, build_model
@@ -145,6 +147,7 @@ class DeepRacerEnv(gym.Env):
                 cameras,
                 camera_mount_m(self._metadata.version),
                 load_simapp_world(cfg.simapp_dir, cfg.world) if cfg.simapp_dir is not None else None,
+                object_slots=object_slots(cfg.race),
             )
         )
         self._data = mujoco.MjData(self._model)
@@ -159,7 +162,7 @@ class DeepRacerEnv(gym.Env):
         # Obstacles and bot cars; None in a time trial, so nothing of theirs runs per step.
         self._race = RaceObjects(cfg.race) if cfg.race.has_objects else None
         self._race_start_time_s = 0.0
-        self._object_bodies = None
+        self._object_bodies = ObjectBodies(self._model, object_slots(cfg.race)) if self._race is not None else None
 
         self.action_space = self._make_action_space()
         self.observation_space = self._make_observation_space()
@@ -233,6 +236,11 @@ class DeepRacerEnv(gym.Env):
     def start_ndist(self) -> float:
         """Normalised start position of the next (or current, before its first step) training episode."""
         return self._start_ndist
+
+    @property
+    def race_objects(self) -> list[RaceObject]:
+        """The obstacles and bot cars where they stand now (empty in a time trial)."""
+        return self._race.objects if self._race is not None else []
 
     @property
     def sim_time_s(self) -> float:

@@ -15,6 +15,7 @@ import numpy as np
 from racer.shared.sim.bot_cars import BOT_CAR_NAME_PREFIX, BotCars
 from racer.shared.sim.car import CarPose
 from racer.shared.sim.collisions import CrashVerdict, collided_object, judge_crash, start_line_progress
+from racer.shared.sim.object_bodies import ObjectSlot
 from racer.shared.sim.obstacles import OBSTACLE_NAME_PREFIX, place_obstacles
 from racer.shared.sim.race_config import RaceConfig
 from racer.shared.sim.race_objects import ObjectKind, RaceObject
@@ -25,11 +26,11 @@ CLOSEST_OBJ_GAP_M = 1.0
 """An object nearer than this (along the centre line) to a start or reset spot moves the car (SimApp constant)."""
 
 
-def object_slots(race: RaceConfig) -> tuple[tuple[str, ObjectKind], ...]:
-    """(name, kind) of every object the run will have: the scene builds one body per slot."""
+def object_slots(race: RaceConfig) -> tuple[ObjectSlot, ...]:
+    """Every object the run will have: the scene builds one body per slot."""
     kind = ObjectKind.BOT_CAR if race.is_obstacle_bot_car else ObjectKind.BOX_OBSTACLE
-    obstacles = tuple((f"{OBSTACLE_NAME_PREFIX}_{i}", kind) for i in range(race.num_obstacles))
-    bots = tuple((f"{BOT_CAR_NAME_PREFIX}_{i}", ObjectKind.BOT_CAR) for i in range(race.number_of_bot_cars))
+    obstacles = tuple(ObjectSlot(f"{OBSTACLE_NAME_PREFIX}_{i}", kind) for i in range(race.num_obstacles))
+    bots = tuple(ObjectSlot(f"{BOT_CAR_NAME_PREFIX}_{i}", ObjectKind.BOT_CAR) for i in range(race.number_of_bot_cars))
     return obstacles + bots
 
 

@@ -132,9 +132,9 @@ class RaceConfig:
         for key, field_name in _KEYS.items():
             value = getattr(self, field_name)
             if field_name == "object_positions":
-                value = [f"{p.ndist},{p.lane}" for p in value]
-                if not value:
-                    continue
+                if value:
+                    params[key] = [f"{p.ndist},{p.lane}" for p in value]
+                continue
             params[key] = str(value)
         return params
 

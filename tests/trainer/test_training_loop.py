@@ -221,19 +221,74 @@ def test_workers_json_names_deepracer_tracks_found_on_the_route_search_path(
         make_trainer(redis_settings, tmp_path / "other", custom_files).setup()
 
 
+def test_race_settings_travel_from_train_options_and_workers_json_to_each_workers_env(
+    redis_settings, tmp_path, custom_files
+):
+    """`--race-type` / `--race-param` for every worker, workers.json over them per worker; the store's yaml keeps
+    OBJECT_POSITIONS as DeepRacer's list of "ndist,lane"; each worker's env gets its RaceConfig."""
+    from racer.rollout_worker.run_files import load_run_files
+    from racer.rollout_worker.worker import training_env_config
+    from racer.shared.deepracer.training_params import parse_training_params
+    from racer.shared.sim.race_config import ObjectPosition, RaceConfig
+
+    (custom_files / "workers.json").write_text(
+        json.dumps(
+            {
+                "COLLISION_PENALTY": 1.5,
+                "workers": [
+                    {},
+                    {
+                        "RACE_TYPE": "HEAD_TO_BOT",
+                        "OBJECT_POSITIONS": [],
+                        "NUMBER_OF_BOT_CARS": 2,
+                        "IS_LANE_CHANGE": True,
+                    },
+                ],
+            }
+        )
+    )
+    race_params = (("RACE_TYPE", "OBJECT_AVOIDANCE"), ("OBJECT_POSITIONS", "0.25,1;0.5,-1"), ("BOT_CAR_SPEED", "0.5"))
+    make_trainer(redis_settings, tmp_path, custom_files, race_params=race_params).setup()
+    store = open_store(LocalStoreSettings(root=tmp_path / "store"))
+    layout = ModelLayout(PREFIX)
+    yaml_text = store.get_bytes(layout.training_params(0)).decode()
+    assert list(parse_training_params(yaml_text).values["OBJECT_POSITIONS"]) == ["0.25,1", "0.5,-1"]
+    assert '"OBJECT_POSITIONS":\n- "0.25,1"\n- "0.5,-1"' in yaml_text  # a YAML list, as in DeepRacer's yaml
+    configs = [training_env_config(load_run_files(store, PREFIX, i, tmp_path / f"worker-{i}")) for i in (0, 1)]
+    assert configs[0].race == RaceConfig(
+        race_type="OBJECT_AVOIDANCE",
+        object_positions=(ObjectPosition(0.25, 1), ObjectPosition(0.5, -1)),
+        bot_car_speed_mps=0.5,
+    )
+    assert configs[1].race == RaceConfig(
+        race_type="HEAD_TO_BOT", number_of_bot_cars=2, is_lane_change=True, bot_car_speed_mps=0.5
+    )
+    assert configs[0].collision_penalty_s == configs[1].collision_penalty_s == 1.5
+
+
 def test_training_params_keys_work_or_are_refused_by_name(redis_settings, tmp_path, custom_files):
     """NUMBER_OF_RESETS, OFF_TRACK_PENALTY and NUMBER_OF_REVERSE_COUNTS reach the training env as the SimApp reads
-    them; RACE_TYPE / NUMBER_OF_OBSTACLES / NUMBER_OF_BOT_CARS other than a time trial are a clear error."""
+    them; bad race keys (an unknown RACE_TYPE, a count that is no number, objects in a time trial) are a clear error
+    naming the key."""
     from racer.rollout_worker.run_files import load_run_files
     from racer.rollout_worker.worker import training_env_config
     from racer.shared.sim.env import DeepRacerEnv
     from racer.shared.user_errors import RunConfigError
     from tests.sim.conftest import place_front_at
 
-    for key, value in (("RACE_TYPE", "OBJECT_AVOIDANCE"), ("NUMBER_OF_OBSTACLES", 3), ("NUMBER_OF_BOT_CARS", "2")):
-        (custom_files / "workers.json").write_text(json.dumps({key: value}))
-        with pytest.raises(RunConfigError, match=rf"workers.json.*{key}: '{value}' is not supported yet"):
-            make_trainer(redis_settings, tmp_path / key, custom_files).setup()
+    for values, message in (
+        ({"RACE_TYPE": "F1"}, r"RACE_TYPE: 'F1' is not one of TIME_TRIAL, OBJECT_AVOIDANCE, HEAD_TO_BOT"),
+        (
+            {"RACE_TYPE": "OBJECT_AVOIDANCE", "NUMBER_OF_OBSTACLES": "three"},
+            r"NUMBER_OF_OBSTACLES: 'three' is not a number",
+        ),
+        ({"NUMBER_OF_BOT_CARS": "2"}, r"RACE_TYPE: TIME_TRIAL with .*NUMBER_OF_BOT_CARS set"),
+        ({"RACE_TYPE": "HEAD_TO_BOT", "NUMBER_OF_BOT_CARS": 1, "BOT_CAR_SPEED": "0"}, r"BOT_CAR_SPEED: 0.0 m/s"),
+        ({"RACE_TYPE": "OBJECT_AVOIDANCE", "OBJECT_POSITIONS": ["0.2;1"]}, r"OBJECT_POSITIONS: .* is not 'ndist,lane'"),
+    ):
+        (custom_files / "workers.json").write_text(json.dumps(values))
+        with pytest.raises(RunConfigError, match=rf"workers.json \(worker 0\): {message}"):
+            make_trainer(redis_settings, tmp_path / "bad", custom_files).setup()
 
     (custom_files / "workers.json").write_text(
         json.dumps(
