@@ -35,6 +35,10 @@ BOX_WIDTH_M = BOX_OBSTACLE_SIZE.width_m - BOX_BUFFER_M
 BOX_HEIGHT_M = 0.25
 """`models/box_obstacle/model.sdf`: box 0.4 x 0.3 x 0.25 m."""
 BOX_RGB = (0.482, 0.38, 0.309)
+OBJECT_EMISSION = 0.215
+"""The SDF materials set ambient = diffuse, so Gazebo's scene ambient (0.5) lights every face of them; racer's light,
+calibrated on the world meshes (whose ambient is 0), gives 0.57 x 0.5 = 0.285. Emission adds the rest, so a face
+turned away from the sun shows about half its colour, as in Gazebo, instead of under a third."""
 
 BOT_BODY_RGB = (0.156, 0.156, 0.156)
 BOT_WHEEL_RGB = (0.1, 0.1, 0.1)
@@ -84,10 +88,10 @@ def _geoms_xml(kind: ObjectKind) -> list[str]:
     if kind is ObjectKind.BOX_OBSTACLE:
         half = (BOX_LENGTH_M / 2, BOX_WIDTH_M / 2, BOX_HEIGHT_M / 2)
         return [
-            f'<geom type="box" size="{half[0]} {half[1]} {half[2]}" pos="0 0 {half[2]}" rgba="{_rgba(BOX_RGB)}" {common}/>'
+            f'<geom type="box" size="{half[0]} {half[1]} {half[2]}" pos="0 0 {half[2]}" material="race_box" {common}/>'
         ]
     geoms = [
-        f'<geom type="box" size="{hx} {hy} {hz}" pos="{x} 0 {z}" rgba="{_rgba(BOT_BODY_RGB)}" {common}/>'
+        f'<geom type="box" size="{hx} {hy} {hz}" pos="{x} 0 {z}" material="race_bot_body" {common}/>'
         for (x, z), (hx, hy, hz) in _BOT_BOXES
     ]
     for axle_x, half_track in zip(BOT_AXLES_X_M, BOT_HALF_TRACK_M, strict=True):
@@ -95,7 +99,7 @@ def _geoms_xml(kind: ObjectKind) -> list[str]:
             geoms.append(
                 f'<geom type="cylinder" size="{BOT_WHEEL_RADIUS_M} {BOT_WHEEL_HALF_WIDTH_M}" '
                 f'pos="{axle_x} {side * half_track} {BOT_WHEEL_RADIUS_M}" quat="0.70710678 0.70710678 0 0" '
-                f'rgba="{_rgba(BOT_WHEEL_RGB)}" {common}/>'
+                f'material="race_bot_wheel" {common}/>'
             )
     return geoms
 
@@ -109,6 +113,16 @@ def _check_slots(slots: Sequence[ObjectSlot]) -> None:
 
 def _park_position(index: int) -> tuple[float, float, float]:
     return (index * PARK_SPACING_M, 0.0, PARK_Z_M)
+
+
+def object_materials_mjcf(slots: Sequence[ObjectSlot]) -> str:
+    """Asset elements for the objects' colours (none without slots, so a time trial's model is unchanged)."""
+    if not slots:
+        return ""
+    return "\n".join(
+        f'    <material name="{name}" rgba="{_rgba(rgb)}" emission="{OBJECT_EMISSION}" specular="0" shininess="0"/>'
+        for name, rgb in (("race_box", BOX_RGB), ("race_bot_body", BOT_BODY_RGB), ("race_bot_wheel", BOT_WHEEL_RGB))
+    )
 
 
 def object_bodies_mjcf(slots: Sequence[ObjectSlot]) -> str:

@@ -16,7 +16,7 @@ import numpy as np
 from racer.shared.sim import car as car_geometry
 from racer.shared.sim import world_look
 from racer.shared.sim._mujoco import mujoco
-from racer.shared.sim.object_bodies import ObjectSlot, object_bodies_mjcf
+from racer.shared.sim.object_bodies import ObjectSlot, object_bodies_mjcf, object_materials_mjcf
 from racer.shared.sim.simapp_world import SimappWorld, simapp_scene_xml
 from racer.shared.sim.track import Track
 from racer.shared.sim.worlds import World
@@ -177,6 +177,7 @@ def scene_mjcf_and_assets(spec: SceneSpec) -> tuple[str, dict[str, bytes]]:
   </visual>
   <asset>
 {assets_xml}
+{object_materials_mjcf(spec.object_slots)}
   </asset>
   <worldbody>
 {lights_xml}
