@@ -1,9 +1,10 @@
 """The car's 2-D LIDAR and DeepRacer's three ways of feeding it to the network (reference §8.1).
 
 64 rays over ±2.61799 rad (300°) in the car's horizontal plane, 0.15–12 m, Gaussian noise σ = 0.01 m, 10 Hz
-(the env runs at 15 Hz, so a scan is reused until the next one is due). Rays see only geoms of group 0: the
-obstacles and bot cars (`object_bodies.py`); the floor, road, walls and the car itself are in other groups, and the
-car's own body is excluded as well.
+(the env runs at 15 Hz, so a scan is reused until the next one is due). Rays see geoms of groups 0 and 1: the
+obstacles and bot cars (`object_bodies.py`) and the world (walls; the floor and the flat road lie in the scan plane's
+direction and are not hit by a level car), as DeepRacer's `gpu_lidar` sees the world's walls. The car's own geoms
+(group 3) are not seen, and its body is excluded as well.
 """
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ LIDAR_CLIP_HIGH_M = 1.0
 """`LIDAR` observations are clipped to [0.15, 1.0]."""
 SECTOR_LIDAR_SECTORS = 8
 SECTOR_LIDAR_CLIP_M = 0.5
-VISIBLE_GROUPS = np.array([1, 0, 0, 0, 0, 0], dtype=np.uint8)
+VISIBLE_GROUPS = np.array([1, 1, 0, 0, 0, 0], dtype=np.uint8)
 
 
 def sector_bits(ranges: np.ndarray, num_sectors: int, num_values: int, clipping_dist_m: float) -> np.ndarray:
