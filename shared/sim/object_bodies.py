@@ -24,6 +24,9 @@ from racer.shared.sim.race_objects import BOT_CAR_SIZE, BOX_OBSTACLE_SIZE, Objec
 
 OBJECT_GEOM_GROUP = 0
 """The group the cameras draw and the LIDAR sees; nothing else in the scene uses it (a top view can hide it)."""
+MATERIAL_PREFIX = "race_object/"
+OBSTACLE_NAME_PREFIX = "obstacle"
+"""The SimApp's name prefix of static obstacles (`obstacle_<i>`), the ones its domain randomisation recolours."""
 PARK_Z_M = -100.0
 """Where an unused slot waits: below the floor, beyond every camera's far clip (60 m) and the LIDAR's range."""
 PARK_SPACING_M = 1.0
@@ -82,16 +85,26 @@ def body_name(index: int) -> str:
     return f"race_object_{index}"
 
 
-def _geoms_xml(kind: ObjectKind) -> list[str]:
+def _material_name(slot: ObjectSlot, part: str) -> str:
+    return f"{MATERIAL_PREFIX}{slot.name}/{part}"
+
+
+def _parts(kind: ObjectKind) -> tuple[tuple[str, tuple[float, float, float]], ...]:
+    """(part, colour) of each material an object of this kind uses."""
+    if kind is ObjectKind.BOX_OBSTACLE:
+        return (("body", BOX_RGB),)
+    return (("body", BOT_BODY_RGB), ("wheels", BOT_WHEEL_RGB))
+
+
+def _geoms_xml(slot: ObjectSlot) -> list[str]:
     """The geoms of one object in its body frame (origin on the floor at the object's centre, x along its heading)."""
     common = f'contype="0" conaffinity="0" group="{OBJECT_GEOM_GROUP}" mass="0"'
-    if kind is ObjectKind.BOX_OBSTACLE:
+    body = f'material="{_material_name(slot, "body")}"'
+    if slot.kind is ObjectKind.BOX_OBSTACLE:
         half = (BOX_LENGTH_M / 2, BOX_WIDTH_M / 2, BOX_HEIGHT_M / 2)
-        return [
-            f'<geom type="box" size="{half[0]} {half[1]} {half[2]}" pos="0 0 {half[2]}" material="race_box" {common}/>'
-        ]
+        return [f'<geom type="box" size="{half[0]} {half[1]} {half[2]}" pos="0 0 {half[2]}" {body} {common}/>']
     geoms = [
-        f'<geom type="box" size="{hx} {hy} {hz}" pos="{x} 0 {z}" material="race_bot_body" {common}/>'
+        f'<geom type="box" size="{hx} {hy} {hz}" pos="{x} 0 {z}" {body} {common}/>'
         for (x, z), (hx, hy, hz) in _BOT_BOXES
     ]
     for axle_x, half_track in zip(BOT_AXLES_X_M, BOT_HALF_TRACK_M, strict=True):
@@ -99,9 +112,21 @@ def _geoms_xml(kind: ObjectKind) -> list[str]:
             geoms.append(
                 f'<geom type="cylinder" size="{BOT_WHEEL_RADIUS_M} {BOT_WHEEL_HALF_WIDTH_M}" '
                 f'pos="{axle_x} {side * half_track} {BOT_WHEEL_RADIUS_M}" quat="0.70710678 0.70710678 0 0" '
-                f'material="race_bot_wheel" {common}/>'
+                f'material="{_material_name(slot, "wheels")}" {common}/>'
             )
     return geoms
+
+
+def obstacle_materials(model: mujoco.MjModel) -> list[np.ndarray]:
+    """Material ids of each static obstacle (slot names `obstacle_<i>`, the SimApp's prefix; box or parked bot car),
+    one array per obstacle: what `ENABLE_DOMAIN_RANDOMIZATION` recolours at each episode, as the SimApp's
+    `ModelVisualRandomizer` does for its obstacles (one colour per obstacle, bot cars driving their lane keep theirs)."""
+    groups: dict[str, list[int]] = {}
+    for material in range(model.nmat):
+        name = model.material(material).name
+        if name.startswith(MATERIAL_PREFIX + OBSTACLE_NAME_PREFIX):
+            groups.setdefault(name.rsplit("/", 1)[0], []).append(material)
+    return [np.array(ids) for _, ids in sorted(groups.items())]
 
 
 def _check_slots(slots: Sequence[ObjectSlot]) -> None:
@@ -124,12 +149,13 @@ def render_quality_attributes(slots: Sequence[ObjectSlot]) -> str:
 
 
 def object_materials_mjcf(slots: Sequence[ObjectSlot]) -> str:
-    """Asset elements for the objects' colours (none without slots, so a time trial's model is unchanged)."""
-    if not slots:
-        return ""
+    """Asset elements for the objects' colours, one set per slot so that each obstacle can be recoloured alone
+    (none without slots, so a time trial's model is unchanged)."""
     return "\n".join(
-        f'    <material name="{name}" rgba="{_rgba(rgb)}" emission="{OBJECT_EMISSION}" specular="0" shininess="0"/>'
-        for name, rgb in (("race_box", BOX_RGB), ("race_bot_body", BOT_BODY_RGB), ("race_bot_wheel", BOT_WHEEL_RGB))
+        f'    <material name="{_material_name(slot, part)}" rgba="{_rgba(rgb)}" emission="{OBJECT_EMISSION}" '
+        'specular="0" shininess="0"/>'
+        for slot in slots
+        for part, rgb in _parts(slot.kind)
     )
 
 
@@ -139,7 +165,7 @@ def object_bodies_mjcf(slots: Sequence[ObjectSlot]) -> str:
     bodies = []
     for index, slot in enumerate(slots):
         x, y, z = _park_position(index)
-        geoms = "\n".join(f"      {geom}" for geom in _geoms_xml(slot.kind))
+        geoms = "\n".join(f"      {geom}" for geom in _geoms_xml(slot))
         bodies.append(f'    <body name="{body_name(index)}" mocap="true" pos="{x} {y} {z}">\n{geoms}\n    </body>')
     return "\n".join(bodies)
 

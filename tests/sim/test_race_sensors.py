@@ -132,3 +132,29 @@ def test_the_lidar_measures_a_bot_car_and_its_camera_shows_it(make_env):
     np.testing.assert_array_equal(seen["LIDAR"][~hits], empty["LIDAR"][~hits])
     changed = np.abs(seen["FRONT_FACING_CAMERA"].astype(int) - empty["FRONT_FACING_CAMERA"].astype(int)) > 12
     assert changed.mean() > 0.03
+
+
+def test_domain_randomization_recolours_each_obstacle_per_episode_but_not_bot_cars(make_env):
+    """ENABLE_DOMAIN_RANDOMIZATION: each static obstacle gets one colour per episode, as the SimApp's
+    ModelVisualRandomizer does; bot cars driving their lane keep theirs; seeded resets repeat the colours."""
+    from racer.shared.sim.object_bodies import obstacle_materials
+
+    two = RaceConfig(race_type="OBJECT_AVOIDANCE", object_positions=(ObjectPosition(0.1, 1), ObjectPosition(0.5, -1)))
+    env = make_env(race=two, domain_randomization=True, track="racer_oval")
+    groups = obstacle_materials(env.model)
+    assert [len(group) for group in groups] == [1, 1]
+    colours = []
+    for seed in (1, 2, 1):
+        env.reset(seed=seed)
+        colours.append([env.model.mat_rgba[group[0], :3].copy() for group in groups])
+    assert not np.allclose(colours[0][0], colours[1][0]) and not np.allclose(colours[0][0], colours[0][1])
+    np.testing.assert_array_equal(colours[0], colours[2])
+
+    bots = make_env(race=BOT, domain_randomization=True, track="racer_oval")
+    assert obstacle_materials(bots.model) == []
+    parked_bot_obstacles = RaceConfig(race_type="OBJECT_AVOIDANCE", number_of_obstacles=1, is_obstacle_bot_car=True)
+    parked = make_env(race=parked_bot_obstacles, domain_randomization=True, track="racer_oval")
+    (group,) = obstacle_materials(parked.model)
+    parked.reset(seed=4)
+    body, wheels = parked.model.mat_rgba[group, :3]
+    assert len(group) == 2 and np.array_equal(body, wheels)  # one colour for the whole obstacle
