@@ -5,6 +5,8 @@ candidate sees what it would have seen in training (x, y = front of car; speed a
 What a row cannot tell is filled with DeepRacer's defaults: no objects, the track's direction, and the simtrace
 `episode_status` for is_offtrack / is_crashed. Rows are replayed in logged order because reward functions may keep
 module-level state; as in DeepRacer, `prepare` and `pause` rows get reward 0 without calling the function.
+`sim_time` is the clock when the step's observation arrived, before its physics: the previous row's `tstamp`
+(a row's own `tstamp` is stamped after the physics).
 """
 
 from __future__ import annotations
@@ -59,9 +61,11 @@ def replay_reward(
     ]
     new_reward = np.zeros(len(training))
     total = len(training)
-    rows = zip(training[columns].itertuples(index=False, name=None), is_reversed.to_numpy(), strict=True)
-    for position, (row, backwards) in enumerate(rows):
-        x, y, yaw, throttle, steer, step, progress, on_track, status, tstamp = row
+    observed_at_s = steps.groupby("file", sort=False)["tstamp"].shift(1).loc[training.index]
+    observed_at_s = observed_at_s.fillna(training["tstamp"]).to_numpy()
+    rows = zip(training[columns].itertuples(index=False, name=None), is_reversed.to_numpy(), observed_at_s, strict=True)
+    for position, (row, backwards, sim_time_s) in enumerate(rows):
+        x, y, yaw, throttle, steer, step, progress, on_track, status, _tstamp = row
         if show_progress and position % 5000 == 0:
             print(f"\rreward what-if: {position}/{total} steps", end="", file=sys.stderr)
         if status in NOT_CALLED_STATUSES:
@@ -78,7 +82,7 @@ def replay_reward(
             all_wheels_on_track=bool(on_track),
             is_offtrack=status == "off_track",
             is_crashed=status == "crashed",
-            sim_time_s=tstamp,
+            sim_time_s=sim_time_s,
         )
         new_reward[position] = reward_function(params)
     if show_progress:

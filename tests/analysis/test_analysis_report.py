@@ -259,3 +259,18 @@ def test_a_track_that_does_not_fit_the_run_is_flagged(drfc_single, reinvent_rout
     assert "probably the wrong track" in result.output and "17.71 m" in result.output
     result = run(drfc_single, "--track", reinvent_route, "--out", tmp_path / "b", "--no-pictures")
     assert "wrong track" not in result.output
+
+
+def test_reward_whatif_sim_time_is_the_clock_before_the_steps_physics(drfc_single, reinvent_route, tmp_path):
+    """A row's tstamp is stamped after its physics; the reward function saw the clock when the observation arrived,
+    which is the previous row's tstamp in the same file."""
+    steps = load_steps(open_source(str(drfc_single)), progress=False)
+    track = load_track(str(reinvent_route))
+    reward_file = tmp_path / "sim_time_reward.py"
+    reward_file.write_text("def reward_function(params):\n    return float(params['sim_time'])\n")
+    seen = whatif.replay_reward(steps, track, reward_file, show_progress=False)
+    previous_tstamp = steps.groupby("file", sort=False)["tstamp"].shift(1).loc[seen.index]
+    called = ~steps.loc[seen.index, "episode_status"].isin(whatif.NOT_CALLED_STATUSES)
+    assert called.sum() > 3000
+    assert np.allclose(seen[called], previous_tstamp[called], rtol=0, atol=1e-9)
+    assert (seen[called] < steps.loc[seen.index[called], "tstamp"]).all()
