@@ -431,6 +431,19 @@ def train_command(
     sys.exit(run_local_training(plan, base_settings))
 
 
+TIME_TO_LAP_RACES: dict[str, tuple[tuple[str, str], ...]] = {
+    "time-trial": (),
+    "object-avoidance": (("RACE_TYPE", "OBJECT_AVOIDANCE"), ("OBJECT_POSITIONS", "0.23,-1;0.46,1;0.67,-1")),
+    "head-to-bot": (
+        ("RACE_TYPE", "HEAD_TO_BOT"),
+        ("NUMBER_OF_BOT_CARS", "2"),
+        ("BOT_CAR_SPEED", "0.5"),
+        ("IS_LANE_CHANGE", "True"),
+    ),
+}
+"""The benchmark's set-ups (issue 13): DeepRacer-for-Cloud's example obstacle positions; bots at 0.5 m/s."""
+
+
 @click.command(name="time-to-lap")
 @click.option("--track", required=True, help="Route name or .npy path (reference: reinvent_base.npy).")
 @click.option(
@@ -467,6 +480,22 @@ def train_command(
     help="SAC: gradient steps per transition. DeepRacer takes 1, which on two CPU cores leaves the trainer "
     "far behind the workers (see `racer bench sac`).",
 )
+@click.option(
+    "--race-type",
+    type=click.Choice(list(TIME_TO_LAP_RACES)),
+    default="time-trial",
+    show_default=True,
+    help="object-avoidance: 3 boxes at fixed places (OBJECT_POSITIONS 0.23,-1;0.46,1;0.67,-1); head-to-bot: 2 bot "
+    "cars at 0.5 m/s changing lanes. Both default to DeepRacer's object-avoidance / head-to-head sample reward.",
+)
+@click.option(
+    "--sensors",
+    type=click.Choice(["camera", "stereo-lidar"]),
+    default="camera",
+    show_default=True,
+    help="camera: FRONT_FACING_CAMERA (one frame per step, the cheapest on CPU); stereo-lidar: STEREO_CAMERAS + LIDAR "
+    "(DeepRacer's recommendation for racing against objects; two frames and 64 rays per step).",
+)
 @click.option("--seed", type=int, default=0, show_default=True)
 def time_to_lap_command(
     track,
@@ -480,6 +509,8 @@ def time_to_lap_command(
     time_limit_minutes,
     episodes_per_iteration,
     sac_updates_per_transition,
+    race_type,
+    sensors,
     seed,
 ):
     """Train from scratch until greedy evaluation completes 3 of 3 laps (from three starts a third of a lap
@@ -489,9 +520,8 @@ def time_to_lap_command(
     action_space = action_space or ("continuous" if algorithm == "sac" else "discrete")
     if algorithm == "sac" and action_space != "continuous":
         raise click.UsageError("--algorithm sac needs --action-space continuous (DeepRacer's SAC is continuous only)")
-    reward_function = (
-        reward_function or PROJECT_ROOT.parent / "shared/deepracer-data/reward_functions/awsdoc_example_1.py"
-    )
+    default_reward = "awsdoc_example_1.py" if race_type == "time-trial" else "dpr401_object_avoidance_head_to_head.py"
+    reward_function = reward_function or PROJECT_ROOT.parent / "shared/deepracer-data/reward_functions" / default_reward
     if not Path(reward_function).is_file():
         raise click.UsageError(f"reward function not found: {reward_function}; pass --reward-function")
     workdir = Path(tempfile.mkdtemp(prefix="racer-time-to-lap-"))
@@ -509,7 +539,7 @@ def time_to_lap_command(
             {
                 "action_space": actions,
                 "action_space_type": action_space,
-                "sensor": ["FRONT_FACING_CAMERA"],
+                "sensor": ["FRONT_FACING_CAMERA"] if sensors == "camera" else ["STEREO_CAMERAS", "LIDAR"],
                 "neural_network": "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW",
                 "training_algorithm": algorithm,
                 "version": "5",
@@ -532,8 +562,11 @@ def time_to_lap_command(
         log_dir=workdir / "logs",
         seed=seed,
         trainer_options=("--sac-updates-per-transition", str(sac_updates_per_transition)),
+        race_params=TIME_TO_LAP_RACES[race_type],
     )
     result = {
+        "race_type": race_type,
+        "sensors": sensors,
         "algorithm": algorithm,
         "action_space": action_space,
         "minutes": None,
