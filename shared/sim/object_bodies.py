@@ -1,6 +1,6 @@
 """Obstacles and bot cars as MuJoCo bodies: what the cameras draw and the LIDAR hits (the race logic moves them).
 
-One mocap body per `ObjectSlot`, compiled into the scene (`SceneSpec.object_slots`). Its geoms are in group 0,
+One mocap body per `ObjectSlot`, compiled into the scene (`SceneSpec.object_slots`). Its geoms are in group 2,
 which the cameras draw and the LIDAR's rays see, and collide with nothing (contype/conaffinity 0): crashes are the
 race logic's rectangle test, as in the SimApp. Looks, from the SimApp's models (`bundle/models/*/model.sdf`):
 
@@ -22,8 +22,9 @@ import numpy as np
 from racer.shared.sim._mujoco import mujoco
 from racer.shared.sim.race_objects import BOT_CAR_SIZE, BOX_OBSTACLE_SIZE, ObjectKind, RaceObject
 
-OBJECT_GEOM_GROUP = 0
-"""The group the cameras draw and the LIDAR sees; nothing else in the scene uses it (a top view can hide it)."""
+OBJECT_GEOM_GROUP = 2
+"""A group the cameras draw and the LIDAR sees (with the walls' group 0); nothing else in the scene uses it, so a
+view can leave the objects out (the evaluation's top-view background)."""
 MATERIAL_PREFIX = "race_object/"
 OBSTACLE_NAME_PREFIX = "obstacle"
 """The SimApp's name prefix of static obstacles (`obstacle_<i>`), the ones its domain randomisation recolours."""

@@ -147,7 +147,7 @@ def _racer_visuals(spec: SceneSpec, lo: np.ndarray, hi: np.ndarray) -> tuple[str
 {road_mesh}
 {_walls_mesh(lo, hi, look.wall_height_m + world_look.WALL_EXTENSION_M)}"""
     geoms_xml = """    <geom name="road" type="mesh" mesh="road" material="road" contype="0" conaffinity="0" group="1"/>
-    <geom name="walls" type="mesh" mesh="walls" material="walls" contype="0" conaffinity="0" group="1"/>"""
+    <geom name="walls" type="mesh" mesh="walls" material="walls" contype="0" conaffinity="0" group="0"/>"""
     files = {
         "field.png": world_look.field_texture_png(look),
         "road.png": world_look.road_texture_png(look, round(width_m, 4)),
