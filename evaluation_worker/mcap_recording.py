@@ -14,6 +14,9 @@ simtrace `tstamp`):
     /car/status             JSON                     simtrace status, done, lap, resets used, pause left
     /simtrace               JSON                     the full simtrace row
     /track                  foxglove.SceneUpdate     centre line and borders as line strips (one message)
+    /objects                foxglove.SceneUpdate     object avoidance / head-to-bot: each obstacle and bot car as a
+                                                     cube of its drawn size at its pose, id = its name
+    /objects/poses          JSON                     the same objects as numbers: name, kind, x, y, yaw, speed
 
 Foxglove's well-known protobuf schemas are embedded; JSON channels carry a JSON Schema.
 """
@@ -23,6 +26,7 @@ from __future__ import annotations
 import json
 import math
 from collections import Counter
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -30,6 +34,7 @@ import cv2
 import numpy as np
 from foxglove_schemas_protobuf.Color_pb2 import Color
 from foxglove_schemas_protobuf.CompressedImage_pb2 import CompressedImage
+from foxglove_schemas_protobuf.CubePrimitive_pb2 import CubePrimitive
 from foxglove_schemas_protobuf.LaserScan_pb2 import LaserScan
 from foxglove_schemas_protobuf.LinePrimitive_pb2 import LinePrimitive
 from foxglove_schemas_protobuf.Point3_pb2 import Point3
@@ -47,9 +52,15 @@ from mcap_protobuf.schema import register_schema
 from racer.evaluation_worker.driver import StepRecord
 from racer.shared.sim.env import DeepRacerEnv
 from racer.shared.sim.lidar import MAX_ANGLE_RAD, MIN_ANGLE_RAD
+from racer.shared.sim.object_bodies import drawn_size
+from racer.shared.sim.race_objects import ObjectKind, RaceObject
 
 FRAME_ID = "track"
 JPEG_QUALITY = 85
+OBJECT_COLORS = {
+    ObjectKind.BOX_OBSTACLE: Color(r=0.482, g=0.38, b=0.309, a=1.0),
+    ObjectKind.BOT_CAR: Color(r=0.156, g=0.156, b=0.156, a=1.0),
+}
 
 _NUMBER = {"type": "number"}
 _JSON_SCHEMAS: dict[str, dict[str, Any]] = {
@@ -82,6 +93,28 @@ _JSON_SCHEMAS: dict[str, dict[str, Any]] = {
         },
     },
     "/simtrace": {"title": "racer.SimtraceRow", "type": "object", "description": "DeepRacer's simtrace columns"},
+    "/objects/poses": {
+        "title": "racer.RaceObjects",
+        "type": "object",
+        "description": "obstacles and bot cars where the step's observation saw them (track frame)",
+        "properties": {
+            "lap": {"type": "integer"},
+            "objects": {
+                "type": "array",
+                "items": {
+                    "type": "object",
+                    "properties": {
+                        "name": {"type": "string"},
+                        "kind": {"type": "string", "enum": [kind.value for kind in ObjectKind]},
+                        "x_m": _NUMBER,
+                        "y_m": _NUMBER,
+                        "yaw_rad": _NUMBER,
+                        "speed_mps": _NUMBER,
+                    },
+                },
+            },
+        },
+    },
     "/sensors": {
         "title": "racer.SensorVector",
         "type": "object",
@@ -116,6 +149,7 @@ class McapRecorder:
         self.message_counts: Counter[str] = Counter()
         self._env = env
         self._rgb: np.ndarray | None = None
+        self._objects: tuple[RaceObject, ...] = ()
         self._track_written = False
         if metadata:
             self._writer.add_metadata("evaluation", {key: str(value) for key, value in metadata.items()})
@@ -162,6 +196,7 @@ class McapRecorder:
 
     def before_step(self, env: DeepRacerEnv) -> None:
         self._rgb = env.render() if env.render_mode == "rgb_array" else None
+        self._objects = tuple(env.race_objects)
 
     def on_step(self, record: StepRecord) -> None:
         row = record.row
@@ -235,6 +270,42 @@ class McapRecorder:
             time_ns,
         )
         self._write_json("/simtrace", {key: _plain(value) for key, value in row.items()}, time_ns)
+        if self._objects:
+            self.write_objects(self._objects, lap, time_ns)
+
+    def write_objects(self, objects: Sequence[RaceObject], lap: int, time_ns: int) -> None:
+        """The objects of one step: cubes for Foxglove's 3D panel and their poses as numbers."""
+        stamp = _timestamp(time_ns)
+        entities = []
+        for obj in objects:
+            length_m, width_m, height_m = drawn_size(obj.kind)
+            half_yaw = obj.yaw_rad / 2.0
+            cube = CubePrimitive(
+                pose=Pose(
+                    position=Vector3(x=obj.x_m, y=obj.y_m, z=height_m / 2.0),
+                    orientation=Quaternion(x=0.0, y=0.0, z=math.sin(half_yaw), w=math.cos(half_yaw)),
+                ),
+                size=Vector3(x=length_m, y=width_m, z=height_m),
+                color=OBJECT_COLORS[obj.kind],
+            )
+            entities.append(
+                SceneEntity(
+                    timestamp=stamp, frame_id=FRAME_ID, id=f"objects/{obj.name}", frame_locked=True, cubes=[cube]
+                )
+            )
+        self._write_protobuf("/objects", SceneUpdate(entities=entities), time_ns)
+        poses = [
+            {
+                "name": obj.name,
+                "kind": obj.kind.value,
+                "x_m": obj.x_m,
+                "y_m": obj.y_m,
+                "yaw_rad": obj.yaw_rad,
+                "speed_mps": obj.speed_mps,
+            }
+            for obj in objects
+        ]
+        self._write_json("/objects/poses", {"lap": lap, "objects": poses}, time_ns)
 
     def _write_vector(
         self, sensor: str, values: np.ndarray, lap: int, car_pose: Pose, stamp: Timestamp, time_ns: int

@@ -5,7 +5,8 @@ a video plays in simulated real time and frame k is simtrace row k. Encoded with
 imageio-ffmpeg), which browsers and Foxglove play.
 
 Costs: the follow view is a MuJoCo render at 480x360, the dearest of the three; the top view is rendered once (the
-track does not move) and the car is drawn onto it with OpenCV; the in-car view
+track does not move, so obstacles and bot cars are left out of it) and the car, the obstacles and the bot cars are
+drawn onto it with OpenCV; the in-car and follow views render the objects as the car's camera sees them; the in-car view
 is the env's own RGB camera frame (`render_mode='rgb_array'`; stereo models: the centre camera), no extra render.
 The car's geoms are hidden from the car camera (group 3), so the follow view turns that group on.
 """
@@ -25,6 +26,8 @@ from racer.evaluation_worker.driver import StepRecord
 from racer.shared.sim._mujoco import mujoco
 from racer.shared.sim.car import CAR_GEOM_GROUP
 from racer.shared.sim.env import DeepRacerEnv
+from racer.shared.sim.object_bodies import OBJECT_GEOM_GROUP, drawn_size
+from racer.shared.sim.race_objects import ObjectKind, RaceObject
 
 FPS = 15
 VIEWS: tuple[str, ...] = ("camera-incar", "camera-topview", "camera-45degree")
@@ -35,6 +38,7 @@ CAR_WIDTH_M = 0.16
 TOP_MARGIN_M = 0.4
 TRAIL_STEPS = 45
 INCAR_SCALE = 2
+OBJECT_RGB = {ObjectKind.BOX_OBSTACLE: (123, 97, 79), ObjectKind.BOT_CAR: (40, 40, 40)}
 _HUD_FONT = cv2.FONT_HERSHEY_SIMPLEX
 
 
@@ -107,6 +111,14 @@ def top_view_camera(env: DeepRacerEnv, width_px: int, height_px: int) -> mujoco.
     return camera
 
 
+def _object_outline(obj: RaceObject) -> np.ndarray:
+    length_m, width_m, _height_m = drawn_size(obj.kind)
+    c, s = math.cos(obj.yaw_rad), math.sin(obj.yaw_rad)
+    corners = [(length_m / 2, width_m / 2), (length_m / 2, -width_m / 2), (-length_m / 2, -width_m / 2)]
+    corners.append((-length_m / 2, width_m / 2))
+    return np.array([(obj.x_m + c * dx - s * dy, obj.y_m + s * dx + c * dy, 0.0) for dx, dy in corners])
+
+
 def _car_outline(x_m: float, y_m: float, yaw_rad: float) -> np.ndarray:
     c, s = math.cos(yaw_rad), math.sin(yaw_rad)
     corners = [
@@ -172,6 +184,9 @@ class VideoRecorder:
         self._renderer = mujoco.Renderer(env.model, height=height, width=width)
         self._car_visible = mujoco.MjvOption()
         self._car_visible.geomgroup[CAR_GEOM_GROUP] = 1
+        self._static_only = mujoco.MjvOption()
+        self._static_only.geomgroup[OBJECT_GEOM_GROUP] = 0  # objects move: drawn onto each top frame instead
+        self._objects: tuple[RaceObject, ...] = ()
         self._follow = mujoco.MjvCamera()
         self._follow.type = mujoco.mjtCamera.mjCAMERA_FREE
         self._follow.distance = options.follow_distance_m
@@ -191,7 +206,8 @@ class VideoRecorder:
     def _render_top_background(self, env: DeepRacerEnv) -> None:
         """Once, on the first step (the static geoms have their poses only after the env's first forward pass)."""
         width, height = self.options.width_px, self.options.height_px
-        self._renderer.update_scene(env.data, self._top_camera)  # default option: no car in the background
+        # No car and no obstacles or bot cars in the background (group 3 is hidden by default).
+        self._renderer.update_scene(env.data, self._top_camera, scene_option=self._static_only)
         self._top_background = self._renderer.render().copy()
         self._top_projection = Projection.from_scene(self._renderer.scene, width, height)
 
@@ -206,6 +222,7 @@ class VideoRecorder:
         incar = cv2.resize(env.render(), None, fx=INCAR_SCALE, fy=INCAR_SCALE, interpolation=cv2.INTER_NEAREST)
         self._pending = {"camera-incar": incar, "camera-45degree": follow}
         self._pending_pose = (pose.origin_x_m, pose.origin_y_m, pose.yaw_rad)
+        self._objects = tuple(env.race_objects)
 
     def on_step(self, record: StepRecord) -> None:
         if self._pending is None or self._pending_pose is None:
@@ -228,6 +245,10 @@ class VideoRecorder:
         if len(self._trail) > 1:
             trail = self._top_projection.to_pixels(np.array([(x, y, 0.0) for x, y in self._trail]))
             cv2.polylines(frame, [np.round(trail).astype(np.int32)], False, (0, 200, 255), 2, cv2.LINE_AA)
+        for obj in self._objects:
+            corners = np.round(self._top_projection.to_pixels(_object_outline(obj))).astype(np.int32)
+            cv2.fillPoly(frame, [corners], OBJECT_RGB[obj.kind], cv2.LINE_AA)
+            cv2.polylines(frame, [corners], True, (235, 235, 235), 1, cv2.LINE_AA)
         outline = self._top_projection.to_pixels(_car_outline(x_m, y_m, yaw_rad))
         color = (230, 30, 30) if record.row["episode_status"] not in ("pause", "off_track") else (255, 140, 0)
         cv2.fillPoly(frame, [np.round(outline).astype(np.int32)], color, cv2.LINE_AA)

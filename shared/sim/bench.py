@@ -38,7 +38,7 @@ def reward_function(params):
 """
 
 
-def _env_block(env: DeepRacerEnv, rng: np.random.Generator, steps: int) -> tuple[float, float]:
+def env_block(env: DeepRacerEnv, rng: np.random.Generator, steps: int) -> tuple[float, float]:
     """(wall seconds, process CPU seconds) for `steps` env steps."""
     start, cpu_start = time.perf_counter(), time.process_time()
     for _ in range(steps):
@@ -90,11 +90,11 @@ def run_benchmark(steps: int = 3000, blocks: int = 6, seed: int = 0, full_resolu
             per_block = max(steps // blocks, 1)
             picks = rng.integers(len(actions), size=per_block)
             commands = np.array([(actions[i].speed_mps, actions[i].steering_angle_deg) for i in picks])
-            _env_block(env, rng, 30)
+            env_block(env, rng, 30)
             _raw_block(env, raw_data, renderer, starts, commands[:30])
             env_s = raw_s = env_cpu_s = raw_cpu_s = 0.0
             for _ in range(blocks):
-                wall_s, cpu_s = _env_block(env, rng, per_block)
+                wall_s, cpu_s = env_block(env, rng, per_block)
                 env_s, env_cpu_s = env_s + wall_s, env_cpu_s + cpu_s
                 wall_s, cpu_s = _raw_block(env, raw_data, renderer, starts, commands)
                 raw_s, raw_cpu_s = raw_s + wall_s, raw_cpu_s + cpu_s
@@ -121,6 +121,27 @@ def run_benchmark(steps: int = 3000, blocks: int = 6, seed: int = 0, full_resolu
 @click.option(
     "--full-resolution", is_flag=True, help="Render 640x480 and resize, as DeepRacer (default: 160x120 directly)."
 )
-def sim_bench_command(steps: int, seed: int, full_resolution: bool) -> None:
+@click.option(
+    "--obstacles",
+    default=0,
+    show_default=True,
+    type=click.IntRange(min=0),
+    help="Also measure an OBJECT_AVOIDANCE env with this many boxes, beside the time trial.",
+)
+@click.option(
+    "--bot-cars",
+    default=0,
+    show_default=True,
+    type=click.IntRange(min=0),
+    help="Also measure a HEAD_TO_BOT env with this many bot cars (0.5 m/s, changing lanes), beside the time trial.",
+)
+def sim_bench_command(steps: int, seed: int, full_resolution: bool, obstacles: int, bot_cars: int) -> None:
     """Measure simulator throughput; prints one JSON line."""
+    if obstacles or bot_cars:
+        if full_resolution:
+            raise click.UsageError("--full-resolution measures the time trial against the raw bound only")
+        from racer.shared.sim.race_bench import run_race_benchmark
+
+        click.echo(json.dumps(run_race_benchmark(obstacles, bot_cars, steps=steps, seed=seed)))
+        return
     click.echo(json.dumps(run_benchmark(steps=steps, seed=seed, full_resolution=full_resolution)))

@@ -3,7 +3,9 @@
 `ENABLE_DOMAIN_RANDOMIZATION` (the SimApp's `LightRandomizer`, applied to every light at each episode reset):
 each light gets a diffuse colour drawn uniformly per channel from [0, 1], a specular half of it, and constant,
 linear and quadratic attenuation each drawn from [0, 1] (a directional light ignores attenuation, in Gazebo as in
-MuJoCo). racer's lights are in MuJoCo units, so the colours are scaled by `world_look.LIGHT_SCALE`.
+MuJoCo). racer's lights are in MuJoCo units, so the colours are scaled by `world_look.LIGHT_SCALE`. With obstacles
+on the track, each static obstacle also gets one colour drawn uniformly per channel from [0, 1] for all its parts
+(the SimApp's `ModelVisualRandomizer`, model level; bot cars driving their lane keep their colour).
 
 racer's car randomisation (`RACER_CAR_RANDOMIZATION`, off by default) goes further for the physical car, whose
 camera sees other colours, light, noise and mounting than any simulator: per episode, a tint and brightness of every
@@ -20,6 +22,7 @@ import numpy as np
 
 from racer.shared.sim import world_look
 from racer.shared.sim._mujoco import mujoco
+from racer.shared.sim.object_bodies import obstacle_materials
 
 
 @dataclass(frozen=True)
@@ -58,6 +61,7 @@ class SceneRandomizer:
         self._material_rgba = model.mat_rgba[self._materials].copy()
         self._camera_pos = model.cam_pos.copy()
         self._camera_quat = model.cam_quat.copy()
+        self._obstacle_materials = obstacle_materials(model)
         self.effects = FrameEffects(0.0, 0.0)
 
     @property
@@ -89,6 +93,9 @@ class SceneRandomizer:
                 mujoco.mju_mulQuat(rotated, quat, jitter)
                 model.cam_quat[index] = rotated
             self.effects = FrameEffects(rng.uniform(*r.blur_sigma_px), rng.uniform(*r.noise_std))
+        if self.lights:
+            for materials in self._obstacle_materials:
+                model.mat_rgba[materials, :3] = rng.uniform(0.0, 1.0, 3)
 
     def restore(self, model: mujoco.MjModel) -> None:
         """Put back the world's own lights, materials and cameras."""

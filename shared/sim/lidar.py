@@ -1,8 +1,10 @@
 """The car's 2-D LIDAR and DeepRacer's three ways of feeding it to the network (reference §8.1).
 
 64 rays over ±2.61799 rad (300°) in the car's horizontal plane, 0.15–12 m, Gaussian noise σ = 0.01 m, 10 Hz
-(the env runs at 15 Hz, so a scan is reused until the next one is due). Rays see only geoms of group 0
-(obstacles, walls); the floor, the road markings and the car itself are in other groups.
+(the env runs at 15 Hz, so a scan is reused until the next one is due). Rays see geoms of group 0 (racer's walls,
+which DeepRacer's LIDAR sees too) and group 2 (obstacles and bot cars, `object_bodies.py`); the floor, the road and
+its markings (group 1) and the car itself (group 3, and its body is excluded) are not seen. With DeepRacer's own
+world meshes (`simapp_dir`) everything of the world is in group 1, so only the objects are seen.
 """
 
 from __future__ import annotations
@@ -24,7 +26,7 @@ LIDAR_CLIP_HIGH_M = 1.0
 """`LIDAR` observations are clipped to [0.15, 1.0]."""
 SECTOR_LIDAR_SECTORS = 8
 SECTOR_LIDAR_CLIP_M = 0.5
-VISIBLE_GROUPS = np.array([1, 0, 0, 0, 0, 0], dtype=np.uint8)
+VISIBLE_GROUPS = np.array([1, 0, 1, 0, 0, 0], dtype=np.uint8)
 
 
 def sector_bits(ranges: np.ndarray, num_sectors: int, num_values: int, clipping_dist_m: float) -> np.ndarray:

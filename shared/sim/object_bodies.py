@@ -1,6 +1,6 @@
 """Obstacles and bot cars as MuJoCo bodies: what the cameras draw and the LIDAR hits (the race logic moves them).
 
-One mocap body per `ObjectSlot`, compiled into the scene (`SceneSpec.object_slots`). Its geoms are in group 0,
+One mocap body per `ObjectSlot`, compiled into the scene (`SceneSpec.object_slots`). Its geoms are in group 2,
 which the cameras draw and the LIDAR's rays see, and collide with nothing (contype/conaffinity 0): crashes are the
 race logic's rectangle test, as in the SimApp. Looks, from the SimApp's models (`bundle/models/*/model.sdf`):
 
@@ -22,6 +22,12 @@ import numpy as np
 from racer.shared.sim._mujoco import mujoco
 from racer.shared.sim.race_objects import BOT_CAR_SIZE, BOX_OBSTACLE_SIZE, ObjectKind, RaceObject
 
+OBJECT_GEOM_GROUP = 2
+"""A group the cameras draw and the LIDAR sees (with the walls' group 0); nothing else in the scene uses it, so a
+view can leave the objects out (the evaluation's top-view background)."""
+MATERIAL_PREFIX = "race_object/"
+OBSTACLE_NAME_PREFIX = "obstacle"
+"""The SimApp's name prefix of static obstacles (`obstacle_<i>`), the ones its domain randomisation recolours."""
 PARK_Z_M = -100.0
 """Where an unused slot waits: below the floor, beyond every camera's far clip (60 m) and the LIDAR's range."""
 PARK_SPACING_M = 1.0
@@ -33,6 +39,10 @@ BOX_WIDTH_M = BOX_OBSTACLE_SIZE.width_m - BOX_BUFFER_M
 BOX_HEIGHT_M = 0.25
 """`models/box_obstacle/model.sdf`: box 0.4 x 0.3 x 0.25 m."""
 BOX_RGB = (0.482, 0.38, 0.309)
+OBJECT_EMISSION = 0.215
+"""The SDF materials set ambient = diffuse, so Gazebo's scene ambient (0.5) lights every face of them; racer's light,
+calibrated on the world meshes (whose ambient is 0), gives 0.57 x 0.5 = 0.285. Emission adds the rest, so a face
+turned away from the sun shows about half its colour, as in Gazebo, instead of under a third."""
 
 BOT_BODY_RGB = (0.156, 0.156, 0.156)
 BOT_WHEEL_RGB = (0.1, 0.1, 0.1)
@@ -40,6 +50,8 @@ BOT_WHEEL_RADIUS_M = 0.036
 BOT_WHEEL_HALF_WIDTH_M = 0.017
 BOT_AXLES_X_M = (-0.081663, 0.082311)
 BOT_HALF_TRACK_M = (0.08105, 0.079601)
+BOT_HEIGHT_M = 0.205
+"""Top of the shell's sensor tower (`car_body_link_v3.STL`)."""
 _BOT_HALF_LENGTH_M = BOT_CAR_SIZE.length_m / 2
 _BOT_HALF_WIDTH_M = BOT_CAR_SIZE.width_m / 2 - 0.004  # the wheels stick out 4 mm past the shell
 _BOT_BOXES = (
@@ -48,6 +60,14 @@ _BOT_BOXES = (
     ((0.05, 0.1375), (0.11, 0.066, 0.0375)),
     ((0.1225, 0.19), (0.0325, 0.04, 0.015)),
 )
+
+
+def drawn_size(kind: ObjectKind) -> tuple[float, float, float]:
+    """(length along the heading, width, height) in metres of what the scene draws: the box, or the bot car's
+    overall outline (its collision rectangle, up to the top of the sensor tower)."""
+    if kind is ObjectKind.BOX_OBSTACLE:
+        return BOX_LENGTH_M, BOX_WIDTH_M, BOX_HEIGHT_M
+    return BOT_CAR_SIZE.length_m, BOT_CAR_SIZE.width_m, BOT_HEIGHT_M
 
 
 @dataclass(frozen=True)
@@ -66,16 +86,26 @@ def body_name(index: int) -> str:
     return f"race_object_{index}"
 
 
-def _geoms_xml(kind: ObjectKind) -> list[str]:
-    """The geoms of one object in its body frame (origin on the floor at the object's centre, x along its heading)."""
-    common = 'contype="0" conaffinity="0" group="0" mass="0"'
+def _material_name(slot: ObjectSlot, part: str) -> str:
+    return f"{MATERIAL_PREFIX}{slot.name}/{part}"
+
+
+def _parts(kind: ObjectKind) -> tuple[tuple[str, tuple[float, float, float]], ...]:
+    """(part, colour) of each material an object of this kind uses."""
     if kind is ObjectKind.BOX_OBSTACLE:
+        return (("body", BOX_RGB),)
+    return (("body", BOT_BODY_RGB), ("wheels", BOT_WHEEL_RGB))
+
+
+def _geoms_xml(slot: ObjectSlot) -> list[str]:
+    """The geoms of one object in its body frame (origin on the floor at the object's centre, x along its heading)."""
+    common = f'contype="0" conaffinity="0" group="{OBJECT_GEOM_GROUP}" mass="0"'
+    body = f'material="{_material_name(slot, "body")}"'
+    if slot.kind is ObjectKind.BOX_OBSTACLE:
         half = (BOX_LENGTH_M / 2, BOX_WIDTH_M / 2, BOX_HEIGHT_M / 2)
-        return [
-            f'<geom type="box" size="{half[0]} {half[1]} {half[2]}" pos="0 0 {half[2]}" rgba="{_rgba(BOX_RGB)}" {common}/>'
-        ]
+        return [f'<geom type="box" size="{half[0]} {half[1]} {half[2]}" pos="0 0 {half[2]}" {body} {common}/>']
     geoms = [
-        f'<geom type="box" size="{hx} {hy} {hz}" pos="{x} 0 {z}" rgba="{_rgba(BOT_BODY_RGB)}" {common}/>'
+        f'<geom type="box" size="{hx} {hy} {hz}" pos="{x} 0 {z}" {body} {common}/>'
         for (x, z), (hx, hy, hz) in _BOT_BOXES
     ]
     for axle_x, half_track in zip(BOT_AXLES_X_M, BOT_HALF_TRACK_M, strict=True):
@@ -83,9 +113,21 @@ def _geoms_xml(kind: ObjectKind) -> list[str]:
             geoms.append(
                 f'<geom type="cylinder" size="{BOT_WHEEL_RADIUS_M} {BOT_WHEEL_HALF_WIDTH_M}" '
                 f'pos="{axle_x} {side * half_track} {BOT_WHEEL_RADIUS_M}" quat="0.70710678 0.70710678 0 0" '
-                f'rgba="{_rgba(BOT_WHEEL_RGB)}" {common}/>'
+                f'material="{_material_name(slot, "wheels")}" {common}/>'
             )
     return geoms
+
+
+def obstacle_materials(model: mujoco.MjModel) -> list[np.ndarray]:
+    """Material ids of each static obstacle (slot names `obstacle_<i>`, the SimApp's prefix; box or parked bot car),
+    one array per obstacle: what `ENABLE_DOMAIN_RANDOMIZATION` recolours at each episode, as the SimApp's
+    `ModelVisualRandomizer` does for its obstacles (one colour per obstacle, bot cars driving their lane keep theirs)."""
+    groups: dict[str, list[int]] = {}
+    for material in range(model.nmat):
+        name = model.material(material).name
+        if name.startswith(MATERIAL_PREFIX + OBSTACLE_NAME_PREFIX):
+            groups.setdefault(name.rsplit("/", 1)[0], []).append(material)
+    return [np.array(ids) for _, ids in sorted(groups.items())]
 
 
 def _check_slots(slots: Sequence[ObjectSlot]) -> None:
@@ -99,13 +141,32 @@ def _park_position(index: int) -> tuple[float, float, float]:
     return (index * PARK_SPACING_M, 0.0, PARK_Z_M)
 
 
+def render_quality_attributes(slots: Sequence[ObjectSlot]) -> str:
+    """Extra `<quality>` attributes for a scene with objects: the bot cars' wheels (cylinders) drawn with 12 slices
+    and 4 stacks instead of MuJoCo's 28 and 16, box faces as one quad instead of 4 x 4. At 160x120 the frame is the
+    same pixel for pixel, and llvmpipe spends about 1 ms less per frame on three bot cars (their triangles cost even
+    when parked out of sight). Empty without slots, so a time trial's model is unchanged."""
+    return ' numslices="12" numstacks="4" numquads="1"' if slots else ""
+
+
+def object_materials_mjcf(slots: Sequence[ObjectSlot]) -> str:
+    """Asset elements for the objects' colours, one set per slot so that each obstacle can be recoloured alone
+    (none without slots, so a time trial's model is unchanged)."""
+    return "\n".join(
+        f'    <material name="{_material_name(slot, part)}" rgba="{_rgba(rgb)}" emission="{OBJECT_EMISSION}" '
+        'specular="0" shininess="0"/>'
+        for slot in slots
+        for part, rgb in _parts(slot.kind)
+    )
+
+
 def object_bodies_mjcf(slots: Sequence[ObjectSlot]) -> str:
     """Worldbody elements: one parked mocap body per slot."""
     _check_slots(slots)
     bodies = []
     for index, slot in enumerate(slots):
         x, y, z = _park_position(index)
-        geoms = "\n".join(f"      {geom}" for geom in _geoms_xml(slot.kind))
+        geoms = "\n".join(f"      {geom}" for geom in _geoms_xml(slot))
         bodies.append(f'    <body name="{body_name(index)}" mocap="true" pos="{x} {y} {z}">\n{geoms}\n    </body>')
     return "\n".join(bodies)
 

@@ -16,7 +16,12 @@ import numpy as np
 from racer.shared.sim import car as car_geometry
 from racer.shared.sim import world_look
 from racer.shared.sim._mujoco import mujoco
-from racer.shared.sim.object_bodies import ObjectSlot, object_bodies_mjcf
+from racer.shared.sim.object_bodies import (
+    ObjectSlot,
+    object_bodies_mjcf,
+    object_materials_mjcf,
+    render_quality_attributes,
+)
 from racer.shared.sim.simapp_world import SimappWorld, simapp_scene_xml
 from racer.shared.sim.track import Track
 from racer.shared.sim.worlds import World
@@ -142,7 +147,7 @@ def _racer_visuals(spec: SceneSpec, lo: np.ndarray, hi: np.ndarray) -> tuple[str
 {road_mesh}
 {_walls_mesh(lo, hi, look.wall_height_m + world_look.WALL_EXTENSION_M)}"""
     geoms_xml = """    <geom name="road" type="mesh" mesh="road" material="road" contype="0" conaffinity="0" group="1"/>
-    <geom name="walls" type="mesh" mesh="walls" material="walls" contype="0" conaffinity="0" group="1"/>"""
+    <geom name="walls" type="mesh" mesh="walls" material="walls" contype="0" conaffinity="0" group="0"/>"""
     files = {
         "field.png": world_look.field_texture_png(look),
         "road.png": world_look.road_texture_png(look, round(width_m, 4)),
@@ -171,12 +176,13 @@ def scene_mjcf_and_assets(spec: SceneSpec) -> tuple[str, dict[str, bytes]]:
   <statistic extent="{SCENE_EXTENT_M}" center="{mid[0]:.4f} {mid[1]:.4f} 0"/>
   <visual>
     <global offwidth="640" offheight="480"/>
-    <quality shadowsize="0" offsamples="0"/>
+    <quality shadowsize="0" offsamples="0"{render_quality_attributes(spec.object_slots)}/>
     <map znear="{NEAR_CLIP_M / SCENE_EXTENT_M}" zfar="{FAR_CLIP_M / SCENE_EXTENT_M}"/>
     <headlight active="0" diffuse="0 0 0" ambient="0 0 0" specular="0 0 0"/>
   </visual>
   <asset>
 {assets_xml}
+{object_materials_mjcf(spec.object_slots)}
   </asset>
   <worldbody>
 {lights_xml}

@@ -18,3 +18,14 @@ def test_bench_prints_one_json_line():
     assert {"env_steps_per_s", "raw_bound_steps_per_s", "ratio"} <= set(numbers)
     assert numbers["env_steps_per_s"] > 0 and numbers["raw_bound_steps_per_s"] > 0
     assert abs(numbers["ratio"] - numbers["env_steps_per_s"] / numbers["raw_bound_steps_per_s"]) < 0.01
+
+
+def test_bench_with_obstacles_and_bot_cars_reports_each_beside_the_time_trial():
+    result = CliRunner().invoke(sim_bench_command, ["--steps", "60", "--obstacles", "2", "--bot-cars", "1"])
+    assert result.exit_code == 0, result.output
+    numbers = json.loads(result.output.strip())
+    trial = numbers["time_trial_steps_per_s"]
+    for name in ("obstacles_2", "bot_cars_1"):
+        assert numbers[f"{name}_steps_per_s"] > 0
+        assert abs(numbers[f"{name}_ratio"] - numbers[f"{name}_steps_per_s"] / trial) < 0.01
+        assert numbers[f"{name}_goal_met"] == (numbers[f"{name}_ratio"] >= 0.85)

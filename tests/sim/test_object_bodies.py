@@ -92,24 +92,42 @@ def _lidar_rays(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
     return origin, np.stack([np.cos(angles), np.sin(angles)], axis=1)
 
 
-def test_parked_slots_are_out_of_sight(scene):
+def _walls_only_scan(scene: Scene) -> np.ndarray:
+    """The same LIDAR pose in the same route's scene without object slots: what the rays meet besides objects."""
+    model = build_model(SceneSpec(scene.track, get_world("base"), 1.0 / 240.0, CAMERAS))
+    data = mujoco.MjData(model)
+    car = Car(model)
+    car.teleport(model, data, *scene.car_pose)
+    lidar = lidar_sensor.Lidar(model, car.body_id)
+    ranges = lidar.scan(model, data, np.random.default_rng(7)).copy()
+    return ranges - np.random.default_rng(7).normal(0.0, lidar_sensor.NOISE_STD_M, lidar_sensor.NUM_RAYS)
+
+
+@pytest.fixture(scope="module")
+def walls_only(scene):
+    return _walls_only_scan(scene)
+
+
+def test_parked_slots_are_out_of_sight_and_the_walls_are_seen(scene, walls_only):
     scene.bodies.place(scene.data, [])
     assert np.all(scene.data.mocap_pos[:, 2] == PARK_Z_M)
-    assert np.all(np.isinf(scene.raw_scan()))  # no walls or car in the LIDAR's groups: nothing to hit
+    np.testing.assert_array_equal(scene.raw_scan(), walls_only)
+    # The world's walls (1 m high, around the field) are what the rays meet, never the car itself.
+    assert np.isfinite(walls_only).all() and walls_only.min() > 0.5
 
 
 @pytest.mark.parametrize(("distance_m", "left_m", "turn_rad"), [(1.0, 0.0, 0.0), (0.7, 0.25, 0.6), (1.4, -0.3, 2.0)])
-def test_lidar_measures_a_box_where_the_geometry_puts_it(scene, distance_m, left_m, turn_rad):
+def test_lidar_measures_a_box_where_the_geometry_puts_it(scene, walls_only, distance_m, left_m, turn_rad):
     bx, by = scene.ahead(distance_m, left_m)
     box_yaw = scene.car_pose[2] + turn_rad
     scene.bodies.place(scene.data, [RaceObject("obstacle_0", ObjectKind.BOX_OBSTACLE, bx, by, box_yaw)])
     measured = scene.raw_scan()
     origin, directions = _lidar_rays(scene)
     expected = _ray_hits_rectangle(origin, directions, (bx, by), box_yaw, BOX_LENGTH_M, BOX_WIDTH_M)
-    assert np.array_equal(np.isinf(measured), np.isinf(expected))
     hits = np.isfinite(expected)
     assert hits.sum() >= 3
     assert np.max(np.abs(measured[hits] - expected[hits])) < 0.01
+    np.testing.assert_array_equal(measured[~hits], walls_only[~hits])  # the other rays still meet the walls
 
 
 def test_lidar_sees_a_bot_cars_upper_body_and_the_observations_follow(scene):
@@ -123,6 +141,7 @@ def test_lidar_sees_a_bot_cars_upper_body_and_the_observations_follow(scene):
     assert np.max(np.abs(front - expected)) < 0.01
     bits = lidar_sensor.sector_bits(measured, 8, 1, 0.5)
     assert bits[3] == bits[4] == 1.0 and bits.sum() == 2.0  # the two sectors either side of straight ahead
+    assert not lidar_sensor.sector_bits(_walls_only_scan(scene), 8, 1, 0.5).any()
 
 
 def _project(scene: Scene, camera: str, points: np.ndarray) -> np.ndarray:
