@@ -144,7 +144,10 @@ class BotCars:
         return self._objects
 
     def rear_ended(self, episode_time_s: float) -> None:
-        """A bot ran into the agent from behind: every bot stops for PENALTY_SECONDS (SimApp: one shared pause)."""
+        """A bot ran into the agent from behind: every bot stops for PENALTY_SECONDS (SimApp: one shared pause).
+        While they stand, further contact changes nothing (the SimApp judges bot crashes only while they run)."""
+        if episode_time_s < self._paused_until_s:
+            return
         penalty_s = self.race.penalty_seconds
         self._crash_count += 1
         self._paused_until_s = episode_time_s + penalty_s

@@ -129,11 +129,17 @@ def test_a_crash_into_a_bot_ahead_counts_and_a_bot_hitting_the_car_from_behind_d
     env.teleport(bot.x_m + 0.3 * c, bot.y_m + 0.3 * s, bot.yaw_rad)
     *_, info = env.step(STRAIGHT)
     assert info["episode_status"] == "in_progress" and info["params"]["is_crashed"] is False
+    env.step(STRAIGHT)  # still touching: no second penalty while the bots stand
     stopped = env.race_objects[0]
     for _ in range(10):  # the bots stop for PENALTY_SECONDS (1 s = 15 steps)
         env.teleport(bot.x_m + 2.0 * c, bot.y_m + 2.0 * s, bot.yaw_rad)
         env.step(STRAIGHT)
         assert (env.race_objects[0].x_m, env.race_objects[0].y_m) == (stopped.x_m, stopped.y_m)
+    for _ in range(8):
+        env.teleport(bot.x_m + 2.0 * c, bot.y_m + 2.0 * s, bot.yaw_rad)
+        env.step(STRAIGHT)
+    moved_m = math.dist((env.race_objects[0].x_m, env.race_objects[0].y_m), (stopped.x_m, stopped.y_m))
+    assert 0.0 < moved_m < 0.2 * 8 / 15 + 0.01  # it drives on after 1 s, from where it stopped
     bot = env.race_objects[0]
     # The car 0.3 m behind the bot, overlapping its rear: the car ran into it; crashed, held where it is.
     env.teleport(bot.x_m - 0.3 * c, bot.y_m - 0.3 * s, bot.yaw_rad)
