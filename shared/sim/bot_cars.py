@@ -14,6 +14,7 @@ spline through waypoints of both lanes instead, which gives a similar S-curve.
 
 from __future__ import annotations
 
+import bisect
 import math
 from dataclasses import dataclass
 
@@ -59,17 +60,25 @@ class LaneSpline:
         self._start_m = float(dists[0])
         self._length_m = length_m
         self._is_loop = track.is_loop
+        # The spline's pieces as Python lists: one step evaluates a few points, where SciPy's call overhead would
+        # cost more than the arithmetic.
+        self._breaks = [float(b) for b in self._spline.x]
+        self._coeffs = self._spline.c.transpose(1, 2, 0).tolist()  # [piece][x|y][c3, c2, c1, c0]
 
     def _u(self, dist_m: float) -> float:
         if self._is_loop:
             return self._start_m + (dist_m - self._start_m) % self._length_m
         return dist_m
 
-    def point(self, dist_m: float) -> np.ndarray:
-        return self._spline(self._u(dist_m))
-
-    def tangent(self, dist_m: float) -> np.ndarray:
-        return self._spline(self._u(dist_m), 1)
+    def point_and_tangent(self, dist_m: float) -> tuple[np.ndarray, np.ndarray]:
+        """(x, y) and d(x, y)/d(distance) at a distance along the centre line."""
+        u = self._u(dist_m)
+        i = min(max(bisect.bisect_right(self._breaks, u) - 1, 0), len(self._coeffs) - 1)
+        h = u - self._breaks[i]
+        (a3, a2, a1, a0), (b3, b2, b1, b0) = self._coeffs[i]
+        point = np.array((((a3 * h + a2) * h + a1) * h + a0, ((b3 * h + b2) * h + b1) * h + b0))
+        tangent = np.array(((3 * a3 * h + 2 * a2) * h + a1, (3 * b3 * h + 2 * b2) * h + b1))
+        return point, tangent
 
 
 def smoothstep(fraction: float) -> tuple[float, float]:
@@ -180,8 +189,7 @@ class BotCars:
         assert self._track is not None
         lanes = self._lanes[id(self._track)]
         dist_m = self._dist_m(bot, episode_time_s)
-        start_lane = lanes[bot.lane]
-        point, tangent = start_lane.point(dist_m), start_lane.tangent(dist_m)
+        point, tangent = lanes[bot.lane].point_and_tangent(dist_m)
         if bot.change is not None:
             start_m, end_m = bot.change
             length_m = self._track.length_m
@@ -191,9 +199,8 @@ class BotCars:
                 into_m = 0.0
             if span_m > 0:
                 s, ds = smoothstep(into_m / span_m)
-                end_lane = lanes[bot.other_lane]
-                end_point = end_lane.point(dist_m)
-                tangent = (1 - s) * tangent + s * end_lane.tangent(dist_m) + ds / span_m * (end_point - point)
+                end_point, end_tangent = lanes[bot.other_lane].point_and_tangent(dist_m)
+                tangent = (1 - s) * tangent + s * end_tangent + ds / span_m * (end_point - point)
                 point = (1 - s) * point + s * end_point
         return RaceObject(
             f"{BOT_CAR_NAME_PREFIX}_{index}",

@@ -10,8 +10,6 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from shapely.geometry import LinearRing, LineString, Point, Polygon
-
 from racer.shared.sim.track import PointGeometry, Track
 
 FRONT_OF_CAR_M = 0.14
@@ -139,11 +137,7 @@ def object_params(
             "objects_distance_from_center": [],
             "objects_distance": [],
         }
-    line_cls = LinearRing if track.is_loop else LineString
-    center = line_cls(track.center_line)
-    inner_poly = Polygon(track.center_line, [track.inner_border]) if track.is_loop else None
-    points = [Point(o.x, o.y) for o in objects]
-    distances = [float(center.project(p)) for p in points]
+    distances = [track.project_m(o.x, o.y) for o in objects]
     order = sorted(range(len(objects)), key=lambda i: distances[i])
     sorted_distances = [distances[i] for i in order]
     next_pos = bisect.bisect_right(sorted_distances, car_ndist * track.length_m)
@@ -154,8 +148,8 @@ def object_params(
         prev_pos = len(order) - 1
     prev_idx, next_idx = order[prev_pos], order[next_pos]
     any_bot = any(o.is_bot_car for o in objects)
-    if inner_poly is not None:
-        left = [bool(inner_poly.contains(p)) ^ (not track.is_ccw) for p in points]
+    if track.is_loop:
+        left = [track.in_inner_polygon(o.x, o.y) ^ (not track.is_ccw) for o in objects]
     else:
         left = [track.is_left_of_center(o.x, o.y) for o in objects]
     return {
@@ -165,7 +159,7 @@ def object_params(
         "object_in_camera": _in_camera(objects[next_idx], x, y, heading_deg),
         "objects_speed": [float(o.speed_mps) if any_bot else 0.0 for o in objects],
         "objects_heading": [float(o.heading_rad) if any_bot else 0.0 for o in objects],
-        "objects_distance_from_center": [float(center.distance(p)) for p in points],
+        "objects_distance_from_center": [track.distance_from_center(o.x, o.y) for o in objects],
         "objects_distance": distances,
     }
 

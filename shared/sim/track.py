@@ -168,6 +168,7 @@ class Track:
         self._inner = _Polyline(self.inner_border)
         self._outer = _Polyline(self.outer_border)
         self._borders = _BorderPair(self._inner, self._outer)
+        self._inner_polygon: Polygon | None = None
         line_cls = LinearRing if self.is_loop else LineString
         self.length_m = float(line_cls(self.center_line).length)
         if self.is_loop:
@@ -233,6 +234,18 @@ class Track:
     def project_normalized(self, x: float, y: float) -> float:
         """`center_line.project(point, normalized=True)`."""
         return self._center.project(x, y) / self._center.length
+
+    def project_m(self, x: float, y: float) -> float:
+        """`center_line.project(point)`: metres along the centre line from the route's first row."""
+        return self._center.project(x, y)
+
+    def in_inner_polygon(self, x: float, y: float) -> bool:
+        """Strictly inside `Polygon(center_line, [inner_border])` (the SimApp's objects_left_of_center test); built
+        once, on first use. Loops only."""
+        if self._inner_polygon is None:
+            self._inner_polygon = Polygon(self.center_line, [self.inner_border])
+            shapely.prepare(self._inner_polygon)
+        return bool(shapely.contains_xy(self._inner_polygon, x, y))
 
     def distance_from_center(self, x: float, y: float) -> float:
         cx, cy = self._center.nearest_point(x, y)
