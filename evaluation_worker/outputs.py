@@ -32,7 +32,6 @@ from racer.shared.deepracer.metrics import EvaluationMetrics, EvaluationMetricsE
 from racer.shared.deepracer.simtrace import SimtraceWriter
 from racer.shared.model_layout import EvaluationLayout
 from racer.shared.sim.env import DeepRacerEnv
-from racer.shared.sim.race_config import param_text
 from racer.shared.store import ObjectStore, join_key
 
 
@@ -79,7 +78,7 @@ def evaluation_metrics(laps: list[LapResult] | tuple[LapResult, ...]) -> Evaluat
     )
 
 
-def evaluation_params(config: EvaluationConfig, layout: EvaluationLayout, checkpoint: str | None) -> dict[str, str]:
+def evaluation_params(config: EvaluationConfig, layout: EvaluationLayout, checkpoint: str | None) -> dict[str, object]:
     """The job as an evaluation_params.yaml would describe it (SimApp keys, string values as DRfC writes them).
 
     Race mode keeps DeepRacer's keys where they mean the same (NUMBER_OF_RESETS = put-backs per lap, RACE_DURATION)
@@ -99,7 +98,7 @@ def evaluation_params(config: EvaluationConfig, layout: EvaluationLayout, checkp
         "RACER_EVALUATION_MODE": config.mode,
     }
     if config.race_setup.has_objects:
-        params.update({k: param_text(v) for k, v in config.race_setup.to_training_params().items()})
+        params.update(config.race_setup.to_training_params())  # OBJECT_POSITIONS stays a YAML list
     if config.mode == "race":
         race = config.race
         params.update(

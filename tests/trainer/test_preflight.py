@@ -223,17 +223,36 @@ def test_sac_settings_it_ignores_are_noted_not_refused(tmp_path):
 @pytest.mark.parametrize(
     ("workers", "field"),
     [
-        ({"RACE_TYPE": "OBJECT_AVOIDANCE"}, "RACE_TYPE"),
-        ({"workers": [{}, {"RACE_TYPE": "HEAD_TO_BOT"}]}, "RACE_TYPE"),
-        ({"NUMBER_OF_OBSTACLES": 6}, "NUMBER_OF_OBSTACLES"),
+        ({"RACE_TYPE": "OBJECT_AVOIDANCE"}, "NUMBER_OF_OBSTACLES"),
+        ({"workers": [{}, {"RACE_TYPE": "HEAD_TO_BOT"}]}, "NUMBER_OF_BOT_CARS"),
+        ({"NUMBER_OF_OBSTACLES": 6}, "RACE_TYPE"),
+        ({"RACE_TYPE": "HEAD_TO_MODEL"}, "RACE_TYPE"),
+        ({"RACE_TYPE": "OBJECT_AVOIDANCE", "NUMBER_OF_OBSTACLES": 3, "OBSTACLE_TYPE": "cone"}, "OBSTACLE_TYPE"),
     ],
 )
-def test_race_types_racer_does_not_simulate_yet_are_refused_with_the_reason(tmp_path, workers, field):
+def test_race_settings_that_cannot_run_are_refused_naming_the_key(tmp_path, workers, field):
     custom = write_custom(tmp_path, PPO_METADATA, {}, workers)
     with pytest.raises(user_error_types()) as refused:
         preflight(custom, 2, "racer_oval", ("base",))
     assert str(custom / "workers.json") in str(refused.value) and f"{field}:" in str(refused.value)
-    assert "is not supported yet; racer trains time trials only" in str(refused.value)
+
+
+def test_object_avoidance_and_head_to_bot_pass_the_preflight(tmp_path):
+    custom = write_custom(
+        tmp_path,
+        PPO_METADATA,
+        {},
+        {
+            "RACE_TYPE": "OBJECT_AVOIDANCE",
+            "NUMBER_OF_OBSTACLES": 6,
+            "workers": [{}, {"RACE_TYPE": "HEAD_TO_BOT", "NUMBER_OF_OBSTACLES": 0, "NUMBER_OF_BOT_CARS": 3}],
+        },
+    )
+    report = preflight(custom, 2, "racer_oval", ("base",))
+    assert [(w.race.race_type, w.race.num_obstacles, w.race.number_of_bot_cars) for w in report.workers] == [
+        ("OBJECT_AVOIDANCE", 6, 0),
+        ("HEAD_TO_BOT", 0, 3),
+    ]
 
 
 def test_a_missing_file_and_a_missing_track_are_named(tmp_path):
@@ -278,5 +297,5 @@ def test_racer_trainer_refuses_before_connecting(tmp_path, monkeypatch):
     monkeypatch.setenv("RACER_STORE", str(tmp_path / "racer-data"))
     result = CliRunner().invoke(trainer_command, ["--model-prefix", "m", "--custom-files", str(custom)])
     assert result.exit_code == 1
-    assert "RACE_TYPE" in result.output and "not supported yet" in result.output
+    assert "NUMBER_OF_OBSTACLES" in result.output and "OBJECT_AVOIDANCE needs obstacles" in result.output
     assert not (tmp_path / "racer-data").exists()
