@@ -27,9 +27,9 @@ def test_bench_with_obstacles_and_bot_cars_reports_each_beside_the_time_trial():
     trial = numbers["time_trial_steps_per_s"]
     for name in ("obstacles_2", "bot_cars_1"):
         rate, ratio = numbers[f"{name}_steps_per_s"], numbers[f"{name}_ratio"]
-        assert rate > 0
+        assert rate > 0, numbers
         # The rates are printed to 0.1 steps/s and the ratio to 0.001: the ratio of the printed rates agrees up to that.
         rounding = (0.05 / rate + 0.05 / trial) * rate / trial + 0.0005
-        assert abs(ratio - rate / trial) <= rounding
+        assert abs(ratio - rate / trial) <= rounding, numbers
         if abs(ratio - 0.85) > 0.0005:
-            assert numbers[f"{name}_goal_met"] == (ratio >= 0.85)
+            assert numbers[f"{name}_goal_met"] == (ratio >= 0.85), numbers
