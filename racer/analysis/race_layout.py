@@ -60,20 +60,29 @@ def race_layout(params_yaml: dict[str, bytes], track: Track | None) -> RaceLayou
         race = RaceConfig.from_training_params(params)
     except ValueError as error:
         return RaceLayout(notes=(f"{name}: {error}; obstacles not drawn.",))
+    bots = (
+        (
+            f"{race.race_type}: {race.number_of_bot_cars} bot cars drove their lanes; the maps show where the car crashed, "
+            "not the bots.",
+        )
+        if race.number_of_bot_cars
+        else ()
+    )
     if race.num_obstacles == 0:
-        return RaceLayout(race.race_type)
+        return RaceLayout(race.race_type, notes=bots)
     if race.randomize_obstacle_locations and not race.object_positions:
         return RaceLayout(
             race.race_type,
             notes=(
                 f"{name}: the {race.num_obstacles} obstacles moved every episode (RANDOMIZE_OBSTACLE_LOCATIONS); "
                 "the maps do not draw them.",
+                *bots,
             ),
         )
     if track is None:
-        return RaceLayout(race.race_type)
+        return RaceLayout(race.race_type, notes=bots)
     reverse = str(params.get("REVERSE_DIR", "false")).strip().lower() in ("true", "1")
-    notes = [f"{race.race_type}: {race.num_obstacles} fixed obstacles from {name} drawn on the track maps."]
+    notes = [f"{race.race_type}: {race.num_obstacles} fixed obstacles from {name} drawn on the track maps.", *bots]
     if str(params.get("ALTERNATE_DRIVING_DIRECTION", "false")).strip().lower() in ("true", "1"):
         notes.append(
             "The driving direction alternated; the maps draw the obstacles of the route's own direction (the "

@@ -142,3 +142,5 @@ def test_layout_notes_what_it_cannot_draw(deepracer_data):
     bad = race_layout({"training_params_1.yaml": b'NUMBER_OF_OBSTACLES: "three"\n'}, track)
     assert bad.obstacles == () and "training_params_1.yaml" in bad.notes[0] and "NUMBER_OF_OBSTACLES" in bad.notes[0]
     assert race_layout({}, track).obstacles == ()
+    bots = race_layout({"training_params.yaml": b'RACE_TYPE: HEAD_TO_BOT\nNUMBER_OF_BOT_CARS: "2"\n'}, track)
+    assert bots.race_type == "HEAD_TO_BOT" and bots.obstacles == () and "2 bot cars" in bots.notes[0]

@@ -26,6 +26,10 @@ def test_bench_with_obstacles_and_bot_cars_reports_each_beside_the_time_trial():
     numbers = json.loads(result.output.strip())
     trial = numbers["time_trial_steps_per_s"]
     for name in ("obstacles_2", "bot_cars_1"):
-        assert numbers[f"{name}_steps_per_s"] > 0
-        assert abs(numbers[f"{name}_ratio"] - numbers[f"{name}_steps_per_s"] / trial) < 0.01
-        assert numbers[f"{name}_goal_met"] == (numbers[f"{name}_ratio"] >= 0.85)
+        rate, ratio = numbers[f"{name}_steps_per_s"], numbers[f"{name}_ratio"]
+        assert rate > 0, numbers
+        # The rates are printed to 0.1 steps/s and the ratio to 0.001: the ratio of the printed rates agrees up to that.
+        rounding = (0.05 / rate + 0.05 / trial) * rate / trial + 0.0005
+        assert abs(ratio - rate / trial) <= rounding, numbers
+        if abs(ratio - 0.85) > 0.0005:
+            assert numbers[f"{name}_goal_met"] == (ratio >= 0.85), numbers
