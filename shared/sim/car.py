@@ -3,7 +3,8 @@
 Frame: the car origin (DeepRacer's `base_link`) sits on the ground between the axles, x forward, y left, z up.
 All four wheels get the same angular velocity `speed / 0.035` and both steering hinges the same angle
 (no Ackermann), as DeepRacer's `send_action`. Commands are clipped to 0.1–4 m/s and ±30° before being sent;
-the zero command of the `prepare` step is sent unclipped.
+the zero command of the `prepare` step is sent unclipped. The wheels touch the floor without friction; the
+horizontal tyre forces come from `tyres.py`, so the car is stepped with `Car.step`, not `mujoco.mj_step` alone.
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from racer.shared.sim._mujoco import mujoco
+from racer.shared.sim.tyres import TyreParams, Tyres
 
 WHEEL_RADIUS_M = 0.035
 """The simulated tyre's radius."""
@@ -54,16 +56,33 @@ CAR_GEOM_GROUP = 3
 """Car geoms live in a group the camera does not draw and the LIDAR does not see."""
 
 WHEEL_MAX_TORQUE_NM = 0.23
-"""Per wheel (≈ 4 m/s² at most): calibrated so that speed in the first steps after `prepare` rises as in the real
-console 2022 / DRfC simtraces (≈ 0.13, 0.33, 0.55 m/s between rows 2-3, 3-4, 4-5); scaled with the URDF mass."""
-TYRE_TORSIONAL_FRICTION = 0.02
-"""Contact-patch resistance to turning about the vertical (condim 4; a sphere's point contact has none).
-Calibrated so a held 30° at 1 m/s gives ≈ 1.3 rad/s of yaw rate, as the real simtraces (≈ 1.1-1.3 rad/s)."""
+"""Per wheel motor. The wheels spin free of the floor, so they reach the commanded rad/s within a few ms; how fast
+the car follows is the tyre model's drive force (`tyres.py`)."""
 WHEEL_VELOCITY_GAIN = 0.08
 STEERING_KP = 2.0
-"""Steering servo stiffness: (STEERING_KV + hinge damping) / STEERING_KP ≈ 0.135 s to follow a new angle, fitted with
-`racer bench fidelity`: the real cars turn in more slowly than a 0.03 s servo (figures in shared/sim/README.md)."""
-STEERING_KV = 0.25
+"""Steering servo: with STEERING_KV and the hinge damping the hinges follow a new angle with a ≈ 0.045 s time
+constant (first order), fitted with the tyre model on real simtraces (`racer bench fidelity`)."""
+STEERING_KV = 0.085
+URDF_CHASSIS_INERTIA_KGM2 = (0.010609, 0.050409, 0.05865)
+"""The SimApp URDF's chassis inertia (ixx, iyy, izz)."""
+YAW_INERTIA_KGM2 = 0.342
+"""The whole car's inertia about the vertical, fitted with the tyre model on real simtraces: the real cars' yaw rate
+carries on between steps as if the car were ≈ 4× as hard to turn as the URDF's chassis (0.078 kg·m² with wheels)."""
+_WHEELS_YAW_INERTIA_KGM2 = (
+    WHEEL_MASS_KG * (2 * (REAR_AXLE_X_M**2 + REAR_HALF_TRACK_M**2) + 2 * (FRONT_AXLE_X_M**2 + FRONT_HALF_TRACK_M**2))
+    + 4 * 0.4 * WHEEL_MASS_KG * WHEEL_RADIUS_M**2
+)
+_HINGES_YAW_INERTIA_KGM2 = HINGE_MASS_KG * 2 * (FRONT_AXLE_X_M**2 + FRONT_HALF_TRACK_M**2)
+CHASSIS_YAW_INERTIA_KGM2 = YAW_INERTIA_KGM2 - _WHEELS_YAW_INERTIA_KGM2 - _HINGES_YAW_INERTIA_KGM2
+_URDF_ROLL_PITCH_SUM = URDF_CHASSIS_INERTIA_KGM2[0] + URDF_CHASSIS_INERTIA_KGM2[1]
+CHASSIS_INERTIA_KGM2 = (
+    CHASSIS_YAW_INERTIA_KGM2 * URDF_CHASSIS_INERTIA_KGM2[0] / _URDF_ROLL_PITCH_SUM,
+    CHASSIS_YAW_INERTIA_KGM2 * URDF_CHASSIS_INERTIA_KGM2[1] / _URDF_ROLL_PITCH_SUM,
+    CHASSIS_YAW_INERTIA_KGM2,
+)
+"""A rigid body needs ixx + iyy ≥ izz: roll and pitch are scaled up with yaw in the URDF's ratio (a flat body).
+With the tyre forces at the centre of mass the car hardly rolls or pitches on a flat floor."""
+CHASSIS_COM_Z_M = 0.075
 
 
 def command_wheel_radius_m(simapp_version: float) -> float:
@@ -109,9 +128,12 @@ def car_mjcf(
         for name, y in camera_names
     )
     r = WHEEL_RADIUS_M
+    ixx, iyy, izz = CHASSIS_INERTIA_KGM2
     wheel_geom = (
-        f'<geom type="sphere" size="{r}" mass="{WHEEL_MASS_KG}" friction="{friction} {TYRE_TORSIONAL_FRICTION} 0.0001" '
-        f'contype="2" conaffinity="1" group="{CAR_GEOM_GROUP}" condim="4" rgba="0.1 0.1 0.1 1"/>'
+        # condim 1 and priority over the floor: a frictionless contact that carries the weight (the friction value
+        # is the tyre model's μ).
+        f'<geom type="sphere" size="{r}" mass="{WHEEL_MASS_KG}" friction="{friction} 0 0" '
+        f'contype="2" conaffinity="1" group="{CAR_GEOM_GROUP}" condim="1" priority="1" rgba="0.1 0.1 0.1 1"/>'
     )
     rear = "\n".join(
         f'      <body name="{name}" pos="{REAR_AXLE_X_M} {side * REAR_HALF_TRACK_M} {r}">\n'
@@ -131,7 +153,8 @@ def car_mjcf(
     return f"""
     <body name="car" pos="0 0 0">
       <freejoint name="car_free"/>
-      <geom name="chassis" type="box" size="0.15 0.07 0.025" pos="0 0 0.075" mass="{CHASSIS_MASS_KG:.6f}"
+      <inertial pos="0 0 {CHASSIS_COM_Z_M}" mass="{CHASSIS_MASS_KG:.6f}" diaginertia="{ixx:.6f} {iyy:.6f} {izz:.6f}"/>
+      <geom name="chassis" type="box" size="0.15 0.07 0.025" pos="0 0 {CHASSIS_COM_Z_M}" mass="{CHASSIS_MASS_KG:.6f}"
             contype="2" conaffinity="1" group="{CAR_GEOM_GROUP}" rgba="0.2 0.2 0.25 1"/>
 {cameras}
       <site name="lidar" pos="{LIDAR_POS_M[0]} {LIDAR_POS_M[1]} {LIDAR_POS_M[2]}" size="0.01" group="{CAR_GEOM_GROUP}"/>
@@ -172,7 +195,12 @@ class Car:
 
     FRONT_OF_CAR_M = 0.14
 
-    def __init__(self, model: mujoco.MjModel, command_wheel_radius: float = COMMAND_WHEEL_RADIUS_M) -> None:
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        command_wheel_radius: float = COMMAND_WHEEL_RADIUS_M,
+        tyre_params: TyreParams | None = None,
+    ) -> None:
         self.command_wheel_radius = command_wheel_radius
         self.body_id = model.body("car").id
         joint = model.joint("car_free")
@@ -184,6 +212,24 @@ class Car:
         self.car_dofs = np.arange(model.body_dofadr[self.body_id], model.nv)
         """The car's dofs are the last ones of the model (its body is the last subtree)."""
         self.car_qpos = np.arange(self.qpos_adr, model.nq)
+        self.tyres = Tyres(
+            model,
+            self.body_id,
+            self.qpos_adr,
+            self.dof_adr,
+            [int(model.joint(joint).qposadr[0]) for joint in STEERING_JOINTS],
+            [int(model.joint(f"{name}_joint").dofadr[0]) for name in WHEEL_NAMES],
+            int(model.body_geomadr[self.wheel_body_ids[0]]),
+            FRONT_AXLE_X_M,
+            REAR_AXLE_X_M,
+            tyre_params,
+        )
+
+    def step(self, model: mujoco.MjModel, data: mujoco.MjData, substeps: int) -> None:
+        """Advance the physics by `substeps` MuJoCo steps, the tyre forces recomputed before each."""
+        for _ in range(substeps):
+            self.tyres.apply(data)
+            mujoco.mj_step(model, data)
 
     def teleport(self, model: mujoco.MjModel, data: mujoco.MjData, x_m: float, y_m: float, yaw_rad: float) -> None:
         """Put the car at rest on the ground at (x, y) with heading yaw; wheels and hinges straight."""

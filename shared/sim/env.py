@@ -393,7 +393,7 @@ class DeepRacerEnv(gym.Env):
             self._car.teleport(self._model, self._data, x, y, yaw)
             command = (0.0, 0.0)
         self._car.command(self._data, command[0], command[1])
-        mujoco.mj_step(self._model, self._data, self._substeps)
+        self._car.step(self._model, self._data, self._substeps)
         # The SimApp stamps a row when the step's physics has run (judge_action after unpausing), so the prepare
         # row is one step after the episode start and the last row's time is the lap's end.
         tstamp_s = float(self._data.time)

@@ -146,7 +146,7 @@ class CarReplay:
             yaws.append(pose.yaw_rad)
             car.command(data, *clip_command(segment.throttle_mps[k], segment.steer_deg[k]))
             substeps = max(1, round((segment.times_s[k + 1] - segment.times_s[k]) / self.timestep_s))
-            mujoco.mj_step(model, data, substeps)
+            car.step(model, data, substeps)
         pose = car.pose(data)
         points.append(pose.model_point)
         yaws.append(pose.yaw_rad)
