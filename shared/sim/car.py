@@ -55,33 +55,51 @@ STEERING_JOINTS = ("left_steering_hinge_joint", "right_steering_hinge_joint")
 CAR_GEOM_GROUP = 3
 """Car geoms live in a group the camera does not draw and the LIDAR does not see."""
 
-WHEEL_MAX_TORQUE_NM = 0.23
-"""Per wheel motor. The wheels spin free of the floor, so they reach the commanded rad/s within a few ms; how fast
-the car follows is the tyre model's drive force (`tyres.py`)."""
+WHEEL_MAX_TORQUE_NM = 2.0
+"""Per wheel motor. The wheels spin free of the floor and reach the commanded rad/s within ≈ 2 ms (as the fit's
+twin assumes); how fast the car follows is the tyre model's drive force (`tyres.py`)."""
 WHEEL_VELOCITY_GAIN = 0.08
-STEERING_KP = 2.0
-"""Steering servo: with STEERING_KV and the hinge damping the hinges follow a new angle with a ≈ 0.045 s time
-constant (first order), fitted with the tyre model on real simtraces (`racer bench fidelity`)."""
-STEERING_KV = 0.085
+STEERING_KP = 20.0
+"""Steering servo stiffness (N·m/rad); the velocity gain follows from the fitted time constant (`steering_kv`)."""
+HINGE_DAMPING = 0.02
+HINGE_ARMATURE = 0.0005
+HINGE_RADIUS_M = 0.008
+STEERING_TIME_CONSTANT_S = 0.0166
+"""How fast the hinges follow a new angle, fitted with the tyre model on real simtraces (`racer bench fidelity`)."""
+_HINGE_AXIS_INERTIA_KGM2 = HINGE_ARMATURE + 0.4 * (
+    WHEEL_MASS_KG * WHEEL_RADIUS_M**2 + HINGE_MASS_KG * HINGE_RADIUS_M**2
+)
+TYRE_UPDATE_SUBSTEPS = 2
+"""MuJoCo steps per tyre-force update (1/120 s at the env's 1/240 s): the tyre model is Python, and every 8 ms is
+as accurate as every step for the car's slowest-to-fastest modes (≥ 12 ms), at half the cost."""
 URDF_CHASSIS_INERTIA_KGM2 = (0.010609, 0.050409, 0.05865)
 """The SimApp URDF's chassis inertia (ixx, iyy, izz)."""
-YAW_INERTIA_KGM2 = 0.342
+YAW_INERTIA_KGM2 = 0.475
 """The whole car's inertia about the vertical, fitted with the tyre model on real simtraces: the real cars' yaw rate
-carries on between steps as if the car were ≈ 4× as hard to turn as the URDF's chassis (0.078 kg·m² with wheels)."""
+carries on between steps as if the car were ≈ 6× as hard to turn as the URDF's (0.078 kg·m² with the wheels)."""
 _WHEELS_YAW_INERTIA_KGM2 = (
     WHEEL_MASS_KG * (2 * (REAR_AXLE_X_M**2 + REAR_HALF_TRACK_M**2) + 2 * (FRONT_AXLE_X_M**2 + FRONT_HALF_TRACK_M**2))
     + 4 * 0.4 * WHEEL_MASS_KG * WHEEL_RADIUS_M**2
 )
 _HINGES_YAW_INERTIA_KGM2 = HINGE_MASS_KG * 2 * (FRONT_AXLE_X_M**2 + FRONT_HALF_TRACK_M**2)
-CHASSIS_YAW_INERTIA_KGM2 = YAW_INERTIA_KGM2 - _WHEELS_YAW_INERTIA_KGM2 - _HINGES_YAW_INERTIA_KGM2
-_URDF_ROLL_PITCH_SUM = URDF_CHASSIS_INERTIA_KGM2[0] + URDF_CHASSIS_INERTIA_KGM2[1]
-CHASSIS_INERTIA_KGM2 = (
-    CHASSIS_YAW_INERTIA_KGM2 * URDF_CHASSIS_INERTIA_KGM2[0] / _URDF_ROLL_PITCH_SUM,
-    CHASSIS_YAW_INERTIA_KGM2 * URDF_CHASSIS_INERTIA_KGM2[1] / _URDF_ROLL_PITCH_SUM,
-    CHASSIS_YAW_INERTIA_KGM2,
-)
-"""A rigid body needs ixx + iyy ≥ izz: roll and pitch are scaled up with yaw in the URDF's ratio (a flat body).
-With the tyre forces at the centre of mass the car hardly rolls or pitches on a flat floor."""
+
+
+def steering_kv(time_constant_s: float) -> float:
+    """The servo's velocity gain that makes the hinge's slow mode a first-order lag of `time_constant_s` (the hinge
+    with its wheel is a stiff, overdamped second-order system; its fast mode takes ≈ 2 ms)."""
+    return STEERING_KP * time_constant_s + _HINGE_AXIS_INERTIA_KGM2 / time_constant_s - HINGE_DAMPING
+
+
+def chassis_inertia_kgm2(yaw_inertia_kgm2: float) -> tuple[float, float, float]:
+    """The chassis' diagonal inertia giving the whole car `yaw_inertia_kgm2` about the vertical. A rigid body needs
+    ixx + iyy ≥ izz, so roll and pitch are scaled with yaw in the URDF's ratio (a flat body); with the tyre forces at
+    the centre of mass the car hardly rolls or pitches on a flat floor."""
+    yaw = yaw_inertia_kgm2 - _WHEELS_YAW_INERTIA_KGM2 - _HINGES_YAW_INERTIA_KGM2
+    ixx, iyy, _ = URDF_CHASSIS_INERTIA_KGM2
+    flat = 1.01 * yaw / (ixx + iyy)  # 1 % above the limit, so rounding never breaks it
+    return flat * ixx, flat * iyy, yaw
+
+
 CHASSIS_COM_Z_M = 0.075
 
 
@@ -128,7 +146,7 @@ def car_mjcf(
         for name, y in camera_names
     )
     r = WHEEL_RADIUS_M
-    ixx, iyy, izz = CHASSIS_INERTIA_KGM2
+    ixx, iyy, izz = chassis_inertia_kgm2(YAW_INERTIA_KGM2)
     wheel_geom = (
         # condim 1 and priority over the floor: a frictionless contact that carries the weight (the friction value
         # is the tyre model's μ).
@@ -137,16 +155,16 @@ def car_mjcf(
     )
     rear = "\n".join(
         f'      <body name="{name}" pos="{REAR_AXLE_X_M} {side * REAR_HALF_TRACK_M} {r}">\n'
-        f'        <joint name="{name}_joint" type="hinge" axis="0 1 0" damping="0.0005"/>\n        {wheel_geom}\n      </body>'
+        f'        <joint name="{name}_joint" type="hinge" axis="0 1 0"/>\n        {wheel_geom}\n      </body>'
         for name, side in (("left_rear_wheel", 1), ("right_rear_wheel", -1))
     )
     front = "\n".join(
         f'      <body name="{side_name}_steering_hinge" pos="{FRONT_AXLE_X_M} {side * FRONT_HALF_TRACK_M} {r}">\n'
         f'        <joint name="{side_name}_steering_hinge_joint" type="hinge" axis="0 0 1" range="-{STEERING_LIMIT_RAD} {STEERING_LIMIT_RAD}" '
-        f'damping="0.02" armature="0.0005"/>\n'
-        f'        <geom type="sphere" size="0.008" mass="{HINGE_MASS_KG}" contype="0" conaffinity="0" group="{CAR_GEOM_GROUP}"/>\n'
+        f'damping="{HINGE_DAMPING}" armature="{HINGE_ARMATURE}"/>\n'
+        f'        <geom type="sphere" size="{HINGE_RADIUS_M}" mass="{HINGE_MASS_KG}" contype="0" conaffinity="0" group="{CAR_GEOM_GROUP}"/>\n'
         f'        <body name="{side_name}_front_wheel">\n'
-        f'          <joint name="{side_name}_front_wheel_joint" type="hinge" axis="0 1 0" damping="0.0005"/>\n          {wheel_geom}\n'
+        f'          <joint name="{side_name}_front_wheel_joint" type="hinge" axis="0 1 0"/>\n          {wheel_geom}\n'
         f"        </body>\n      </body>"
         for side_name, side in (("left", 1), ("right", -1))
     )
@@ -170,7 +188,7 @@ def car_actuators_mjcf() -> str:
         for name in WHEEL_NAMES
     )
     steering = "\n".join(
-        f'    <position name="{joint}_servo" joint="{joint}" kp="{STEERING_KP}" kv="{STEERING_KV}" '
+        f'    <position name="{joint}_servo" joint="{joint}" kp="{STEERING_KP}" kv="{steering_kv(STEERING_TIME_CONSTANT_S):.6f}" '
         f'ctrllimited="true" ctrlrange="-{STEERING_LIMIT_RAD} {STEERING_LIMIT_RAD}"/>'
         for joint in STEERING_JOINTS
     )
@@ -212,24 +230,41 @@ class Car:
         self.car_dofs = np.arange(model.body_dofadr[self.body_id], model.nv)
         """The car's dofs are the last ones of the model (its body is the last subtree)."""
         self.car_qpos = np.arange(self.qpos_adr, model.nq)
-        self.tyres = Tyres(
+        self.tyres = self._tyres(model, tyre_params)
+
+    def _tyres(self, model: mujoco.MjModel, params: TyreParams | None) -> Tyres:
+        return Tyres(
             model,
             self.body_id,
             self.qpos_adr,
             self.dof_adr,
             [int(model.joint(joint).qposadr[0]) for joint in STEERING_JOINTS],
-            [int(model.joint(f"{name}_joint").dofadr[0]) for name in WHEEL_NAMES],
+            self.wheel_actuators.tolist(),
             int(model.body_geomadr[self.wheel_body_ids[0]]),
             FRONT_AXLE_X_M,
             REAR_AXLE_X_M,
-            tyre_params,
+            params,
         )
 
+    def retune(
+        self,
+        model: mujoco.MjModel,
+        tyre_params: TyreParams,
+        steering_time_constant_s: float,
+        yaw_inertia_kgm2: float,
+    ) -> None:
+        """Change the fitted dynamics constants of a compiled model in place (for the leave-one-file-out replay)."""
+        model.body_inertia[self.body_id] = chassis_inertia_kgm2(yaw_inertia_kgm2)
+        model.actuator_biasprm[self.steering_actuators, 2] = -steering_kv(steering_time_constant_s)
+        self.tyres = self._tyres(model, tyre_params)
+
     def step(self, model: mujoco.MjModel, data: mujoco.MjData, substeps: int) -> None:
-        """Advance the physics by `substeps` MuJoCo steps, the tyre forces recomputed before each."""
-        for _ in range(substeps):
+        """Advance the physics by `substeps` MuJoCo steps, the tyre forces recomputed every TYRE_UPDATE_SUBSTEPS."""
+        while substeps > 0:
             self.tyres.apply(data)
-            mujoco.mj_step(model, data)
+            steps = min(TYRE_UPDATE_SUBSTEPS, substeps)
+            mujoco.mj_step(model, data, steps)
+            substeps -= steps
 
     def teleport(self, model: mujoco.MjModel, data: mujoco.MjData, x_m: float, y_m: float, yaw_rad: float) -> None:
         """Put the car at rest on the ground at (x, y) with heading yaw; wheels and hinges straight."""

@@ -6,8 +6,8 @@ computed here from the chassis velocity, the steering hinges' angle and the whee
 * per axle, a lateral force from the axle's slip angle, linear (cornering stiffness) and then saturating (tanh)
   at a peak of grip × μ × the axle's static load, μ being the world's tyre friction. The front force acts
   perpendicular to the steered wheels;
-* a drive force along the car that pulls the chassis towards the wheels' rolling speed (spin × rolling radius),
-  linear in the speed difference and capped.
+* a drive force along the car that pulls the chassis towards the wheels' rolling speed (the motors' commanded spin
+  × rolling radius: the free wheels reach it within ≈ 2 ms), linear in the speed difference and capped.
 
 The forces act at the centre of mass (no load transfer, no roll): yaw comes from the axles' lever arms, and the
 chassis' yaw inertia makes the yaw rate carry on between steps, as the real DeepRacer simtraces show. A Coulomb
@@ -31,17 +31,18 @@ GRAVITY_MPS2 = 9.81
 class TyreParams:
     """The tyre model's constants; the defaults are fitted on the real simtraces (shared/sim/README.md)."""
 
-    front_cornering_stiffness_n_per_rad: float = 45.8
-    rear_cornering_stiffness_n_per_rad: float = 75.7
-    front_peak_grip: float = 1.04
-    """Peak lateral force of the front axle / (μ × its static load)."""
-    rear_peak_grip: float = 1.30
-    drive_stiffness_n_per_mps: float = 40.0
-    """Drive force per m/s of rolling speed above the chassis' forward speed (≈ 0.16 s speed time constant)."""
-    max_drive_force_n: float = 22.5
-    """Cap of the drive (and braking) force: ≈ 3.4 m/s² for the 6.56 kg car."""
-    rolling_radius_m: float = 0.03726
-    """Effective rolling radius: the real cars cover ≈ 1.065 × the commanded speed (wheel rad/s = speed / 0.035)."""
+    front_cornering_stiffness_n_per_rad: float = 50.93
+    rear_cornering_stiffness_n_per_rad: float = 104.94
+    front_peak_grip: float = 1.96
+    """Peak lateral force of the front axle / (μ × its static load): ≈ 1 × the load on the base world (μ 0.5)."""
+    rear_peak_grip: float = 1.96
+    """The rear axle never saturates in the real logs (the fit runs off to > 100); taken equal to the front's."""
+    drive_stiffness_n_per_mps: float = 47.23
+    """Drive force per m/s of rolling speed above the chassis' forward speed (≈ 0.14 s speed time constant)."""
+    max_drive_force_n: float = 21.56
+    """Cap of the drive (and braking) force: ≈ 3.3 m/s² for the 6.56 kg car."""
+    rolling_radius_m: float = 0.03928
+    """Effective rolling radius: the real cars cover ≈ 1.12 × the commanded speed (wheel rad/s = speed / 0.035)."""
     min_slip_speed_mps: float = 0.3
     """Below this forward speed slip angles are taken at this speed: lateral grip becomes viscous, no blow-up at rest."""
 
@@ -61,7 +62,7 @@ class Tyres:
         qpos_adr: int,
         dof_adr: int,
         hinge_qpos: list[int],
-        wheel_dofs: list[int],
+        wheel_actuators: list[int],
         wheel_geom: int,
         front_axle_x_m: float,
         rear_axle_x_m: float,
@@ -72,7 +73,7 @@ class Tyres:
         self.qpos_adr = qpos_adr
         self.dof_adr = dof_adr
         self.hinge_qpos = np.asarray(hinge_qpos)
-        self.wheel_dofs = np.asarray(wheel_dofs)
+        self.wheel_actuators = np.asarray(wheel_actuators)
         com_x_m = float(model.body_ipos[body_id][0])
         self.front_arm_m = front_axle_x_m - com_x_m
         self.rear_arm_m = com_x_m - rear_axle_x_m
@@ -84,7 +85,7 @@ class Tyres:
         self.rear_peak_n = p.rear_peak_grip * mu * weight_n * self.front_arm_m / wheelbase_m
         self.front_stiffness_per_peak = p.front_cornering_stiffness_n_per_rad / self.front_peak_n
         self.rear_stiffness_per_peak = p.rear_cornering_stiffness_n_per_rad / self.rear_peak_n
-        self.rolling_per_wheel_rad_s = p.rolling_radius_m / len(wheel_dofs)
+        self.rolling_per_wheel_rad_s = p.rolling_radius_m / len(wheel_actuators)
 
     def apply(self, data: mujoco.MjData) -> None:
         """Set the chassis' applied force and torque for the next physics step from the current state."""
@@ -104,7 +105,7 @@ class Tyres:
         rear_slip = math.atan2(lateral - self.rear_arm_m * yaw_rate, slip_speed)
         front = -self.front_peak_n * math.tanh(self.front_stiffness_per_peak * front_slip)
         rear = -self.rear_peak_n * math.tanh(self.rear_stiffness_per_peak * rear_slip)
-        rolling_mps = self.rolling_per_wheel_rad_s * sum(qvel[self.wheel_dofs].tolist())
+        rolling_mps = self.rolling_per_wheel_rad_s * sum(data.ctrl[self.wheel_actuators].tolist())
         drive = p.drive_stiffness_n_per_mps * (rolling_mps - forward)
         drive = min(max(drive, -p.max_drive_force_n), p.max_drive_force_n)
         cos_steer, sin_steer = math.cos(steer), math.sin(steer)
