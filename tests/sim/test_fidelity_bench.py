@@ -37,7 +37,8 @@ def test_the_replay_starts_on_the_logged_pose_and_stays_near_it(deepracer_data):
     finally:
         replay.close()
     assert max(first_errors) < 2e-3
-    assert float(np.median(one_second)) < 0.35  # README: 17-25 cm medians over all real files
+    # README: 8-10 cm medians per band with the tyre model (this file: 9 cm; the sphere-tyre car missed by 24 cm).
+    assert float(np.median(one_second)) < 0.13
 
 
 def test_error_split_adds_up_and_says_which_way(deepracer_data):
