@@ -20,8 +20,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numpy as np
-
 from racer.shared.sim._mujoco import mujoco
 
 GRAVITY_MPS2 = 9.81
@@ -70,10 +68,14 @@ class Tyres:
     ) -> None:
         self.params = params or TyreParams()
         self.body_id = body_id
-        self.qpos_adr = qpos_adr
         self.dof_adr = dof_adr
-        self.hinge_qpos = np.asarray(hinge_qpos)
-        self.wheel_actuators = np.asarray(wheel_actuators)
+        # One slice read per array and step: the free joint's quaternion and both hinges, the wheel motors' commands.
+        self._qpos_span = slice(qpos_adr, max(hinge_qpos) + 1)
+        self._quat_w, self._quat_z = 3, 6
+        self._hinges = [adr - qpos_adr for adr in hinge_qpos]
+        if sorted(wheel_actuators) != list(range(min(wheel_actuators), min(wheel_actuators) + len(wheel_actuators))):
+            raise ValueError(f"the wheel motors must be consecutive actuators, got ids {wheel_actuators}")
+        self._wheel_ctrl = slice(min(wheel_actuators), min(wheel_actuators) + len(wheel_actuators))
         com_x_m = float(model.body_ipos[body_id][0])
         self.front_arm_m = front_axle_x_m - com_x_m
         self.rear_arm_m = com_x_m - rear_axle_x_m
@@ -90,22 +92,20 @@ class Tyres:
     def apply(self, data: mujoco.MjData) -> None:
         """Set the chassis' applied force and torque for the next physics step from the current state."""
         p = self.params
-        qpos, qvel = data.qpos, data.qvel
-        w, _, _, z = qpos[self.qpos_adr + 3 : self.qpos_adr + 7].tolist()
+        qpos = data.qpos[self._qpos_span].tolist()
         # A near-level car: heading from the quaternion's yaw part, yaw rate = angular velocity about body z.
-        yaw = 2.0 * math.atan2(z, w)
+        yaw = 2.0 * math.atan2(qpos[self._quat_z], qpos[self._quat_w])
         cos_yaw, sin_yaw = math.cos(yaw), math.sin(yaw)
-        vx_w, vy_w, _, _, _, yaw_rate = qvel[self.dof_adr : self.dof_adr + 6].tolist()
+        vx_w, vy_w, _, _, _, yaw_rate = data.qvel[self.dof_adr : self.dof_adr + 6].tolist()
         forward = cos_yaw * vx_w + sin_yaw * vy_w
         lateral = cos_yaw * vy_w - sin_yaw * vx_w
-        left_steer, right_steer = qpos[self.hinge_qpos].tolist()
-        steer = 0.5 * (left_steer + right_steer)
+        steer = 0.5 * (qpos[self._hinges[0]] + qpos[self._hinges[1]])
         slip_speed = max(abs(forward), p.min_slip_speed_mps)
         front_slip = math.atan2(lateral + self.front_arm_m * yaw_rate, slip_speed) - steer
         rear_slip = math.atan2(lateral - self.rear_arm_m * yaw_rate, slip_speed)
         front = -self.front_peak_n * math.tanh(self.front_stiffness_per_peak * front_slip)
         rear = -self.rear_peak_n * math.tanh(self.rear_stiffness_per_peak * rear_slip)
-        rolling_mps = self.rolling_per_wheel_rad_s * sum(data.ctrl[self.wheel_actuators].tolist())
+        rolling_mps = self.rolling_per_wheel_rad_s * sum(data.ctrl[self._wheel_ctrl].tolist())
         drive = p.drive_stiffness_n_per_mps * (rolling_mps - forward)
         drive = min(max(drive, -p.max_drive_force_n), p.max_drive_force_n)
         cos_steer, sin_steer = math.cos(steer), math.sin(steer)

@@ -8,7 +8,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from racer.shared.sim.car import REAR_AXLE_X_M, WHEELBASE_M
+from racer.shared.sim.car import REAR_AXLE_X_M, STEERING_JOINTS, WHEELBASE_M
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
 from racer.shared.sim.fidelity import CarReplay, load_segments
@@ -28,7 +28,8 @@ def _sliding_sideways_force(world: str, steering_deg: float = 0.0) -> np.ndarray
         model, data, car = env.model, env.data, env.car
         car.teleport(model, data, 0.0, -20.0, 0.0)
         data.qvel[car.dof_adr + 1] = 2.0  # world +y = the car's left
-        for adr in car.tyres.hinge_qpos:
+        for joint in STEERING_JOINTS:
+            adr = model.joint(joint).qposadr[0]
             data.qpos[adr] = math.radians(steering_deg)
         car.tyres.apply(data)
         return data.xfrc_applied[car.body_id].copy()
