@@ -70,8 +70,9 @@ _HINGE_AXIS_INERTIA_KGM2 = HINGE_ARMATURE + 0.4 * (
     WHEEL_MASS_KG * WHEEL_RADIUS_M**2 + HINGE_MASS_KG * HINGE_RADIUS_M**2
 )
 TYRE_UPDATE_SUBSTEPS = 2
-"""MuJoCo steps per tyre-force update (1/120 s at the env's 1/240 s): the tyre model is Python, and every 8 ms is
-as accurate as every step for the car's slowest-to-fastest modes (≥ 12 ms), at half the cost."""
+"""MuJoCo steps per tyre-force update (1/120 s at the env's 1/240 s): the tyre model is Python, so half as many
+updates halve its cost; 8 ms is well inside the fastest tyre mode (≈ 13 ms, sliding sideways at the slip-speed floor)
+and the fit's twin integrates at the same rate (8 steps per 67 ms row)."""
 URDF_CHASSIS_INERTIA_KGM2 = (0.010609, 0.050409, 0.05865)
 """The SimApp URDF's chassis inertia (ixx, iyy, izz)."""
 YAW_INERTIA_KGM2 = 0.475
@@ -172,7 +173,7 @@ def car_mjcf(
     <body name="car" pos="0 0 0">
       <freejoint name="car_free"/>
       <inertial pos="0 0 {CHASSIS_COM_Z_M}" mass="{CHASSIS_MASS_KG:.6f}" diaginertia="{ixx:.6f} {iyy:.6f} {izz:.6f}"/>
-      <geom name="chassis" type="box" size="0.15 0.07 0.025" pos="0 0 {CHASSIS_COM_Z_M}" mass="{CHASSIS_MASS_KG:.6f}"
+      <geom name="chassis" type="box" size="0.15 0.07 0.025" pos="0 0 {CHASSIS_COM_Z_M}"
             contype="2" conaffinity="1" group="{CAR_GEOM_GROUP}" rgba="0.2 0.2 0.25 1"/>
 {cameras}
       <site name="lidar" pos="{LIDAR_POS_M[0]} {LIDAR_POS_M[1]} {LIDAR_POS_M[2]}" size="0.01" group="{CAR_GEOM_GROUP}"/>

@@ -31,6 +31,7 @@ from racer.shared.sim.car import (
     clip_command,
 )
 from racer.shared.sim.tyres import GRAVITY_MPS2, TyreParams
+from racer.shared.sim.worlds import get_world
 
 if TYPE_CHECKING:
     from racer.shared.sim.fidelity import Segment
@@ -126,7 +127,7 @@ def simulate(batch: SegmentBatch, constants: CarConstants, substeps: int = TWIN_
     p = constants.tyres
     front_arm, rear_arm = FRONT_AXLE_X_M, -REAR_AXLE_X_M
     weight = TOTAL_MASS_KG * GRAVITY_MPS2
-    mu = 0.5  # the base world, where the real runs were driven (DeepRacer's tyre μ)
+    mu = get_world("base").tyre_friction  # DeepRacer's tyre μ, the world the replay drives in
     front_peak = p.front_peak_grip * mu * weight * rear_arm / (front_arm + rear_arm)
     rear_peak = p.rear_peak_grip * mu * weight * front_arm / (front_arm + rear_arm)
     x, y, yaw, forward, lateral, yaw_rate = (batch.start[:, i].copy() for i in range(6))

@@ -95,3 +95,18 @@ def test_fit_recovers_from_wrong_constants(segments):
     fitted = fit(batch, start=wrong, evaluations=80)
     assert loss(batch, fitted) < 0.8 * loss(batch, wrong)
     assert fitted.tyres.min_slip_speed_mps == wrong.tyres.min_slip_speed_mps  # a numerical guard, never fitted
+
+
+def test_retune_changes_the_compiled_car_in_place(deepracer_data, segments):
+    replay = CarReplay(deepracer_data / "routes" / "reinvent_base.npy")
+    try:
+        shipped, _ = replay.run(segments[0])
+        defaults = CarConstants()
+        replay.car.retune(replay.model, defaults.tyres, defaults.steering_time_constant_s, defaults.yaw_inertia_kgm2)
+        again, _ = replay.run(segments[0])
+        replay.car.retune(replay.model, defaults.tyres, 0.1, 0.078)  # slow servo, the URDF's yaw inertia
+        other, _ = replay.run(segments[0])
+    finally:
+        replay.close()
+    np.testing.assert_allclose(again, shipped, atol=1e-4)
+    assert np.max(np.hypot(*(other - shipped).T)) > 0.01
