@@ -5,7 +5,7 @@
 | `/` | the page (static/index.html; it polls the endpoints below) |
 | `/static/...` | the page's script, style and the vendored Chart.js |
 | `/api/run` | model, store, live or not, the workers' worlds, the track map |
-| `/api/live` | workers (up/down, state, newest frame's pose and trail), Redis reachable; renews `watching` |
+| `/api/live` | workers (up/down, state, newest frame's pose and trail), Redis reachable; renews `watching` (`watch=0`: no frames; `workers=0,2`: frames of these workers only) |
 | `/api/progress` | per-iteration curves, evaluations per checkpoint, best lap path, `racer evaluate` runs |
 | `/api/workers/<id>/frame.jpg` | the newest camera frame of a worker |
 | `/files/<key>` | a file of the run (videos, simtraces, metrics) from the store; nothing outside the model prefix |
@@ -52,6 +52,16 @@ def _no_store(response: Response) -> Response:
     return response
 
 
+def _worker_ids(listed: str | None) -> list[int] | None:
+    """`workers=0,2` (the panels on screen; empty: none) as ids; absent: None (all workers)."""
+    if listed is None:
+        return None
+    try:
+        return [int(part) for part in listed.split(",") if part.strip()]
+    except ValueError:
+        raise HTTPException(400, f"workers={listed!r}: expected worker ids separated by commas") from None
+
+
 def create_app(files: RunFiles, live: LiveRun | None) -> Starlette:
     async def index(request: Request) -> Response:
         return _no_store(FileResponse(STATIC_DIR / "index.html", media_type="text/html"))
@@ -73,7 +83,11 @@ def create_app(files: RunFiles, live: LiveRun | None) -> Starlette:
         if live is None:
             return _no_store(JSONResponse({"live": False}))
         known = files.workers()
-        snapshot = live.snapshot([w["id"] for w in known], watching=request.query_params.get("watch", "1") == "1")
+        snapshot = live.snapshot(
+            [w["id"] for w in known],
+            watching=request.query_params.get("watch", "1") == "1",
+            watched_ids=_worker_ids(request.query_params.get("workers")),
+        )
         worlds = {w["id"]: w["world"] for w in known}
         now = time.time()
         workers = []

@@ -47,15 +47,15 @@ class LiveRun:
                 self._link.close()
             self._link = None
 
-    def snapshot(self, worker_ids: list[int], watching: bool) -> LiveSnapshot:
-        """Heartbeats and newest frames; `watching` renews the key that makes workers publish frames."""
+    def snapshot(self, worker_ids: list[int], watching: bool, watched_ids: list[int] | None = None) -> LiveSnapshot:
+        """Heartbeats and newest frames; `watching` renews the keys that make workers publish frames: of the
+        workers in `watched_ids` (the panels on screen), of all workers when it is None."""
         try:
             run, frames = self._channels()
             if watching:
-                frames.mark_watching()
+                frames.mark_watching(watched_ids)
             workers = run.live_workers()
-            ids = sorted(set(worker_ids) | set(workers))
-            latest = {i: frame for i in ids if (frame := frames.latest(i)) is not None}
+            latest = frames.latest_of(sorted(set(worker_ids) | set(workers)))
             announcement = run.latest_iteration_announcement()
         except (RedisUnavailableError, redis.RedisError) as error:
             self._forget_link()
