@@ -183,6 +183,12 @@ def test_live_endpoints_show_workers_frames_and_a_lost_redis(tmp_path, redis_ser
         live = json.loads(body)
         assert status == 200 and kind == "application/json" and live["redis"]["ok"]
         assert frames.is_watched()  # an open page makes the workers publish
+        frames.clear_watching()
+        assert get(served.url + "/api/live?watch=1&workers=1")[0] == 200  # only worker 1's panel on screen
+        assert frames.is_watched(1) and not frames.is_watched(0)
+        frames.clear_watching()
+        assert get(served.url + "/api/live?watch=0")[0] == 200 and not frames.is_watched(1)
+        assert get(served.url + "/api/live?workers=1,x")[0] == 400
         by_id = {w["id"]: w for w in live["workers"]}
         assert by_id[0]["up"] is False and by_id[0]["frame"] is None  # no heartbeat: down
         assert by_id[1]["up"] and by_id[1]["state"] == "playing" and by_id[1]["pid"] == 4242
