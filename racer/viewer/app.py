@@ -5,7 +5,7 @@
 | `/` | the page (static/index.html; it polls the endpoints below) |
 | `/static/...` | the page's script, style and the vendored Chart.js |
 | `/api/run` | model, store, live or not, the workers' worlds, the track map |
-| `/api/live` | workers (up/down, state, newest frame's pose and trail), Redis reachable; renews `watching` (`watch=0`: no frames; `workers=0,2`: frames of these workers only) |
+| `/api/live` | workers (up/down, state, newest frame's pose, trail and JPEG), Redis reachable; renews `watching` (`watch=0`: no frames; `workers=0,2`: frames of these workers only) |
 | `/api/progress` | per-iteration curves, evaluations per checkpoint, best lap path, `racer evaluate` runs |
 | `/api/workers/<id>/frame.jpg` | the newest camera frame of a worker |
 | `/files/<key>` | a file of the run (videos, simtraces, metrics) from the store; nothing outside the model prefix |
@@ -83,11 +83,9 @@ def create_app(files: RunFiles, live: LiveRun | None) -> Starlette:
         if live is None:
             return _no_store(JSONResponse({"live": False}))
         known = files.workers()
-        snapshot = live.snapshot(
-            [w["id"] for w in known],
-            watching=request.query_params.get("watch", "1") == "1",
-            watched_ids=_worker_ids(request.query_params.get("workers")),
-        )
+        watching = request.query_params.get("watch", "1") == "1"
+        watched_ids = _worker_ids(request.query_params.get("workers"))
+        snapshot = live.snapshot([w["id"] for w in known], watching=watching, watched_ids=watched_ids)
         worlds = {w["id"]: w["world"] for w in known}
         now = time.time()
         workers = []
@@ -95,6 +93,7 @@ def create_app(files: RunFiles, live: LiveRun | None) -> Starlette:
             beat = snapshot.workers.get(worker_id)
             age_s = None if beat is None else max(0.0, now - float(beat.get("time", now)))
             frame = snapshot.frames.get(worker_id)
+            on_screen = watching and (watched_ids is None or worker_id in watched_ids)
             workers.append(
                 {
                     "id": worker_id,
@@ -106,7 +105,7 @@ def create_app(files: RunFiles, live: LiveRun | None) -> Starlette:
                     "steps_per_s": (beat or {}).get("steps_per_s"),
                     "pid": (beat or {}).get("pid"),
                     "heartbeat_age_s": None if age_s is None else round(age_s, 1),
-                    "frame": None if frame is None else LiveRun.frame_summary(frame),
+                    "frame": None if frame is None else LiveRun.frame_summary(frame, with_jpeg=on_screen),
                 }
             )
         return _no_store(

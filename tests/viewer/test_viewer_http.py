@@ -3,6 +3,7 @@ a real DeepRacer-for-Cloud run opened from the store alone, and the live endpoin
 
 from __future__ import annotations
 
+import base64
 import http.client
 import json
 import os
@@ -184,8 +185,13 @@ def test_live_endpoints_show_workers_frames_and_a_lost_redis(tmp_path, redis_ser
         assert status == 200 and kind == "application/json" and live["redis"]["ok"]
         assert frames.is_watched()  # an open page makes the workers publish
         frames.clear_watching()
-        assert get(served.url + "/api/live?watch=1&workers=1")[0] == 200  # only worker 1's panel on screen
-        assert frames.is_watched(1) and not frames.is_watched(0)
+        status, _kind, body = get(served.url + "/api/live?watch=1&workers=1")  # only worker 1's panel on screen
+        assert status == 200 and frames.is_watched(1) and not frames.is_watched(0)
+        shown = {w["id"]: w for w in json.loads(body)["workers"]}[1]["frame"]
+        jpeg = np.frombuffer(base64.b64decode(shown["jpeg_base64"]), np.uint8)  # the image comes with the poll
+        assert int(cv2.imdecode(jpeg, cv2.IMREAD_GRAYSCALE).mean()) in range(195, 206)
+        unwatched = json.loads(get(served.url + "/api/live?watch=0")[2])["workers"]
+        assert "jpeg_base64" not in {w["id"]: w for w in unwatched}[1]["frame"]  # a hidden page gets no images
         frames.clear_watching()
         assert get(served.url + "/api/live?watch=0")[0] == 200 and not frames.is_watched(1)
         assert get(served.url + "/api/live?workers=1,x")[0] == 400

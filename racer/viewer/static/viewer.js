@@ -141,7 +141,8 @@ function showFrame(view, frame) {
   if (!frame || frame.id === view.frameId) return; // nothing new: draw nothing (the page shares the CPU)
   view.frameId = frame.id;
   if (frame.has_image) {
-    const url = `/api/workers/${view.card.dataset.worker}/frame.jpg?f=${encodeURIComponent(frame.id)}`;
+    const url = frame.jpeg_base64 ? `data:image/jpeg;base64,${frame.jpeg_base64}` // came with the poll
+      : `/api/workers/${view.card.dataset.worker}/frame.jpg?f=${encodeURIComponent(frame.id)}`;
     const next = new Image();
     next.onload = () => {
       view.img.src = next.src;
