@@ -366,6 +366,8 @@ def viewer_bench_command(iterations, warmup_iterations, num_workers, episodes_pe
     load_on = False
     page_load: dict = {}
     tap_cost: dict = {}
+    costs: PhaseCosts | None = None
+    interrupted = False
     previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
         settings = run.start_services()
@@ -418,11 +420,16 @@ def viewer_bench_command(iterations, warmup_iterations, num_workers, episodes_pe
                     f"{'(' + load_kind + ' on)' if record['load_on'] else ''}",
                     err=True,
                 )
+    except KeyboardInterrupt:  # Ctrl-C: what was measured so far is still worth printing
+        interrupted = True
+        click.echo("interrupted: the summary covers the iterations measured so far", err=True)
     finally:
         if load is not None:
             load.quit()
         run.stop()
         signal.signal(signal.SIGINT, previous)
+    if costs is None or len(records) <= warmup_iterations:
+        raise click.ClickException("interrupted before any measured iteration")
     measured = records[warmup_iterations:]
     ratios = _paired_ratios(measured)
     closed = [r["experience_steps_per_s"] for r in measured if not r["load_on"]]
@@ -433,6 +440,7 @@ def viewer_bench_command(iterations, warmup_iterations, num_workers, episodes_pe
         json.dumps(
             {
                 "load": load_kind,
+                "interrupted": interrupted,
                 "workers": num_workers,
                 "iterations_measured": len(measured),
                 "steps_per_s_load_off": round(statistics.fmean(closed), 1) if closed else None,
