@@ -13,6 +13,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import time
 from pathlib import Path
 
@@ -119,7 +120,14 @@ def create_app(files: RunFiles, live: LiveRun | None) -> Starlette:
         )
 
     def progress(request: Request) -> Response:
-        return _no_store(JSONResponse(files.progress()))
+        """With an ETag: a page that has the newest version gets a 304 and parses nothing (the curves of a long
+        run are a large document, polled every 3 s)."""
+        response = JSONResponse(files.progress())
+        etag = f'"{hashlib.sha1(response.body).hexdigest()}"'
+        if request.headers.get("if-none-match") == etag:
+            response = Response(status_code=304)
+        response.headers["ETag"] = etag
+        return _no_store(response)
 
     def frame_jpeg(request: Request) -> Response:
         worker_id = request.path_params["worker_id"]

@@ -256,3 +256,21 @@ def test_racer_view_serves_a_model_folder_and_refuses_anything_else(drfc_store, 
         timeout=60,
     )
     assert refused.returncode != 0 and "no-such-model" in refused.stderr and "no model folder" in refused.stderr
+
+
+def test_progress_is_sent_again_only_when_it_changed(tmp_path):
+    store = LocalStore(tmp_path / "store")
+    record = {"iteration": 0, "mean_reward": 1.0, "mean_progress": 5.0, "completion_rate": 0.0, "worlds": {}}
+    store.put_bytes("etag-model/metrics/iterations.jsonl", (json.dumps(record) + "\n").encode())
+    with ServedApp(create_app(RunFiles(RunLocation(store, "etag-model")), None)) as served:
+        with urllib.request.urlopen(served.url + "/api/progress", timeout=30) as response:
+            etag = response.headers["ETag"]
+            assert response.status == 200 and len(json.loads(response.read())["iterations"]) == 1 and etag
+        status, _kind, body = get(served.url + "/api/progress", {"If-None-Match": etag})
+        assert status == 304 and body == b""  # the page has it: nothing to send or parse
+        store.put_bytes(
+            "etag-model/metrics/iterations.jsonl",
+            (json.dumps(record) + "\n" + json.dumps({**record, "iteration": 1}) + "\n").encode(),
+        )
+        status, _kind, body = get(served.url + "/api/progress", {"If-None-Match": etag})
+        assert status == 200 and len(json.loads(body)["iterations"]) == 2

@@ -13,7 +13,7 @@ Chart.defaults.borderColor = "#1e2b47";
 Chart.defaults.font.family = "system-ui, sans-serif";
 Chart.defaults.animation = false; // redraw only what changed, cheaply: the rollout shares the CPU
 
-const state = { run: null, live: null, progress: null, progressSignature: null, workers: new Map(), charts: {},
+const state = { run: null, live: null, progress: null, progressETag: null, progressSignature: null, workers: new Map(), charts: {},
                 pids: new Map(), onScreen: new Set() };
 window.racerViewer = state; // read by the browser tests
 
@@ -374,7 +374,15 @@ polls.live.run = pollLive;
 
 async function pollProgress() {
   try {
-    const progress = await getJSON("/api/progress");
+    // the server answers 304 while the page has the newest version: nothing to parse or compare
+    const response = await fetch("/api/progress", { cache: "no-store",
+      headers: state.progressETag ? { "If-None-Match": state.progressETag } : {} });
+    let progress = state.progress;
+    if (response.status !== 304) {
+      if (!response.ok) throw new Error(`/api/progress: HTTP ${response.status}`);
+      progress = await response.json();
+      state.progressETag = response.headers.get("ETag");
+    }
     state.progress = progress;
     const signature = JSON.stringify([progress.iterations.length, progress.evaluations,
       progress.best_lap && [progress.best_lap.lap_time_s, progress.best_lap.progress, progress.best_lap.run,
