@@ -457,7 +457,9 @@ def viewer_bench_command(iterations, warmup_iterations, num_workers, episodes_pe
                 **page_load,
                 **tap_cost,
                 # A worker playing at full speed loses at most max_fps frames' time per second to the tap while watched.
-                "tap_share_of_a_worker_at_4_fps": round(4 * tap_cost["frame_ms_published"] / 1000, 4),
+                "tap_share_of_a_worker_at_max_fps": round(
+                    FrameSettings().max_fps * tap_cost["frame_ms_published"] / 1000, 4
+                ),
             }
         )
     )
