@@ -28,7 +28,7 @@ function el(tag, attrs = {}, ...children) {
 }
 // DOM writes only when the value changes: an unchanged page costs the browser no style, layout or paint work.
 function setText(node, text) { if (node.textContent !== text) node.textContent = text; }
-function setHTML(node, html) { if (node.dataset.html !== html) { node.dataset.html = html; node.innerHTML = html; } }
+function setHTML(node, html) { if (node.shownHTML !== html) { node.shownHTML = html; node.innerHTML = html; } }
 function setHidden(node, hidden) { if (node.hidden !== hidden) node.hidden = hidden; }
 
 // Frames are asked for only for the worker panels on screen (scrolled away: the worker publishes nothing).
