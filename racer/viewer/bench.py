@@ -335,7 +335,15 @@ class PhaseCosts:
     show_default=True,
     help="What is on every other iteration: the page in Chromium, only the workers' frames, or the page's requests.",
 )
-def viewer_bench_command(iterations, warmup_iterations, num_workers, episodes_per_iteration, track, load_kind) -> None:
+@click.option(
+    "--swap-phase",
+    is_flag=True,
+    help="The load on in the other half of the iterations (the training is deterministic: a second run with this "
+    "flag puts the load on the iterations the first left without, so their lengths balance out).",
+)
+def viewer_bench_command(
+    iterations, warmup_iterations, num_workers, episodes_per_iteration, track, load_kind, swap_phase
+) -> None:
     """Experience steps/s with one viewer page open vs none, in one training run."""
     from racer.local_run import LocalRun, LocalRunPlan
 
@@ -412,7 +420,7 @@ def viewer_bench_command(iterations, warmup_iterations, num_workers, episodes_pe
                     load.stop()
                     load_on = False
                     frames.clear_watching()  # as if its key had expired: the next iteration runs without frames
-                elif len(records) >= warmup_iterations:
+                elif len(records) >= warmup_iterations + (1 if swap_phase else 0):
                     load.start()
                     load_on = True
                 click.echo(
@@ -440,6 +448,7 @@ def viewer_bench_command(iterations, warmup_iterations, num_workers, episodes_pe
         json.dumps(
             {
                 "load": load_kind,
+                "swap_phase": swap_phase,
                 "interrupted": interrupted,
                 "workers": num_workers,
                 "iterations_measured": len(measured),
