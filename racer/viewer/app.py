@@ -5,7 +5,7 @@
 | `/` | the page (static/index.html; it polls the endpoints below) |
 | `/static/...` | the page's script, style and the vendored Chart.js |
 | `/api/run` | model, store, live or not, the workers' worlds, the track map |
-| `/api/live` | workers (up/down, state, newest frame's pose and trail), Redis reachable; renews `watching` |
+| `/api/live` | workers (up/down, state, newest frame's pose, trail and JPEG), Redis reachable; renews `watching` (`watch=0`: no frames; `workers=0,2`: frames of these workers only) |
 | `/api/progress` | per-iteration curves, evaluations per checkpoint, best lap path, `racer evaluate` runs |
 | `/api/workers/<id>/frame.jpg` | the newest camera frame of a worker |
 | `/files/<key>` | a file of the run (videos, simtraces, metrics) from the store; nothing outside the model prefix |
@@ -13,6 +13,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import time
 from pathlib import Path
 
@@ -52,6 +53,16 @@ def _no_store(response: Response) -> Response:
     return response
 
 
+def _worker_ids(listed: str | None) -> list[int] | None:
+    """`workers=0,2` (the panels on screen; empty: none) as ids; absent: None (all workers)."""
+    if listed is None:
+        return None
+    try:
+        return [int(part) for part in listed.split(",") if part.strip()]
+    except ValueError:
+        raise HTTPException(400, f"workers={listed!r}: expected worker ids separated by commas") from None
+
+
 def create_app(files: RunFiles, live: LiveRun | None) -> Starlette:
     async def index(request: Request) -> Response:
         return _no_store(FileResponse(STATIC_DIR / "index.html", media_type="text/html"))
@@ -73,7 +84,9 @@ def create_app(files: RunFiles, live: LiveRun | None) -> Starlette:
         if live is None:
             return _no_store(JSONResponse({"live": False}))
         known = files.workers()
-        snapshot = live.snapshot([w["id"] for w in known], watching=request.query_params.get("watch", "1") == "1")
+        watching = request.query_params.get("watch", "1") == "1"
+        watched_ids = _worker_ids(request.query_params.get("workers"))
+        snapshot = live.snapshot([w["id"] for w in known], watching=watching, watched_ids=watched_ids)
         worlds = {w["id"]: w["world"] for w in known}
         now = time.time()
         workers = []
@@ -81,6 +94,7 @@ def create_app(files: RunFiles, live: LiveRun | None) -> Starlette:
             beat = snapshot.workers.get(worker_id)
             age_s = None if beat is None else max(0.0, now - float(beat.get("time", now)))
             frame = snapshot.frames.get(worker_id)
+            on_screen = watching and (watched_ids is None or worker_id in watched_ids)
             workers.append(
                 {
                     "id": worker_id,
@@ -92,7 +106,7 @@ def create_app(files: RunFiles, live: LiveRun | None) -> Starlette:
                     "steps_per_s": (beat or {}).get("steps_per_s"),
                     "pid": (beat or {}).get("pid"),
                     "heartbeat_age_s": None if age_s is None else round(age_s, 1),
-                    "frame": None if frame is None else LiveRun.frame_summary(frame),
+                    "frame": None if frame is None else LiveRun.frame_summary(frame, with_jpeg=on_screen),
                 }
             )
         return _no_store(
@@ -106,7 +120,14 @@ def create_app(files: RunFiles, live: LiveRun | None) -> Starlette:
         )
 
     def progress(request: Request) -> Response:
-        return _no_store(JSONResponse(files.progress()))
+        """With an ETag: a page that has the newest version gets a 304 and parses nothing (the curves of a long
+        run are a large document, polled every 3 s)."""
+        response = JSONResponse(files.progress())
+        etag = f'"{hashlib.sha1(response.body).hexdigest()}"'
+        if request.headers.get("if-none-match") == etag:
+            response = Response(status_code=304)
+        response.headers["ETag"] = etag
+        return _no_store(response)
 
     def frame_jpeg(request: Request) -> Response:
         worker_id = request.path_params["worker_id"]

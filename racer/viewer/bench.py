@@ -1,14 +1,19 @@
 """`racer bench viewer`: how much one open viewer page slows the experience rate of a training.
 
 A real `racer train` run (4 workers by default, the live page on a loopback port) alternates iteration by
-iteration between no page and one page open in a headless Chromium (Debian's `chromium`, kept running for the
-whole run and switched between the page and about:blank by selenium): the workers publish
-frames only in the second case, the viewer server answers the page's polls, the browser draws. Each iteration's
-experience rate (steps played / rollout wall time, from the trainer's iteration records) is compared with the
-mean of its neighbours under the other condition, so the learning trend (longer episodes, more steps/s) and the
-load of other processes cancel out as far as they can. Before the training starts, the frame tap is also timed
-alone in this process (per step unwatched, per published frame watched), which a busy machine disturbs less.
-Prints one JSON line; progress on stderr.
+iteration between no page and one page open in a headless Chromium (Debian's `chromium`, driven by selenium and
+kept running for the whole run). The page is loaded once, before the measured iterations (its load is timed
+apart: a one-off, not what an open page costs); between its open iterations it is frozen through the DevTools
+protocol (no timer, no poll, no drawing: as good as closed, which the browser's CPU while frozen shows) and the
+`watching` key is deleted, so the workers publish no frames then. Each iteration's experience rate (steps played /
+rollout wall time, from the trainer's iteration records) is compared with the mean of its neighbours under the
+other condition, so the learning trend (longer episodes, more steps/s) and the load of other processes cancel out
+as far as they can. `--load` switches something else on instead of the page, to find where a slow-down comes
+from: `frames` (only the `watching` key: the workers' frame tap, nothing polls), `polls` (the page's HTTP requests
+made by a Python thread: tap + viewer server + Redis, no browser). The CPU seconds of the browser, the viewer
+server, the workers and the whole machine are summed per condition. Before the training starts, the frame tap is
+also timed alone in this process (per step unwatched, per published frame watched), which a busy machine disturbs
+less. Prints one JSON line; progress on stderr.
 """
 
 from __future__ import annotations
@@ -19,7 +24,9 @@ import signal
 import socket
 import statistics
 import tempfile
+import threading
 import time
+import urllib.request
 from pathlib import Path
 
 import click
@@ -69,9 +76,17 @@ def _tree_cpu_s(root_pid: int) -> float:
     return total
 
 
+def _machine_busy_s() -> float:
+    """CPU seconds the whole machine has spent busy (all cores, every process) since boot, from /proc/stat."""
+    fields = [int(v) for v in Path("/proc/stat").read_text().split("\n", 1)[0].split()[1:]]
+    idle = fields[3] + (fields[4] if len(fields) > 4 else 0)
+    return (sum(fields[:8]) - idle) / os.sysconf("SC_CLK_TCK")
+
+
 class HeadlessBrowser:
-    """One headless Chromium (Debian's, driven by selenium) kept open for the whole run; `open()` shows the viewer
-    page, `close()` navigates to about:blank: the page's cost, without the browser's start-up in it."""
+    """One headless Chromium (Debian's, driven by selenium) kept open for the whole run. `load()` opens the viewer
+    page once; `start()` and `stop()` wake and freeze it (the DevTools protocol's page lifecycle: a frozen page runs
+    no timer and draws nothing), so the measured cost is the open page's, without loading it again each time."""
 
     def __init__(self, url: str):
         try:
@@ -91,14 +106,103 @@ class HeadlessBrowser:
     def cpu_s(self) -> float:
         return _tree_cpu_s(self.service.process.pid)
 
-    def open(self) -> None:
+    def load(self) -> None:
         self.driver.get(self.url)
 
-    def close(self) -> None:
-        self.driver.get("about:blank")
+    def start(self) -> None:
+        self.driver.execute_cdp_cmd("Page.setWebLifecycleState", {"state": "active"})
+
+    def stop(self) -> None:
+        self.driver.execute_cdp_cmd("Page.setWebLifecycleState", {"state": "frozen"})
 
     def quit(self) -> None:
         self.driver.quit()
+
+
+class WatchingOnly:
+    """Only the `watching` key, renewed as the page would: the workers' frame tap runs, nothing reads the frames."""
+
+    def __init__(self, frames: FrameChannel):
+        self.frames = frames
+        self._on = threading.Event()
+        self._quit = threading.Event()
+        self._thread = threading.Thread(target=self._run, daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        while not self._quit.wait(1.0):
+            if self._on.is_set():
+                self.frames.mark_watching()
+
+    def cpu_s(self) -> float:
+        return 0.0
+
+    def load(self) -> None:
+        pass
+
+    def start(self) -> None:
+        self.frames.mark_watching()
+        self._on.set()
+
+    def stop(self) -> None:
+        self._on.clear()
+
+    def quit(self) -> None:
+        self._quit.set()
+        self._thread.join(5)
+
+
+class PagePolls:
+    """The page's requests without a browser (a Python thread): the live endpoint twice a second, every new camera
+    frame, the progress endpoint every 3 s; the viewer server, Redis and the tap work as with the page."""
+
+    def __init__(self, url: str):
+        self.url = url.rstrip("/")
+        self._on = threading.Event()
+        self._quit = threading.Event()
+        self._cpu_s = 0.0
+        self._thread = threading.Thread(target=self._run, daemon=True)
+        self._thread.start()
+
+    def _get(self, path: str) -> bytes:
+        with urllib.request.urlopen(self.url + path, timeout=5) as response:
+            return response.read()
+
+    def _run(self) -> None:
+        seen: dict[int, str] = {}
+        next_progress = 0.0
+        while not self._quit.wait(0.5):
+            if not self._on.is_set():
+                continue
+            started = time.thread_time()
+            try:
+                for worker in json.loads(self._get("/api/live?watch=1")).get("workers", []):
+                    frame = worker.get("frame")
+                    if frame and frame["has_image"] and seen.get(worker["id"]) != frame["id"]:
+                        seen[worker["id"]] = frame["id"]
+                        self._get(f"/api/workers/{worker['id']}/frame.jpg")
+                if time.monotonic() >= next_progress:
+                    next_progress = time.monotonic() + 3.0
+                    self._get("/api/progress")
+            except OSError as error:
+                click.echo(f"poll failed: {error}", err=True)
+            self._cpu_s += time.thread_time() - started
+
+    def cpu_s(self) -> float:
+        return self._cpu_s
+
+    def load(self) -> None:
+        pass
+
+    def start(self) -> None:
+        self._on.set()
+
+    def stop(self) -> None:
+        self._on.clear()
+
+    def quit(self) -> None:
+        self._quit.set()
+        self._thread.join(10)
 
 
 def frame_cost(redis: RedisSettings, track: str, observations: int = 120, frames: int = 300, steps: int = 3000) -> dict:
@@ -161,32 +265,89 @@ def _write_custom_files(folder: Path, episodes_per_iteration: int) -> None:
 
 
 def _paired_ratios(records: list[dict]) -> list[float]:
-    """Each page-open iteration's rate over the mean of its page-closed neighbours."""
+    """Each load-on iteration's rate over the mean of its load-off neighbours."""
     ratios = []
     for index, record in enumerate(records):
-        if not record["page_open"]:
+        if not record["load_on"]:
             continue
         neighbours = [
             records[j]["experience_steps_per_s"]
             for j in (index - 1, index + 1)
-            if 0 <= j < len(records) and not records[j]["page_open"]
+            if 0 <= j < len(records) and not records[j]["load_on"]
         ]
         if neighbours:
             ratios.append(record["experience_steps_per_s"] / statistics.fmean(neighbours))
     return ratios
 
 
+class PhaseCosts:
+    """CPU seconds of the load (browser or poller), the viewer server, the workers and the whole machine, and
+    wall seconds, summed separately over the load-on and the load-off phases."""
+
+    NAMES = ("wall_s", "load_cpu_s", "viewer_cpu_s", "workers_cpu_s", "machine_busy_s")
+
+    def __init__(self, load, viewer_pid: int, worker_pids: list[int]):
+        self.load, self.viewer_pid, self.worker_pids = load, viewer_pid, worker_pids
+        self.totals = {on: dict.fromkeys(self.NAMES, 0.0) for on in (True, False)}
+        self._last: tuple[float, ...] | None = None
+
+    def _now(self) -> tuple[float, ...]:
+        return (
+            time.monotonic(),
+            self.load.cpu_s(),
+            _tree_cpu_s(self.viewer_pid),
+            sum(_tree_cpu_s(pid) for pid in self.worker_pids),
+            _machine_busy_s(),
+        )
+
+    def mark(self, phase_was_on: bool | None) -> None:
+        """Closes the phase that ran since the last mark (None: not measured) and starts the next one."""
+        now = self._now()
+        if self._last is not None and phase_was_on is not None:
+            for name, value, before in zip(self.NAMES, now, self._last, strict=True):
+                self.totals[phase_was_on][name] += value - before
+        self._last = now
+
+    def shares(self, on: bool) -> dict:
+        """Each CPU figure as a share of the machine (all cores) over that phase's wall time."""
+        totals = self.totals[on]
+        capacity_s = max(totals["wall_s"], 1e-9) * os.cpu_count()
+        return {name.removesuffix("_s"): round(totals[name] / capacity_s, 4) for name in self.NAMES[1:]}
+
+
 @click.command(name="viewer")
-@click.option("--iterations", type=int, default=16, show_default=True, help="Measured iterations (half with the page).")
-@click.option("--warmup-iterations", type=int, default=2, show_default=True)
+@click.option("--iterations", type=int, default=16, show_default=True, help="Measured iterations (half with the load).")
+@click.option(
+    "--warmup-iterations",
+    type=click.IntRange(min=2),
+    default=2,
+    show_default=True,
+    help="Not measured; the page is loaded at the end of the first.",
+)
 @click.option("--workers", "num_workers", type=int, default=4, show_default=True)
 @click.option("--episodes-per-iteration", type=int, default=8, show_default=True)
 @click.option("--track", default="racer_oval", show_default=True)
-def viewer_bench_command(iterations, warmup_iterations, num_workers, episodes_per_iteration, track) -> None:
+@click.option(
+    "--load",
+    "load_kind",
+    type=click.Choice(["page", "frames", "polls"]),
+    default="page",
+    show_default=True,
+    help="What is on every other iteration: the page in Chromium, only the workers' frames, or the page's requests.",
+)
+@click.option(
+    "--swap-phase",
+    is_flag=True,
+    help="The load on in the other half of the iterations (the training is deterministic: a second run with this "
+    "flag puts the load on the iterations the first left without, so their lengths balance out).",
+)
+def viewer_bench_command(
+    iterations, warmup_iterations, num_workers, episodes_per_iteration, track, load_kind, swap_phase
+) -> None:
     """Experience steps/s with one viewer page open vs none, in one training run."""
     from racer.local_run import LocalRun, LocalRunPlan
 
-    if not (Path(CHROMIUM).is_file() and Path(CHROMEDRIVER).is_file()):
+    if load_kind == "page" and not (Path(CHROMIUM).is_file() and Path(CHROMEDRIVER).is_file()):
         raise click.ClickException(f"{CHROMIUM} and {CHROMEDRIVER} are needed (scripts/setup.sh installs them)")
     if not CENTRE_LINE_REWARD.is_file():
         raise click.ClickException(f"reward function not found: {CENTRE_LINE_REWARD}")
@@ -209,11 +370,12 @@ def viewer_bench_command(iterations, warmup_iterations, num_workers, episodes_pe
     run = LocalRun(plan, ServiceSettings(redis=RedisSettings(), store=LocalStoreSettings(root=workdir / "store")))
     url = f"http://127.0.0.1:{port}/"
     records: list[dict] = []
-    browser: HeadlessBrowser | None = None
-    page_open = False
-    page_cpu_s = page_wall_s = 0.0
-    viewer_cpu_open_s = viewer_cpu_at_open = browser_cpu_at_open = page_opened = 0.0
+    load = None
+    load_on = False
+    page_load: dict = {}
     tap_cost: dict = {}
+    costs: PhaseCosts | None = None
+    interrupted = False
     previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
         settings = run.start_services()
@@ -221,10 +383,16 @@ def viewer_bench_command(iterations, warmup_iterations, num_workers, episodes_pe
         tap_cost = frame_cost(settings.redis, track)
         click.echo(json.dumps(tap_cost), err=True)
         run.start_processes()
-        browser = HeadlessBrowser(url)
         link = RedisLink(settings.redis)
         channel, frames = RunChannel(link, plan.model_prefix), FrameChannel(link, plan.model_prefix)
-        viewer_pid = run.children["viewer"].pid
+        load = {
+            "page": lambda: HeadlessBrowser(url),
+            "frames": lambda: WatchingOnly(frames),
+            "polls": lambda: PagePolls(url),
+        }[load_kind]()
+        costs = PhaseCosts(
+            load, run.children["viewer"].pid, [run.children[f"worker-{i}"].pid for i in range(num_workers)]
+        )
         last_id = "0"
         total = warmup_iterations + iterations
         while len(records) < total:
@@ -232,52 +400,84 @@ def viewer_bench_command(iterations, warmup_iterations, num_workers, episodes_pe
                 raise click.ClickException(f"the trainer stopped; see {plan.log_dir / 'trainer.log'}")
             for stream_id, record in channel.read_records("iterations", last_id, block_s=5.0):
                 last_id = stream_id
-                record["page_open"] = page_open
+                record["load_on"] = load_on
                 records.append(record)
-                if page_open:  # the iteration that just ended ran with the page: close it
-                    page_cpu_s += browser.cpu_s() - browser_cpu_at_open
-                    page_wall_s += time.monotonic() - page_opened
-                    viewer_cpu_open_s += _tree_cpu_s(viewer_pid) - viewer_cpu_at_open
-                    browser.close()
-                    page_open = False
+                measured = len(records) > warmup_iterations  # the iteration that just ended counts
+                costs.mark(load_on if measured else None)
+                if len(records) == 1:
+                    cpu_before, wall_before = load.cpu_s(), time.monotonic()
+                    load.load()
+                    time.sleep(3.0)  # the page's first polls and charts
+                    load.stop()
+                    frames.clear_watching()
+                    page_load = {
+                        "load_cpu_s_first_3s": round(load.cpu_s() - cpu_before, 2),
+                        "load_wall_s": round(time.monotonic() - wall_before, 2),
+                    }
+                    click.echo(json.dumps(page_load), err=True)
+                    costs.mark(None)
+                elif load_on:  # the iteration that just ended ran with the load: switch it off
+                    load.stop()
+                    load_on = False
                     frames.clear_watching()  # as if its key had expired: the next iteration runs without frames
-                elif len(records) >= warmup_iterations:
-                    viewer_cpu_at_open, browser_cpu_at_open = _tree_cpu_s(viewer_pid), browser.cpu_s()
-                    browser.open()
-                    page_open = True
-                    page_opened = time.monotonic()
+                elif len(records) >= warmup_iterations + (1 if swap_phase else 0):
+                    load.start()
+                    load_on = True
                 click.echo(
-                    f"iteration {record['iteration']:>3}: {record['experience_steps_per_s']:6.1f} steps/s "
-                    f"{'(page open)' if record['page_open'] else ''}",
+                    f"iteration {record['iteration']:>3}: {record['experience_steps_per_s']:6.1f} steps/s, {record['episodes']} episodes "
+                    f"{'(' + load_kind + ' on)' if record['load_on'] else ''}",
                     err=True,
                 )
+    except KeyboardInterrupt:  # Ctrl-C: what was measured so far is still worth printing
+        interrupted = True
+        click.echo("interrupted: the summary covers the iterations measured so far", err=True)
     finally:
-        if browser is not None:
-            browser.quit()
+        if load is not None:
+            load.quit()
         run.stop()
         signal.signal(signal.SIGINT, previous)
+    if costs is None or len(records) <= warmup_iterations:
+        raise click.ClickException("interrupted before any measured iteration")
     measured = records[warmup_iterations:]
     ratios = _paired_ratios(measured)
-    closed = [r["experience_steps_per_s"] for r in measured if not r["page_open"]]
-    opened = [r["experience_steps_per_s"] for r in measured if r["page_open"]]
+    closed = [r["experience_steps_per_s"] for r in measured if not r["load_on"]]
+    opened = [r["experience_steps_per_s"] for r in measured if r["load_on"]]
     slowdown = 1.0 - statistics.median(ratios) if ratios else None
+    steps_in = {on: _phase_steps(records, warmup_iterations, on) for on in (True, False)}
     click.echo(
         json.dumps(
             {
+                "load": load_kind,
+                "swap_phase": swap_phase,
+                "interrupted": interrupted,
                 "workers": num_workers,
                 "iterations_measured": len(measured),
-                "steps_per_s_page_closed": round(statistics.fmean(closed), 1) if closed else None,
-                "steps_per_s_page_open": round(statistics.fmean(opened), 1) if opened else None,
+                "steps_per_s_load_off": round(statistics.fmean(closed), 1) if closed else None,
+                "steps_per_s_load_on": round(statistics.fmean(opened), 1) if opened else None,
                 "paired_ratios": [round(r, 3) for r in ratios],
                 "slowdown_median": None if slowdown is None else round(slowdown, 4),
-                "browser_cpu_share_of_machine": round(page_cpu_s / max(page_wall_s, 1e-9) / os.cpu_count(), 4),
-                "viewer_server_cpu_share_of_machine": round(
-                    viewer_cpu_open_s / max(page_wall_s, 1e-9) / os.cpu_count(), 4
-                ),
+                "cpu_share_of_machine_load_on": costs.shares(True),
+                "cpu_share_of_machine_load_off": costs.shares(False),
+                "workers_cpu_ms_per_step": {
+                    "on" if on else "off": round(1e3 * costs.totals[on]["workers_cpu_s"] / max(steps_in[on], 1), 3)
+                    for on in (True, False)
+                },
                 "cpus": os.cpu_count(),
+                **page_load,
                 **tap_cost,
                 # A worker playing at full speed loses at most max_fps frames' time per second to the tap while watched.
-                "tap_share_of_a_worker_at_4_fps": round(4 * tap_cost["frame_ms_published"] / 1000, 4),
+                "tap_share_of_a_worker_at_max_fps": round(
+                    FrameSettings().max_fps * tap_cost["frame_ms_published"] / 1000, 4
+                ),
             }
         )
     )
+
+
+def _phase_steps(records: list[dict], warmup_iterations: int, on: bool) -> int:
+    """Env steps played in the measured iterations of one phase (from the trainer's running total)."""
+    steps = 0
+    for index in range(max(warmup_iterations, 1), len(records)):
+        if records[index]["load_on"] == on:
+            steps += records[index]["env_steps_total"] - records[index - 1]["env_steps_total"]
+    return steps

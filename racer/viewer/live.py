@@ -6,6 +6,7 @@ unreachable" until the next poll gets through (the connection is made again then
 
 from __future__ import annotations
 
+import base64
 import threading
 import time
 from dataclasses import dataclass
@@ -47,15 +48,15 @@ class LiveRun:
                 self._link.close()
             self._link = None
 
-    def snapshot(self, worker_ids: list[int], watching: bool) -> LiveSnapshot:
-        """Heartbeats and newest frames; `watching` renews the key that makes workers publish frames."""
+    def snapshot(self, worker_ids: list[int], watching: bool, watched_ids: list[int] | None = None) -> LiveSnapshot:
+        """Heartbeats and newest frames; `watching` renews the keys that make workers publish frames: of the
+        workers in `watched_ids` (the panels on screen), of all workers when it is None."""
         try:
             run, frames = self._channels()
             if watching:
-                frames.mark_watching()
+                frames.mark_watching(watched_ids)
             workers = run.live_workers()
-            ids = sorted(set(worker_ids) | set(workers))
-            latest = {i: frame for i in ids if (frame := frames.latest(i)) is not None}
+            latest = frames.latest_of(sorted(set(worker_ids) | set(workers)))
             announcement = run.latest_iteration_announcement()
         except (RedisUnavailableError, redis.RedisError) as error:
             self._forget_link()
@@ -72,8 +73,10 @@ class LiveRun:
             return None
 
     @staticmethod
-    def frame_summary(frame: Frame) -> dict:
-        return {
+    def frame_summary(frame: Frame, with_jpeg: bool = False) -> dict:
+        """The frame as JSON; `with_jpeg` adds the image (base64): one poll brings everything a panel on screen
+        draws, instead of one more request per frame and worker."""
+        summary = {
             "id": frame.frame_id,
             "has_image": bool(frame.jpeg),
             "age_s": round(max(0.0, time.time() - frame.time), 1),
@@ -87,3 +90,6 @@ class LiveRun:
             "status": frame.status,
             "phase": frame.phase,
         }
+        if with_jpeg and frame.jpeg:
+            summary["jpeg_base64"] = base64.b64encode(frame.jpeg).decode("ascii")
+        return summary

@@ -2,7 +2,8 @@
 
 env: `DeepRacerEnv` with the front camera at 160×120 on the default track, a real reward function (the DeepRacer
 centre-line example, written to a temporary file) and uniformly random discrete actions.
-raw bound: the same compiled scene, the same physics substeps and one 160×120 render per step, no env code, through
+raw bound: the same compiled scene, the same physics substeps (with the car's tyre model, `Car.step`: it is physics,
+not env code) and one 160×120 render per step, no env code, through
 the fastest render path we have (the env's lean `CameraRenderer` with the env's anti-aliasing; without it the
 renderer is pixel-identical to `mujoco.Renderer`, and its flush alone makes a bare physics+render loop faster).
 The two are measured in alternating blocks so that load from other processes hits both alike; process CPU
@@ -64,7 +65,7 @@ def _raw_block(
             restarts += 1
             car.teleport(model, data, *starts[restarts % len(starts)])
         car.command(data, speed_mps, steering_deg)
-        mujoco.mj_step(model, data, substeps)
+        car.step(model, data, substeps)
         renderer.start(data, CENTER_CAMERA)
         renderer.finish()
     return time.perf_counter() - start, time.process_time() - cpu_start

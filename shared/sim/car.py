@@ -3,7 +3,8 @@
 Frame: the car origin (DeepRacer's `base_link`) sits on the ground between the axles, x forward, y left, z up.
 All four wheels get the same angular velocity `speed / 0.035` and both steering hinges the same angle
 (no Ackermann), as DeepRacer's `send_action`. Commands are clipped to 0.1–4 m/s and ±30° before being sent;
-the zero command of the `prepare` step is sent unclipped.
+the zero command of the `prepare` step is sent unclipped. The wheels touch the floor without friction; the
+horizontal tyre forces come from `tyres.py`, so the car is stepped with `Car.step`, not `mujoco.mj_step` alone.
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from racer.shared.sim._mujoco import mujoco
+from racer.shared.sim.tyres import TyreParams, Tyres
 
 WHEEL_RADIUS_M = 0.035
 """The simulated tyre's radius."""
@@ -53,17 +55,53 @@ STEERING_JOINTS = ("left_steering_hinge_joint", "right_steering_hinge_joint")
 CAR_GEOM_GROUP = 3
 """Car geoms live in a group the camera does not draw and the LIDAR does not see."""
 
-WHEEL_MAX_TORQUE_NM = 0.23
-"""Per wheel (≈ 4 m/s² at most): calibrated so that speed in the first steps after `prepare` rises as in the real
-console 2022 / DRfC simtraces (≈ 0.13, 0.33, 0.55 m/s between rows 2-3, 3-4, 4-5); scaled with the URDF mass."""
-TYRE_TORSIONAL_FRICTION = 0.02
-"""Contact-patch resistance to turning about the vertical (condim 4; a sphere's point contact has none).
-Calibrated so a held 30° at 1 m/s gives ≈ 1.3 rad/s of yaw rate, as the real simtraces (≈ 1.1-1.3 rad/s)."""
+WHEEL_MAX_TORQUE_NM = 2.0
+"""Per wheel motor. The wheels spin free of the floor and reach the commanded rad/s within ≈ 2 ms (as the fit's
+twin assumes); how fast the car follows is the tyre model's drive force (`tyres.py`)."""
 WHEEL_VELOCITY_GAIN = 0.08
-STEERING_KP = 2.0
-"""Steering servo stiffness: (STEERING_KV + hinge damping) / STEERING_KP ≈ 0.135 s to follow a new angle, fitted with
-`racer bench fidelity`: the real cars turn in more slowly than a 0.03 s servo (figures in shared/sim/README.md)."""
-STEERING_KV = 0.25
+STEERING_KP = 20.0
+"""Steering servo stiffness (N·m/rad); the velocity gain follows from the fitted time constant (`steering_kv`)."""
+HINGE_DAMPING = 0.02
+HINGE_ARMATURE = 0.0005
+HINGE_RADIUS_M = 0.008
+STEERING_TIME_CONSTANT_S = 0.0166
+"""How fast the hinges follow a new angle, fitted with the tyre model on real simtraces (`racer bench fidelity`)."""
+_HINGE_AXIS_INERTIA_KGM2 = HINGE_ARMATURE + 0.4 * (
+    WHEEL_MASS_KG * WHEEL_RADIUS_M**2 + HINGE_MASS_KG * HINGE_RADIUS_M**2
+)
+TYRE_UPDATE_SUBSTEPS = 2
+"""MuJoCo steps per tyre-force update (1/120 s at the env's 1/240 s): the tyre model is Python, so half as many
+updates halve its cost; 8 ms is well inside the fastest tyre mode (≈ 13 ms, sliding sideways at the slip-speed floor)
+and the fit's twin integrates at the same rate (8 steps per 67 ms row)."""
+URDF_CHASSIS_INERTIA_KGM2 = (0.010609, 0.050409, 0.05865)
+"""The SimApp URDF's chassis inertia (ixx, iyy, izz)."""
+YAW_INERTIA_KGM2 = 0.475
+"""The whole car's inertia about the vertical, fitted with the tyre model on real simtraces: the real cars' yaw rate
+carries on between steps as if the car were ≈ 6× as hard to turn as the URDF's (0.078 kg·m² with the wheels)."""
+_WHEELS_YAW_INERTIA_KGM2 = (
+    WHEEL_MASS_KG * (2 * (REAR_AXLE_X_M**2 + REAR_HALF_TRACK_M**2) + 2 * (FRONT_AXLE_X_M**2 + FRONT_HALF_TRACK_M**2))
+    + 4 * 0.4 * WHEEL_MASS_KG * WHEEL_RADIUS_M**2
+)
+_HINGES_YAW_INERTIA_KGM2 = HINGE_MASS_KG * 2 * (FRONT_AXLE_X_M**2 + FRONT_HALF_TRACK_M**2)
+
+
+def steering_kv(time_constant_s: float) -> float:
+    """The servo's velocity gain that makes the hinge's slow mode a first-order lag of `time_constant_s` (the hinge
+    with its wheel is a stiff, overdamped second-order system; its fast mode takes ≈ 2 ms)."""
+    return STEERING_KP * time_constant_s + _HINGE_AXIS_INERTIA_KGM2 / time_constant_s - HINGE_DAMPING
+
+
+def chassis_inertia_kgm2(yaw_inertia_kgm2: float) -> tuple[float, float, float]:
+    """The chassis' diagonal inertia giving the whole car `yaw_inertia_kgm2` about the vertical. A rigid body needs
+    ixx + iyy ≥ izz, so roll and pitch are scaled with yaw in the URDF's ratio (a flat body); with the tyre forces at
+    the centre of mass the car hardly rolls or pitches on a flat floor."""
+    yaw = yaw_inertia_kgm2 - _WHEELS_YAW_INERTIA_KGM2 - _HINGES_YAW_INERTIA_KGM2
+    ixx, iyy, _ = URDF_CHASSIS_INERTIA_KGM2
+    flat = 1.01 * yaw / (ixx + iyy)  # 1 % above the limit, so rounding never breaks it
+    return flat * ixx, flat * iyy, yaw
+
+
+CHASSIS_COM_Z_M = 0.075
 
 
 def command_wheel_radius_m(simapp_version: float) -> float:
@@ -109,29 +147,33 @@ def car_mjcf(
         for name, y in camera_names
     )
     r = WHEEL_RADIUS_M
+    ixx, iyy, izz = chassis_inertia_kgm2(YAW_INERTIA_KGM2)
     wheel_geom = (
-        f'<geom type="sphere" size="{r}" mass="{WHEEL_MASS_KG}" friction="{friction} {TYRE_TORSIONAL_FRICTION} 0.0001" '
-        f'contype="2" conaffinity="1" group="{CAR_GEOM_GROUP}" condim="4" rgba="0.1 0.1 0.1 1"/>'
+        # condim 1 and priority over the floor: a frictionless contact that carries the weight (the friction value
+        # is the tyre model's μ).
+        f'<geom type="sphere" size="{r}" mass="{WHEEL_MASS_KG}" friction="{friction} 0 0" '
+        f'contype="2" conaffinity="1" group="{CAR_GEOM_GROUP}" condim="1" priority="1" rgba="0.1 0.1 0.1 1"/>'
     )
     rear = "\n".join(
         f'      <body name="{name}" pos="{REAR_AXLE_X_M} {side * REAR_HALF_TRACK_M} {r}">\n'
-        f'        <joint name="{name}_joint" type="hinge" axis="0 1 0" damping="0.0005"/>\n        {wheel_geom}\n      </body>'
+        f'        <joint name="{name}_joint" type="hinge" axis="0 1 0"/>\n        {wheel_geom}\n      </body>'
         for name, side in (("left_rear_wheel", 1), ("right_rear_wheel", -1))
     )
     front = "\n".join(
         f'      <body name="{side_name}_steering_hinge" pos="{FRONT_AXLE_X_M} {side * FRONT_HALF_TRACK_M} {r}">\n'
         f'        <joint name="{side_name}_steering_hinge_joint" type="hinge" axis="0 0 1" range="-{STEERING_LIMIT_RAD} {STEERING_LIMIT_RAD}" '
-        f'damping="0.02" armature="0.0005"/>\n'
-        f'        <geom type="sphere" size="0.008" mass="{HINGE_MASS_KG}" contype="0" conaffinity="0" group="{CAR_GEOM_GROUP}"/>\n'
+        f'damping="{HINGE_DAMPING}" armature="{HINGE_ARMATURE}"/>\n'
+        f'        <geom type="sphere" size="{HINGE_RADIUS_M}" mass="{HINGE_MASS_KG}" contype="0" conaffinity="0" group="{CAR_GEOM_GROUP}"/>\n'
         f'        <body name="{side_name}_front_wheel">\n'
-        f'          <joint name="{side_name}_front_wheel_joint" type="hinge" axis="0 1 0" damping="0.0005"/>\n          {wheel_geom}\n'
+        f'          <joint name="{side_name}_front_wheel_joint" type="hinge" axis="0 1 0"/>\n          {wheel_geom}\n'
         f"        </body>\n      </body>"
         for side_name, side in (("left", 1), ("right", -1))
     )
     return f"""
     <body name="car" pos="0 0 0">
       <freejoint name="car_free"/>
-      <geom name="chassis" type="box" size="0.15 0.07 0.025" pos="0 0 0.075" mass="{CHASSIS_MASS_KG:.6f}"
+      <inertial pos="0 0 {CHASSIS_COM_Z_M}" mass="{CHASSIS_MASS_KG:.6f}" diaginertia="{ixx:.6f} {iyy:.6f} {izz:.6f}"/>
+      <geom name="chassis" type="box" size="0.15 0.07 0.025" pos="0 0 {CHASSIS_COM_Z_M}"
             contype="2" conaffinity="1" group="{CAR_GEOM_GROUP}" rgba="0.2 0.2 0.25 1"/>
 {cameras}
       <site name="lidar" pos="{LIDAR_POS_M[0]} {LIDAR_POS_M[1]} {LIDAR_POS_M[2]}" size="0.01" group="{CAR_GEOM_GROUP}"/>
@@ -147,7 +189,7 @@ def car_actuators_mjcf() -> str:
         for name in WHEEL_NAMES
     )
     steering = "\n".join(
-        f'    <position name="{joint}_servo" joint="{joint}" kp="{STEERING_KP}" kv="{STEERING_KV}" '
+        f'    <position name="{joint}_servo" joint="{joint}" kp="{STEERING_KP}" kv="{steering_kv(STEERING_TIME_CONSTANT_S):.6f}" '
         f'ctrllimited="true" ctrlrange="-{STEERING_LIMIT_RAD} {STEERING_LIMIT_RAD}"/>'
         for joint in STEERING_JOINTS
     )
@@ -172,7 +214,12 @@ class Car:
 
     FRONT_OF_CAR_M = 0.14
 
-    def __init__(self, model: mujoco.MjModel, command_wheel_radius: float = COMMAND_WHEEL_RADIUS_M) -> None:
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        command_wheel_radius: float = COMMAND_WHEEL_RADIUS_M,
+        tyre_params: TyreParams | None = None,
+    ) -> None:
         self.command_wheel_radius = command_wheel_radius
         self.body_id = model.body("car").id
         joint = model.joint("car_free")
@@ -184,6 +231,41 @@ class Car:
         self.car_dofs = np.arange(model.body_dofadr[self.body_id], model.nv)
         """The car's dofs are the last ones of the model (its body is the last subtree)."""
         self.car_qpos = np.arange(self.qpos_adr, model.nq)
+        self.tyres = self._tyres(model, tyre_params)
+
+    def _tyres(self, model: mujoco.MjModel, params: TyreParams | None) -> Tyres:
+        return Tyres(
+            model,
+            self.body_id,
+            self.qpos_adr,
+            self.dof_adr,
+            [int(model.joint(joint).qposadr[0]) for joint in STEERING_JOINTS],
+            self.wheel_actuators.tolist(),
+            int(model.body_geomadr[self.wheel_body_ids[0]]),
+            FRONT_AXLE_X_M,
+            REAR_AXLE_X_M,
+            params,
+        )
+
+    def retune(
+        self,
+        model: mujoco.MjModel,
+        tyre_params: TyreParams,
+        steering_time_constant_s: float,
+        yaw_inertia_kgm2: float,
+    ) -> None:
+        """Change the fitted dynamics constants of a compiled model in place (for the leave-one-file-out replay)."""
+        model.body_inertia[self.body_id] = chassis_inertia_kgm2(yaw_inertia_kgm2)
+        model.actuator_biasprm[self.steering_actuators, 2] = -steering_kv(steering_time_constant_s)
+        self.tyres = self._tyres(model, tyre_params)
+
+    def step(self, model: mujoco.MjModel, data: mujoco.MjData, substeps: int) -> None:
+        """Advance the physics by `substeps` MuJoCo steps, the tyre forces recomputed every TYRE_UPDATE_SUBSTEPS."""
+        while substeps > 0:
+            self.tyres.apply(data)
+            steps = min(TYRE_UPDATE_SUBSTEPS, substeps)
+            mujoco.mj_step(model, data, steps)
+            substeps -= steps
 
     def teleport(self, model: mujoco.MjModel, data: mujoco.MjData, x_m: float, y_m: float, yaw_rad: float) -> None:
         """Put the car at rest on the ground at (x, y) with heading yaw; wheels and hinges straight."""

@@ -424,7 +424,7 @@ class DeepRacerEnv(gym.Env):
             self._car.teleport(self._model, self._data, x, y, yaw)
             command = (0.0, 0.0)
         self._car.command(self._data, command[0], command[1])
-        mujoco.mj_step(self._model, self._data, self._substeps)
+        self._car.step(self._model, self._data, self._substeps)
         if self._race is not None:
             self._race.advance(float(self._data.time) - self._race_start_time_s, self._scene_rng)
             self._place_objects()

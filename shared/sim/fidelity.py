@@ -29,6 +29,7 @@ from racer.shared.sim.car import STEERING_JOINTS, WHEEL_NAMES, WHEEL_RADIUS_M, C
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
 from racer.shared.sim.fidelity_floor import heading_floor_deg
+from racer.shared.sim.tyre_fit import CarConstants, SegmentBatch, fit, leave_one_file_out
 
 HORIZONS_S: tuple[float, ...] = (1.0, 2.0)
 SPEED_BANDS_MPS: tuple[tuple[float, float], ...] = ((0.0, 0.75), (0.75, 1.25), (1.25, 1.75), (1.75, 10.0))
@@ -146,7 +147,7 @@ class CarReplay:
             yaws.append(pose.yaw_rad)
             car.command(data, *clip_command(segment.throttle_mps[k], segment.steer_deg[k]))
             substeps = max(1, round((segment.times_s[k + 1] - segment.times_s[k]) / self.timestep_s))
-            mujoco.mj_step(model, data, substeps)
+            car.step(model, data, substeps)
         pose = car.pose(data)
         points.append(pose.model_point)
         yaws.append(pose.yaw_rad)
@@ -226,17 +227,35 @@ def add_heading_floor(bands: dict[str, dict], segments: Sequence[Segment], error
             bands[band_label(low, high)]["heading_floor_deg_1s_median"] = round(float(np.median(members)), 2)
 
 
-def run_fidelity(simtraces: Sequence[Path], route: Path, progress: bool = False) -> dict:
+def run_fidelity(simtraces: Sequence[Path], route: Path, progress: bool = False, fit_mode: str = "none") -> dict:
+    """The replay's error table. `fit_mode` "none" replays racer's car as it is; "all" first fits the dynamics
+    constants on all segments (tyre_fit.py) and replays with them; "leave-one-file-out" replays each file with the
+    constants fitted on the other files (errors on data the fit did not see)."""
     segments = load_segments(simtraces)
     if not segments:
         raise click.ClickException(
             f"no replayable segments ({max(HORIZONS_S):g} s of in_progress rows) in "
             f"{', '.join(str(p) for p in simtraces)}"
         )
+    constants: dict[str, CarConstants] = {}
+    if fit_mode == "all":
+        fitted = fit(SegmentBatch.of(segments), progress=progress)
+        constants = {segment.source: fitted for segment in segments}
+    elif fit_mode == "leave-one-file-out":
+        try:
+            constants = leave_one_file_out(SegmentBatch.of(segments), progress=progress)
+        except ValueError as exc:
+            raise click.ClickException(str(exc)) from None
     replay = CarReplay(route)
     errors = []
     try:
+        tuned_for = None
         for index, segment in enumerate(segments):
+            if constants and constants[segment.source] is not tuned_for:
+                tuned_for = constants[segment.source]
+                replay.car.retune(
+                    replay.model, tuned_for.tyres, tuned_for.steering_time_constant_s, tuned_for.yaw_inertia_kgm2
+                )
             errors.append(segment_errors(segment, *replay.run(segment)))
             if progress and (index + 1) % 200 == 0:
                 print(f"replayed {index + 1}/{len(segments)} segments", file=sys.stderr, flush=True)
@@ -250,6 +269,8 @@ def run_fidelity(simtraces: Sequence[Path], route: Path, progress: bool = False)
         "files": len(simtraces),
         "bands": bands,
         "goal_median_position_1s_le_0_05_m": goal_met,
+        "fit": fit_mode,
+        **({"constants": {source: c.as_dict() for source, c in sorted(constants.items())}} if constants else {}),
     }
 
 
@@ -268,7 +289,16 @@ def run_fidelity(simtraces: Sequence[Path], route: Path, progress: bool = False)
     show_default=True,
     help="The route the simtraces were driven on (the floor the car replays on).",
 )
-def fidelity_bench_command(simtraces: Path, route: Path) -> None:
+@click.option(
+    "--fit",
+    "fit_mode",
+    type=click.Choice(["none", "all", "leave-one-file-out"]),
+    default="none",
+    show_default=True,
+    help="Refit the car's dynamics constants first: on all files (prints them), or per file on the other files "
+    "(the honest, held-out error; takes minutes per file).",
+)
+def fidelity_bench_command(simtraces: Path, route: Path, fit_mode: str) -> None:
     """Open-loop replay of real simtraces: median and p90 position/heading error after 1 s and 2 s per speed band."""
     paths = sorted(simtraces.glob("*.csv")) if simtraces.is_dir() else [simtraces]
-    click.echo(json.dumps(run_fidelity(paths, route, progress=True)))
+    click.echo(json.dumps(run_fidelity(paths, route, progress=True, fit_mode=fit_mode)))

@@ -4,7 +4,8 @@ Keys (under the run's `racer:<run>:` prefix, next to those of channels.py):
 
 | key | type | written by | meaning |
 |---|---|---|---|
-| `watching` | string with TTL | viewer | present while a page is open; workers publish frames only then |
+| `watching` | string with TTL | viewer | present while a page shows every worker; all workers publish frames |
+| `watching:<worker>` | string with TTL | viewer | present while a page shows that worker's panel; it publishes frames |
 | `frame:<worker>` | string with TTL | workers | the newest frame of that worker: msgpack (below), never pickle |
 
 A frame is a msgpack map: `worker_id`, `world`, `session` (changes when the worker restarts), `seq`, `time`
@@ -13,14 +14,15 @@ episode's path so far, at most TRAIL_POINTS [x, y] pairs), `step`, `progress`, `
 `phase` (`training` or `evaluation`).
 
 Cost on the rollout: one EXISTS per `watch_check_s` of wall time while nobody watches; while watched, one JPEG
-encode (160x120 grey) and one SET per published frame, at most `max_fps` per second.
+encode (160x120 grey) and one SET per published frame, at most `max_fps` per second. A page asks for the workers
+whose panels are on screen only, so a scrolled-away or hidden panel costs its worker nothing.
 """
 
 from __future__ import annotations
 
 import os
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 
 import cv2
@@ -30,7 +32,8 @@ import numpy as np
 from racer.shared.redis_connection import RedisLink
 
 WATCHING_TTL_S = 5
-"""The viewer renews `watching` on every page poll (twice a second); a closed page stops the frames within this."""
+"""The viewer renews its `watching` keys on every page poll (twice a second); a closed page stops the frames within
+this."""
 FRAME_TTL_S = 30
 """A frame outlives its worker by this much at most: the heartbeat, not the frame, says whether a worker is up."""
 TRAIL_POINTS = 250
@@ -39,8 +42,9 @@ JPEG_QUALITY = 85
 
 @dataclass(frozen=True)
 class FrameSettings:
-    max_fps: float = 4.0
-    """Frames per second and worker, at most, while somebody watches."""
+    max_fps: float = 2.0
+    """Frames per second and worker, at most, while somebody watches (the page polls twice a second: more frames
+    would be made and never shown)."""
     watch_check_s: float = 1.0
     """How often (wall time) a worker asks Redis whether somebody watches."""
 
@@ -123,14 +127,31 @@ class FrameChannel:
     def key(self, name: str) -> str:
         return self.prefix + name
 
-    def mark_watching(self) -> None:
-        self.link.do(lambda r: r.set(self.key("watching"), b"1", ex=WATCHING_TTL_S))
+    def _watching_key(self, worker_id: int | None) -> str:
+        return self.key("watching" if worker_id is None else f"watching:{worker_id}")
+
+    def mark_watching(self, worker_ids: Iterable[int] | None = None) -> None:
+        """Somebody watches these workers (None: all of them) for the next WATCHING_TTL_S seconds."""
+        keys = [self._watching_key(None)] if worker_ids is None else [self._watching_key(i) for i in worker_ids]
+        if not keys:
+            return
+
+        def renew(r) -> None:
+            with r.pipeline(transaction=False) as pipe:
+                for key in keys:
+                    pipe.set(key, b"1", ex=WATCHING_TTL_S)
+                pipe.execute()
+
+        self.link.do(renew)
 
     def clear_watching(self) -> None:
-        self.link.do(lambda r: r.delete(self.key("watching")))
+        """Nobody watches any worker any more (as if every key had expired)."""
+        self.link.do(lambda r: r.delete(self.key("watching"), *r.scan_iter(match=self.key("watching:*"))))
 
-    def is_watched(self) -> bool:
-        return bool(self.link.do(lambda r: r.exists(self.key("watching"))))
+    def is_watched(self, worker_id: int | None = None) -> bool:
+        """Whether somebody watches all workers or, given a worker, that one (one EXISTS either way)."""
+        keys = [self._watching_key(None)] + ([] if worker_id is None else [self._watching_key(worker_id)])
+        return bool(self.link.do(lambda r: r.exists(*keys)))
 
     def publish(self, frame: Frame) -> None:
         payload = encode_frame(frame)
@@ -139,6 +160,13 @@ class FrameChannel:
     def latest(self, worker_id: int) -> Frame | None:
         raw = self.link.do(lambda r: r.get(self.key(f"frame:{worker_id}")))
         return None if raw is None else decode_frame(raw)
+
+    def latest_of(self, worker_ids: list[int]) -> dict[int, Frame]:
+        """The newest frame of each of these workers that has one, in one round trip."""
+        if not worker_ids:
+            return {}
+        raws = self.link.do(lambda r: r.mget([self.key(f"frame:{i}") for i in worker_ids]))
+        return {i: decode_frame(raw) for i, raw in zip(worker_ids, raws, strict=True) if raw is not None}
 
 
 def camera_image(observation: dict[str, np.ndarray]) -> np.ndarray | None:
@@ -202,7 +230,7 @@ class FrameTap:
         now = self.clock()
         if now >= self._next_watch_check:
             self._next_watch_check = now + self.settings.watch_check_s
-            self._watched = self.channel.is_watched()
+            self._watched = self.channel.is_watched(self.worker_id)
         if not self._watched or now < self._next_frame:
             return
         self._next_frame = now + 1.0 / self.settings.max_fps

@@ -106,3 +106,21 @@ def test_frame_round_trip_keeps_every_field(redis_settings):
     frame = channel.latest(2)
     assert decode_frame(encode_frame(frame)) == frame
     assert frame.phase == "evaluation" and frame.frame_id.endswith(f"-{frame.seq}")
+
+
+def test_only_the_workers_on_screen_publish(redis_settings):
+    channel = FrameChannel(RedisLink(redis_settings), "run-f")
+    clock = SteppedClock()
+    taps = {i: FrameTap(channel, worker_id=i, world="base", clock=clock) for i in (0, 1)}
+    channel.mark_watching([1])  # the page shows worker 1's panel only
+    assert channel.is_watched(1) and not channel.is_watched(0) and not channel.is_watched()
+    for step in range(1, 46):  # 3 s at 15 steps/s, both workers
+        for tap in taps.values():
+            drive(tap, clock, 1, first_step=step)
+        clock.now_s -= 1 / 15  # drive() advanced the clock once per tap: one step of wall time for both
+    assert taps[0].published == 0 and channel.latest(0) is None
+    assert 5 <= taps[1].published <= 7, taps[1].published  # 2 frames/s by default
+    channel.mark_watching()  # a page that shows every worker
+    assert channel.is_watched(0)
+    channel.clear_watching()
+    assert not channel.is_watched(0) and not channel.is_watched(1)

@@ -3,6 +3,7 @@ a real DeepRacer-for-Cloud run opened from the store alone, and the live endpoin
 
 from __future__ import annotations
 
+import base64
 import http.client
 import json
 import os
@@ -183,6 +184,17 @@ def test_live_endpoints_show_workers_frames_and_a_lost_redis(tmp_path, redis_ser
         live = json.loads(body)
         assert status == 200 and kind == "application/json" and live["redis"]["ok"]
         assert frames.is_watched()  # an open page makes the workers publish
+        frames.clear_watching()
+        status, _kind, body = get(served.url + "/api/live?watch=1&workers=1")  # only worker 1's panel on screen
+        assert status == 200 and frames.is_watched(1) and not frames.is_watched(0)
+        shown = {w["id"]: w for w in json.loads(body)["workers"]}[1]["frame"]
+        jpeg = np.frombuffer(base64.b64decode(shown["jpeg_base64"]), np.uint8)  # the image comes with the poll
+        assert int(cv2.imdecode(jpeg, cv2.IMREAD_GRAYSCALE).mean()) in range(195, 206)
+        unwatched = json.loads(get(served.url + "/api/live?watch=0")[2])["workers"]
+        assert "jpeg_base64" not in {w["id"]: w for w in unwatched}[1]["frame"]  # a hidden page gets no images
+        frames.clear_watching()
+        assert get(served.url + "/api/live?watch=0")[0] == 200 and not frames.is_watched(1)
+        assert get(served.url + "/api/live?workers=1,x")[0] == 400
         by_id = {w["id"]: w for w in live["workers"]}
         assert by_id[0]["up"] is False and by_id[0]["frame"] is None  # no heartbeat: down
         assert by_id[1]["up"] and by_id[1]["state"] == "playing" and by_id[1]["pid"] == 4242
@@ -244,3 +256,21 @@ def test_racer_view_serves_a_model_folder_and_refuses_anything_else(drfc_store, 
         timeout=60,
     )
     assert refused.returncode != 0 and "no-such-model" in refused.stderr and "no model folder" in refused.stderr
+
+
+def test_progress_is_sent_again_only_when_it_changed(tmp_path):
+    store = LocalStore(tmp_path / "store")
+    record = {"iteration": 0, "mean_reward": 1.0, "mean_progress": 5.0, "completion_rate": 0.0, "worlds": {}}
+    store.put_bytes("etag-model/metrics/iterations.jsonl", (json.dumps(record) + "\n").encode())
+    with ServedApp(create_app(RunFiles(RunLocation(store, "etag-model")), None)) as served:
+        with urllib.request.urlopen(served.url + "/api/progress", timeout=30) as response:
+            etag = response.headers["ETag"]
+            assert response.status == 200 and len(json.loads(response.read())["iterations"]) == 1 and etag
+        status, _kind, body = get(served.url + "/api/progress", {"If-None-Match": etag})
+        assert status == 304 and body == b""  # the page has it: nothing to send or parse
+        store.put_bytes(
+            "etag-model/metrics/iterations.jsonl",
+            (json.dumps(record) + "\n" + json.dumps({**record, "iteration": 1}) + "\n").encode(),
+        )
+        status, _kind, body = get(served.url + "/api/progress", {"If-None-Match": etag})
+        assert status == 200 and len(json.loads(body)["iterations"]) == 2

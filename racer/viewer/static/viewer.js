@@ -3,6 +3,7 @@
 
 const LIVE_POLL_MS = 500;
 const PROGRESS_POLL_MS = 3000;
+const HIDDEN_POLL_MS = 5000; // a hidden tab asks for no frames and polls rarely; it catches up when shown again
 const WORLD_COLOURS = { base: "#60a5fa", carpet: "#f87171", concrete: "#cbd5e1", wood: "#f59e0b" };
 const EXTRA_COLOURS = ["#a78bfa", "#34d399", "#f472b6", "#22d3ee"];
 const ALL_COLOUR = "#f8fafc";
@@ -12,8 +13,8 @@ Chart.defaults.borderColor = "#1e2b47";
 Chart.defaults.font.family = "system-ui, sans-serif";
 Chart.defaults.animation = false; // redraw only what changed, cheaply: the rollout shares the CPU
 
-const state = { run: null, live: null, progress: null, progressSignature: null, workers: new Map(), charts: {},
-                pids: new Map() };
+const state = { run: null, live: null, progress: null, progressETag: null, progressSignature: null, workers: new Map(), charts: {},
+                pids: new Map(), onScreen: new Set() };
 window.racerViewer = state; // read by the browser tests
 
 function $(id) { return document.getElementById(id); }
@@ -25,6 +26,19 @@ function el(tag, attrs = {}, ...children) {
   for (const child of children) node.append(child);
   return node;
 }
+// DOM writes only when the value changes: an unchanged page costs the browser no style, layout or paint work.
+function setText(node, text) { if (node.textContent !== text) node.textContent = text; }
+function setHTML(node, html) { if (node.shownHTML !== html) { node.shownHTML = html; node.innerHTML = html; } }
+function setHidden(node, hidden) { if (node.hidden !== hidden) node.hidden = hidden; }
+
+// Frames are asked for only for the worker panels on screen (scrolled away: the worker publishes nothing).
+const panelObserver = new IntersectionObserver(entries => {
+  for (const entry of entries) {
+    const id = Number(entry.target.dataset.worker);
+    if (entry.isIntersecting) state.onScreen.add(id); else state.onScreen.delete(id);
+  }
+});
+
 function fmt(value, digits = 1, unit = "") {
   return value === null || value === undefined || Number.isNaN(value) ? "–" : `${Number(value).toFixed(digits)}${unit}`;
 }
@@ -118,6 +132,7 @@ function ensureWorkers(list) {
       const view = workerCard(worker, index);
       state.workers.set(worker.id, view);
       container.append(view.card);
+      panelObserver.observe(view.card);
     }
   });
 }
@@ -126,7 +141,8 @@ function showFrame(view, frame) {
   if (!frame || frame.id === view.frameId) return; // nothing new: draw nothing (the page shares the CPU)
   view.frameId = frame.id;
   if (frame.has_image) {
-    const url = `/api/workers/${view.card.dataset.worker}/frame.jpg?f=${encodeURIComponent(frame.id)}`;
+    const url = frame.jpeg_base64 ? `data:image/jpeg;base64,${frame.jpeg_base64}` // came with the poll
+      : `/api/workers/${view.card.dataset.worker}/frame.jpg?f=${encodeURIComponent(frame.id)}`;
     const next = new Image();
     next.onload = () => {
       view.img.src = next.src;
@@ -136,7 +152,7 @@ function showFrame(view, frame) {
     };
     next.src = url;
   }
-  view.tag.textContent = frame.phase === "evaluation" ? "in-car · evaluation" : "in-car";
+  setText(view.tag, frame.phase === "evaluation" ? "in-car · evaluation" : "in-car");
   if (view.chart) {
     view.chart.data.datasets[3].data = xy(frame.trail);
     view.chart.data.datasets[4].data = [{ x: frame.x_m, y: frame.y_m }];
@@ -152,37 +168,38 @@ function updateWorkers(live) {
     const up = worker.up && live.redis.ok;
     view.card.classList.toggle("down", !up && live.redis.ok);
     view.card.classList.toggle("unknown", !live.redis.ok);
-    view.card.dataset.up = live.redis.ok ? String(up) : "unknown";
+    const upText = live.redis.ok ? String(up) : "unknown";
+    if (view.card.dataset.up !== upText) view.card.dataset.up = upText;
     const finished = state.progress && state.progress.finished;
     if (!live.redis.ok) {
-      view.pill.textContent = "unknown";
+      setText(view.pill, "unknown");
     } else if (!up && finished) {
       view.card.classList.remove("down"); // training is over: workers exit, nothing is wrong
-      view.pill.textContent = "finished";
-      view.overlay.hidden = !view.img.hidden;
+      setText(view.pill, "finished");
+      setHidden(view.overlay, !view.img.hidden);
     } else if (up) {
-      view.pill.textContent = worker.state || "up";
-      view.overlay.textContent = "waiting for the first frame…";
-      view.overlay.hidden = !view.img.hidden;
+      setText(view.pill, worker.state || "up");
+      setText(view.overlay, "waiting for the first frame…");
+      setHidden(view.overlay, !view.img.hidden);
     } else {
-      view.pill.textContent = "DOWN";
-      view.overlay.hidden = false;
-      view.overlay.textContent = worker.heartbeat_age_s === null
-        ? "DOWN · no heartbeat" : `DOWN · last heartbeat ${Math.round(worker.heartbeat_age_s)} s ago`;
+      setText(view.pill, "DOWN");
+      setHidden(view.overlay, false);
+      setText(view.overlay, worker.heartbeat_age_s === null
+        ? "DOWN · no heartbeat" : `DOWN · last heartbeat ${Math.round(worker.heartbeat_age_s)} s ago`);
     }
     if (worker.pid) {
       const known = state.pids.get(worker.id);
       if (known && known.pid !== worker.pid) state.pids.set(worker.id, { pid: worker.pid, restartedAt: new Date() });
       else if (!known) state.pids.set(worker.id, { pid: worker.pid, restartedAt: null });
       const restartedAt = state.pids.get(worker.id).restartedAt;
-      view.restart.textContent = restartedAt ? `restarted ${restartedAt.toLocaleTimeString()}` : "";
+      setText(view.restart, restartedAt ? `restarted ${restartedAt.toLocaleTimeString()}` : "");
     }
     const f = worker.frame;
     const parts = [];
     if (f) parts.push(`step <b>${f.step}</b>`, `progress <b>${fmt(f.progress, 0, "%")}</b>`, `reward <b>${fmt(f.episode_reward, 1)}</b>`);
     if (worker.steps_per_s) parts.push(`<b>${fmt(worker.steps_per_s, 0)}</b> steps/s`);
     if (worker.iteration !== null && worker.iteration !== undefined && worker.iteration >= 0) parts.push(`iteration <b>${worker.iteration}</b>`);
-    view.stats.innerHTML = parts.length ? parts.join(" · ") : (up ? "no frame yet" : "–");
+    setHTML(view.stats, parts.length ? parts.join(" · ") : (up ? "no frame yet" : "–"));
     if (up) showFrame(view, f);
   }
 }
@@ -316,29 +333,56 @@ function updateEvaluationRuns(runs) {
 
 // ---- polling ----------------------------------------------------------------------------------------------
 function setBanner(text) {
-  $("banner").hidden = !text;
-  $("banner").textContent = text || "";
+  setHidden($("banner"), !text);
+  setText($("banner"), text || "");
 }
+
+// One timer per poll loop; a tab shown again polls at once instead of waiting out its hidden interval.
+const polls = { live: { timer: null, busy: false, run: null }, progress: { timer: null, busy: false, run: null } };
+function schedule(name, delayMs) {
+  const poll = polls[name];
+  clearTimeout(poll.timer);
+  poll.timer = setTimeout(async () => {
+    if (poll.busy) return;
+    poll.busy = true;
+    try { await poll.run(); } finally { poll.busy = false; }
+  }, delayMs);
+}
+document.addEventListener("visibilitychange", () => {
+  if (document.hidden) return;
+  for (const name of Object.keys(polls)) if (polls[name].run && !polls[name].busy) schedule(name, 0);
+});
 
 async function pollLive() {
   try {
-    const live = await getJSON(`/api/live?watch=${document.hidden ? 0 : 1}`);
+    const watched = document.hidden ? "watch=0" : `watch=1&workers=${[...state.onScreen].sort((a, b) => a - b).join(",")}`;
+    const live = await getJSON(`/api/live?${watched}`);
     state.live = live;
     const badge = $("redis-badge");
-    badge.hidden = false;
-    badge.className = `badge ${live.redis.ok ? "ok" : "bad"}`;
-    badge.textContent = live.redis.ok ? "Redis ok" : "Redis unreachable";
+    setHidden(badge, false);
+    const badgeClass = `badge ${live.redis.ok ? "ok" : "bad"}`;
+    if (badge.className !== badgeClass) badge.className = badgeClass;
+    setText(badge, live.redis.ok ? "Redis ok" : "Redis unreachable");
     setBanner(live.redis.ok ? "" : `Redis is unreachable: workers' status and cameras are unknown; retrying. (${live.redis.error})`);
     updateWorkers(live);
   } catch (error) {
     setBanner(`The viewer server does not answer (${error.message}); retrying.`);
   }
-  setTimeout(pollLive, LIVE_POLL_MS);
+  schedule("live", document.hidden ? HIDDEN_POLL_MS : LIVE_POLL_MS);
 }
+polls.live.run = pollLive;
 
 async function pollProgress() {
   try {
-    const progress = await getJSON("/api/progress");
+    // the server answers 304 while the page has the newest version: nothing to parse or compare
+    const response = await fetch("/api/progress", { cache: "no-store",
+      headers: state.progressETag ? { "If-None-Match": state.progressETag } : {} });
+    let progress = state.progress;
+    if (response.status !== 304) {
+      if (!response.ok) throw new Error(`/api/progress: HTTP ${response.status}`);
+      progress = await response.json();
+      state.progressETag = response.headers.get("ETag");
+    }
     state.progress = progress;
     const signature = JSON.stringify([progress.iterations.length, progress.evaluations,
       progress.best_lap && [progress.best_lap.lap_time_s, progress.best_lap.progress, progress.best_lap.run,
@@ -350,16 +394,17 @@ async function pollProgress() {
       updateBestLap(progress.best_lap);
     }
     updateEvaluationRuns(progress.evaluation_runs);
-    if (progress.finished) {
+    if (progress.finished && $("mode-badge").className !== "badge done") {
       $("mode-badge").className = "badge done";
       $("mode-badge").textContent = "finished";
     }
-    $("footer").textContent = progress.note || "";
+    setText($("footer"), progress.note || "");
   } catch (error) {
-    $("footer").textContent = `progress: ${error.message}`;
+    setText($("footer"), `progress: ${error.message}`);
   }
-  setTimeout(pollProgress, PROGRESS_POLL_MS);
+  schedule("progress", document.hidden ? HIDDEN_POLL_MS : PROGRESS_POLL_MS);
 }
+polls.progress.run = pollProgress;
 
 async function loadRun() {
   const run = await getJSON("/api/run");
@@ -373,8 +418,13 @@ async function loadRun() {
   if (run.track && run.track.error) $("footer").textContent = run.track.error;
   if (!hadTrack && run.track && run.track.outer && state.workers.size) {
     // the params appeared after the cards were drawn: draw the cards again with the map
-    for (const view of state.workers.values()) { if (view.chart) view.chart.destroy(); view.card.remove(); }
+    for (const view of state.workers.values()) {
+      if (view.chart) view.chart.destroy();
+      panelObserver.unobserve(view.card);
+      view.card.remove();
+    }
     state.workers.clear();
+    state.onScreen.clear();
   }
   if (run.live) ensureWorkers(run.workers);
   return run;
@@ -391,12 +441,12 @@ async function start() {
   }
   setBanner("");
   if (run.live) {
-    pollLive();
+    schedule("live", 0);
     // a training that just started has no params files yet: look again until the track map is known
     const retry = async () => { if (!(state.run.track && state.run.track.outer)) { try { await loadRun(); } catch (e) { /* next time */ } setTimeout(retry, 3000); } };
     setTimeout(retry, 3000);
   }
-  pollProgress();
+  schedule("progress", 0);
 }
 
 start();

@@ -1,0 +1,112 @@
+"""The tyre model (tyres.py) and its planar twin used for fitting (tyre_fit.py)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from racer.shared.sim.car import REAR_AXLE_X_M, STEERING_JOINTS, WHEELBASE_M
+from racer.shared.sim.config import EnvConfig
+from racer.shared.sim.env import DeepRacerEnv
+from racer.shared.sim.fidelity import CarReplay, load_segments
+from racer.shared.sim.tyre_fit import CarConstants, SegmentBatch, fit, loss, simulate
+from racer.shared.sim.tyres import GRAVITY_MPS2, TyreParams
+
+
+def test_params_must_be_positive_and_the_error_names_the_field():
+    with pytest.raises(ValueError, match="TyreParams.rear_peak_grip"):
+        TyreParams(rear_peak_grip=0.0)
+
+
+def _sliding_sideways_force(world: str, steering_deg: float = 0.0) -> np.ndarray:
+    """The chassis force the tyres give when the car slides sideways at 2 m/s, hinges at `steering_deg`."""
+    env = DeepRacerEnv(EnvConfig(world=world))
+    try:
+        model, data, car = env.model, env.data, env.car
+        car.teleport(model, data, 0.0, -20.0, 0.0)
+        data.qvel[car.dof_adr + 1] = 2.0  # world +y = the car's left
+        for joint in STEERING_JOINTS:
+            adr = model.joint(joint).qposadr[0]
+            data.qpos[adr] = math.radians(steering_deg)
+        car.tyres.apply(data)
+        return data.xfrc_applied[car.body_id].copy()
+    finally:
+        env.close()
+
+
+def test_lateral_force_saturates_at_grip_times_the_worlds_mu_times_the_axle_load():
+    params = TyreParams()
+    weight_n = 6.5622 * GRAVITY_MPS2
+    front_load, rear_load = weight_n * -REAR_AXLE_X_M / WHEELBASE_M, weight_n * (1 + REAR_AXLE_X_M / WHEELBASE_M)
+    for world, mu in (("carpet", 0.65), ("wood", 0.42)):
+        force = _sliding_sideways_force(world)
+        # Both axles at a slip angle of atan(2 / 0.3) ≈ 81°: far into the saturated part, pushing back to the right.
+        slip = math.atan2(2.0, params.min_slip_speed_mps)
+        expected = 0.0
+        for grip, load, stiffness in (
+            (params.front_peak_grip, front_load, params.front_cornering_stiffness_n_per_rad),
+            (params.rear_peak_grip, rear_load, params.rear_cornering_stiffness_n_per_rad),
+        ):
+            peak = grip * mu * load
+            expected -= peak * math.tanh(stiffness * slip / peak)
+            assert peak * math.tanh(stiffness * slip / peak) > 0.9 * peak
+        assert force[1] == pytest.approx(expected, rel=1e-6)
+        assert abs(force[0]) < 1e-9 and force[2:5].tolist() == [0.0, 0.0, 0.0]
+
+
+def test_front_force_acts_across_the_steered_wheels():
+    straight, steered = _sliding_sideways_force("base"), _sliding_sideways_force("base", 20.0)
+    # Turned 20° left, the front tyre pushes along its own axis, to the wheels' right: that leans forward (+x).
+    assert steered[0] > 1.0 and straight[0] == pytest.approx(0.0, abs=1e-9)
+    assert steered[1] > straight[1]  # and the front's push to the right is smaller: its slip angle is 20° less
+
+
+@pytest.fixture(scope="module")
+def segments(deepracer_data):
+    return load_segments([deepracer_data / "simtrace" / "drfc1_evaluation_0-iteration.csv"])[:6]
+
+
+def test_the_planar_twin_follows_the_mujoco_car(deepracer_data, segments):
+    """The fit's twin and the MuJoCo car with the same constants end up within a few cm of each other."""
+    batch = SegmentBatch.of(segments)
+    xs, ys, yaws = simulate(batch, CarConstants())
+    replay = CarReplay(deepracer_data / "routes" / "reinvent_base.npy")
+    try:
+        gaps, yaw_gaps = [], []
+        for index, segment in enumerate(segments):
+            points, yaw = replay.run(segment)
+            k = int(np.argmin(np.abs(segment.times_s[2:] - segment.times_s[2] - 1.0)))
+            gaps.append(math.hypot(points[k, 0] - xs[index, k], points[k, 1] - ys[index, k]))
+            yaw_gaps.append(abs(math.remainder(yaw[k] - yaws[index, k], 2 * math.pi)))
+            # Both move: the gap is small against the distance driven.
+            assert math.dist(points[k], points[0]) > 0.5
+    finally:
+        replay.close()
+    assert max(gaps) < 0.04, gaps
+    assert math.degrees(max(yaw_gaps)) < 3.0, yaw_gaps
+
+
+def test_fit_recovers_from_wrong_constants(segments):
+    batch = SegmentBatch.of(segments)
+    wrong = replace(CarConstants(), yaw_inertia_kgm2=0.08, steering_time_constant_s=0.2)
+    fitted = fit(batch, start=wrong, evaluations=80)
+    assert loss(batch, fitted) < 0.8 * loss(batch, wrong)
+    assert fitted.tyres.min_slip_speed_mps == wrong.tyres.min_slip_speed_mps  # a numerical guard, never fitted
+
+
+def test_retune_changes_the_compiled_car_in_place(deepracer_data, segments):
+    replay = CarReplay(deepracer_data / "routes" / "reinvent_base.npy")
+    try:
+        shipped, _ = replay.run(segments[0])
+        defaults = CarConstants()
+        replay.car.retune(replay.model, defaults.tyres, defaults.steering_time_constant_s, defaults.yaw_inertia_kgm2)
+        again, _ = replay.run(segments[0])
+        replay.car.retune(replay.model, defaults.tyres, 0.1, 0.078)  # slow servo, the URDF's yaw inertia
+        other, _ = replay.run(segments[0])
+    finally:
+        replay.close()
+    np.testing.assert_allclose(again, shipped, atol=1e-4)
+    assert np.max(np.hypot(*(other - shipped).T)) > 0.01
