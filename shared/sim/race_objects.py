@@ -25,10 +25,11 @@ class ObjectSize:
     length_m: float
     """Along the object's heading."""
     height_m: float
+    """As drawn (the SimApp's box model is 0.25 m high, a DeepRacer shell about 0.2 m); the crash test is 2-D."""
 
 
-BOX_OBSTACLE_SIZE = ObjectSize(width_m=0.4, length_m=0.5, height_m=0.4)
-BOT_CAR_SIZE = ObjectSize(width_m=0.1961, length_m=0.32352, height_m=0.16)
+BOX_OBSTACLE_SIZE = ObjectSize(width_m=0.4, length_m=0.5, height_m=0.25)
+BOT_CAR_SIZE = ObjectSize(width_m=0.1961, length_m=0.32352, height_m=0.205)
 
 SIZES: dict[ObjectKind, ObjectSize] = {ObjectKind.BOX_OBSTACLE: BOX_OBSTACLE_SIZE, ObjectKind.BOT_CAR: BOT_CAR_SIZE}
 
