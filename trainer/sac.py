@@ -20,6 +20,9 @@ One iteration, as DeepRacer's trainer runs it:
        Q loss      = 0.5 mean((Q1(s, a) - y)^2) + 0.5 mean((Q2(s, a) - y)^2),  y = r + gamma (1 - done) V_target(s')
    The policy gradient does not reach Q's weights; all three use the networks as they were before the step, so one
    Adam step over all of them (lr, betas 0.9/0.999, eps 1e-5, no clipping) equals DeepRacer's three.
+   Speed, not arithmetic: the networks share no weight, so each step runs on two threads with one torch thread each
+   (as PPO's towers): policy and V towers on one, Q tower and target V on the other, forward and then backward.
+   OpenMP threads spread over a busy 2-core machine wait for each other at every layer; two plain threads do not.
 4. V_target = V, copied once per iteration after its first gradient step (tau = 1 with DeepRacer's
    `num_steps_between_copying_online_weights_to_target = EnvironmentSteps(episodes)`, which passes once per fetch).
 Non-finite numbers roll back to the state before the update and halve the learning rate, as for PPO
@@ -30,7 +33,9 @@ from __future__ import annotations
 
 import logging
 import math
+import os
 from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -56,7 +61,7 @@ from racer.trainer.ppo import (
     _finite_episodes,
     native_bf16_available,
 )
-from racer.trainer.replay import ReplayBuffer
+from racer.trainer.replay import ReplayBatch, ReplayBuffer
 
 __all__ = ["SACSettings", "SACStats", "SACTrainer", "format_sac_training_line", "sac_minibatch_size"]
 
@@ -71,8 +76,9 @@ class SACSettings:
     """Gradient steps per transition received; DeepRacer: 1. Lower trades sample efficiency for trainer time."""
     max_nan_retries: int = 3
     seed: int | None = None
-    threads: int | None = None
-    """torch intra-op threads during an update (restored afterwards); None = the process's setting."""
+    threads_per_tower: int | None = None
+    """torch intra-op threads of each of the update's two threads (restored afterwards); None = half the CPUs this
+    process may use, at least 1 (as PPOSettings.threads_per_tower)."""
     bf16_towers: bool | None = None
     """Towers under bf16 autocast where the CPU computes bf16 natively (as PPOSettings.bf16_towers)."""
 
@@ -162,18 +168,19 @@ class SACTrainer:
         self.nan_rollbacks += 1
 
     def _train(self, steps: int, minibatch: int, abandon: Callable[[], bool] | None = None) -> SACStats:
+        threads = self.settings.threads_per_tower or max(1, len(os.sched_getaffinity(0)) // 2)
         previous_threads = torch.get_num_threads()
-        if self.settings.threads is not None:
-            torch.set_num_threads(self.settings.threads)
+        torch.set_num_threads(threads)
         try:
             sums = dict.fromkeys(("policy", "q", "v", "entropy", "mean_q", "grad_norm"), 0.0)
-            for step in range(steps):
-                if abandon is not None and abandon():
-                    raise UpdateAbandoned()
-                for key, value in self._step(minibatch, step).items():
-                    sums[key] += value
-                if step == 0:
-                    self.networks.sync_target()
+            with ThreadPoolExecutor(max_workers=1, thread_name_prefix="sac-critic") as critic:
+                for step in range(steps):
+                    if abandon is not None and abandon():
+                        raise UpdateAbandoned()
+                    for key, value in self._step(minibatch, step, critic).items():
+                        sums[key] += value
+                    if step == 0:
+                        self.networks.sync_target()
             bad_weight = first_non_finite_parameter(self.networks)
             if bad_weight is not None:
                 raise NonFiniteError(f"weight {bad_weight} after {steps} gradient steps")
@@ -192,33 +199,41 @@ class SACTrainer:
             replay_transitions=len(self.replay),
         )
 
-    def _step(self, minibatch: int, step: int) -> dict[str, float]:
+    def _critic_forward(self, batch: ReplayBatch) -> tuple[torch.Tensor, torch.Tensor]:
+        """Q features of s (with grad) and V_target(s') (no grad): the second thread's forward half."""
+        features = self.networks.q_features(batch.observations, self.tower_dtype)
+        return features, self.networks.target_value(batch.next_observations, self.tower_dtype)
+
+    def _step(self, minibatch: int, step: int, critic: ThreadPoolExecutor) -> dict[str, float]:
         hp, nets, dtype = self.hyperparameters, self.networks, self.tower_dtype
         batch = self.replay.sample(minibatch, self.rng)
         self.optimizer.zero_grad(set_to_none=True)
 
-        # Policy: reparameterised sample, scored by the twin Q on the same states (Q's weights get no gradient).
+        # Forward: Q tower and target V on the critic thread, policy and V towers here.
+        critic_forward = critic.submit(self._critic_forward, batch)
         sample = nets.sample(batch.observations, self.generator, dtype)
-        q_features = nets.q_features(batch.observations, dtype)
-        q1_new, q2_new = nets.q_values(q_features.detach(), sample.action)
+        value = nets.value(batch.observations, dtype)
+        q_features, next_value = critic_forward.result()
+
+        # Policy: reparameterised sample, scored by the twin Q on the same states (Q's weights held constant).
+        q1_new, q2_new = nets.q_values_for_policy(q_features, sample.action)
         min_q_new = torch.min(q1_new, q2_new)
         policy_loss = (hp.sac_alpha * sample.log_prob - min_q_new).mean()
-        policy_loss.backward()
-        for parameter in nets.q_head.parameters():
-            parameter.grad = None
 
         # V towards the soft value of the sampled action; Q towards r + gamma (1 - done) V_target(s').
         value_target = (min_q_new - hp.sac_alpha * sample.log_prob).detach()
-        value = nets.value(batch.observations, dtype)
         if hp.loss_type == "huber":
             value_loss = nn.functional.huber_loss(value, value_target, delta=HUBER_DELTA)
         else:
             value_loss = nn.functional.mse_loss(value, value_target)
-        next_value = nets.target_value(batch.next_observations, dtype)
         td_target = batch.rewards + hp.discount_factor * (1.0 - batch.dones) * next_value
         q1, q2 = nets.q_values(q_features, batch.actions)
         q_loss = 0.5 * (q1 - td_target).square().mean() + 0.5 * (q2 - td_target).square().mean()
-        (value_loss + q_loss).backward()
+
+        # Backward: the three graphs share no tensor that needs a gradient, so they run at the same time.
+        critic_backward = critic.submit(q_loss.backward)
+        (policy_loss + value_loss).backward()
+        critic_backward.result()
 
         policy_value, value_value, q_value = (float(loss.detach()) for loss in (policy_loss, value_loss, q_loss))
         check_finite(policy_value + value_value + q_value, f"loss at gradient step {step}")

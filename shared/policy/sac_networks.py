@@ -197,6 +197,12 @@ class SACNetworks(nn.Module):
     def q_values(self, features: torch.Tensor, actions: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         return self.q_head(features, actions)
 
+    def q_values_for_policy(self, features: torch.Tensor, actions: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """Q1, Q2 with the head's weights held constant: the policy loss's gradient reaches the action only, so the
+        policy's backward pass computes no Q weight gradient and never touches the Q head's `.grad`."""
+        frozen = {name: parameter.detach() for name, parameter in self.q_head.named_parameters()}
+        return torch.func.functional_call(self.q_head, frozen, (features.detach(), actions))
+
     def value(self, observations: Mapping[str, torch.Tensor], dtype: torch.dtype | None = None) -> torch.Tensor:
         return self.value_head(_features(self.value_tower, observations, dtype)).squeeze(1)
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import json
 import logging
 import math
@@ -22,6 +23,7 @@ from racer.shared.policy.sac_networks import SACNetworks, squashed_gaussian_log_
 from racer.shared.store import open_store
 from racer.trainer.replay import ReplayBuffer, bytes_per_transition
 from racer.trainer.sac import SACSettings, SACTrainer, sac_minibatch_size
+from racer.trainer.sac_bench import plain_sac_step, synthetic_episodes
 
 LIDAR_ONLY = PolicyConfig(
     neural_network="DEEP_CONVOLUTIONAL_NETWORK_SHALLOW",
@@ -157,6 +159,29 @@ def test_sac_learns_a_one_step_task():
     assert any(
         not torch.equal(a, b) for a, b in zip(target_before, networks.target_value_head.parameters(), strict=True)
     )
+
+
+def test_two_thread_step_computes_the_plain_sequential_step():
+    """The trainer's step (towers on two threads, Q head held constant in the policy loss) moves every weight as
+    the textbook step does, from the same weights, minibatch and noise."""
+    torch.manual_seed(3)
+    networks = build_network_for_metadata(parse_model_metadata(SAC_METADATA))
+    settings = SACSettings(replay_memory_bytes=4 << 20, seed=3, threads_per_tower=1, bf16_towers=False)
+    hyperparameters = Hyperparameters(batch_size=8, lr=1e-3, loss_type="huber")
+    fast = SACTrainer(networks, hyperparameters, settings)
+    plain = SACTrainer(copy.deepcopy(networks), hyperparameters, settings)
+    episodes = synthetic_episodes(2, 12, seed=3)
+    for trainer in (fast, plain):
+        trainer.add_experience(episodes)
+    before = {name: p.detach().clone() for name, p in networks.named_parameters()}
+    fast._train(1, 8)
+    plain_sac_step(plain, plain.replay.sample(8, plain.rng))
+    plain.networks.sync_target()  # as _train does after an iteration's first step
+    moved = 0
+    for (name, a), (_, b) in zip(fast.networks.named_parameters(), plain.networks.named_parameters(), strict=True):
+        torch.testing.assert_close(a, b, rtol=1e-4, atol=1e-6, msg=name)
+        moved += not torch.equal(a, before[name])
+    assert moved == len(before)  # every weight took the step (the target V by its copy of V)
 
 
 def test_non_finite_weights_roll_back_and_halve_the_learning_rate(caplog):
