@@ -21,6 +21,7 @@ from pathlib import Path
 import click
 
 from racer.shared import model_layout
+from racer.shared.batched_rollout import DEFAULT_ENVS_PER_WORKER, default_workers
 from racer.shared.config import LocalStoreSettings, RedisSettings, S3Settings, ServiceSettings, settings_from_env
 from racer.shared.redis_connection import RedisLink, RedisUnavailableError
 from racer.shared.services import PROJECT_ROOT, MinioServer, RedisServer, _die_with_parent
@@ -49,6 +50,8 @@ class LocalRunPlan:
     pretrained_checkpoint: str = "last"
     viewer_host: str = "127.0.0.1"
     viewer_port: int | None = None
+    envs_per_worker: int | None = None
+    """None: the rollout command's default."""
     """The live web page (`racer view --live`) listens here; None: no viewer."""
     trainer_options: tuple[str, ...] = ()
     """Further `racer trainer` options, e.g. ("--sac-updates-per-transition", "0.5")."""
@@ -169,6 +172,7 @@ class LocalRun:
                     str(worker_id),
                     "--seed",
                     str(plan.seed + worker_id),
+                    *(["--envs", str(plan.envs_per_worker)] if plan.envs_per_worker else []),
                 ],
             )
         if plan.viewer_port is not None:
@@ -362,7 +366,22 @@ def run_local_training(plan: LocalRunPlan, base_settings: ServiceSettings, on_ev
     show_default=True,
     help="Folder with reward_function.py, model_metadata.json, hyperparameters.json.",
 )
-@click.option("--workers", "num_workers", type=click.IntRange(1, 32), default=4, show_default=True)
+@click.option(
+    "--workers",
+    "num_workers",
+    type=click.IntRange(1, 32),
+    default=default_workers(),
+    show_default=True,
+    help="Rollout workers (default: the cores this process may use, at least 4: one per world).",
+)
+@click.option(
+    "--envs",
+    "envs_per_worker",
+    type=click.IntRange(1, 64),
+    default=DEFAULT_ENVS_PER_WORKER,
+    show_default=True,
+    help="Envs each worker steps at once, all actions from one batched forward pass.",
+)
 @click.option("--worlds", default=",".join(WORLDS), show_default=True, help="Worlds given to workers in turn.")
 @click.option("--track", default=DEFAULT_TRACK, show_default=True, help="Track name in tracks/ or a .npy route path.")
 @click.option(
@@ -394,6 +413,7 @@ def train_command(
     model_prefix,
     custom_files,
     num_workers,
+    envs_per_worker,
     worlds,
     track,
     max_episodes,
@@ -427,6 +447,7 @@ def train_command(
         viewer_host=viewer_host,
         viewer_port=viewer_port or None,
         race_params=race_params_from_options(race_type, race_param),
+        envs_per_worker=envs_per_worker,
     )
     sys.exit(run_local_training(plan, base_settings))
 

@@ -7,6 +7,7 @@ import signal
 
 import click
 
+from racer.shared.batched_rollout import DEFAULT_ENVS_PER_WORKER
 from racer.shared.config import settings_from_env
 from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
 from racer.shared.user_errors import user_error_types
@@ -19,13 +20,20 @@ from racer.shared.user_errors import user_error_types
 @click.option("--track", default=None, help="Override the track from training_params.")
 @click.option("--seed", type=int, default=0, show_default=True)
 @click.option(
+    "--envs",
+    type=click.IntRange(1, 64),
+    default=DEFAULT_ENVS_PER_WORKER,
+    show_default=True,
+    help="Envs of its world the worker steps at once (one batched forward pass picks all their actions).",
+)
+@click.option(
     "--wait-timeout-s",
     type=float,
     default=3600.0,
     show_default=True,
     help="Longest wait for the trainer's next checkpoint before exiting with an error.",
 )
-def rollout_command(model_prefix, worker_id, world, track, seed, wait_timeout_s) -> None:
+def rollout_command(model_prefix, worker_id, world, track, seed, envs, wait_timeout_s) -> None:
     """Simulate one world and feed episodes to the trainer (Redis and store from RACER_REDIS_URL / RACER_STORE)."""
     from racer.rollout_worker.worker import RolloutOptions, RolloutWorker
 
@@ -40,6 +48,7 @@ def rollout_command(model_prefix, worker_id, world, track, seed, wait_timeout_s)
                 wait_timeout_s=wait_timeout_s,
                 world_override=world,
                 track_override=track,
+                envs=envs,
             ),
         )
         signal.signal(signal.SIGTERM, lambda signum, frame: worker.stop())

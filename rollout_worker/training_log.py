@@ -69,6 +69,7 @@ class WorkerLog:
     def record_training_episode(self, played: PlayedEpisode, iteration: int) -> None:
         if iteration != self._trial_iteration:
             self._trial_iteration, self._trial = iteration, 0
+            self.simtrace.clear()  # the previous iteration's rows are uploaded (finish_iteration)
         self._episode += 1
         self._trial += 1
         self.training_steps += played.steps
@@ -76,11 +77,12 @@ class WorkerLog:
         self.metrics.append(self._entry(played, self._episode, self._trial, "training"))
 
     def finish_iteration(self, iteration: int, num_workers: int) -> None:
-        """Upload this iteration's simtrace (then start a new one) and the metrics so far."""
-        if len(self.simtrace):
+        """Upload this iteration's simtrace and the metrics so far. The rows stay until the next iteration's first
+        episode, so episodes this worker plays later for the same iteration (claimed from a dead worker) are
+        uploaded with them."""
+        if len(self.simtrace) and iteration == self._trial_iteration:
             key = self.run.layout.training_simtrace(self.worker_id, iteration, num_workers)
             self.store.put_bytes(key, self.simtrace.to_bytes())
-            self.simtrace.clear()
         self.store.put_bytes(self.metrics_key, self.metrics.to_bytes())
 
     def record_evaluation(self, announcement, results: list[PlayedEpisode], checkpoints, channel) -> None:

@@ -2,17 +2,20 @@
 
 Protocol (see racer.shared.transport.channels for the keys):
 1. Join: read the newest `iteration` announcement on the control stream (or wait for the first).
-2. For iteration k: load checkpoint k from the store, play share `worker_id` (DeepRacer's split of
-   num_episodes_between_training) unless the trainer already holds it, push it as one batch, upload the
-   iteration's simtrace and TrainingMetrics. Worker 0 then runs MIN_EVAL_TRIALS greedy episodes and
+2. For iteration k: load checkpoint k from the store and claim episodes from Redis, one per env as each env becomes
+   free: first those of its own DeepRacer share (episodes worker_id, worker_id + W, ...), then, once its own are all
+   played, any episode still unclaimed (a slower worker's). Each episode is delivered as soon as it ends; then
+   upload the iteration's simtrace and TrainingMetrics. Worker 0 then runs MIN_EVAL_TRIALS greedy episodes and
    updates deepracer_checkpoints.json (best by BEST_MODEL_METRIC).
-3. Wait (blocking read, no polling) for the next announcement: a new iteration, a `replay` request
-   addressed to this worker (another worker died: play its share too), or `finished`.
-A heartbeat thread keeps `heartbeat:<id>` alive so the trainer can tell a dead worker from a slow one.
+3. Wait (blocking read, no polling) for the next announcement: a new iteration, a `replay` notice (episodes went
+   back to the queue: a worker died holding them; claim them), or `finished`.
+The worker steps `envs` envs of its world at once (racer.shared.batched_rollout). A heartbeat thread keeps
+`heartbeat:<id>` alive so the trainer can tell a dead worker from a slow one.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import os
 import tempfile
@@ -26,16 +29,17 @@ import torch
 
 from racer.rollout_worker.run_files import RunFiles, load_run_files
 from racer.rollout_worker.training_log import WorkerLog
+from racer.shared.batched_rollout import BatchedRollout, EpisodeTicket
 from racer.shared.config import ServiceSettings
 from racer.shared.deepracer.hyperparameters import Hyperparameters
 from racer.shared.deepracer.model_metadata import ModelMetadata
-from racer.shared.episode_runner import PlayedEpisode, play_episode
+from racer.shared.episode_runner import EpisodeRecorder, play_episode
 from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.policy.networks import E_GREEDY_EVALUATION_EPSILON, e_greedy_epsilon
 from racer.shared.redis_connection import RedisLink, RedisUnavailableError
 from racer.shared.sim.env import DeepRacerEnv, EnvConfig
 from racer.shared.store import open_store
-from racer.shared.transport.channels import Announcement, RunChannel, share_sizes
+from racer.shared.transport.channels import Announcement, RunChannel
 from racer.shared.transport.codec import EpisodeBatch
 from racer.shared.transport.frames import FrameChannel, FrameTap
 
@@ -51,6 +55,8 @@ class RolloutOptions:
     """Longest wait for the trainer's next checkpoint before giving up with an error."""
     world_override: str | None = None
     track_override: str | None = None
+    envs: int = 1
+    """Envs of its world the worker steps at once, all actions from one batched forward pass."""
 
 
 @dataclass
@@ -96,6 +102,34 @@ def training_env_config(run: RunFiles) -> EnvConfig:
     )
 
 
+def spread_env_configs(config: EnvConfig, count: int) -> list[EnvConfig]:
+    """`count` envs that together start where one env would over `count` times as many episodes: env j starts j
+    round-robin steps after the first and advances `count` steps per episode (directions alternate to match)."""
+    if count == 1:
+        return [config]
+    configs = []
+    for j in range(count):
+        configs.append(
+            dataclasses.replace(
+                config,
+                start_position_offset=(
+                    config.start_position_offset
+                    + (j * config.round_robin_advance_dist if config.change_start_position else 0.0)
+                )
+                % 1.0,
+                round_robin_advance_dist=count * config.round_robin_advance_dist,
+                reverse_dir=config.reverse_dir != (config.alternate_driving_direction and j % 2 == 1),
+                alternate_driving_direction=config.alternate_driving_direction and count % 2 == 1,
+            )
+        )
+    return configs
+
+
+def env_generator(seed: int, index: int) -> np.random.Generator:
+    """Env 0 samples as a single-env worker always did; the others get their own streams."""
+    return np.random.default_rng(seed if index == 0 else (seed, index))
+
+
 class RolloutWorker:
     def __init__(self, settings: ServiceSettings, options: RolloutOptions):
         self.options = options
@@ -110,11 +144,21 @@ class RolloutWorker:
         self.state = _WorkerState()
         self._workdir = Path(tempfile.mkdtemp(prefix=f"racer-worker{self.worker_id}-"))
         self.run: RunFiles | None = None
-        self.env: DeepRacerEnv | None = None
+        self.envs: list[DeepRacerEnv] = []
+        self.rollout: BatchedRollout | None = None
         self.policy = None
         self.policy_version = -1
-        self.rng = np.random.default_rng(options.seed)
+        self.rngs = [env_generator(options.seed, j) for j in range(max(1, options.envs))]
         self.log: WorkerLog | None = None
+
+    @property
+    def env(self) -> DeepRacerEnv | None:
+        """Env 0: also the one worker 0 evaluates with."""
+        return self.envs[0] if self.envs else None
+
+    @property
+    def rng(self) -> np.random.Generator:
+        return self.rngs[0]
 
     # ---- lifecycle -------------------------------------------------------------------------------
     def stop(self) -> None:
@@ -165,8 +209,8 @@ class RolloutWorker:
             log.info("worker %d: stopped while Redis was unreachable (%s)", self.worker_id, error)
         finally:
             self._stop.set()
-            if self.env is not None:
-                self.env.close()
+            for env in self.envs:
+                env.close()
 
     def _wait_for_first_announcement(self) -> Announcement:
         self.state.status = "waiting for trainer"
@@ -218,16 +262,22 @@ class RolloutWorker:
             track_override=self.options.track_override,
         )
         worker = self.run.worker
-        self.env = DeepRacerEnv(training_env_config(self.run))
-        self.env.reset(seed=self.options.seed)
+        for j, config in enumerate(spread_env_configs(training_env_config(self.run), len(self.rngs))):
+            env = DeepRacerEnv(config)
+            env.reset(seed=self.options.seed + 1000 * j)
+            self.envs.append(env)
+        self.rollout = BatchedRollout(self.envs, self.rngs)
+        if announcement.kind == "iteration":  # a fresh process holds nothing: claims of an earlier life go back
+            self.channel.release_claims(announcement.iteration, self.worker_id)
         self.log = WorkerLog(self.store, self.run, self.worker_id)
         self.frame_tap = FrameTap(self.frames, self.worker_id, worker.world)
         log.info(
-            "worker %d ready: world %s, track %s, model %s",
+            "worker %d ready: world %s, track %s, model %s, %d envs",
             self.worker_id,
             worker.world,
             worker.track,
             self.options.model_prefix,
+            len(self.envs),
         )
 
     def _load_policy(self, announcement: Announcement) -> None:
@@ -248,85 +298,88 @@ class RolloutWorker:
             self.state.iteration = announcement.iteration
             self._load_policy(announcement)
             if self.worker_id < announcement.num_workers:
-                self._play_share(announcement, share=self.worker_id)
+                self._play_claimed(announcement)
                 self.log.finish_iteration(announcement.iteration, announcement.num_workers)
             if self.worker_id == 0:
                 self._evaluate(announcement)
-        elif announcement.kind == "replay" and announcement.target_worker == self.worker_id:
+        elif announcement.kind == "replay" and announcement.target_worker in (-1, self.worker_id):
             if announcement.iteration != self.policy_version:
-                return  # an old request; the trainer has moved on
-            log.info(
-                "worker %d: replaying share %d of iteration %d for a dead worker",
-                self.worker_id,
-                announcement.share,
-                announcement.iteration,
-            )
+                return  # an old notice; the trainer has moved on
             latest = self.channel.latest_iteration_announcement()
-            self._play_share(latest, share=announcement.share)
-            self.log.finish_iteration(announcement.iteration, latest.num_workers)
+            if latest is None or latest.kind != "iteration" or latest.iteration != announcement.iteration:
+                return
+            if self.worker_id < latest.num_workers and self._play_claimed(latest):
+                self.log.finish_iteration(latest.iteration, latest.num_workers)
 
-    def _play_share(self, announcement: Announcement, share: int) -> None:
-        if share in self.channel.received_shares(announcement.iteration):
-            log.info(
-                "worker %d: share %d of iteration %d already delivered", self.worker_id, share, announcement.iteration
-            )
-            return
-        count = share_sizes(announcement.episodes_per_iteration, announcement.num_workers)[share]
-        if count == 0:
-            return
-        self.state.status = "playing"
-        self.frame_tap.phase = "training"
-        self._beat()  # at once: a short share can finish between two periodic beats
+    def _play_claimed(self, announcement: Announcement) -> int:
+        """Claim and play episodes of the iteration until none is left unclaimed; returns how many were played."""
+        iteration, num_workers = announcement.iteration, announcement.num_workers
         hp = self.run.hyperparameters
-        played: list[PlayedEpisode] = []
+        world = self.run.worker.world
+        own_in_flight: set[int] = set()
         started = time.monotonic()
-        steps = 0
-        for _ in range(count):
+        played = {"episodes": 0, "steps": 0}
+
+        def next_episode(_env_index: int) -> EpisodeTicket | None:
             if self._stop.is_set():
-                return  # nothing half-sent: the batch goes out whole or not at all
-            episode_counter = self.log.next_training_episode
+                return None
+            number = self.channel.claim_own(iteration, self.worker_id)
+            if number is not None:
+                own_in_flight.add(number)
+            elif not own_in_flight:  # its own share is played: help with what is left
+                number = self.channel.claim_other(iteration, self.worker_id, num_workers)
+            if number is None:
+                return None
+            if played["episodes"] == 0 and self.state.status != "playing":
+                self.state.status = "playing"
+                self.frame_tap.phase = "training"
+                self._beat()  # at once: a short share can finish between two periodic beats
             epsilon = 0.0
             if self._uses_e_greedy():
                 epsilon = e_greedy_epsilon(self.log.training_steps, hp.e_greedy_value, hp.epsilon_steps)
-            episode = play_episode(
-                self.env,
-                self.policy,
-                greedy=False,
-                generator=self.rng,
-                epsilon=epsilon,
-                policy_version=announcement.iteration,
+            return EpisodeTicket(number, epsilon)
+
+        def finished(_env_index: int, ticket: EpisodeTicket, recorder: EpisodeRecorder) -> None:
+            counter = self.log.next_training_episode
+            episode = recorder.finish(
+                policy_version=iteration,
                 worker_id=self.worker_id,
-                world=self.run.worker.world,
-                episode_index=episode_counter,
-                simtrace_episode=episode_counter,
-                on_step=self.frame_tap,
+                world=world,
+                episode_index=counter,
+                simtrace_episode=counter,
             )
-            played.append(episode)
-            steps += episode.steps
+            own_in_flight.discard(ticket.number)
+            played["episodes"] += 1
+            played["steps"] += episode.steps
             self.state.episodes_played += 1
-            self.state.steps_per_s = steps / max(1e-6, time.monotonic() - started)
-            self.log.record_training_episode(episode, announcement.iteration)
-        elapsed_s = time.monotonic() - started
-        batch = EpisodeBatch(
-            iteration=announcement.iteration,
-            share=share,
-            worker_id=self.worker_id,
-            world=self.run.worker.world,
-            policy_version=announcement.iteration,
-            episodes=tuple(p.episode for p in played),
-        )
-        for p in played:
-            p.episode.info.update(rollout_steps_per_s=round(steps / max(elapsed_s, 1e-6), 1))
-        self.channel.push_batch(batch)
-        log.info(
-            "worker %d: pushed share %d of iteration %d (%d episodes, %d steps, %.0f steps/s)",
-            self.worker_id,
-            share,
-            announcement.iteration,
-            len(played),
-            steps,
-            steps / max(elapsed_s, 1e-6),
-        )
+            rate = played["steps"] / max(1e-6, time.monotonic() - started)
+            self.state.steps_per_s = rate
+            self.log.record_training_episode(episode, iteration)
+            episode.episode.info.update(rollout_steps_per_s=round(rate, 1))
+            self.channel.deliver_episode(
+                EpisodeBatch(
+                    iteration=iteration,
+                    share=ticket.number,
+                    worker_id=self.worker_id,
+                    world=world,
+                    policy_version=iteration,
+                    episodes=(episode.episode,),
+                )
+            )
+
+        self.rollout.play(self.policy, next_episode, finished, self._stop, on_step=self.frame_tap)
+        if played["episodes"]:
+            elapsed_s = time.monotonic() - started
+            log.info(
+                "worker %d: played %d episodes of iteration %d (%d steps, %.0f steps/s, %d envs)",
+                self.worker_id,
+                played["episodes"],
+                iteration,
+                played["steps"],
+                played["steps"] / max(elapsed_s, 1e-6),
+                len(self.envs),
+            )
+        return played["episodes"]
 
     def _uses_e_greedy(self) -> bool:
         return uses_e_greedy(self.run.hyperparameters, self.run.model_metadata)

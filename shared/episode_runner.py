@@ -40,6 +40,68 @@ class PlayedEpisode:
         return self.final_status == "lap_complete"
 
 
+class EpisodeRecorder:
+    """Collects one episode step by step (observation -> action -> reward, simtrace row) and builds its PlayedEpisode.
+
+    Shared by `play_episode` (one env) and `racer.shared.batched_rollout` (several envs, one batched forward pass), so
+    both produce the same episode from the same steps."""
+
+    def __init__(self, observation: dict[str, np.ndarray], reset_info: dict):
+        self.observation = observation
+        self.start_time_s = float(reset_info["start_time_s"])
+        self._observations: dict[str, list[np.ndarray]] = {name: [] for name in observation}
+        self._actions: list = []
+        self._log_probs: list[float] = []
+        self._rewards: list[float] = []
+        self._rows: list[dict] = []
+        self._info: dict = {}
+
+    def record(self, action, log_prob: float, step_result: tuple) -> bool:
+        """Record the action taken on `self.observation` and what `env.step` returned; True when the episode ended."""
+        for name, value in self.observation.items():
+            self._observations[name].append(value)
+        self._actions.append(action)
+        self._log_probs.append(log_prob)
+        observation, reward, terminated, truncated, info = step_result
+        self._rewards.append(float(reward))
+        self._rows.append(info["simtrace"])
+        self._info = info
+        self.observation = observation
+        return bool(terminated or truncated)
+
+    def finish(
+        self, *, policy_version: int, worker_id: int, world: str, episode_index: int, simtrace_episode: int | None
+    ) -> PlayedEpisode:
+        rows = self._rows
+        if simtrace_episode is not None:
+            rows = [{**row, "episode": simtrace_episode} for row in rows]
+        info = self._info
+        actions = self._actions
+        discrete = isinstance(actions[0], int | np.integer)
+        episode = Episode(
+            observations={name: np.stack(values) for name, values in self._observations.items()},
+            actions=np.asarray(actions, dtype=np.int64) if discrete else np.stack(actions).astype(np.float32),
+            rewards=np.asarray(self._rewards, dtype=np.float32),
+            log_probs=np.asarray(self._log_probs, dtype=np.float32),
+            policy_version=policy_version,
+            worker_id=worker_id,
+            world=world,
+            episode_index=episode_index,
+            final_status=str(info.get("episode_status", rows[-1]["episode_status"])),
+            progress=float(info.get("progress", rows[-1]["progress"])),
+        )
+        lap_time_s = info.get("lap_time_s") if episode.final_status == "lap_complete" else None
+        return PlayedEpisode(
+            episode=episode,
+            simtrace_rows=tuple(rows),
+            final_status=episode.final_status,
+            progress=episode.progress,
+            start_time_s=self.start_time_s,
+            end_time_s=float(rows[-1]["tstamp"]),
+            lap_time_s=None if lap_time_s is None else float(lap_time_s),
+        )
+
+
 def play_episode(
     env,
     policy,
@@ -64,49 +126,18 @@ def play_episode(
     options = {"evaluation": greedy}
     if start_ndist is not None:
         options["start_ndist"] = start_ndist
-    observation, reset_info = env.reset(options=options)
-    observations: dict[str, list[np.ndarray]] = {name: [] for name in observation}
-    actions: list = []
-    log_probs: list[float] = []
-    rewards: list[float] = []
-    rows: list[dict] = []
-    info: dict = {}
+    recorder = EpisodeRecorder(*env.reset(options=options))
     while True:
-        action, log_prob = policy.act(observation, greedy=greedy, generator=generator, epsilon=epsilon)
-        for name, value in observation.items():
-            observations[name].append(value)
-        actions.append(action)
-        log_probs.append(log_prob)
-        observation, reward, terminated, truncated, info = env.step(action)
-        rewards.append(float(reward))
+        action, log_prob = policy.act(recorder.observation, greedy=greedy, generator=generator, epsilon=epsilon)
+        result = env.step(action)
         if on_step is not None:
-            on_step(observation, float(reward), info)
-        row = dict(info["simtrace"])
-        if simtrace_episode is not None:
-            row["episode"] = simtrace_episode
-        rows.append(row)
-        if terminated or truncated:
+            on_step(result[0], float(result[1]), result[4])
+        if recorder.record(action, log_prob, result):
             break
-    discrete = isinstance(actions[0], int | np.integer)
-    episode = Episode(
-        observations={name: np.stack(values) for name, values in observations.items()},
-        actions=np.asarray(actions, dtype=np.int64) if discrete else np.stack(actions).astype(np.float32),
-        rewards=np.asarray(rewards, dtype=np.float32),
-        log_probs=np.asarray(log_probs, dtype=np.float32),
+    return recorder.finish(
         policy_version=policy_version,
         worker_id=worker_id,
         world=world,
         episode_index=episode_index,
-        final_status=str(info.get("episode_status", rows[-1]["episode_status"])),
-        progress=float(info.get("progress", rows[-1]["progress"])),
-    )
-    lap_time_s = info.get("lap_time_s") if episode.final_status == "lap_complete" else None
-    return PlayedEpisode(
-        episode=episode,
-        simtrace_rows=tuple(rows),
-        final_status=episode.final_status,
-        progress=episode.progress,
-        start_time_s=float(reset_info["start_time_s"]),
-        end_time_s=float(rows[-1]["tstamp"]),
-        lap_time_s=None if lap_time_s is None else float(lap_time_s),
+        simtrace_episode=simtrace_episode,
     )

@@ -3,10 +3,11 @@ SAC, as model_metadata.json says), publish a checkpoint.
 
 One iteration k, top to bottom:
 1. announce checkpoint k on the control stream (it is already complete in the store);
-2. collect one batch per share from the episode stream (consumer group `trainer`): batches of an older
-   policy are dropped (PPO is strictly on-policy; SAC keeps a late batch of checkpoint k-1 in its replay memory
-   without counting it as a share, and drops older ones), a second batch for the same share is dropped (a
-   restarted or replaying worker), and a share whose worker has no heartbeat is re-assigned to a live worker;
+2. collect the iteration's E episodes (numbers 0..E-1, queued in Redis; workers claim them one by one, their own
+   DeepRacer share first, then whatever is left) from the episode stream (consumer group `trainer`): episodes of an
+   older policy are dropped (PPO is strictly on-policy; SAC keeps a late batch of checkpoint k-1 in its replay
+   memory without counting it, and drops older ones), a second copy of an episode number is dropped, and the
+   claims of a worker with no heartbeat go back to the queue for a live worker;
 3. print DeepRacer's `Training>` line per episode, run the clipped-PPO update, print `Policy training>` lines;
 4. save checkpoint k+1 to the store (files first, then `.coach_checkpoint`), then acknowledge the batches.
 A trainer killed at any point restarts from the newest checkpoint: unacknowledged batches are read again.
@@ -38,7 +39,7 @@ from racer.shared.policy.factory import build_network_for_metadata
 from racer.shared.policy.sac_networks import SACNetworks
 from racer.shared.redis_connection import RedisLink, RedisUnavailableError
 from racer.shared.store import ObjectNotFoundError, open_store
-from racer.shared.transport.channels import ReceivedBatch, RunChannel, share_sizes
+from racer.shared.transport.channels import ReceivedBatch, RunChannel
 from racer.shared.worker_settings import WorkerSettings
 from racer.trainer.memory_cap import cap_episodes, default_max_memory_steps, global_episode_order
 from racer.trainer.ppo import (
@@ -223,13 +224,16 @@ class Trainer:
 
     # ---- one iteration -----------------------------------------------------------------------------
     def collect(self, iteration: int) -> dict[int, ReceivedBatch]:
-        sizes = share_sizes(self.hyperparameters.num_episodes_between_training, self.options.num_workers)
-        expected = {share for share, size in enumerate(sizes) if size > 0}
+        """The iteration's E episodes, by episode number. Workers claim them from Redis lists (see
+        racer.shared.transport.channels); the claims of a worker whose heartbeat lapsed go back to the queue, and a
+        live worker plays them."""
+        num_workers = self.options.num_workers
+        expected = set(range(self.hyperparameters.num_episodes_between_training))
         got: dict[int, ReceivedBatch] = {}
-        replays: dict[int, tuple[int, float]] = {}
         waiting_since = time.monotonic()
         next_notice = waiting_since + 60
         next_announcement_check = waiting_since + self.options.announcement_check_s
+        next_reconcile = waiting_since + self.options.dead_worker_grace_s
 
         def consider(received: ReceivedBatch) -> None:
             batch = received.batch
@@ -252,7 +256,7 @@ class Trainer:
                 self.channel.ack(received.stream_id)
             elif batch.share in got or batch.share not in expected:
                 log.info(
-                    "dropping a duplicate batch for share %d of iteration %d from worker %d",
+                    "dropping a duplicate of episode %d of iteration %d from worker %d",
                     batch.share,
                     iteration,
                     batch.worker_id,
@@ -261,6 +265,11 @@ class Trainer:
             else:
                 got[batch.share] = received
                 self.channel.mark_received(iteration, batch.share)
+
+        def read_all_now() -> None:
+            while received := self.channel.read_batches(self.consumer, block_s=0.001):
+                for item in received:
+                    consider(item)
 
         for received in self.channel.read_batches(self.consumer, 0, pending=True):
             consider(received)
@@ -275,29 +284,37 @@ class Trainer:
             now = time.monotonic()
             live = self.channel.live_workers()
             if now - waiting_since > self.options.dead_worker_grace_s:
-                for share in missing:
-                    target, _since = replays.get(share, (share, waiting_since))
-                    if target in live:
+                for worker_id in range(num_workers):
+                    if worker_id in live:
                         continue
-                    busy = {t for t, _ in replays.values()}
-                    candidates = [w for w in sorted(live) if w not in busy] or sorted(live)
-                    if not candidates:
-                        continue
-                    replays[share] = (candidates[0], now)
+                    released = self.channel.release_claims(iteration, worker_id)
+                    if released:
+                        log.warning(
+                            "worker %d has no heartbeat: its episodes %s of iteration %d go back to the queue and "
+                            "a live worker replays it",
+                            worker_id,
+                            released,
+                            iteration,
+                        )
+                        self.channel.request_replay(iteration)
+            if now > next_reconcile:
+                next_reconcile = now + 10.0
+                queued, claimed = self.channel.queued_and_claimed(iteration, num_workers)
+                read_all_now()  # anything delivered before the snapshot is in the stream now
+                held = queued.union(*claimed.values())
+                lost = sorted(expected - got.keys() - held)
+                if lost:
                     log.warning(
-                        "worker %d (share %d of iteration %d) has no heartbeat; worker %d replays it",
-                        share,
-                        share,
-                        iteration,
-                        candidates[0],
+                        "episodes %s of iteration %d are nowhere in Redis; queueing them again", lost, iteration
                     )
-                    self.channel.request_replay(iteration, share, candidates[0])
+                    self.channel.requeue(iteration, lost, num_workers)
+                    self.channel.request_replay(iteration)
             if now > next_announcement_check:
                 next_announcement_check = now + self.options.announcement_check_s
                 self._announce_again_if_lost(iteration)
             if now > next_notice:
                 log.info(
-                    "iteration %d: waiting for the episodes of shares %s (live workers %s)",
+                    "iteration %d: waiting for episodes %s (live workers %s)",
                     iteration,
                     missing,
                     sorted(live),
@@ -328,12 +345,13 @@ class Trainer:
             "the announcement of iteration %d is no longer in Redis (restarted without it?); announcing it again",
             iteration,
         )
-        self.channel.announce_iteration(
-            iteration,
-            self.checkpoints.latest_name(),
-            self.hyperparameters.num_episodes_between_training,
-            self.options.num_workers,
-        )
+        self._announce(iteration, self.checkpoints.latest_name())
+
+    def _announce(self, iteration: int, checkpoint: str) -> None:
+        """Queue the iteration's episodes (once), then tell the workers."""
+        episodes = self.hyperparameters.num_episodes_between_training
+        self.channel.open_episodes(iteration, episodes, self.options.num_workers)
+        self.channel.announce_iteration(iteration, checkpoint, episodes, self.options.num_workers)
 
     def _memory_cap(self) -> int | None:
         if self.options.max_memory_steps is not None:
@@ -490,10 +508,7 @@ class Trainer:
     def _iterate(self, iteration: int) -> None:
         """Announce, collect, train and save one iteration (`self.iteration` moves on once its checkpoint is
         saved)."""
-        name = self.checkpoints.latest_name()
-        self.channel.announce_iteration(
-            iteration, name, self.hyperparameters.num_episodes_between_training, self.options.num_workers
-        )
+        self._announce(iteration, self.checkpoints.latest_name())
         announced = time.monotonic()
         batches = self.collect(iteration)
         summary = self.train_iteration(iteration, batches, time.monotonic() - announced)
@@ -501,6 +516,7 @@ class Trainer:
         self.iteration = iteration + 1
         self._record_summary(summary)
         self.channel.ack(*[b.stream_id for b in batches.values()])
+        self.channel.forget_iteration(iteration, self.options.num_workers)
 
     def _start_time_limit(self) -> threading.Timer | None:
         """`max_minutes` as a timer on the stop event: honoured while the trainer waits for episodes or for Redis,

@@ -4,27 +4,56 @@ A rollout worker chooses one action per frame; for one 120x160 frame the shallow
 dominated by framework overhead, which ONNX Runtime mostly avoids (the README's benchmarks give the figures).
 Action choice itself is `networks.select_action`, so
 sampling, argmax and e-greedy behave exactly as `ActorCritic.act`.
+
+The exported graph (`model_<N>.onnx`) declares batch 1, as DeepRacer's car model does; its operators (Conv, Flatten,
+Gemm, Softmax) do not depend on the batch, so the session is built from a copy whose batch dimension is declared
+free. `act_batch` then picks the actions of several envs with one forward pass (cheaper per frame than one call per
+env), and each row's output equals what a batch-1 call gives (tests/policy/test_onnx_policy.py).
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 
 import numpy as np
+import onnx
 import onnxruntime
 import torch
 
 from racer.shared.policy.networks import CategoricalPolicy, GaussianPolicy, PolicyConfig, select_action
 
 
+def _free_batch(onnx_bytes: bytes) -> bytes:
+    """The same graph with its inputs' and outputs' first dimension declared as a free `batch`."""
+    model = onnx.load_from_string(onnx_bytes)
+    for value in (*model.graph.input, *model.graph.output):
+        value.type.tensor_type.shape.dim[0].dim_param = "batch"
+    return model.SerializeToString()
+
+
+def _session(onnx_bytes: bytes) -> onnxruntime.InferenceSession:
+    options = onnxruntime.SessionOptions()
+    options.intra_op_num_threads = 1
+    options.inter_op_num_threads = 1
+    options.graph_optimization_level = onnxruntime.GraphOptimizationLevel.ORT_ENABLE_ALL
+    return onnxruntime.InferenceSession(_free_batch(onnx_bytes), options, providers=["CPUExecutionProvider"])
+
+
+def _feed(inputs: Mapping[str, tuple[int, ...]], observations: Sequence[Mapping[str, np.ndarray]]) -> dict:
+    feed = {}
+    for name, shape in inputs.items():
+        arrays = [np.asarray(observation[name]) for observation in observations]
+        for array in arrays:
+            if tuple(array.shape) != shape:
+                raise ValueError(f"observation {name!r} has shape {array.shape}, the model expects {shape}")
+        feed[name] = np.stack(arrays).astype(np.float32)
+    return feed
+
+
 class OnnxPolicy:
     def __init__(self, onnx_bytes: bytes, config: PolicyConfig, log_std: torch.Tensor | None = None):
         """`log_std` (continuous policies): the network's clipped log-std parameter, shape (2,)."""
-        options = onnxruntime.SessionOptions()
-        options.intra_op_num_threads = 1
-        options.inter_op_num_threads = 1
-        options.graph_optimization_level = onnxruntime.GraphOptimizationLevel.ORT_ENABLE_ALL
-        self._session = onnxruntime.InferenceSession(onnx_bytes, options, providers=["CPUExecutionProvider"])
+        self._session = _session(onnx_bytes)
         self.config = config
         self._inputs = {spec.name: spec.shape for spec in config.inputs}
         self._continuous = config.is_continuous
@@ -36,16 +65,22 @@ class OnnxPolicy:
         """For symmetry with ActorCritic (an inference session has no training mode)."""
         return self
 
+    def policy_outputs(self, observations: Sequence[Mapping[str, np.ndarray]]) -> np.ndarray:
+        """One forward pass for several observations: shape (len(observations), num_actions)."""
+        (output,) = self._session.run(None, _feed(self._inputs, observations))
+        return output
+
     def policy_output(self, observation: Mapping[str, np.ndarray]) -> np.ndarray:
         """Action probabilities (discrete) or the Gaussian mean (continuous, DeepRacer's linear head), shape (num_actions,)."""
-        feed = {}
-        for name, shape in self._inputs.items():
-            array = np.asarray(observation[name])
-            if tuple(array.shape) != shape:
-                raise ValueError(f"observation {name!r} has shape {array.shape}, the model expects {shape}")
-            feed[name] = array[None].astype(np.float32)
-        (output,) = self._session.run(None, feed)
-        return output[0]
+        return self.policy_outputs([observation])[0]
+
+    def _select(self, output: np.ndarray, greedy: bool, generator, epsilon: float) -> tuple[int | np.ndarray, float]:
+        row = torch.from_numpy(output[None])
+        if self._continuous:
+            distribution = GaussianPolicy(mean=row, log_std=self._log_std)
+        else:
+            distribution = CategoricalPolicy(probs=row)
+        return select_action(distribution, greedy, generator, epsilon)
 
     def act(
         self,
@@ -54,12 +89,22 @@ class OnnxPolicy:
         generator: np.random.Generator | None = None,
         epsilon: float = 0.0,
     ) -> tuple[int | np.ndarray, float]:
-        output = torch.from_numpy(self.policy_output(observation)[None])
-        if self._continuous:
-            distribution = GaussianPolicy(mean=output, log_std=self._log_std)
-        else:
-            distribution = CategoricalPolicy(probs=output)
-        return select_action(distribution, greedy, generator, epsilon)
+        return self._select(self.policy_output(observation), greedy, generator, epsilon)
+
+    def act_batch(
+        self,
+        observations: Sequence[Mapping[str, np.ndarray]],
+        greedy: bool,
+        generators: Sequence[np.random.Generator],
+        epsilons: Sequence[float],
+    ) -> list[tuple[int | np.ndarray, float]]:
+        """`act` for several envs with one forward pass; row i samples with `generators[i]` and `epsilons[i]`, so each
+        env's actions are the ones `act` would give it alone."""
+        outputs = self.policy_outputs(observations)
+        return [
+            self._select(output, greedy, generator, epsilon)
+            for output, generator, epsilon in zip(outputs, generators, epsilons, strict=True)
+        ]
 
 
 class SacOnnxPolicy:
@@ -67,29 +112,19 @@ class SacOnnxPolicy:
     training samples a = tanh(mean + std * N(0, 1)) from the `policy_mean` and `policy_log_std` outputs."""
 
     def __init__(self, onnx_bytes: bytes, config: PolicyConfig):
-        options = onnxruntime.SessionOptions()
-        options.intra_op_num_threads = 1
-        options.inter_op_num_threads = 1
-        options.graph_optimization_level = onnxruntime.GraphOptimizationLevel.ORT_ENABLE_ALL
-        self._session = onnxruntime.InferenceSession(onnx_bytes, options, providers=["CPUExecutionProvider"])
+        self._session = _session(onnx_bytes)
         self.config = config
         self._inputs = {spec.name: spec.shape for spec in config.inputs}
 
     def eval(self) -> SacOnnxPolicy:
         return self
 
-    def _outputs(self, observation: Mapping[str, np.ndarray]) -> list[np.ndarray]:
-        feed = {}
-        for name, shape in self._inputs.items():
-            array = np.asarray(observation[name])
-            if tuple(array.shape) != shape:
-                raise ValueError(f"observation {name!r} has shape {array.shape}, the model expects {shape}")
-            feed[name] = array[None].astype(np.float32)
-        return self._session.run(None, feed)
+    def _outputs(self, observations: Sequence[Mapping[str, np.ndarray]]) -> list[np.ndarray]:
+        return self._session.run(None, _feed(self._inputs, observations))
 
     def policy_output(self, observation: Mapping[str, np.ndarray]) -> np.ndarray:
         """The deterministic action tanh(mean) in [-1, 1], shape (2,)."""
-        return self._outputs(observation)[0][0]
+        return self._outputs([observation])[0][0]
 
     def act(
         self,
@@ -98,11 +133,28 @@ class SacOnnxPolicy:
         generator: np.random.Generator | None = None,
         epsilon: float = 0.0,
     ) -> tuple[np.ndarray, float]:
+        return self.act_batch([observation], greedy, [generator], [epsilon])[0]
+
+    def act_batch(
+        self,
+        observations: Sequence[Mapping[str, np.ndarray]],
+        greedy: bool,
+        generators: Sequence[np.random.Generator | None],
+        epsilons: Sequence[float],
+    ) -> list[tuple[np.ndarray, float]]:
+        """`act` for several envs with one forward pass (row i samples with `generators[i]`)."""
+        outputs = self._outputs(observations)
+        return [
+            self._act_row(*(output[i].astype(np.float64) for output in outputs), greedy, generator, epsilon)
+            for i, (generator, epsilon) in enumerate(zip(generators, epsilons, strict=True))
+        ]
+
+    @staticmethod
+    def _act_row(deterministic, mean, log_std, greedy: bool, generator, epsilon: float) -> tuple[np.ndarray, float]:
         from racer.shared.policy.sac_networks import squashed_gaussian_log_prob
 
         if epsilon > 0.0:
             raise ValueError("e-greedy exploration is for discrete action spaces; SAC samples its squashed Gaussian")
-        deterministic, mean, log_std = (output[0].astype(np.float64) for output in self._outputs(observation))
         if greedy:
             return deterministic.astype(np.float32), 0.0
         rng = generator if generator is not None else np.random.default_rng()

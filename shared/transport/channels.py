@@ -4,9 +4,12 @@ Keys (all under `racer:<run>:`, `<run>` = the model prefix):
 
 | key | type | written by | meaning |
 |---|---|---|---|
-| `control` | stream | trainer | announcements: `iteration` (checkpoint k is ready, play it), `replay` (worker r: also play share j), `finished` |
-| `episodes` | stream, consumer group `trainer` | workers | one entry per (iteration, share): an `EpisodeBatch` (codec.py) |
-| `received:<k>` | set | trainer | shares of iteration k the trainer already holds (a restarted worker skips these) |
+| `control` | stream | trainer | announcements: `iteration` (checkpoint k is ready, play it), `replay` (episodes went back to the queue: claim them), `finished` |
+| `todo:<k>:<w>` | list | trainer, workers | episode numbers of iteration k not yet claimed, first those of worker w's DeepRacer share |
+| `claimed:<k>:<w>` | list | workers, trainer | episodes worker w is playing; they go back to a todo list when its heartbeat lapses |
+| `opened:<k>` | string | trainer | the todo lists of iteration k were filled (once) |
+| `episodes` | stream, consumer group `trainer` | workers | one entry per episode of iteration k: an `EpisodeBatch` (codec.py) whose `share` is the episode number |
+| `received:<k>` | set | trainer | episode numbers of iteration k the trainer already holds |
 | `heartbeat:<worker>` | string with TTL | workers | JSON status (state, iteration, episodes, steps/s); absent = dead |
 | `evaluations` | stream | worker 0 | greedy evaluation results per checkpoint |
 | `iterations` | stream | trainer | per-iteration training summary (for progress displays and benchmarks) |
@@ -33,6 +36,17 @@ log = logging.getLogger(__name__)
 TRAINER_GROUP = "trainer"
 HEARTBEAT_TTL_S = 15
 STREAM_MAX_ENTRIES = 10_000
+CLAIM_KEYS_TTL_S = 7 * 24 * 3600
+
+# Fills the todo lists of one iteration exactly once (also when the trainer announces it again after a restart):
+# episode e goes to the list of worker e mod W, the SimApp's split (worker i plays episodes i, i+W, ...).
+_OPEN_EPISODES = """
+if not redis.call('SET', KEYS[1], '1', 'NX', 'EX', ARGV[1]) then return 0 end
+local workers = #KEYS - 1
+for e = 0, tonumber(ARGV[2]) - 1 do redis.call('RPUSH', KEYS[2 + e % workers], e) end
+for i = 2, #KEYS do redis.call('EXPIRE', KEYS[i], ARGV[1]) end
+return 1
+"""
 
 
 @dataclass(frozen=True)
@@ -89,9 +103,99 @@ class RunChannel:
         }
         self.link.do(lambda r: r.xadd(self.key("control"), fields, maxlen=STREAM_MAX_ENTRIES, approximate=True))
 
-    def request_replay(self, iteration: int, share: int, target_worker: int) -> None:
+    def request_replay(self, iteration: int, share: int = -1, target_worker: int = -1) -> None:
+        """Wake idle workers: episodes of `iteration` went back to the queue (`target_worker` -1: any worker)."""
         fields = {"kind": "replay", "iteration": iteration, "share": share, "target_worker": target_worker}
         self.link.do(lambda r: r.xadd(self.key("control"), fields, maxlen=STREAM_MAX_ENTRIES, approximate=True))
+
+    # ---- claimed episodes -----------------------------------------------------------------------
+    def _todo(self, iteration: int, worker_id: int) -> str:
+        return self.key(f"todo:{iteration}:{worker_id}")
+
+    def _claimed(self, iteration: int, worker_id: int) -> str:
+        return self.key(f"claimed:{iteration}:{worker_id}")
+
+    def open_episodes(self, iteration: int, episodes: int, num_workers: int) -> bool:
+        """Queue episodes 0..E-1 of an iteration, once; False when they were already queued."""
+        keys = [self.key(f"opened:{iteration}")] + [self._todo(iteration, w) for w in range(num_workers)]
+        return bool(self.link.do(lambda r: r.eval(_OPEN_EPISODES, len(keys), *keys, CLAIM_KEYS_TTL_S, episodes)))
+
+    def claim_own(self, iteration: int, worker_id: int) -> int | None:
+        """The next episode of worker `worker_id`'s own share, now held in its claimed list; None when none is left."""
+        todo, claimed = self._todo(iteration, worker_id), self._claimed(iteration, worker_id)
+        number = self.link.do(lambda r: r.lmove(todo, claimed, "LEFT", "RIGHT"))
+        return None if number is None else int(number)
+
+    def claim_other(self, iteration: int, worker_id: int, num_workers: int) -> int | None:
+        """An unclaimed episode of another worker's share (the last of the longest queue): for a worker whose own
+        share is done. None when every episode of the iteration is claimed."""
+        claimed = self._claimed(iteration, worker_id)
+        while True:
+            lengths = self.link.do(lambda r: self._lengths(r, iteration, num_workers))
+            longest = max(range(num_workers), key=lambda w: lengths[w])
+            if lengths[longest] == 0:
+                return None
+            source = self._todo(iteration, longest)
+            number = self.link.do(lambda r, source=source: r.lmove(source, claimed, "RIGHT", "RIGHT"))
+            if number is not None:
+                return int(number)
+
+    def _lengths(self, r: redis.Redis, iteration: int, num_workers: int) -> list[int]:
+        pipe = r.pipeline(transaction=False)
+        for w in range(num_workers):
+            pipe.llen(self._todo(iteration, w))
+        return pipe.execute()
+
+    def deliver_episode(self, batch: EpisodeBatch) -> None:
+        """Push one claimed episode and drop its claim in one transaction: an episode is always either claimed,
+        queued or delivered, whenever a worker dies."""
+        payload = encode_batch(batch)
+        fields = {"iteration": batch.iteration, "share": batch.share, "worker_id": batch.worker_id, "payload": payload}
+        claimed = self._claimed(batch.iteration, batch.worker_id)
+
+        def deliver(r: redis.Redis) -> None:
+            pipe = r.pipeline(transaction=True)
+            pipe.xadd(self.key("episodes"), fields, maxlen=STREAM_MAX_ENTRIES, approximate=True)
+            pipe.lrem(claimed, 1, batch.share)
+            pipe.execute()
+
+        self.link.do(deliver)
+
+    def release_claims(self, iteration: int, worker_id: int) -> list[int]:
+        """Put the episodes worker `worker_id` holds back at the front of its queue (it died, or restarted holding
+        nothing); returns their numbers."""
+        todo, claimed = self._todo(iteration, worker_id), self._claimed(iteration, worker_id)
+        released = []
+        while (number := self.link.do(lambda r: r.lmove(claimed, todo, "RIGHT", "LEFT"))) is not None:
+            released.append(int(number))
+        return released
+
+    def queued_and_claimed(self, iteration: int, num_workers: int) -> tuple[set[int], dict[int, set[int]]]:
+        """One consistent snapshot: unclaimed episode numbers, and the claimed ones by worker."""
+
+        def snapshot(r: redis.Redis):
+            pipe = r.pipeline(transaction=True)
+            for w in range(num_workers):
+                pipe.lrange(self._todo(iteration, w), 0, -1)
+                pipe.lrange(self._claimed(iteration, w), 0, -1)
+            return pipe.execute()
+
+        lists = self.link.do(snapshot)
+        queued = {int(n) for todo in lists[0::2] for n in todo}
+        claimed = {w: {int(n) for n in lists[2 * w + 1]} for w in range(num_workers)}
+        return queued, claimed
+
+    def requeue(self, iteration: int, numbers: list[int], num_workers: int) -> None:
+        """Queue lost episode numbers again (Redis restarted without the newest writes)."""
+        for number in numbers:
+            self.link.do(lambda r, n=number: r.rpush(self._todo(iteration, n % num_workers), n))
+
+    def forget_iteration(self, iteration: int, num_workers: int) -> None:
+        """Drop an iteration's queues once it is trained."""
+        keys = [self.key(f"opened:{iteration}")]
+        keys += [self._todo(iteration, w) for w in range(num_workers)]
+        keys += [self._claimed(iteration, w) for w in range(num_workers)]
+        self.link.do(lambda r: r.delete(*keys))
 
     def announce_finished(self, iteration: int) -> None:
         fields = {"kind": "finished", "iteration": iteration}
