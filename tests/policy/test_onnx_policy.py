@@ -54,3 +54,29 @@ def test_wrong_observation_shape_is_a_clear_error(tmp_path):
     policy = checkpoints.load_inference_policy(name)
     with pytest.raises(ValueError, match="FRONT_FACING_CAMERA.*expects"):
         policy.act({"FRONT_FACING_CAMERA": np.zeros((60, 80, 1), np.uint8), "LIDAR": np.zeros(64, np.float32)}, True)
+
+
+@pytest.mark.parametrize("metadata_json", [DISCRETE, CONTINUOUS], ids=["discrete+lidar", "continuous"])
+def test_a_batched_call_gives_each_row_what_a_call_alone_gives(tmp_path, metadata_json):
+    """Workers pick the actions of several envs with one forward pass; an env must act as it would alone."""
+    torch.manual_seed(0)
+    metadata = parse_model_metadata(metadata_json)
+    checkpoints = CheckpointStore(LocalStore(tmp_path), "m")
+    name = checkpoints.save(0, 0, build_actor_critic(metadata), model_metadata=metadata)
+    policy = checkpoints.load_inference_policy(name)
+    rng = np.random.default_rng(2)
+    observations = []
+    for _ in range(5):
+        observation = {"FRONT_FACING_CAMERA": rng.integers(0, 255, (120, 160, 1), dtype=np.uint8)}
+        if "LIDAR" in metadata.sensors:
+            observation["LIDAR"] = rng.uniform(0.15, 1.0, 64).astype(np.float32)
+        observations.append(observation)
+    outputs = policy.policy_outputs(observations)
+    assert outputs.shape[0] == 5
+    for row, observation in zip(outputs, observations, strict=True):
+        np.testing.assert_array_equal(row, policy.policy_output(observation))
+    batched = policy.act_batch(observations, False, [np.random.default_rng(i) for i in range(5)], [0.0] * 5)
+    alone = [policy.act(o, False, np.random.default_rng(i)) for i, o in enumerate(observations)]
+    for (action, log_prob), (expected_action, expected_log_prob) in zip(batched, alone, strict=True):
+        np.testing.assert_array_equal(np.asarray(action), np.asarray(expected_action))
+        assert log_prob == expected_log_prob
