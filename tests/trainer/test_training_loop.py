@@ -330,3 +330,76 @@ def test_the_iteration_summary_has_each_worlds_experience_rate(redis_settings, t
     assert summary["worlds"]["base"]["steps_per_s"] == 100.0  # one worker, not counted once per episode
     assert summary["worlds"]["carpet"]["steps_per_s"] == 100.5
     assert summary["experience_steps_per_s"] == 40 / 2.0
+
+
+def test_an_episode_claimed_by_a_worker_killed_while_holding_it_is_played_by_another(
+    redis_settings, tmp_path, custom_files
+):
+    """Claimed work: a worker process claims episode 1 (its own share) and is killed -9 before delivering it. Once its
+    heartbeat is gone the claim goes back to the queue; the live worker, done with its own share, claims and
+    delivers it. The iteration gets exactly episodes 0 and 1, nothing lost, nothing twice."""
+    import signal
+    import subprocess
+    import sys
+    import threading
+
+    trainer = make_trainer(redis_settings, tmp_path, custom_files, dead_worker_grace_s=0.5)
+    assert trainer.setup() == 0
+    trainer._announce(0, trainer.checkpoints.latest_name())
+    channel = RunChannel(RedisLink(redis_settings), PREFIX)
+    victim_code = (
+        "import sys, time\n"
+        "from racer.shared.config import RedisSettings\n"
+        "from racer.shared.redis_connection import RedisLink\n"
+        "from racer.shared.transport.channels import RunChannel\n"
+        f"channel = RunChannel(RedisLink(RedisSettings(url={redis_settings.url!r})), {PREFIX!r})\n"
+        "channel.beat(1, {'state': 'playing'})\n"
+        "print(channel.claim_own(0, 1), flush=True)\n"
+        "time.sleep(600)\n"
+    )
+    victim = subprocess.Popen([sys.executable, "-c", victim_code], stdout=subprocess.PIPE, text=True)
+    assert victim.stdout.readline().strip() == "1"  # it holds episode 1
+    victim.send_signal(signal.SIGKILL)
+    victim.wait()
+    channel.link.do(lambda r: r.delete(channel.key("heartbeat:1")))  # its heartbeat lapses (TTL cut short)
+
+    delivered = []
+    stop = threading.Event()
+
+    def live_worker() -> None:  # worker 0: its own episode, then whatever goes back to the queue
+        while not stop.is_set():
+            channel.beat(0, {"state": "playing"})
+            number = channel.claim_own(0, 0)
+            if number is None:
+                number = channel.claim_other(0, 0, 2)
+            if number is None:
+                time.sleep(0.1)
+                continue
+            delivered.append(number)
+            channel.deliver_episode(batch(iteration=0, share=number, worker_id=0, policy_version=0, seed=10 + number))
+
+    thread = threading.Thread(target=live_worker, daemon=True)
+    thread.start()
+    try:
+        got = trainer.collect(0)
+    finally:
+        stop.set()
+        thread.join(5)
+    assert sorted(got) == [0, 1]
+    assert delivered == [0, 1]
+    assert {received.batch.worker_id for received in got.values()} == {0}
+    queued, claimed = channel.queued_and_claimed(0, 2)
+    assert not queued and not any(claimed.values())
+
+
+def test_a_finished_worker_claims_episodes_of_a_slower_one_only_after_its_own(redis_settings):
+    channel = RunChannel(RedisLink(redis_settings), "claims-model")
+    assert channel.open_episodes(3, episodes=6, num_workers=2)
+    assert not channel.open_episodes(3, episodes=6, num_workers=2)  # an announcement repeated: queued once
+    assert [channel.claim_own(3, 0) for _ in range(4)] == [0, 2, 4, None]  # worker 0's DeepRacer share
+    assert channel.claim_own(3, 1) == 1
+    assert channel.claim_other(3, 0, 2) == 5  # the last of the longest queue
+    assert channel.claim_other(3, 0, 2) == 3
+    assert channel.claim_other(3, 0, 2) is None
+    assert channel.release_claims(3, 1) == [1]
+    assert channel.queued_and_claimed(3, 2) == ({1}, {0: {0, 2, 4, 5, 3}, 1: set()})
