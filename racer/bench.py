@@ -35,6 +35,10 @@ BENCHMARKS: dict[str, tuple[str, str]] = {
         "racer.local_run:time_to_lap_command",
         "Minutes from scratch until greedy evaluation completes 3 of 3 laps.",
     ),
+    "throughput": (
+        "racer.throughput_bench:throughput_bench_command",
+        "The default system's experience steps/s vs one raw env process per core, and the ratio.",
+    ),
     "viewer": ("racer.viewer.bench:viewer_bench_command", "Experience steps/s with one live viewer page open vs none."),
 }
 

@@ -172,7 +172,7 @@ class LocalRun:
                     str(worker_id),
                     "--seed",
                     str(plan.seed + worker_id),
-                    *(["--envs", str(plan.envs_per_worker)] if plan.envs_per_worker else []),
+                    *self._envs_args(),
                 ],
             )
         if plan.viewer_port is not None:
@@ -180,6 +180,9 @@ class LocalRun:
                 VIEWER,
                 ["view", "--live", plan.model_prefix, "--host", plan.viewer_host, "--port", str(plan.viewer_port)],
             )
+
+    def _envs_args(self) -> list[str]:
+        return ["--envs", str(self.plan.envs_per_worker)] if self.plan.envs_per_worker else []
 
     def restart_worker(self, worker_id: int) -> None:
         self._spawn(
@@ -192,6 +195,7 @@ class LocalRun:
                 str(worker_id),
                 "--seed",
                 str(self.plan.seed + worker_id + 1000),
+                *self._envs_args(),
             ],
         )
 

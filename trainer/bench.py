@@ -13,7 +13,9 @@ towers under bf16 autocast (`PPOSettings.bf16_towers`; `--fp32` turns it off to 
 path is compiled (torch.compile measured ~20 % slower, so there is no compile time to amortise).
 A small untimed warm-up update runs first on each path (oneDNN primitive creation). With `--repeats` > 1 the two
 paths alternate and medians are reported; `*_cpu_s` are process CPU seconds (OpenMP spin-waits included), less
-sensitive than wall time to other processes on the same cores.
+sensitive than wall time to other processes on the same cores. `update_share_of_iteration`: the update's share of
+an iteration that first collects the same transitions at `--experience-steps-per-s` (the workers wait meanwhile:
+PPO is on-policy); `racer bench throughput` measures the same share in a real run.
 """
 
 from __future__ import annotations
@@ -50,6 +52,9 @@ from racer.trainer.ppo import (
 )
 
 __all__ = ["bench_network", "plain_ppo_update", "ppo_bench_command", "synthetic_episodes"]
+
+DEFAULT_EXPERIENCE_STEPS_PER_S = 800.0
+"""Roughly what `racer bench throughput` gives the default system on 2 cores; pass the figure of your machine."""
 
 EPISODE_STEPS = 100
 """Synthetic episodes are 100 steps long (DeepRacer's are 20-300), so GAE sees many episode boundaries."""
@@ -188,8 +193,22 @@ def _time_baseline(
 @click.option("--repeats", default=1, show_default=True, help="Timed runs per path (alternating); medians reported.")
 @click.option("--seed", default=0, show_default=True)
 @click.option("--fp32", is_flag=True, help="Keep the trainer's towers in fp32 even where the CPU has native bf16.")
+@click.option(
+    "--experience-steps-per-s",
+    default=DEFAULT_EXPERIENCE_STEPS_PER_S,
+    show_default=True,
+    help="The system's experience rate (`racer bench throughput`), for the update's share of an iteration.",
+)
 def ppo_bench_command(
-    transitions: int, epochs: int, batch_size: int, num_actions: int, threads: int, repeats: int, seed: int, fp32: bool
+    transitions: int,
+    epochs: int,
+    batch_size: int,
+    num_actions: int,
+    threads: int,
+    repeats: int,
+    seed: int,
+    fp32: bool,
+    experience_steps_per_s: float,
 ) -> None:
     """One PPO update: samples/s of the project trainer vs a plain fp32 eager baseline, as one JSON line."""
     hp = Hyperparameters(
@@ -228,6 +247,11 @@ def ppo_bench_command(
                 "samples_per_s": round(samples / trainer_median, 1),
                 "baseline_samples_per_s": round(samples / baseline_median, 1),
                 "speedup": round(baseline_median / trainer_median, 3),
+                # An iteration = collecting the transitions at the system's rate, then this update.
+                "update_share_of_iteration": round(
+                    trainer_median / (trainer_median + transitions / experience_steps_per_s), 3
+                ),
+                "experience_steps_per_s": experience_steps_per_s,
                 "trainer_s": [round(s, 2) for s in trainer_s],
                 "baseline_s": [round(s, 2) for s in baseline_s],
                 "trainer_cpu_s": [round(s, 2) for s in trainer_cpu_s],

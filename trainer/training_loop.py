@@ -391,6 +391,7 @@ class Trainer:
             stop_seen[:] = stop_seen or [time.monotonic()]
             return time.monotonic() - stop_seen[0] > STOP_UPDATE_GRACE_S
 
+        update_started = time.monotonic()
         try:
             all_stats = self.learner.update(episodes, abandon=abandon)
         except UpdateAbandoned:
@@ -408,8 +409,14 @@ class Trainer:
                 else format_policy_training_line(stats)
             )
             print(line, flush=True)
+        update_s = time.monotonic() - update_started
         summary = self._summary(iteration, episodes, rollout_wall_s)
-        summary.update(episodes_dropped=len(capped.dropped), steps_dropped=capped.dropped_steps)
+        summary.update(
+            episodes_dropped=len(capped.dropped),
+            steps_dropped=capped.dropped_steps,
+            rollout_s=round(rollout_wall_s, 3),
+            update_s=round(update_s, 3),
+        )
         return summary
 
     def _summary(self, iteration: int, episodes: list[Episode], rollout_wall_s: float) -> dict:

@@ -116,6 +116,32 @@ def run_benchmark(steps: int = 3000, blocks: int = 6, seed: int = 0, full_resolu
     }
 
 
+def raw_rate_child(start_at_epoch_s: float, duration_s: float, seed: int = 0) -> None:
+    """One process of `racer bench throughput`'s machine bound: `run_benchmark`'s raw loop (physics + camera, no env
+    code, no policy) from `start_at_epoch_s` for `duration_s`, so that one such process per core runs at the same
+    time; prints one JSON line with its steps/s."""
+    env = DeepRacerEnv(EnvConfig())
+    try:
+        env.reset(seed=seed)
+        rng = np.random.default_rng(seed)
+        data = mujoco.MjData(env.model)
+        renderer = CameraRenderer(env.model, width_px=env.config.image_width_px, height_px=env.config.image_height_px)
+        starts = [env.track.pose_at(i / 20.0) for i in range(20)]
+        actions = env.config.model_metadata.discrete_actions
+        picks = rng.integers(len(actions), size=100)
+        commands = np.array([(actions[i].speed_mps, actions[i].steering_angle_deg) for i in picks])
+        _raw_block(env, data, renderer, starts, commands[:30])
+        time.sleep(max(0.0, start_at_epoch_s - time.time()))
+        steps, wall_s, cpu_s = 0, 0.0, 0.0
+        while wall_s < duration_s:
+            block_wall_s, block_cpu_s = _raw_block(env, data, renderer, starts, commands)
+            steps, wall_s, cpu_s = steps + len(commands), wall_s + block_wall_s, cpu_s + block_cpu_s
+        renderer.close()
+    finally:
+        env.close()
+    print(json.dumps({"steps_per_s": steps / wall_s, "cpu_ms_per_step": 1e3 * cpu_s / steps}), flush=True)
+
+
 @click.command("sim")
 @click.option("--steps", default=3000, show_default=True, help="Steps measured for each of env and raw bound.")
 @click.option("--seed", default=0, show_default=True)

@@ -1,0 +1,135 @@
+"""`racer bench throughput`: the default system's experience rate against the machine's bound, in one run.
+
+system: `racer train` as shipped (default workers, envs per worker, custom files, track; no viewer) for a fixed
+number of iterations. Its experience rate is the one the display prints: the training steps of an iteration over
+the time from the iteration's announcement until its last episode arrived, summed over the iterations after the
+first (the first includes building the envs). The end-to-end rate (the same steps over the wall time of those
+iterations, update and checkpoint included) is printed beside it.
+bound: one process per core (os.sched_getaffinity) running `racer bench sim`'s raw loop (physics and the 160x120
+camera, no env code, no policy) at the same time, measured before and after the system, averaged.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import click
+
+from racer.local_run import LocalRunPlan, _read_iteration_records, run_local_training, service_environment
+from racer.shared.batched_rollout import DEFAULT_ENVS_PER_WORKER, default_workers
+from racer.shared.config import LocalStoreSettings, RedisSettings, ServiceSettings
+from racer.shared.deepracer.hyperparameters import load_hyperparameters
+from racer.shared.services import PROJECT_ROOT
+from racer.shared.sim.config import DEFAULT_TRACK
+from racer.shared.sim.worlds import WORLD_NAMES
+
+BOUND_START_DELAY_S = 20.0
+"""Time the bound's processes get to build their scene before all start measuring together."""
+
+
+def machine_bound(processes: int, duration_s: float, settings: ServiceSettings) -> dict:
+    """Raw env steps/s of `processes` processes running at once (environment as the rollout workers get it)."""
+    start_at = time.time() + BOUND_START_DELAY_S
+    code = (
+        "from racer.shared.sim.bench import raw_rate_child; "
+        f"raw_rate_child({start_at!r}, {duration_s!r}, seed={{seed}})"
+    )
+    children = [
+        subprocess.Popen(
+            [sys.executable, "-c", code.format(seed=index)],
+            stdout=subprocess.PIPE,
+            text=True,
+            env=service_environment(settings),
+        )
+        for index in range(processes)
+    ]
+    rates = []
+    for child in children:
+        out, _ = child.communicate(timeout=BOUND_START_DELAY_S + duration_s + 120)
+        if child.returncode != 0:
+            raise click.ClickException(f"a raw-bound process failed with status {child.returncode}")
+        rates.append(json.loads(out.strip().splitlines()[-1]))
+    return {
+        "steps_per_s": sum(r["steps_per_s"] for r in rates),
+        "cpu_ms_per_step": sum(r["cpu_ms_per_step"] for r in rates) / len(rates),
+    }
+
+
+def system_rates(records: list[dict]) -> dict:
+    """Experience and end-to-end rates of the iterations after the first."""
+    later = records[1:]
+    if not later:
+        raise click.ClickException("the run finished fewer than 2 iterations; nothing to measure after the warm-up")
+    steps = [r["env_steps_total"] - previous["env_steps_total"] for previous, r in zip(records, later, strict=False)]
+    rollout_s = [step / max(r["experience_steps_per_s"], 1e-9) for step, r in zip(steps, later, strict=True)]
+    wall_s = later[-1]["elapsed_s"] - records[0]["elapsed_s"]
+    update_s = sum(r.get("update_s", 0.0) for r in later)
+    return {
+        "update_share_of_wall": update_s / wall_s,
+        "experience_steps_per_s": sum(steps) / sum(rollout_s),
+        "end_to_end_steps_per_s": sum(steps) / wall_s,
+        "rollout_share_of_wall": sum(rollout_s) / wall_s,
+        "steps_measured": sum(steps),
+    }
+
+
+@click.command("throughput")
+@click.option("--iterations", type=click.IntRange(2, 1000), default=5, show_default=True)
+@click.option("--workers", "num_workers", type=click.IntRange(1, 32), default=default_workers(), show_default=True)
+@click.option(
+    "--envs", "envs_per_worker", type=click.IntRange(1, 64), default=DEFAULT_ENVS_PER_WORKER, show_default=True
+)
+@click.option("--bound-seconds", type=float, default=20.0, show_default=True, help="Length of each bound measurement.")
+@click.option("--seed", type=int, default=0, show_default=True)
+def throughput_bench_command(iterations, num_workers, envs_per_worker, bound_seconds, seed) -> None:
+    """The default system's experience steps/s vs one raw env process per core; prints one JSON line."""
+    cores = len(os.sched_getaffinity(0))
+    workdir = Path(tempfile.mkdtemp(prefix="racer-throughput-"))
+    base = ServiceSettings(redis=RedisSettings(), store=LocalStoreSettings(root=workdir / "store"))
+    custom = PROJECT_ROOT / "custom_files"
+    episodes = load_hyperparameters(custom / "hyperparameters.json")[0].num_episodes_between_training
+    click.echo(f"bound: {cores} raw env processes for {bound_seconds:.0f} s ...", err=True)
+    before = machine_bound(cores, bound_seconds, base)
+    plan = LocalRunPlan(
+        model_prefix="throughput",
+        custom_files=custom,
+        num_workers=num_workers,
+        worlds=WORLD_NAMES,
+        track=DEFAULT_TRACK,
+        max_episodes=iterations * episodes,
+        max_minutes=None,
+        use_minio=False,
+        log_dir=workdir / "logs",
+        seed=seed,
+        envs_per_worker=envs_per_worker,
+    )
+    click.echo(f"system: {num_workers} workers x {envs_per_worker} envs, {iterations} iterations ...", err=True)
+    status = run_local_training(plan, base)
+    if status != 0:
+        raise click.ClickException(f"the training run failed (status {status}); logs in {plan.log_dir}")
+    rates = system_rates(_read_iteration_records(workdir / "store", plan))
+    click.echo(f"bound again for {bound_seconds:.0f} s ...", err=True)
+    after = machine_bound(cores, bound_seconds, base)
+    bound = (before["steps_per_s"] + after["steps_per_s"]) / 2
+    result = {
+        "experience_steps_per_s": round(rates["experience_steps_per_s"], 1),
+        "bound_steps_per_s": round(bound, 1),
+        "ratio": round(rates["experience_steps_per_s"] / bound, 3),
+        "end_to_end_steps_per_s": round(rates["end_to_end_steps_per_s"], 1),
+        "rollout_share_of_wall": round(rates["rollout_share_of_wall"], 3),
+        "update_share_of_wall": round(rates["update_share_of_wall"], 3),
+        "bound_before_after_steps_per_s": [round(before["steps_per_s"], 1), round(after["steps_per_s"], 1)],
+        "bound_processes": cores,
+        "workers": num_workers,
+        "envs_per_worker": envs_per_worker,
+        "iterations": iterations,
+        "steps_measured": rates["steps_measured"],
+        "load_average_1min": round(os.getloadavg()[0], 2),
+    }
+    click.echo(json.dumps(result))
