@@ -477,6 +477,20 @@ class ActorCritic(nn.Module):
         return select_action(distribution, greedy, generator, epsilon)
 
 
+def select_discrete_action(
+    probs: np.ndarray, greedy: bool, rng: np.random.Generator, epsilon: float = 0.0
+) -> tuple[int, float]:
+    """`select_action` for one row of action probabilities (float64), without building a torch distribution: the
+    rollout workers' per-step path."""
+    if epsilon > 0.0:
+        action = int(rng.integers(len(probs))) if rng.random() < epsilon else int(probs.argmax())
+    elif greedy:
+        action = int(probs.argmax())
+    else:
+        action = int(rng.choice(len(probs), p=probs / probs.sum()))
+    return action, float(np.log(probs[action]))
+
+
 def select_action(
     distribution: ActionDistribution,
     greedy: bool,
@@ -493,14 +507,7 @@ def select_action(
     """
     rng = generator if generator is not None else np.random.default_rng()
     if isinstance(distribution, CategoricalPolicy):
-        probs = distribution.probs[0].double().numpy()
-        if epsilon > 0.0:
-            action = int(rng.integers(len(probs))) if rng.random() < epsilon else int(probs.argmax())
-        elif greedy:
-            action = int(probs.argmax())
-        else:
-            action = int(rng.choice(len(probs), p=probs / probs.sum()))
-        return action, float(np.log(probs[action]))
+        return select_discrete_action(distribution.probs[0].double().numpy(), greedy, rng, epsilon)
     if epsilon > 0.0:
         raise ValueError("e-greedy exploration is for discrete action spaces; continuous policies sample a Gaussian")
     mean = distribution.mean[0].double().numpy()

@@ -20,7 +20,7 @@ import onnx
 import onnxruntime
 import torch
 
-from racer.shared.policy.networks import CategoricalPolicy, GaussianPolicy, PolicyConfig, select_action
+from racer.shared.policy.networks import GaussianPolicy, PolicyConfig, select_action, select_discrete_action
 
 
 def _free_batch(onnx_bytes: bytes) -> bytes:
@@ -75,12 +75,12 @@ class OnnxPolicy:
         return self.policy_outputs([observation])[0]
 
     def _select(self, output: np.ndarray, greedy: bool, generator, epsilon: float) -> tuple[int | np.ndarray, float]:
-        row = torch.from_numpy(output[None])
-        if self._continuous:
-            distribution = GaussianPolicy(mean=row, log_std=self._log_std)
-        else:
-            distribution = CategoricalPolicy(probs=row)
-        return select_action(distribution, greedy, generator, epsilon)
+        if not self._continuous:
+            rng = generator if generator is not None else np.random.default_rng()
+            return select_discrete_action(output.astype(np.float64), greedy, rng, epsilon)
+        return select_action(
+            GaussianPolicy(mean=torch.from_numpy(output[None]), log_std=self._log_std), greedy, generator, epsilon
+        )
 
     def act(
         self,
