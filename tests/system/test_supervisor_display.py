@@ -1,0 +1,53 @@
+"""`racer train`'s display says when a worker is down and when it is back (racer/supervisor.py), with a real
+redis-server for the heartbeats and real child processes."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+from racer.shared.redis_connection import RedisLink
+from racer.shared.transport.channels import RunChannel
+from racer.supervisor import RunSupervisor
+
+
+def test_the_display_shows_a_worker_down_and_back(redis_server, redis_settings):
+    channel = RunChannel(RedisLink(redis_settings), "display-model")
+    crashing = subprocess.Popen([sys.executable, "-c", "raise SystemExit(3)"])
+    crashing.wait(30)
+    children = {
+        "worker-0": crashing,
+        "worker-1": subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"]),
+    }
+    restarted = []
+
+    def restart_worker(worker_id: int) -> None:
+        children[f"worker-{worker_id}"] = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+        restarted.append(worker_id)
+
+    lines: list[str] = []
+    supervisor = RunSupervisor(redis_server, children, restart_worker, say=lines.append, num_workers=2)
+    try:
+        channel.beat(1, {"state": "playing"})
+        supervisor.check_processes()  # worker 0 exited with an error: down, restarted
+        supervisor.check_heartbeats(channel.live_workers())
+        assert lines == ["worker 0 is DOWN (exit status 3; restarting it)"]
+        assert restarted == [0]
+
+        channel.beat(0, {"state": "playing"})  # the restarted worker's first heartbeat
+        supervisor.check_processes()
+        supervisor.check_heartbeats(channel.live_workers())
+        assert lines[1:] == ["worker 0 is back (down 0 s)"]
+
+        channel.link.do(lambda r: r.delete(channel.key("heartbeat:1")))  # worker 1 stuck: its heartbeat lapses
+        supervisor.check_processes()
+        supervisor.check_heartbeats(channel.live_workers())
+        assert lines[2:] == ["worker 1 is DOWN (no heartbeat)"]
+        supervisor.check_heartbeats(channel.live_workers())  # said once, not every second
+        channel.beat(1, {"state": "playing"})
+        supervisor.check_heartbeats(channel.live_workers())
+        assert lines[3:] == ["worker 1 is back (down 0 s)"]
+    finally:
+        for child in children.values():
+            child.kill()
+            child.wait()
