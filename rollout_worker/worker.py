@@ -1,4 +1,4 @@
-"""A rollout worker: simulates one world, plays its share of every iteration, pushes the episodes to Redis.
+"""A rollout worker: simulates one world, claims and plays episodes of every iteration, pushes them to Redis.
 
 Protocol (see racer.shared.transport.channels for the keys):
 1. Join: read the newest `iteration` announcement on the control stream (or wait for the first).
@@ -367,7 +367,19 @@ class RolloutWorker:
                 )
             )
 
-        self.rollout.play(self.policy, next_episode, finished, self._stop, on_step=self.frame_tap)
+        while self.rollout.play(self.policy, next_episode, finished, self._stop, on_step=self.frame_tap):
+            # Every env is idle, so nothing is held any more; a claim still listed (a command Redis ran but whose
+            # answer a Redis restart lost, so the worker never saw it) goes back to the queue and is played now.
+            leftover = self.channel.release_claims(iteration, self.worker_id)
+            if not leftover:
+                break
+            log.warning(
+                "worker %d: claims %s of iteration %d were never played; playing them",
+                self.worker_id,
+                leftover,
+                iteration,
+            )
+            own_in_flight.clear()
         if played["episodes"]:
             elapsed_s = time.monotonic() - started
             log.info(
