@@ -35,6 +35,10 @@ BENCHMARKS: dict[str, tuple[str, str]] = {
         "racer.local_run:time_to_lap_command",
         "Minutes from scratch until greedy evaluation completes 3 of 3 laps.",
     ),
+    "rollout": (
+        "racer.rollout_worker.bench:rollout_bench_command",
+        "Per-frame inference cost at batch 1/4/8 and one worker's CPU per env step with 1/4/8 envs.",
+    ),
     "throughput": (
         "racer.throughput_bench:throughput_bench_command",
         "The default system's experience steps/s vs one raw env process per core, and the ratio.",

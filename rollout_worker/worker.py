@@ -266,6 +266,7 @@ class RolloutWorker:
             env = DeepRacerEnv(config)
             env.reset(seed=self.options.seed + 1000 * j)
             self.envs.append(env)
+            self._beat()  # building an env holds the GIL for long stretches: the heartbeat thread may not get in
         self.rollout = BatchedRollout(self.envs, self.rngs)
         if announcement.kind == "iteration":  # a fresh process holds nothing: claims of an earlier life go back
             self.channel.release_claims(announcement.iteration, self.worker_id)
