@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import os
+import resource
 import subprocess
 import sys
 import tempfile
@@ -110,10 +111,16 @@ def throughput_bench_command(iterations, num_workers, envs_per_worker, bound_sec
         envs_per_worker=envs_per_worker,
     )
     click.echo(f"system: {num_workers} workers x {envs_per_worker} envs, {iterations} iterations ...", err=True)
+    children_before = resource.getrusage(resource.RUSAGE_CHILDREN)
     status = run_local_training(plan, base)
+    children_after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    system_cpu_s = (children_after.ru_utime + children_after.ru_stime) - (
+        children_before.ru_utime + children_before.ru_stime
+    )
     if status != 0:
         raise click.ClickException(f"the training run failed (status {status}); logs in {plan.log_dir}")
-    rates = system_rates(_read_iteration_records(workdir / "store", plan))
+    records = _read_iteration_records(workdir / "store", plan)
+    rates = system_rates(records)
     click.echo(f"bound again for {bound_seconds:.0f} s ...", err=True)
     after = machine_bound(cores, bound_seconds, base)
     bound = (before["steps_per_s"] + after["steps_per_s"]) / 2
@@ -124,6 +131,10 @@ def throughput_bench_command(iterations, num_workers, envs_per_worker, bound_sec
         "end_to_end_steps_per_s": round(rates["end_to_end_steps_per_s"], 1),
         "rollout_share_of_wall": round(rates["rollout_share_of_wall"], 3),
         "update_share_of_wall": round(rates["update_share_of_wall"], 3),
+        # CPU seconds per training step of every process of the run (trainer, workers, Redis; start-up, updates and
+        # evaluations included) against the bound's: less sensitive than wall rates to other load on the machine.
+        "system_cpu_ms_per_step": round(1e3 * system_cpu_s / max(1, records[-1]["env_steps_total"]), 3),
+        "bound_cpu_ms_per_step": round((before["cpu_ms_per_step"] + after["cpu_ms_per_step"]) / 2, 3),
         "bound_before_after_steps_per_s": [round(before["steps_per_s"], 1), round(after["steps_per_s"], 1)],
         "bound_processes": cores,
         "workers": num_workers,
