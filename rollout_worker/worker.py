@@ -368,7 +368,10 @@ class RolloutWorker:
                 )
             )
 
-        while self.rollout.play(self.policy, next_episode, finished, self._stop, on_step=self.frame_tap):
+        while True:
+            if not self.rollout.play(self.policy, next_episode, finished, self._stop, on_step=self.frame_tap):
+                self._hand_back_claims(iteration)
+                break
             # Every env is idle, so nothing is held any more; a claim still listed (a command Redis ran but whose
             # answer a Redis restart lost, so the worker never saw it) goes back to the queue and is played now.
             leftover = self.channel.release_claims(iteration, self.worker_id)
@@ -393,6 +396,25 @@ class RolloutWorker:
                 len(self.envs),
             )
         return played["episodes"]
+
+    def _hand_back_claims(self, iteration: int) -> None:
+        """Stopping mid-episode: the claims go back to the queue at once instead of after the heartbeat lapses."""
+        try:
+            released = self.channel.release_claims(iteration, self.worker_id)
+        except RedisUnavailableError as error:  # the trainer hands them back once the heartbeat lapses
+            log.info("worker %d: claims of iteration %d not handed back: %s", self.worker_id, iteration, error)
+            return
+        if released:
+            log.info(
+                "worker %d: stopping; episodes %s of iteration %d go back to the queue",
+                self.worker_id,
+                released,
+                iteration,
+            )
+            try:
+                self.channel.request_replay(iteration)  # wakes workers waiting for announcements
+            except RedisUnavailableError:
+                pass  # the trainer's check for queued episodes nobody claims sends the notice
 
     def _uses_e_greedy(self) -> bool:
         return uses_e_greedy(self.run.hyperparameters, self.run.model_metadata)

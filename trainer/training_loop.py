@@ -234,6 +234,7 @@ class Trainer:
         next_notice = waiting_since + 60
         next_announcement_check = waiting_since + self.options.announcement_check_s
         next_reconcile = waiting_since + self.options.dead_worker_grace_s
+        last_queued: set[int] = set()
 
         def consider(received: ReceivedBatch) -> None:
             batch = received.batch
@@ -309,6 +310,9 @@ class Trainer:
                     )
                     self.channel.requeue(iteration, lost, num_workers)
                     self.channel.request_replay(iteration)
+                elif queued and queued == last_queued:  # nobody claimed for 10 s: wake workers that wait
+                    self.channel.request_replay(iteration)
+                last_queued = queued
             if now > next_announcement_check:
                 next_announcement_check = now + self.options.announcement_check_s
                 self._announce_again_if_lost(iteration)
