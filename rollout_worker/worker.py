@@ -328,7 +328,8 @@ class RolloutWorker:
             if number is not None:
                 own_in_flight.add(number)
             elif not own_in_flight:  # its own share is played: help with what is left
-                number = self.channel.claim_other(iteration, self.worker_id, num_workers)
+                live = self.channel.live_workers()
+                number = self.channel.claim_other(iteration, self.worker_id, num_workers, live)
             if number is None:
                 return None
             if played["episodes"] == 0 and self.state.status != "playing":

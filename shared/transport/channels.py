@@ -24,6 +24,7 @@ from __future__ import annotations
 import json
 import logging
 import time
+from collections.abc import Collection
 from dataclasses import dataclass
 
 import redis
@@ -126,14 +127,16 @@ class RunChannel:
         number = self.link.do(lambda r: r.lmove(todo, claimed, "LEFT", "RIGHT"))
         return None if number is None else int(number)
 
-    def claim_other(self, iteration: int, worker_id: int, num_workers: int) -> int | None:
+    def claim_other(self, iteration: int, worker_id: int, num_workers: int, live: Collection[int] = ()) -> int | None:
         """An unclaimed episode of another worker's share (the last of the longest queue): for a worker whose own
-        share is done. None when every episode of the iteration is claimed."""
+        share is done. The last queued episode of a `live` worker stays its own, so every live worker plays at
+        least one episode of each iteration (and writes its simtrace, as in DeepRacer). None when nothing is left."""
         claimed = self._claimed(iteration, worker_id)
         while True:
             lengths = self.link.do(lambda r: self._lengths(r, iteration, num_workers))
-            longest = max(range(num_workers), key=lambda w: lengths[w])
-            if lengths[longest] == 0:
+            spare = [n - 1 if w in live and w != worker_id else n for w, n in enumerate(lengths)]
+            longest = max(range(num_workers), key=lambda w: spare[w])
+            if spare[longest] <= 0:
                 return None
             source = self._todo(iteration, longest)
             number = self.link.do(lambda r, source=source: r.lmove(source, claimed, "RIGHT", "RIGHT"))

@@ -371,7 +371,7 @@ def test_an_episode_claimed_by_a_worker_killed_while_holding_it_is_played_by_ano
             channel.beat(0, {"state": "playing"})
             number = channel.claim_own(0, 0)
             if number is None:
-                number = channel.claim_other(0, 0, 2)
+                number = channel.claim_other(0, 0, 2, channel.live_workers())
             if number is None:
                 time.sleep(0.1)
                 continue
@@ -398,8 +398,9 @@ def test_a_finished_worker_claims_episodes_of_a_slower_one_only_after_its_own(re
     assert not channel.open_episodes(3, episodes=6, num_workers=2)  # an announcement repeated: queued once
     assert [channel.claim_own(3, 0) for _ in range(4)] == [0, 2, 4, None]  # worker 0's DeepRacer share
     assert channel.claim_own(3, 1) == 1
-    assert channel.claim_other(3, 0, 2) == 5  # the last of the longest queue
-    assert channel.claim_other(3, 0, 2) == 3
+    assert channel.claim_other(3, 0, 2, live={0, 1}) == 5  # the last of the longest queue
+    assert channel.claim_other(3, 0, 2, live={0, 1}) is None  # worker 1 keeps one episode of its own: it is alive
+    assert channel.claim_other(3, 0, 2, live={0}) == 3  # no heartbeat: its last one is taken too
     assert channel.claim_other(3, 0, 2) is None
     assert channel.release_claims(3, 1) == [1]
     assert channel.queued_and_claimed(3, 2) == ({1}, {0: {0, 2, 4, 5, 3}, 1: set()})
