@@ -50,9 +50,9 @@ class LocalRunPlan:
     pretrained_checkpoint: str = "last"
     viewer_host: str = "127.0.0.1"
     viewer_port: int | None = None
+    """The live web page (`racer view --live`) listens here; None: no viewer."""
     envs_per_worker: int | None = None
     """None: the rollout command's default."""
-    """The live web page (`racer view --live`) listens here; None: no viewer."""
     trainer_options: tuple[str, ...] = ()
     """Further `racer trainer` options, e.g. ("--sac-updates-per-transition", "0.5")."""
     race_params: tuple[tuple[str, str], ...] = ()
