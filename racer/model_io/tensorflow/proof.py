@@ -49,6 +49,8 @@ RUNTIMES = ("tensorflow", "openvino_fp32", "litert_fp32", "openvino_fp16", "lite
 FP32_TOLERANCE = 1e-5
 FP16_TOLERANCE = 1e-3
 FP16_SAME_ACTION = 0.99
+PROVE_TIMEOUT_S_PER_MODEL = 300.0
+"""Generous: a stereo DEEPER model converts four ways in minutes on a loaded 2-core machine."""
 
 
 @dataclass(frozen=True)
@@ -147,6 +149,7 @@ def run_proof(specs: list[ModelSpec], frames: dict[str, np.ndarray], runtimes: t
             "prove",
             {"models": requests, "runtimes": list(runtimes)},
             {input_node(name): value for name, value in frames.items()},
+            timeout_s=PROVE_TIMEOUT_S_PER_MODEL * max(1, len(specs)),
         )
     return {"expected": expected, "outputs": outputs, "cpu_s": result["cpu_s"], "runtimes": list(runtimes)}
 
