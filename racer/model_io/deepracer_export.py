@@ -14,13 +14,16 @@ ignore them and they count against its 1 GB limit.
 from __future__ import annotations
 
 import dataclasses
+import json
 import re
 
 from racer.model_io import checkpoints as ck
 from racer.model_io.problems import ImportPlan
 from racer.model_io.sources import StoreSource
 from racer.shared import model_layout
+from racer.shared.deepracer.model_metadata import ContinuousActionSpace, parse_model_metadata
 from racer.shared.model_layout import RACER_CHECKPOINT_SUFFIXES, CheckpointName
+from racer.shared.store import join_key
 
 __all__ = ["EXPORT_LAYOUTS", "droa_plan", "droa_targets", "tensorflow_exports"]
 
@@ -39,11 +42,23 @@ def tensorflow_exports(source: StoreSource, plan: ImportPlan) -> dict[str, bytes
         name = CheckpointName.parse(text)  # validation accepted it
         if not ck.is_racer_checkpoint(name, plan.checkpoint_files):
             continue  # a TensorFlow checkpoint already: its files are copied as they are
-        jobs.append(ExportJob(checkpoints.load_policy(name.name), name.name, name.number))
+        network = checkpoints.load_policy(name.name)
+        jobs.append(ExportJob(network, name.name, name.number, _action_space(source, checkpoints, name.name)))
     files: dict[str, bytes] = {}
     for produced in tensorflow_files(jobs) if jobs else []:
         files.update({f"{ck.MODEL_DIR}{file_name}": data for file_name, data in produced.items()})
     return files
+
+
+def _action_space(source: StoreSource, checkpoints, name: str) -> ContinuousActionSpace | None:
+    """The continuous action space the checkpoint was trained with (SAC's Q networks read it): its manifest's, else
+    the model's model_metadata.json."""
+    metadata = checkpoints.read_info(name).model_metadata
+    where = f"{name} manifest"
+    if metadata is None:
+        where = join_key(source.prefix, model_layout.MODEL_METADATA)
+        metadata = json.loads(source.store.get_bytes(where).decode("utf-8-sig"))
+    return parse_model_metadata(metadata, where).continuous_action_space
 
 
 def droa_plan(plan: ImportPlan) -> ImportPlan:

@@ -142,7 +142,7 @@ def convert_tf_checkpoints(store: ObjectStore, model_name: str) -> ConversionOut
         with tempfile.TemporaryDirectory(prefix="racer-tf-import-") as folder:
             for key in ck.checkpoint_files(name, files):
                 (Path(folder) / key.removeprefix(ck.MODEL_DIR)).write_bytes(store.get_bytes(join_key(model_name, key)))
-            imported = network_from_tf_checkpoint(Path(folder) / name.name, config)
+            imported = network_from_tf_checkpoint(Path(folder) / name.name, config, metadata.continuous_action_space)
         checkpoints.save(
             name.number,
             name.env_steps,

@@ -41,6 +41,10 @@ __all__ = [
     "graph_spec",
     "input_node",
     "racer_state_from_coach",
+    "to_coach",
+    "to_racer",
+    "tower_layers",
+    "tower_variables",
 ]
 
 AGENT_SCOPE = "main_level/agent/main/online"
@@ -69,7 +73,7 @@ class CoachVariable:
     `same`, `row` ((n,) -> (1, n)) or `scalar` (the rescaler, value 1.0)."""
 
 
-def _layers(config: PolicyConfig) -> list[dict]:
+def tower_layers(config: PolicyConfig) -> list[dict]:
     """Per tower: the embedders (sorted sensor names) with their layers, then the middleware. Scope names as RL Coach."""
     architecture = NETWORK_ARCHITECTURES[config.neural_network]
     embedders = []
@@ -133,26 +137,13 @@ def _layers(config: PolicyConfig) -> list[dict]:
 
 def coach_variables(config: PolicyConfig, include_value: bool = True) -> list[CoachVariable]:
     """Every variable RL Coach's saver writes for this network, in the SimApp's names and shapes."""
-    *embedders, middleware = _layers(config)
+    *embedders, middleware = tower_layers(config)
     variables: list[CoachVariable] = []
     towers = [("policy_tower", POLICY_NETWORK)]
     if include_value:
         towers.insert(0, ("value_tower", VALUE_NETWORK))
     for tower, scope in towers:
-        for embedder in embedders:
-            for layer in embedder["layers"]:
-                prefix = f"{scope}/{embedder['sensor']}/{layer['scope']}"
-                key = f"{tower}.embedders.{embedder['sensor']}.{layer['racer']}"
-                variables.append(
-                    CoachVariable(f"{prefix}/kernel", tuple(layer["kernel"]), f"{key}.weight", layer["type"])
-                )
-                variables.append(CoachVariable(f"{prefix}/bias", (layer["kernel"][-1],), f"{key}.bias", "same"))
-        for layer in middleware["middleware"]:
-            prefix = f"{scope}/{MIDDLEWARE_SCOPE}/{layer['scope']}"
-            key = f"{tower}.{layer['racer']}"
-            variables.append(CoachVariable(f"{prefix}/kernel", tuple(layer["kernel"]), f"{key}.weight", "dense"))
-            variables.append(CoachVariable(f"{prefix}/bias", (layer["kernel"][-1],), f"{key}.bias", "same"))
-        variables.append(CoachVariable(f"{scope}/{RESCALER}", (), None, "scalar"))
+        variables += tower_variables(tower, scope, embedders, middleware["middleware"])
         features = middleware["features"]
         if tower == "value_tower":
             head = f"{scope}/v_values_head_0/output"
@@ -172,7 +163,25 @@ def coach_variables(config: PolicyConfig, include_value: bool = True) -> list[Co
     return variables
 
 
-def _to_coach(array: np.ndarray, layout: str) -> np.ndarray:
+def tower_variables(tower: str, scope: str, embedders: list[dict], middleware: list[dict]) -> list[CoachVariable]:
+    """One RL Coach network's embedders, middleware and gradient rescaler; `tower` is racer's Tower attribute."""
+    variables = []
+    for embedder in embedders:
+        for layer in embedder["layers"]:
+            prefix = f"{scope}/{embedder['sensor']}/{layer['scope']}"
+            key = f"{tower}.embedders.{embedder['sensor']}.{layer['racer']}"
+            variables.append(CoachVariable(f"{prefix}/kernel", tuple(layer["kernel"]), f"{key}.weight", layer["type"]))
+            variables.append(CoachVariable(f"{prefix}/bias", (layer["kernel"][-1],), f"{key}.bias", "same"))
+    for layer in middleware:
+        prefix = f"{scope}/{MIDDLEWARE_SCOPE}/{layer['scope']}"
+        key = f"{tower}.{layer['racer']}"
+        variables.append(CoachVariable(f"{prefix}/kernel", tuple(layer["kernel"]), f"{key}.weight", "dense"))
+        variables.append(CoachVariable(f"{prefix}/bias", (layer["kernel"][-1],), f"{key}.bias", "same"))
+    variables.append(CoachVariable(f"{scope}/{RESCALER}", (), None, "scalar"))
+    return variables
+
+
+def to_coach(array: np.ndarray, layout: str) -> np.ndarray:
     if layout == "conv":
         return np.ascontiguousarray(array.transpose(2, 3, 1, 0))
     if layout == "dense":
@@ -182,7 +191,7 @@ def _to_coach(array: np.ndarray, layout: str) -> np.ndarray:
     return array
 
 
-def _to_racer(array: np.ndarray, layout: str) -> np.ndarray:
+def to_racer(array: np.ndarray, layout: str) -> np.ndarray:
     if layout == "conv":
         return np.ascontiguousarray(array.transpose(3, 2, 0, 1))
     if layout == "dense":
@@ -199,7 +208,7 @@ def coach_tensors_from_racer(config: PolicyConfig, state: Mapping[str, np.ndarra
         if variable.racer_key is None:
             tensors[variable.name] = np.asarray(1.0, dtype=np.float32)
         else:
-            tensors[variable.name] = _to_coach(np.asarray(state[variable.racer_key], dtype=np.float32), variable.layout)
+            tensors[variable.name] = to_coach(np.asarray(state[variable.racer_key], dtype=np.float32), variable.layout)
         if tensors[variable.name].shape != variable.shape:
             raise ValueError(
                 f"{variable.racer_key} has shape {tensors[variable.name].shape} in TensorFlow's layout, "
@@ -235,7 +244,7 @@ def racer_state_from_coach(
             )
             continue
         if variable.racer_key is not None:
-            state[variable.racer_key] = _to_racer(array.astype(np.float32), variable.layout)
+            state[variable.racer_key] = to_racer(array.astype(np.float32), variable.layout)
     known = {variable.name for variable in coach_variables(config, include_value=True)}
     scopes = (POLICY_NETWORK + "/", VALUE_NETWORK + "/") if include_value else (POLICY_NETWORK + "/",)
     extra = sorted(name for name in tensors if name.startswith(scopes) and name not in known)
@@ -251,7 +260,7 @@ def racer_state_from_coach(
 
 def graph_spec(config: PolicyConfig) -> dict:
     """What tool.py needs to build the graph: inputs, embedder layers, middleware, head. JSON-able."""
-    *embedders, middleware = _layers(config)
+    *embedders, middleware = tower_layers(config)
     return {
         "value_network": VALUE_NETWORK,
         "policy_network": POLICY_NETWORK,

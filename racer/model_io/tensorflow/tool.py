@@ -6,7 +6,8 @@ fresh interpreter with a work folder holding `request.json` (the command and its
 (numpy arrays), and reads back `result.json` and `result.safetensors`.
 
 Commands (request["command"]):
-- `export`: build RL Coach's graph from a graph spec (coach_layout.graph_spec) and weights keyed by RL Coach's
+- `export`: build RL Coach's graph (PPO or SAC) from a graph spec (coach_layout.graph_spec,
+  coach_sac_layout.sac_graph_spec) and weights keyed by RL Coach's
   variable names; write the frozen inference graph (`frozen_path`) and/or a TensorFlow checkpoint
   (`checkpoint_prefix` + `.index`, `.data-00000-of-00001`, `.meta`).
 - `read_checkpoint`: every variable of a TensorFlow checkpoint (name, shape, values).
@@ -56,7 +57,7 @@ INFERENCE_OPS = frozenset(
         "Softmax",
     }
 )
-"""Op types of RL Coach's PPO inference path; any other op is a layer racer's networks do not have."""
+"""Op types of RL Coach's PPO and SAC inference paths; any other op is a layer racer's networks do not have."""
 
 
 # --------------------------------------------------------------------------------------------------------------------
@@ -69,7 +70,7 @@ def _variable(name: str, shape: list[int], created: dict):
     return variable
 
 
-def _tower(spec: dict, network: str, placeholders: dict, created: dict):
+def _tower(spec: dict, network: str, placeholders: dict, created: dict, middleware_layers: list | None = None):
     features = []
     for embedder in spec["embedders"]:
         sensor = embedder["sensor"]
@@ -97,7 +98,7 @@ def _tower(spec: dict, network: str, placeholders: dict, created: dict):
         features.append(x)
     x = features[0] if len(features) == 1 else tf.concat(features, axis=-1, name=f"{network}/merger")
     middleware = f"{network}/{spec['middleware_scope']}"
-    for layer in spec["middleware"]:
+    for layer in spec["middleware"] if middleware_layers is None else middleware_layers:
         prefix = f"{middleware}/{layer['scope']}"
         kernel = _variable(f"{prefix}/kernel", layer["kernel"], created)
         bias = _variable(f"{prefix}/bias", [layer["kernel"][-1]], created)
@@ -120,8 +121,60 @@ def _tower(spec: dict, network: str, placeholders: dict, created: dict):
     return head_input
 
 
+def _dense(x, scope: str, units: int, created: dict, relu: bool = False):
+    kernel = _variable(f"{scope}/kernel", [int(x.shape[-1]), units], created)
+    bias = _variable(f"{scope}/bias", [units], created)
+    y = tf.nn.bias_add(tf.linalg.matmul(x, kernel, name=f"{scope}/MatMul"), bias, name=f"{scope}/BiasAdd")
+    return tf.nn.relu(y, name=f"{scope}/Relu") if relu else y
+
+
+def _placeholders(spec: dict, network: str) -> dict:
+    return {
+        embedder["sensor"]: tf.compat.v1.placeholder(
+            tf.float32, [None, *embedder["shape"]], name=f"{network}/{embedder['sensor']}/{embedder['sensor']}"
+        )
+        for embedder in spec["embedders"]
+    }
+
+
+def build_sac_graph(spec: dict, with_critics: bool) -> tuple[tf.Graph, dict, dict, dict]:
+    """RL Coach's SAC networks (policy; Q and V too if asked), each with its own placeholders as in RL Coach."""
+    graph = tf.Graph()
+    created: dict = {}
+    outputs = {}
+    with graph.as_default():
+        policy = spec["policy_network"]
+        placeholders = _placeholders(spec, policy)
+        features = _tower(spec, policy, placeholders, created)
+        head = f"{policy}/sac_policy_head_0"
+        hidden = _dense(features, f"{head}/dense", spec["hidden_units"], created, relu=True)
+        mean = _dense(hidden, f"{head}/policy_mean", spec["num_actions"], created)
+        outputs["policy"] = tf.identity(mean, name=f"{head}/policy")  # the mean before tanh, as DeepRacer's
+        low, high = spec["log_std_range"]
+        log_std = _dense(hidden, f"{head}/dense_1", spec["num_actions"], created)
+        outputs["log_std"] = tf.clip_by_value(log_std, low, high, name=f"{head}/policy_log_std")
+        if with_critics:
+            q_network = spec["q_network"]
+            q_features = _tower(spec, q_network, _placeholders(spec, q_network), created, middleware_layers=[])
+            actions = tf.compat.v1.placeholder(
+                tf.float32, [None, spec["num_actions"]], name=f"{q_network}/q_values_head_0/action"
+            )
+            for twin in ("q1", "q2"):
+                scope = f"{q_network}/q_values_head_0/{twin}_head"
+                x = tf.concat([q_features, actions], -1, name=f"{scope}/concat")
+                x = _dense(x, f"{scope}/dense", spec["hidden_units"], created, relu=True)
+                x = _dense(x, f"{scope}/dense_1", spec["hidden_units"], created, relu=True)
+                outputs[twin] = _dense(x, f"{scope}/{twin}_output", 1, created)
+            v_network = spec["v_network"]
+            v_features = _tower(spec, v_network, _placeholders(spec, v_network), created)
+            outputs["value"] = _dense(v_features, f"{v_network}/v_values_head_0/output", 1, created)
+    return graph, placeholders, created, outputs
+
+
 def build_graph(spec: dict, with_value: bool) -> tuple[tf.Graph, dict, dict, dict]:
     """RL Coach's two towers (value only if asked). Returns graph, placeholders, variables by name, outputs."""
+    if spec.get("algorithm") == "sac":
+        return build_sac_graph(spec, with_critics=with_value)
     graph = tf.Graph()
     created: dict = {}
     outputs = {}
@@ -356,7 +409,7 @@ def command_run(request: dict, arrays: dict) -> tuple[dict, dict]:
 def command_prove(request: dict, arrays: dict) -> tuple[dict, dict]:
     """For each model (graph spec + its own weights file): freeze its policy graph, then run it with every runtime.
 
-    One model in memory at a time (a stereo DEEP policy network is 230 MB); arrays: frames keyed by input node."""
+    One model in memory at a time (a stereo DEEP policy network is 230 MB); arrays: frames keyed by sensor name."""
     outputs = {}
     cpu_s: dict[str, dict[str, float]] = {}
     for model in request["models"]:
@@ -367,7 +420,7 @@ def command_prove(request: dict, arrays: dict) -> tuple[dict, dict]:
             _export_one({"graph": model["graph"], "frozen_path": frozen}, weights)
             del weights
             export_s = time.process_time() - started
-            feeds = {node: arrays[node] for node in model["graph"]["input_nodes"].values()}
+            feeds = {node: arrays[sensor] for sensor, node in model["graph"]["input_nodes"].items()}
             single = {
                 "key": model["key"],
                 "frozen_path": frozen,
