@@ -1,8 +1,8 @@
 """The proof that one policy is one function everywhere: racer, the exported frozen graph run by TensorFlow, and the
 OpenVINO IR and LiteRT (TFLite) models the cars make from it, fp32 and fp16, on frames racer's simulator renders.
 
-`racer bench tf-proof` runs the whole matrix (every network, every sensor set DRoA's validation accepts, discrete
-and continuous: 48 models) and prints one JSON line; the test suite runs a subset (tests/model_io). Frames are rendered
+`racer bench tf-proof` runs the whole matrix (every network, every sensor set DRoA's validation accepts, PPO
+discrete, PPO continuous and SAC: 72 models) and prints one JSON line; the test suite runs a subset (tests/model_io). Frames are rendered
 in this process; every TensorFlow, OpenVINO and LiteRT step runs in one TensorFlow process (`tool.py prove`) that
 takes the models one at a time (a stereo DEEP policy network is 230 MB).
 """
@@ -21,10 +21,11 @@ import numpy as np
 import torch
 from safetensors.numpy import save_file
 
-from racer.model_io.tensorflow.coach_layout import POLICY_NETWORK, coach_tensors_from_racer, graph_spec, input_node
+from racer.model_io.tensorflow.convert import ExportJob, coach_graph_spec, coach_tensors, policy_scope
 from racer.model_io.tensorflow.runner import run_tool
 from racer.shared.deepracer.model_metadata import NEURAL_NETWORKS, parse_model_metadata
-from racer.shared.policy.networks import ActorCritic, build_actor_critic
+from racer.shared.policy.factory import PolicyNetwork, build_network_for_metadata
+from racer.shared.policy.networks import ActorCritic
 
 __all__ = [
     "FP16_TOLERANCE",
@@ -58,10 +59,13 @@ class ModelSpec:
     neural_network: str
     sensors: tuple[str, ...]
     continuous: bool
+    sac: bool = False
+    """SAC (continuous only): the frozen graph's output is the policy's mean before tanh."""
 
     @property
     def key(self) -> str:
-        return f"{self.neural_network}:{'+'.join(self.sensors)}:{'continuous' if self.continuous else 'discrete'}"
+        kind = "sac" if self.sac else "continuous" if self.continuous else "discrete"
+        return f"{self.neural_network}:{'+'.join(self.sensors)}:{kind}"
 
     def metadata(self) -> dict:
         if self.continuous:
@@ -73,29 +77,39 @@ class ModelSpec:
             "sensor": list(self.sensors),
             "neural_network": self.neural_network,
             "action_space_type": "continuous" if self.continuous else "discrete",
-            "training_algorithm": "clipped_ppo",
+            "training_algorithm": "sac" if self.sac else "clipped_ppo",
             "version": "5",
             "lidar_config": {"num_sectors": 8, "num_values_per_sector": 4, "clipping_dist": 2.0},
         }
 
 
 def all_specs() -> list[ModelSpec]:
+    """PPO discrete, PPO continuous and SAC for every network and sensor set: 72 models."""
     return [
-        ModelSpec(network, sensors, continuous)
+        ModelSpec(network, sensors, continuous, sac)
         for network in NEURAL_NETWORKS
         for sensors in SENSOR_SETS
-        for continuous in (False, True)
+        for continuous, sac in ((False, False), (True, False), (True, True))
     ]
 
 
-def make_model(spec: ModelSpec, seed: int) -> ActorCritic:
-    """A network with weights like a trained one's: RL Coach's 0.01-scaled continuous head would give near-zero
-    means, so the head is redrawn wider."""
+def make_model(spec: ModelSpec, seed: int) -> PolicyNetwork:
+    """A network with weights like a trained one's: RL Coach's 0.01-scaled continuous PPO head would give near-zero
+    means, so the head is redrawn wider (SAC's Xavier-initialised head is wide already)."""
     torch.manual_seed(seed)
-    model = build_actor_critic(parse_model_metadata(spec.metadata(), spec.key))
-    with torch.no_grad():
-        model.policy_head.weight.normal_(0.0, 0.05)
+    model = build_network_for_metadata(parse_model_metadata(spec.metadata(), spec.key))
+    if isinstance(model, ActorCritic):
+        with torch.no_grad():
+            model.policy_head.weight.normal_(0.0, 0.05)
     return model.eval()
+
+
+def graph_output(model: PolicyNetwork, feeds: dict[str, torch.Tensor]) -> torch.Tensor:
+    """What the frozen graph's output node computes: PPO's policy output, SAC's mean before tanh (racer's SAC
+    drives tanh of it, as the SimApp's SAC head does after that node)."""
+    if isinstance(model, ActorCritic):
+        return model.policy_output(feeds)
+    return model.policy_distribution(feeds)[0]
 
 
 def render_frames(count: int) -> dict[str, np.ndarray]:
@@ -137,18 +151,17 @@ def run_proof(specs: list[ModelSpec], frames: dict[str, np.ndarray], runtimes: t
             model = make_model(spec, index)
             feeds = {name: torch.from_numpy(frames[name]) for name in model.input_names}
             with torch.inference_mode():
-                expected[spec.key] = model.policy_output(feeds).numpy()
-            weights = coach_tensors_from_racer(
-                model.config, {name: value.numpy() for name, value in model.state_dict().items()}
-            )
+                expected[spec.key] = graph_output(model, feeds).numpy()
+            weights = coach_tensors(ExportJob(model, None, 0))
             path = Path(folder) / f"{index}.safetensors"
-            save_file({name: value for name, value in weights.items() if name.startswith(POLICY_NETWORK)}, str(path))
-            requests.append({"key": spec.key, "graph": graph_spec(model.config), "weights_path": str(path)})
+            scope = policy_scope(model.config) + "/"
+            save_file({name: value for name, value in weights.items() if name.startswith(scope)}, str(path))
+            requests.append({"key": spec.key, "graph": coach_graph_spec(model.config), "weights_path": str(path)})
             del model, weights
         result, outputs = run_tool(
             "prove",
             {"models": requests, "runtimes": list(runtimes)},
-            {input_node(name): value for name, value in frames.items()},
+            frames,
             timeout_s=PROVE_TIMEOUT_S_PER_MODEL * max(1, len(specs)),
         )
     return {"expected": expected, "outputs": outputs, "cpu_s": result["cpu_s"], "runtimes": list(runtimes)}
@@ -159,10 +172,12 @@ def summarize(proof: dict) -> dict:
     figures: dict = {"models": len(proof["expected"])}
     ok = True
     for runtime in proof["runtimes"]:
-        worst = max(
-            float(np.abs(proof["outputs"][f"{key}|{runtime}"] - value).max())
+        differences = {
+            key: float(np.abs(proof["outputs"][f"{key}|{runtime}"] - value).max())
             for key, value in proof["expected"].items()
-        )
+        }
+        worst_model = max(differences, key=differences.__getitem__)
+        worst = differences[worst_model]
         same = min(
             (
                 float(np.mean(proof["outputs"][f"{key}|{runtime}"].argmax(1) == value.argmax(1)))
@@ -174,24 +189,41 @@ def summarize(proof: dict) -> dict:
         fp16 = runtime.endswith("fp16")
         ok = ok and worst <= (FP16_TOLERANCE if fp16 else FP32_TOLERANCE) and (not fp16 or same >= FP16_SAME_ACTION)
         cpu = sum(times.get(runtime, 0.0) for times in proof["cpu_s"].values())
-        figures[runtime] = {"max_abs_diff": worst, "min_same_greedy_action": same, "cpu_s": round(cpu, 1)}
+        figures[runtime] = {
+            "max_abs_diff": worst,
+            "worst_model": worst_model,
+            "min_same_greedy_action": same,
+            "cpu_s": round(cpu, 1),
+        }
+    figures["export_cpu_s"] = round(sum(times.get("export", 0.0) for times in proof["cpu_s"].values()), 1)
     figures["goals_met"] = ok
     return figures
 
 
 @click.command("tf-proof")
 @click.option("--frames", "frame_count", type=click.IntRange(min=1), default=100, show_default=True)
-def tf_proof_command(frame_count: int) -> None:
-    """All 48 models through TensorFlow, OpenVINO and LiteRT (fp32, fp16) vs racer; one JSON line."""
+@click.option(
+    "--algorithm",
+    type=click.Choice(["all", "clipped_ppo", "sac"]),
+    default="all",
+    show_default=True,
+    help="Only PPO's 48 models or SAC's 24 (the whole product takes long on 2 cores).",
+)
+def tf_proof_command(frame_count: int, algorithm: str) -> None:
+    """All 72 models (PPO discrete and continuous, SAC) through TensorFlow, OpenVINO and LiteRT (fp32, fp16) vs
+    racer; one JSON line."""
     started = time.monotonic()
+    specs = [spec for spec in all_specs() if algorithm == "all" or spec.sac == (algorithm == "sac")]
     print(f"rendering {frame_count} frames per sensor ...", file=sys.stderr, flush=True)
     frames = render_frames(frame_count)
     print(
-        "48 models through TensorFlow, OpenVINO and LiteRT in one TensorFlow process (several minutes) ...",
+        f"{len(specs)} models through TensorFlow, OpenVINO and LiteRT in one TensorFlow process "
+        "(an hour or more on 2 cores for all of them) ...",
         file=sys.stderr,
         flush=True,
     )
-    figures = summarize(run_proof(all_specs(), frames))
+    figures = summarize(run_proof(specs, frames))
+    figures["algorithm"] = algorithm
     figures["frames"] = frame_count
     figures["wall_s"] = round(time.monotonic() - started, 1)
     print(json.dumps(figures))
