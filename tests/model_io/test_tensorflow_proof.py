@@ -1,10 +1,12 @@
 """One function everywhere: racer's policy, the exported TensorFlow frozen graph, and the OpenVINO IR and LiteRT
 (TFLite) models the cars make from it compute the same outputs on frames rendered by racer's simulator.
 
-Every network (shallow, deep, deeper), every sensor set DRoA's model validation accepts, discrete and continuous.
-The full product is 48 models and the stereo DEEP networks are 230 MB each, which takes long on 2 cores: the suite
-runs 24 of them (every sensor set with the shallow network; the deep and deeper networks with the front camera,
-alone and with LIDAR), and `racer bench tf-proof` runs all 48 with the same code. TensorFlow, OpenVINO and LiteRT
+Every network (shallow, deep, deeper), every sensor set DRoA's model validation accepts, PPO discrete and
+continuous and SAC. The full product is 72 models and the stereo DEEP networks are 230 MB each, which takes long on
+2 cores: the suite runs 28 of them (PPO: every sensor set with the shallow network, the deep and deeper networks with
+the front camera alone and with LIDAR; SAC: every network with the front camera and LIDAR, and the shallow one with
+stereo cameras and SECTOR_LIDAR), and `racer bench tf-proof` runs all 72 with the same code. SAC's graph output is
+its mean before tanh, compared with racer's mean before tanh. TensorFlow, OpenVINO and LiteRT
 run in one TensorFlow process, never in this process, which has rendered with Mesa.
 
 Also: TensorFlow imports the real DeepRacer checkpoint's `.meta` graph and restores a checkpoint racer wrote for the
@@ -47,12 +49,26 @@ pytestmark = [pytest.mark.slow, pytest.mark.timeout(2400)]
 
 REAL_CHECKPOINT = CONFIG / "checkpoints" / "reInvent2019-TestModel" / "model"
 FRAMES = 100
-SUITE_SPECS = [
+PPO_SPECS = [
     spec
     for spec in all_specs()
-    if spec.neural_network == NEURAL_NETWORKS[0]
-    or spec.sensors in (("FRONT_FACING_CAMERA",), ("FRONT_FACING_CAMERA", "LIDAR"))
+    if not spec.sac
+    and (
+        spec.neural_network == NEURAL_NETWORKS[0]
+        or spec.sensors in (("FRONT_FACING_CAMERA",), ("FRONT_FACING_CAMERA", "LIDAR"))
+    )
 ]
+SAC_SPECS = [
+    spec
+    for spec in all_specs()
+    if spec.sac
+    and (
+        spec.sensors == ("FRONT_FACING_CAMERA", "LIDAR")
+        or (spec.neural_network == NEURAL_NETWORKS[0] and spec.sensors == ("STEREO_CAMERAS", "SECTOR_LIDAR"))
+    )
+]
+"""SAC differs from PPO in its head only (the embedders are the same code): every network once, and stereo."""
+SUITE_SPECS = PPO_SPECS + SAC_SPECS
 
 
 @pytest.fixture(scope="module")
@@ -66,12 +82,13 @@ def proof(frames) -> dict:
 
 
 def test_every_network_sensor_set_and_action_space_is_covered(proof):
-    assert len(all_specs()) == 48 and len(set(SENSOR_SETS)) == 8
+    assert len(all_specs()) == 72 and len(set(SENSOR_SETS)) == 8
     keys = list(proof["expected"])
-    assert len(keys) == 24
+    assert len(keys) == 28
     assert {key.split(":")[0] for key in keys} == set(NEURAL_NETWORKS)
     assert {key.split(":")[1] for key in keys} == {"+".join(sensors) for sensors in SENSOR_SETS}
-    assert {key.split(":")[2] for key in keys} == {"discrete", "continuous"}
+    assert {key.split(":")[2] for key in keys} == {"discrete", "continuous", "sac"}
+    assert {key.split(":")[0] for key in keys if key.endswith(":sac")} == set(NEURAL_NETWORKS)
 
 
 @pytest.mark.parametrize("runtime", ["tensorflow", "openvino_fp32", "litert_fp32"])
@@ -148,7 +165,7 @@ def test_racer_names_every_variable_of_the_real_checkpoint():
 
 
 def test_model_specs_name_each_model_once():
-    assert len({spec.key for spec in all_specs()}) == 48
+    assert len({spec.key for spec in all_specs()}) == 72
     assert ModelSpec(NEURAL_NETWORKS[0], ("STEREO_CAMERAS", "LIDAR"), True).key.endswith(
         "STEREO_CAMERAS+LIDAR:continuous"
     )

@@ -334,13 +334,17 @@ def _run_tensorflow(path: str, feeds: dict, output: str) -> np.ndarray:
         return session.run(f"{output}:0", {f"{name}:0": value for name, value in feeds.items()})
 
 
-def _run_openvino(path: str, feeds: dict, output: str, fp16: bool, work: Path) -> np.ndarray:
+def _run_openvino(path: str, feeds: dict, output: str, fp16: bool, work: Path, converted: dict) -> np.ndarray:
+    """`converted` keeps the model OpenVINO's converter made from `path`: fp32 and fp16 IR are saved from one
+    conversion, as the converter's fp16 compression is a save option."""
     import openvino as ov
 
-    # OpenVINO's TensorFlow front end names tensors `<node>:0`. The car converts with a batch of one.
-    model = ov.convert_model(
-        path, input=[(f"{name}:0", [1, *value.shape[1:]]) for name, value in feeds.items()], output=[f"{output}:0"]
-    )
+    if path not in converted:
+        # OpenVINO's TensorFlow front end names tensors `<node>:0`. The car converts with a batch of one.
+        converted[path] = ov.convert_model(
+            path, input=[(f"{name}:0", [1, *value.shape[1:]]) for name, value in feeds.items()], output=[f"{output}:0"]
+        )
+    model = converted[path]
     xml = work / f"openvino_{'fp16' if fp16 else 'fp32'}.xml"
     ov.save_model(model, str(xml), compress_to_fp16=fp16)
     core = ov.Core()
@@ -388,6 +392,7 @@ def command_run(request: dict, arrays: dict) -> tuple[dict, dict]:
     runtimes = request.get("runtimes", ["tensorflow"])
     for model in request["models"]:
         feeds = {node: arrays[f"{model['key']}|{node}"] for node in model["inputs"]}
+        converted: dict = {}
         with tempfile.TemporaryDirectory() as work:
             for runtime in runtimes:
                 started = time.process_time()
@@ -395,7 +400,7 @@ def command_run(request: dict, arrays: dict) -> tuple[dict, dict]:
                     value = _run_tensorflow(model["frozen_path"], feeds, model["output"])
                 elif runtime in ("openvino_fp32", "openvino_fp16"):
                     value = _run_openvino(
-                        model["frozen_path"], feeds, model["output"], runtime.endswith("16"), Path(work)
+                        model["frozen_path"], feeds, model["output"], runtime.endswith("16"), Path(work), converted
                     )
                 elif runtime in ("litert_fp32", "litert_fp16"):
                     value = _run_litert(model["frozen_path"], feeds, model["output"], runtime.endswith("16"))
