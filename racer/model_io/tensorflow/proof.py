@@ -142,13 +142,15 @@ def render_frames(count: int) -> dict[str, np.ndarray]:
     return rendered
 
 
-def run_proof(specs: list[ModelSpec], frames: dict[str, np.ndarray], runtimes: tuple[str, ...] = RUNTIMES) -> dict:
+def run_proof(
+    specs: list[ModelSpec], frames: dict[str, np.ndarray], runtimes: tuple[str, ...] = RUNTIMES, first_seed: int = 0
+) -> dict:
     """racer's policy outputs and every runtime's, per model key; `cpu_s`: TensorFlow-process CPU seconds per
-    model and runtime (conversion included)."""
+    model and runtime (conversion included). All models in one TensorFlow process."""
     expected, requests = {}, []
     with tempfile.TemporaryDirectory(prefix="racer-proof-") as folder:
         for index, spec in enumerate(specs):
-            model = make_model(spec, index)
+            model = make_model(spec, first_seed + index)
             feeds = {name: torch.from_numpy(frames[name]) for name in model.input_names}
             with torch.inference_mode():
                 expected[spec.key] = graph_output(model, feeds).numpy()
@@ -165,6 +167,14 @@ def run_proof(specs: list[ModelSpec], frames: dict[str, np.ndarray], runtimes: t
             timeout_s=PROVE_TIMEOUT_S_PER_MODEL * max(1, len(specs)),
         )
     return {"expected": expected, "outputs": outputs, "cpu_s": result["cpu_s"], "runtimes": list(runtimes)}
+
+
+def merge_proofs(proofs: list[dict]) -> dict:
+    merged: dict = {"expected": {}, "outputs": {}, "cpu_s": {}, "runtimes": proofs[0]["runtimes"]}
+    for proof in proofs:
+        for part in ("expected", "outputs", "cpu_s"):
+            merged[part].update(proof[part])
+    return merged
 
 
 def summarize(proof: dict) -> dict:
@@ -209,20 +219,46 @@ def summarize(proof: dict) -> dict:
     show_default=True,
     help="Only PPO's 48 models or SAC's 24 (the whole product takes long on 2 cores).",
 )
-def tf_proof_command(frame_count: int, algorithm: str) -> None:
+@click.option(
+    "--match",
+    "matches",
+    multiple=True,
+    help="Only models whose key (NETWORK:SENSOR+SENSOR:discrete|continuous|sac) contains this text; repeatable.",
+)
+@click.option(
+    "--models-per-process",
+    type=click.IntRange(min=1),
+    default=4,
+    show_default=True,
+    help="Models per TensorFlow process; each process's figures are printed (stderr) when it ends.",
+)
+def tf_proof_command(frame_count: int, algorithm: str, matches: tuple[str, ...], models_per_process: int) -> None:
     """All 72 models (PPO discrete and continuous, SAC) through TensorFlow, OpenVINO and LiteRT (fp32, fp16) vs
-    racer; one JSON line."""
+    racer; one JSON line (and one per group of models on stderr as they finish)."""
     started = time.monotonic()
-    specs = [spec for spec in all_specs() if algorithm == "all" or spec.sac == (algorithm == "sac")]
+    specs = [
+        spec
+        for spec in all_specs()
+        if (algorithm == "all" or spec.sac == (algorithm == "sac"))
+        and (not matches or any(text in spec.key for text in matches))
+    ]
+    if not specs:
+        raise click.UsageError("no model matches --algorithm and --match")
     print(f"rendering {frame_count} frames per sensor ...", file=sys.stderr, flush=True)
     frames = render_frames(frame_count)
     print(
-        f"{len(specs)} models through TensorFlow, OpenVINO and LiteRT in one TensorFlow process "
+        f"{len(specs)} models through TensorFlow, OpenVINO and LiteRT, {models_per_process} per TensorFlow process "
         "(an hour or more on 2 cores for all of them) ...",
         file=sys.stderr,
         flush=True,
     )
-    figures = summarize(run_proof(specs, frames))
+    proofs = []
+    for start in range(0, len(specs), models_per_process):
+        group = specs[start : start + models_per_process]
+        proofs.append(run_proof(group, frames, first_seed=start))
+        done = {"done": start + len(group), "of": len(specs), "keys": [spec.key for spec in group]}
+        print(json.dumps({**done, **summarize(proofs[-1])}), file=sys.stderr, flush=True)
+    figures = summarize(merge_proofs(proofs))
     figures["algorithm"] = algorithm
     figures["frames"] = frame_count
     figures["wall_s"] = round(time.monotonic() - started, 1)
