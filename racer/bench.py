@@ -25,7 +25,7 @@ BENCHMARKS: dict[str, tuple[str, str]] = {
     ),
     "tf-proof": (
         "racer.model_io.tensorflow.proof:tf_proof_command",
-        "48 models: racer vs TensorFlow, OpenVINO and LiteRT (fp32, fp16) outputs.",
+        "72 models (PPO and SAC): racer vs TensorFlow, OpenVINO and LiteRT (fp32, fp16) outputs.",
     ),
     "sac": (
         "racer.trainer.sac_bench:sac_bench_command",
