@@ -206,9 +206,15 @@ def test_a_sac_export_with_tensorflow_files_validates_and_imports_as_sac(sac_sto
     assert import_model(source, other, "imported").ok
     outcome = convert_tf_checkpoints(other, "imported")
     assert sorted(outcome.written) == written and outcome.notes == ()
-    network = CheckpointStore(other, "imported").load_policy("1_Step-100.ckpt")
+    checkpoints = CheckpointStore(other, "imported")
+    network = checkpoints.load_policy("1_Step-100.ckpt")
     assert isinstance(network, SACNetworks)
     camera = np.random.default_rng(6).integers(0, 256, (4, 120, 160, 1)).astype(np.float32)
+    driver = checkpoints.load_inference_policy("1_Step-100.ckpt")  # what `racer evaluate` drives with
+    with torch.inference_mode():
+        greedy = networks[1].policy_output({"FRONT_FACING_CAMERA": torch.from_numpy(camera[:1])})[0].numpy()
+    frame = {"FRONT_FACING_CAMERA": camera[0].astype(np.uint8)}  # a camera frame as the simulator renders it
+    np.testing.assert_allclose(driver.act(frame, greedy=True)[0], greedy, atol=1e-5)
     with torch.inference_mode():
         feeds = {"FRONT_FACING_CAMERA": torch.from_numpy(camera)}
         np.testing.assert_array_equal(network.policy_output(feeds), networks[1].policy_output(feeds))
