@@ -22,6 +22,7 @@ bias are rescaled exactly on the way out and back (`action_space`), and both com
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping
 
 import numpy as np
@@ -50,6 +51,7 @@ __all__ = [
     "sac_graph_spec",
     "sac_input_node",
     "sac_racer_state_from_coach",
+    "keras_names_to_layer_names",
 ]
 
 SAC_POLICY_NETWORK = "main_level/agent/policy/online/network_0"
@@ -148,6 +150,7 @@ def sac_racer_state_from_coach(
     """RL Coach's SAC variables -> racer state_dict entries (policy; Q and V too if asked). Raises CoachMismatchError
     naming every missing, mis-shaped or unexpected variable. A frozen graph has no log-std layer (`include_log_std`
     False): it is not on the path to the `policy` output."""
+    tensors = keras_names_to_layer_names(tensors)
     expected = [
         variable
         for variable in sac_coach_variables(config, include_critics=include_critics)
@@ -192,6 +195,31 @@ def sac_racer_state_from_coach(
                 np.float32
             )
     return state
+
+
+_UNNAMED_DENSE = re.compile(
+    r"^(?P<scope>.+/(?:sac_policy_head_0|q1_head|q2_head))/dense(?:_(?P<n>\d+))?/(?P<part>kernel|bias)$"
+)
+
+
+def keras_names_to_layer_names(tensors: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """The ROS 2 SimApp's Keras layers number unnamed Dense layers across the graph (`q1_head/dense_2`,
+    `q2_head/dense_5`); `tf.layers` numbered them per scope (`dense`, `dense_1`), which racer writes. Within one
+    head the numbers keep the order the layers were made in, so renumbering them per scope maps one onto the other
+    (the SimApp's own restore matches them by scope and shape the same way)."""
+    numbers: dict[str, set[int]] = {}
+    for name in tensors:
+        match = _UNNAMED_DENSE.match(name)
+        if match:
+            numbers.setdefault(match["scope"], set()).add(int(match["n"] or 0))
+    renamed = {}
+    for name, value in tensors.items():
+        match = _UNNAMED_DENSE.match(name)
+        if match:
+            index = sorted(numbers[match["scope"]]).index(int(match["n"] or 0))
+            name = f"{match['scope']}/dense{'_' + str(index) if index else ''}/{match['part']}"
+        renamed[name] = value
+    return renamed
 
 
 def sac_graph_spec(config: PolicyConfig) -> dict:
