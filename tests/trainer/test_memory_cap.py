@@ -68,15 +68,22 @@ def test_the_trainer_drops_episodes_beyond_the_cap_and_counts_only_trained_steps
     )
     assert trainer.setup() == 0
     channel = RunChannel(RedisLink(redis_settings), PREFIX)
-    for share, lengths in ((0, [30, 30]), (1, [30, 20])):
-        episodes = tuple(
-            make_episode(n, seed=10 * share + i, worker_id=share, policy_version=0) for i, n in enumerate(lengths)
-        )
+    # One stream entry per claimed episode; the entry's share is the episode's number in the iteration.
+    for episode_number, length in enumerate([30, 30, 30, 20]):
+        worker_id = episode_number % 2
+        episode = make_episode(length, seed=episode_number, worker_id=worker_id, policy_version=0)
         channel.push_batch(
-            EpisodeBatch(iteration=0, share=share, worker_id=share, world="base", policy_version=0, episodes=episodes)
+            EpisodeBatch(
+                iteration=0,
+                share=episode_number,
+                worker_id=worker_id,
+                world="base",
+                policy_version=0,
+                episodes=(episode,),
+            )
         )
     summary = trainer.train_iteration(0, trainer.collect(0), rollout_wall_s=1.0)
-    # Global order 30 (s0), 30 (s1), 30 (s0), 20 (s1): 60 fits, 90 does not -> two trained, two dropped.
+    # Episodes in number order 30, 30, 30, 20: 60 fits, 90 does not -> two trained, two dropped.
     assert (summary["episodes"], summary["episodes_dropped"], summary["steps_dropped"]) == (2, 2, 50)
     assert summary["env_steps_total"] == 60
     name = trainer._save(1)
