@@ -37,6 +37,7 @@ __all__ = [
     "POLICY_NETWORK",
     "VALUE_NETWORK",
     "coach_tensors_from_racer",
+    "tensors_for_variables",
     "coach_variables",
     "graph_spec",
     "input_node",
@@ -203,8 +204,13 @@ def to_racer(array: np.ndarray, layout: str) -> np.ndarray:
 
 def coach_tensors_from_racer(config: PolicyConfig, state: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
     """racer weights (state_dict as float32 numpy arrays) -> RL Coach's variables, rescalers at 1.0."""
+    return tensors_for_variables(coach_variables(config), state)
+
+
+def tensors_for_variables(variables: list[CoachVariable], state: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """Each RL Coach variable from its racer tensor in TensorFlow's layout (rescalers, which racer lacks, at 1.0)."""
     tensors = {}
-    for variable in coach_variables(config):
+    for variable in variables:
         if variable.racer_key is None:
             tensors[variable.name] = np.asarray(1.0, dtype=np.float32)
         else:

@@ -32,7 +32,7 @@ from racer.model_io.tensorflow.coach_layout import (
     RESCALER,
     CoachMismatchError,
     CoachVariable,
-    to_coach,
+    tensors_for_variables,
     to_racer,
     tower_layers,
     tower_variables,
@@ -126,18 +126,7 @@ def sac_coach_tensors_from_racer(
             state[f"{layer}.bias"] = (
                 np.asarray(state[f"{layer}.bias"], dtype=np.float64) - action_columns @ (bias / scale)
             ).astype(np.float32)
-    tensors = {}
-    for variable in sac_coach_variables(config):
-        if variable.racer_key is None:
-            tensors[variable.name] = np.asarray(1.0, dtype=np.float32)
-        else:
-            tensors[variable.name] = to_coach(np.asarray(state[variable.racer_key], dtype=np.float32), variable.layout)
-        if tensors[variable.name].shape != variable.shape:
-            raise ValueError(
-                f"{variable.racer_key} has shape {tensors[variable.name].shape} in TensorFlow's layout, "
-                f"RL Coach's {variable.name} has {variable.shape}"
-            )
-    return tensors
+    return tensors_for_variables(sac_coach_variables(config), state)
 
 
 def sac_racer_state_from_coach(
