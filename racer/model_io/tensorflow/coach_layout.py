@@ -37,6 +37,7 @@ __all__ = [
     "POLICY_NETWORK",
     "VALUE_NETWORK",
     "coach_tensors_from_racer",
+    "state_for_variables",
     "tensors_for_variables",
     "coach_variables",
     "graph_spec",
@@ -234,7 +235,22 @@ def racer_state_from_coach(
 
     Raises CoachMismatchError listing every missing variable, wrong shape and unexpected network variable, so the
     user learns exactly which part of the graph racer's networks cannot represent."""
-    expected = coach_variables(config, include_value=include_value)
+    known = {variable.name for variable in coach_variables(config, include_value=True)}
+    scopes = (POLICY_NETWORK + "/", VALUE_NETWORK + "/") if include_value else (POLICY_NETWORK + "/",)
+    return state_for_variables(
+        coach_variables(config, include_value=include_value), known, scopes, tensors, config.neural_network
+    )
+
+
+def state_for_variables(
+    expected: list[CoachVariable],
+    known: set[str],
+    scopes: tuple[str, ...],
+    tensors: Mapping[str, np.ndarray],
+    network_label: str,
+) -> dict[str, np.ndarray]:
+    """The racer tensors of `expected`; CoachMismatchError lists every missing or mis-shaped variable and every
+    variable under `scopes` that is not in `known` (a layer racer's network does not have)."""
     problems = []
     state = {}
     for variable in expected:
@@ -251,12 +267,9 @@ def racer_state_from_coach(
             continue
         if variable.racer_key is not None:
             state[variable.racer_key] = to_racer(array.astype(np.float32), variable.layout)
-    known = {variable.name for variable in coach_variables(config, include_value=True)}
-    scopes = (POLICY_NETWORK + "/", VALUE_NETWORK + "/") if include_value else (POLICY_NETWORK + "/",)
     extra = sorted(name for name in tensors if name.startswith(scopes) and name not in known)
     problems += [
-        f"unexpected {name} {list(np.shape(tensors[name]))} (no such layer in racer's "
-        f"{config.neural_network} for these sensors)"
+        f"unexpected {name} {list(np.shape(tensors[name]))} (no such layer in racer's {network_label} for these sensors)"
         for name in extra
     ]
     if problems:

@@ -30,10 +30,9 @@ import numpy as np
 from racer.model_io.tensorflow.coach_layout import (
     MIDDLEWARE_SCOPE,
     RESCALER,
-    CoachMismatchError,
     CoachVariable,
+    state_for_variables,
     tensors_for_variables,
-    to_racer,
     tower_layers,
     tower_variables,
 )
@@ -145,32 +144,9 @@ def sac_racer_state_from_coach(
         for variable in sac_coach_variables(config, include_critics=include_critics)
         if include_log_std or not variable.name.startswith(f"{SAC_POLICY_NETWORK}/{POLICY_HEAD}/dense_1/")
     ]
-    problems = []
-    state: dict[str, np.ndarray] = {}
-    for variable in expected:
-        if variable.name not in tensors:
-            problems.append(f"missing {variable.name} {list(variable.shape)}")
-            continue
-        array = np.asarray(tensors[variable.name])
-        if variable.shape == () and array.size == 1:
-            array = array.reshape(())
-        if tuple(array.shape) != variable.shape:
-            problems.append(
-                f"{variable.name} has shape {list(array.shape)}, racer's network needs {list(variable.shape)}"
-            )
-            continue
-        if variable.racer_key is not None:
-            state[variable.racer_key] = to_racer(array.astype(np.float32), variable.layout)
     known = {variable.name for variable in sac_coach_variables(config, include_critics=True)}
     scopes = (SAC_POLICY_NETWORK + "/", SAC_Q_NETWORK + "/", SAC_V_NETWORK + "/")
-    extra = sorted(name for name in tensors if name.startswith(scopes) and name not in known)
-    problems += [
-        f"unexpected {name} {list(np.shape(tensors[name]))} (no such layer in racer's SAC "
-        f"{config.neural_network} for these sensors)"
-        for name in extra
-    ]
-    if problems:
-        raise CoachMismatchError("; ".join(problems))
+    state = state_for_variables(expected, known, scopes, tensors, f"SAC {config.neural_network}")
     if include_critics and action_space is not None:
         scale, bias = _action_affine(action_space)
         for layer in FIRST_Q_LAYERS:
