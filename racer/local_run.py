@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import os
+import resource
 import signal
 import subprocess
 import sys
@@ -619,7 +620,9 @@ def time_to_lap_command(
         return False
 
     base = ServiceSettings(redis=RedisSettings(), store=LocalStoreSettings(root=workdir / "store"))
+    children_before = resource.getrusage(resource.RUSAGE_CHILDREN)
     run_local_training(plan, base, on_evaluation=on_evaluation)
+    children_after = resource.getrusage(resource.RUSAGE_CHILDREN)
     channel_records = _read_iteration_records(workdir / "store", plan)
     rates = [r["experience_steps_per_s"] for r in channel_records]
     result["experience_steps_per_s"] = round(sum(rates) / len(rates), 1) if rates else None
@@ -628,6 +631,11 @@ def time_to_lap_command(
     result["env_steps_trained"] = channel_records[-1]["env_steps_total"] if channel_records else 0
     result["best_evaluation_progress_pct"] = round(max(best_progress), 1) if best_progress else None
     result["mean_load_average_1min"] = round(sum(load_averages) / len(load_averages), 2) if load_averages else None
+    # CPU the run's processes used (trainer, workers, Redis), to the end of the run: on a machine shared with other
+    # work, cpu_minutes / cores is a floor for the wall time the same run would take alone.
+    cpu_s = sum(getattr(children_after, field) - getattr(children_before, field) for field in ("ru_utime", "ru_stime"))
+    result["cpu_minutes"] = round(cpu_s / 60, 2)
+    result["cores"] = len(os.sched_getaffinity(0))
     result["track"] = str(track)
     click.echo(json.dumps(result))
 
