@@ -11,7 +11,7 @@ from racer.viewer.bench import PagePolls, WatchingOnly, _paired_ratios, _phase_s
 from racer.viewer.live import LiveRun
 from racer.viewer.run_files import RunFiles, RunLocation
 from tests.viewer.conftest import ServedApp
-from tests.viewer.test_viewer_http import publish_frame
+from tests.viewer.frames import publish_frame
 
 
 def records(rates: list[float], on: list[bool], steps: list[int]) -> list[dict]:

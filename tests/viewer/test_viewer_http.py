@@ -24,11 +24,12 @@ from racer.shared.config import RedisSettings
 from racer.shared.redis_connection import RedisLink
 from racer.shared.store import LocalStore
 from racer.shared.transport.channels import RunChannel
-from racer.shared.transport.frames import Frame, FrameChannel, jpeg_bytes
+from racer.shared.transport.frames import FrameChannel
 from racer.viewer.app import create_app
 from racer.viewer.live import LiveRun
 from racer.viewer.run_files import RunFiles, RunLocation, RunNotFoundError, resolve_run
 from tests.viewer.conftest import DRFC_MODEL, EVALUATION_RUN, ServedApp, free_port
+from tests.viewer.frames import publish_frame
 
 
 def get(url: str, headers: dict | None = None) -> tuple[int, str, bytes]:
@@ -136,29 +137,6 @@ def test_view_refuses_what_is_not_a_run(tmp_path, monkeypatch):
     monkeypatch.setenv("RACER_STORE", str(tmp_path / "empty-store"))
     with pytest.raises(RunNotFoundError, match="no-such-model"):
         resolve_run("no-such-model")
-
-
-def publish_frame(frames: FrameChannel, worker_id: int, seq: int, shade: int) -> Frame:
-    image = np.full((120, 160), shade, dtype=np.uint8)
-    frame = Frame(
-        worker_id=worker_id,
-        world="carpet",
-        session="s1",
-        seq=seq,
-        time=time.time(),
-        jpeg=jpeg_bytes(image),
-        x_m=1.5,
-        y_m=-0.5,
-        heading_deg=45.0,
-        trail=((1.0, -0.5), (1.5, -0.5)),
-        step=seq,
-        progress=12.0,
-        episode_reward=3.0,
-        status="in_progress",
-        phase="training",
-    )
-    frames.publish(frame)
-    return frame
 
 
 def test_live_endpoints_show_workers_frames_and_a_lost_redis(tmp_path, redis_server):
