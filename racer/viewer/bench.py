@@ -316,7 +316,7 @@ class PhaseCosts:
 
 
 @click.command(name="viewer")
-@click.option("--iterations", type=int, default=16, show_default=True, help="Measured iterations (half with the load).")
+@click.option("--iterations", type=int, default=12, show_default=True, help="Measured iterations (half with the load).")
 @click.option(
     "--warmup-iterations",
     type=click.IntRange(min=2),
@@ -325,7 +325,14 @@ class PhaseCosts:
     help="Not measured; the page is loaded at the end of the first.",
 )
 @click.option("--workers", "num_workers", type=int, default=4, show_default=True)
-@click.option("--episodes-per-iteration", type=int, default=8, show_default=True)
+@click.option(
+    "--episodes-per-iteration",
+    type=int,
+    default=32,
+    show_default=True,
+    help="Enough for every env of every worker to play two episodes or more: with fewer, an iteration's rate is its "
+    "slowest episode's and the per-iteration start-up's, not the page's.",
+)
 @click.option("--track", default="racer_oval", show_default=True)
 @click.option(
     "--load",
