@@ -70,15 +70,18 @@ class LaneSpline:
             return self._start_m + (dist_m - self._start_m) % self._length_m
         return dist_m
 
-    def point_and_tangent(self, dist_m: float) -> tuple[np.ndarray, np.ndarray]:
-        """(x, y) and d(x, y)/d(distance) at a distance along the centre line."""
+    def point_and_tangent(self, dist_m: float) -> tuple[float, float, float, float]:
+        """(x, y) and d(x, y)/d(distance) at a distance along the centre line, as plain floats (x, y, dx, dy)."""
         u = self._u(dist_m)
         i = min(max(bisect.bisect_right(self._breaks, u) - 1, 0), len(self._coeffs) - 1)
         h = u - self._breaks[i]
         (a3, a2, a1, a0), (b3, b2, b1, b0) = self._coeffs[i]
-        point = np.array((((a3 * h + a2) * h + a1) * h + a0, ((b3 * h + b2) * h + b1) * h + b0))
-        tangent = np.array(((3 * a3 * h + 2 * a2) * h + a1, (3 * b3 * h + 2 * b2) * h + b1))
-        return point, tangent
+        return (
+            ((a3 * h + a2) * h + a1) * h + a0,
+            ((b3 * h + b2) * h + b1) * h + b0,
+            (3 * a3 * h + 2 * a2) * h + a1,
+            (3 * b3 * h + 2 * b2) * h + b1,
+        )
 
 
 def smoothstep(fraction: float) -> tuple[float, float]:
@@ -189,7 +192,7 @@ class BotCars:
         assert self._track is not None
         lanes = self._lanes[id(self._track)]
         dist_m = self._dist_m(bot, episode_time_s)
-        point, tangent = lanes[bot.lane].point_and_tangent(dist_m)
+        x, y, tx, ty = lanes[bot.lane].point_and_tangent(dist_m)
         if bot.change is not None:
             start_m, end_m = bot.change
             length_m = self._track.length_m
@@ -199,14 +202,17 @@ class BotCars:
                 into_m = 0.0
             if span_m > 0:
                 s, ds = smoothstep(into_m / span_m)
-                end_point, end_tangent = lanes[bot.other_lane].point_and_tangent(dist_m)
-                tangent = (1 - s) * tangent + s * end_tangent + ds / span_m * (end_point - point)
-                point = (1 - s) * point + s * end_point
+                end_x, end_y, end_tx, end_ty = lanes[bot.other_lane].point_and_tangent(dist_m)
+                slope = ds / span_m
+                tx = (1 - s) * tx + s * end_tx + slope * (end_x - x)
+                ty = (1 - s) * ty + s * end_ty + slope * (end_y - y)
+                x = (1 - s) * x + s * end_x
+                y = (1 - s) * y + s * end_y
         return RaceObject(
             f"{BOT_CAR_NAME_PREFIX}_{index}",
             ObjectKind.BOT_CAR,
-            float(point[0]),
-            float(point[1]),
-            math.atan2(float(tangent[1]), float(tangent[0])),
+            x,
+            y,
+            math.atan2(ty, tx),
             self.race.bot_car_speed_mps,
         )

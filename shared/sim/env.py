@@ -29,7 +29,7 @@ from racer.shared.sim.car import (
 from racer.shared.sim.collisions import CrashVerdict
 from racer.shared.sim.config import STEPS_PER_SECOND, EnvConfig
 from racer.shared.sim.domain_randomization import SceneRandomizer
-from racer.shared.sim.object_bodies import ObjectBodies
+from racer.shared.sim.object_bodies import OBJECT_GEOM_GROUP, ObjectBodies
 from racer.shared.sim.race import RaceObjects, object_slots
 from racer.shared.sim.race_objects import RaceObject
 from racer.shared.sim.reward import RewardFunction, default_evaluation_reward, load_reward_function
@@ -152,7 +152,13 @@ class DeepRacerEnv(gym.Env):
         )
         self._data = mujoco.MjData(self._model)
         self._car = Car(self._model, command_wheel_radius_m(self._metadata.version))
-        self._camera = CameraRenderer(self._model, cfg.image_width_px, cfg.image_height_px, cfg.render_full_resolution)
+        self._camera = CameraRenderer(
+            self._model,
+            cfg.image_width_px,
+            cfg.image_height_px,
+            cfg.render_full_resolution,
+            front_groups=(OBJECT_GEOM_GROUP,) if cfg.race.has_objects else (),
+        )
         self._randomizer = SceneRandomizer(self._model, cfg.domain_randomization, cfg.car_randomization)
         self._scene_rng = np.random.default_rng()
         self._gray = GrayConverter((cfg.image_height_px, cfg.image_width_px))
@@ -371,7 +377,7 @@ class DeepRacerEnv(gym.Env):
         phase = self._phase
         terminated = False
         is_crashed = False
-        objects = self._race.track_objects() if self._race is not None else ()
+        objects, objects_track = self._race.reward_view() if self._race is not None else ((), None)
         status = phase
         lap_time_s: float | None = None
         command = (0.0, 0.0)
@@ -453,6 +459,7 @@ class DeepRacerEnv(gym.Env):
             sim_time_s=now_s,
             objects=objects,
             geometry=geometry,
+            objects_track=objects_track,
         )
         reward = 0.0
         if phase not in (EpisodeStatus.PREPARE, EpisodeStatus.PAUSE):

@@ -19,7 +19,7 @@ from racer.shared.sim.object_bodies import ObjectSlot
 from racer.shared.sim.obstacles import OBSTACLE_NAME_PREFIX, place_obstacles
 from racer.shared.sim.race_config import RaceConfig
 from racer.shared.sim.race_objects import ObjectKind, RaceObject
-from racer.shared.sim.reward_params import TrackObject
+from racer.shared.sim.reward_params import NO_OBJECTS_ON_TRACK, ObjectsOnTrack, TrackObject, objects_on_track
 from racer.shared.sim.track import Track
 
 CLOSEST_OBJ_GAP_M = 1.0
@@ -41,6 +41,10 @@ class RaceObjects:
         self._obstacles: list[RaceObject] = []
         self._track: Track | None = None
         self._last_obstacle: str | None = None
+        self._obstacles_view: tuple[list[TrackObject], ObjectsOnTrack] = ([], NO_OBJECTS_ON_TRACK)
+        """The reward params' view of the static obstacles, computed once per episode (they do not move)."""
+        self._bots_view: tuple[list[RaceObject], list[TrackObject], ObjectsOnTrack] | None = None
+        """The bots' view, for the pose list it was computed from (the same list until the bots move)."""
         self.obstacle_crash_count = 0
         """The simtrace's obstacle_crash_counter: resets behind the same obstacle in a row (mercy rule only)."""
 
@@ -52,6 +56,9 @@ class RaceObjects:
         """A new episode: obstacles placed again (the same unless randomised), bots back at their starts."""
         self._track = track
         self._obstacles = place_obstacles(track, self.race, rng)
+        obstacles = self._to_track_objects(self._obstacles)
+        self._obstacles_view = (obstacles, objects_on_track(track, obstacles))
+        self._bots_view = None
         if self._bots is not None:
             self._bots.restart(track, rng)
         self._last_obstacle = None
@@ -75,8 +82,22 @@ class RaceObjects:
             self._bots.rear_ended(episode_time_s)
         return verdict
 
-    def track_objects(self) -> list[TrackObject]:
-        """The reward params' view: with bot cars present every object reports BOT_CAR_SPEED (as the SimApp)."""
+    def reward_view(self) -> tuple[list[TrackObject], ObjectsOnTrack]:
+        """The objects as the reward params see them now (with bot cars present every object reports BOT_CAR_SPEED,
+        as the SimApp) and their centre-line facts (`objects_on_track`): the static obstacles' from the episode's
+        start, the bots' from their current poses."""
+        obstacles, obstacles_track = self._obstacles_view
+        if self._bots is None:
+            return list(obstacles), obstacles_track
+        poses = self._bots.objects
+        if self._bots_view is None or self._bots_view[0] is not poses:
+            assert self._track is not None
+            bots = self._to_track_objects(poses)
+            self._bots_view = (poses, bots, objects_on_track(self._track, bots))
+        _, bots, bots_track = self._bots_view
+        return obstacles + bots, obstacles_track + bots_track
+
+    def _to_track_objects(self, objects: Sequence[RaceObject]) -> list[TrackObject]:
         speed = self.race.bot_car_speed_mps if self.race.number_of_bot_cars else 0.0
         return [
             TrackObject(
@@ -88,7 +109,7 @@ class RaceObjects:
                 length_m=o.size.length_m,
                 width_m=o.size.width_m,
             )
-            for o in self.objects
+            for o in objects
         ]
 
     def _closest(self, track: Track, dist_m: float, obstacles_only: bool) -> tuple[float, RaceObject] | None:

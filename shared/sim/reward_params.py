@@ -10,6 +10,8 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+import numpy as np
+
 from racer.shared.sim.track import PointGeometry, Track
 
 FRONT_OF_CAR_M = 0.14
@@ -66,6 +68,50 @@ class TrackObject:
     width_m: float = 0.0
 
 
+@dataclass(frozen=True)
+class ObjectsOnTrack:
+    """Where each object lies relative to the centre line, in object order: the track's part of the `objects_*`
+    params. A static obstacle's stays the same for a whole episode, so the race logic computes it once per
+    episode instead of per step."""
+
+    distances_m: tuple[float, ...]
+    """`objects_distance`: metres along the centre line of the object's projection."""
+    distances_from_center_m: tuple[float, ...]
+    left_of_center: tuple[bool, ...]
+
+    def __add__(self, other: ObjectsOnTrack) -> ObjectsOnTrack:
+        return ObjectsOnTrack(
+            self.distances_m + other.distances_m,
+            self.distances_from_center_m + other.distances_from_center_m,
+            self.left_of_center + other.left_of_center,
+        )
+
+
+NO_OBJECTS_ON_TRACK = ObjectsOnTrack((), (), ())
+
+
+def objects_on_track(track: Track, objects: Sequence[TrackObject]) -> ObjectsOnTrack:
+    """The centre-line facts of every object, all objects in one vectorised projection (the same values as the
+    one-point `Track` methods: `project_m`, `distance_from_center`, the left-of-centre test below)."""
+    if not objects:
+        return NO_OBJECTS_ON_TRACK
+    xs = np.array([o.x for o in objects], dtype=np.float64)
+    ys = np.array([o.y for o in objects], dtype=np.float64)
+    distances, near_xs, near_ys = track.project_points_m(xs, ys)
+    if track.is_loop:
+        left = tuple(bool(v) ^ (not track.is_ccw) for v in track.in_inner_polygon_points(xs, ys))
+    else:
+        left = tuple(track.is_left_of_center(o.x, o.y) for o in objects)
+    return ObjectsOnTrack(
+        tuple(distances.tolist()),
+        tuple(
+            math.hypot(o.x - cx, o.y - cy)
+            for o, cx, cy in zip(objects, near_xs.tolist(), near_ys.tolist(), strict=True)
+        ),
+        left,
+    )
+
+
 def front_of_car(x_m: float, y_m: float, yaw_rad: float) -> tuple[float, float]:
     """The model point DeepRacer reports as x, y: car origin + R(yaw)·[0.14, 0]."""
     return x_m + FRONT_OF_CAR_M * math.cos(yaw_rad), y_m + FRONT_OF_CAR_M * math.sin(yaw_rad)
@@ -88,12 +134,14 @@ def make_reward_params(
     sim_time_s: float = 0.0,
     objects: Sequence[TrackObject] = (),
     geometry: PointGeometry | None = None,
+    objects_track: ObjectsOnTrack | None = None,
 ) -> dict:
     """Build the complete params dict for one step.
 
     `x`, `y` are the front-of-car point (as in the simtrace X, Y). `speed_mps` / `steering_angle_deg` are the
     commanded (unclipped) action values. `is_reversed` defaults to the track's direction flag. `geometry` may pass
-    a `track.point_geometry(x, y)` already computed by the caller (the env does, for progress).
+    a `track.point_geometry(x, y)` already computed by the caller (the env does, for progress), `objects_track` the
+    `objects_on_track(track, objects)` the caller keeps (the env does, per episode for static obstacles).
     """
     if geometry is None:
         geometry = track.point_geometry(x, y)
@@ -118,12 +166,23 @@ def make_reward_params(
         "is_offtrack": bool(is_offtrack),
         "sim_time": float(sim_time_s),
     }
-    params.update(object_params(track, objects, x=x, y=y, heading_deg=heading_deg, car_ndist=geometry.ndist))
+    params.update(
+        object_params(
+            track, objects, x=x, y=y, heading_deg=heading_deg, car_ndist=geometry.ndist, objects_track=objects_track
+        )
+    )
     return {key: params[key] for key in PARAM_KEYS}
 
 
 def object_params(
-    track: Track, objects: Sequence[TrackObject], *, x: float, y: float, heading_deg: float, car_ndist: float
+    track: Track,
+    objects: Sequence[TrackObject],
+    *,
+    x: float,
+    y: float,
+    heading_deg: float,
+    car_ndist: float,
+    objects_track: ObjectsOnTrack | None = None,
 ) -> dict:
     """The `objects_*` keys; DeepRacer's defaults when there are no objects."""
     if not objects:
@@ -137,7 +196,11 @@ def object_params(
             "objects_distance_from_center": [],
             "objects_distance": [],
         }
-    distances = [track.project_m(o.x, o.y) for o in objects]
+    if objects_track is None:
+        objects_track = objects_on_track(track, objects)
+    elif len(objects_track.distances_m) != len(objects):
+        raise ValueError(f"objects_track covers {len(objects_track.distances_m)} objects, the step has {len(objects)}")
+    distances = list(objects_track.distances_m)
     order = sorted(range(len(objects)), key=lambda i: distances[i])
     sorted_distances = [distances[i] for i in order]
     next_pos = bisect.bisect_right(sorted_distances, car_ndist * track.length_m)
@@ -148,18 +211,14 @@ def object_params(
         prev_pos = len(order) - 1
     prev_idx, next_idx = order[prev_pos], order[next_pos]
     any_bot = any(o.is_bot_car for o in objects)
-    if track.is_loop:
-        left = [track.in_inner_polygon(o.x, o.y) ^ (not track.is_ccw) for o in objects]
-    else:
-        left = [track.is_left_of_center(o.x, o.y) for o in objects]
     return {
         "closest_objects": [prev_idx, next_idx],
         "objects_location": [[float(o.x), float(o.y)] for o in objects],
-        "objects_left_of_center": left,
+        "objects_left_of_center": list(objects_track.left_of_center),
         "object_in_camera": _in_camera(objects[next_idx], x, y, heading_deg),
         "objects_speed": [float(o.speed_mps) if any_bot else 0.0 for o in objects],
         "objects_heading": [float(o.heading_rad) if any_bot else 0.0 for o in objects],
-        "objects_distance_from_center": [track.distance_from_center(o.x, o.y) for o in objects],
+        "objects_distance_from_center": list(objects_track.distances_from_center_m),
         "objects_distance": distances,
     }
 

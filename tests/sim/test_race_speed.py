@@ -1,0 +1,118 @@
+"""What keeps an env with objects fast must not change what it computes: the vectorised projections equal the
+one-point ones bit for bit, the per-episode cache of the static obstacles' params equals a fresh computation at every
+step (and moves with randomised obstacles), and drawing the objects first gives the same pixels."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from racer.shared.sim._mujoco import mujoco
+from racer.shared.sim.camera import CENTER_CAMERA, CameraRenderer
+from racer.shared.sim.car import Car
+from racer.shared.sim.object_bodies import OBJECT_GEOM_GROUP, ObjectBodies, ObjectSlot
+from racer.shared.sim.race_config import RaceConfig
+from racer.shared.sim.race_objects import ObjectKind, RaceObject
+from racer.shared.sim.scene import SceneSpec, build_model
+from racer.shared.sim.track import Track
+from racer.shared.sim.worlds import get_world
+
+
+@pytest.mark.parametrize("route", ["racer_oval", "reinvent_base"])
+def test_vectorised_projection_equals_the_one_point_methods(route, deepracer_data):
+    track = Track.load(deepracer_data / "routes" / f"{route}.npy" if route.startswith("reinvent") else route)
+    rng = np.random.default_rng(3)
+    lo, hi = track.waypoints.reshape(-1, 2).min(axis=0) - 1.0, track.waypoints.reshape(-1, 2).max(axis=0) + 1.0
+    points = rng.uniform(lo, hi, size=(300, 2))
+    points = np.vstack((points, track.center_line[:40], track.inner_border[:20]))  # on vertices: clamped factors
+    xs, ys = points[:, 0], points[:, 1]
+    distances, near_xs, near_ys = track.project_points_m(xs, ys)
+    inside = track.in_inner_polygon_points(xs, ys)
+    for k, (x, y) in enumerate(points.tolist()):
+        assert distances[k] == track.project_m(x, y)
+        assert math.hypot(x - near_xs[k], y - near_ys[k]) == track.distance_from_center(x, y)
+        assert inside[k] == track.in_inner_polygon(x, y)
+
+
+def _fresh_object_params(track: Track, params: dict) -> tuple[list, list, list]:
+    """objects_distance, objects_distance_from_center and objects_left_of_center computed one object at a time."""
+    points = params["objects_location"]
+    return (
+        [track.project_m(x, y) for x, y in points],
+        [track.distance_from_center(x, y) for x, y in points],
+        [track.in_inner_polygon(x, y) ^ (not track.is_ccw) for x, y in points],
+    )
+
+
+@pytest.mark.parametrize(
+    "race",
+    [
+        RaceConfig(race_type="OBJECT_AVOIDANCE", number_of_obstacles=3, randomize_obstacle_locations=True),
+        RaceConfig(race_type="HEAD_TO_BOT", number_of_bot_cars=2, bot_car_speed_mps=0.5, is_lane_change=True),
+    ],
+    ids=["randomised_obstacles", "bot_cars"],
+)
+def test_cached_object_params_equal_a_fresh_computation_at_every_step(make_env, race):
+    env = make_env(race=race)
+    per_episode = []
+    for episode in range(3):
+        env.reset(seed=11 if episode == 0 else None)
+        seen = []
+        for _ in range(12):
+            *_, terminated, truncated, info = env.step(2)
+            params = info["params"]
+            distance, from_center, left = _fresh_object_params(env.track, params)
+            assert params["objects_distance"] == distance
+            assert params["objects_distance_from_center"] == from_center
+            assert params["objects_left_of_center"] == left
+            seen.append(tuple(distance))
+            if terminated or truncated:
+                break
+        per_episode.append(seen)
+    if race.number_of_bot_cars:
+        assert len(set(per_episode[0])) > 1  # the bots moved, and their params with them
+    else:
+        assert all(len(set(seen)) == 1 for seen in per_episode)  # static within an episode
+        assert len({seen[0] for seen in per_episode}) == 3  # randomised again at every reset
+
+
+def test_drawing_the_objects_first_gives_the_same_pixels(deepracer_data):
+    slots = (
+        ObjectSlot("obstacle_0", ObjectKind.BOX_OBSTACLE),
+        ObjectSlot("bot_car_0", ObjectKind.BOT_CAR),
+        ObjectSlot("bot_car_1", ObjectKind.BOT_CAR),
+    )
+    track = Track.load(deepracer_data / "routes" / "reinvent_base.npy")
+    model = build_model(SceneSpec(track, get_world("base"), 1.0 / 240.0, ((CENTER_CAMERA, 0.0),), object_slots=slots))
+    data = mujoco.MjData(model)
+    car, bodies = Car(model), ObjectBodies(model, slots)
+    plain, objects_first = CameraRenderer(model), CameraRenderer(model, front_groups=(OBJECT_GEOM_GROUP,))
+    try:
+        differing = 0
+        for ndist in (0.02, 0.3, 0.55, 0.8):
+            x, y, yaw = track.pose_at(ndist)
+            car.teleport(model, data, x, y, yaw)
+            ahead = [(0.6, 0.15), (1.2, -0.2), (2.5, 0.1)]
+            bodies.place(
+                data,
+                [
+                    RaceObject(
+                        slot.name,
+                        slot.kind,
+                        x + d * math.cos(yaw) - left * math.sin(yaw),
+                        y + d * math.sin(yaw) + left * math.cos(yaw),
+                        yaw + 0.3,
+                    )
+                    for slot, (d, left) in zip(slots, ahead, strict=True)
+                ],
+            )
+            frame = plain.rgb(data, CENTER_CAMERA).copy()
+            differing += int(np.count_nonzero(frame != objects_first.rgb(data, CENTER_CAMERA)))
+            bodies.place(data, [])
+            assert np.count_nonzero(frame != plain.rgb(data, CENTER_CAMERA)) > 500  # the objects were in view
+        assert differing == 0
+    finally:
+        plain.close()
+        objects_first.close()
