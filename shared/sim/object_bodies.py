@@ -7,8 +7,9 @@ race logic's rectangle test, as in the SimApp. Looks, from the SimApp's models (
 * box_obstacle: a plain brown box (#7b614f) 0.4 m along its heading, 0.3 m across, 0.25 m high. Its collision
   rectangle (`race_objects.BOX_OBSTACLE_SIZE`, 0.5 x 0.4 m) is the box plus the SimApp's 0.1 m buffer.
 * bot_car: DeepRacer's car (the `car_body_link_v3` shell, dark grey 0x28, and four wheels), drawn as boxes and
-  cylinders that follow the shell mesh's outline: a low body over the full length and width, a narrower upper body
-  and the sensor tower at the front, which is what a LIDAR 0.16 m above the floor hits.
+  12-sided wheels that follow the shell mesh's outline: a low body over the full length and width, a narrower upper
+  body and the sensor tower at the front, which is what a LIDAR 0.16 m above the floor hits. They are two meshes
+  (body, wheels; `object_meshes.py`): two draws per car instead of seven.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from racer.shared.sim._mujoco import mujoco
+from racer.shared.sim.object_meshes import MeshBuilder
 from racer.shared.sim.race_objects import BOT_CAR_SIZE, BOX_OBSTACLE_SIZE, ObjectKind, RaceObject
 
 OBJECT_GEOM_GROUP = 2
@@ -54,6 +56,8 @@ BOT_HEIGHT_M = 0.205
 """Top of the shell's sensor tower (`car_body_link_v3.STL`)."""
 _BOT_HALF_LENGTH_M = BOT_CAR_SIZE.length_m / 2
 _BOT_HALF_WIDTH_M = BOT_CAR_SIZE.width_m / 2 - 0.004  # the wheels stick out 4 mm past the shell
+BOT_BODY_MESH = "race_object/bot_car_body"
+BOT_WHEELS_MESH = "race_object/bot_car_wheels"
 _BOT_BOXES = (
     # (centre x, z), (half x, y, z): shell outline at heights 0.02-0.10, 0.10-0.175 and 0.175-0.205 m
     ((0.004, 0.0625), (_BOT_HALF_LENGTH_M - 0.003, _BOT_HALF_WIDTH_M, 0.0375)),
@@ -104,18 +108,22 @@ def _geoms_xml(slot: ObjectSlot) -> list[str]:
     if slot.kind is ObjectKind.BOX_OBSTACLE:
         half = (BOX_LENGTH_M / 2, BOX_WIDTH_M / 2, BOX_HEIGHT_M / 2)
         return [f'<geom type="box" size="{half[0]} {half[1]} {half[2]}" pos="0 0 {half[2]}" {body} {common}/>']
-    geoms = [
-        f'<geom type="box" size="{hx} {hy} {hz}" pos="{x} 0 {z}" {body} {common}/>'
-        for (x, z), (hx, hy, hz) in _BOT_BOXES
+    wheels = f'material="{_material_name(slot, "wheels")}"'
+    return [
+        f'<geom type="mesh" mesh="{BOT_BODY_MESH}" {body} {common}/>',
+        f'<geom type="mesh" mesh="{BOT_WHEELS_MESH}" {wheels} {common}/>',
     ]
+
+
+def bot_car_meshes() -> tuple[MeshBuilder, MeshBuilder]:
+    """(body, wheels) of a bot car in its body frame: the shell's three boxes, the four wheels."""
+    body, wheels = MeshBuilder(), MeshBuilder()
+    for (x, z), half in _BOT_BOXES:
+        body.box((x, 0.0, z), half)
     for axle_x, half_track in zip(BOT_AXLES_X_M, BOT_HALF_TRACK_M, strict=True):
         for side in (1, -1):
-            geoms.append(
-                f'<geom type="cylinder" size="{BOT_WHEEL_RADIUS_M} {BOT_WHEEL_HALF_WIDTH_M}" '
-                f'pos="{axle_x} {side * half_track} {BOT_WHEEL_RADIUS_M}" quat="0.70710678 0.70710678 0 0" '
-                f'material="{_material_name(slot, "wheels")}" {common}/>'
-            )
-    return geoms
+            wheels.wheel((axle_x, side * half_track, BOT_WHEEL_RADIUS_M), BOT_WHEEL_RADIUS_M, BOT_WHEEL_HALF_WIDTH_M)
+    return body, wheels
 
 
 def obstacle_materials(model: mujoco.MjModel) -> list[np.ndarray]:
@@ -142,22 +150,25 @@ def _park_position(index: int) -> tuple[float, float, float]:
 
 
 def render_quality_attributes(slots: Sequence[ObjectSlot]) -> str:
-    """Extra `<quality>` attributes for a scene with objects: the bot cars' wheels (cylinders) drawn with 12 slices
-    and 4 stacks instead of MuJoCo's 28 and 16, box faces as one quad instead of 4 x 4. At 160x120 the frame is the
-    same pixel for pixel, and llvmpipe spends about 1 ms less per frame on three bot cars (their triangles cost even
-    when parked out of sight). Empty without slots, so a time trial's model is unchanged."""
-    return ' numslices="12" numstacks="4" numquads="1"' if slots else ""
+    """Extra `<quality>` attributes for a scene with objects: box faces drawn as one quad instead of 4 x 4 (the
+    same pixels at 160x120, fewer triangles for llvmpipe). The bot cars are meshes (`object_meshes.py`), which this
+    does not touch. Empty without slots, so a time trial's model is unchanged."""
+    return ' numquads="1"' if slots else ""
 
 
 def object_materials_mjcf(slots: Sequence[ObjectSlot]) -> str:
-    """Asset elements for the objects' colours, one set per slot so that each obstacle can be recoloured alone
-    (none without slots, so a time trial's model is unchanged)."""
-    return "\n".join(
+    """Asset elements for the objects' colours, one set per slot so that each obstacle can be recoloured alone, and
+    the bot car's meshes when a slot is a bot car (none without slots, so a time trial's model is unchanged)."""
+    materials = [
         f'    <material name="{_material_name(slot, part)}" rgba="{_rgba(rgb)}" emission="{OBJECT_EMISSION}" '
         'specular="0" shininess="0"/>'
         for slot in slots
         for part, rgb in _parts(slot.kind)
-    )
+    ]
+    if any(slot.kind is ObjectKind.BOT_CAR for slot in slots):
+        body, wheels = bot_car_meshes()
+        materials += [body.mjcf(BOT_BODY_MESH), wheels.mjcf(BOT_WHEELS_MESH)]
+    return "\n".join(materials)
 
 
 def object_bodies_mjcf(slots: Sequence[ObjectSlot]) -> str:

@@ -9,6 +9,7 @@ import math
 import numpy as np
 import pytest
 
+from racer.shared.sim import object_bodies, scene
 from racer.shared.sim._mujoco import mujoco
 from racer.shared.sim.camera import CENTER_CAMERA, CameraRenderer
 from racer.shared.sim.car import Car
@@ -116,3 +117,62 @@ def test_drawing_the_objects_first_gives_the_same_pixels(deepracer_data):
     finally:
         plain.close()
         objects_first.close()
+
+
+def _bot_car_as_primitives(slot: ObjectSlot) -> list[str]:
+    """The reference shape: the bot car's three boxes and four wheels as MuJoCo boxes and cylinders (12 slices)."""
+    common = f'contype="0" conaffinity="0" group="{OBJECT_GEOM_GROUP}" mass="0"'
+    body = f'material="{object_bodies._material_name(slot, "body")}"'
+    wheels = f'material="{object_bodies._material_name(slot, "wheels")}"'
+    geoms = [
+        f'<geom type="box" size="{hx} {hy} {hz}" pos="{x} 0 {z}" {body} {common}/>'
+        for (x, z), (hx, hy, hz) in object_bodies._BOT_BOXES
+    ]
+    for axle_x, half_track in zip(object_bodies.BOT_AXLES_X_M, object_bodies.BOT_HALF_TRACK_M, strict=True):
+        for side in (1, -1):
+            geoms.append(
+                f'<geom type="cylinder" size="{object_bodies.BOT_WHEEL_RADIUS_M} {object_bodies.BOT_WHEEL_HALF_WIDTH_M}" '
+                f'pos="{axle_x} {side * half_track} {object_bodies.BOT_WHEEL_RADIUS_M}" '
+                f'quat="0.70710678 0.70710678 0 0" {wheels} {common}/>'
+            )
+    return geoms
+
+
+def test_the_bot_car_meshes_draw_the_boxes_and_wheels_they_replace(deepracer_data, monkeypatch):
+    """Two meshes per bot car instead of seven geoms: the camera's frames differ by at most one grey level."""
+    slots = tuple(ObjectSlot(f"bot_car_{i}", ObjectKind.BOT_CAR) for i in range(2))
+    track = Track.load(deepracer_data / "routes" / "reinvent_base.npy")
+    spec = SceneSpec(track, get_world("base"), 1.0 / 240.0, ((CENTER_CAMERA, 0.0),), object_slots=slots)
+    meshes = build_model(spec)
+    with monkeypatch.context() as patch:
+        patch.setattr(object_bodies, "_geoms_xml", _bot_car_as_primitives)
+        patch.setattr(scene, "render_quality_attributes", lambda slots: ' numslices="12" numstacks="4" numquads="1"')
+        primitives = build_model(spec)
+    assert meshes.ngeom == primitives.ngeom - 2 * 5
+    frames = []
+    for model in (meshes, primitives):
+        data, car, bodies, camera = mujoco.MjData(model), Car(model), ObjectBodies(model, slots), CameraRenderer(model)
+        try:
+            for ndist, yaw_offset in ((0.02, 0.4), (0.4, -0.8), (0.7, 2.0)):
+                x, y, yaw = track.pose_at(ndist)
+                car.teleport(model, data, x, y, yaw)
+                placed = [(0.5, 0.12), (1.3, -0.15)]
+                bodies.place(
+                    data,
+                    [
+                        RaceObject(
+                            slot.name,
+                            slot.kind,
+                            x + d * math.cos(yaw) - left * math.sin(yaw),
+                            y + d * math.sin(yaw) + left * math.cos(yaw),
+                            yaw + yaw_offset,
+                        )
+                        for slot, (d, left) in zip(slots, placed, strict=True)
+                    ],
+                )
+                frames.append(camera.rgb(data, CENTER_CAMERA).astype(int))
+        finally:
+            camera.close()
+    with_meshes, with_primitives = np.array(frames[:3]), np.array(frames[3:])
+    assert np.count_nonzero((with_primitives < 60).all(axis=-1)) > 3000  # dark bot cars fill much of the frames
+    assert np.abs(with_meshes - with_primitives).max() <= 1
