@@ -377,7 +377,7 @@ class DeepRacerEnv(gym.Env):
         phase = self._phase
         terminated = False
         is_crashed = False
-        objects, objects_track = self._race.reward_view() if self._race is not None else ((), None)
+        bot_poses = self._race.bot_poses() if self._race is not None else []
         status = phase
         lap_time_s: float | None = None
         command = (0.0, 0.0)
@@ -444,6 +444,7 @@ class DeepRacerEnv(gym.Env):
         # While the next frame renders: the pose it shows with its track geometry (the next step judges it),
         # then the reward and the simtrace row of the pose judged above.
         self._judged_pose(track)
+        objects, objects_track = self._race.reward_view(bot_poses) if self._race is not None else ((), None)
         params = make_reward_params(
             track,
             x=mx,

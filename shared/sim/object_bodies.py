@@ -210,29 +210,50 @@ class ObjectBodies:
         self._bodies = _as_range(body_ids)
         self._mocaps = _as_range(mocap_ids)
         self._geoms = _as_range(geom_ids)
-        self._first_mocap = mocap_ids[0] if mocap_ids else 0
         self._scratch = mujoco.MjData(model)
         self._park = self._scratch.mocap_pos[self._mocaps].copy()
         self._placed: tuple[int, tuple[RaceObject, ...]] | None = None
+        self._scratch_views = self._slot_views(self._scratch)
+        self._data_views: tuple[mujoco.MjData, list[np.ndarray]] | None = None
+
+    def _slot_views(self, data: mujoco.MjData) -> list[np.ndarray]:
+        """Views of the slots' rows in `data`'s pose arrays (the arrays of an MjData never move)."""
+        return [
+            getattr(data, field)[rows]
+            for field, rows in (
+                ("mocap_pos", self._mocaps),
+                ("mocap_quat", self._mocaps),
+                ("xpos", self._bodies),
+                ("xquat", self._bodies),
+                ("xmat", self._bodies),
+                ("geom_xpos", self._geoms),
+                ("geom_xmat", self._geoms),
+            )
+        ]
+
+    def _views_of(self, data: mujoco.MjData) -> list[np.ndarray]:
+        if self._data_views is None or self._data_views[0] is not data:
+            self._data_views = (data, self._slot_views(data))
+        return self._data_views[1]
 
     def place(self, data: mujoco.MjData, objects: Sequence[RaceObject]) -> None:
         """Put each slot's body at its object's pose (standing on the floor); slots without an object are parked."""
         objects = tuple(objects)
-        scratch, mocaps = self._scratch, self._mocaps
+        views, scratch_views = self._views_of(data), self._scratch_views
         if (
             self._placed is not None
             and self._placed[0] == id(data)
             and _same_objects(self._placed[1], objects)
-            and np.array_equal(data.mocap_pos[mocaps], scratch.mocap_pos[mocaps])
+            and np.array_equal(views[0], scratch_views[0])
         ):
             return  # nothing moved (static obstacles): the world poses derived from mocap_pos are still right
         if not self.slots:
             if objects:
                 raise ValueError(f"no object slots in this scene for {[obj.name for obj in objects]}")
             return
-        pos, quat = scratch.mocap_pos, scratch.mocap_quat
-        pos[mocaps] = self._park
-        quat[mocaps] = (1.0, 0.0, 0.0, 0.0)
+        pos, quat = scratch_views[0], scratch_views[1]
+        pos[:] = self._park
+        quat[:] = (1.0, 0.0, 0.0, 0.0)
         for obj in objects:
             i = self._index.get(obj.name)
             if i is None:
@@ -241,18 +262,11 @@ class ObjectBodies:
                 raise ValueError(
                     f"race object {obj.name!r} is a {obj.kind.value}, its slot was built for a {self.slots[i].kind.value}"
                 )
-            k = self._first_mocap + i
-            pos[k] = (obj.x_m, obj.y_m, 0.0)
-            quat[k] = (math.cos(0.5 * obj.yaw_rad), 0.0, 0.0, math.sin(0.5 * obj.yaw_rad))
-        mujoco.mj_kinematics(self._model, scratch)
-        bodies, geoms = self._bodies, self._geoms
-        data.mocap_pos[mocaps] = pos[mocaps]
-        data.mocap_quat[mocaps] = quat[mocaps]
-        data.xpos[bodies] = scratch.xpos[bodies]
-        data.xquat[bodies] = scratch.xquat[bodies]
-        data.xmat[bodies] = scratch.xmat[bodies]
-        data.geom_xpos[geoms] = scratch.geom_xpos[geoms]
-        data.geom_xmat[geoms] = scratch.geom_xmat[geoms]
+            pos[i] = (obj.x_m, obj.y_m, 0.0)
+            quat[i] = (math.cos(0.5 * obj.yaw_rad), 0.0, 0.0, math.sin(0.5 * obj.yaw_rad))
+        mujoco.mj_kinematics(self._model, self._scratch)
+        for target, source in zip(views, scratch_views, strict=True):
+            target[...] = source
         self._placed = (id(data), objects)
 
 

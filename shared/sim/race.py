@@ -15,6 +15,7 @@ import numpy as np
 from racer.shared.sim.bot_cars import BOT_CAR_NAME_PREFIX, BotCars
 from racer.shared.sim.car import CarPose
 from racer.shared.sim.collisions import CrashVerdict, collided_object, judge_crash, start_line_progress
+from racer.shared.sim.moving_projection import MovingProjection
 from racer.shared.sim.object_bodies import ObjectSlot
 from racer.shared.sim.obstacles import OBSTACLE_NAME_PREFIX, place_obstacles
 from racer.shared.sim.race_config import RaceConfig
@@ -45,6 +46,7 @@ class RaceObjects:
         """The reward params' view of the static obstacles, computed once per episode (they do not move)."""
         self._bots_view: tuple[list[RaceObject], list[TrackObject], ObjectsOnTrack] | None = None
         """The bots' view, for the pose list it was computed from (the same list until the bots move)."""
+        self._bot_projection: MovingProjection | None = None
         self.obstacle_crash_count = 0
         """The simtrace's obstacle_crash_counter: resets behind the same obstacle in a row (mercy rule only)."""
 
@@ -61,6 +63,7 @@ class RaceObjects:
         self._bots_view = None
         if self._bots is not None:
             self._bots.restart(track, rng)
+            self._bot_projection = MovingProjection(track, self.race.number_of_bot_cars)
         self._last_obstacle = None
         self.obstacle_crash_count = 0
         return self.objects
@@ -82,18 +85,22 @@ class RaceObjects:
             self._bots.rear_ended(episode_time_s)
         return verdict
 
-    def reward_view(self) -> tuple[list[TrackObject], ObjectsOnTrack]:
-        """The objects as the reward params see them now (with bot cars present every object reports BOT_CAR_SPEED,
-        as the SimApp) and their centre-line facts (`objects_on_track`): the static obstacles' from the episode's
-        start, the bots' from their current poses."""
+    def bot_poses(self) -> list[RaceObject]:
+        """The bots' poses now, to hand to `reward_view` later: the list stays as it is when the bots move on (the env
+        computes the reward params' view while the next frame renders)."""
+        return self._bots.objects if self._bots is not None else []
+
+    def reward_view(self, bot_poses: list[RaceObject]) -> tuple[list[TrackObject], ObjectsOnTrack]:
+        """The objects as the reward params see them (with bot cars present every object reports BOT_CAR_SPEED, as
+        the SimApp) and their centre-line facts (`objects_on_track`): the static obstacles' from the episode's start,
+        the bots' from `bot_poses` (`bot_poses()` of the judged instant)."""
         obstacles, obstacles_track = self._obstacles_view
         if self._bots is None:
             return list(obstacles), obstacles_track
-        poses = self._bots.objects
-        if self._bots_view is None or self._bots_view[0] is not poses:
+        if self._bots_view is None or self._bots_view[0] is not bot_poses:
             assert self._track is not None
-            bots = self._to_track_objects(poses)
-            self._bots_view = (poses, bots, objects_on_track(self._track, bots))
+            bots = self._to_track_objects(bot_poses)
+            self._bots_view = (bot_poses, bots, objects_on_track(self._track, bots, self._bot_projection))
         _, bots, bots_track = self._bots_view
         return obstacles + bots, obstacles_track + bots_track
 

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from racer.shared.sim.moving_projection import MovingProjection
 from racer.shared.sim.track import PointGeometry, Track
 
 FRONT_OF_CAR_M = 0.14
@@ -90,24 +91,26 @@ class ObjectsOnTrack:
 NO_OBJECTS_ON_TRACK = ObjectsOnTrack((), (), ())
 
 
-def objects_on_track(track: Track, objects: Sequence[TrackObject]) -> ObjectsOnTrack:
-    """The centre-line facts of every object, all objects in one vectorised projection (the same values as the
-    one-point `Track` methods: `project_m`, `distance_from_center`, the left-of-centre test below)."""
+def objects_on_track(
+    track: Track, objects: Sequence[TrackObject], projection: MovingProjection | None = None
+) -> ObjectsOnTrack:
+    """The centre-line facts of every object (the same values as the one-point `Track` methods: `project_m`,
+    `distance_from_center`, the left-of-centre test below): all objects in one vectorised projection, or through
+    `projection` for objects that move a little per call (bot cars)."""
     if not objects:
         return NO_OBJECTS_ON_TRACK
-    xs = np.array([o.x for o in objects], dtype=np.float64)
-    ys = np.array([o.y for o in objects], dtype=np.float64)
-    distances, near_xs, near_ys = track.project_points_m(xs, ys)
-    if track.is_loop:
-        left = tuple(bool(v) ^ (not track.is_ccw) for v in track.in_inner_polygon_points(xs, ys))
+    xs, ys = [o.x for o in objects], [o.y for o in objects]
+    if projection is None:
+        distances, near_xs, near_ys = (a.tolist() for a in track.project_points_m(np.array(xs), np.array(ys)))
     else:
-        left = tuple(track.is_left_of_center(o.x, o.y) for o in objects)
+        distances, near_xs, near_ys = projection.project(xs, ys)
+    if track.is_loop:
+        left = tuple(bool(v) ^ (not track.is_ccw) for v in track.in_inner_polygon_points(np.array(xs), np.array(ys)))
+    else:
+        left = tuple(track.is_left_of_center(x, y) for x, y in zip(xs, ys, strict=True))
     return ObjectsOnTrack(
-        tuple(distances.tolist()),
-        tuple(
-            math.hypot(o.x - cx, o.y - cy)
-            for o, cx, cy in zip(objects, near_xs.tolist(), near_ys.tolist(), strict=True)
-        ),
+        tuple(distances),
+        tuple(math.hypot(x - cx, y - cy) for x, y, cx, cy in zip(xs, ys, near_xs, near_ys, strict=True)),
         left,
     )
 

@@ -71,6 +71,7 @@ class _Polyline:
         self.seg_len_list = self.seg_len.tolist()
         self.ax_list, self.ay_list = self.ax.tolist(), self.ay.tolist()
         self.dx_list, self.dy_list = self.dx.tolist(), self.dy.tolist()
+        self.len2_list = self.len2.tolist()
 
     def locate(self, x: float, y: float) -> tuple[int, float]:
         """(segment index, clamped projection factor) of the nearest point, as GEOS LengthIndexOfPoint.
@@ -78,14 +79,19 @@ class _Polyline:
         GEOS takes the first segment of minimum distance; comparing squared distances of the clamped foot points
         selects the same segment (up to sub-ulp ties, where both candidates give the same measure).
         """
+        d2, r = self.squared_distances(x, y)
+        i = int(np.argmin(d2))
+        return i, float(r[i])
+
+    def squared_distances(self, x: float, y: float) -> tuple[np.ndarray, np.ndarray]:
+        """(squared distance from the point to each segment's nearest point, that point's clamped factor)."""
         px = x - self.ax
         py = y - self.ay
         r = (px * self.dx + py * self.dy) / self.len2
         np.clip(r, 0.0, 1.0, out=r)
         qx = px - r * self.dx
         qy = py - r * self.dy
-        i = int(np.argmin(qx * qx + qy * qy))
-        return i, float(r[i])
+        return qx * qx + qy * qy, r
 
     def project_many(self, xs: np.ndarray, ys: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """`project` and `nearest_point` of several points in one pass: (distances along the line, nearest xs,
@@ -244,6 +250,11 @@ class Track:
         return len(self.center_line)
 
     # ----- geometry on a point -------------------------------------------------------------------------------
+
+    @property
+    def center_segments(self) -> _Polyline:
+        """The centre line's segment arrays (for searches that reuse its arithmetic, `moving_projection.py`)."""
+        return self._center
 
     def project_normalized(self, x: float, y: float) -> float:
         """`center_line.project(point, normalized=True)`."""

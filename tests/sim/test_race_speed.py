@@ -13,6 +13,7 @@ from racer.shared.sim import object_bodies, scene
 from racer.shared.sim._mujoco import mujoco
 from racer.shared.sim.camera import CENTER_CAMERA, CameraRenderer
 from racer.shared.sim.car import Car
+from racer.shared.sim.moving_projection import MovingProjection
 from racer.shared.sim.object_bodies import OBJECT_GEOM_GROUP, ObjectBodies, ObjectSlot
 from racer.shared.sim.race_config import RaceConfig
 from racer.shared.sim.race_objects import ObjectKind, RaceObject
@@ -176,3 +177,29 @@ def test_the_bot_car_meshes_draw_the_boxes_and_wheels_they_replace(deepracer_dat
     with_meshes, with_primitives = np.array(frames[:3]), np.array(frames[3:])
     assert np.count_nonzero((with_primitives < 60).all(axis=-1)) > 3000  # dark bot cars fill much of the frames
     assert np.abs(with_meshes - with_primitives).max() <= 1
+
+
+@pytest.mark.parametrize("route", ["racer_oval", "reinvent_base", "Straight_track"])
+def test_moving_projection_equals_a_full_search_and_mostly_skips_it(route, deepracer_data):
+    """Points driving along both lanes in 3 cm steps with some sideways wobble and a few jumps across the track."""
+    track = Track.load(route if route.startswith("racer") else deepracer_data / "routes" / f"{route}.npy")
+    projection = MovingProjection(track, 2)
+    rng = np.random.default_rng(5)
+    steps = 400
+    start = rng.uniform(0.0, track.length_m, size=2)
+    calls = 0
+    for step in range(steps):
+        xs, ys = [], []
+        for k, lane in enumerate(("inner", "outer")):
+            ndist = ((start[k] + 0.033 * step) / track.length_m) % 1.0
+            if step % 150 == 149:
+                ndist = rng.uniform()  # a jump: the window must notice
+            x, y, _ = track.pose_at(ndist, lane)
+            xs.append(x + rng.normal(0.0, 0.01))
+            ys.append(y + rng.normal(0.0, 0.01))
+        distances, near_xs, near_ys = projection.project(xs, ys)
+        calls += 2
+        for x, y, d, cx, cy in zip(xs, ys, distances, near_xs, near_ys, strict=True):
+            assert d == track.project_m(x, y)
+            assert math.hypot(x - cx, y - cy) == track.distance_from_center(x, y)
+    assert projection.full_searches < calls / 4
