@@ -15,7 +15,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from racer.shared.sim.obstacles import OBSTACLE_NAME_PREFIX
-from racer.shared.sim.race_objects import BOT_CAR_SIZE, ObjectSize, RaceObject
+from racer.shared.sim.race_objects import BOT_CAR_SIZE, SIZES, ObjectSize, RaceObject
 
 
 def rectangle_corners(x_m: float, y_m: float, yaw_rad: float, size: ObjectSize) -> list[tuple[float, float]]:
@@ -35,17 +35,24 @@ def _inside(obj: RaceObject, px: float, py: float) -> bool:
     return abs(c * dx + s * dy) < 0.5 * size.length_m and abs(-s * dx + c * dy) < 0.5 * size.width_m
 
 
+_REACH_M = {
+    kind: 0.5 * math.hypot(size.length_m, size.width_m) + 0.5 * math.hypot(BOT_CAR_SIZE.length_m, BOT_CAR_SIZE.width_m)
+    for kind, size in SIZES.items()
+}
+"""Centre distance beyond which an object's rectangle and the car's cannot overlap (half diagonals summed)."""
+
+
 def collided_object(
     car_x_m: float, car_y_m: float, car_yaw_rad: float, objects: Sequence[RaceObject]
 ) -> RaceObject | None:
     """The first object with a corner of the car's rectangle strictly inside its own, or None."""
-    corners = rectangle_corners(car_x_m, car_y_m, car_yaw_rad, BOT_CAR_SIZE)
+    corners: list[tuple[float, float]] | None = None
     for obj in objects:
-        reach_m = 0.5 * math.hypot(obj.size.length_m, obj.size.width_m) + 0.5 * math.hypot(
-            BOT_CAR_SIZE.length_m, BOT_CAR_SIZE.width_m
-        )
+        reach_m = _REACH_M[obj.kind]
         if abs(obj.x_m - car_x_m) > reach_m or abs(obj.y_m - car_y_m) > reach_m:
             continue
+        if corners is None:  # only with an object in reach: most steps have none
+            corners = rectangle_corners(car_x_m, car_y_m, car_yaw_rad, BOT_CAR_SIZE)
         if any(_inside(obj, px, py) for px, py in corners):
             return obj
     return None
