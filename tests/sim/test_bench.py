@@ -31,5 +31,6 @@ def test_bench_with_obstacles_and_bot_cars_reports_each_beside_the_time_trial():
         # The rates are printed to 0.1 steps/s and the ratio to 0.001: the ratio of the printed rates agrees up to that.
         rounding = (0.05 / rate + 0.05 / trial) * rate / trial + 0.0005
         assert abs(ratio - rate / trial) <= rounding, numbers
+        assert 0 < numbers[f"{name}_ratio_median_of_rounds"] < 3 * ratio, numbers
         if abs(ratio - 0.85) > 0.0005:
             assert numbers[f"{name}_goal_met"] == (ratio >= 0.85), numbers
