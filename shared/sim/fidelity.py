@@ -29,6 +29,7 @@ from racer.shared.sim.car import STEERING_JOINTS, WHEEL_NAMES, WHEEL_RADIUS_M, C
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
 from racer.shared.sim.fidelity_floor import heading_floor_deg
+from racer.shared.sim.fidelity_noise import in_progress_rows, replay_floor_m, row_timing
 from racer.shared.sim.tyre_fit import CarConstants, SegmentBatch, fit, leave_one_file_out
 
 HORIZONS_S: tuple[float, ...] = (1.0, 2.0)
@@ -227,6 +228,29 @@ def add_heading_floor(bands: dict[str, dict], segments: Sequence[Segment], error
             bands[band_label(low, high)]["heading_floor_deg_1s_median"] = round(float(np.median(members)), 2)
 
 
+def add_replay_floor(bands: dict[str, dict], segments: Sequence[Segment], simtraces: Sequence[Path]) -> dict:
+    """Per band, the median 1 s error of an exact twin replayed on its own pseudo-log with the files' row-timing
+    jitter (fidelity_noise.py): what the logs' noise and the replay's protocol cost any car model."""
+    try:
+        timing = row_timing(in_progress_rows(simtraces))
+    except ValueError as exc:
+        return {"row_timing": str(exc)}
+    floor = replay_floor_m(segments, CarConstants(), timing.unexplained_jitter_s)
+    speeds = np.array([segment.start_speed_mps for segment in segments])
+    for low, high in SPEED_BANDS_MPS:
+        members = (speeds >= low) & (speeds < high)
+        if members.any():
+            bands[band_label(low, high)]["replay_floor_m_1s_median"] = round(float(np.median(floor[members])), 4)
+    return {
+        "row_timing": {
+            "rows": timing.rows,
+            "step_s": round(timing.step_s, 4),
+            "tstamp_share": round(timing.tstamp_share, 3),
+            "unexplained_jitter_s": round(timing.unexplained_jitter_s, 4),
+        }
+    }
+
+
 def run_fidelity(simtraces: Sequence[Path], route: Path, progress: bool = False, fit_mode: str = "none") -> dict:
     """The replay's error table. `fit_mode` "none" replays racer's car as it is; "all" first fits the dynamics
     constants on all segments (tyre_fit.py) and replays with them; "leave-one-file-out" replays each file with the
@@ -263,6 +287,7 @@ def run_fidelity(simtraces: Sequence[Path], route: Path, progress: bool = False,
         replay.close()
     bands = summarise(errors)
     add_heading_floor(bands, segments, errors)
+    noise = add_replay_floor(bands, segments, simtraces)
     goal_met = all(entry.get("position_m_1s_median", math.inf) <= 0.05 for entry in bands.values() if entry["segments"])
     return {
         "segments": len(segments),
@@ -270,6 +295,7 @@ def run_fidelity(simtraces: Sequence[Path], route: Path, progress: bool = False,
         "bands": bands,
         "goal_median_position_1s_le_0_05_m": goal_met,
         "fit": fit_mode,
+        **noise,
         **({"constants": {source: c.as_dict() for source, c in sorted(constants.items())}} if constants else {}),
     }
 
