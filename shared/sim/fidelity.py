@@ -29,7 +29,7 @@ from racer.shared.sim.car import STEERING_JOINTS, WHEEL_NAMES, WHEEL_RADIUS_M, C
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
 from racer.shared.sim.fidelity_floor import heading_floor_deg
-from racer.shared.sim.fidelity_noise import in_progress_rows, replay_floor_m, row_timing
+from racer.shared.sim.fidelity_noise import in_progress_rows, oracle_start_errors_m, replay_floor_m, row_timing
 from racer.shared.sim.tyre_fit import CarConstants, SegmentBatch, fit, leave_one_file_out
 
 HORIZONS_S: tuple[float, ...] = (1.0, 2.0)
@@ -228,19 +228,25 @@ def add_heading_floor(bands: dict[str, dict], segments: Sequence[Segment], error
             bands[band_label(low, high)]["heading_floor_deg_1s_median"] = round(float(np.median(members)), 2)
 
 
-def add_replay_floor(bands: dict[str, dict], segments: Sequence[Segment], simtraces: Sequence[Path]) -> dict:
-    """Per band, the median 1 s error of an exact twin replayed on its own pseudo-log with the files' row-timing
-    jitter (fidelity_noise.py): what the logs' noise and the replay's protocol cost any car model."""
+def add_log_limits(bands: dict[str, dict], segments: Sequence[Segment], simtraces: Sequence[Path]) -> dict:
+    """Per band, two medians of the 1 s error (fidelity_noise.py, with the fit's twin and the default constants):
+    an exact twin replayed on its own pseudo-log with the files' row-timing jitter (what the logs' noise and the
+    replay's protocol cost any car model), and the twin from a start state fitted to the next logged poses (what
+    a better estimate of the unlogged start state could gain at most)."""
+    speeds = np.array([segment.start_speed_mps for segment in segments])
+
+    def by_band(key: str, errors: np.ndarray) -> None:
+        for low, high in SPEED_BANDS_MPS:
+            members = (speeds >= low) & (speeds < high)
+            if members.any():
+                bands[band_label(low, high)][key] = round(float(np.median(errors[members])), 4)
+
+    by_band("oracle_start_m_1s_median", oracle_start_errors_m(segments, CarConstants()))
     try:
         timing = row_timing(in_progress_rows(simtraces))
     except ValueError as exc:
         return {"row_timing": str(exc)}
-    floor = replay_floor_m(segments, CarConstants(), timing.unexplained_jitter_s)
-    speeds = np.array([segment.start_speed_mps for segment in segments])
-    for low, high in SPEED_BANDS_MPS:
-        members = (speeds >= low) & (speeds < high)
-        if members.any():
-            bands[band_label(low, high)]["replay_floor_m_1s_median"] = round(float(np.median(floor[members])), 4)
+    by_band("replay_floor_m_1s_median", replay_floor_m(segments, CarConstants(), timing.unexplained_jitter_s))
     return {
         "row_timing": {
             "rows": timing.rows,
@@ -287,7 +293,7 @@ def run_fidelity(simtraces: Sequence[Path], route: Path, progress: bool = False,
         replay.close()
     bands = summarise(errors)
     add_heading_floor(bands, segments, errors)
-    noise = add_replay_floor(bands, segments, simtraces)
+    noise = add_log_limits(bands, segments, simtraces)
     goal_met = all(entry.get("position_m_1s_median", math.inf) <= 0.05 for entry in bands.values() if entry["segments"])
     return {
         "segments": len(segments),

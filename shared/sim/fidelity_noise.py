@@ -11,7 +11,10 @@ measures bound what any car model can reach on these logs:
   row before each segment's start, with the logged commands and the logged step lengths plus that jitter, becomes a
   pseudo-log; the replay's own protocol (central-difference start state from the pseudo-log's poses, hinges at the
   previous command, logged step lengths) then runs the same twin on it. The error left is the protocol's and the
-  noise's alone: a floor for the replay's figures.
+  noise's alone: a floor for the replay's figures;
+* `oracle_start_errors_m`: the replay from a start state (forward and lateral speed, yaw rate, hinge angle) fitted
+  to the next logged poses, which no replay may know: what a perfect estimate of the unlogged start state could
+  gain at most.
 """
 
 from __future__ import annotations
@@ -144,3 +147,59 @@ def replay_floor_m(
     if np.any(np.argmin(np.abs(pseudo_log.elapsed_s - horizon_s), axis=1) >= usable):
         raise ValueError(f"segments are too short for a {horizon_s:g} s floor")
     return position_errors_m(pseudo_log, rx, ry, horizon_s)
+
+
+ORACLE_FIT_ROWS = 8
+"""Poses after the start the oracle's start state is fitted to (≈ 0.5 s)."""
+YAW_WEIGHT_M = 0.1
+"""A heading error weighs in the oracle's fit as the sideways shift it makes 0.1 m ahead."""
+
+
+def oracle_start_errors_m(
+    segments: Sequence[Segment],
+    constants: CarConstants,
+    fit_rows: int = ORACLE_FIT_ROWS,
+    horizon_s: float = 1.0,
+    iterations: int = 6,
+) -> np.ndarray:
+    """Per segment, the position error after `horizon_s` when the start's forward and lateral speed, yaw rate and
+    hinge angle are fitted (Gauss-Newton, all segments at once) to the front of car and heading of the next
+    `fit_rows` poses."""
+    batch = SegmentBatch.of(segments)
+    short = replace(
+        batch,
+        steer_rad=batch.steer_rad[:, : fit_rows + 3],
+        speed_mps=batch.speed_mps[:, : fit_rows + 3],
+        step_s=batch.step_s[:, : fit_rows + 2],
+        elapsed_s=batch.elapsed_s[:, : fit_rows + 1],
+        model_xy=batch.model_xy[:, : fit_rows + 3],
+    )
+    rows = batch.steer_rad.shape[1]
+    yaw = np.stack([np.unwrap(np.pad(s.yaw_rad, (0, rows - len(s.yaw_rad)), mode="edge")) for s in segments])
+    # Front of car (m) and heading (as the sideways shift 0.1 m ahead) at poses 1 .. fit_rows after the start.
+    logged = np.concatenate(
+        [short.model_xy[:, 3 : 3 + fit_rows].reshape(len(segments), -1), YAW_WEIGHT_M * yaw[:, 3 : 3 + fit_rows]],
+        axis=1,
+    )
+    params = np.column_stack([batch.start[:, 3:6], batch.steer_rad[:, 1]])
+    steps = (0.01, 0.01, 0.02, 0.005)  # m/s, m/s, rad/s, rad
+
+    def residual(values: np.ndarray) -> np.ndarray:
+        start = batch.start.copy()
+        start[:, 3:6] = values[:, :3]
+        xs, ys, yaws = simulate(replace(short, start=start), constants, start_steer_rad=values[:, 3])
+        points = np.stack([xs[:, 1 : 1 + fit_rows], ys[:, 1 : 1 + fit_rows]], axis=2).reshape(len(segments), -1)
+        return np.concatenate([points, YAW_WEIGHT_M * yaws[:, 1 : 1 + fit_rows]], axis=1) - logged
+
+    for _ in range(iterations):
+        base = residual(params)
+        jacobian = np.stack(
+            [(residual(params + np.eye(4)[i] * step) - base) / step for i, step in enumerate(steps)], axis=2
+        )
+        normal = np.einsum("nmi,nmj->nij", jacobian, jacobian) + 1e-6 * np.eye(4)
+        params = params - np.linalg.solve(normal, np.einsum("nmi,nm->ni", jacobian, base)[..., None])[..., 0]
+    start = batch.start.copy()
+    start[:, 3:6] = params[:, :3]
+    oracle = replace(batch, start=start)
+    xs, ys, _ = simulate(oracle, constants, start_steer_rad=params[:, 3])
+    return position_errors_m(oracle, xs, ys, horizon_s)

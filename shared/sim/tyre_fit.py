@@ -122,8 +122,14 @@ class SegmentBatch:
         return SegmentBatch(**{f.name: getattr(self, f.name)[mask] for f in fields(self)})
 
 
-def simulate(batch: SegmentBatch, constants: CarConstants, substeps: int = TWIN_SUBSTEPS) -> tuple[np.ndarray, ...]:
-    """Front-of-car x, y and heading at every pose from the start (n, poses), as `CarReplay.run` computes them."""
+def simulate(
+    batch: SegmentBatch,
+    constants: CarConstants,
+    substeps: int = TWIN_SUBSTEPS,
+    start_steer_rad: np.ndarray | None = None,
+) -> tuple[np.ndarray, ...]:
+    """Front-of-car x, y and heading at every pose from the start (n, poses), as `CarReplay.run` computes them.
+    The hinges start at the previous row's command unless `start_steer_rad` gives their angle."""
     p = constants.tyres
     front_arm, rear_arm = FRONT_AXLE_X_M, -REAR_AXLE_X_M
     weight = TOTAL_MASS_KG * GRAVITY_MPS2
@@ -131,7 +137,7 @@ def simulate(batch: SegmentBatch, constants: CarConstants, substeps: int = TWIN_
     front_peak = p.front_peak_grip * mu * weight * rear_arm / (front_arm + rear_arm)
     rear_peak = p.rear_peak_grip * mu * weight * front_arm / (front_arm + rear_arm)
     x, y, yaw, forward, lateral, yaw_rate = (batch.start[:, i].copy() for i in range(6))
-    steer = batch.steer_rad[:, 1].copy()
+    steer = (batch.steer_rad[:, 1] if start_steer_rad is None else start_steer_rad).copy()
     ahead = Car.FRONT_OF_CAR_M
     xs, ys, yaws = [x + ahead * np.cos(yaw)], [y + ahead * np.sin(yaw)], [yaw.copy()]
     for k in range(2, batch.step_s.shape[1]):

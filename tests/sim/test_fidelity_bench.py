@@ -97,6 +97,7 @@ def test_bench_prints_one_json_line_with_every_band(deepracer_data):
         assert math.isfinite(band["turn_deg_2s_median"])
         # An exact twin on its own pseudo-log (the logs' timing noise, the replay's protocol) misses by less.
         assert 0 < band["replay_floor_m_1s_median"] < band["position_m_1s_median"]
+        assert 0 < band["oracle_start_m_1s_median"]
     assert numbers["row_timing"]["rows"] > 20 and 0 < numbers["row_timing"]["unexplained_jitter_s"] < 0.01
     assert isinstance(numbers["goal_median_position_1s_le_0_05_m"], bool)
 
