@@ -29,6 +29,7 @@ from racer.shared.sim.car import STEERING_JOINTS, WHEEL_NAMES, WHEEL_RADIUS_M, C
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
 from racer.shared.sim.fidelity_floor import heading_floor_deg
+from racer.shared.sim.fidelity_hypotheses import screen
 from racer.shared.sim.fidelity_noise import in_progress_rows, oracle_start_errors_m, replay_floor_m, row_timing
 from racer.shared.sim.tyre_fit import CarConstants, SegmentBatch, fit, leave_one_file_out
 
@@ -330,7 +331,20 @@ def run_fidelity(simtraces: Sequence[Path], route: Path, progress: bool = False,
     help="Refit the car's dynamics constants first: on all files (prints them), or per file on the other files "
     "(the honest, held-out error; takes minutes per file).",
 )
-def fidelity_bench_command(simtraces: Path, route: Path, fit_mode: str) -> None:
+@click.option(
+    "--hypotheses",
+    is_flag=True,
+    help="Instead of the replay, vary how the logs are read (command delay, time base, start state) with the "
+    "fit's twin and print the errors per variant (fidelity_hypotheses.py; seconds).",
+)
+def fidelity_bench_command(simtraces: Path, route: Path, fit_mode: str, hypotheses: bool) -> None:
     """Open-loop replay of real simtraces: median and p90 position/heading error after 1 s and 2 s per speed band."""
     paths = sorted(simtraces.glob("*.csv")) if simtraces.is_dir() else [simtraces]
+    if hypotheses:
+        segments = load_segments(paths)
+        if not segments:
+            raise click.ClickException(f"no replayable segments in {', '.join(str(p) for p in paths)}")
+        table = screen(segments, SPEED_BANDS_MPS, band_label)
+        click.echo(json.dumps({"segments": len(segments), "files": len(paths), "hypotheses": table}))
+        return
     click.echo(json.dumps(run_fidelity(paths, route, progress=True, fit_mode=fit_mode)))

@@ -127,9 +127,13 @@ def simulate(
     constants: CarConstants,
     substeps: int = TWIN_SUBSTEPS,
     start_steer_rad: np.ndarray | None = None,
+    command_delay_rows: float = 0.0,
 ) -> tuple[np.ndarray, ...]:
     """Front-of-car x, y and heading at every pose from the start (n, poses), as `CarReplay.run` computes them.
-    The hinges start at the previous row's command unless `start_steer_rad` gives their angle."""
+    The hinges start at the previous row's command unless `start_steer_rad` gives their angle. A row's command acts
+    from its pose on; `command_delay_rows` shifts that (in rows, rounded to substeps; negative: earlier)."""
+    delay = round(command_delay_rows * substeps)
+    last_row = batch.steer_rad.shape[1] - 1
     p = constants.tyres
     front_arm, rear_arm = FRONT_AXLE_X_M, -REAR_AXLE_X_M
     weight = TOTAL_MASS_KG * GRAVITY_MPS2
@@ -142,9 +146,11 @@ def simulate(
     xs, ys, yaws = [x + ahead * np.cos(yaw)], [y + ahead * np.sin(yaw)], [yaw.copy()]
     for k in range(2, batch.step_s.shape[1]):
         h = batch.step_s[:, k] / substeps
-        target, rolling = batch.steer_rad[:, k], batch.speed_mps[:, k] * p.rolling_radius_m / COMMAND_WHEEL_RADIUS_M
         follow = 1.0 - np.exp(-h / constants.steering_time_constant_s)
-        for _ in range(substeps):
+        for substep in range(substeps):
+            row = min(max((k * substeps + substep - delay) // substeps, 0), last_row)
+            target = batch.steer_rad[:, row]
+            rolling = batch.speed_mps[:, row] * p.rolling_radius_m / COMMAND_WHEEL_RADIUS_M
             slip_speed = np.maximum(np.abs(forward), p.min_slip_speed_mps)
             front_slip = np.arctan2(lateral + front_arm * yaw_rate, slip_speed) - steer
             rear_slip = np.arctan2(lateral - rear_arm * yaw_rate, slip_speed)

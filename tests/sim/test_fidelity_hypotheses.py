@@ -1,0 +1,54 @@
+"""`racer bench fidelity --hypotheses`: the replay's reading of the logs varied with the fit's twin."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from racer.shared.sim.fidelity import SPEED_BANDS_MPS, band_label, fidelity_bench_command, load_segments
+from racer.shared.sim.fidelity_hypotheses import VARIANTS, screen, step_lengths
+from racer.shared.sim.tyre_fit import CarConstants, SegmentBatch, position_errors_m, simulate
+
+
+@pytest.fixture(scope="module")
+def segments(deepracer_data):
+    folder = deepracer_data / "simtrace"
+    return load_segments(
+        [folder / "drfc1_evaluation_0-iteration.csv", folder / "console2022_evaluation_0-iteration.csv"]
+    )
+
+
+def test_time_bases(segments):
+    batch = SegmentBatch.of(segments)
+    assert np.array_equal(step_lengths(batch, "tstamp"), batch.step_s)
+    median = step_lengths(batch, "median")
+    assert np.allclose(median, median[:, :1]) and np.all(np.abs(median[:, 0] - 1 / 15) < 0.01)
+    assert np.all(step_lengths(batch, "nominal") == pytest.approx(1 / 15))
+    with pytest.raises(ValueError, match="unknown time base 'wall'"):
+        step_lengths(batch, "wall")
+
+
+def test_a_late_command_replays_worse_and_the_plain_variant_is_the_replay(segments):
+    table = screen(segments, SPEED_BANDS_MPS, band_label)
+    assert set(VARIANTS) < set(table)
+    batch = SegmentBatch.of(segments)
+    xs, ys, _ = simulate(batch, CarConstants())
+    plain = float(np.median(position_errors_m(batch, xs, ys, 1.0)[[s.start_speed_mps < 0.75 for s in segments]]))
+    assert table["as replayed"]["position_m_1s_median"]["0-0.75 m/s"] == pytest.approx(plain, abs=1e-4)
+    # In the SimApp a row's action acts from that row's pose on: delaying it by a row makes every figure worse.
+    assert table["command 1 row late"]["loss_m"] > 1.15 * table["as replayed"]["loss_m"]
+    assert table["start: backward differences"]["loss_m"] > table["as replayed"]["loss_m"]
+
+
+def test_bench_prints_the_hypotheses(deepracer_data):
+    path = deepracer_data / "simtrace" / "drfc1_evaluation_0-iteration.csv"
+    route = deepracer_data / "routes" / "reinvent_base.npy"
+    result = CliRunner().invoke(
+        fidelity_bench_command, ["--simtraces", str(path), "--route", str(route), "--hypotheses"]
+    )
+    assert result.exit_code == 0, result.output
+    numbers = json.loads(result.stdout.strip().splitlines()[-1])
+    assert numbers["files"] == 1 and "time base: nominal 1/15 s" in numbers["hypotheses"]
