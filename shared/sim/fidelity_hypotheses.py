@@ -1,7 +1,7 @@
 """`racer bench fidelity --hypotheses`: the replay's protocol varied, one assumption at a time, with the fit's twin.
 
 Each variant changes how the logs are read, not the car: when a row's command starts to act (a late or early
-action), which step lengths drive the replay (the logged `tstamp`s, their median, DeepRacer's nominal 1/15 s),
+action), which step lengths drive the replay (DeepRacer's nominal 1/15 s, the logged `tstamp`s, their median),
 and which start state it begins from (central differences around the start pose, backward differences from the
 rows before it only, or an oracle fitted to the next 0.5 s of the log). The twin keeps the shipped constants;
 the README gives these figures and, for the variants that could help, the same after refitting the constants.
@@ -21,18 +21,18 @@ from racer.shared.sim.tyre_fit import FIT_HORIZONS_S, CarConstants, SegmentBatch
 if TYPE_CHECKING:
     from racer.shared.sim.fidelity import Segment
 
-NOMINAL_STEP_S = 1.0 / 15.0
-"""DeepRacer's camera rate: one row per frame."""
-
 
 def step_lengths(batch: SegmentBatch, base: str) -> np.ndarray:
-    """Step lengths for `base`: "tstamp" (logged), "median" (each segment's median logged step), "nominal"."""
-    if base == "tstamp":
-        return batch.step_s
-    if base == "median":
-        return np.broadcast_to(np.median(batch.step_s, axis=1, keepdims=True), batch.step_s.shape).copy()
+    """Step lengths for `base`: "nominal" (the replay's 1/15 s), "tstamp" (logged), "median" (each segment's
+    median logged step); zero in the padding, as `SegmentBatch.step_s`."""
+    padding = batch.step_s == 0
     if base == "nominal":
-        return np.full(batch.step_s.shape, NOMINAL_STEP_S)
+        return batch.step_s
+    if base == "tstamp":
+        return batch.logged_step_s
+    if base == "median":
+        median = np.broadcast_to(np.median(batch.logged_step_s, axis=1, keepdims=True), batch.step_s.shape)
+        return np.where(padding, 0.0, median)
     raise ValueError(f"unknown time base {base!r}: tstamp, median or nominal")
 
 
@@ -72,8 +72,8 @@ VARIANTS: dict[str, dict] = {
     "command 1 row late": {"delay": 1.0},
     "command 0.5 row late": {"delay": 0.5},
     "command 0.25 row early": {"delay": -0.25},
-    "time base: median step": {"base": "median"},
-    "time base: nominal 1/15 s": {"base": "nominal"},
+    "time base: logged tstamps": {"base": "tstamp"},
+    "time base: median logged step": {"base": "median"},
     "start: backward differences": {"backward": True},
 }
 
@@ -94,7 +94,7 @@ def screen(segments: Sequence[Segment], bands: Sequence[tuple[float, float]], la
 
     table: dict[str, dict] = {}
     for name, options in VARIANTS.items():
-        varied, _ = _variant(segments, batch, options.get("base", "tstamp"), options.get("backward", False))
+        varied, _ = _variant(segments, batch, options.get("base", "nominal"), options.get("backward", False))
         xs, ys, _ = simulate(varied, constants, command_delay_rows=options.get("delay", 0.0))
         loss = sum(float(np.mean(position_errors_m(varied, xs, ys, h))) for h in FIT_HORIZONS_S)
         table[name] = {

@@ -87,7 +87,9 @@ class SegmentBatch:
     """(n, rows): clipped logged steering per row (row 1 is the command before the start)."""
     speed_mps: np.ndarray
     step_s: np.ndarray
-    """(n, rows - 1): time from each pose to the next."""
+    """(n, rows - 1): how long each row is replayed (fidelity.REPLAY_STEP_S; 0 in the padding)."""
+    logged_step_s: np.ndarray
+    """(n, rows - 1): the logged tstamp differences (for `racer bench fidelity --hypotheses`)."""
     elapsed_s: np.ndarray
     """(n, poses): time of each compared pose after the start pose."""
     model_xy: np.ndarray
@@ -108,12 +110,14 @@ class SegmentBatch:
             speed.append(padded(np.array([v for v, _ in commands])))
             steer.append(padded(np.radians([s for _, s in commands])))
         times = np.stack([padded(s.times_s) for s in segments])
+        replay_times = np.stack([padded(s.replay_times_s) for s in segments])
         return cls(
             sources=np.array([s.source for s in segments]),
             start=np.array(start),
             steer_rad=np.stack(steer),
             speed_mps=np.stack(speed),
-            step_s=np.diff(times, axis=1),
+            step_s=np.diff(replay_times, axis=1),
+            logged_step_s=np.diff(times, axis=1),
             elapsed_s=times[:, 2:] - times[:, 2:3],
             model_xy=np.stack([padded(s.model_xy) for s in segments]),
         )

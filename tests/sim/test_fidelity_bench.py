@@ -6,6 +6,7 @@ import json
 import math
 
 import numpy as np
+import pytest
 from click.testing import CliRunner
 
 from racer.shared.sim.fidelity import HORIZONS_S, CarReplay, fidelity_bench_command, load_segments, segment_errors
@@ -20,6 +21,13 @@ def test_segments_follow_the_simapps_timing(deepracer_data):
         assert 2.0 <= span < 2.1  # from the start pose to the last compared pose: 2 s of logged steps
         assert np.all(np.diff(segment.times_s) > 0.02)
         assert 0.0 <= segment.start_speed_mps < 3.0
+
+
+def test_rows_are_replayed_for_the_nominal_step(deepracer_data):
+    segment = load_segments([deepracer_data / "simtrace" / "drfc1_evaluation_0-iteration.csv"])[0]
+    assert np.diff(segment.replay_times_s) == pytest.approx(np.full(len(segment.times_s) - 1, 1 / 15))
+    assert segment.replay_times_s[0] == segment.times_s[0]
+    assert not np.allclose(np.diff(segment.times_s), 1 / 15, atol=1e-3)  # the logged steps jitter
 
 
 def test_the_replay_starts_on_the_logged_pose_and_stays_near_it(deepracer_data):
