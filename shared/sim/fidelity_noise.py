@@ -1,17 +1,17 @@
 """What the logs themselves allow: the real rows' timing noise, and the replay error of a car model that is exact.
 
 `racer bench fidelity` compares racer's car with real simtraces whose rows are not evenly timed: the SimApp's
-Gazebo runs on while the agent thinks, a row's pose is a cached model state and its `tstamp` a clock callback. Two
-measures bound what any car model can reach on these logs:
+Gazebo runs on while the agent thinks, a row's pose is a cached model state and its `tstamp` a clock callback.
+These measures bound what any car model can reach on these logs:
 
 * `row_timing`: at a held speed command, how much of the per-row distance's spread the logged step lengths
   explain (`tstamp_share`: 1 = the tstamps are the true step lengths, 0 = pure noise), and the step-length jitter
   the tstamps miss (upper bound: all unexplained spread of the distance counted as timing);
-* `replay_floor`: the planar twin (`tyre_fit.py`) with fixed constants plays the real car. Its trajectory from one
-  row before each segment's start, with the logged commands and the logged step lengths plus that jitter, becomes a
-  pseudo-log; the replay's own protocol (central-difference start state from the pseudo-log's poses, hinges at the
-  previous command, logged step lengths) then runs the same twin on it. The error left is the protocol's and the
-  noise's alone: a floor for the replay's figures;
+* `replay_floor_m`: the planar twin (`tyre_fit.py`) with fixed constants plays the real car. Its trajectory from
+  one row before each segment's start, with the logged commands and the replay's 1/15 s steps plus that jitter,
+  becomes a pseudo-log; the replay's own protocol (central-difference start state from the pseudo-log's poses,
+  hinges at the previous command, 1/15 s steps) then runs the same twin on it. The error left is the protocol's
+  and the noise's alone: a floor for the replay's figures;
 * `oracle_start_errors_m`: the replay from a start state (forward and lateral speed, yaw rate, hinge angle) fitted
   to the next logged poses, which no replay may know: what a perfect estimate of the unlogged start state could
   gain at most.
