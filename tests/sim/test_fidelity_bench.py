@@ -45,7 +45,7 @@ def test_the_replay_starts_on_the_logged_pose_and_stays_near_it(deepracer_data):
     finally:
         replay.close()
     assert max(first_errors) < 2e-3
-    # README: 8-10 cm medians per band with the tyre model (this file: 9 cm; the sphere-tyre car missed by 24 cm).
+    # README: 8-10 cm medians per band with the tyre model (this file: ≈ 10 cm; the sphere-tyre car missed by 24 cm).
     assert float(np.median(one_second)) < 0.13
 
 
