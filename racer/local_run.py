@@ -15,6 +15,7 @@ import subprocess
 import sys
 import threading
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path
@@ -24,6 +25,7 @@ import click
 from racer.shared import model_layout
 from racer.shared.batched_rollout import DEFAULT_ENVS_PER_WORKER, default_workers
 from racer.shared.config import LocalStoreSettings, RedisSettings, S3Settings, ServiceSettings, settings_from_env
+from racer.shared.deepracer.hyperparameters import HyperparametersError, parse_hyperparameters
 from racer.shared.redis_connection import RedisLink, RedisUnavailableError
 from racer.shared.services import PROJECT_ROOT, MinioServer, RedisServer, _die_with_parent
 from racer.shared.sim.config import DEFAULT_TRACK
@@ -522,6 +524,13 @@ TIME_TO_LAP_RACES: dict[str, tuple[tuple[str, str], ...]] = {
     help="camera: FRONT_FACING_CAMERA (one frame per step, the cheapest on CPU); stereo-lidar: STEREO_CAMERAS + LIDAR "
     "(DeepRacer's recommendation for racing against objects; two frames and 64 rays per step).",
 )
+@click.option(
+    "--hyperparameter",
+    "hyperparameter_pairs",
+    multiple=True,
+    metavar="KEY=VALUE",
+    help="A hyperparameters.json key over the SimApp default (repeatable), e.g. sac_alpha=0.05.",
+)
 @click.option("--seed", type=int, default=0, show_default=True)
 def time_to_lap_command(
     track,
@@ -537,6 +546,7 @@ def time_to_lap_command(
     sac_updates_per_transition,
     race_type,
     sensors,
+    hyperparameter_pairs,
     seed,
 ):
     """Train from scratch until greedy evaluation completes 3 of 3 laps (from three starts a third of a lap
@@ -572,7 +582,9 @@ def time_to_lap_command(
             }
         )
     )
-    (custom / "hyperparameters.json").write_text(json.dumps({"num_episodes_between_training": episodes_per_iteration}))
+    overrides = hyperparameter_overrides(hyperparameter_pairs)
+    hyperparameters = {"num_episodes_between_training": episodes_per_iteration, **overrides}
+    (custom / "hyperparameters.json").write_text(json.dumps(hyperparameters))
     # Three greedy laps from three places on the lap (0, 1/3, 2/3 on from the round-robin start): the simulator is
     # deterministic, so three trials from one place would be one drive three times.
     (custom / "workers.json").write_text(json.dumps({"MIN_EVAL_TRIALS": 3, "RACER_EVAL_SPREAD_STARTS": "True"}))
@@ -598,6 +610,7 @@ def time_to_lap_command(
         "minutes": None,
         "env_steps": None,
         "iterations": None,
+        "hyperparameters": hyperparameters,
     }
     if algorithm == "sac":
         result["sac_updates_per_transition"] = sac_updates_per_transition
@@ -638,6 +651,27 @@ def time_to_lap_command(
     result["cores"] = len(os.sched_getaffinity(0))
     result["track"] = str(track)
     click.echo(json.dumps(result))
+
+
+def hyperparameter_overrides(pairs: Sequence[str]) -> dict[str, object]:
+    """`KEY=VALUE` pairs as hyperparameters.json entries (VALUE read as JSON, else as text), checked as the trainer
+    will check them."""
+    overrides: dict[str, object] = {}
+    for pair in pairs:
+        key, separator, text = pair.partition("=")
+        if not separator or not key:
+            raise click.BadParameter(f"{pair!r} is not KEY=VALUE", param_hint="--hyperparameter")
+        try:
+            overrides[key.strip()] = json.loads(text)
+        except json.JSONDecodeError:
+            overrides[key.strip()] = text.strip()
+    try:
+        _, warnings = parse_hyperparameters(overrides, source="--hyperparameter")
+    except HyperparametersError as error:
+        raise click.BadParameter(str(error), param_hint="--hyperparameter") from error
+    if warnings:
+        raise click.BadParameter("; ".join(warnings), param_hint="--hyperparameter")
+    return overrides
 
 
 def _read_iteration_records(store_root: Path, plan: LocalRunPlan) -> list[dict]:
