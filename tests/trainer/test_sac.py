@@ -161,6 +161,39 @@ def test_sac_learns_a_one_step_task():
     )
 
 
+def _value_weights(networks: SACNetworks, target: bool) -> list[torch.Tensor]:
+    tower, head = (
+        (networks.target_value_tower, networks.target_value_head)
+        if target
+        else (networks.value_tower, networks.value_head)
+    )
+    return [p.detach().clone() for p in (*tower.parameters(), *head.parameters())]
+
+
+def test_target_v_is_copied_once_per_update_after_its_first_step():
+    """DeepRacer's rule, from RL Coach's Agent.train: the trainer's step counter moves only while the episodes are
+    fetched (one `act` per transition), `num_steps_between_copying_online_weights_to_target` is
+    EnvironmentSteps(num_episodes_between_training) and the copy rate is 1, so V_target = V after the first
+    gradient step of every training call and not again until the next one."""
+    torch.manual_seed(5)
+    settings = SACSettings(replay_memory_bytes=4 << 20, seed=5, threads_per_tower=1, bf16_towers=False)
+    one_step = SACTrainer(SACNetworks(LIDAR_ONLY), Hyperparameters(batch_size=32, lr=1e-3), settings)
+    three_steps = SACTrainer(copy.deepcopy(one_step.networks), one_step.hyperparameters, settings)
+    episodes = bandit_episodes(one_step.networks, 40, np.random.default_rng(5))
+    for trainer in (one_step, three_steps):
+        trainer.add_experience(episodes)
+    one_step._train(1, 32)
+    three_steps._train(3, 32)
+    after_first_step = _value_weights(one_step.networks, target=False)
+    for a, b in zip(_value_weights(one_step.networks, target=True), after_first_step, strict=True):
+        torch.testing.assert_close(a, b, rtol=0, atol=0)
+    for a, b in zip(_value_weights(three_steps.networks, target=True), after_first_step, strict=True):
+        torch.testing.assert_close(a, b, rtol=1e-5, atol=1e-7)
+    # Steps 2 and 3 moved V but not its target.
+    moved = _value_weights(three_steps.networks, target=False)
+    assert any(not torch.allclose(a, b) for a, b in zip(moved, after_first_step, strict=True))
+
+
 def test_two_thread_step_computes_the_plain_sequential_step():
     """The trainer's step (towers on two threads, Q head held constant in the policy loss) moves every weight as
     the textbook step does, from the same weights, minibatch and noise."""
