@@ -553,6 +553,7 @@ def time_to_lap_command(
     apart); print one JSON line. Hyperparameters: the SimApp's defaults for the algorithm."""
     import tempfile
 
+    overrides = hyperparameter_overrides(hyperparameter_pairs)
     action_space = action_space or ("continuous" if algorithm == "sac" else "discrete")
     if algorithm == "sac" and action_space != "continuous":
         raise click.UsageError("--algorithm sac needs --action-space continuous (DeepRacer's SAC is continuous only)")
@@ -582,7 +583,6 @@ def time_to_lap_command(
             }
         )
     )
-    overrides = hyperparameter_overrides(hyperparameter_pairs)
     hyperparameters = {"num_episodes_between_training": episodes_per_iteration, **overrides}
     (custom / "hyperparameters.json").write_text(json.dumps(hyperparameters))
     # Three greedy laps from three places on the lap (0, 1/3, 2/3 on from the round-robin start): the simulator is
