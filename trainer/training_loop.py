@@ -201,6 +201,7 @@ class Trainer:
             iteration = 0
             self._save(iteration)
             self.store.put_bytes(self.layout.ready, b"")
+        self.iteration = iteration  # what a stop while Redis is gone finishes at
         self.channel.ensure_trainer_group()
         return iteration
 
@@ -474,24 +475,18 @@ class Trainer:
         A failure (an exception) writes neither: the run stays resumable, and a restarted trainer continues from
         the newest checkpoint with the workers still waiting for it.
         """
-        self.iteration = self.setup()
-        time_limit = self._start_time_limit()
+        time_limit = self._start_time_limit()  # before setup: its last step waits for Redis too
         stopped_cleanly = False
         try:
-            while True:
-                try:
-                    self._iterate(self.iteration)
-                except StopRequested:
-                    break
-                except RedisUnavailableError as error:
-                    if not self.stop_event.is_set():
-                        raise
-                    # Stopping with Redis gone: the newest checkpoint is complete in the store; batches not
-                    # acknowledged are of an older policy by now and a resumed trainer drops them.
-                    log.warning("stopping without Redis: %s", error)
-                    break
-                if self._should_stop():
-                    break
+            try:
+                self.iteration = self.setup()
+                self._iterate_until_stopped()
+            except RedisUnavailableError as error:
+                if not self.stop_event.is_set() or self.checkpoints.latest_name() is None:
+                    raise
+                # Stopping with Redis gone: the newest checkpoint is complete in the store; batches not
+                # acknowledged are of an older policy by now and a resumed trainer drops them.
+                log.warning("stopping without Redis: %s", error)
             stopped_cleanly = True
         finally:
             if time_limit is not None:
@@ -515,6 +510,15 @@ class Trainer:
             f"Training finished at checkpoint {iteration} ({self.episodes_consumed} episodes, {self.env_steps} steps)",
             flush=True,
         )
+
+    def _iterate_until_stopped(self) -> None:
+        while True:
+            try:
+                self._iterate(self.iteration)
+            except StopRequested:
+                return
+            if self._should_stop():
+                return
 
     def _iterate(self, iteration: int) -> None:
         """Announce, collect, train and save one iteration (`self.iteration` moves on once its checkpoint is
