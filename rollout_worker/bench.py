@@ -7,6 +7,8 @@ rollout: one worker's loop (`BatchedRollout`: env steps, the batched ONNX forwar
 finished episode as it would be sent) with 1, 4 and 8 envs, in alternating blocks so that other processes' load hits
 all alike; process CPU ms per env step (llvmpipe's render thread included) is the figure to compare on a busy
 machine, wall steps/s is printed beside it.
+encoding: the CPU ms per frame and the size ratio of compressing the played frames with zstd level 1 (what the codec
+sends) and with zlib level 1 (what it sent before).
 """
 
 from __future__ import annotations
@@ -16,12 +18,14 @@ import tempfile
 import threading
 import time
 import warnings
+import zlib
 from pathlib import Path
 
 import click
 import numpy as np
 import onnxruntime
 import torch
+import zstandard
 
 from racer.rollout_worker.worker import env_generator, spread_env_configs
 from racer.shared.batched_rollout import BatchedRollout, EpisodeTicket
@@ -32,9 +36,10 @@ from racer.shared.policy.onnx_export import export_onnx
 from racer.shared.services import PROJECT_ROOT
 from racer.shared.sim.env import DeepRacerEnv, EnvConfig
 from racer.shared.store import LocalStore
-from racer.shared.transport.codec import EpisodeBatch, encode_batch
+from racer.shared.transport.codec import ZSTD_LEVEL, EpisodeBatch, encode_batch
 
 BATCHES = (1, 4, 8)
+MAX_ENCODED_FRAMES = 1000
 
 
 def _per_call_ms(call, repeats: int) -> float:
@@ -79,7 +84,26 @@ def inference_costs(network, policy, repeats: int) -> dict:
     return costs
 
 
-def rollout_costs(policy, config: EnvConfig, blocks: int, episodes_per_block: int) -> dict:
+def encoding_costs(frames: np.ndarray, repeats: int = 3) -> dict:
+    """CPU ms per frame and compression ratio of zstd level 1 (the codec's) and zlib level 1 on rendered frames."""
+    raw = np.ascontiguousarray(frames).tobytes()
+    compressors = {
+        "zstd_level_1": lambda: zstandard.ZstdCompressor(level=ZSTD_LEVEL).compress(raw),
+        "zlib_level_1": lambda: zlib.compress(raw, 1),
+    }
+    costs = {}
+    for name, compress in compressors.items():
+        size = len(compress())
+        start = time.process_time()
+        for _ in range(repeats):
+            compress()
+        cpu_s = (time.process_time() - start) / repeats
+        costs[name] = {"cpu_ms_per_frame": round(1e3 * cpu_s / len(frames), 4), "ratio": round(len(raw) / size, 2)}
+    return costs
+
+
+def rollout_costs(policy, config: EnvConfig, blocks: int, episodes_per_block: int, frames: list | None = None) -> dict:
+    """`frames`, when given, receives the camera frames of the played episodes (for `encoding_costs`)."""
     rollouts = {}
     for count in BATCHES:
         envs = [DeepRacerEnv(c) for c in spread_env_configs(config, count)]
@@ -103,6 +127,8 @@ def rollout_costs(policy, config: EnvConfig, blocks: int, episodes_per_block: in
                         policy_version=0, worker_id=0, world="base", episode_index=0, simtrace_episode=0
                     )
                     totals[count][0] += played.steps
+                    if frames is not None:
+                        frames.extend(next(iter(played.episode.observations.values())))
                     encode_batch(EpisodeBatch(0, 0, 0, "base", 0, (played.episode,)))
 
                 start, cpu_start = time.perf_counter(), time.process_time()
@@ -140,9 +166,11 @@ def rollout_bench_command(blocks: int, episodes_per_block: int, repeats: int) ->
         checkpoints = CheckpointStore(LocalStore(Path(folder)), "bench")
         policy = checkpoints.load_inference_policy(checkpoints.save(0, 0, network, model_metadata=metadata))
     config = EnvConfig(model_metadata=metadata, reward_function_path=custom / "reward_function.py")
+    frames: list[np.ndarray] = []
     result = {
         "network": metadata.neural_network,
         "inference": inference_costs(network, policy, repeats),
-        "rollout": rollout_costs(policy, config, blocks, episodes_per_block),
+        "rollout": rollout_costs(policy, config, blocks, episodes_per_block, frames),
+        "encoding": encoding_costs(np.stack(frames[:MAX_ENCODED_FRAMES])),
     }
     click.echo(json.dumps(result))

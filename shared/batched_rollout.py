@@ -21,8 +21,9 @@ import numpy as np
 from racer.shared.episode_runner import EpisodeRecorder
 
 DEFAULT_ENVS_PER_WORKER = 4
-"""Per-frame inference cost falls steeply from batch 1 to 4 and little after (README, Benchmarks); an env costs the
-same whichever process steps it, so more envs per worker only add memory."""
+"""Per-frame inference cost falls steeply from batch 1 to 4 and less after (README, Benchmarks): the dense layer's
+weights are read once per call. With the default 4 workers and 20 episodes per iteration more envs per worker would
+mostly sit idle (an iteration has fewer episodes than 4 x 8 env slots), so 4 stays the default."""
 
 
 def default_workers() -> int:

@@ -60,6 +60,7 @@ __all__ = [
     "E_GREEDY_EVALUATION_EPSILON",
     "e_greedy_epsilon",
     "policy_config_from_metadata",
+    "sample_categorical",
     "select_action",
 ]
 
@@ -487,8 +488,16 @@ def select_discrete_action(
     elif greedy:
         action = int(probs.argmax())
     else:
-        action = int(rng.choice(len(probs), p=probs / probs.sum()))
+        action = sample_categorical(probs / probs.sum(), rng)
     return action, float(np.log(probs[action]))
+
+
+def sample_categorical(p: np.ndarray, rng: np.random.Generator) -> int:
+    """`int(rng.choice(len(p), p=p))` for probabilities that sum to 1: the same draw from the same generator state,
+    without `choice`'s argument checks, which took most of a rollout step's action choice (tests hold the two equal)."""
+    cdf = p.cumsum()
+    cdf /= cdf[-1]
+    return int(cdf.searchsorted(rng.random(), side="right"))
 
 
 def select_action(

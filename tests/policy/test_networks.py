@@ -22,6 +22,7 @@ from racer.shared.policy.networks import (
     conv_output_shape,
     e_greedy_epsilon,
     policy_config_from_metadata,
+    sample_categorical,
     select_action,
 )
 
@@ -264,6 +265,21 @@ def test_select_action_sampling_and_e_greedy_statistics():
     picks = np.array([select_action(distribution, False, rng, epsilon=0.5)[0] for _ in range(5000)])
     assert np.mean(picks == 1) == pytest.approx(0.5 + 0.5 / 5, abs=0.03)  # argmax, plus its share of random picks
     assert np.mean(picks == 2) == pytest.approx(0.5 / 5, abs=0.03)  # other actions only through the random picks
+
+
+def test_sample_categorical_draws_what_generator_choice_draws():
+    """The rollout's sampler equals numpy's `choice(n, p=p)`: same action, same generator state after it, for float32
+    softmax outputs floored at 1e-8 as the network gives them (so episodes stay what they were with `choice`)."""
+    source = np.random.default_rng(11)
+    for trial in range(300):
+        logits = source.normal(0.0, 1.0 + 8.0 * (trial % 3), size=int(source.integers(2, 12)))
+        probs = np.maximum(np.exp(logits - logits.max()) / np.exp(logits - logits.max()).sum(), 1e-8)
+        p = probs.astype(np.float32).astype(np.float64)
+        p = p / p.sum()
+        ours, numpys = np.random.default_rng(trial), np.random.default_rng(trial)
+        for _ in range(20):
+            assert sample_categorical(p, ours) == int(numpys.choice(len(p), p=p))
+        assert ours.random() == numpys.random()
 
 
 def test_continuous_sampling_around_mean_with_std():

@@ -12,6 +12,7 @@ import pytest
 import torch
 
 from racer.shared.deepracer.hyperparameters import Hyperparameters
+from racer.trainer.nan_guard import first_non_finite_parameter
 from racer.trainer.ppo import (
     EpochStats,
     PPOSettings,
@@ -206,6 +207,19 @@ def test_nan_weights_from_outside_are_rolled_back(caplog):
     assert len(stats) == 2 and trainer.nan_rollbacks == 1
     assert torch.isfinite(network.value_tower.middleware[0].weight).all()
     assert not torch.equal(before["value_head.weight"], network.value_head.weight)
+
+
+@pytest.mark.parametrize("bad", [float("nan"), float("inf"), -float("inf")])
+def test_first_non_finite_parameter_names_the_weight_and_is_not_fooled_by_an_overflowing_norm(bad):
+    network = task_network(3)
+    assert first_non_finite_parameter(network) is None
+    with torch.no_grad():
+        network.policy_head.weight.fill_(1e30)  # finite, but the sum of squares overflows float32
+    assert not math.isfinite(float(torch.nn.utils.get_total_norm(list(network.parameters()))))
+    assert first_non_finite_parameter(network) is None
+    with torch.no_grad():
+        network.value_tower.middleware[0].weight[1, 2] = bad
+    assert first_non_finite_parameter(network) == "value_tower.middleware.0.weight"
 
 
 def test_episodes_with_non_finite_values_are_dropped(caplog):

@@ -58,3 +58,37 @@ def test_rejects_mismatched_lengths(episode_factory):
     )
     with pytest.raises(ValueError, match="actions has 3 steps"):
         encode_batch(EpisodeBatch(0, 0, 0, "base", 0, (bad,)))
+
+
+def _recompress_with_zlib(payload: bytes) -> bytes:
+    """The same batch as racer wrote it before zstd: every compressed array as zlib level 1."""
+    import zlib
+
+    import zstandard
+
+    message = msgpack.unpackb(payload, raw=False)
+    for episode in message["episodes"]:
+        for spec in episode["arrays"].values():
+            if spec["codec"] == "zstd":
+                spec["codec"] = "zlib"
+                spec["data"] = zlib.compress(zstandard.ZstdDecompressor().decompress(spec["data"]), 1)
+    return msgpack.packb(message, use_bin_type=True)
+
+
+def test_frames_travel_as_zstd_and_zlib_batches_still_decode(episode_factory):
+    episode = episode_factory(30, 5)
+    payload = encode_batch(EpisodeBatch(2, 0, 0, "base", 2, (episode,)))
+    codecs = {name: spec["codec"] for name, spec in msgpack.unpackb(payload)["episodes"][0]["arrays"].items()}
+    assert codecs["obs/FRONT_FACING_CAMERA"] == "zstd"
+    old_style = decode_batch(_recompress_with_zlib(payload)).episodes[0]
+    np.testing.assert_array_equal(
+        old_style.observations["FRONT_FACING_CAMERA"], episode.observations["FRONT_FACING_CAMERA"]
+    )
+
+
+def test_a_damaged_zstd_array_is_a_codec_error_naming_the_array(episode_factory):
+    message = msgpack.unpackb(encode_batch(EpisodeBatch(4, 1, 1, "base", 4, (episode_factory(30, 6),))), raw=False)
+    spec = message["episodes"][0]["arrays"]["obs/FRONT_FACING_CAMERA"]
+    spec["data"] = spec["data"][: len(spec["data"]) // 2]
+    with pytest.raises(CodecError, match=r"worker=1 iteration=4 episode #0 obs/FRONT_FACING_CAMERA: not a zstd frame"):
+        decode_batch(msgpack.packb(message, use_bin_type=True))
