@@ -126,6 +126,8 @@ class RaceObjects:
         candidates: Sequence[RaceObject] = self._obstacles if obstacles_only else self.objects
         for obj in candidates:
             obj_dist = track.project_normalized(obj.x_m, obj.y_m) * track.length_m
+            # The SimApp's gap, kept as it is: not the circular one, so an object just across the start line from
+            # `dist_m` is not found.
             gap = abs(obj_dist - dist_m) % track.length_m
             if gap < gap_limit:
                 gap_limit, best = gap, (obj_dist, obj)
