@@ -35,7 +35,7 @@ from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
 from racer.shared.store import S3Store, open_store
 from racer.shared.transport.channels import RunChannel
 from racer.supervisor import RunSupervisor, stop_children
-from racer.time_to_lap_races import TIME_TO_LAP_RACES
+from racer.time_to_lap_races import TIME_TO_LAP_RACES, time_to_lap_hyperparameters
 
 
 @dataclass(frozen=True)
@@ -578,10 +578,7 @@ def time_to_lap_command(
             }
         )
     )
-    recipe = dict(race.hyperparameters) if algorithm == "clipped_ppo" else {}  # the recipes are PPO's
-    hyperparameters = {"num_episodes_between_training": 20, **recipe}
-    if episodes_per_iteration is not None:
-        hyperparameters["num_episodes_between_training"] = episodes_per_iteration
+    hyperparameters = time_to_lap_hyperparameters(race_type, algorithm, episodes_per_iteration)
     hyperparameters.update(overrides)  # --hyperparameter wins over the recipe
     (custom / "hyperparameters.json").write_text(json.dumps(hyperparameters))
     # Three greedy laps from three places on the lap (0, 1/3, 2/3 on from the round-robin start): the simulator is

@@ -40,3 +40,13 @@ TIME_TO_LAP_RACES: dict[str, TimeToLapRace] = {
     ),
 }
 """DeepRacer-for-Cloud's example obstacle positions; bots at 0.5 m/s changing lanes."""
+
+
+def time_to_lap_hyperparameters(race_type: str, algorithm: str, episodes_per_iteration: int | None) -> dict:
+    """hyperparameters.json of a benchmark run: DeepRacer's 20 episodes per iteration, the race's PPO recipe, then
+    --episodes-per-iteration when given."""
+    recipe = dict(TIME_TO_LAP_RACES[race_type].hyperparameters) if algorithm == "clipped_ppo" else {}
+    hyperparameters = {"num_episodes_between_training": 20, **recipe}
+    if episodes_per_iteration is not None:
+        hyperparameters["num_episodes_between_training"] = episodes_per_iteration
+    return hyperparameters
