@@ -35,6 +35,7 @@ from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
 from racer.shared.store import S3Store, open_store
 from racer.shared.transport.channels import RunChannel
 from racer.supervisor import RunSupervisor, stop_children
+from racer.time_to_lap_races import TIME_TO_LAP_RACES, time_to_lap_hyperparameters
 
 
 @dataclass(frozen=True)
@@ -459,19 +460,6 @@ def train_command(
     sys.exit(run_local_training(plan, base_settings))
 
 
-TIME_TO_LAP_RACES: dict[str, tuple[tuple[str, str], ...]] = {
-    "time-trial": (),
-    "object-avoidance": (("RACE_TYPE", "OBJECT_AVOIDANCE"), ("OBJECT_POSITIONS", "0.23,-1;0.46,1;0.67,-1")),
-    "head-to-bot": (
-        ("RACE_TYPE", "HEAD_TO_BOT"),
-        ("NUMBER_OF_BOT_CARS", "2"),
-        ("BOT_CAR_SPEED", "0.5"),
-        ("IS_LANE_CHANGE", "True"),
-    ),
-}
-"""The benchmark's set-ups (issue 13): DeepRacer-for-Cloud's example obstacle positions; bots at 0.5 m/s."""
-
-
 @click.command(name="time-to-lap")
 @click.option("--track", required=True, help="Route name or .npy path (reference: reinvent_base.npy).")
 @click.option(
@@ -499,7 +487,12 @@ TIME_TO_LAP_RACES: dict[str, tuple[tuple[str, str], ...]] = {
 @click.option("--max-speed", type=float, default=2.0, show_default=True, help="Continuous: highest speed (m/s).")
 @click.option("--workers", "num_workers", type=int, default=4, show_default=True)
 @click.option("--time-limit-minutes", type=float, default=30.0, show_default=True)
-@click.option("--episodes-per-iteration", type=int, default=20, show_default=True)
+@click.option(
+    "--episodes-per-iteration",
+    type=int,
+    default=None,
+    help="num_episodes_between_training (default: the race's recipe, else DeepRacer's 20).",
+)
 @click.option(
     "--sac-updates-per-transition",
     type=float,
@@ -557,8 +550,10 @@ def time_to_lap_command(
     action_space = action_space or ("continuous" if algorithm == "sac" else "discrete")
     if algorithm == "sac" and action_space != "continuous":
         raise click.UsageError("--algorithm sac needs --action-space continuous (DeepRacer's SAC is continuous only)")
-    default_reward = "awsdoc_example_1.py" if race_type == "time-trial" else "dpr401_object_avoidance_head_to_head.py"
-    reward_function = reward_function or PROJECT_ROOT.parent / "shared/deepracer-data/reward_functions" / default_reward
+    race = TIME_TO_LAP_RACES[race_type]
+    reward_function = (
+        reward_function or PROJECT_ROOT.parent / "shared/deepracer-data/reward_functions" / race.reward_function
+    )
     if not Path(reward_function).is_file():
         raise click.UsageError(f"reward function not found: {reward_function}; pass --reward-function")
     workdir = Path(tempfile.mkdtemp(prefix="racer-time-to-lap-"))
@@ -583,7 +578,8 @@ def time_to_lap_command(
             }
         )
     )
-    hyperparameters = {"num_episodes_between_training": episodes_per_iteration, **overrides}
+    hyperparameters = time_to_lap_hyperparameters(race_type, algorithm, episodes_per_iteration)
+    hyperparameters.update(overrides)  # --hyperparameter wins over the recipe
     (custom / "hyperparameters.json").write_text(json.dumps(hyperparameters))
     # Three greedy laps from three places on the lap (0, 1/3, 2/3 on from the round-robin start): the simulator is
     # deterministic, so three trials from one place would be one drive three times.
@@ -600,7 +596,7 @@ def time_to_lap_command(
         log_dir=workdir / "logs",
         seed=seed,
         trainer_options=("--sac-updates-per-transition", str(sac_updates_per_transition)),
-        race_params=TIME_TO_LAP_RACES[race_type],
+        race_params=race.race_params,
     )
     result = {
         "race_type": race_type,

@@ -445,6 +445,7 @@ class RolloutWorker:
                     world=self.run.worker.world,
                     episode_index=trial,
                     start_ndist=start,
+                    clear_start=start is not None,
                     on_step=self.frame_tap,
                 )
             )

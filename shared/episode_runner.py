@@ -115,17 +115,21 @@ def play_episode(
     epsilon: float = 0.0,
     simtrace_episode: int | None = None,
     start_ndist: float | None = None,
+    clear_start: bool = False,
     on_step: Callable[[dict, float, dict], None] | None = None,
 ) -> PlayedEpisode:
     """One episode from reset to termination. Evaluation episodes (`greedy=True`) do not advance the start line.
 
     `simtrace_episode` overrides the simtrace `episode` column (the worker owns that counter so it survives restarts).
-    `start_ndist` starts an evaluation episode at that normalised distance along the route.
+    `start_ndist` starts an evaluation episode at that normalised distance along the route; `clear_start` moves it
+    off an object as training starts are (the env's `clear_start` reset option).
     `on_step(observation, reward, info)` sees every step (the live viewer's frame tap).
     """
     options = {"evaluation": greedy}
     if start_ndist is not None:
         options["start_ndist"] = start_ndist
+    if clear_start:
+        options["clear_start"] = True
     recorder = EpisodeRecorder(*env.reset(options=options))
     while True:
         action, log_prob = policy.act(recorder.observation, greedy=greedy, generator=generator, epsilon=epsilon)

@@ -45,7 +45,8 @@ class WorkerSettings:
     eval_spread_starts: bool = False
     """racer's option (training_params key RACER_EVAL_SPREAD_STARTS): evaluation trial i of n starts i/n of a lap
     further on. DeepRacer starts them all at one place; in a deterministic simulator they would all be the same
-    drive, so spread starts make "3 of 3 laps" mean three different laps."""
+    drive, so spread starts make "3 of 3 laps" mean three different laps. A spread start within 1 m of an object
+    takes the lane away from it, as a training start does (the SimApp's start line never has a box on it)."""
     domain_randomization: bool = False
     """ENABLE_DOMAIN_RANDOMIZATION: random light colours and attenuation at every episode, as the SimApp."""
     car_randomization: bool = False

@@ -90,6 +90,9 @@ class DeepRacerEnv(gym.Env):
     each finished training episode (`change_start_position`); `alternate_driving_direction` flips the direction
     after each. `reset(options={"evaluation": True})` plays an evaluation episode, which changes neither; it starts
     where the next training episode would, or at `options["start_ndist"]` (normalised distance along the route).
+    Like the SimApp, a training start with an object within 1 m moves to the lane away from it and an evaluation
+    start stays on the centre line, unless `options["clear_start"]` asks for the training rule (racer's evaluation
+    starts spread over the lap, which may fall on a box where the SimApp's start line never does).
 
     ## Reproducibility
     `reset(seed=s)` seeds the LIDAR noise and restarts the simulation clock; physics and rendering are
@@ -280,9 +283,11 @@ class DeepRacerEnv(gym.Env):
             self._data.time = 0.0
             self._scene_rng = np.random.default_rng((seed, _SCENE_RNG_STREAM))
         options = options or {}
-        unknown = set(options) - {"evaluation", "start_ndist"}
+        unknown = set(options) - {"evaluation", "start_ndist", "clear_start"}
         if unknown:
-            raise ValueError(f"unknown reset option(s) {sorted(unknown)}; supported: 'evaluation', 'start_ndist'")
+            raise ValueError(
+                f"unknown reset option(s) {sorted(unknown)}; supported: 'evaluation', 'start_ndist', 'clear_start'"
+            )
         evaluation = bool(options.get("evaluation", False))
         self._init_episode_state(evaluation=evaluation)
         if options.get("start_ndist") is not None:
@@ -298,7 +303,7 @@ class DeepRacerEnv(gym.Env):
         if self._race is not None:
             self._race_start_time_s = float(self._data.time)
             self._race.restart(self._track, self._scene_rng)
-            if not evaluation:  # the SimApp moves only training starts away from an object
+            if not evaluation or options.get("clear_start"):  # the SimApp moves only training starts
                 x, y, yaw = self._race.start_pose(self._track, self._episode_start_ndist) or (x, y, yaw)
             self._place_objects()
         self._car.teleport(self._model, self._data, x, y, yaw)

@@ -117,6 +117,14 @@ def test_training_starts_on_the_other_lane_when_an_object_is_within_a_metre(make
     env.reset(options={"evaluation": True})  # evaluation starts on the centre line whatever stands there
     pose = env.car.pose(env.data)
     assert env.track.distance_from_center(pose.origin_x_m, pose.origin_y_m) < 1e-6
+    # racer's spread evaluation starts ask for the training rule: the same spot, on the lane away from the box
+    env.reset(options={"evaluation": True, "start_ndist": 0.03, "clear_start": True})
+    pose = env.car.pose(env.data)
+    assert env.track.nearer_lane(pose.origin_x_m, pose.origin_y_m) == "inner"
+    assert env.track.distance_from_center(pose.origin_x_m, pose.origin_y_m) > 0.1
+    env.reset(options={"evaluation": True, "start_ndist": 0.5, "clear_start": True})  # no object within 1 m
+    pose = env.car.pose(env.data)
+    assert env.track.distance_from_center(pose.origin_x_m, pose.origin_y_m) < 1e-6
 
 
 def test_a_crash_into_a_bot_ahead_counts_and_a_bot_hitting_the_car_from_behind_does_not(make_env):
