@@ -22,6 +22,21 @@ from racer.shared.sim.track import Track
 from racer.shared.sim.worlds import get_world
 
 
+def objects_ahead(slots, car_pose, offsets_m, yaw_offset):
+    """One object per slot at (ahead, left) metres in the car's frame, turned `yaw_offset` from the car."""
+    x, y, yaw = car_pose
+    return [
+        RaceObject(
+            slot.name,
+            slot.kind,
+            x + ahead * math.cos(yaw) - left * math.sin(yaw),
+            y + ahead * math.sin(yaw) + left * math.cos(yaw),
+            yaw + yaw_offset,
+        )
+        for slot, (ahead, left) in zip(slots, offsets_m, strict=True)
+    ]
+
+
 @pytest.mark.parametrize("route", ["racer_oval", "reinvent_base"])
 def test_vectorised_projection_equals_the_one_point_methods(route, deepracer_data):
     track = Track.load(deepracer_data / "routes" / f"{route}.npy" if route.startswith("reinvent") else route)
@@ -97,19 +112,7 @@ def test_drawing_the_objects_first_gives_the_same_pixels(deepracer_data):
             x, y, yaw = track.pose_at(ndist)
             car.teleport(model, data, x, y, yaw)
             ahead = [(0.6, 0.15), (1.2, -0.2), (2.5, 0.1)]
-            bodies.place(
-                data,
-                [
-                    RaceObject(
-                        slot.name,
-                        slot.kind,
-                        x + d * math.cos(yaw) - left * math.sin(yaw),
-                        y + d * math.sin(yaw) + left * math.cos(yaw),
-                        yaw + 0.3,
-                    )
-                    for slot, (d, left) in zip(slots, ahead, strict=True)
-                ],
-            )
+            bodies.place(data, objects_ahead(slots, (x, y, yaw), ahead, yaw_offset=0.3))
             frame = plain.rgb(data, CENTER_CAMERA).copy()
             differing += int(np.count_nonzero(frame != objects_first.rgb(data, CENTER_CAMERA)))
             bodies.place(data, [])
@@ -158,19 +161,7 @@ def test_the_bot_car_meshes_draw_the_boxes_and_wheels_they_replace(deepracer_dat
                 x, y, yaw = track.pose_at(ndist)
                 car.teleport(model, data, x, y, yaw)
                 placed = [(0.5, 0.12), (1.3, -0.15)]
-                bodies.place(
-                    data,
-                    [
-                        RaceObject(
-                            slot.name,
-                            slot.kind,
-                            x + d * math.cos(yaw) - left * math.sin(yaw),
-                            y + d * math.sin(yaw) + left * math.cos(yaw),
-                            yaw + yaw_offset,
-                        )
-                        for slot, (d, left) in zip(slots, placed, strict=True)
-                    ],
-                )
+                bodies.place(data, objects_ahead(slots, (x, y, yaw), placed, yaw_offset=yaw_offset))
                 frames.append(camera.rgb(data, CENTER_CAMERA).astype(int))
         finally:
             camera.close()
