@@ -32,7 +32,7 @@ BENCHMARKS: dict[str, tuple[str, str]] = {
         "SAC gradient steps/s (one step per transition in DeepRacer).",
     ),
     "time-to-lap": (
-        "racer.local_run:time_to_lap_command",
+        "racer.time_to_lap_bench:time_to_lap_command",
         "Minutes from scratch until greedy evaluation completes 3 of 3 laps.",
     ),
     "rollout": (

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import click
 
-from racer.local_run import LocalRunPlan, _read_iteration_records, run_local_training, service_environment
+from racer.local_run import LocalRunPlan, read_iteration_records, run_local_training, service_environment
 from racer.shared.batched_rollout import DEFAULT_ENVS_PER_WORKER, default_workers
 from racer.shared.config import LocalStoreSettings, RedisSettings, ServiceSettings
 from racer.shared.deepracer.hyperparameters import load_hyperparameters
@@ -119,7 +119,7 @@ def throughput_bench_command(iterations, num_workers, envs_per_worker, bound_sec
     )
     if status != 0:
         raise click.ClickException(f"the training run failed (status {status}); logs in {plan.log_dir}")
-    records = _read_iteration_records(workdir / "store", plan)
+    records = read_iteration_records(workdir / "store", plan)
     rates = system_rates(records)
     click.echo(f"bound again for {bound_seconds:.0f} s ...", err=True)
     after = machine_bound(cores, bound_seconds, base)

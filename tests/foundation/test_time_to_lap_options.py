@@ -8,7 +8,7 @@ import click
 import pytest
 from click.testing import CliRunner
 
-from racer.local_run import hyperparameter_overrides, time_to_lap_command
+from racer.time_to_lap_bench import hyperparameter_overrides, time_to_lap_command
 
 
 def test_pairs_become_hyperparameters_json_entries():
