@@ -7,8 +7,8 @@ apart: a one-off, not what an open page costs); between its open iterations it i
 protocol (no timer, no poll, no drawing: as good as closed, which the browser's CPU while frozen shows) and the
 `watching` key is deleted, so the workers publish no frames then. Each iteration's experience rate (steps played /
 rollout wall time, from the trainer's iteration records) is compared with the mean of its neighbours under the
-other condition, so the learning trend (longer episodes, more steps/s) and the load of other processes cancel out
-as far as they can. `--load` switches something else on instead of the page, to find where a slow-down comes
+other condition, so slow drifts and the load of other processes cancel out as far as they can; by default the
+policy does not learn (`--learning-rate`), so every iteration plays the same distribution of episodes. `--load` switches something else on instead of the page, to find where a slow-down comes
 from: `frames` (only the `watching` key: the workers' frame tap, nothing polls), `polls` (the page's HTTP requests
 made by a Python thread: tap + viewer server + Redis, no browser). The CPU seconds of the browser, the viewer
 server, the workers and the whole machine are summed per condition. Before the training starts, the frame tap is
@@ -244,7 +244,7 @@ def frame_cost(redis: RedisSettings, track: str, observations: int = 120, frames
     }
 
 
-def _write_custom_files(folder: Path, episodes_per_iteration: int) -> None:
+def _write_custom_files(folder: Path, episodes_per_iteration: int, learning_rate: float) -> None:
     folder.mkdir(parents=True)
     (folder / "reward_function.py").write_bytes(CENTRE_LINE_REWARD.read_bytes())
     actions = [{"steering_angle": angle, "speed": 1.0, "index": i} for i, angle in enumerate([-30, -15, 0, 15, 30])]
@@ -260,7 +260,9 @@ def _write_custom_files(folder: Path, episodes_per_iteration: int) -> None:
             }
         )
     )
-    (folder / "hyperparameters.json").write_text(json.dumps({"num_episodes_between_training": episodes_per_iteration}))
+    (folder / "hyperparameters.json").write_text(
+        json.dumps({"num_episodes_between_training": episodes_per_iteration, "lr": learning_rate})
+    )
     (folder / "workers.json").write_text(json.dumps({"MIN_EVAL_TRIALS": 1}))
 
 
@@ -335,6 +337,15 @@ class PhaseCosts:
 )
 @click.option("--track", default="racer_oval", show_default=True)
 @click.option(
+    "--learning-rate",
+    type=float,
+    default=1e-8,
+    show_default=True,
+    help="The trainer's lr. The default, the smallest DeepRacer accepts, leaves the policy as it starts, so every "
+    "iteration plays the same distribution of episodes and a pair of iterations differs by the load alone; a learning "
+    "policy moves the rate by ±20 % from one iteration to the next.",
+)
+@click.option(
     "--load",
     "load_kind",
     type=click.Choice(["page", "frames", "polls"]),
@@ -349,7 +360,7 @@ class PhaseCosts:
     "flag puts the load on the iterations the first left without, so their lengths balance out).",
 )
 def viewer_bench_command(
-    iterations, warmup_iterations, num_workers, episodes_per_iteration, track, load_kind, swap_phase
+    iterations, warmup_iterations, num_workers, episodes_per_iteration, track, learning_rate, load_kind, swap_phase
 ) -> None:
     """Experience steps/s with one viewer page open vs none, in one training run."""
     from racer.local_run import LocalRun, LocalRunPlan
@@ -360,7 +371,7 @@ def viewer_bench_command(
         raise click.ClickException(f"reward function not found: {CENTRE_LINE_REWARD}")
     workdir = Path(tempfile.mkdtemp(prefix="racer-bench-viewer-"))
     custom = workdir / "custom_files"
-    _write_custom_files(custom, episodes_per_iteration)
+    _write_custom_files(custom, episodes_per_iteration, learning_rate)
     port = _free_port()
     plan = LocalRunPlan(
         model_prefix="bench-viewer",
@@ -458,11 +469,15 @@ def viewer_bench_command(
                 "swap_phase": swap_phase,
                 "interrupted": interrupted,
                 "workers": num_workers,
+                "learning_rate": learning_rate,
                 "iterations_measured": len(measured),
                 "steps_per_s_load_off": round(statistics.fmean(closed), 1) if closed else None,
                 "steps_per_s_load_on": round(statistics.fmean(opened), 1) if opened else None,
                 "paired_ratios": [round(r, 3) for r in ratios],
                 "slowdown_median": None if slowdown is None else round(slowdown, 4),
+                "paired_ratio_quartiles": (
+                    [round(q, 3) for q in statistics.quantiles(ratios, n=4)] if len(ratios) >= 2 else None
+                ),
                 "cpu_share_of_machine_load_on": costs.shares(True),
                 "cpu_share_of_machine_load_off": costs.shares(False),
                 "workers_cpu_ms_per_step": {

@@ -3,11 +3,12 @@ and its loads other than the browser switching the frames on and off on a real r
 
 import time
 
+from racer.shared.deepracer.hyperparameters import load_hyperparameters
 from racer.shared.redis_connection import RedisLink
 from racer.shared.store import LocalStore
 from racer.shared.transport.frames import FrameChannel
 from racer.viewer.app import create_app
-from racer.viewer.bench import PagePolls, WatchingOnly, _paired_ratios, _phase_steps
+from racer.viewer.bench import PagePolls, WatchingOnly, _paired_ratios, _phase_steps, _write_custom_files
 from racer.viewer.live import LiveRun
 from racer.viewer.run_files import RunFiles, RunLocation
 from tests.viewer.conftest import ServedApp
@@ -34,6 +35,12 @@ def test_steps_per_phase_come_from_the_running_total_after_the_warm_up():
     rows = records([1.0] * 5, [False, False, True, False, True], [7, 11, 13, 17, 19])
     assert _phase_steps(rows, warmup_iterations=2, on=True) == 13 + 19
     assert _phase_steps(rows, warmup_iterations=2, on=False) == 17
+
+
+def test_the_bench_model_trains_with_the_learning_rate_it_is_given(tmp_path):
+    _write_custom_files(tmp_path / "frozen", episodes_per_iteration=48, learning_rate=1e-8)
+    hyperparameters, unknown = load_hyperparameters(tmp_path / "frozen" / "hyperparameters.json")
+    assert (hyperparameters.lr, hyperparameters.num_episodes_between_training, unknown) == (1e-8, 48, [])
 
 
 def wait_until(check, timeout_s: float = 10.0) -> bool:
