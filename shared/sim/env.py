@@ -14,11 +14,9 @@ from gymnasium import spaces
 from racer.shared.deepracer.episode_status import EpisodeStatus
 from racer.shared.deepracer.simtrace import format_continuous_action
 from racer.shared.sim import lidar as lidar_sensor
-from racer.shared.sim import rules
 from racer.shared.sim._mujoco import mujoco
 from racer.shared.sim.camera import CENTER_CAMERA, LEFT_CAMERA, RIGHT_CAMERA, CameraRenderer, GrayConverter, rgb_to_l
 from racer.shared.sim.car import (
-    MAX_SPEED_MPS,
     STEREO_HALF_BASELINE_M,
     Car,
     CarPose,
@@ -26,9 +24,9 @@ from racer.shared.sim.car import (
     clip_command,
     command_wheel_radius_m,
 )
-from racer.shared.sim.collisions import CrashVerdict
 from racer.shared.sim.config import STEPS_PER_SECOND, EnvConfig
 from racer.shared.sim.domain_randomization import SceneRandomizer
+from racer.shared.sim.episode_phase import PhaseMachine
 from racer.shared.sim.object_bodies import OBJECT_GEOM_GROUP, ObjectBodies
 from racer.shared.sim.race import RaceObjects, object_slots
 from racer.shared.sim.race_objects import RaceObject
@@ -36,13 +34,12 @@ from racer.shared.sim.reward import RewardFunction, default_evaluation_reward, l
 from racer.shared.sim.reward_params import make_reward_params
 from racer.shared.sim.scene import SceneSpec, build_model
 from racer.shared.sim.simapp_world import load_simapp_world
-from racer.shared.sim.track import PointGeometry, Track, compute_progress
+from racer.shared.sim.step_info import ChosenAction, step_info
+from racer.shared.sim.track import PointGeometry, Track
 from racer.shared.sim.worlds import get_world
 
 _SCENE_RNG_STREAM = 22
 """Seeds the scene randomisation apart from the LIDAR noise (which uses `np_random`)."""
-
-_PENALTY_STATUSES = (EpisodeStatus.CRASHED, EpisodeStatus.OFF_TRACK, EpisodeStatus.IMMOBILIZED, EpisodeStatus.REVERSED)
 
 
 class DeepRacerEnv(gym.Env):
@@ -176,16 +173,14 @@ class DeepRacerEnv(gym.Env):
         self.action_space = self._make_action_space()
         self.observation_space = self._make_observation_space()
 
-        self._counters = rules.RuleCounters(
-            rules.RuleLimits(cfg.immobilized_steps, cfg.immobilized_distance_m, cfg.number_of_reverse_counts)
-        )
         # Round-robin state carried across episodes (per env = per rollout worker, as in the SimApp).
         self._start_ndist = cfg.start_position_offset % 1.0
         self._reverse_dir = cfg.reverse_dir
         self._training_episodes_done = 0
         self._evaluation_episodes_done = 0
         self._episode_open = False
-        self._init_episode_state(evaluation=False)
+        self._phases = PhaseMachine(cfg, self._race, self._tracks[self._reverse_dir], self._start_ndist)
+        self._init_episode_state(False, self._start_ndist)
 
     # ----- spaces --------------------------------------------------------------------------------------------
 
@@ -257,24 +252,14 @@ class DeepRacerEnv(gym.Env):
 
     # ----- episode lifecycle ---------------------------------------------------------------------------------
 
-    def _init_episode_state(self, evaluation: bool) -> None:
+    def _init_episode_state(self, evaluation: bool, start_ndist: float) -> None:
         self._evaluation = evaluation
         self._track = self._tracks[self._reverse_dir]
-        self._episode_start_ndist = self._start_ndist
-        self._phase = EpisodeStatus.PREPARE
+        self._phases.start(self._track, start_ndist)
         self._steps = 0.0
-        self._prev_progress = 0.0
-        self._reset_count = 0
-        self._pause_remaining_s = 0.0
-        self._respawn_pose: tuple[float, float, float] | None = None
-        self._prev_run_origin: tuple[float, float] | None = None
-        self._last_model_point: tuple[float, float] | None = None
-        self._last_step_m = 0.0
-        self._last_on_road_ndist: float | None = None
         self._episode_index = self._evaluation_episodes_done if evaluation else self._training_episodes_done
         self._episode_start_time_s = float(self._data.time)
         self._last_status = EpisodeStatus.PREPARE
-        self._counters.clear()
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)
@@ -289,22 +274,23 @@ class DeepRacerEnv(gym.Env):
                 f"unknown reset option(s) {sorted(unknown)}; supported: 'evaluation', 'start_ndist', 'clear_start'"
             )
         evaluation = bool(options.get("evaluation", False))
-        self._init_episode_state(evaluation=evaluation)
+        start_ndist = self._start_ndist
         if options.get("start_ndist") is not None:
             if not evaluation:
                 raise ValueError(
                     "reset option 'start_ndist' is for evaluation episodes; training episodes start at "
                     "the round-robin position"
                 )
-            self._episode_start_ndist = float(options["start_ndist"]) % 1.0
+            start_ndist = float(options["start_ndist"]) % 1.0
+        self._init_episode_state(evaluation, start_ndist)
         if self._randomizer.enabled:
             self._randomizer.randomize(self._model, self._scene_rng)
-        x, y, yaw = self._track.pose_at(self._episode_start_ndist, "center")
+        x, y, yaw = self._track.pose_at(start_ndist, "center")
         if self._race is not None:
             self._race_start_time_s = float(self._data.time)
             self._race.restart(self._track, self._scene_rng)
             if not evaluation or options.get("clear_start"):  # the SimApp moves only training starts
-                x, y, yaw = self._race.start_pose(self._track, self._episode_start_ndist) or (x, y, yaw)
+                x, y, yaw = self._race.start_pose(self._track, start_ndist) or (x, y, yaw)
             self._place_objects()
         self._car.teleport(self._model, self._data, x, y, yaw)
         if self._lidar is not None:
@@ -313,7 +299,7 @@ class DeepRacerEnv(gym.Env):
         observation = self._observe()
         info = {
             "episode": self._episode_index,
-            "start_ndist": self._episode_start_ndist,
+            "start_ndist": start_ndist,
             "is_reversed": self._track.direction_reversed,
             "evaluation": self._evaluation,
             "start_time_s": self._episode_start_time_s,
@@ -345,95 +331,48 @@ class DeepRacerEnv(gym.Env):
             raise RuntimeError("continue_after_lap() is for evaluation episodes; training episodes end at the line")
         self._episode_open = True
         self._episode_start_time_s = float(lap_start_time_s)
-        if renew_reset_budget:
-            self._reset_count = 0
         pose = self._car.pose(self._data)
-        self._counters.clear((pose.origin_x_m, pose.origin_y_m))
+        self._phases.continue_after_lap((pose.origin_x_m, pose.origin_y_m), renew_reset_budget=renew_reset_budget)
 
     # ----- stepping ------------------------------------------------------------------------------------------
 
-    def _decode_action(self, action: Any) -> tuple[float, float, int | str]:
-        """(steering_deg, speed_mps, simtrace action field) of the chosen action (unclipped)."""
+    def _decode_action(self, action: Any) -> ChosenAction:
+        """The chosen action, unclipped."""
         if self._metadata.is_continuous:
             values = np.asarray(action, dtype=np.float64).reshape(-1)
             if values.shape != (2,):
                 raise ValueError(f"a continuous action is [steering, speed] in [-1, 1], got {action!r}")
             steering, speed = self._metadata.scale_continuous_action(values)
-            return steering, speed, format_continuous_action((steering, speed))
+            return ChosenAction(steering, speed, format_continuous_action((steering, speed)))
         index = int(action)
         if not 0 <= index < len(self._metadata.discrete_actions):
             raise ValueError(f"action index {index} is outside 0..{len(self._metadata.discrete_actions) - 1}")
         chosen = self._metadata.discrete_actions[index]
-        return chosen.steering_angle_deg, chosen.speed_mps, index
+        return ChosenAction(chosen.steering_angle_deg, chosen.speed_mps, index)
 
     def step(self, action: Any):
         if not self._episode_open:
             raise RuntimeError("step() called before reset() or after the episode ended; call reset()")
-        steering_deg, speed_mps, action_field = self._decode_action(action)
-        cfg = self.config
+        chosen = self._decode_action(action)
         track = self._track
         self._steps += 1.0
+        # Judge the pose observation o_t was rendered at (the previous step computed it while rendering).
         pose, geometry, on_track = self._judged_pose(track)
-        mx, my = pose.model_point
-        progress = compute_progress(geometry.ndist, self._episode_start_ndist, self._prev_progress)
         all_on, any_on = bool(on_track.all()), bool(on_track.any())
         now_s = float(self._data.time)
-
-        phase = self._phase
-        terminated = False
-        is_crashed = False
         bot_poses = self._race.bot_poses() if self._race is not None else []
-        status = phase
-        lap_time_s: float | None = None
-        command = (0.0, 0.0)
-        if phase == EpisodeStatus.PREPARE:
-            self._counters.clear((pose.origin_x_m, pose.origin_y_m))
-            self._phase = EpisodeStatus.IN_PROGRESS
-        elif phase == EpisodeStatus.PAUSE:
-            self._pause_remaining_s -= cfg.step_duration_s
-            if self._pause_remaining_s <= 1e-9:
-                # The SimApp writes what is left of the penalty, negative on the last pause row when the penalty is
-                # not a whole number of steps (a 0 s penalty still spends this one pause step).
-                if abs(self._pause_remaining_s) <= 1e-9:
-                    self._pause_remaining_s = 0.0
-                self._phase = EpisodeStatus.IN_PROGRESS
-                self._counters.clear((pose.origin_x_m, pose.origin_y_m))
-        else:
-            self._pause_remaining_s = 0.0  # the SimApp clears it on every RUN step; a pause below sets the penalty
-            crash = None
-            if self._race is not None:
-                episode_time_s = now_s - self._race_start_time_s
-                crash = self._race.judge_crash(pose, progress, self._episode_start_ndist, episode_time_s)
-            status = self._counters.judge(
-                progress=progress,
-                prev_progress=self._prev_progress,
-                origin=(pose.origin_x_m, pose.origin_y_m),
-                any_wheel_on_track=any_on,
-                crashed=crash is not None and crash.counts,
-            )
-            if crash is not None:
-                is_crashed = crash.counts or status == EpisodeStatus.LAP_COMPLETE
-                if not crash.counts and status != EpisodeStatus.LAP_COMPLETE:
-                    status = EpisodeStatus.IN_PROGRESS  # hit from behind by a bot: no other rule is judged
-            command = clip_command(speed_mps, steering_deg)
-            if status == EpisodeStatus.LAP_COMPLETE:
-                terminated = True
-            elif status in _PENALTY_STATUSES:
-                if self._reset_count < cfg.number_of_resets:
-                    self._reset_count += 1
-                    self._start_pause(status, pose, progress, crash)
-                else:
-                    terminated = True
-        self._prev_progress = 0.0 if progress == 100 else progress
-        if phase == EpisodeStatus.IN_PROGRESS:
-            self._prev_run_origin = (pose.origin_x_m, pose.origin_y_m)
-        self._remember_where_on_road(phase, (mx, my), geometry.ndist, all_on)
+        verdict = self._phases.judge(
+            pose,
+            geometry,
+            all_wheels_on_track=all_on,
+            any_wheel_on_track=any_on,
+            race_time_s=now_s - self._race_start_time_s,
+        )
 
         # Physics: the chosen command acts for one camera period (held in place while paused).
-        if self._phase == EpisodeStatus.PAUSE:
-            x, y, yaw = self._respawn_pose  # type: ignore[misc]
-            self._car.teleport(self._model, self._data, x, y, yaw)
-            command = (0.0, 0.0)
+        if verdict.hold_pose is not None:
+            self._car.teleport(self._model, self._data, *verdict.hold_pose)
+        command = clip_command(chosen.speed_mps, chosen.steering_deg) if verdict.drives else (0.0, 0.0)
         self._car.command(self._data, command[0], command[1])
         self._car.step(self._model, self._data, self._substeps)
         if self._race is not None:
@@ -442,68 +381,51 @@ class DeepRacerEnv(gym.Env):
         # The SimApp stamps a row when the step's physics has run (judge_action after unpausing), so the prepare
         # row is one step after the episode start and the last row's time is the lap's end.
         tstamp_s = float(self._data.time)
-        if status == EpisodeStatus.LAP_COMPLETE:
-            lap_time_s = tstamp_s - self._episode_start_time_s
         self._start_observation()
 
         # While the next frame renders: the pose it shows with its track geometry (the next step judges it),
         # then the reward and the simtrace row of the pose judged above.
         self._judged_pose(track)
         objects, objects_track = self._race.reward_view(bot_poses) if self._race is not None else ((), None)
+        mx, my = pose.model_point
         params = make_reward_params(
             track,
             x=mx,
             y=my,
             heading_deg=math.degrees(pose.yaw_rad),
-            speed_mps=speed_mps,
-            steering_angle_deg=steering_deg,
+            speed_mps=chosen.speed_mps,
+            steering_angle_deg=chosen.steering_deg,
             steps=self._steps,
-            progress=progress,
+            progress=verdict.progress,
             all_wheels_on_track=all_on,
             is_offtrack=not any_on,
-            is_crashed=is_crashed,
+            is_crashed=verdict.is_crashed,
             sim_time_s=now_s,
             objects=objects,
             geometry=geometry,
             objects_track=objects_track,
         )
         reward = 0.0
-        if phase not in (EpisodeStatus.PREPARE, EpisodeStatus.PAUSE):
+        if verdict.run_step:
             reward = self._reward(params) if self._reward is not None else default_evaluation_reward(params)
-        truncated = not terminated and self._steps >= cfg.max_steps
-        done = terminated or truncated
-        simtrace = {
-            "episode": self._episode_index,
-            "steps": self._steps,
-            "X": mx,
-            "Y": my,
-            "yaw": params["heading"],
-            "steer": steering_deg,
-            "throttle": speed_mps,
-            "action": action_field,
-            "reward": reward,
-            "done": done,
-            "all_wheels_on_track": all_on,
-            "progress": progress,
-            "closest_waypoint": geometry.closest_waypoint_for_simtrace,
-            "track_len": track.length_m,
-            "tstamp": tstamp_s,
-            "episode_status": status,
-            "pause_duration": self._pause_remaining_s,
-            "obstacle_crash_counter": self._race.obstacle_crash_count if self._race is not None else 0,
-            "wall_clock": self._wall_clock(),
-        }
-        info: dict[str, Any] = {
-            "simtrace": simtrace,
-            "params": params,
-            "episode_status": status,
-            "progress": progress,
-            "evaluation": self._evaluation,
-        }
-        if lap_time_s is not None:
-            info["lap_time_s"] = lap_time_s
-        self._last_status = status
-        if done:
+        terminated = verdict.terminated
+        truncated = not terminated and self._steps >= self.config.max_steps
+        info = step_info(
+            params,
+            verdict,
+            chosen,
+            episode=self._episode_index,
+            reward=reward,
+            done=terminated or truncated,
+            closest_waypoint=geometry.closest_waypoint_for_simtrace,
+            tstamp_s=tstamp_s,
+            obstacle_crash_counter=self._race.obstacle_crash_count if self._race is not None else 0,
+            wall_clock_s=self._wall_clock(),
+            evaluation=self._evaluation,
+            lap_time_s=tstamp_s - self._episode_start_time_s if verdict.status == EpisodeStatus.LAP_COMPLETE else None,
+        )
+        self._last_status = verdict.status
+        if terminated or truncated:
             self._finish_episode()
         return self._finish_observation(), reward, terminated, truncated, info
 
@@ -525,57 +447,6 @@ class DeepRacerEnv(gym.Env):
         """Hand the objects' poses to the scene (bodies the cameras and LIDAR see)."""
         if self._object_bodies is not None and self._race is not None:
             self._object_bodies.place(self._data, self._race.objects)
-
-    def _start_pause(self, status: str, pose: CarPose, progress: float, crash: CrashVerdict | None) -> None:
-        """Pause for the rule's penalty, then continue on a lane at the last progress (reference §2.4).
-
-        As the SimApp (`_get_car_reset_model_state`): the spot is the previous step's progress, as a share of the
-        lap measured from the route's origin in the driving direction, on whichever lane's spot is nearer to the car's
-        pose of the previous step. The pause always lasts at least one step, also for a 0 s penalty.
-        """
-        cfg = self.config
-        penalty_s = {
-            EpisodeStatus.OFF_TRACK: cfg.off_track_penalty_s,
-            EpisodeStatus.CRASHED: cfg.collision_penalty_s,
-            EpisodeStatus.REVERSED: cfg.effective_reverse_penalty_s,
-            EpisodeStatus.IMMOBILIZED: cfg.immobilized_penalty_s,
-        }[status]
-        self._pause_remaining_s = penalty_s
-        self._phase = EpisodeStatus.PAUSE
-        if crash is not None and not crash.static:
-            # A crash into a bot car ahead: the car waits where it is.
-            self._respawn_pose = (pose.origin_x_m, pose.origin_y_m, pose.yaw_rad)
-            return
-        if self._race is not None:
-            # Near a static obstacle the SimApp resets behind it on the other lane (or ahead: mercy rule); a crash
-            # measures from the progress of this step, the other rules from the previous step's.
-            spawn_progress = progress if status == EpisodeStatus.CRASHED else self._prev_progress
-            spot = self._race.reset_pose(self._track, spawn_progress / 100.0 * self._track.length_m)
-            if spot is not None:
-                self._respawn_pose = spot
-                return
-        if cfg.reset_position == "where_it_left" and self._last_on_road_ndist is not None:
-            # The seed's summit-rule code: back half the last step from where the car left, on the centre line.
-            step_m = math.dist(pose.model_point, self._last_model_point or pose.model_point)
-            half_step_m = 0.5 * min(step_m, MAX_SPEED_MPS * cfg.step_duration_s)  # a step is at most 4 m/s long
-            # pose_at places the car's origin; its front (the judged point) is Car.FRONT_OF_CAR_M further on.
-            ndist = self._last_on_road_ndist - (half_step_m + Car.FRONT_OF_CAR_M) / self._track.length_m
-            self._respawn_pose = self._track.pose_at(ndist, "center")
-            return
-        ndist = self._prev_progress / 100.0
-        inner = self._track.pose_at(ndist, "inner")
-        outer = self._track.pose_at(ndist, "outer")
-        previous = self._prev_run_origin or (pose.origin_x_m, pose.origin_y_m)
-        self._respawn_pose = inner if math.dist(inner[:2], previous) < math.dist(outer[:2], previous) else outer
-
-    def _remember_where_on_road(self, phase: str, model_point: tuple[float, float], ndist: float, all_on: bool) -> None:
-        """For `reset_position="where_it_left"`: the last judged point with all four wheels on the road."""
-        if phase == EpisodeStatus.PAUSE:
-            self._last_model_point = None
-            return
-        if all_on:
-            self._last_on_road_ndist = ndist
-        self._last_model_point = model_point
 
     # ----- observations --------------------------------------------------------------------------------------
 
