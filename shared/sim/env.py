@@ -9,10 +9,8 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
-from gymnasium import spaces
 
 from racer.shared.deepracer.episode_status import EpisodeStatus
-from racer.shared.deepracer.simtrace import format_continuous_action
 from racer.shared.sim import lidar as lidar_sensor
 from racer.shared.sim._mujoco import mujoco
 from racer.shared.sim.camera import CENTER_CAMERA, LEFT_CAMERA, RIGHT_CAMERA, CameraRenderer, GrayConverter, rgb_to_l
@@ -26,7 +24,7 @@ from racer.shared.sim.car import (
 )
 from racer.shared.sim.config import STEPS_PER_SECOND, EnvConfig
 from racer.shared.sim.domain_randomization import SceneRandomizer
-from racer.shared.sim.episode_phase import PhaseMachine
+from racer.shared.sim.episode_phase import PhaseMachine, StepVerdict
 from racer.shared.sim.object_bodies import OBJECT_GEOM_GROUP, ObjectBodies
 from racer.shared.sim.race import RaceObjects, object_slots
 from racer.shared.sim.race_objects import RaceObject
@@ -34,7 +32,8 @@ from racer.shared.sim.reward import RewardFunction, default_evaluation_reward, l
 from racer.shared.sim.reward_params import make_reward_params
 from racer.shared.sim.scene import SceneSpec, build_model
 from racer.shared.sim.simapp_world import load_simapp_world
-from racer.shared.sim.step_info import ChosenAction, step_info
+from racer.shared.sim.spaces import ChosenAction, action_space, decode_action, lidar_observation, observation_space
+from racer.shared.sim.step_info import step_info
 from racer.shared.sim.track import PointGeometry, Track
 from racer.shared.sim.worlds import get_world
 
@@ -170,8 +169,8 @@ class DeepRacerEnv(gym.Env):
         self._race_start_time_s = 0.0
         self._object_bodies = ObjectBodies(self._model, object_slots(cfg.race)) if self._race is not None else None
 
-        self.action_space = self._make_action_space()
-        self.observation_space = self._make_observation_space()
+        self.action_space = action_space(self._metadata)
+        self.observation_space = observation_space(self._metadata, cfg.image_height_px, cfg.image_width_px)
 
         # Round-robin state carried across episodes (per env = per rollout worker, as in the SimApp).
         self._start_ndist = cfg.start_position_offset % 1.0
@@ -183,35 +182,6 @@ class DeepRacerEnv(gym.Env):
         self._init_episode_state(False, self._start_ndist)
 
     # ----- spaces --------------------------------------------------------------------------------------------
-
-    def _make_action_space(self) -> spaces.Space:
-        if self._metadata.is_continuous:
-            return spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
-        return spaces.Discrete(len(self._metadata.discrete_actions))
-
-    def _make_observation_space(self) -> spaces.Dict:
-        cfg = self.config
-        channels = 2 if self._camera_key == "STEREO_CAMERAS" else 1
-        entries: dict[str, spaces.Space] = {
-            self._camera_key: spaces.Box(
-                0, 255, shape=(cfg.image_height_px, cfg.image_width_px, channels), dtype=np.uint8
-            )
-        }
-        if self._lidar_key == "LIDAR":
-            entries["LIDAR"] = spaces.Box(
-                lidar_sensor.MIN_RANGE_M,
-                lidar_sensor.LIDAR_CLIP_HIGH_M,
-                shape=(lidar_sensor.NUM_RAYS,),
-                dtype=np.float32,
-            )
-        elif self._lidar_key == "SECTOR_LIDAR":
-            entries["SECTOR_LIDAR"] = spaces.Box(0.0, 1.0, shape=(lidar_sensor.SECTOR_LIDAR_SECTORS,), dtype=np.float32)
-        elif self._lidar_key == "DISCRETIZED_SECTOR_LIDAR":
-            lc = self._metadata.lidar_config
-            entries["DISCRETIZED_SECTOR_LIDAR"] = spaces.Box(
-                0.0, 1.0, shape=(lc.num_sectors * lc.num_values_per_sector,), dtype=np.float32
-            )
-        return spaces.Dict(entries)
 
     # ----- public properties ---------------------------------------------------------------------------------
 
@@ -336,24 +306,10 @@ class DeepRacerEnv(gym.Env):
 
     # ----- stepping ------------------------------------------------------------------------------------------
 
-    def _decode_action(self, action: Any) -> ChosenAction:
-        """The chosen action, unclipped."""
-        if self._metadata.is_continuous:
-            values = np.asarray(action, dtype=np.float64).reshape(-1)
-            if values.shape != (2,):
-                raise ValueError(f"a continuous action is [steering, speed] in [-1, 1], got {action!r}")
-            steering, speed = self._metadata.scale_continuous_action(values)
-            return ChosenAction(steering, speed, format_continuous_action((steering, speed)))
-        index = int(action)
-        if not 0 <= index < len(self._metadata.discrete_actions):
-            raise ValueError(f"action index {index} is outside 0..{len(self._metadata.discrete_actions) - 1}")
-        chosen = self._metadata.discrete_actions[index]
-        return ChosenAction(chosen.steering_angle_deg, chosen.speed_mps, index)
-
     def step(self, action: Any):
         if not self._episode_open:
             raise RuntimeError("step() called before reset() or after the episode ended; call reset()")
-        chosen = self._decode_action(action)
+        chosen = decode_action(self._metadata, action)
         track = self._track
         self._steps += 1.0
         # Judge the pose observation o_t was rendered at (the previous step computed it while rendering).
@@ -361,50 +317,18 @@ class DeepRacerEnv(gym.Env):
         all_on, any_on = bool(on_track.all()), bool(on_track.any())
         now_s = float(self._data.time)
         bot_poses = self._race.bot_poses() if self._race is not None else []
-        verdict = self._phases.judge(
-            pose,
-            geometry,
-            all_wheels_on_track=all_on,
-            any_wheel_on_track=any_on,
-            race_time_s=now_s - self._race_start_time_s,
-        )
+        race_time_s = now_s - self._race_start_time_s
+        verdict = self._phases.judge(pose, geometry, all_on=all_on, any_on=any_on, race_time_s=race_time_s)
 
-        # Physics: the chosen command acts for one camera period (held in place while paused).
-        if verdict.hold_pose is not None:
-            self._car.teleport(self._model, self._data, *verdict.hold_pose)
-        command = clip_command(chosen.speed_mps, chosen.steering_deg) if verdict.drives else (0.0, 0.0)
-        self._car.command(self._data, command[0], command[1])
-        self._car.step(self._model, self._data, self._substeps)
-        if self._race is not None:
-            self._race.advance(float(self._data.time) - self._race_start_time_s, self._scene_rng)
-            self._place_objects()
         # The SimApp stamps a row when the step's physics has run (judge_action after unpausing), so the prepare
         # row is one step after the episode start and the last row's time is the lap's end.
-        tstamp_s = float(self._data.time)
+        tstamp_s = self._drive(chosen, verdict)
         self._start_observation()
 
         # While the next frame renders: the pose it shows with its track geometry (the next step judges it),
         # then the reward and the simtrace row of the pose judged above.
         self._judged_pose(track)
-        objects, objects_track = self._race.reward_view(bot_poses) if self._race is not None else ((), None)
-        mx, my = pose.model_point
-        params = make_reward_params(
-            track,
-            x=mx,
-            y=my,
-            heading_deg=math.degrees(pose.yaw_rad),
-            speed_mps=chosen.speed_mps,
-            steering_angle_deg=chosen.steering_deg,
-            steps=self._steps,
-            progress=verdict.progress,
-            all_wheels_on_track=all_on,
-            is_offtrack=not any_on,
-            is_crashed=verdict.is_crashed,
-            sim_time_s=now_s,
-            objects=objects,
-            geometry=geometry,
-            objects_track=objects_track,
-        )
+        params = self._reward_params(track, pose, geometry, chosen, verdict, all_on, any_on, now_s, bot_poses)
         reward = 0.0
         if verdict.run_step:
             reward = self._reward(params) if self._reward is not None else default_evaluation_reward(params)
@@ -428,6 +352,52 @@ class DeepRacerEnv(gym.Env):
         if terminated or truncated:
             self._finish_episode()
         return self._finish_observation(), reward, terminated, truncated, info
+
+    def _drive(self, chosen: ChosenAction, verdict: StepVerdict) -> float:
+        """The physics of one camera period: the chosen command, or held where it is put back while paused; the
+        objects move on. Returns the clock after it."""
+        if verdict.hold_pose is not None:
+            self._car.teleport(self._model, self._data, *verdict.hold_pose)
+        command = clip_command(chosen.speed_mps, chosen.steering_deg) if verdict.drives else (0.0, 0.0)
+        self._car.command(self._data, command[0], command[1])
+        self._car.step(self._model, self._data, self._substeps)
+        if self._race is not None:
+            self._race.advance(float(self._data.time) - self._race_start_time_s, self._scene_rng)
+            self._place_objects()
+        return float(self._data.time)
+
+    def _reward_params(
+        self,
+        track: Track,
+        pose: CarPose,
+        geometry: PointGeometry,
+        chosen: ChosenAction,
+        verdict: StepVerdict,
+        all_on: bool,
+        any_on: bool,
+        now_s: float,
+        bot_poses: list[RaceObject],
+    ) -> dict[str, Any]:
+        """The reward params of the judged pose, with the objects where they stood then."""
+        objects, objects_track = self._race.reward_view(bot_poses) if self._race is not None else ((), None)
+        mx, my = pose.model_point
+        return make_reward_params(
+            track,
+            x=mx,
+            y=my,
+            heading_deg=math.degrees(pose.yaw_rad),
+            speed_mps=chosen.speed_mps,
+            steering_angle_deg=chosen.steering_deg,
+            steps=self._steps,
+            progress=verdict.progress,
+            all_wheels_on_track=all_on,
+            is_offtrack=not any_on,
+            is_crashed=verdict.is_crashed,
+            sim_time_s=now_s,
+            objects=objects,
+            geometry=geometry,
+            objects_track=objects_track,
+        )
 
     def _judged_pose(self, track: Track) -> tuple[CarPose, PointGeometry, np.ndarray]:
         """The car's pose, the track geometry of its front-of-car point and the on-track flag per wheel.
@@ -473,22 +443,12 @@ class DeepRacerEnv(gym.Env):
         observation = {self._camera_key: image}
         if self._lidar is not None:
             ranges = self._lidar.scan(self._model, data, self.np_random)
-            observation[self._lidar_key] = self._lidar_observation(ranges)
+            observation[self._lidar_key] = lidar_observation(self._lidar_key, self._metadata.lidar_config, ranges)
         return observation
 
     def _camera_frame(self, rgb: np.ndarray) -> np.ndarray:
         """The rendered frame with the episode's camera blur and noise (car randomisation only)."""
         return self._randomizer.process_frame(rgb, self._scene_rng) if self._randomizer.car else rgb
-
-    def _lidar_observation(self, ranges: np.ndarray) -> np.ndarray:
-        if self._lidar_key == "LIDAR":
-            return np.clip(ranges, lidar_sensor.MIN_RANGE_M, lidar_sensor.LIDAR_CLIP_HIGH_M).astype(np.float32)
-        if self._lidar_key == "SECTOR_LIDAR":
-            return lidar_sensor.sector_bits(
-                ranges, lidar_sensor.SECTOR_LIDAR_SECTORS, 1, lidar_sensor.SECTOR_LIDAR_CLIP_M
-            )
-        lc = self._metadata.lidar_config
-        return lidar_sensor.sector_bits(ranges, lc.num_sectors, lc.num_values_per_sector, lc.clipping_dist_m)
 
     def render(self) -> np.ndarray | None:
         """`rgb_array`: the front camera's RGB frame of the latest observation."""

@@ -95,11 +95,14 @@ class PhaseMachine:
         pose: CarPose,
         geometry: PointGeometry,
         *,
-        all_wheels_on_track: bool,
-        any_wheel_on_track: bool,
+        all_on: bool,
+        any_on: bool,
         race_time_s: float,
     ) -> StepVerdict:
-        """Judge the pose a step starts from (where its observation was taken) and move the phases on."""
+        """Judge the pose a step starts from (where its observation was taken) and move the phases on.
+
+        `all_on` / `any_on`: all four / any wheel centres on the road; `race_time_s`: the race objects' clock.
+        """
         progress = compute_progress(geometry.ndist, self.start_ndist, self._prev_progress)
         origin = (pose.origin_x_m, pose.origin_y_m)
         phase = self._phase
@@ -111,11 +114,11 @@ class PhaseMachine:
         elif phase == EpisodeStatus.PAUSE:
             self._count_down_pause(origin)
         else:
-            status, is_crashed, terminated = self._judge_run(pose, progress, any_wheel_on_track, race_time_s)
+            status, is_crashed, terminated = self._judge_run(pose, progress, any_on, race_time_s)
         self._prev_progress = 0.0 if progress == 100 else progress
         if phase == EpisodeStatus.IN_PROGRESS:
             self._prev_run_origin = origin
-        self._remember_where_on_road(phase, pose.model_point, geometry.ndist, all_wheels_on_track)
+        self._remember_where_on_road(phase, pose.model_point, geometry.ndist, all_on)
         pausing = self._phase == EpisodeStatus.PAUSE
         return StepVerdict(
             progress=progress,

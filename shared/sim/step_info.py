@@ -2,20 +2,10 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
 from racer.shared.sim.episode_phase import StepVerdict
-
-
-@dataclass(frozen=True, slots=True)
-class ChosenAction:
-    """The action as the simtrace and the reward params see it: unclipped, before the car's limits."""
-
-    steering_deg: float
-    speed_mps: float
-    simtrace_field: int | str
-    """The simtrace's `action` column: the discrete index, or DeepRacer's "[steer speed]" text."""
+from racer.shared.sim.spaces import ChosenAction
 
 
 def step_info(
