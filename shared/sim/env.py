@@ -64,8 +64,9 @@ class DeepRacerEnv(gym.Env):
     `step(a_t)` reads the pose first (where observation o_t was taken) and judges the rules on it, then drives the
     car with a_t for 1/15 s and returns o_{t+1}. Params, reward and simtrace row describe that first pose; they are
     computed while o_{t+1} renders. The row's `tstamp` is the clock after the physics (as the SimApp's), so the
-    prepare row is 1/15 s after the episode start and a lap ends at its last row's `tstamp`. The first step of every episode is the `prepare` step: the car gets a zero
-    command whatever the action, reward 0.
+    prepare row is 1/15 s after the episode start and a lap ends at its last row's `tstamp`. The first step of every
+    episode is the `prepare` step: the car gets a zero command whatever the action, reward 0. The episode's phases
+    (prepare, run, pause), its rules and resets are `episode_phase.PhaseMachine`'s.
 
     ## Rewards
     The user's `reward_function(params)` (every params key present) on RUN steps, including the terminal one;
@@ -180,8 +181,6 @@ class DeepRacerEnv(gym.Env):
         self._episode_open = False
         self._phases = PhaseMachine(cfg, self._race, self._tracks[self._reverse_dir], self._start_ndist)
         self._init_episode_state(False, self._start_ndist)
-
-    # ----- spaces --------------------------------------------------------------------------------------------
 
     # ----- public properties ---------------------------------------------------------------------------------
 
@@ -307,6 +306,8 @@ class DeepRacerEnv(gym.Env):
     # ----- stepping ------------------------------------------------------------------------------------------
 
     def step(self, action: Any):
+        """One camera period: judge the pose o_t shows (`PhaseMachine`), drive a_t (`_drive`), start rendering
+        o_{t+1}, and while it renders compute the reward params, reward and simtrace row of the judged pose."""
         if not self._episode_open:
             raise RuntimeError("step() called before reset() or after the episode ended; call reset()")
         chosen = decode_action(self._metadata, action)
