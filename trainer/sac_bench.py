@@ -64,9 +64,10 @@ def synthetic_episodes(count: int, steps: int, seed: int) -> list[Episode]:
     ]
 
 
-def plain_sac_step(trainer: SACTrainer, batch: ReplayBatch) -> None:
+def plain_sac_step(trainer: SACTrainer, batch: ReplayBatch) -> dict[str, float]:
     """The textbook step, one network after another on the calling thread: the baseline of the bench and the
-    reference the trainer's step is tested against (same losses, same Adam)."""
+    reference the trainer's step is tested against (same losses, same Adam). Returns the losses; the gradients stay
+    in `.grad` until the next step."""
     hp, nets = trainer.hyperparameters, trainer.networks
     trainer.optimizer.zero_grad(set_to_none=True)
     sample = nets.sample(batch.observations, trainer.generator)
@@ -88,6 +89,13 @@ def plain_sac_step(trainer: SACTrainer, batch: ReplayBatch) -> None:
     q_loss = 0.5 * (q1 - td_target).square().mean() + 0.5 * (q2 - td_target).square().mean()
     (value_loss + q_loss).backward()
     trainer.optimizer.step()
+    return {
+        "policy": float(policy_loss.detach()),
+        "q": float(q_loss.detach()),
+        "v": float(value_loss.detach()),
+        "entropy": -float(sample.log_prob.detach().mean()),
+        "mean_q": float(min_q_new.detach().mean()),
+    }
 
 
 def _time_trainer(trainer: SACTrainer, steps: int, batch_size: int) -> tuple[float, float]:

@@ -217,6 +217,37 @@ def test_two_thread_step_computes_the_plain_sequential_step():
     assert moved == len(before)  # every weight took the step (the target V by its copy of V)
 
 
+@pytest.mark.parametrize("loss_type", ["mean squared error", "huber"])
+def test_step_gradients_and_losses_are_the_textbook_steps(loss_type):
+    """Every speed-up of the trainer's step keeps the arithmetic: over three steps from the same weights, minibatches
+    and noise, each weight's gradient (left in `.grad` by the step) and each loss equal the plain sequential step's
+    to float tolerance. Gradients, unlike weights after an Adam step, carry their size, so a lost term shows."""
+    torch.manual_seed(4)
+    networks = build_network_for_metadata(parse_model_metadata(SAC_METADATA))
+    settings = SACSettings(replay_memory_bytes=4 << 20, seed=4, threads_per_tower=1, bf16_towers=False)
+    hyperparameters = Hyperparameters(batch_size=16, lr=1e-3, loss_type=loss_type)
+    fast = SACTrainer(networks, hyperparameters, settings)
+    plain = SACTrainer(copy.deepcopy(networks), hyperparameters, settings)
+    episodes = synthetic_episodes(2, 30, seed=4)
+    for trainer in (fast, plain):
+        trainer.add_experience(episodes)
+    for step in range(3):
+        stats = fast._train(1, 16)
+        expected = plain_sac_step(plain, plain.replay.sample(16, plain.rng))
+        plain.networks.sync_target()  # as _train does after every call's first step
+        for key, value in (("policy", stats.policy_loss), ("q", stats.q_loss), ("v", stats.value_loss)):
+            assert value == pytest.approx(expected[key], rel=1e-5, abs=1e-6), (step, key)
+        assert stats.entropy == pytest.approx(expected["entropy"], rel=1e-5, abs=1e-6)
+        assert stats.mean_q == pytest.approx(expected["mean_q"], rel=1e-5, abs=1e-6)
+        for (name, a), (_, b) in zip(fast.networks.named_parameters(), plain.networks.named_parameters(), strict=True):
+            if not a.requires_grad:
+                continue
+            assert a.grad is not None and b.grad is not None, name
+            scale = float(b.grad.abs().max())
+            torch.testing.assert_close(a.grad, b.grad, rtol=1e-4, atol=1e-5 * scale + 1e-12, msg=f"{name} {step}")
+            torch.testing.assert_close(a, b, rtol=1e-4, atol=1e-6, msg=f"{name} {step}")
+
+
 def test_non_finite_weights_roll_back_and_halve_the_learning_rate(caplog):
     torch.manual_seed(1)
     networks = SACNetworks(LIDAR_ONLY)
