@@ -216,8 +216,8 @@ class SACTrainer:
         q_features, next_value = critic_forward.result()
 
         # Policy: reparameterised sample, scored by the twin Q on the same states (Q's weights held constant).
-        q1_new, q2_new = nets.q_values_for_policy(q_features, sample.action)
-        min_q_new = torch.min(q1_new, q2_new)
+        q = nets.q_values_with_policy_actions(q_features, batch.actions, sample.action)
+        min_q_new = torch.min(q.q1_policy, q.q2_policy)
         policy_loss = (hp.sac_alpha * sample.log_prob - min_q_new).mean()
 
         # V towards the soft value of the sampled action; Q towards r + gamma (1 - done) V_target(s').
@@ -227,8 +227,7 @@ class SACTrainer:
         else:
             value_loss = nn.functional.mse_loss(value, value_target)
         td_target = batch.rewards + hp.discount_factor * (1.0 - batch.dones) * next_value
-        q1, q2 = nets.q_values(q_features, batch.actions)
-        q_loss = 0.5 * (q1 - td_target).square().mean() + 0.5 * (q2 - td_target).square().mean()
+        q_loss = 0.5 * (q.q1 - td_target).square().mean() + 0.5 * (q.q2 - td_target).square().mean()
 
         # Backward: the three graphs share no tensor that needs a gradient, so they run at the same time.
         critic_backward = critic.submit(q_loss.backward)

@@ -43,6 +43,7 @@ __all__ = [
     "SAC_LOG_STD_MIN",
     "SACNetworks",
     "SquashedSample",
+    "TwinQValues",
     "squashed_gaussian_log_prob",
 ]
 
@@ -93,6 +94,7 @@ class TwinQHead(nn.Module):
 
     def __init__(self, in_features: int, num_actions: int):
         super().__init__()
+        self.num_actions = num_actions
 
         def one_q() -> nn.Sequential:
             return nn.Sequential(
@@ -109,6 +111,45 @@ class TwinQHead(nn.Module):
     def forward(self, features: torch.Tensor, actions: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         joint = torch.cat([features, actions.to(features.dtype)], dim=1)
         return self.q1(joint).squeeze(1), self.q2(joint).squeeze(1)
+
+    def at_stored_and_policy_actions(
+        self, features: torch.Tensor, actions: torch.Tensor, policy_actions: torch.Tensor
+    ) -> TwinQValues:
+        """Q1, Q2 at the minibatch's actions (the Q loss: gradients to the weights and features) and at the policy's
+        actions (the policy loss: gradients to those actions only). The first layer is linear in concat(features,
+        action), so its pre-activation at the policy's action is the stored action's plus W_action (a~ - a): the
+        (B, features) x (features, 256) product runs once per head, not twice, and the policy's backward pass never
+        multiplies by it."""
+        joint = torch.cat([features, actions.to(features.dtype)], dim=1)
+        shift = (policy_actions - actions).to(features.dtype)
+        stored, policy = [], []
+        for q in (self.q1, self.q2):
+            first, rest = q[0], q[1:]
+            pre_activation = first(joint)
+            action_weight = first.weight[:, -self.num_actions :].detach()
+            stored.append(rest(pre_activation).squeeze(1))
+            policy.append(_with_constant_weights(rest, pre_activation.detach() + shift @ action_weight.T).squeeze(1))
+        return TwinQValues(stored[0], stored[1], policy[0], policy[1])
+
+
+@dataclass(frozen=True)
+class TwinQValues:
+    q1: torch.Tensor
+    q2: torch.Tensor
+    """(B,) at the minibatch's actions."""
+    q1_policy: torch.Tensor
+    q2_policy: torch.Tensor
+    """(B,) at the policy's actions, the weights held constant."""
+
+
+def _with_constant_weights(layers: nn.Sequential, x: torch.Tensor) -> torch.Tensor:
+    for layer in layers:
+        x = (
+            nn.functional.linear(x, layer.weight.detach(), layer.bias.detach())
+            if isinstance(layer, nn.Linear)
+            else layer(x)
+        )
+    return x
 
 
 def _features(tower: nn.Module, observations: Mapping[str, torch.Tensor], dtype: torch.dtype | None) -> torch.Tensor:
@@ -197,11 +238,13 @@ class SACNetworks(nn.Module):
     def q_values(self, features: torch.Tensor, actions: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         return self.q_head(features, actions)
 
-    def q_values_for_policy(self, features: torch.Tensor, actions: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        """Q1, Q2 with the head's weights held constant: the policy loss's gradient reaches the action only, so the
-        policy's backward pass computes no Q weight gradient and never touches the Q head's `.grad`."""
-        frozen = {name: parameter.detach() for name, parameter in self.q_head.named_parameters()}
-        return torch.func.functional_call(self.q_head, frozen, (features.detach(), actions))
+    def q_values_with_policy_actions(
+        self, features: torch.Tensor, actions: torch.Tensor, policy_actions: torch.Tensor
+    ) -> TwinQValues:
+        """Q1, Q2 at the minibatch's actions, and at the policy's with the head's weights held constant: the policy
+        loss's gradient reaches the action only, so the policy's backward pass computes no Q weight gradient and
+        never touches the Q head's `.grad`."""
+        return self.q_head.at_stored_and_policy_actions(features, actions, policy_actions)
 
     def value(self, observations: Mapping[str, torch.Tensor], dtype: torch.dtype | None = None) -> torch.Tensor:
         return self.value_head(_features(self.value_tower, observations, dtype)).squeeze(1)
