@@ -21,7 +21,9 @@ One iteration, as DeepRacer's trainer runs it:
    The policy gradient does not reach Q's weights; all three use the networks as they were before the step, so one
    Adam step over all of them (lr, betas 0.9/0.999, eps 1e-5, no clipping) equals DeepRacer's three.
    Speed, not arithmetic: the networks share no weight, so each step runs on two threads with one torch thread each
-   (as PPO's towers): policy and V towers on one, Q tower and target V on the other, forward and then backward.
+   (as PPO's towers). The Q loss reads no policy output, so one thread computes Q (forward and backward), V's
+   forward and V_target; the other the policy (forward and backward), then V's backward. Q's first layer is linear
+   in the action, so the policy's Q values reuse its product with the 11264 state features.
    OpenMP threads spread over a busy 2-core machine wait for each other at every layer; two plain threads do not.
 4. V_target = V, copied once per iteration after its first gradient step (tau = 1 with DeepRacer's
    `num_steps_between_copying_online_weights_to_target = EnvironmentSteps(episodes)`, which passes once per fetch).
@@ -35,7 +37,7 @@ import logging
 import math
 import os
 from collections.abc import Callable, Sequence
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -44,7 +46,7 @@ from torch import nn
 
 from racer.shared.deepracer.hyperparameters import Hyperparameters
 from racer.shared.episode import Episode
-from racer.shared.policy.sac_networks import SACNetworks
+from racer.shared.policy.sac_networks import QAtStoredActions, SACNetworks
 from racer.trainer.nan_guard import (
     LastGoodState,
     NonFiniteError,
@@ -199,42 +201,50 @@ class SACTrainer:
             replay_transitions=len(self.replay),
         )
 
-    def _critic_forward(self, batch: ReplayBatch) -> tuple[torch.Tensor, torch.Tensor]:
-        """Q features of s (with grad) and V_target(s') (no grad): the second thread's forward half."""
-        features = self.networks.q_features(batch.observations, self.tower_dtype)
-        return features, self.networks.target_value(batch.next_observations, self.tower_dtype)
+    def _critic_q(self, batch: ReplayBatch) -> QAtStoredActions:
+        return self.networks.q_values_at_stored_actions(
+            self.networks.q_features(batch.observations, self.tower_dtype), batch.actions
+        )
+
+    def _critic_q_loss(self, batch: ReplayBatch, q: Future[QAtStoredActions]) -> float:
+        """Q towards r + gamma (1 - done) V_target(s'), forward and backward: the Q loss reads no policy output."""
+        next_value = self.networks.target_value(batch.next_observations, self.tower_dtype)
+        td_target = batch.rewards + self.hyperparameters.discount_factor * (1.0 - batch.dones) * next_value
+        stored = q.result()
+        q_loss = 0.5 * (stored.q1 - td_target).square().mean() + 0.5 * (stored.q2 - td_target).square().mean()
+        q_loss.backward()
+        return float(q_loss.detach())
 
     def _step(self, minibatch: int, step: int, critic: ThreadPoolExecutor) -> dict[str, float]:
         hp, nets, dtype = self.hyperparameters, self.networks, self.tower_dtype
         batch = self.replay.sample(minibatch, self.rng)
         self.optimizer.zero_grad(set_to_none=True)
 
-        # Forward: Q tower and target V on the critic thread, policy and V towers here.
-        critic_forward = critic.submit(self._critic_forward, batch)
+        # The critic thread, in this order: Q at the minibatch's actions (which the policy loss reads first), V(s),
+        # then V_target(s') and the Q loss's forward and backward. This thread: the policy, its loss and backward,
+        # then V's loss and backward. The graphs share no tensor that needs a gradient.
+        q_future = critic.submit(self._critic_q, batch)
+        value_future = critic.submit(nets.value, batch.observations, dtype)
+        q_loss_future = critic.submit(self._critic_q_loss, batch, q_future)
         sample = nets.sample(batch.observations, self.generator, dtype)
-        value = nets.value(batch.observations, dtype)
-        q_features, next_value = critic_forward.result()
 
         # Policy: reparameterised sample, scored by the twin Q on the same states (Q's weights held constant).
-        q = nets.q_values_with_policy_actions(q_features, batch.actions, sample.action)
-        min_q_new = torch.min(q.q1_policy, q.q2_policy)
+        q1_new, q2_new = nets.q_values_for_policy(q_future.result(), sample.action)
+        min_q_new = torch.min(q1_new, q2_new)
         policy_loss = (hp.sac_alpha * sample.log_prob - min_q_new).mean()
-
-        # V towards the soft value of the sampled action; Q towards r + gamma (1 - done) V_target(s').
         value_target = (min_q_new - hp.sac_alpha * sample.log_prob).detach()
+        policy_loss.backward()
+
+        # V towards the soft value of the sampled action.
+        value = value_future.result()
         if hp.loss_type == "huber":
             value_loss = nn.functional.huber_loss(value, value_target, delta=HUBER_DELTA)
         else:
             value_loss = nn.functional.mse_loss(value, value_target)
-        td_target = batch.rewards + hp.discount_factor * (1.0 - batch.dones) * next_value
-        q_loss = 0.5 * (q.q1 - td_target).square().mean() + 0.5 * (q.q2 - td_target).square().mean()
+        value_loss.backward()
+        q_value = q_loss_future.result()
 
-        # Backward: the three graphs share no tensor that needs a gradient, so they run at the same time.
-        critic_backward = critic.submit(q_loss.backward)
-        (policy_loss + value_loss).backward()
-        critic_backward.result()
-
-        policy_value, value_value, q_value = (float(loss.detach()) for loss in (policy_loss, value_loss, q_loss))
+        policy_value, value_value = float(policy_loss.detach()), float(value_loss.detach())
         check_finite(policy_value + value_value + q_value, f"loss at gradient step {step}")
         grad_norm = gradient_norm(nets.trainable_parameters())
         check_finite(grad_norm, f"gradient at gradient step {step}")

@@ -43,7 +43,7 @@ __all__ = [
     "SAC_LOG_STD_MIN",
     "SACNetworks",
     "SquashedSample",
-    "TwinQValues",
+    "QAtStoredActions",
     "squashed_gaussian_log_prob",
 ]
 
@@ -112,34 +112,38 @@ class TwinQHead(nn.Module):
         joint = torch.cat([features, actions.to(features.dtype)], dim=1)
         return self.q1(joint).squeeze(1), self.q2(joint).squeeze(1)
 
-    def at_stored_and_policy_actions(
-        self, features: torch.Tensor, actions: torch.Tensor, policy_actions: torch.Tensor
-    ) -> TwinQValues:
-        """Q1, Q2 at the minibatch's actions (the Q loss: gradients to the weights and features) and at the policy's
-        actions (the policy loss: gradients to those actions only). The first layer is linear in concat(features,
-        action), so its pre-activation at the policy's action is the stored action's plus W_action (a~ - a): the
-        (B, features) x (features, 256) product runs once per head, not twice, and the policy's backward pass never
-        multiplies by it."""
+    def at_stored_actions(self, features: torch.Tensor, actions: torch.Tensor) -> QAtStoredActions:
+        """Q1, Q2 at the minibatch's actions (the Q loss: gradients to the weights and features), keeping what
+        `at_other_actions` needs."""
         joint = torch.cat([features, actions.to(features.dtype)], dim=1)
-        shift = (policy_actions - actions).to(features.dtype)
-        stored, policy = [], []
-        for q in (self.q1, self.q2):
-            first, rest = q[0], q[1:]
-            pre_activation = first(joint)
-            action_weight = first.weight[:, -self.num_actions :].detach()
-            stored.append(rest(pre_activation).squeeze(1))
-            policy.append(_with_constant_weights(rest, pre_activation.detach() + shift @ action_weight.T).squeeze(1))
-        return TwinQValues(stored[0], stored[1], policy[0], policy[1])
+        q, first_layer = [], []
+        for head in (self.q1, self.q2):
+            pre_activation = head[0](joint)
+            q.append(head[1:](pre_activation).squeeze(1))
+            first_layer.append(pre_activation.detach())
+        return QAtStoredActions(q[0], q[1], (first_layer[0], first_layer[1]), actions.to(features.dtype))
+
+    def at_other_actions(self, stored: QAtStoredActions, actions: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """Q1, Q2 of the same states at other actions (the policy's), the weights held constant: gradients reach
+        those actions only. The first layer is linear in concat(features, action), so its pre-activation is the
+        stored action's plus W_action (a~ - a): the (B, features) x (features, 256) product runs once per head, not
+        twice, and the policy's backward pass never multiplies by it."""
+        shift = actions.to(stored.actions.dtype) - stored.actions
+        q = []
+        for head, pre_activation in zip((self.q1, self.q2), stored.first_layer, strict=True):
+            action_weight = head[0].weight[:, -self.num_actions :].detach()
+            q.append(_with_constant_weights(head[1:], pre_activation + shift @ action_weight.T).squeeze(1))
+        return q[0], q[1]
 
 
 @dataclass(frozen=True)
-class TwinQValues:
+class QAtStoredActions:
     q1: torch.Tensor
     q2: torch.Tensor
-    """(B,) at the minibatch's actions."""
-    q1_policy: torch.Tensor
-    q2_policy: torch.Tensor
-    """(B,) at the policy's actions, the weights held constant."""
+    """(B,) at the minibatch's actions, differentiable."""
+    first_layer: tuple[torch.Tensor, torch.Tensor]
+    """Each head's first-layer pre-activation (B, 256), detached."""
+    actions: torch.Tensor
 
 
 def _with_constant_weights(layers: nn.Sequential, x: torch.Tensor) -> torch.Tensor:
@@ -238,13 +242,16 @@ class SACNetworks(nn.Module):
     def q_values(self, features: torch.Tensor, actions: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         return self.q_head(features, actions)
 
-    def q_values_with_policy_actions(
-        self, features: torch.Tensor, actions: torch.Tensor, policy_actions: torch.Tensor
-    ) -> TwinQValues:
-        """Q1, Q2 at the minibatch's actions, and at the policy's with the head's weights held constant: the policy
-        loss's gradient reaches the action only, so the policy's backward pass computes no Q weight gradient and
-        never touches the Q head's `.grad`."""
-        return self.q_head.at_stored_and_policy_actions(features, actions, policy_actions)
+    def q_values_at_stored_actions(self, features: torch.Tensor, actions: torch.Tensor) -> QAtStoredActions:
+        return self.q_head.at_stored_actions(features, actions)
+
+    def q_values_for_policy(
+        self, stored: QAtStoredActions, policy_actions: torch.Tensor
+    ) -> tuple[torch.Tensor, torch.Tensor]:
+        """Q1, Q2 at the policy's actions with the head's weights held constant: the policy loss's gradient reaches
+        the action only, so the policy's backward pass computes no Q weight gradient and never touches the Q head's
+        `.grad`."""
+        return self.q_head.at_other_actions(stored, policy_actions)
 
     def value(self, observations: Mapping[str, torch.Tensor], dtype: torch.dtype | None = None) -> torch.Tensor:
         return self.value_head(_features(self.value_tower, observations, dtype)).squeeze(1)
