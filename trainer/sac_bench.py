@@ -10,7 +10,9 @@ untimed warm-up step runs on each path (oneDNN primitive creation), then the two
 `plain_sac_step`: the same losses computed one network after another on `--threads` intra-op threads (default: all
 of the process's CPUs, torch's own default), the Q head's weight gradient of the policy loss computed and thrown away.
 `transitions_per_s_at_one_update` is the trainer's rate again: the experience rate it keeps up with at DeepRacer's
-one update per transition. `*_cpu_s_per_step` are process CPU seconds (OpenMP spin-waits included).
+one update per transition. `*_cpu_s_per_step` are process CPU seconds (OpenMP spin-waits included);
+`policy_thread_cpu_s_per_step` and `critic_thread_cpu_s_per_step` split the trainer's between its two threads (a
+step's wall time on two free cores is at least the larger).
 """
 
 from __future__ import annotations
@@ -98,10 +100,11 @@ def plain_sac_step(trainer: SACTrainer, batch: ReplayBatch) -> dict[str, float]:
     }
 
 
-def _time_trainer(trainer: SACTrainer, steps: int, batch_size: int) -> tuple[float, float]:
-    started, cpu_started = time.perf_counter(), time.process_time()
+def _time_trainer(trainer: SACTrainer, steps: int, batch_size: int) -> tuple[float, float, float]:
+    """Wall, process CPU and this (the policy) thread's CPU seconds; the critic thread has the rest."""
+    started, cpu_started, thread_started = time.perf_counter(), time.process_time(), time.thread_time()
     trainer._train(steps, batch_size)
-    return time.perf_counter() - started, time.process_time() - cpu_started
+    return time.perf_counter() - started, time.process_time() - cpu_started, time.thread_time() - thread_started
 
 
 def _time_plain(trainer: SACTrainer, steps: int, batch_size: int, threads: int) -> tuple[float, float]:
@@ -152,7 +155,9 @@ def sac_bench_command(
         print(
             f"sac bench: run {repeat + 1}/{repeats} trainer {steps / trainer_runs[-1][0]:.2f} steps/s", file=sys.stderr
         )
-    trainer_s = statistics.median(wall for wall, _ in trainer_runs)
+    trainer_s = statistics.median(wall for wall, _, _ in trainer_runs)
+    trainer_cpu_s = statistics.median(cpu for _, cpu, _ in trainer_runs)
+    policy_thread_cpu_s = statistics.median(thread for _, _, thread in trainer_runs)
     plain_s = statistics.median(wall for wall, _ in plain_runs)
     click.echo(
         json.dumps(
@@ -165,7 +170,9 @@ def sac_bench_command(
                 "baseline_gradient_steps_per_s": round(steps / plain_s, 2),
                 "speedup": round(plain_s / trainer_s, 3),
                 "transitions_per_s_at_one_update": round(steps / trainer_s, 2),
-                "cpu_s_per_step": round(statistics.median(cpu for _, cpu in trainer_runs) / steps, 4),
+                "cpu_s_per_step": round(trainer_cpu_s / steps, 4),
+                "policy_thread_cpu_s_per_step": round(policy_thread_cpu_s / steps, 4),
+                "critic_thread_cpu_s_per_step": round((trainer_cpu_s - policy_thread_cpu_s) / steps, 4),
                 "baseline_cpu_s_per_step": round(statistics.median(cpu for _, cpu in plain_runs) / steps, 4),
                 "bf16_towers": trainer.tower_dtype is not None,
                 "threads_per_tower": settings.threads_per_tower or max(1, len(os.sched_getaffinity(0)) // 2),
