@@ -11,7 +11,9 @@ Public API
     v        DeepRacer embedders + middleware -> Dense(1)
     v_target a copy of v (never trained; `sync_target()` copies v into it, tau = 1 as DeepRacer configures)
 - `SACNetworks.sample(obs) -> SquashedSample` (reparameterised action, its log-probability), `.q_values(...)`,
-  `.value(obs)`, `.target_value(obs)`: what the trainer needs; `.policy_output(obs)`: the deterministic action
+  `.q_values_at_stored_actions(...) -> QAtStoredActions` and `.q_values_for_policy(stored, actions)` (the policy's
+  Q values from the stored actions' first layer, weights held constant), `.value(obs)`, `.target_value(obs)`: what
+  the trainer needs; `.policy_output(obs)`: the deterministic action
   tanh(mean) in the network's [-1, 1] box, which evaluation drives and the ONNX model outputs first.
 - The exported ONNX model (`racer.shared.policy.onnx_export`) outputs `policy` (tanh(mean), [1, 2]), `policy_mean`
   (before tanh) and `policy_log_std` (clipped): a worker samples from it, evaluation and the car read `policy`.
