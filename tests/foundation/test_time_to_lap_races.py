@@ -28,6 +28,8 @@ def test_the_object_races_use_their_recipe_and_the_time_trial_keeps_deepracers_d
     oa = time_to_lap_hyperparameters("object-avoidance", "clipped_ppo", 8)
     assert oa["num_episodes_between_training"] == 8  # --episodes-per-iteration wins over the recipe
     assert oa["num_epochs"] == 3 and oa["discount_factor"] == 0.99
+    assert "lr" not in oa  # DeepRacer's 0.0003: the rate the object-avoidance benchmark lapped with
+    assert time_to_lap_hyperparameters("head-to-bot", "clipped_ppo", None)["lr"] == 0.001
 
 
 @pytest.mark.parametrize("race_type", ["object-avoidance", "head-to-bot"])
