@@ -223,6 +223,7 @@ class ProgressDisplay:
         self.iteration_id = "0"
         self.evaluation_id = "0"
         self.last_status = 0.0
+        self.seen_workers: set[int] = set()
 
     def poll(self) -> list[dict]:
         """Print what is new; return the new evaluation records (benchmarks watch them)."""
@@ -250,11 +251,16 @@ class ProgressDisplay:
         if time.monotonic() - self.last_status > 30:
             self.last_status = time.monotonic()
             live = self.channel.live_workers()
-            states = ", ".join(
-                f"w{i}:{live[i].get('state', '?')}" if i in live else f"w{i}:DOWN" for i in range(self.num_workers)
-            )
+            self.seen_workers.update(live)
+            states = ", ".join(f"w{i}:{self._worker_state(i, live)}" for i in range(self.num_workers))
             self.echo(f"[{self._elapsed()}] workers {states}", err=True)
         return evaluations
+
+    def _worker_state(self, worker_id: int, live: dict[int, dict]) -> str:
+        """Its heartbeat's state; "starting" until its first heartbeat (importing, building its envs)."""
+        if worker_id in live:
+            return live[worker_id].get("state", "?")
+        return "DOWN" if worker_id in self.seen_workers else "starting"
 
     def _elapsed(self) -> str:
         seconds = int(time.monotonic() - self.started)

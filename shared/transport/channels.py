@@ -337,10 +337,15 @@ class RunChannel:
         return records
 
     def delete_run_keys(self) -> None:
-        """Remove every key of this run (a fresh start with the same model prefix)."""
+        """Remove every key of this run (a fresh start with the same model prefix) but the heartbeats: workers
+        started beside the trainer are already beating, and a wiped heartbeat showed them all as down for a moment.
+        A heartbeat left by an earlier run expires on its own within `HEARTBEAT_TTL_S`."""
+        heartbeats = self.key("heartbeat:")
 
         def wipe(r: redis.Redis) -> None:
-            keys = list(r.scan_iter(match=self.prefix + "*", count=500))
+            keys = [
+                key for key in r.scan_iter(match=self.prefix + "*", count=500) if not _text(key).startswith(heartbeats)
+            ]
             if keys:
                 r.delete(*keys)
 

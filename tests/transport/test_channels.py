@@ -73,3 +73,13 @@ def test_heartbeats_expire(redis_settings):
     channel.link.client.pexpire(channel.key("heartbeat:2"), 50)
     time.sleep(0.2)
     assert 2 not in channel.live_workers()
+
+
+def test_a_fresh_run_wipes_its_keys_but_not_the_workers_heartbeats(redis_settings, batch):
+    channel = RunChannel(RedisLink(redis_settings), "run-e")
+    channel.beat(0, {"state": "starting"})
+    channel.push_batch(batch(0, 0))
+    assert channel.link.client.exists(channel.key("episodes"))
+    channel.delete_run_keys()
+    assert not channel.link.client.exists(channel.key("episodes"))
+    assert channel.live_workers()[0]["state"] == "starting"
