@@ -7,6 +7,12 @@ first (the first includes building the envs). The end-to-end rate (the same step
 iterations, update and checkpoint included) is printed beside it.
 bound: one process per core (os.sched_getaffinity) running `racer bench sim`'s raw loop (physics and the 160x120
 camera, no env code, no policy) at the same time, measured before and after the system, averaged.
+ceilings: what the ratio could be at best: the bound's CPU per step against the same plus the policy's forward pass
+per frame (the default model's ONNX session as the workers run it, at their batch of `--envs`, timed in this
+process before the system starts), then plus the env code too (reward params, reward function, simtrace row: the
+env step's CPU over the raw loop's, timed in alternating blocks). Every other cost of the system (recording,
+encoding, Redis, checkpoint loading, the trainer, idle envs at the end of a rollout) comes on top, so the measured
+ratio stays below both.
 """
 
 from __future__ import annotations
@@ -62,6 +68,54 @@ def machine_bound(processes: int, duration_s: float, settings: ServiceSettings) 
     }
 
 
+def policy_forward_cpu_ms(envs_per_worker: int, frames: int = 400) -> float:
+    """CPU ms per frame of the default model's forward pass (fresh weights) at the workers' batch size."""
+    import numpy as np
+    import torch
+
+    from racer.shared.deepracer.model_metadata import load_model_metadata
+    from racer.shared.policy.networks import build_actor_critic
+    from racer.shared.policy.onnx_export import export_onnx
+    from racer.shared.policy.onnx_policy import OnnxPolicy
+
+    torch.manual_seed(0)
+    network = build_actor_critic(load_model_metadata(PROJECT_ROOT / "custom_files" / "model_metadata.json")).eval()
+    policy = OnnxPolicy(export_onnx(network), network.config)
+    rng = np.random.default_rng(0)
+    batch = [
+        {spec.name: rng.integers(0, 256, size=spec.shape, dtype=np.uint8) for spec in network.config.inputs}
+        for _ in range(envs_per_worker)
+    ]
+    calls = max(1, frames // envs_per_worker)
+    policy.policy_outputs(batch)
+    cpu_start = time.process_time()
+    for _ in range(calls):
+        policy.policy_outputs(batch)
+    return 1e3 * (time.process_time() - cpu_start) / (calls * envs_per_worker)
+
+
+def per_step_costs(envs_per_worker: int) -> dict:
+    """CPU ms per step of the policy's forward pass and of the env code beyond the raw loop (the env step and the raw
+    loop measured in alternating blocks in this process, so their difference holds when the machine is busy)."""
+    from racer.shared.sim.bench import run_benchmark
+
+    sim = run_benchmark(steps=1800)
+    return {
+        "policy_forward_cpu_ms_per_frame": round(policy_forward_cpu_ms(envs_per_worker), 3),
+        "env_code_cpu_ms_per_step": round(sim["env_cpu_ms_per_step"] - sim["raw_cpu_ms_per_step"], 3),
+    }
+
+
+def ratio_ceilings(bound_cpu_ms_per_step: float, costs: dict) -> dict:
+    """The best ratios the system could reach if nothing but the bound's raw loop and the policy's forward pass (and
+    then also the env code: reward params, reward function, simtrace row) cost CPU."""
+    raw_ms, forward_ms = bound_cpu_ms_per_step, costs["policy_forward_cpu_ms_per_frame"]
+    return {
+        "ratio_ceiling_raw_plus_policy": round(raw_ms / (raw_ms + forward_ms), 3),
+        "ratio_ceiling_env_plus_policy": round(raw_ms / (raw_ms + costs["env_code_cpu_ms_per_step"] + forward_ms), 3),
+    }
+
+
 def system_rates(records: list[dict]) -> dict:
     """Experience and end-to-end rates of the iterations after the first."""
     later = records[1:]
@@ -95,6 +149,8 @@ def throughput_bench_command(iterations, num_workers, envs_per_worker, bound_sec
     base = ServiceSettings(redis=RedisSettings(), store=LocalStoreSettings(root=workdir / "store"))
     custom = PROJECT_ROOT / "custom_files"
     episodes = load_hyperparameters(custom / "hyperparameters.json")[0].num_episodes_between_training
+    click.echo("ceilings: raw loop, env step and the policy's forward pass, one after the other ...", err=True)
+    costs = per_step_costs(envs_per_worker)
     click.echo(f"bound: {cores} raw env processes for {bound_seconds:.0f} s ...", err=True)
     before = machine_bound(cores, bound_seconds, base)
     plan = LocalRunPlan(
@@ -124,17 +180,20 @@ def throughput_bench_command(iterations, num_workers, envs_per_worker, bound_sec
     click.echo(f"bound again for {bound_seconds:.0f} s ...", err=True)
     after = machine_bound(cores, bound_seconds, base)
     bound = (before["steps_per_s"] + after["steps_per_s"]) / 2
+    bound_cpu_ms = (before["cpu_ms_per_step"] + after["cpu_ms_per_step"]) / 2
     result = {
         "experience_steps_per_s": round(rates["experience_steps_per_s"], 1),
         "bound_steps_per_s": round(bound, 1),
         "ratio": round(rates["experience_steps_per_s"] / bound, 3),
+        **costs,
+        **ratio_ceilings(bound_cpu_ms, costs),
         "end_to_end_steps_per_s": round(rates["end_to_end_steps_per_s"], 1),
         "rollout_share_of_wall": round(rates["rollout_share_of_wall"], 3),
         "update_share_of_wall": round(rates["update_share_of_wall"], 3),
         # CPU seconds per training step of every process of the run (trainer, workers, Redis; start-up, updates and
         # evaluations included) against the bound's: less sensitive than wall rates to other load on the machine.
         "system_cpu_ms_per_step": round(1e3 * system_cpu_s / max(1, records[-1]["env_steps_total"]), 3),
-        "bound_cpu_ms_per_step": round((before["cpu_ms_per_step"] + after["cpu_ms_per_step"]) / 2, 3),
+        "bound_cpu_ms_per_step": round(bound_cpu_ms, 3),
         "bound_before_after_steps_per_s": [round(before["steps_per_s"], 1), round(after["steps_per_s"], 1)],
         "bound_processes": cores,
         "workers": num_workers,

@@ -23,12 +23,13 @@ def test_every_recipe_is_a_valid_hyperparameters_file(race_type, algorithm):
         assert set(data) == {"num_episodes_between_training"}
 
 
-def test_the_object_races_use_their_recipe_and_the_time_trial_keeps_deepracers_defaults():
-    assert time_to_lap_hyperparameters("time-trial", "clipped_ppo", None) == {"num_episodes_between_training": 20}
+def test_every_race_uses_the_three_epoch_recipe_and_head_to_bot_the_highest_rate():
+    for race_type in ("time-trial", "object-avoidance"):
+        data = time_to_lap_hyperparameters(race_type, "clipped_ppo", None)
+        assert data == {"num_episodes_between_training": 20, "num_epochs": 3, "discount_factor": 0.99}
     oa = time_to_lap_hyperparameters("object-avoidance", "clipped_ppo", 8)
     assert oa["num_episodes_between_training"] == 8  # --episodes-per-iteration wins over the recipe
-    assert oa["num_epochs"] == 3 and oa["discount_factor"] == 0.99
-    assert "lr" not in oa  # DeepRacer's 0.0003: the rate the object-avoidance benchmark lapped with
+    assert "lr" not in oa  # DeepRacer's 0.0003: the rate the time-trial and object-avoidance benchmarks lapped with
     assert time_to_lap_hyperparameters("head-to-bot", "clipped_ppo", None)["lr"] == 0.001
 
 

@@ -37,10 +37,11 @@ def test_steps_per_phase_come_from_the_running_total_after_the_warm_up():
     assert _phase_steps(rows, warmup_iterations=2, on=False) == 17
 
 
-def test_the_bench_model_trains_with_the_learning_rate_it_is_given(tmp_path):
+def test_the_bench_model_trains_three_epochs_with_the_learning_rate_it_is_given(tmp_path):
     _write_custom_files(tmp_path / "frozen", episodes_per_iteration=48, learning_rate=1e-8)
     hyperparameters, unknown = load_hyperparameters(tmp_path / "frozen" / "hyperparameters.json")
     assert (hyperparameters.lr, hyperparameters.num_episodes_between_training, unknown) == (1e-8, 48, [])
+    assert hyperparameters.num_epochs == 3  # the fewest allowed: the update is not measured, a short one leaves room
 
 
 def wait_until(check, timeout_s: float = 10.0) -> bool:
