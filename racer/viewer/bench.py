@@ -33,6 +33,7 @@ import click
 import numpy as np
 
 from racer.shared.config import LocalStoreSettings, RedisSettings, ServiceSettings
+from racer.shared.deepracer.hyperparameters import HyperparametersError, load_hyperparameters
 from racer.shared.redis_connection import RedisLink
 from racer.shared.services import PROJECT_ROOT
 from racer.shared.sim.config import EnvConfig
@@ -331,11 +332,11 @@ class PhaseCosts:
 @click.option(
     "--episodes-per-iteration",
     type=int,
-    default=128,
+    default=100,
     show_default=True,
-    help="The frozen random policy's episodes last about 35 steps, so 128 make a rollout of about 4,500 steps "
-    "(10 s on 2 cores), as long as an iteration of a learning run whose car drives most of a lap (20 episodes of "
-    "150-250 steps). With 32 (2-3 s of rollout) an iteration's rate is mostly its slowest episode's, the "
+    help="The frozen random policy's episodes last about 35 steps, so 100 (DeepRacer's most) make a rollout of about "
+    "3,500 steps (8 s on 2 cores), about an iteration of a learning run whose car drives half a lap or more (20 "
+    "episodes of 150-250 steps). With 32 (2-3 s of rollout) an iteration's rate is mostly its slowest episode's, the "
     "per-iteration start-up's and the page's once-per-iteration refresh.",
 )
 @click.option("--track", default="racer_oval", show_default=True)
@@ -375,6 +376,10 @@ def viewer_bench_command(
     workdir = Path(tempfile.mkdtemp(prefix="racer-bench-viewer-"))
     custom = workdir / "custom_files"
     _write_custom_files(custom, episodes_per_iteration, learning_rate)
+    try:  # --episodes-per-iteration and --learning-rate must be values DeepRacer accepts, checked before anything starts
+        load_hyperparameters(custom / "hyperparameters.json")
+    except HyperparametersError as error:
+        raise click.ClickException(str(error)) from error
     port = _free_port()
     plan = LocalRunPlan(
         model_prefix="bench-viewer",

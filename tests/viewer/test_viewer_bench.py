@@ -3,12 +3,21 @@ and its loads other than the browser switching the frames on and off on a real r
 
 import time
 
+from click.testing import CliRunner
+
 from racer.shared.deepracer.hyperparameters import load_hyperparameters
 from racer.shared.redis_connection import RedisLink
 from racer.shared.store import LocalStore
 from racer.shared.transport.frames import FrameChannel
 from racer.viewer.app import create_app
-from racer.viewer.bench import PagePolls, WatchingOnly, _paired_ratios, _phase_steps, _write_custom_files
+from racer.viewer.bench import (
+    PagePolls,
+    WatchingOnly,
+    _paired_ratios,
+    _phase_steps,
+    _write_custom_files,
+    viewer_bench_command,
+)
 from racer.viewer.live import LiveRun
 from racer.viewer.run_files import RunFiles, RunLocation
 from tests.viewer.conftest import ServedApp
@@ -83,3 +92,9 @@ def test_the_polling_load_asks_for_frames_and_reads_them(tmp_path, redis_setting
             assert wait_until(lambda: frames.is_watched(0) and load.cpu_s() > 0)
         finally:
             load.quit()
+
+
+def test_a_value_deepracer_refuses_stops_the_bench_before_anything_starts():
+    result = CliRunner().invoke(viewer_bench_command, ["--episodes-per-iteration", "128", "--load", "frames"])
+    assert result.exit_code == 1
+    assert "num_episodes_between_training: 128 is out of range" in result.output
