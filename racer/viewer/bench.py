@@ -33,7 +33,7 @@ import click
 import numpy as np
 
 from racer.shared.config import LocalStoreSettings, RedisSettings, ServiceSettings
-from racer.shared.deepracer.hyperparameters import HyperparametersError, load_hyperparameters
+from racer.shared.deepracer.hyperparameters import HyperparametersError, parse_hyperparameters
 from racer.shared.redis_connection import RedisLink
 from racer.shared.services import PROJECT_ROOT
 from racer.shared.sim.config import EnvConfig
@@ -245,7 +245,20 @@ def frame_cost(redis: RedisSettings, track: str, observations: int = 120, frames
     }
 
 
+def _bench_hyperparameters(episodes_per_iteration: int, learning_rate: float) -> dict:
+    """The bench model's hyperparameters.json, checked as the trainer checks it (a value DeepRacer refuses stops the
+    bench before anything is made). The fewest epochs DeepRacer allows: the update is not what is measured, and a
+    short one fits more pairs of rollouts into the run."""
+    hyperparameters = {"num_episodes_between_training": episodes_per_iteration, "lr": learning_rate, "num_epochs": 3}
+    try:
+        parse_hyperparameters(hyperparameters, source="racer bench viewer options")
+    except HyperparametersError as error:
+        raise click.ClickException(str(error)) from error
+    return hyperparameters
+
+
 def _write_custom_files(folder: Path, episodes_per_iteration: int, learning_rate: float) -> None:
+    hyperparameters = _bench_hyperparameters(episodes_per_iteration, learning_rate)
     folder.mkdir(parents=True)
     (folder / "reward_function.py").write_bytes(CENTRE_LINE_REWARD.read_bytes())
     actions = [{"steering_angle": angle, "speed": 1.0, "index": i} for i, angle in enumerate([-30, -15, 0, 15, 30])]
@@ -261,9 +274,6 @@ def _write_custom_files(folder: Path, episodes_per_iteration: int, learning_rate
             }
         )
     )
-    # The fewest epochs DeepRacer allows: the update is not what is measured, and a short one fits more pairs of
-    # rollouts into the run.
-    hyperparameters = {"num_episodes_between_training": episodes_per_iteration, "lr": learning_rate, "num_epochs": 3}
     (folder / "hyperparameters.json").write_text(json.dumps(hyperparameters))
     (folder / "workers.json").write_text(json.dumps({"MIN_EVAL_TRIALS": 1}))
 
@@ -373,13 +383,10 @@ def viewer_bench_command(
         raise click.ClickException(f"{CHROMIUM} and {CHROMEDRIVER} are needed (scripts/setup.sh installs them)")
     if not CENTRE_LINE_REWARD.is_file():
         raise click.ClickException(f"reward function not found: {CENTRE_LINE_REWARD}")
+    _bench_hyperparameters(episodes_per_iteration, learning_rate)  # checked before the work folder is made
     workdir = Path(tempfile.mkdtemp(prefix="racer-bench-viewer-"))
     custom = workdir / "custom_files"
     _write_custom_files(custom, episodes_per_iteration, learning_rate)
-    try:  # --episodes-per-iteration and --learning-rate must be values DeepRacer accepts, checked before anything starts
-        load_hyperparameters(custom / "hyperparameters.json")
-    except HyperparametersError as error:
-        raise click.ClickException(str(error)) from error
     port = _free_port()
     plan = LocalRunPlan(
         model_prefix="bench-viewer",
