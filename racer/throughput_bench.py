@@ -22,12 +22,11 @@ import os
 import resource
 import subprocess
 import sys
-import tempfile
 import time
-from pathlib import Path
 
 import click
 
+from racer.bench_workdir import bench_workdir
 from racer.local_run import LocalRunPlan, read_iteration_records, run_local_training, service_environment
 from racer.shared.batched_rollout import DEFAULT_ENVS_PER_WORKER, default_workers
 from racer.shared.config import LocalStoreSettings, RedisSettings, ServiceSettings
@@ -145,61 +144,61 @@ def system_rates(records: list[dict]) -> dict:
 def throughput_bench_command(iterations, num_workers, envs_per_worker, bound_seconds, seed) -> None:
     """The default system's experience steps/s vs one raw env process per core; prints one JSON line."""
     cores = len(os.sched_getaffinity(0))
-    workdir = Path(tempfile.mkdtemp(prefix="racer-throughput-"))
-    base = ServiceSettings(redis=RedisSettings(), store=LocalStoreSettings(root=workdir / "store"))
-    custom = PROJECT_ROOT / "custom_files"
-    episodes = load_hyperparameters(custom / "hyperparameters.json")[0].num_episodes_between_training
-    click.echo("ceilings: raw loop, env step and the policy's forward pass, one after the other ...", err=True)
-    costs = per_step_costs(envs_per_worker)
-    click.echo(f"bound: {cores} raw env processes for {bound_seconds:.0f} s ...", err=True)
-    before = machine_bound(cores, bound_seconds, base)
-    plan = LocalRunPlan(
-        model_prefix="throughput",
-        custom_files=custom,
-        num_workers=num_workers,
-        worlds=WORLD_NAMES,
-        track=DEFAULT_TRACK,
-        max_episodes=iterations * episodes,
-        max_minutes=None,
-        use_minio=False,
-        log_dir=workdir / "logs",
-        seed=seed,
-        envs_per_worker=envs_per_worker,
-    )
-    click.echo(f"system: {num_workers} workers x {envs_per_worker} envs, {iterations} iterations ...", err=True)
-    children_before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    status = run_local_training(plan, base)
-    children_after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    system_cpu_s = (children_after.ru_utime + children_after.ru_stime) - (
-        children_before.ru_utime + children_before.ru_stime
-    )
-    if status != 0:
-        raise click.ClickException(f"the training run failed (status {status}); logs in {plan.log_dir}")
-    records = read_iteration_records(workdir / "store", plan)
-    rates = system_rates(records)
-    click.echo(f"bound again for {bound_seconds:.0f} s ...", err=True)
-    after = machine_bound(cores, bound_seconds, base)
-    bound = (before["steps_per_s"] + after["steps_per_s"]) / 2
-    bound_cpu_ms = (before["cpu_ms_per_step"] + after["cpu_ms_per_step"]) / 2
-    result = {
-        "experience_steps_per_s": round(rates["experience_steps_per_s"], 1),
-        "bound_steps_per_s": round(bound, 1),
-        "ratio": round(rates["experience_steps_per_s"] / bound, 3),
-        **costs,
-        **ratio_ceilings(bound_cpu_ms, costs),
-        "end_to_end_steps_per_s": round(rates["end_to_end_steps_per_s"], 1),
-        "rollout_share_of_wall": round(rates["rollout_share_of_wall"], 3),
-        "update_share_of_wall": round(rates["update_share_of_wall"], 3),
-        # CPU seconds per training step of every process of the run (trainer, workers, Redis; start-up, updates and
-        # evaluations included) against the bound's: less sensitive than wall rates to other load on the machine.
-        "system_cpu_ms_per_step": round(1e3 * system_cpu_s / max(1, records[-1]["env_steps_total"]), 3),
-        "bound_cpu_ms_per_step": round(bound_cpu_ms, 3),
-        "bound_before_after_steps_per_s": [round(before["steps_per_s"], 1), round(after["steps_per_s"], 1)],
-        "bound_processes": cores,
-        "workers": num_workers,
-        "envs_per_worker": envs_per_worker,
-        "iterations": iterations,
-        "steps_measured": rates["steps_measured"],
-        "load_average_1min": round(os.getloadavg()[0], 2),
-    }
-    click.echo(json.dumps(result))
+    with bench_workdir("racer-throughput-") as workdir:
+        base = ServiceSettings(redis=RedisSettings(), store=LocalStoreSettings(root=workdir / "store"))
+        custom = PROJECT_ROOT / "custom_files"
+        episodes = load_hyperparameters(custom / "hyperparameters.json")[0].num_episodes_between_training
+        click.echo("ceilings: raw loop, env step and the policy's forward pass, one after the other ...", err=True)
+        costs = per_step_costs(envs_per_worker)
+        click.echo(f"bound: {cores} raw env processes for {bound_seconds:.0f} s ...", err=True)
+        before = machine_bound(cores, bound_seconds, base)
+        plan = LocalRunPlan(
+            model_prefix="throughput",
+            custom_files=custom,
+            num_workers=num_workers,
+            worlds=WORLD_NAMES,
+            track=DEFAULT_TRACK,
+            max_episodes=iterations * episodes,
+            max_minutes=None,
+            use_minio=False,
+            log_dir=workdir / "logs",
+            seed=seed,
+            envs_per_worker=envs_per_worker,
+        )
+        click.echo(f"system: {num_workers} workers x {envs_per_worker} envs, {iterations} iterations ...", err=True)
+        children_before = resource.getrusage(resource.RUSAGE_CHILDREN)
+        status = run_local_training(plan, base)
+        children_after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        system_cpu_s = (children_after.ru_utime + children_after.ru_stime) - (
+            children_before.ru_utime + children_before.ru_stime
+        )
+        if status != 0:
+            raise click.ClickException(f"the training run failed (status {status}); logs in {plan.log_dir}")
+        records = read_iteration_records(workdir / "store", plan)
+        rates = system_rates(records)
+        click.echo(f"bound again for {bound_seconds:.0f} s ...", err=True)
+        after = machine_bound(cores, bound_seconds, base)
+        bound = (before["steps_per_s"] + after["steps_per_s"]) / 2
+        bound_cpu_ms = (before["cpu_ms_per_step"] + after["cpu_ms_per_step"]) / 2
+        result = {
+            "experience_steps_per_s": round(rates["experience_steps_per_s"], 1),
+            "bound_steps_per_s": round(bound, 1),
+            "ratio": round(rates["experience_steps_per_s"] / bound, 3),
+            **costs,
+            **ratio_ceilings(bound_cpu_ms, costs),
+            "end_to_end_steps_per_s": round(rates["end_to_end_steps_per_s"], 1),
+            "rollout_share_of_wall": round(rates["rollout_share_of_wall"], 3),
+            "update_share_of_wall": round(rates["update_share_of_wall"], 3),
+            # CPU seconds per training step of every process of the run (trainer, workers, Redis; start-up, updates and
+            # evaluations included) against the bound's: less sensitive than wall rates to other load on the machine.
+            "system_cpu_ms_per_step": round(1e3 * system_cpu_s / max(1, records[-1]["env_steps_total"]), 3),
+            "bound_cpu_ms_per_step": round(bound_cpu_ms, 3),
+            "bound_before_after_steps_per_s": [round(before["steps_per_s"], 1), round(after["steps_per_s"], 1)],
+            "bound_processes": cores,
+            "workers": num_workers,
+            "envs_per_worker": envs_per_worker,
+            "iterations": iterations,
+            "steps_measured": rates["steps_measured"],
+            "load_average_1min": round(os.getloadavg()[0], 2),
+        }
+        click.echo(json.dumps(result))

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import click
 
+from racer.bench_workdir import bench_workdir
 from racer.local_run import LocalRunPlan, read_iteration_records, run_local_training
 from racer.shared.config import LocalStoreSettings, RedisSettings, ServiceSettings
 from racer.shared.deepracer.hyperparameters import HyperparametersError, parse_hyperparameters
@@ -105,7 +106,6 @@ def time_to_lap_command(
     """Train from scratch until greedy evaluation completes 3 of 3 laps (from three starts a third of a lap
     apart); print one JSON line. Hyperparameters: the race's clipped-PPO recipe (3 epochs, discount 0.99), else
     the SimApp's defaults."""
-    import tempfile
 
     overrides = hyperparameter_overrides(hyperparameter_pairs)
     action_space = action_space or ("continuous" if algorithm == "sac" else "discrete")
@@ -117,97 +117,102 @@ def time_to_lap_command(
     )
     if not Path(reward_function).is_file():
         raise click.UsageError(f"reward function not found: {reward_function}; pass --reward-function")
-    workdir = Path(tempfile.mkdtemp(prefix="racer-time-to-lap-"))
-    custom = workdir / "custom_files"
-    custom.mkdir()
-    (custom / "reward_function.py").write_bytes(Path(reward_function).read_bytes())
-    if action_space == "continuous":
-        actions: object = {"steering_angle": {"low": -30, "high": 30}, "speed": {"low": min_speed, "high": max_speed}}
-    else:
-        actions = [
-            {"steering_angle": angle, "speed": speed, "index": i} for i, angle in enumerate([-30, -15, 0, 15, 30])
-        ]
-    (custom / "model_metadata.json").write_text(
-        json.dumps(
-            {
-                "action_space": actions,
-                "action_space_type": action_space,
-                "sensor": ["FRONT_FACING_CAMERA"] if sensors == "camera" else ["STEREO_CAMERAS", "LIDAR"],
-                "neural_network": "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW",
-                "training_algorithm": algorithm,
-                "version": "5",
+    with bench_workdir("racer-time-to-lap-") as workdir:
+        custom = workdir / "custom_files"
+        custom.mkdir()
+        (custom / "reward_function.py").write_bytes(Path(reward_function).read_bytes())
+        if action_space == "continuous":
+            actions: object = {
+                "steering_angle": {"low": -30, "high": 30},
+                "speed": {"low": min_speed, "high": max_speed},
             }
-        )
-    )
-    hyperparameters = time_to_lap_hyperparameters(race_type, algorithm, episodes_per_iteration)
-    hyperparameters.update(overrides)  # --hyperparameter wins over the recipe
-    (custom / "hyperparameters.json").write_text(json.dumps(hyperparameters))
-    # Three greedy laps from three places on the lap (0, 1/3, 2/3 on from the round-robin start): the simulator is
-    # deterministic, so three trials from one place would be one drive three times.
-    (custom / "workers.json").write_text(json.dumps({"MIN_EVAL_TRIALS": 3, "RACER_EVAL_SPREAD_STARTS": "True"}))
-    plan = LocalRunPlan(
-        model_prefix="time-to-lap",
-        custom_files=custom,
-        num_workers=num_workers,
-        worlds=WORLDS,
-        track=str(track),
-        max_episodes=None,
-        max_minutes=time_limit_minutes,
-        use_minio=False,
-        log_dir=workdir / "logs",
-        seed=seed,
-        trainer_options=("--sac-updates-per-transition", str(sac_updates_per_transition)),
-        race_params=race.race_params,
-    )
-    result = {
-        "race_type": race_type,
-        "sensors": sensors,
-        "algorithm": algorithm,
-        "action_space": action_space,
-        "minutes": None,
-        "env_steps": None,
-        "iterations": None,
-        "hyperparameters": hyperparameters,
-    }
-    if algorithm == "sac":
-        result["sac_updates_per_transition"] = sac_updates_per_transition
-    started = time.monotonic()
-    rates: list[float] = []
-
-    best_progress: list[float] = []
-    load_averages: list[float] = []  # the machine may be shared: the 1-minute load at every evaluation
-
-    def on_evaluation(record: dict) -> bool:
-        best_progress.append(float(record["mean_progress"]))
-        load_averages.append(os.getloadavg()[0])
-        if record["trials"] >= 3 and record["laps_completed"] >= 3 and result["minutes"] is None:
-            result.update(
-                minutes=round((time.monotonic() - started) / 60, 2),
-                env_steps=record["env_steps_total"],
-                iterations=record["iteration"],
+        else:
+            actions = [
+                {"steering_angle": angle, "speed": speed, "index": i} for i, angle in enumerate([-30, -15, 0, 15, 30])
+            ]
+        (custom / "model_metadata.json").write_text(
+            json.dumps(
+                {
+                    "action_space": actions,
+                    "action_space_type": action_space,
+                    "sensor": ["FRONT_FACING_CAMERA"] if sensors == "camera" else ["STEREO_CAMERAS", "LIDAR"],
+                    "neural_network": "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW",
+                    "training_algorithm": algorithm,
+                    "version": "5",
+                }
             )
-            return True
-        return False
+        )
+        hyperparameters = time_to_lap_hyperparameters(race_type, algorithm, episodes_per_iteration)
+        hyperparameters.update(overrides)  # --hyperparameter wins over the recipe
+        (custom / "hyperparameters.json").write_text(json.dumps(hyperparameters))
+        # Three greedy laps from three places on the lap (0, 1/3, 2/3 on from the round-robin start): the simulator is
+        # deterministic, so three trials from one place would be one drive three times.
+        (custom / "workers.json").write_text(json.dumps({"MIN_EVAL_TRIALS": 3, "RACER_EVAL_SPREAD_STARTS": "True"}))
+        plan = LocalRunPlan(
+            model_prefix="time-to-lap",
+            custom_files=custom,
+            num_workers=num_workers,
+            worlds=WORLDS,
+            track=str(track),
+            max_episodes=None,
+            max_minutes=time_limit_minutes,
+            use_minio=False,
+            log_dir=workdir / "logs",
+            seed=seed,
+            trainer_options=("--sac-updates-per-transition", str(sac_updates_per_transition)),
+            race_params=race.race_params,
+        )
+        result = {
+            "race_type": race_type,
+            "sensors": sensors,
+            "algorithm": algorithm,
+            "action_space": action_space,
+            "minutes": None,
+            "env_steps": None,
+            "iterations": None,
+            "hyperparameters": hyperparameters,
+        }
+        if algorithm == "sac":
+            result["sac_updates_per_transition"] = sac_updates_per_transition
+        started = time.monotonic()
+        rates: list[float] = []
 
-    base = ServiceSettings(redis=RedisSettings(), store=LocalStoreSettings(root=workdir / "store"))
-    children_before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    run_local_training(plan, base, on_evaluation=on_evaluation)
-    children_after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    channel_records = read_iteration_records(workdir / "store", plan)
-    rates = [r["experience_steps_per_s"] for r in channel_records]
-    result["experience_steps_per_s"] = round(sum(rates) / len(rates), 1) if rates else None
-    # When the goal is not reached, how far it got: iterations trained and the best greedy evaluation.
-    result["iterations_trained"] = len(channel_records)
-    result["env_steps_trained"] = channel_records[-1]["env_steps_total"] if channel_records else 0
-    result["best_evaluation_progress_pct"] = round(max(best_progress), 1) if best_progress else None
-    result["mean_load_average_1min"] = round(sum(load_averages) / len(load_averages), 2) if load_averages else None
-    # CPU the run's processes used (trainer, workers, Redis), to the end of the run: on a machine shared with other
-    # work, cpu_minutes / cores is a floor for the wall time the same run would take alone.
-    cpu_s = sum(getattr(children_after, field) - getattr(children_before, field) for field in ("ru_utime", "ru_stime"))
-    result["cpu_minutes"] = round(cpu_s / 60, 2)
-    result["cores"] = len(os.sched_getaffinity(0))
-    result["track"] = str(track)
-    click.echo(json.dumps(result))
+        best_progress: list[float] = []
+        load_averages: list[float] = []  # the machine may be shared: the 1-minute load at every evaluation
+
+        def on_evaluation(record: dict) -> bool:
+            best_progress.append(float(record["mean_progress"]))
+            load_averages.append(os.getloadavg()[0])
+            if record["trials"] >= 3 and record["laps_completed"] >= 3 and result["minutes"] is None:
+                result.update(
+                    minutes=round((time.monotonic() - started) / 60, 2),
+                    env_steps=record["env_steps_total"],
+                    iterations=record["iteration"],
+                )
+                return True
+            return False
+
+        base = ServiceSettings(redis=RedisSettings(), store=LocalStoreSettings(root=workdir / "store"))
+        children_before = resource.getrusage(resource.RUSAGE_CHILDREN)
+        run_local_training(plan, base, on_evaluation=on_evaluation)
+        children_after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        channel_records = read_iteration_records(workdir / "store", plan)
+        rates = [r["experience_steps_per_s"] for r in channel_records]
+        result["experience_steps_per_s"] = round(sum(rates) / len(rates), 1) if rates else None
+        # When the goal is not reached, how far it got: iterations trained and the best greedy evaluation.
+        result["iterations_trained"] = len(channel_records)
+        result["env_steps_trained"] = channel_records[-1]["env_steps_total"] if channel_records else 0
+        result["best_evaluation_progress_pct"] = round(max(best_progress), 1) if best_progress else None
+        result["mean_load_average_1min"] = round(sum(load_averages) / len(load_averages), 2) if load_averages else None
+        # CPU the run's processes used (trainer, workers, Redis), to the end of the run: on a machine shared with other
+        # work, cpu_minutes / cores is a floor for the wall time the same run would take alone.
+        cpu_s = sum(
+            getattr(children_after, field) - getattr(children_before, field) for field in ("ru_utime", "ru_stime")
+        )
+        result["cpu_minutes"] = round(cpu_s / 60, 2)
+        result["cores"] = len(os.sched_getaffinity(0))
+        result["track"] = str(track)
+        click.echo(json.dumps(result))
 
 
 def hyperparameter_overrides(pairs: Sequence[str]) -> dict[str, object]:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -67,7 +68,7 @@ def minio_server(tmp_path_factory):
 
 
 @pytest.fixture
-def s3_settings(minio_server, request) -> S3Settings:
+def s3_settings(minio_server, request) -> Iterator[S3Settings]:
     """Settings for a new, empty bucket in the session's MinIO."""
     bucket = "t-" + "".join(c for c in request.node.name.lower() if c.isalnum())[:40] + f"-{os.getpid() % 10000}"
     settings = S3Settings(
@@ -77,8 +78,13 @@ def s3_settings(minio_server, request) -> S3Settings:
         secret_access_key=minio_server.secret_key,
         connect_timeout_s=5.0,
     )
-    S3Store(settings).ensure_bucket()
-    return settings
+    store = S3Store(settings)
+    store.ensure_bucket()
+    yield settings
+    # The session's MinIO would otherwise keep every test's checkpoints (gigabytes by the end of the suite).
+    if minio_server.running:
+        for key in store.list_keys(""):
+            store.delete(key)
 
 
 def make_episode(

@@ -23,7 +23,6 @@ import os
 import signal
 import socket
 import statistics
-import tempfile
 import threading
 import time
 import urllib.request
@@ -32,6 +31,7 @@ from pathlib import Path
 import click
 import numpy as np
 
+from racer.bench_workdir import bench_workdir
 from racer.shared.config import LocalStoreSettings, RedisSettings, ServiceSettings
 from racer.shared.deepracer.hyperparameters import HyperparametersError, parse_hyperparameters
 from racer.shared.redis_connection import RedisLink
@@ -384,131 +384,131 @@ def viewer_bench_command(
     if not CENTRE_LINE_REWARD.is_file():
         raise click.ClickException(f"reward function not found: {CENTRE_LINE_REWARD}")
     _bench_hyperparameters(episodes_per_iteration, learning_rate)  # checked before the work folder is made
-    workdir = Path(tempfile.mkdtemp(prefix="racer-bench-viewer-"))
-    custom = workdir / "custom_files"
-    _write_custom_files(custom, episodes_per_iteration, learning_rate)
-    port = _free_port()
-    plan = LocalRunPlan(
-        model_prefix="bench-viewer",
-        custom_files=custom,
-        num_workers=num_workers,
-        worlds=WORLDS,
-        track=track,
-        max_episodes=10**6,
-        max_minutes=None,
-        use_minio=False,
-        log_dir=workdir / "logs",
-        viewer_port=port,
-    )
-    run = LocalRun(plan, ServiceSettings(redis=RedisSettings(), store=LocalStoreSettings(root=workdir / "store")))
-    url = f"http://127.0.0.1:{port}/"
-    records: list[dict] = []
-    load = None
-    load_on = False
-    page_load: dict = {}
-    tap_cost: dict = {}
-    costs: PhaseCosts | None = None
-    interrupted = False
-    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
-    try:
-        settings = run.start_services()
-        click.echo("timing the frame tap alone ...", err=True)
-        tap_cost = frame_cost(settings.redis, track)
-        click.echo(json.dumps(tap_cost), err=True)
-        run.start_processes()
-        link = RedisLink(settings.redis)
-        channel, frames = RunChannel(link, plan.model_prefix), FrameChannel(link, plan.model_prefix)
-        load = {
-            "page": lambda: HeadlessBrowser(url),
-            "frames": lambda: WatchingOnly(frames),
-            "polls": lambda: PagePolls(url),
-        }[load_kind]()
-        costs = PhaseCosts(
-            load, run.children["viewer"].pid, [run.children[f"worker-{i}"].pid for i in range(num_workers)]
+    with bench_workdir("racer-bench-viewer-") as workdir:
+        custom = workdir / "custom_files"
+        _write_custom_files(custom, episodes_per_iteration, learning_rate)
+        port = _free_port()
+        plan = LocalRunPlan(
+            model_prefix="bench-viewer",
+            custom_files=custom,
+            num_workers=num_workers,
+            worlds=WORLDS,
+            track=track,
+            max_episodes=10**6,
+            max_minutes=None,
+            use_minio=False,
+            log_dir=workdir / "logs",
+            viewer_port=port,
         )
-        last_id = "0"
-        total = warmup_iterations + iterations
-        while len(records) < total:
-            if run.children["trainer"].poll() is not None:
-                raise click.ClickException(f"the trainer stopped; see {plan.log_dir / 'trainer.log'}")
-            for stream_id, record in channel.read_records("iterations", last_id, block_s=5.0):
-                last_id = stream_id
-                record["load_on"] = load_on
-                records.append(record)
-                measured = len(records) > warmup_iterations  # the iteration that just ended counts
-                costs.mark(load_on if measured else None)
-                if len(records) == 1:
-                    cpu_before, wall_before = load.cpu_s(), time.monotonic()
-                    load.load()
-                    time.sleep(3.0)  # the page's first polls and charts
-                    load.stop()
-                    frames.clear_watching()
-                    page_load = {
-                        "load_cpu_s_first_3s": round(load.cpu_s() - cpu_before, 2),
-                        "load_wall_s": round(time.monotonic() - wall_before, 2),
-                    }
-                    click.echo(json.dumps(page_load), err=True)
-                    costs.mark(None)
-                elif load_on:  # the iteration that just ended ran with the load: switch it off
-                    load.stop()
-                    load_on = False
-                    frames.clear_watching()  # as if its key had expired: the next iteration runs without frames
-                elif len(records) >= warmup_iterations + (1 if swap_phase else 0):
-                    load.start()
-                    load_on = True
-                click.echo(
-                    f"iteration {record['iteration']:>3}: {record['experience_steps_per_s']:6.1f} steps/s, {record['episodes']} episodes "
-                    f"{'(' + load_kind + ' on)' if record['load_on'] else ''}",
-                    err=True,
-                )
-    except KeyboardInterrupt:  # Ctrl-C: what was measured so far is still worth printing
-        interrupted = True
-        click.echo("interrupted: the summary covers the iterations measured so far", err=True)
-    finally:
-        if load is not None:
-            load.quit()
-        run.stop()
-        signal.signal(signal.SIGINT, previous)
-    if costs is None or len(records) <= warmup_iterations:
-        raise click.ClickException("interrupted before any measured iteration")
-    measured = records[warmup_iterations:]
-    ratios = _paired_ratios(measured)
-    closed = [r["experience_steps_per_s"] for r in measured if not r["load_on"]]
-    opened = [r["experience_steps_per_s"] for r in measured if r["load_on"]]
-    slowdown = 1.0 - statistics.median(ratios) if ratios else None
-    steps_in = {on: _phase_steps(records, warmup_iterations, on) for on in (True, False)}
-    click.echo(
-        json.dumps(
-            {
-                "load": load_kind,
-                "swap_phase": swap_phase,
-                "interrupted": interrupted,
-                "workers": num_workers,
-                "learning_rate": learning_rate,
-                "iterations_measured": len(measured),
-                "steps_per_s_load_off": round(statistics.fmean(closed), 1) if closed else None,
-                "steps_per_s_load_on": round(statistics.fmean(opened), 1) if opened else None,
-                "paired_ratios": [round(r, 3) for r in ratios],
-                "slowdown_median": None if slowdown is None else round(slowdown, 4),
-                "paired_ratio_quartiles": (
-                    [round(q, 3) for q in statistics.quantiles(ratios, n=4)] if len(ratios) >= 2 else None
-                ),
-                "cpu_share_of_machine_load_on": costs.shares(True),
-                "cpu_share_of_machine_load_off": costs.shares(False),
-                "workers_cpu_ms_per_step": {
-                    "on" if on else "off": round(1e3 * costs.totals[on]["workers_cpu_s"] / max(steps_in[on], 1), 3)
-                    for on in (True, False)
-                },
-                "cpus": os.cpu_count(),
-                **page_load,
-                **tap_cost,
-                # A worker playing at full speed loses at most max_fps frames' time per second to the tap while watched.
-                "tap_share_of_a_worker_at_max_fps": round(
-                    FrameSettings().max_fps * tap_cost["frame_ms_published"] / 1000, 4
-                ),
-            }
+        run = LocalRun(plan, ServiceSettings(redis=RedisSettings(), store=LocalStoreSettings(root=workdir / "store")))
+        url = f"http://127.0.0.1:{port}/"
+        records: list[dict] = []
+        load = None
+        load_on = False
+        page_load: dict = {}
+        tap_cost: dict = {}
+        costs: PhaseCosts | None = None
+        interrupted = False
+        previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+        try:
+            settings = run.start_services()
+            click.echo("timing the frame tap alone ...", err=True)
+            tap_cost = frame_cost(settings.redis, track)
+            click.echo(json.dumps(tap_cost), err=True)
+            run.start_processes()
+            link = RedisLink(settings.redis)
+            channel, frames = RunChannel(link, plan.model_prefix), FrameChannel(link, plan.model_prefix)
+            load = {
+                "page": lambda: HeadlessBrowser(url),
+                "frames": lambda: WatchingOnly(frames),
+                "polls": lambda: PagePolls(url),
+            }[load_kind]()
+            costs = PhaseCosts(
+                load, run.children["viewer"].pid, [run.children[f"worker-{i}"].pid for i in range(num_workers)]
+            )
+            last_id = "0"
+            total = warmup_iterations + iterations
+            while len(records) < total:
+                if run.children["trainer"].poll() is not None:
+                    raise click.ClickException(f"the trainer stopped; see {plan.log_dir / 'trainer.log'}")
+                for stream_id, record in channel.read_records("iterations", last_id, block_s=5.0):
+                    last_id = stream_id
+                    record["load_on"] = load_on
+                    records.append(record)
+                    measured = len(records) > warmup_iterations  # the iteration that just ended counts
+                    costs.mark(load_on if measured else None)
+                    if len(records) == 1:
+                        cpu_before, wall_before = load.cpu_s(), time.monotonic()
+                        load.load()
+                        time.sleep(3.0)  # the page's first polls and charts
+                        load.stop()
+                        frames.clear_watching()
+                        page_load = {
+                            "load_cpu_s_first_3s": round(load.cpu_s() - cpu_before, 2),
+                            "load_wall_s": round(time.monotonic() - wall_before, 2),
+                        }
+                        click.echo(json.dumps(page_load), err=True)
+                        costs.mark(None)
+                    elif load_on:  # the iteration that just ended ran with the load: switch it off
+                        load.stop()
+                        load_on = False
+                        frames.clear_watching()  # as if its key had expired: the next iteration runs without frames
+                    elif len(records) >= warmup_iterations + (1 if swap_phase else 0):
+                        load.start()
+                        load_on = True
+                    click.echo(
+                        f"iteration {record['iteration']:>3}: {record['experience_steps_per_s']:6.1f} steps/s, {record['episodes']} episodes "
+                        f"{'(' + load_kind + ' on)' if record['load_on'] else ''}",
+                        err=True,
+                    )
+        except KeyboardInterrupt:  # Ctrl-C: what was measured so far is still worth printing
+            interrupted = True
+            click.echo("interrupted: the summary covers the iterations measured so far", err=True)
+        finally:
+            if load is not None:
+                load.quit()
+            run.stop()
+            signal.signal(signal.SIGINT, previous)
+        if costs is None or len(records) <= warmup_iterations:
+            raise click.ClickException("interrupted before any measured iteration")
+        measured = records[warmup_iterations:]
+        ratios = _paired_ratios(measured)
+        closed = [r["experience_steps_per_s"] for r in measured if not r["load_on"]]
+        opened = [r["experience_steps_per_s"] for r in measured if r["load_on"]]
+        slowdown = 1.0 - statistics.median(ratios) if ratios else None
+        steps_in = {on: _phase_steps(records, warmup_iterations, on) for on in (True, False)}
+        click.echo(
+            json.dumps(
+                {
+                    "load": load_kind,
+                    "swap_phase": swap_phase,
+                    "interrupted": interrupted,
+                    "workers": num_workers,
+                    "learning_rate": learning_rate,
+                    "iterations_measured": len(measured),
+                    "steps_per_s_load_off": round(statistics.fmean(closed), 1) if closed else None,
+                    "steps_per_s_load_on": round(statistics.fmean(opened), 1) if opened else None,
+                    "paired_ratios": [round(r, 3) for r in ratios],
+                    "slowdown_median": None if slowdown is None else round(slowdown, 4),
+                    "paired_ratio_quartiles": (
+                        [round(q, 3) for q in statistics.quantiles(ratios, n=4)] if len(ratios) >= 2 else None
+                    ),
+                    "cpu_share_of_machine_load_on": costs.shares(True),
+                    "cpu_share_of_machine_load_off": costs.shares(False),
+                    "workers_cpu_ms_per_step": {
+                        "on" if on else "off": round(1e3 * costs.totals[on]["workers_cpu_s"] / max(steps_in[on], 1), 3)
+                        for on in (True, False)
+                    },
+                    "cpus": os.cpu_count(),
+                    **page_load,
+                    **tap_cost,
+                    # A worker playing at full speed loses at most max_fps frames' time per second to the tap while watched.
+                    "tap_share_of_a_worker_at_max_fps": round(
+                        FrameSettings().max_fps * tap_cost["frame_ms_published"] / 1000, 4
+                    ),
+                }
+            )
         )
-    )
 
 
 def _phase_steps(records: list[dict], warmup_iterations: int, on: bool) -> int:

@@ -1,11 +1,13 @@
 """The live page in a real headless browser (Debian's chromium driven by selenium) on a running `racer train`:
 frames arrive and change, the curves gain a point, a stopped worker shows as down and comes back.
-The test leaves a screenshot at <store>/.runs/<model>/viewer.png."""
+The test leaves a screenshot at <store>/.runs/<model>/viewer.png, and a copy that outlives the test's temporary
+folder at .pytest_cache/d/viewer/viewer.png."""
 
 from __future__ import annotations
 
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -76,7 +78,7 @@ def wait_for(what: str, check: Callable[[], object], timeout_s: float, describe:
     raise AssertionError(f"timed out after {timeout_s:.0f} s waiting for {what}\n{describe()}")
 
 
-def test_live_page_follows_a_running_training(tmp_path, browser):
+def test_live_page_follows_a_running_training(tmp_path, browser, request):
     custom_files = write_custom_files(tmp_path / "custom_files")
     store = tmp_path / "store"
     port = free_port()
@@ -202,7 +204,9 @@ def test_live_page_follows_a_running_training(tmp_path, browser):
         screenshot = logs / "viewer.png"
         assert browser.save_screenshot(str(screenshot))
         assert screenshot.stat().st_size > 20_000
-        print(f"screenshot: {screenshot}")
+        kept = request.config.cache.mkdir("viewer") / "viewer.png"
+        shutil.copyfile(screenshot, kept)
+        print(f"screenshot: {screenshot}, kept at {kept}")
     finally:
         if train.poll() is None:
             train.send_signal(signal.SIGINT)
