@@ -15,5 +15,7 @@ packages = []
 for package, folder in PACKAGE_DIRS.items():
     packages.append(package)
     packages += [f"{package}.{sub}" for sub in find_packages(folder)]
+# The viewer's page (HTML, JS, CSS): a folder of data files, listed so setuptools ships it as a package of its own.
+packages.append("racer.viewer.static")
 
 setup(packages=packages, package_dir=PACKAGE_DIRS)
