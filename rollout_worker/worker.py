@@ -18,6 +18,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import os
+import shutil
 import tempfile
 import threading
 import time
@@ -211,6 +212,7 @@ class RolloutWorker:
             self._stop.set()
             for env in self.envs:
                 env.close()
+            shutil.rmtree(self._workdir, ignore_errors=True)  # the run's files as downloaded; the store keeps them
 
     def _wait_for_first_announcement(self) -> Announcement:
         self.state.status = "waiting for trainer"

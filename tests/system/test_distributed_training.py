@@ -51,6 +51,8 @@ class SystemRun:
         self.workers = workers
         self.processes: dict[str, subprocess.Popen] = {}
         logs.mkdir(parents=True, exist_ok=True)
+        self.temp = logs / "tmp"  # the processes' TMPDIR, so a test can see what they leave behind
+        self.temp.mkdir(exist_ok=True)
 
     def start(self, name: str, *args: str) -> subprocess.Popen:
         log = open(self.logs / f"{name}.log", "ab")
@@ -58,7 +60,7 @@ class SystemRun:
             [sys.executable, "-m", "racer.cli", *args],
             stdout=log,
             stderr=subprocess.STDOUT,
-            env=service_environment(self.settings),
+            env={**service_environment(self.settings), "TMPDIR": str(self.temp)},
             preexec_fn=_die_with_parent,
         )
         self.processes[name] = process
@@ -181,6 +183,7 @@ def test_two_workers_two_worlds_two_iterations(system):
     assert {e["phase"] for e in metrics["metrics"]} == {"training"}  # only worker 0 evaluates
     for process in system.processes.values():
         assert process.wait(30) == 0
+    assert sorted(system.temp.glob("racer-*")) == []  # the workers' download folders are gone with them
 
 
 def test_worker_killed_mid_iteration(system):
