@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Compose smoke test: builds every image without a container registry, runs `docker compose up`
 # for two training iterations with two workers in two worlds (base, carpet) on the short
-# racer_oval track, checks what the run left in MinIO and the trainer's log, then `down -v`.
+# racer_oval track, checks what the run left in MinIO and the trainer's log, runs the evaluation and
+# analysis services, loads the viewer service's page and script over HTTP, then `down -v`.
 # Then the same run with the same file on a single-node swarm (`docker stack deploy`), same checks.
 #
 #   scripts/compose-smoke-test.sh          # exit 0: passed; non-zero: failed (the reason is printed last)
@@ -55,6 +56,11 @@ else  # the first pair of free loopback ports from 19000 (API, console = API + 1
     [ "$MINIO_PORT" -lt 19200 ] || { echo "[smoke] no free port pair in 19000-19199 for MinIO" >&2; exit 1; }
   done
 fi
+VIEWER_PORT=18100  # the live page's loopback port: the first free one from 18100
+while port_in_use "$VIEWER_PORT"; do
+  VIEWER_PORT=$((VIEWER_PORT + 1))
+  [ "$VIEWER_PORT" -lt 18200 ] || { echo "[smoke] no free port in 18100-18199 for the viewer" >&2; exit 1; }
+done
 TRAIN_TIMEOUT_S="${SMOKE_TRAIN_TIMEOUT_S:-900}"
 BUILD_TIMEOUT_S="${SMOKE_BUILD_TIMEOUT_S:-1800}"
 RUN_TIMEOUT_S=600  # one `compose run` (evaluation or analysis)
@@ -237,6 +243,7 @@ MINIO_IMAGE=$MINIO_IMAGE
 MINIO_PUBLISH_ADDRESS=127.0.0.1
 MINIO_API_PORT=$MINIO_PORT
 MINIO_CONSOLE_PORT=$((MINIO_PORT + 1))
+RACER_VIEWER_PORT=$VIEWER_PORT
 EOF
 
 step "removing what an earlier smoke run may have left (project $PROJECT)"
@@ -371,6 +378,21 @@ step "checking the evaluation's files in the store"
 check_store "$network" "$WORK/smoke.env" evaluation
 done_step
 
+step "docker compose up -d viewer: the page, its script from the image and the run over HTTP (127.0.0.1:$VIEWER_PORT)"
+compose up -d --no-build viewer >"$WORK/viewer-up.log" 2>&1 || { cat "$WORK/viewer-up.log" >&2; fail "docker compose up viewer failed"; }
+viewer_url="http://127.0.0.1:$VIEWER_PORT"
+for _ in $(seq 1 60); do
+  curl -fsS -o "$WORK/viewer.html" "$viewer_url/" 2>/dev/null && break
+  sleep 1
+done
+grep -q '/static/viewer.js' "$WORK/viewer.html" 2>/dev/null \
+  || fail "the viewer's page did not load from $viewer_url/ (docker compose -p $PROJECT logs viewer)"
+curl -fsS -o "$WORK/viewer.js" "$viewer_url/static/viewer.js" \
+  || fail "$viewer_url/static/viewer.js failed: the image lacks racer/viewer/static"
+curl -fsS "$viewer_url/api/run" | grep -q "\"model\": *\"$PREFIX\"" \
+  || fail "$viewer_url/api/run does not name the model $PREFIX"
+done_step "index.html, viewer.js ($(wc -c <"$WORK/viewer.js") bytes), /api/run names $PREFIX"
+
 step "docker compose down -v"
 compose down -v --remove-orphans >"$WORK/down.log" 2>&1 || { cat "$WORK/down.log" >&2; fail "docker compose down -v failed"; }
 COMPOSE_DOWN_DONE=1
@@ -427,4 +449,4 @@ else
   done_step
 fi
 
-say "PASSED in $((SECONDS - T0)) s (compose part: ${COMPOSE_SECONDS} s): docker compose trained 2 iterations with workers in worlds base and carpet; checkpoints, pointer and simtraces are in MinIO; evaluation and analysis ran${SWARM_PASSED:+; the same on a single-node swarm with docker stack deploy}"
+say "PASSED in $((SECONDS - T0)) s (compose part: ${COMPOSE_SECONDS} s): docker compose trained 2 iterations with workers in worlds base and carpet; checkpoints, pointer and simtraces are in MinIO; evaluation and analysis ran; the viewer served its page${SWARM_PASSED:+; the same on a single-node swarm with docker stack deploy}"

@@ -8,7 +8,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 MINIO_MODULE="github.com/minio/minio@v0.0.0-20260212201848-7aac2a2c5b7c"
-APT_PACKAGES=(python3.11 python3.11-venv redis-server libosmesa6 libegl1 libegl-mesa0 libgl1 libgles2 ffmpeg chromium chromium-driver)
+APT_PACKAGES=(python3.11 python3.11-venv redis-server libosmesa6 libegl1 libegl-mesa0 libgl1 libgles2 ffmpeg chromium chromium-driver curl)
 PYTHON="${PYTHON:-python3.11}"
 
 say() { printf '[setup] %s\n' "$*"; }
