@@ -257,8 +257,7 @@ def _bench_hyperparameters(episodes_per_iteration: int, learning_rate: float) ->
     return hyperparameters
 
 
-def _write_custom_files(folder: Path, episodes_per_iteration: int, learning_rate: float) -> None:
-    hyperparameters = _bench_hyperparameters(episodes_per_iteration, learning_rate)
+def _write_custom_files(folder: Path, hyperparameters: dict) -> None:
     folder.mkdir(parents=True)
     (folder / "reward_function.py").write_bytes(CENTRE_LINE_REWARD.read_bytes())
     actions = [{"steering_angle": angle, "speed": 1.0, "index": i} for i, angle in enumerate([-30, -15, 0, 15, 30])]
@@ -383,10 +382,10 @@ def viewer_bench_command(
         raise click.ClickException(f"{CHROMIUM} and {CHROMEDRIVER} are needed (scripts/setup.sh installs them)")
     if not CENTRE_LINE_REWARD.is_file():
         raise click.ClickException(f"reward function not found: {CENTRE_LINE_REWARD}")
-    _bench_hyperparameters(episodes_per_iteration, learning_rate)  # checked before the work folder is made
+    hyperparameters = _bench_hyperparameters(episodes_per_iteration, learning_rate)  # before the folder is made
     with bench_workdir("racer-bench-viewer-") as workdir:
         custom = workdir / "custom_files"
-        _write_custom_files(custom, episodes_per_iteration, learning_rate)
+        _write_custom_files(custom, hyperparameters)
         port = _free_port()
         plan = LocalRunPlan(
             model_prefix="bench-viewer",

@@ -13,6 +13,7 @@ from racer.viewer.app import create_app
 from racer.viewer.bench import (
     PagePolls,
     WatchingOnly,
+    _bench_hyperparameters,
     _paired_ratios,
     _phase_steps,
     _write_custom_files,
@@ -47,7 +48,7 @@ def test_steps_per_phase_come_from_the_running_total_after_the_warm_up():
 
 
 def test_the_bench_model_trains_three_epochs_with_the_learning_rate_it_is_given(tmp_path):
-    _write_custom_files(tmp_path / "frozen", episodes_per_iteration=48, learning_rate=1e-8)
+    _write_custom_files(tmp_path / "frozen", _bench_hyperparameters(episodes_per_iteration=48, learning_rate=1e-8))
     hyperparameters, unknown = load_hyperparameters(tmp_path / "frozen" / "hyperparameters.json")
     assert (hyperparameters.lr, hyperparameters.num_episodes_between_training, unknown) == (1e-8, 48, [])
     assert hyperparameters.num_epochs == 3  # the fewest allowed: the update is not measured, a short one leaves room
