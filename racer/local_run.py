@@ -32,6 +32,7 @@ from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
 from racer.shared.store import S3Store, open_store
 from racer.shared.transport.channels import RunChannel
 from racer.supervisor import RunSupervisor, stop_children
+from racer.trainer.precision import DEFAULT_PRECISION, PRECISION_NAMES
 
 
 @dataclass(frozen=True)
@@ -418,6 +419,13 @@ def run_local_training(plan: LocalRunPlan, base_settings: ServiceSettings, on_ev
     show_default=True,
     help="Address the page listens on; the default is reachable from this machine only.",
 )
+@click.option(
+    "--precision",
+    type=click.Choice(PRECISION_NAMES),
+    default=DEFAULT_PRECISION.value,
+    show_default=True,
+    help="What the trainer's towers compute in. bf16 is faster on CPUs with native bf16 but learns differently.",
+)
 @race_options
 def train_command(
     model_prefix,
@@ -434,6 +442,7 @@ def train_command(
     seed,
     viewer_port,
     viewer_host,
+    precision,
     race_type,
     race_param,
 ) -> None:
@@ -458,6 +467,7 @@ def train_command(
         viewer_port=viewer_port or None,
         race_params=race_params_from_options(race_type, race_param),
         envs_per_worker=envs_per_worker,
+        trainer_options=("--precision", precision),
     )
     sys.exit(run_local_training(plan, base_settings))
 

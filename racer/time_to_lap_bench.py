@@ -19,6 +19,7 @@ from racer.shared.deepracer.hyperparameters import HyperparametersError, parse_h
 from racer.shared.services import PROJECT_ROOT
 from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
 from racer.time_to_lap_races import TIME_TO_LAP_RACES, time_to_lap_hyperparameters
+from racer.trainer.precision import DEFAULT_PRECISION, PRECISION_NAMES, cpu_description
 
 
 @click.command(name="time-to-lap")
@@ -85,6 +86,13 @@ from racer.time_to_lap_races import TIME_TO_LAP_RACES, time_to_lap_hyperparamete
     metavar="KEY=VALUE",
     help="A hyperparameters.json key over the recipe and the SimApp defaults (repeatable), e.g. sac_alpha=0.05.",
 )
+@click.option(
+    "--precision",
+    type=click.Choice(PRECISION_NAMES),
+    default=DEFAULT_PRECISION.value,
+    show_default=True,
+    help="The trainer's tower precision (racer train --precision).",
+)
 @click.option("--seed", type=int, default=0, show_default=True)
 def time_to_lap_command(
     track,
@@ -101,6 +109,7 @@ def time_to_lap_command(
     race_type,
     sensors,
     hyperparameter_pairs,
+    precision,
     seed,
 ):
     """Train from scratch until greedy evaluation completes 3 of 3 laps (from three starts a third of a lap
@@ -159,7 +168,12 @@ def time_to_lap_command(
             use_minio=False,
             log_dir=workdir / "logs",
             seed=seed,
-            trainer_options=("--sac-updates-per-transition", str(sac_updates_per_transition)),
+            trainer_options=(
+                "--sac-updates-per-transition",
+                str(sac_updates_per_transition),
+                "--precision",
+                precision,
+            ),
             race_params=race.race_params,
         )
         result = {
@@ -167,6 +181,8 @@ def time_to_lap_command(
             "sensors": sensors,
             "algorithm": algorithm,
             "action_space": action_space,
+            "precision": precision,
+            "cpu": cpu_description(),
             "minutes": None,
             "env_steps": None,
             "iterations": None,

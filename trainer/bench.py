@@ -8,9 +8,10 @@ the epochs, everything the trainer does per iteration); `baseline_samples_per_s`
 single-tensor Adam loop, no NaN checks, the towers one after the other with `--threads` intra-op threads. Both get
 the same cores and use the same network module (channels-last), so the speedup counts only what the update does
 differently: policy and value towers on one core each (`PPOSettings.threads_per_tower`), the fused Adam kernel, and
-one old-policy pass per update instead of one per minibatch, and on CPUs with native bf16 (AVX512-BF16 or AMX) the
-towers under bf16 autocast (`PPOSettings.bf16_towers`; `--fp32` turns it off to measure the rest alone). Neither
-path is compiled (torch.compile measured ~20 % slower, so there is no compile time to amortise).
+one old-policy pass per update instead of one per minibatch. The trainer is timed in both precisions it offers
+(`PPOSettings.precision`: fp32, the default, and bf16 towers), and `agreement` says how far the bf16 update lands from
+the fp32 one on the same batch (racer.trainer.precision_agreement). Neither path is compiled (torch.compile measured
+~20 % slower, so there is no compile time to amortise).
 A small untimed warm-up update runs first on each path (oneDNN primitive creation). With `--repeats` > 1 the two
 paths alternate and medians are reported; `*_cpu_s` are process CPU seconds (OpenMP spin-waits included), less
 sensitive than wall time to other processes on the same cores. `update_share_of_iteration`: the update's share of
@@ -47,9 +48,10 @@ from racer.trainer.ppo import (
     PPOTrainer,
     make_training_batch,
     minibatch_size_for,
-    native_bf16_available,
     shuffled_minibatches,
 )
+from racer.trainer.precision import Precision, cpu_description, native_bf16_available
+from racer.trainer.precision_agreement import update_agreement
 
 __all__ = ["bench_network", "plain_ppo_update", "ppo_bench_command", "synthetic_episodes"]
 
@@ -159,11 +161,11 @@ def _time_trainer(
     episodes: list[Episode],
     seed: int,
     threads: int,
-    bf16_towers: bool | None,
+    precision: Precision,
 ) -> tuple[float, float]:
     """(wall s, CPU s) of one PPOTrainer.update; the two towers share the `threads` cores."""
     trainer = PPOTrainer(
-        network, hp, PPOSettings(seed=seed, threads_per_tower=max(1, threads // 2), bf16_towers=bf16_towers)
+        network, hp, PPOSettings(seed=seed, threads_per_tower=max(1, threads // 2), precision=precision)
     )
     start, cpu_start = time.perf_counter(), time.process_time()
     trainer.update(episodes)
@@ -192,7 +194,12 @@ def _time_baseline(
 )
 @click.option("--repeats", default=1, show_default=True, help="Timed runs per path (alternating); medians reported.")
 @click.option("--seed", default=0, show_default=True)
-@click.option("--fp32", is_flag=True, help="Keep the trainer's towers in fp32 even where the CPU has native bf16.")
+@click.option(
+    "--agreement-transitions",
+    default=640,
+    show_default=True,
+    help="Transitions of the batch on which the fp32 and bf16 updates are compared (0: skip the comparison).",
+)
 @click.option(
     "--experience-steps-per-s",
     default=DEFAULT_EXPERIENCE_STEPS_PER_S,
@@ -207,10 +214,11 @@ def ppo_bench_command(
     threads: int,
     repeats: int,
     seed: int,
-    fp32: bool,
+    agreement_transitions: int,
     experience_steps_per_s: float,
 ) -> None:
-    """One PPO update: samples/s of the project trainer vs a plain fp32 eager baseline, as one JSON line."""
+    """One PPO update: samples/s of the project trainer in fp32 and in bf16 vs a plain fp32 eager baseline, and
+    how far the bf16 update lands from the fp32 one, as one JSON line."""
     hp = Hyperparameters(
         batch_size=batch_size, num_epochs=epochs, lr=3e-4, beta_entropy=0.01, discount_factor=0.999, loss_type="huber"
     )
@@ -219,20 +227,29 @@ def ppo_bench_command(
     warm_up = synthetic_episodes(2 * batch_size, num_actions, seed + 1)
     warm_hp = Hyperparameters(batch_size=batch_size, num_epochs=1, lr=3e-4, loss_type="huber")
     print("ppo bench: warming up both paths", file=sys.stderr)
-    bf16_towers = False if fp32 else None
-    _time_trainer(copy.deepcopy(initial), warm_hp, warm_up, seed, threads, bf16_towers)
+    for precision in Precision:
+        _time_trainer(copy.deepcopy(initial), warm_hp, warm_up, seed, threads, precision)
     _time_baseline(copy.deepcopy(initial), warm_hp, warm_up, seed, threads)
 
-    trainer_runs, baseline_runs = [], []
+    runs: dict[str, list[tuple[float, float]]] = {"baseline": [], **{p.value: [] for p in Precision}}
     for repeat in range(repeats):
-        baseline_runs.append(_time_baseline(copy.deepcopy(initial), hp, episodes, seed, threads))
-        print(f"ppo bench: run {repeat + 1}/{repeats} baseline {baseline_runs[-1][0]:.1f} s", file=sys.stderr)
-        trainer_runs.append(_time_trainer(copy.deepcopy(initial), hp, episodes, seed, threads, bf16_towers))
-        print(f"ppo bench: run {repeat + 1}/{repeats} trainer {trainer_runs[-1][0]:.1f} s", file=sys.stderr)
+        runs["baseline"].append(_time_baseline(copy.deepcopy(initial), hp, episodes, seed, threads))
+        for precision in Precision:
+            runs[precision.value].append(_time_trainer(copy.deepcopy(initial), hp, episodes, seed, threads, precision))
+        timings = ", ".join(f"{name} {timed[-1][0]:.1f} s" for name, timed in runs.items())
+        print(f"ppo bench: run {repeat + 1}/{repeats}: {timings}", file=sys.stderr)
     samples = transitions * epochs
-    trainer_s, trainer_cpu_s = zip(*trainer_runs, strict=True)
-    baseline_s, baseline_cpu_s = zip(*baseline_runs, strict=True)
+    trainer_s, trainer_cpu_s = zip(*runs[Precision.FP32.value], strict=True)
+    bf16_s, bf16_cpu_s = zip(*runs[Precision.BF16.value], strict=True)
+    baseline_s, baseline_cpu_s = zip(*runs["baseline"], strict=True)
     trainer_median, baseline_median = statistics.median(trainer_s), statistics.median(baseline_s)
+    bf16_median = statistics.median(bf16_s)
+    agreement = None
+    if agreement_transitions > 0:
+        print("ppo bench: comparing one bf16 update with the fp32 update on the same batch", file=sys.stderr)
+        agreement = update_agreement(
+            initial, hp, synthetic_episodes(agreement_transitions, num_actions, seed + 2), Precision.BF16, seed
+        ).to_dict()
     print(
         json.dumps(
             {
@@ -245,6 +262,8 @@ def ppo_bench_command(
                 "threads": threads,
                 "repeats": repeats,
                 "samples_per_s": round(samples / trainer_median, 1),
+                "bf16_samples_per_s": round(samples / bf16_median, 1),
+                "bf16_speedup_over_fp32": round(trainer_median / bf16_median, 3),
                 "baseline_samples_per_s": round(samples / baseline_median, 1),
                 "speedup": round(baseline_median / trainer_median, 3),
                 # An iteration = collecting the transitions at the system's rate, then this update.
@@ -255,13 +274,17 @@ def ppo_bench_command(
                 "trainer_s": [round(s, 2) for s in trainer_s],
                 "baseline_s": [round(s, 2) for s in baseline_s],
                 "trainer_cpu_s": [round(s, 2) for s in trainer_cpu_s],
+                "bf16_s": [round(s, 2) for s in bf16_s],
+                "bf16_cpu_s": [round(s, 2) for s in bf16_cpu_s],
                 "baseline_cpu_s": [round(s, 2) for s in baseline_cpu_s],
                 "cpu_capability": torch.backends.cpu.get_cpu_capability(),
                 "machine": platform.machine(),
                 "torch": torch.__version__,
-                "bf16_towers": (not fp32) and native_bf16_available(),
-                "fast_path": "policy/value towers on one core each, fused Adam, old policy once per update, bf16 towers "
-                "where the CPU has native bf16; channels-last in both paths; no torch.compile",
+                "cpu": cpu_description(),
+                "native_bf16": native_bf16_available(),
+                "agreement": agreement,
+                "fast_path": "policy/value towers on one core each, fused Adam, old policy once per update; "
+                "channels-last in both paths; no torch.compile",
             }
         ),
         flush=True,

@@ -12,6 +12,7 @@ from racer.shared.sim.config import DEFAULT_TRACK
 from racer.shared.sim.race_cli import race_options, race_params_from_options
 from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
 from racer.shared.user_errors import user_error_types
+from racer.trainer.precision import DEFAULT_PRECISION, PRECISION_NAMES
 
 
 @click.command(name="trainer")
@@ -72,6 +73,14 @@ from racer.shared.user_errors import user_error_types
     show_default=True,
     help="SAC: gradient steps per transition received (DeepRacer: 1).",
 )
+@click.option(
+    "--precision",
+    type=click.Choice(PRECISION_NAMES),
+    default=DEFAULT_PRECISION.value,
+    show_default=True,
+    help="What the towers compute in during updates. bf16 is about twice as fast on CPUs with native bf16 "
+    "(AVX512-BF16, AMX) but learns differently (see docs/benchmarks.md); fp32 learns the same on every CPU.",
+)
 @race_options
 def trainer_command(
     model_prefix,
@@ -89,12 +98,14 @@ def trainer_command(
     car_randomization,
     sac_replay_memory_mb,
     sac_updates_per_transition,
+    precision,
     race_type,
     race_param,
 ) -> None:
     """Run the trainer (clipped PPO or SAC, as model_metadata.json says): Redis and the store come from
     RACER_REDIS_URL / RACER_STORE. The custom files are checked before anything connects."""
     from racer.shared.config import max_memory_steps_from_env
+    from racer.trainer.precision import Precision
     from racer.trainer.preflight import preflight
     from racer.trainer.training_loop import TrainerOptions, run_trainer
 
@@ -125,6 +136,7 @@ def trainer_command(
         car_randomization=car_randomization,
         sac_replay_memory_mb=sac_replay_memory_mb,
         sac_updates_per_transition=sac_updates_per_transition,
+        precision=Precision(precision),
         race_params=race_params,
     )
     try:

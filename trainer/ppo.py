@@ -31,9 +31,9 @@ Speed (see `racer bench ppo`): the value tower's forward and backward run on a s
 tower runs on the calling one (the towers share no weight, so the gradients are exactly those of the summed loss),
 each with `threads_per_tower` intra-op threads for the duration of the update; Adam runs as one fused kernel
 (`fused=True`, same arithmetic as the textbook loop); the network is channels-last; step 2 replaces the
-per-minibatch old-policy pass; on CPUs with native bf16 (AVX512-BF16, AMX) the towers run under bf16 autocast
-(`PPOSettings.bf16_towers`), about twice as fast, while everything after the towers stays fp32. Where bf16 is only
-emulated (AVX2) it was ~20x slower, so it stays off there. torch.compile was measured ~20 % slower than eager.
+per-minibatch old-policy pass. The towers compute in fp32 on every CPU; `PPOSettings.precision` = bf16 runs them
+under bf16 autocast (about twice as fast where the CPU has native bf16, ~20x slower where it is emulated), which
+changes what a run learns (`racer.trainer.precision`). torch.compile was measured ~20 % slower than eager.
 
 Non-finite numbers never abort training (`racer.trainer.nan_guard`): a NaN/inf loss, gradient or weight rolls the
 network and optimiser back to their state before the update, halves the learning rate, logs one plain warning and
@@ -65,6 +65,7 @@ from racer.trainer.nan_guard import (
     gradient_norm,
     roll_back,
 )
+from racer.trainer.precision import DEFAULT_PRECISION, Precision
 
 __all__ = [
     "CLIP_EPSILON",
@@ -76,7 +77,6 @@ __all__ = [
     "format_training_episode_line",
     "make_training_batch",
     "minibatch_size_for",
-    "native_bf16_available",
     "shuffled_minibatches",
 ]
 
@@ -111,16 +111,9 @@ class PPOSettings:
     """torch intra-op threads while an update runs (restored afterwards). The policy and value towers run
     concurrently on two threads, so the update uses 2 x this many cores; None = half the CPUs available to the
     process (1 on a 2-core machine, where one thread per tower beat two threads per op, more so under load)."""
-    bf16_towers: bool | None = None
-    """Run the towers' convs and dense layers in bfloat16 (CPU autocast); heads, probabilities, losses, GAE and Adam
-    stay fp32. None = where the CPU computes bf16 natively (AVX512-BF16 or AMX), which makes a minibatch much
-    faster (`racer bench ppo` measures it); elsewhere bf16 is emulated and many times slower, so fp32."""
-
-
-def native_bf16_available() -> bool:
-    """True when this CPU has bf16 arithmetic instructions (AVX512-BF16 or AMX tiles) that oneDNN uses."""
-    checks = [getattr(torch.cpu, name, None) for name in ("_is_avx512_bf16_supported", "_is_amx_tile_supported")]
-    return any(check() for check in checks if check is not None)
+    precision: Precision = DEFAULT_PRECISION
+    """What the towers' convs and dense layers compute in (heads, probabilities, losses, GAE and Adam stay fp32):
+    fp32 on every CPU unless the user asks for bf16 (see racer.trainer.precision)."""
 
 
 @dataclass(frozen=True)
@@ -248,8 +241,7 @@ class PPOTrainer:
         seed = settings.seed if settings.seed is not None else int(np.random.SeedSequence().generate_state(1)[0])
         self.generator = torch.Generator().manual_seed(seed)
         self.last_good = LastGoodState(network, self.optimizer)
-        use_bf16 = settings.bf16_towers if settings.bf16_towers is not None else native_bf16_available()
-        self.tower_dtype: torch.dtype | None = torch.bfloat16 if use_bf16 else None
+        self.tower_dtype: torch.dtype | None = Precision(settings.precision).tower_dtype
         """Autocast dtype of the towers during updates (None: fp32)."""
         self.nan_rollbacks = 0
         """How many times an update was rolled back because of a non-finite number (for logs and tests)."""

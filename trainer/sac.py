@@ -61,8 +61,8 @@ from racer.trainer.ppo import (
     HUBER_DELTA,
     UpdateAbandoned,
     _finite_episodes,
-    native_bf16_available,
 )
+from racer.trainer.precision import DEFAULT_PRECISION, Precision
 from racer.trainer.replay import ReplayBatch, ReplayBuffer
 
 __all__ = ["SACSettings", "SACStats", "SACTrainer", "format_sac_training_line", "sac_minibatch_size"]
@@ -81,8 +81,8 @@ class SACSettings:
     threads_per_tower: int | None = None
     """torch intra-op threads of each of the update's two threads (restored afterwards); None = half the CPUs this
     process may use, at least 1 (as PPOSettings.threads_per_tower)."""
-    bf16_towers: bool | None = None
-    """Towers under bf16 autocast where the CPU computes bf16 natively (as PPOSettings.bf16_towers)."""
+    precision: Precision = DEFAULT_PRECISION
+    """What the towers compute in (as PPOSettings.precision): fp32 unless the user asks for bf16."""
 
 
 @dataclass(frozen=True)
@@ -121,8 +121,7 @@ class SACTrainer:
         self.generator = torch.Generator().manual_seed(seed)
         self.replay = ReplayBuffer(networks.config.inputs, settings.replay_memory_bytes)
         self.last_good = LastGoodState(networks, self.optimizer)
-        use_bf16 = settings.bf16_towers if settings.bf16_towers is not None else native_bf16_available()
-        self.tower_dtype: torch.dtype | None = torch.bfloat16 if use_bf16 else None
+        self.tower_dtype: torch.dtype | None = Precision(settings.precision).tower_dtype
         self.nan_rollbacks = 0
 
     @property

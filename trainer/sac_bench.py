@@ -174,7 +174,7 @@ def sac_bench_command(
                 "policy_thread_cpu_s_per_step": round(policy_thread_cpu_s / steps, 4),
                 "critic_thread_cpu_s_per_step": round((trainer_cpu_s - policy_thread_cpu_s) / steps, 4),
                 "baseline_cpu_s_per_step": round(statistics.median(cpu for _, cpu in plain_runs) / steps, 4),
-                "bf16_towers": trainer.tower_dtype is not None,
+                "precision": trainer.settings.precision.value,
                 "threads_per_tower": settings.threads_per_tower or max(1, len(os.sched_getaffinity(0)) // 2),
                 "baseline_threads": threads,
                 "load_average_1min": round(os.getloadavg()[0], 2),

@@ -49,6 +49,7 @@ from racer.trainer.ppo import (
     format_policy_training_line,
     format_training_episode_line,
 )
+from racer.trainer.precision import DEFAULT_PRECISION, Precision
 from racer.trainer.preflight import check_clone_source, preflight
 from racer.trainer.sac import SACSettings, SACTrainer, format_sac_training_line
 
@@ -97,6 +98,8 @@ class TrainerOptions:
     """SAC: memory budget of the replay ring on the trainer (its capacity in transitions follows from it)."""
     sac_updates_per_transition: float = 1.0
     """SAC: gradient steps per transition received (DeepRacer: 1)."""
+    precision: Precision = DEFAULT_PRECISION
+    """What the towers compute in during updates (racer.trainer.precision); written into every checkpoint."""
 
 
 def _world_steps_per_s(episodes: list[Episode]) -> float:
@@ -177,6 +180,7 @@ class Trainer:
                     replay_memory_bytes=int(self.options.sac_replay_memory_mb * 2**20),
                     updates_per_transition=self.options.sac_updates_per_transition,
                     seed=self.options.seed,
+                    precision=self.options.precision,
                 ),
             )
             log.info(
@@ -185,7 +189,9 @@ class Trainer:
                 self.options.sac_replay_memory_mb,
             )
         else:
-            self.learner = PPOTrainer(self.network, hyperparameters, PPOSettings(seed=self.options.seed))
+            self.learner = PPOTrainer(
+                self.network, hyperparameters, PPOSettings(seed=self.options.seed, precision=self.options.precision)
+            )
         latest = self.checkpoints.latest_name()
         if latest is not None:
             iteration, self.env_steps = self.checkpoints.restore(latest, self.network, self.learner.optimizer)
@@ -218,7 +224,13 @@ class Trainer:
 
     def _save(self, iteration: int) -> str:
         name = self.checkpoints.save(
-            iteration, self.env_steps, self.network, self.learner.optimizer, self.metadata, self.hyperparameters
+            iteration,
+            self.env_steps,
+            self.network,
+            self.learner.optimizer,
+            self.metadata,
+            self.hyperparameters,
+            extra={"trainer_precision": self.options.precision.value},
         )
         print(f"Checkpoint> Saving in path=['{self.layout.key(model_layout.MODEL_DIR, name)}']", flush=True)
         return name

@@ -159,7 +159,7 @@ def _with_constant_weights(layers: nn.Sequential, x: torch.Tensor) -> torch.Tens
 
 
 def _features(tower: nn.Module, observations: Mapping[str, torch.Tensor], dtype: torch.dtype | None) -> torch.Tensor:
-    """A tower's output in fp32; with `dtype` (bf16 on CPUs that compute it natively) its layers run under autocast."""
+    """A tower's output in fp32; with `dtype` (bf16 when the user asks for it) its layers run under autocast."""
     if dtype is None:
         return tower(observations)
     with torch.autocast("cpu", dtype=dtype):

@@ -12,6 +12,7 @@ from click.testing import CliRunner
 from racer.shared.deepracer.hyperparameters import Hyperparameters
 from racer.trainer.bench import bench_network, plain_ppo_update, ppo_bench_command, synthetic_episodes
 from racer.trainer.ppo import PPOSettings, PPOTrainer
+from racer.trainer.precision import Precision
 
 
 def test_fast_path_gives_the_same_learning_result_as_the_plain_baseline():
@@ -21,7 +22,7 @@ def test_fast_path_gives_the_same_learning_result_as_the_plain_baseline():
     initial = bench_network(num_actions=5, seed=1)
     episodes = synthetic_episodes(200, num_actions=5, seed=1)  # 2 episodes, 6 minibatches per epoch
     fast, plain = copy.deepcopy(initial), copy.deepcopy(initial)
-    fast_stats = PPOTrainer(fast, hp, PPOSettings(seed=3, bf16_towers=False)).update(episodes)
+    fast_stats = PPOTrainer(fast, hp, PPOSettings(seed=3, precision=Precision.FP32)).update(episodes)
     plain_stats = plain_ppo_update(plain, hp, episodes, seed=3)
 
     for mine, theirs in zip(fast_stats, plain_stats, strict=True):
@@ -42,7 +43,7 @@ def test_fast_path_gives_the_same_learning_result_as_the_plain_baseline():
 
 
 def test_bf16_towers_track_the_fp32_baseline():
-    """bf16 towers (the default where the CPU has native bf16) give the same losses and outputs within bf16 precision.
+    """bf16 towers (`--precision bf16`) give the same losses and outputs within bf16 precision on one update.
 
     Weights are not compared element by element: Adam turns tiny gradient differences in near-zero gradients into
     full-size steps. What must agree is what the update computes and what the network then outputs.
@@ -53,7 +54,7 @@ def test_bf16_towers_track_the_fp32_baseline():
     initial = bench_network(num_actions=5, seed=1)
     episodes = synthetic_episodes(200, num_actions=5, seed=1)
     fast, plain = copy.deepcopy(initial), copy.deepcopy(initial)
-    trainer = PPOTrainer(fast, hp, PPOSettings(seed=3, bf16_towers=True))
+    trainer = PPOTrainer(fast, hp, PPOSettings(seed=3, precision=Precision.BF16))
     assert trainer.tower_dtype == torch.bfloat16
     fast_stats = trainer.update(episodes)
     plain_stats = plain_ppo_update(plain, hp, episodes, seed=3)

@@ -23,6 +23,7 @@ from racer.trainer.ppo import (
     minibatch_size_for,
     shuffled_minibatches,
 )
+from racer.trainer.precision import Precision
 from tests.trainer.ppo_task import greedy_accuracy, play, random_episodes, task_network
 
 HP = Hyperparameters(batch_size=32, num_epochs=2, lr=3e-4, beta_entropy=0.01, discount_factor=0.99, loss_type="huber")
@@ -267,15 +268,15 @@ def test_log_lines_match_the_real_console_log(deepracer_data):
     assert "Total reward=-3," in format_training_episode_line(1, 3, -3.0, 100, 2)
 
 
-@pytest.mark.parametrize("bf16_towers", [False, True], ids=["fp32", "bf16"])
-def test_ppo_learns_the_bar_task_within_a_fixed_budget(bf16_towers):
+@pytest.mark.parametrize("precision", list(Precision), ids=[p.value for p in Precision])
+def test_ppo_learns_the_bar_task_within_a_fixed_budget(precision):
     """Five actions, the right one shown as a bright bar: > 95 % greedy accuracy within 8 iterations of 96 episodes."""
     num_actions = 5
     network = task_network(num_actions, seed=0)
     hp = Hyperparameters(
         batch_size=32, num_epochs=3, lr=3e-4, beta_entropy=0.01, discount_factor=0.99, loss_type="huber"
     )
-    trainer = PPOTrainer(network, hp, PPOSettings(seed=0, bf16_towers=bf16_towers))
+    trainer = PPOTrainer(network, hp, PPOSettings(seed=0, precision=precision))
     rng = np.random.default_rng(0)
     start_accuracy = greedy_accuracy(network, num_actions, rng)
     accuracies = []

@@ -21,6 +21,7 @@ from racer.shared.policy.networks import InputSpec, PolicyConfig, policy_config_
 from racer.shared.policy.onnx_policy import SacOnnxPolicy
 from racer.shared.policy.sac_networks import SACNetworks, squashed_gaussian_log_prob
 from racer.shared.store import open_store
+from racer.trainer.precision import Precision
 from racer.trainer.replay import ReplayBuffer, bytes_per_transition
 from racer.trainer.sac import SACSettings, SACTrainer, sac_minibatch_size
 from racer.trainer.sac_bench import plain_sac_step, synthetic_episodes
@@ -176,7 +177,7 @@ def test_target_v_is_copied_once_per_update_after_its_first_step():
     EnvironmentSteps(num_episodes_between_training) and the copy rate is 1, so V_target = V after the first
     gradient step of every training call and not again until the next one."""
     torch.manual_seed(5)
-    settings = SACSettings(replay_memory_bytes=4 << 20, seed=5, threads_per_tower=1, bf16_towers=False)
+    settings = SACSettings(replay_memory_bytes=4 << 20, seed=5, threads_per_tower=1, precision=Precision.FP32)
     one_step = SACTrainer(SACNetworks(LIDAR_ONLY), Hyperparameters(batch_size=32, lr=1e-3), settings)
     three_steps = SACTrainer(copy.deepcopy(one_step.networks), one_step.hyperparameters, settings)
     episodes = bandit_episodes(one_step.networks, 40, np.random.default_rng(5))
@@ -199,7 +200,7 @@ def test_two_thread_step_computes_the_plain_sequential_step():
     the textbook step does, from the same weights, minibatch and noise."""
     torch.manual_seed(3)
     networks = build_network_for_metadata(parse_model_metadata(SAC_METADATA))
-    settings = SACSettings(replay_memory_bytes=4 << 20, seed=3, threads_per_tower=1, bf16_towers=False)
+    settings = SACSettings(replay_memory_bytes=4 << 20, seed=3, threads_per_tower=1, precision=Precision.FP32)
     hyperparameters = Hyperparameters(batch_size=8, lr=1e-3, loss_type="huber")
     fast = SACTrainer(networks, hyperparameters, settings)
     plain = SACTrainer(copy.deepcopy(networks), hyperparameters, settings)
@@ -224,7 +225,7 @@ def test_step_gradients_and_losses_are_the_textbook_steps(loss_type):
     to float tolerance. Gradients, unlike weights after an Adam step, carry their size, so a lost term shows."""
     torch.manual_seed(4)
     networks = build_network_for_metadata(parse_model_metadata(SAC_METADATA))
-    settings = SACSettings(replay_memory_bytes=4 << 20, seed=4, threads_per_tower=1, bf16_towers=False)
+    settings = SACSettings(replay_memory_bytes=4 << 20, seed=4, threads_per_tower=1, precision=Precision.FP32)
     hyperparameters = Hyperparameters(batch_size=16, lr=1e-3, loss_type=loss_type)
     fast = SACTrainer(networks, hyperparameters, settings)
     plain = SACTrainer(copy.deepcopy(networks), hyperparameters, settings)

@@ -14,10 +14,12 @@ import pytest
 
 from racer.shared.config import LocalStoreSettings, ServiceSettings
 from racer.shared.model_layout import ModelLayout
+from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.redis_connection import RedisLink
 from racer.shared.store import open_store
 from racer.shared.transport.channels import RunChannel
 from racer.shared.transport.codec import EpisodeBatch
+from racer.trainer.precision import Precision
 from racer.trainer.training_loop import Trainer, TrainerOptions
 from tests.conftest import make_episode, write_custom_files
 
@@ -404,3 +406,17 @@ def test_a_finished_worker_claims_episodes_of_a_slower_one_only_after_its_own(re
     assert channel.claim_other(3, 0, 2) is None
     assert channel.release_claims(3, 1) == [1]
     assert channel.queued_and_claimed(3, 2) == ({1}, {0: {0, 2, 4, 5, 3}, 1: set()})
+
+
+@pytest.mark.parametrize("precision", [None, Precision.BF16], ids=["default", "bf16"])
+def test_the_precision_reaches_the_learner_and_every_checkpoints_manifest(
+    redis_settings, tmp_path, custom_files, precision
+):
+    """fp32 unless asked: a default that followed the CPU changed what runs learnt (docs/benchmarks.md)."""
+    options = {} if precision is None else {"precision": precision}
+    trainer = make_trainer(redis_settings, tmp_path, custom_files, **options)
+    trainer.setup()
+    expected = precision or Precision.FP32
+    assert trainer.learner.tower_dtype == expected.tower_dtype
+    store = CheckpointStore(open_store(LocalStoreSettings(root=tmp_path / "store")), PREFIX)
+    assert store.read_info(store.names()[-1]).extra["trainer_precision"] == expected.value
