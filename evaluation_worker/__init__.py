@@ -3,7 +3,8 @@
 Two ways to evaluate a stored model (best, last or a named checkpoint), greedy policy, any track/world/direction:
 
 * `--mode deepracer` (`deepracer_eval`): NUMBER_OF_TRIALS, IS_CONTINUOUS, NUMBER_OF_RESETS, OFF_TRACK_PENALTY as the
-  SimApp's evaluation job (reference §3.1); DeepRacer's evaluation reward and termination statuses.
+  SimApp's evaluation job (deepracer-simapp v5.3.3 `bundle/markov/evaluation_worker.py`); DeepRacer's evaluation reward
+  and termination statuses.
 * `--mode race` (`race_rule`): the AWS Summit physical-track rule -- 4 minutes of simulated time, lap after lap, up
   to 3 put-backs per lap, the 4th exit ends the lap attempt and the next one starts at the line.
 

@@ -23,7 +23,8 @@ class EvaluationConfigError(ValueError):
 
 @dataclass(frozen=True)
 class DeepRacerRules:
-    """The SimApp evaluation job's parameters (reference §3.1), defaults as the AWS console sends them."""
+    """The SimApp evaluation job's parameters (deepracer-simapp v5.3.3 `bundle/markov/evaluation_worker.py`), defaults
+    as the AWS console sends them."""
 
     number_of_trials: int = 3
     """NUMBER_OF_TRIALS: laps (trials) to evaluate."""

@@ -1,4 +1,5 @@
-"""DeepRacer's evaluation job (reference §3.1): NUMBER_OF_TRIALS laps, IS_CONTINUOUS, NUMBER_OF_RESETS, penalties.
+"""DeepRacer's evaluation job (deepracer-simapp v5.3.3 `bundle/markov/evaluation_worker.py`): NUMBER_OF_TRIALS laps,
+IS_CONTINUOUS, NUMBER_OF_RESETS, penalties.
 
 Non-continuous: every trial starts at the line; it ends with `lap_complete`, or with the status of the reset rule
 that fired once the reset budget (per trial) is used up. Continuous: one run from the line; each crossing of the line

@@ -1,8 +1,8 @@
 """Where an evaluation's files go and what they contain: layout, simtrace, EvaluationMetrics, summary, table.
 
-Layout under the model prefix (DeepRacer-for-Cloud's evaluation layout, reference §4/§5):
+Layout under the model prefix (DeepRacer-for-Cloud's evaluation layout; docs/evaluation.md):
 
-    <prefix>/metrics/EvaluationMetrics-<ts>.json                 DeepRacer's schema (§3.2), one entry per lap
+    <prefix>/metrics/EvaluationMetrics-<ts>.json                 DeepRacer's schema (s3_metrics.py), one entry per lap
     <prefix>/evaluation-<ts>/evaluation-simtrace/0-iteration.csv  19-column simtrace of every step
     <prefix>/evaluation-<ts>/summary.json                         what ran and its laps (race rule: laps, best lap,
                                                                   resets per lap, total progress), timings, file keys

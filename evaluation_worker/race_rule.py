@@ -1,7 +1,7 @@
 """The AWS Summit physical-track rule: race for 4 minutes of simulated time, lap after lap, 3 put-backs per lap.
 
 A lap attempt starts at the line. Leaving the track (or any other reset rule: reversed, immobilized, crashed) puts
-the car back on the track near where it left (the env's reset position, reference §2.4) after `reset_penalty_s`,
+the car back on the track near where it left (the env's reset position, docs/evaluation.md) after `reset_penalty_s`,
 up to `resets_per_lap` times in a lap; the next exit ends the attempt and the next attempt starts at the line.
 A completed lap runs straight into the next one (`continuous`, as on a physical track) with a fresh reset budget.
 When the race clock passes the duration (SimApp's RaceTimeRule: `elapsed > duration`), the current step becomes

@@ -4,7 +4,8 @@
 - `<prefix>/metrics/TrainingMetrics[_<worker>].json`: one entry per training episode, plus worker 0's
   evaluation episodes (rewritten whole after each iteration, as DeepRacer does after each episode).
 - `<prefix>/model/deepracer_checkpoints.json` (worker 0): best checkpoint by BEST_MODEL_METRIC and the last
-  evaluated one (reference §5.3: progress/reward: new best if mean >= best; laptime: <=, 999999 ms for no lap).
+  evaluated one (deepracer-simapp v5.3.3 `bundle/markov/metrics/s3_metrics.py` TrainingMetrics.update: progress/reward:
+  new best if mean >= best; laptime: <=, 999999 ms for no lap).
 """
 
 from __future__ import annotations

@@ -43,7 +43,7 @@ wanted="$(cat pyproject.toml setup.py | sha256sum | cut -d' ' -f1)"
 if [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$wanted" ]; then
   say "installing Python dependencies into .venv (torch is large the first time)"
   .venv/bin/python -m pip install -q --upgrade pip setuptools wheel
-  .venv/bin/python -m pip install -q -e '.[test]'
+  .venv/bin/python -m pip install -q -e '.[test,docs]'
   echo "$wanted" > "$stamp"
 fi
 # The optional TensorFlow extra (model export/import in DeepRacer's TensorFlow formats, and the tests proving
@@ -51,7 +51,7 @@ fi
 tf_stamp=".venv/.racer-tensorflow-installed"
 if [ "${RACER_TENSORFLOW:-1}" != "0" ] && { [ ! -f "$tf_stamp" ] || [ "$(cat "$tf_stamp")" != "$wanted" ]; }; then
   say "installing the TensorFlow extra into .venv (tensorflow-cpu, openvino, ai-edge-litert)"
-  .venv/bin/python -m pip install -q -e '.[test,tensorflow]'
+  .venv/bin/python -m pip install -q -e '.[test,docs,tensorflow]'
   echo "$wanted" > "$tf_stamp"
 fi
 minio_bin="$(command -v minio 2>/dev/null || echo "$HOME/go/bin/minio")"

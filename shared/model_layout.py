@@ -1,6 +1,7 @@
 """DeepRacer's model folder: the one place that knows every key of a model prefix and the checkpoint name.
 
-Keys are relative to the model prefix (`SAGEMAKER_SHARED_S3_PREFIX`, reference §5.1); `ModelLayout(prefix)` joins
+Keys are relative to the model prefix (`SAGEMAKER_SHARED_S3_PREFIX`; deepracer-simapp v5.3.3
+`bundle/markov/boto/s3/constants.py`); `ModelLayout(prefix)` joins
 them onto a prefix. Everything that reads or writes a model folder (trainer, rollout and evaluation workers, model
 import/export/validation, analysis) imports its names from here.
 

@@ -1,4 +1,5 @@
-"""Generalised advantage estimation as DeepRacer computes it (reference section 8.3).
+"""Generalised advantage estimation as DeepRacer computes it (deepracer-simapp v5.3.3, RL Coach's `clipped_ppo_agent.py`
+vendored in `bundle/rl_coach/`).
 
 `compute_gae(rewards, values, episode_ends, discount, gae_lambda) -> (advantages, value_targets)` works on the
 transitions of several episodes laid end to end. `episode_ends[t]` is True for the last transition of an episode:

@@ -1,4 +1,5 @@
-"""DeepRacer's clipped PPO update, top to bottom (reference section 8.3).
+"""DeepRacer's clipped PPO update, top to bottom (deepracer-simapp v5.3.3 `bundle/markov/sagemaker_graph_manager.py`
+`get_clipped_ppo_params`, with RL Coach's clipped PPO agent vendored there).
 
 Public API
 ----------

@@ -1,6 +1,6 @@
 """Steps -> episodes -> iterations: the tables users know from deepracer-utils (simulation_agg, training progress).
 
-Definitions (deepracer-utils' where one exists, user-expectations §3.1):
+Definitions (deepracer-utils' `AnalysisUtils.simulation_agg` where one exists; docs/analysis.md):
 - time_s: sum of step time deltas without the `prepare` row; lap_time_s is time_s of an episode that reached 100 %.
 - projected_lap_time_s: time_s * 100 / progress_pct, what the lap would take at the same pace.
 - throttle_mps: mean commanded speed (deepracer-utils calls it "speed"); speed_mps: driven distance / time_s.

@@ -1,6 +1,6 @@
 """Find the simtrace CSVs of a run, wherever they are: a folder, a tar.gz, s3://bucket/prefix or a model prefix.
 
-DeepRacer and its tools scatter simtraces over several layouts (reference §4, deepracer-utils "folder zoo"):
+DeepRacer and its tools scatter simtraces over several layouts (deepracer-utils 262e3fe3 `docs/folder-structures.md`):
 
 | layout | where the CSVs are |
 |---|---|

@@ -1,7 +1,8 @@
 """The console's reward graph from TrainingMetrics.json: training and in-training evaluation per iteration.
 
 Simtraces hold only training steps; the greedy evaluation episodes worker 0 runs after each checkpoint appear only
-in TrainingMetrics.json (reference §3.3, §4). An iteration starts at each training entry with trial 1 (`trial`
+in TrainingMetrics.json (deepracer-simapp v5.3.3 `bundle/markov/metrics/s3_metrics.py`). An iteration starts at each
+training entry with trial 1 (`trial`
 counts the training episodes of the current iteration); evaluation entries belong to the iteration before them.
 Only worker 0's file is used: the other workers run no evaluations.
 """

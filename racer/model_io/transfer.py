@@ -1,6 +1,7 @@
 """Import a validated model into this system's store, and export a stored model in DeepRacer's layout.
 
-Import copies what the console importer copied (reference §5.1, seed 000 "Checkpoint logic"): the
+Import copies what the console importer copied (AWS DeepRacer developer guide,
+`deepracer-troubleshooting-service-migration-errors.md`, "Checkpoint logic"): the
 selected checkpoints with their inference graphs, model_metadata.json, hyperparameters, reward function,
 training_params.yaml, metrics and deepracer_checkpoints.json; `model/.coach_checkpoint` is written last so
 a reader never sees a pointer to a half-copied model.
@@ -8,7 +9,8 @@ a reader never sees a pointer to a half-copied model.
 Export writes the import-ready prefix (ip/, model/, reward_function.py, training_params.yaml, metrics/, and
 model_metadata.json + hyperparameters.json also at the root, where DeepRacer-on-AWS's importer looks) plus the
 car bundle `model.tar.gz`: `model_metadata.json` and the inference model. DeepRacer's bundle holds the TensorFlow graph at
-`agent/model.pb` (reference §5.4); this system's inference model is ONNX, so it goes to
+`agent/model.pb` (deepracer-simapp v5.3.3 `bundle/markov/training_worker.py`); this system's inference model is ONNX, so
+it goes to
 `agent/model.onnx`, the same folder a car-side loader already opens, with the extension telling it
 which runtime to use. An imported TensorFlow model keeps `agent/model.pb`.
 """

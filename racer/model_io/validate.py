@@ -45,7 +45,8 @@ from racer.shared.store import (
 )
 
 METADATA_KEYS = (model_layout.MODEL_METADATA, "model_metadata.json")
-"""Trainer layout (reference §5.1) first, then the prefix root (DeepRacer-on-AWS export)."""
+"""Trainer layout (deepracer-simapp v5.3.3 `bundle/markov/boto/s3/constants.py`) first, then the prefix root
+(DeepRacer-on-AWS export)."""
 HYPERPARAMETER_KEYS = (model_layout.HYPERPARAMETERS, "hyperparameters.json")
 """Console / trainer layout first, then the prefix root (DeepRacer-on-AWS export)."""
 REWARD_FUNCTION_KEY = model_layout.REWARD_FUNCTION

@@ -2,5 +2,6 @@
 
 Each module reads the files the AWS SimApp, the console, DRoA and DeepRacer-for-Cloud produce (real files must parse)
 and writes them byte-compatibly, so models, logs and analysis notebooks move between racer and DeepRacer unchanged.
-Facts come from `docs/deepracer-reference.md`; bad input raises a ValueError subclass naming the file and the field.
+Facts come from DeepRacer's source (docs/deepracer-sources.md); bad input raises a ValueError subclass naming the file
+and the field.
 """

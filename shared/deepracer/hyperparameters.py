@@ -4,7 +4,8 @@ Values may be JSON numbers or numeric strings (SageMaker passes hyperparameters 
 the console / DRoA offered; `term_cond_avg_score` is only checked for being a number because the SimApp ignores it
 and real DRfC files use values (350, 1000) below the console's minimum. Unknown keys are reported as warnings, as
 the SimApp ignores them. The resolved dict the trainer writes to `ip/hyperparameters.json` depends on the training
-algorithm (PPO adds beta_entropy/num_epochs, SAC adds sac_alpha). See docs/deepracer-reference.md section 7.
+algorithm (PPO adds beta_entropy/num_epochs, SAC adds sac_alpha). Source: deepracer-simapp v5.3.3
+`bundle/markov/sagemaker_graph_manager.py`; keys and ranges: docs/custom-files.md.
 """
 
 from __future__ import annotations

@@ -5,7 +5,7 @@ key order and integer conversions: times are simulation milliseconds `int(round(
 is rounded from the difference of the two clocks (not the difference of the rounded values), `reward_score` is
 `int(round(total reward))` and `completion_percentage` is `int(progress)` (truncation). The whole file is rewritten
 after every episode as `json.dumps(...)` with default separators and no trailing newline.
-See docs/deepracer-reference.md sections 3.2 and 3.3.
+Source: deepracer-simapp v5.3.3 `bundle/markov/metrics/s3_metrics.py`.
 """
 
 from __future__ import annotations

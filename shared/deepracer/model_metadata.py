@@ -3,7 +3,8 @@
 Rules follow the SimApp parser (defaults, sensor combinations, SAC needs a continuous space) plus the ranges the
 console and DRoA enforced when a model was created (discrete: 2-30 actions, speed 0.1-4.0 m/s, steering within
 +-30 deg; continuous: speed 0.5-4.0 m/s). Keys the SimApp ignores (`preprocess_type`, `regional_parameters`, ...)
-are ignored here too, so every file found in the wild still loads. See docs/deepracer-reference.md section 6.
+are ignored here too, so every file found in the wild still loads. Source: deepracer-simapp v5.3.3
+`bundle/markov/boto/s3/files/model_metadata.py`; keys: docs/custom-files.md.
 """
 
 from __future__ import annotations

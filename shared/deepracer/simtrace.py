@@ -5,7 +5,8 @@ formatting: floats in shortest-repr form (`1.0`, `9.999999999999998`), booleans 
 and a progress capped by `min(p, 100)` as the int `100`. A continuous action is the scaled [steering, speed] pair
 written as `"[{} {}]".format(steer, speed)` (agent_ctrl/utils.py): `[-25.0 1.6248216569843206]`, one space, no comma. Files in the wild have 15 (2019 logs), 17 (console 2022,
 DRfC training), 18 (+obstacle_crash_counter) or 19 (+wall_clock, 2026) columns; all are read. The writer emits 19.
-See docs/deepracer-reference.md section 4.
+Source: deepracer-simapp v5.3.3 `bundle/markov/metrics/constants.py` (StepMetrics); deepracer-utils
+`deepracer/logs/log_utils.py`.
 """
 
 from __future__ import annotations

@@ -4,7 +4,7 @@ The SimApp reads these flat yaml files key by key with its own defaults. DRfC an
 a string ("true", "0.05", "None"); multi-car jobs write some keys as lists with one value per car (the console's
 `CAR_COLOR: ['Black']`); hand-written files may use plain yaml numbers and booleans. All of them load: values are
 kept as strings (lists as tuples of strings) and the typed accessors convert on use, naming the file and the key
-when a value does not fit. See docs/deepracer-reference.md section 5.2.
+when a value does not fit. Keys and defaults: docs/custom-files.md.
 """
 
 from __future__ import annotations
@@ -128,7 +128,7 @@ class TrainingParams:
         value = self.values[key] if key in self.values else ()
         return value if isinstance(value, tuple) else (value,)
 
-    # The keys racer's simulation reads, with the SimApp's defaults (docs/deepracer-reference.md 5.2).
+    # The keys racer's simulation reads, with the SimApp's defaults (docs/custom-files.md).
 
     @property
     def job_type(self) -> str:

@@ -1,4 +1,5 @@
-"""DeepRacer's clipped-PPO actor-critic in PyTorch (reference section 8.2).
+"""DeepRacer's clipped-PPO actor-critic in PyTorch (deepracer-simapp v5.3.3 `bundle/markov/sensors/utils.py`,
+`bundle/markov/architecture/custom_architectures.py`).
 
 Public API
 ----------

@@ -1,4 +1,5 @@
-"""DeepRacer's SAC networks in PyTorch (reference sections 7, 8; SimApp `get_sac_params`, `sac_agent.py`, `sac_head.py`,
+"""DeepRacer's SAC networks in PyTorch (deepracer-simapp v5.3.3 `bundle/markov/sagemaker_graph_manager.py`
+`get_sac_params`, `sac_agent.py`, `sac_head.py`,
 `sac_q_head.py`).
 
 Public API

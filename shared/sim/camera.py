@@ -1,4 +1,5 @@
-"""Car cameras: offscreen MuJoCo rendering at 160×120 and DeepRacer's grayscale conversions (reference §8.1).
+"""Car cameras: offscreen MuJoCo rendering at 160×120 and DeepRacer's grayscale conversions (deepracer-simapp v5.3.3
+`bundle/markov/sensors/sensors_rollout.py`).
 
 DeepRacer renders 640×480 and bilinear-resizes to 160×120. Here the camera renders 160×120 directly: with
 software OpenGL the 640×480 frame costs several times more (the simulator README gives the measured figures), and

@@ -1,4 +1,5 @@
-"""The DeepRacer car in MuJoCo: its geometry (reference §9.1), its MJCF, and reading/commanding it.
+"""The DeepRacer car in MuJoCo: its geometry (deepracer-simapp v5.3.3
+`bundle/urdf/deepracer/deepracer_single_cam.urdf`), its MJCF, and reading/commanding it.
 
 Frame: the car origin (DeepRacer's `base_link`) sits on the ground between the axles, x forward, y left, z up.
 All four wheels get the same angular velocity `speed / 0.035` and both steering hinges the same angle
@@ -41,7 +42,7 @@ MAX_STEERING_DEG = 30.0
 
 CAMERA_POS_M = (0.14529, 0.0, 0.13033)
 LEGACY_CAMERA_POS_M = (0.2, 0.0, 0.164)
-"""Camera mount of SimApp models older than version 3 (reference §9.2)."""
+"""Camera mount of SimApp models older than version 3 (deepracer-simapp v5.3.3 `bundle/markov/cameras/frustum.py`)."""
 CAMERA_PITCH_DOWN_RAD = 0.2618
 CAMERA_HORIZONTAL_FOV_RAD = 1.13
 CAMERA_ASPECT = 4.0 / 3.0
@@ -106,7 +107,8 @@ CHASSIS_COM_Z_M = 0.075
 
 def command_wheel_radius_m(simapp_version: float) -> float:
     """The radius the SimApp divides speed by to get wheel rad/s: 0.035 m for models of version ≥ 3, 0.0277 m for
-    version 2, 0.1 m for version 1 (reference §6). The simulated wheel is always 0.035 m, so old models drive
+    version 2, 0.1 m for version 1 (deepracer-simapp v5.3.3 `bundle/markov/agent_ctrl/utils.py` `get_wheel_radius`).
+    The simulated wheel is always 0.035 m, so old models drive
     at 0.035/r of their nominal speed, as they do in DeepRacer."""
     if simapp_version >= 3.0:
         return COMMAND_WHEEL_RADIUS_M

@@ -1,4 +1,5 @@
-"""The SimApp's crash test and its priority rules (reference §2.3; `track_data.get_collided_object_name`,
+"""The SimApp's crash test and its priority rules (deepracer-simapp v5.3.3 `bundle/markov/`:
+`track_data.get_collided_object_name`,
 `rollout_agent_ctrl._check_for_episode_termination`).
 
 A crash is one of the four corners of the agent's rectangle (a DeepRacer car, 0.1961 m wide and 0.32352 m long,

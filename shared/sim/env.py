@@ -45,9 +45,11 @@ class DeepRacerEnv(gym.Env):
     """AWS DeepRacer's time-trial simulation in MuJoCo.
 
     ## Description
-    A 1/18 car (DeepRacer geometry, reference §9) drives on a route (`tracks/*.npy` or a DeepRacer route file)
+    A 1/18 car (DeepRacer geometry, deepracer-simapp v5.3.3 `bundle/urdf/deepracer/`) drives on a route (`tracks/*.npy`
+    or a DeepRacer route file)
     in one of four worlds (base, carpet, concrete, wood). Episode rules, reward params and simtrace rows follow
-    the SimApp exactly (reference §1, §2, §4). 15 steps per simulated second.
+    the SimApp exactly (deepracer-simapp v5.3.3 `bundle/markov/agent_ctrl/`, `bundle/markov/metrics/`). 15 steps per
+    simulated second.
 
     ## Action space
     From `model_metadata`: `Discrete(n)` over the discrete action list, or `Box(-1, 1, (2,), float32)` =
@@ -60,7 +62,7 @@ class DeepRacerEnv(gym.Env):
     `STEREO_CAMERAS` `(120, 160, 2)` (left, right); `LIDAR` `(64,)` float32 in [0.15, 1];
     `SECTOR_LIDAR` `(8,)` float32 bits; `DISCRETIZED_SECTOR_LIDAR` `(num_sectors·num_values_per_sector,)` bits.
 
-    ## Step ordering (reference §2.1)
+    ## Step ordering (deepracer-simapp v5.3.3 `bundle/markov/environments/deepracer_racetrack_env.py`)
     `step(a_t)` reads the pose first (where observation o_t was taken) and judges the rules on it, then drives the
     car with a_t for 1/15 s and returns o_{t+1}. Params, reward and simtrace row describe that first pose; they are
     computed while o_{t+1} renders. The row's `tstamp` is the clock after the physics (as the SimApp's), so the

@@ -1,4 +1,5 @@
-"""`PhaseMachine`: what one env step decides before the physics, as the SimApp's agent does (reference §2.1-§2.4).
+"""`PhaseMachine`: what one env step decides before the physics, as the SimApp's agent does (deepracer-simapp v5.3.3
+`bundle/markov/agent_ctrl/rollout_agent_ctrl.py`).
 
 An episode starts with one `prepare` step, then RUN steps (`in_progress`) until a rule ends the episode or breaks a
 rule with resets left: then the car is put back and held for the rule's penalty (`pause` steps), and runs again. This
@@ -172,7 +173,8 @@ class PhaseMachine:
         return status, is_crashed, False
 
     def _start_pause(self, status: str, pose: CarPose, progress: float, crash: CrashVerdict | None) -> None:
-        """Pause for the rule's penalty, then continue on a lane at the last progress (reference §2.4).
+        """Pause for the rule's penalty, then continue on a lane at the last progress (deepracer-simapp 01f5f015
+        `bundle/markov/agent_ctrl/rollout_agent_ctrl.py` `_get_car_reset_model_state`).
 
         As the SimApp (`_get_car_reset_model_state`): the spot is the previous step's progress, as a share of the
         lap measured from the route's origin in the driving direction, on whichever lane's spot is nearer to the car's

@@ -1,4 +1,5 @@
-"""The car's 2-D LIDAR and DeepRacer's three ways of feeding it to the network (reference §8.1).
+"""The car's 2-D LIDAR and DeepRacer's three ways of feeding it to the network (deepracer-simapp v5.3.3
+`bundle/markov/sensors/constants.py`).
 
 64 rays over ±2.61799 rad (300°) in the car's horizontal plane, 0.15–12 m, Gaussian noise σ = 0.01 m, 10 Hz
 (the env runs at 15 Hz, so a scan is reused until the next one is due). Rays see geoms of group 0 (racer's walls,

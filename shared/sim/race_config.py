@@ -1,4 +1,5 @@
-"""`RaceConfig`: the race type and DeepRacer's obstacle / bot-car keys (reference §5.2), with the SimApp's defaults.
+"""`RaceConfig`: the race type and DeepRacer's obstacle / bot-car keys (deepracer-simapp v5.3.3 `bundle/markov/`;
+docs/custom-files.md), with the SimApp's defaults.
 
 As in the SimApp, the objects on the track come from the counts (`NUMBER_OF_OBSTACLES` or `OBJECT_POSITIONS`,
 `NUMBER_OF_BOT_CARS`), and `RACE_TYPE` names what kind of race it is; racer refuses the combinations DeepRacer's

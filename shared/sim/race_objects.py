@@ -2,7 +2,8 @@
 
 The race logic (placement, bot motion, collisions, reward params) produces `RaceObject`s; the scene, the sensors,
 the recording and the analysis only read them. Sizes are the SimApp's collision rectangles
-(`../shared/docs/deepracer-reference.md` §2.3: box_obstacle 0.4 x 0.5 m, a DeepRacer car 0.1961 x 0.32352 m).
+(deepracer-simapp v5.3.3 `bundle/markov/track_geom/track_data.py`: box_obstacle 0.4 x 0.5 m, a DeepRacer car 0.1961 x
+0.32352 m).
 """
 
 from __future__ import annotations

@@ -1,4 +1,5 @@
-"""Loading and calling users' DeepRacer reward functions, with DeepRacer's output rules (reference §1).
+"""Loading and calling users' DeepRacer reward functions, with DeepRacer's output rules
+(deepracer-simapp v5.3.3 `bundle/markov/agent_ctrl/rollout_agent_ctrl.py`).
 
 The file is executed once as its own module, so module-level state (counters, objects) persists across calls,
 as in DeepRacer's long-lived rollout process. A failing function is reported with its traceback (file and line);

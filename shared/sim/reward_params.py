@@ -1,4 +1,6 @@
-"""The reward-function `params` dict, key for key and type for type as DeepRacer builds it (reference §1).
+"""The reward-function `params` dict, key for key and type for type as DeepRacer builds it (deepracer-simapp v5.3.3
+`bundle/markov/agent_ctrl/constants.py` RewardParam,
+`bundle/markov/agent_ctrl/utils.py`; `sim_time` is deepracer-simapp 01f5f015's; docs/custom-files.md lists every key).
 
 Independent of MuJoCo on purpose: the analysis tools rebuild params from simtrace rows with the same function.
 """

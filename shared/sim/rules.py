@@ -1,4 +1,5 @@
-"""DeepRacer's reset rules (reference §2.3): which status a RUN step ends in, from the pose before the action.
+"""DeepRacer's reset rules (deepracer-simapp v5.3.3 `bundle/markov/reset/rules/`): which status a RUN step ends in, from
+the pose before the action.
 
 Priority as the SimApp: lap_complete (checked first: a car may go off track on the finish line), crashed,
 then off_track, immobilized, reversed.

@@ -1,5 +1,6 @@
 """The env's Gymnasium spaces from `model_metadata`, and what goes in and out of them: the decoded action and the
-LIDAR part of the observation (reference §8.1)."""
+LIDAR part of the observation (deepracer-simapp v5.3.3 `bundle/markov/sensors/constants.py`,
+`bundle/markov/environments/`)."""
 
 from __future__ import annotations
 

@@ -173,7 +173,8 @@ class PointGeometry:
 
 
 class Track:
-    """A route in one driving direction, with DeepRacer's geometry definitions (reference §1)."""
+    """A route in one driving direction, with DeepRacer's geometry definitions (deepracer-simapp v5.3.3
+    `bundle/markov/track_geom/track_data.py`)."""
 
     def __init__(self, name: str, waypoints: np.ndarray, *, direction_reversed: bool = False, source: str = "") -> None:
         self.name = name
@@ -415,7 +416,8 @@ def read_route_file(path: str | Path) -> np.ndarray:
 
 
 def compute_progress(current_ndist: float, start_ndist: float, prev_progress: float) -> float:
-    """Progress in % with DeepRacer's finish-line wrap rules (reference §2.4); capped at 100."""
+    """Progress in % with DeepRacer's finish-line wrap rules (deepracer-simapp v5.3.3
+    `bundle/markov/agent_ctrl/utils.py`); capped at 100."""
     progress = 100.0 * (current_ndist - start_ndist)
     if progress <= 0.0:
         progress += 100.0

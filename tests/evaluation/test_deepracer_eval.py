@@ -1,4 +1,5 @@
-"""DeepRacer's evaluation rules (reference §3.1) with a scripted car, and the metrics file against real ones."""
+"""DeepRacer's evaluation rules (deepracer-simapp v5.3.3 `bundle/markov/evaluation_worker.py`) with a scripted car, and
+the metrics file against real ones."""
 
 from __future__ import annotations
 
@@ -37,7 +38,8 @@ def test_each_trial_starts_at_the_line_and_ends_on_the_first_exit_without_resets
     lasts = rows.groupby("episode").tail(1)
     assert list(lasts.episode_status) == ["lap_complete", "off_track", "lap_complete"]
     assert lasts.done.all() and rows.done.sum() == 3
-    # Evaluation uses DeepRacer's evaluation reward (§1): markers 1 / 0.5 / 0.1 / 0.001, 0 on the prepare step.
+    # Evaluation uses DeepRacer's evaluation reward (deepracer-simapp v5.3.3 `bundle/markov/defaults.py`): markers 1 /
+    # 0.5 / 0.1 / 0.001, 0 on the prepare step.
     assert set(rows.reward.round(6)) <= {0.0, 1.0, 0.5, 0.1, 0.001}
 
 

@@ -35,7 +35,7 @@ def test_three_put_backs_per_lap_and_the_fourth_exit_ends_the_attempt(tmp_path):
     exits_lap1 = rows[(rows.episode == 1) & (rows.episode_status == "off_track")]
     assert list(exits_lap1.done) == [False, False, False, True]
 
-    # After a put-back the car continues from where it left (progress keeps its value, §2.4).
+    # After a put-back the car continues from where it left (progress keeps its value, docs/evaluation.md).
     for index in exits_lap0.index:
         assert rows.progress[index + 1] == pytest.approx(rows.progress[index], abs=3.0)
     # The attempt after the 4th exit starts again at the line, with a prepare step.

@@ -1,4 +1,5 @@
-"""The three DeepRacer network types: layer sizes of reference section 8.2, heads, and single-observation acting."""
+"""The three DeepRacer network types: layer sizes of deepracer-simapp v5.3.3 `bundle/markov/sensors/utils.py`, heads,
+and single-observation acting."""
 
 from __future__ import annotations
 

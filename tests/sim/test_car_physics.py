@@ -42,7 +42,8 @@ def test_geometry_and_mass():
     env = DeepRacerEnv(EnvConfig())
     try:
         model = env.model
-        # The URDF's masses (reference §9.1): chassis 5.0 kg, four wheels of 0.34055 kg, two hinges of 0.1 kg.
+        # The URDF's masses (deepracer-simapp v5.3.3 `bundle/urdf/deepracer/deepracer_single_cam.urdf`): chassis 5.0 kg,
+        # four wheels of 0.34055 kg, two hinges of 0.1 kg.
         assert model.body_subtreemass[model.body("car").id] == pytest.approx(5.0 + 4 * 0.34055 + 2 * 0.1, abs=1e-6)
         wheels = {name: model.body(name).pos for name in ("left_rear_wheel", "right_rear_wheel")}
         hinge = model.body("left_steering_hinge").pos

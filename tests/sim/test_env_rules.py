@@ -1,4 +1,5 @@
-"""Episode rules by teleporting the car (reference §2): prepare step, off track, lap, reversed, immobilized, resets."""
+"""Episode rules by teleporting the car (deepracer-simapp v5.3.3 `bundle/markov/reset/rules/`): prepare step, off track,
+lap, reversed, immobilized, resets."""
 
 from __future__ import annotations
 

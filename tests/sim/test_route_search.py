@@ -33,7 +33,7 @@ def test_the_search_path_is_the_variables_folders_in_order_then_racers_tracks(tm
 def test_a_deepracer_world_name_loads_from_the_routes_folder(routes_path):
     track = Track.load("reInvent2019_track")
     assert track.source == str(routes_path / "reInvent2019_track.npy")
-    assert track.length_m == pytest.approx(23.118, abs=1e-3)  # reference §9.3
+    assert track.length_m == pytest.approx(23.118, abs=1e-3)  # docs/tracks.md
     assert Track.load("racer_oval").source == str(default_tracks_dir() / "racer_oval.npy")  # tracks/ still last
 
 

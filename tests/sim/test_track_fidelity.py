@@ -1,4 +1,5 @@
-"""Re-derive `progress` and `closest_waypoint` of real DeepRacer simtraces from their X, Y (reference §11.10)."""
+"""Re-derive `progress` and `closest_waypoint` of real DeepRacer simtraces from their X, Y
+(the geometry of deepracer-simapp v5.3.3 `bundle/markov/track_geom/`)."""
 
 from __future__ import annotations
 
