@@ -78,6 +78,7 @@ def find_route(name: str, folders: Sequence[Path] | None = None) -> Path:
     ours = ", ".join(available_routes([default_tracks_dir()]))
     raise RouteNotFoundError(
         f"no track named {name!r} ({name}{ROUTE_SUFFIX}); looked in: {where}. Set {ROUTES_PATH_VARIABLE} to folders "
-        f"of DeepRacer route files (for example the SimApp's bundle/routes) or give a path to a .npy file; racer's "
+        f"of DeepRacer route files (for example the SimApp's bundle/routes), copy them to the route library with "
+        f"`racer track import FOLDER`, or give a path to a .npy file; racer's "
         f"own tracks: {ours}"
     )
