@@ -13,6 +13,7 @@ import click
 from racer.evaluation_worker.config import CONSOLE_NUMBER_OF_RESETS, MODES
 from racer.shared.sim.config import DEFAULT_TRACK, RESET_POSITIONS
 from racer.shared.sim.race_cli import race_options, race_params_from_options
+from racer.shared.sim.track_option import direction_option
 from racer.shared.sim.worlds import WORLD_NAMES
 
 
@@ -119,6 +120,7 @@ def _video_size(text: str) -> tuple[int, int]:
 )
 @click.option("--seed", type=int, default=0, show_default=True, help="Seeds sensor noise; the sim clock starts at 0.")
 @race_options
+@direction_option
 def evaluate_command(
     model_prefix,
     checkpoint,

@@ -22,6 +22,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "model": ("racer.model_io.cli:model_group", "Validate, import and export models in DeepRacer's layout."),
     "bench": ("racer.bench:bench_group", "Benchmarks that print one JSON line (sim, ppo, time-to-lap, viewer)."),
     "track": ("racer.shared.sim.track_cli:track_group", "List, inspect and plot tracks."),
+    "reward": ("racer.shared.sim.reward_cli:reward_group", "Test a reward function over a whole track."),
     "view": (
         "racer.viewer.cli:view_command",
         "Watch a run in the browser: camera streams, curves, evaluations, best lap.",

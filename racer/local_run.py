@@ -28,6 +28,7 @@ from racer.shared.services import PROJECT_ROOT, MinioServer, RedisServer, _die_w
 from racer.shared.sim.config import DEFAULT_TRACK
 from racer.shared.sim.gl import ensure_gl_backend
 from racer.shared.sim.race_cli import race_option_args, race_options, race_params_from_options
+from racer.shared.sim.track_option import direction_option
 from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
 from racer.shared.store import S3Store, open_store
 from racer.shared.transport.channels import RunChannel
@@ -427,6 +428,7 @@ def run_local_training(plan: LocalRunPlan, base_settings: ServiceSettings, on_ev
     help="What the trainer's towers compute in. bf16 is faster on CPUs with native bf16 but learns differently.",
 )
 @race_options
+@direction_option
 def train_command(
     model_prefix,
     custom_files,

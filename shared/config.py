@@ -11,7 +11,8 @@ frozen dataclasses built here, so a test or a subprocess can be configured expli
 | `AWS_ACCESS_KEY_ID`, `AWS_SECRET_ACCESS_KEY`, `AWS_SESSION_TOKEN`, `AWS_DEFAULT_REGION` | S3 credentials and region | boto3's own chain, region `us-east-1` |
 | `RACER_CONNECT_TIMEOUT_S` | how long to try reaching Redis or S3 before giving up | `10` |
 | `MAX_MEMORY_STEPS` | trainer: transitions one iteration trains on, as the SimApp's variable (0 = no cap) | DeepRacer's: 10000 shallow network, 3000 others |
-| `RACER_ROUTES_PATH` | folders of DeepRacer route files (`<WORLD_NAME>.npy`), `:`-separated, searched in order before racer's `tracks/` | unset |
+| `RACER_ROUTES_PATH` | folders of DeepRacer route files (`<WORLD_NAME>.npy`), `:`-separated, searched in order before the route library and racer's `tracks/` | unset |
+| `RACER_DATA_HOME` | racer's per-user data folder; its `routes/` is the route library `racer track import` fills | `$XDG_DATA_HOME/racer`, else `~/.local/share/racer` |
 """
 
 from __future__ import annotations
@@ -104,6 +105,25 @@ def route_folders(environ: Mapping[str, str] | None = None) -> tuple[Path, ...]:
     env = os.environ if environ is None else environ
     raw = env.get(ROUTES_PATH_VARIABLE, "")
     return tuple(Path(part).expanduser().resolve() for part in raw.split(os.pathsep) if part.strip())
+
+
+DATA_HOME_VARIABLE = "RACER_DATA_HOME"
+
+
+def route_library(environ: Mapping[str, str] | None = None) -> Path | None:
+    """The per-user route library (`racer track import` copies route files and DeepRacer-on-AWS's track list there):
+    `$RACER_DATA_HOME/routes`, else `$XDG_DATA_HOME/racer/routes`, else `$HOME/.local/share/racer/routes`; None when
+    the environment names no home at all."""
+    env = os.environ if environ is None else environ
+    if env.get(DATA_HOME_VARIABLE, "").strip():
+        base = Path(env[DATA_HOME_VARIABLE])
+    elif env.get("XDG_DATA_HOME", "").strip():
+        base = Path(env["XDG_DATA_HOME"]) / "racer"
+    elif env.get("HOME", "").strip():
+        base = Path(env["HOME"]) / ".local" / "share" / "racer"
+    else:
+        return None
+    return (base.expanduser() / "routes").resolve()
 
 
 def env_flag(name: str, default: bool = False, environ: Mapping[str, str] | None = None) -> bool:

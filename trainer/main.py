@@ -10,6 +10,7 @@ import click
 from racer.shared.config import settings_from_env
 from racer.shared.sim.config import DEFAULT_TRACK
 from racer.shared.sim.race_cli import race_options, race_params_from_options
+from racer.shared.sim.track_option import direction_option
 from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
 from racer.shared.user_errors import user_error_types
 from racer.trainer.precision import DEFAULT_PRECISION, PRECISION_NAMES
@@ -82,6 +83,7 @@ from racer.trainer.precision import DEFAULT_PRECISION, PRECISION_NAMES
     "(AVX512-BF16, AMX) but learns differently (see docs/benchmarks.md); fp32 learns the same on every CPU.",
 )
 @race_options
+@direction_option
 def trainer_command(
     model_prefix,
     custom_files,

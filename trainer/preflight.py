@@ -8,7 +8,9 @@ Checks, in the order a user would fix them:
 1. the three custom files exist;
 2. model_metadata.json and hyperparameters.json parse (their own modules name file, field and allowed values);
 3. the combination is one racer trains (`_check_combination`: what DeepRacer itself refuses, with the reason);
-4. the reward function imports and defines `reward_function(params)`;
+4. the reward function imports and defines `reward_function(params)`, and (after the tracks load) a short
+   `racer reward test` over each worker's track and race type: a reward that raises or returns no usable number on
+   params DeepRacer produces is refused;
 5. workers.json parses (race types racer does not simulate yet -- obstacles, bot cars -- are refused by name,
    racer.shared.worker_settings), and every worker's track loads;
 6. a clone source (`--pretrained-prefix`) in a local store has the same algorithm, action space and network.
@@ -162,6 +164,33 @@ def load_worker_settings(
     return result
 
 
+def _check_reward_over_track(path: Path, workers: list[WorkerSettings], metadata: ModelMetadata) -> list[str]:
+    """A short `racer reward test`: the reward is called over worker 0's track and race type (and each other
+    track/race type the workers use); one that raises or returns no usable number is refused before anything
+    starts. Slow calls and what DeepRacer on AWS's validator would reject come back as warnings."""
+    from racer.shared.sim.reward_check import check_reward_file
+
+    warnings: list[str] = []
+    seen: set[tuple[str, str]] = set()
+    for worker in workers:
+        key = (worker.track, worker.race.race_type)
+        if key in seen:
+            continue
+        seen.add(key)
+        report = check_reward_file(path, Track.load(worker.track), worker.race.race_type, metadata, quick=True,
+                                   time_budget_s=2.0)  # fmt: skip
+        refused = [f for f in report.errors if f.params is not None or "raised" in f.message or "syntax" in f.message]
+        if refused:
+            details = "\n".join(f.format() for f in refused)
+            raise RunConfigError(
+                f"{path}: the reward function fails on params DeepRacer produces on {worker.track} "
+                f"({worker.race.race_type}):\n{details}\nfix: handle these cases (see `racer reward test {path} "
+                f"--track {worker.track} --race-type {worker.race.race_type}`)"
+            )
+        warnings += [f.format() for f in report.findings if f not in refused]
+    return warnings
+
+
 def check_clone_source(store: ObjectStore, source_prefix: str, metadata: ModelMetadata, ours: str) -> None:
     """A clone continues another model's weights: same algorithm, action-space type, number of actions, sensors and
     network. Raises CloneError naming what differs and the fix."""
@@ -229,6 +258,7 @@ def preflight(
             Track.load(worker.track)
         except TrackError as error:
             raise RunConfigError(f"worker {worker_id}: track {worker.track!r}: {error}") from error
+    warnings += _check_reward_over_track(folder / "reward_function.py", workers, metadata)
     if hyperparameters.num_episodes_between_training < num_workers:
         idle = num_workers - hyperparameters.num_episodes_between_training
         warnings.append(

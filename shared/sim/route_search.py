@@ -2,8 +2,10 @@
 
 DeepRacer users name tracks (`WORLD_NAME: reInvent2019_track` in training_params.yaml, DRfC's `DR_WORLD_NAME`); the
 SimApp loads `routes/<WORLD_NAME>.npy`. The folders of `RACER_ROUTES_PATH` (read in `racer.shared.config`) come
-first, in order, so a copy of the SimApp's `bundle/routes/` makes every console track name work. DeepRacer-on-AWS
-sends `TRACK_DIRECTION_CLOCKWISE`, which appends `_cw` or `_ccw` to the name as the SimApp's yaml reader does.
+first, in order, then the per-user route library (`racer track import` copies the SimApp's `bundle/routes/` there,
+which makes every console track name work), then racer's own `tracks/`. DeepRacer-on-AWS sends
+`TRACK_DIRECTION_CLOCKWISE` only for its tracks with two directions; the SimApp's yaml reader then appends `_cw` or
+`_ccw` to the name. Its single-direction tracks are the bare trackId (`world_name_for_direction`).
 """
 
 from __future__ import annotations
@@ -11,7 +13,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
-from racer.shared.config import ROUTES_PATH_VARIABLE, route_folders
+from racer.shared.config import ROUTES_PATH_VARIABLE, route_folders, route_library
 
 ROUTE_SUFFIX = ".npy"
 CLOCKWISE_SUFFIX = "_cw"
@@ -30,8 +32,10 @@ def default_tracks_dir() -> Path:
 
 
 def search_folders(environ: Mapping[str, str] | None = None) -> tuple[Path, ...]:
-    """RACER_ROUTES_PATH's folders in order, then racer's own `tracks/`."""
-    return (*route_folders(environ), default_tracks_dir())
+    """RACER_ROUTES_PATH's folders in order, then the route library (when the environment names a home), then
+    racer's own `tracks/`."""
+    library = route_library(environ)
+    return (*route_folders(environ), *((library,) if library is not None else ()), default_tracks_dir())
 
 
 def is_route_name(name_or_path: str | Path) -> bool:
@@ -40,11 +44,19 @@ def is_route_name(name_or_path: str | Path) -> bool:
     return not text.endswith(ROUTE_SUFFIX) and Path(text).parent == Path(".")
 
 
-def world_name_for_direction(world_name: str, clockwise: bool | None) -> str:
-    """DeepRacer-on-AWS: TRACK_DIRECTION_CLOCKWISE appends `_cw` (true) or `_ccw` (false) to WORLD_NAME."""
+def world_name_for_direction(world_name: str, clockwise: bool | None, folders: Sequence[Path] | None = None) -> str:
+    """The route name for WORLD_NAME driven in a direction (TRACK_DIRECTION_CLOCKWISE; None: the name as given).
+
+    The SimApp appends `_cw` (true) or `_ccw` (false). DeepRacer-on-AWS sets the key only for tracks with two enabled
+    directions; a single-direction track is the bare trackId. So: a track the DeepRacer-on-AWS track list (on the
+    search path) gives one direction stays bare -- a direction it does not offer is refused, naming the one it does;
+    a name with no suffixed route file but a bare one stays bare when the bare route runs that way. Otherwise the
+    suffix is appended as the SimApp does (a missing file is then reported where the route is loaded)."""
     if clockwise is None:
         return world_name
-    return world_name + (CLOCKWISE_SUFFIX if clockwise else COUNTER_CLOCKWISE_SUFFIX)
+    from racer.shared.sim.track_catalog import resolve_track
+
+    return resolve_track(world_name, "clockwise" if clockwise else "counter-clockwise", folders).world_name
 
 
 def available_routes(folders: Sequence[Path]) -> list[str]:
@@ -66,6 +78,7 @@ def find_route(name: str, folders: Sequence[Path] | None = None) -> Path:
     ours = ", ".join(available_routes([default_tracks_dir()]))
     raise RouteNotFoundError(
         f"no track named {name!r} ({name}{ROUTE_SUFFIX}); looked in: {where}. Set {ROUTES_PATH_VARIABLE} to folders "
-        f"of DeepRacer route files (for example the SimApp's bundle/routes) or give a path to a .npy file; racer's "
+        f"of DeepRacer route files (for example the SimApp's bundle/routes), copy them to the route library with "
+        f"`racer track import FOLDER`, or give a path to a .npy file; racer's "
         f"own tracks: {ours}"
     )
