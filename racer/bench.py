@@ -19,6 +19,10 @@ BENCHMARKS: dict[str, tuple[str, str]] = {
         "racer.trainer.bench:ppo_bench_command",
         "One PPO update: samples/s of the trainer vs a plain fp32 baseline.",
     ),
+    "precision": (
+        "racer.precision_bench:precision_bench_command",
+        "Env steps to 3 of 3 greedy laps per trainer precision and seed, in one deterministic process.",
+    ),
     "fidelity": (
         "racer.shared.sim.fidelity:fidelity_bench_command",
         "Open-loop replay of real simtraces: pose error after 1 s and 2 s per speed band.",
