@@ -21,7 +21,7 @@ from pathlib import Path
 import click
 
 from racer.shared import model_layout
-from racer.shared.batched_rollout import DEFAULT_ENVS_PER_WORKER, default_workers
+from racer.shared.batched_rollout import DEFAULT_ENVS_PER_WORKER, DEFAULT_WORKERS
 from racer.shared.config import LocalStoreSettings, RedisSettings, S3Settings, ServiceSettings, settings_from_env
 from racer.shared.redis_connection import RedisLink, RedisUnavailableError
 from racer.shared.services import PROJECT_ROOT, MinioServer, RedisServer, _die_with_parent
@@ -382,9 +382,11 @@ def run_local_training(plan: LocalRunPlan, base_settings: ServiceSettings, on_ev
     "--workers",
     "num_workers",
     type=click.IntRange(1, 32),
-    default=default_workers(),
+    default=DEFAULT_WORKERS,
     show_default=True,
-    help="Rollout workers (default: the cores this process may use, at least 4: one per world).",
+    help="Rollout workers, one per world in turn. The default is the same on every machine, so a seed gives the "
+    "same kind of run everywhere; on more than 4 cores raise it to use them (the run then plays its episodes on "
+    "other workers and so differs, though it learns the same way).",
 )
 @click.option(
     "--envs",

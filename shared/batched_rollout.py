@@ -26,6 +26,11 @@ weights are read once per call. With the default 4 workers and 20 episodes per i
 mostly sit idle (an iteration has fewer episodes than 4 x 8 env slots), so 4 stays the default."""
 
 
+DEFAULT_WORKERS = 4
+"""Rollout workers of `racer train` on any machine: one per world. Not the core count: which worker plays which
+episode shapes the run, and a default may not make runs differ between machines."""
+
+
 def default_workers() -> int:
     """One worker per core at least, so every core has envs to step; four at least, one per world."""
     return max(4, len(os.sched_getaffinity(0)))
