@@ -14,10 +14,11 @@ import click
 
 from racer.model_io.deepracer_export import EXPORT_LAYOUTS
 from racer.model_io.deepracer_import import (
-    car_bundle_graph,
     convert_tf_checkpoints,
     find_model_root,
-    import_frozen_graph,
+    frozen_graph_keys,
+    graph_checkpoint_number,
+    import_frozen_graphs,
     tensorflow_only_checkpoints,
 )
 from racer.model_io.problems import ValidationProblem, ValidationReport
@@ -132,9 +133,9 @@ def import_command(source: str, model_name: str, store_location: str | None, ove
         )
     report, opened = validate_location(source)
     if opened is not None and not report.ok:
-        graph_key = car_bundle_graph(opened.list_files())
-        if graph_key is not None:
-            _import_graph(opened, graph_key, source, model_name, store_location, overwrite)
+        graph_keys = frozen_graph_keys(opened.list_files())
+        if graph_keys:
+            _import_graphs(opened, graph_keys, source, model_name, store_location, overwrite)
             return
         nested = find_model_root(opened)
         if nested is not None:
@@ -184,13 +185,14 @@ def import_command(source: str, model_name: str, store_location: str | None, ove
     )
 
 
-def _import_graph(
-    opened, graph_key: str, source: str, model_name: str, store_location: str | None, overwrite: bool
+def _import_graphs(
+    opened, graph_keys: tuple[str, ...], source: str, model_name: str, store_location: str | None, overwrite: bool
 ) -> None:
-    """A car bundle / frozen graph: checkpoint 0 from the graph's policy, a fresh value network."""
+    """A car bundle / frozen graphs: a checkpoint per graph from its policy, a fresh value network."""
     if not tensorflow_available():
         raise click.ClickException(
-            f"{source} holds a TensorFlow frozen graph ({graph_key}); reading it needs TensorFlow: {INSTALL_HINT}"
+            f"{source} holds TensorFlow frozen graphs ({', '.join(graph_keys)}); reading them needs TensorFlow: "
+            f"{INSTALL_HINT}"
         )
     store = _open_store(store_location)
     existing = store.list_keys(model_name + "/")
@@ -200,14 +202,15 @@ def _import_graph(
         )
     for key in existing:
         store.delete(key)
-    click.echo(f"reading the frozen graph {graph_key} (a TensorFlow process) ...")
+    click.echo(f"reading the frozen graphs {', '.join(graph_keys)} (a TensorFlow process each) ...")
     try:
-        outcome = import_frozen_graph(opened, graph_key, store, model_name)
+        outcome = import_frozen_graphs(opened, graph_keys, store, model_name)
     except (UnsupportedGraphError, TensorFlowToolError, ValueError) as error:
         raise click.ClickException(f"{source} cannot become a racer model: {error}") from None
     for note in outcome.notes:
         click.echo(f"note: {note}")
-    click.echo(f"imported the policy of {source}:{graph_key} as {model_name}/model/{outcome.written[0]}")
+    for graph_key, name in zip(sorted(graph_keys, key=graph_checkpoint_number), outcome.written, strict=True):
+        click.echo(f"imported the policy of {source}:{graph_key} as {model_name}/model/{name}")
     click.echo(
         f"model prefix {model_name!r}: clone it with `racer trainer --pretrained-prefix {model_name}`, "
         "or give it as the model prefix to evaluate"

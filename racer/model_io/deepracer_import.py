@@ -4,9 +4,10 @@
   racer's own `--for droa` export) is copied by `import_model`, then `convert_tf_checkpoints` turns each copied
   TensorFlow checkpoint into a racer checkpoint of the same name (value network included when the checkpoint has
   it), so `racer evaluate` drives it and `--pretrained-prefix` continues training it.
-* A frozen graph with its model_metadata.json (the physical-car tarball `agent/model.pb`, or a folder with
-  `model.pb` / `model/model_<N>.pb`) becomes checkpoint `0_Step-0.ckpt`: the policy from the graph, the value
-  network fresh (a frozen graph holds only the policy).
+* Frozen graphs with their model_metadata.json (the physical-car tarball `agent/model.pb`, a folder with `model.pb`,
+  or DeepRacer's numbered graphs `model_<N>.pb`, at the folder's root or under `model/`) become racer checkpoints:
+  `model.pb` checkpoint `0_Step-0.ckpt`, each `model_<N>.pb` checkpoint `<N>_Step-0.ckpt` (the highest is the last
+  and the best); the policy from the graph, the value network fresh (a frozen graph holds only the policy).
 * Archives are recognised by their first bytes (a ZIP named `.tar.gz` from DRoA <= 1.0.9, a real tar.gz since
   1.0.10) and searched for the model when it sits deeper than the archive root (the training-logs download).
 """
@@ -28,15 +29,16 @@ from racer.shared.store import ObjectStore, join_key
 __all__ = [
     "ConversionOutcome",
     "SubfolderSource",
-    "car_bundle_graph",
+    "frozen_graph_keys",
     "convert_tf_checkpoints",
     "find_model_root",
-    "import_frozen_graph",
+    "graph_checkpoint_number",
+    "import_frozen_graphs",
     "tensorflow_only_checkpoints",
 ]
 
 _CAR_GRAPHS = ("agent/model.pb", "model.pb")
-_NUMBERED_GRAPH = re.compile(r"^model/model_(\d+)\.pb$")
+_NUMBERED_GRAPH = re.compile(r"^(?:model/)?model_(\d+)\.pb$")
 
 
 @dataclass(frozen=True)
@@ -78,17 +80,24 @@ def find_model_root(source: ModelSource) -> ModelSource | None:
     return SubfolderSource(source, folders[0]) if folders else None
 
 
-def car_bundle_graph(files: dict[str, int]) -> str | None:
-    """The frozen graph to import when the source is a car bundle or a graph-only folder (no checkpoint)."""
+def frozen_graph_keys(files: dict[str, int]) -> tuple[str, ...]:
+    """The frozen graphs to import when the source is a car bundle or a graph-only folder (no checkpoint): the car's
+    one graph, else every numbered `model_<N>.pb` in checkpoint order. Empty when the source is something else."""
     if "model_metadata.json" not in files and model_layout.MODEL_METADATA not in files:
-        return None
+        return ()
     if ck.all_checkpoint_names(files):
-        return None
+        return ()
     for key in _CAR_GRAPHS:
         if key in files:
-            return key
+            return (key,)
     numbered = sorted((int(match.group(1)), key) for key in files if (match := _NUMBERED_GRAPH.match(key)))
-    return numbered[-1][1] if numbered else None
+    return tuple(key for _, key in numbered)
+
+
+def graph_checkpoint_number(graph_key: str) -> int:
+    """`model_30.pb` -> 30 (DeepRacer numbers its graphs by checkpoint); the car's `model.pb` -> 0."""
+    match = _NUMBERED_GRAPH.match(graph_key)
+    return int(match.group(1)) if match else 0
 
 
 def _metadata(store: ObjectStore, model_name: str) -> tuple[ModelMetadata, bytes]:
@@ -157,8 +166,10 @@ def convert_tf_checkpoints(store: ObjectStore, model_name: str) -> ConversionOut
     return ConversionOutcome(tuple(written), tuple(notes))
 
 
-def import_frozen_graph(source: ModelSource, graph_key: str, store: ObjectStore, model_name: str) -> ConversionOutcome:
-    """A frozen graph + model_metadata.json -> racer model `<model_name>` with checkpoint 0_Step-0.ckpt."""
+def import_frozen_graphs(
+    source: ModelSource, graph_keys: tuple[str, ...], store: ObjectStore, model_name: str
+) -> ConversionOutcome:
+    """Frozen graphs + model_metadata.json -> racer model `<model_name>`, one checkpoint per graph (see the module)."""
     from racer.model_io.tensorflow.convert import network_from_frozen_graph
     from racer.shared.policy.checkpoints import CheckpointRecord, CheckpointStore
 
@@ -168,21 +179,27 @@ def import_frozen_graph(source: ModelSource, graph_key: str, store: ObjectStore,
         json.loads(source.read(metadata_key).decode("utf-8-sig")), source=f"{source.describe()}/{metadata_key}"
     )
     config = _policy_config(metadata)
-    with tempfile.TemporaryDirectory(prefix="racer-tf-import-") as folder:
-        graph_path = Path(folder) / "model.pb"
-        graph_path.write_bytes(source.read(graph_key))
-        imported = network_from_frozen_graph(graph_path, config)
-    checkpoints = CheckpointStore(store, model_name)
+    checkpoints = CheckpointStore(store, model_name, keep=len(graph_keys) + 4)
     checkpoints.put_model_metadata(metadata)
     for optional in ("reward_function.py", "training_params.yaml"):
         if optional in files:
             store.put_bytes(join_key(model_name, optional), source.read(optional))
-    name = checkpoints.save(
-        0,
-        0,
-        imported.network,
-        model_metadata=metadata,
-        extra={"imported_from": f"frozen graph {graph_key}", "value_restored": False},
-    )
-    checkpoints.write_best_and_last(CheckpointRecord(name, None, None), CheckpointRecord(name, None, None))
-    return ConversionOutcome((name,), imported.notes)
+    written, notes = [], []
+    for graph_key in sorted(graph_keys, key=graph_checkpoint_number):
+        with tempfile.TemporaryDirectory(prefix="racer-tf-import-") as folder:
+            graph_path = Path(folder) / "model.pb"
+            graph_path.write_bytes(source.read(graph_key))
+            imported = network_from_frozen_graph(graph_path, config)
+        written.append(
+            checkpoints.save(
+                graph_checkpoint_number(graph_key),
+                0,
+                imported.network,
+                model_metadata=metadata,
+                extra={"imported_from": f"frozen graph {graph_key}", "value_restored": False},
+            )
+        )
+        notes += [note for note in imported.notes if note not in notes]
+    last = CheckpointRecord(written[-1], None, None)
+    checkpoints.write_best_and_last(last, last)
+    return ConversionOutcome(tuple(written), tuple(notes))
