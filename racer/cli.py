@@ -18,6 +18,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "racer.evaluation_worker.main:evaluate_command",
         "Evaluate a model: DeepRacer trials or the 4-minute race rule.",
     ),
+    "race": (
+        "racer.race.cli:race_command",
+        "Race models on a DeepRacer-on-AWS race definition and write a leaderboard.",
+    ),
     "analyze": ("racer.analysis.cli:analyze_command", "Analyse simtrace logs into tables, plots and an HTML report."),
     "model": ("racer.model_io.cli:model_group", "Validate, import and export models in DeepRacer's layout."),
     "bench": ("racer.bench:bench_group", "Benchmarks that print one JSON line (sim, ppo, time-to-lap, viewer)."),

@@ -1,0 +1,65 @@
+"""`racer race RACE.yaml ENTRANT...`: a local race in DeepRacer on AWS's format, and its leaderboard."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+
+@click.command(name="race")
+@click.argument("race_file", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("entrants", nargs=-1, required=True)
+@click.option(
+    "--workers",
+    type=click.IntRange(min=1),
+    default=None,
+    help="Entrants racing at once, one process each. Default: one per core.",
+)
+@click.option("--seed", type=int, default=0, show_default=True, help="Every entrant's evaluation seed.")
+@click.option(
+    "--out",
+    "out_dir",
+    type=click.Path(file_okay=False, path_type=Path),
+    default=None,
+    help="Where the leaderboard, videos and each entrant's evaluation go. Default: ./races/<race name>.",
+)
+@click.option("--video/--no-video", default=True, show_default=True, help="In-car, top-view and follow videos.")
+def race_command(race_file: Path, entrants: tuple[str, ...], workers, seed, out_dir, video) -> None:
+    """Race ENTRANTs on the race RACE_FILE defines and write leaderboard.json, .csv and .html.
+
+    RACE_FILE: DeepRacer on AWS's leaderboard definition (trackConfig, raceType, timingMethod,
+    resettingBehaviorConfig, submissionTerminationConditions, maxResets, objectAvoidanceConfig) in YAML or JSON.
+    ENTRANT: [NAME=]SOURCE, SOURCE a model prefix in the store (RACER_STORE) or anything `racer model import`
+    takes (a folder, .tar.gz, .zip, s3://bucket/prefix); imports go under races/<race>/<NAME> in the store.
+    A broken entrant gets a row with its reason; the others race.
+    """
+    from racer.race.entrants import EntrantError, parse_entrants
+    from racer.race.html_report import write_html
+    from racer.race.leaderboard import board_json, format_board, standings_from_results, write_board
+    from racer.race.race_file import RaceFileError, read_race_file
+    from racer.race.rules import resolve_route
+    from racer.race.runner import default_workers, run_race
+    from racer.shared.config import settings_from_env
+    from racer.shared.store import open_store
+
+    try:
+        definition = read_race_file(race_file)
+        route = resolve_route(definition)
+        store = open_store(settings_from_env().store)
+        field = parse_entrants(entrants, store, definition.name)
+    except (RaceFileError, EntrantError) as error:
+        raise click.ClickException(str(error)) from None
+    out = (out_dir or Path("races") / definition.name).resolve()
+    count = min(workers or default_workers(), len(field))
+    click.echo(
+        f"race {definition.name}: {definition.race_type} on {route}, {definition.timing_method}, "
+        f"{len(field)} entrants, {count} at a time, seed {seed} -> {out}"
+    )
+    run = run_race(definition, field, route=route, out_dir=out, seed=seed, workers=count, video=video, log=click.echo)
+    standings = standings_from_results(definition, run.results)
+    paths = write_board(out, definition, route, seed, standings, run.results)
+    page = write_html(out, definition, board_json(definition, route, seed, standings, run.results), run.results)
+    click.echo("")
+    click.echo(format_board(standings, definition.timing_method))
+    click.echo(f"{len(field)} entrants in {run.wall_s:.1f} s; {paths['json']}, {paths['csv']}, {page}")

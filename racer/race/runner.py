@@ -1,0 +1,117 @@
+"""Run every entrant, `workers` at a time, each in its own process (`python -m racer.race.worker`).
+
+A process that dies without writing its result becomes that entrant's row ("the evaluation died"), so the others
+race on. Every entrant gets the race's seed, so the same file, entrants and seed give the same board.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from racer.race.entrants import Entrant
+from racer.race.race_file import RaceDefinition
+
+
+@dataclass(frozen=True)
+class RaceRun:
+    results: tuple[dict[str, Any], ...]
+    """One per entrant, in entrant order: the worker's result (metrics, videos, best lap) or its reason."""
+    wall_s: float
+
+
+def default_workers() -> int:
+    return max(1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1)
+
+
+def missing_result(entrant: Entrant) -> dict[str, Any]:
+    return {
+        "entrant": entrant.name,
+        "reason": f"{entrant.source}: no model with that prefix in the store and no such file or folder",
+        "code": "FILE_DOES_NOT_EXIST",
+    }
+
+
+def _task(entrant: Entrant, definition: RaceDefinition, route: str, seed: int, video: bool, out: Path) -> dict:
+    work = out / "entrants" / entrant.name
+    return {
+        "name": entrant.name,
+        "source": entrant.source,
+        "kind": entrant.kind,
+        "model_prefix": entrant.model_prefix,
+        "race": definition.to_dict(),
+        "race_source": definition.source,
+        "route": route,
+        "seed": seed,
+        "video": video,
+        "work_dir": str(work),
+        "videos_dir": str(out / "videos"),
+        "result_path": str(work / "result.json"),
+    }
+
+
+def run_race(
+    definition: RaceDefinition,
+    entrants: Sequence[Entrant],
+    *,
+    route: str,
+    out_dir: Path,
+    seed: int,
+    workers: int,
+    video: bool,
+    log: Callable[[str], None] = print,
+) -> RaceRun:
+    started = time.perf_counter()
+    pending = list(entrants)
+    running: dict[str, tuple[subprocess.Popen, Path, float]] = {}
+    results: dict[str, dict[str, Any]] = {}
+    env = {**os.environ, "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+    while pending or running:
+        while pending and len(running) < workers:
+            entrant = pending.pop(0)
+            if entrant.kind == "missing":  # nothing to start a process for
+                results[entrant.name] = missing_result(entrant)
+                log(f"skipped {entrant.name}: {results[entrant.name]['reason']}")
+                continue
+            task = _task(entrant, definition, route, seed, video, out_dir)
+            work = Path(task["work_dir"])
+            shutil.rmtree(work, ignore_errors=True)
+            work.mkdir(parents=True)
+            task_path = work / "task.json"
+            task_path.write_text(json.dumps(task, indent=1) + "\n")
+            stderr = (work / "stderr.log").open("w")
+            process = subprocess.Popen(
+                [sys.executable, "-m", "racer.race.worker", str(task_path)],
+                stdout=stderr,
+                stderr=subprocess.STDOUT,
+                env=env,
+            )
+            stderr.close()
+            running[entrant.name] = (process, Path(task["result_path"]), time.perf_counter())
+            log(f"started {entrant.name} ({entrant.kind}: {entrant.source})")
+        time.sleep(0.2)
+        for name, (process, result_path, began) in list(running.items()):
+            if process.poll() is None:
+                continue
+            del running[name]
+            if result_path.is_file():
+                result = json.loads(result_path.read_text())
+            else:
+                result = {
+                    "entrant": name,
+                    "reason": f"the evaluation died (exit status {process.returncode}; see "
+                    f"{result_path.parent / 'stderr.log'})",
+                    "code": None,
+                }
+            results[name] = result
+            outcome = result.get("reason") or f"{len(result.get('metrics', []))} laps"
+            log(f"finished {name} in {time.perf_counter() - began:.1f} s: {outcome}")
+    return RaceRun(results=tuple(results[entrant.name] for entrant in entrants), wall_s=time.perf_counter() - started)
