@@ -23,6 +23,10 @@ BENCHMARKS: dict[str, tuple[str, str]] = {
         "racer.precision_bench:precision_bench_command",
         "Env steps to 3 of 3 greedy laps per trainer precision and seed, in one deterministic process.",
     ),
+    "transfer": (
+        "racer.transfer_bench:transfer_bench_command",
+        "Real DeepRacer checkpoints drive racer closed loop: laps and mean progress from evenly spaced starts.",
+    ),
     "fidelity": (
         "racer.shared.sim.fidelity:fidelity_bench_command",
         "Open-loop replay of real simtraces: pose error after 1 s and 2 s per speed band.",

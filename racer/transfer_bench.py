@@ -1,0 +1,243 @@
+"""`racer bench transfer`: real DeepRacer policies drive racer's simulator, closed loop (the figure that decides).
+
+A model trained in DeepRacer's Gazebo simulator drives well in racer only if racer's camera, world and car are close
+enough to what it learnt on. So every model folder under `--models` (default: the shared `models/`, a real model
+trained in DeepRacer's simulator) goes through `racer model import`'s own path (its frozen graphs become racer
+checkpoints) and each checkpoint drives re:Invent 2018 greedily from `--starts` evenly spaced starts under evaluation
+rules without resets; the bench prints laps and mean progress per checkpoint. A change to the car, the camera or the
+look that costs a lap or more than 3 points of mean progress on a shared checkpoint does not land (shared/sim/README.md).
+
+`--racer-model` adds the reverse check: a racer model's greedy steering side on DeepRacer's 92 Gazebo frames (left /
+straight / right shares) and how often its side agrees with each real checkpoint's. `--proxies` prints the two
+diagnostics beside the closed-loop figure: the grey-histogram distance of racer's frames to the Gazebo frames and
+the open-loop replay error of real simtraces after 1 s. They are diagnostics; the closed loop wins when they disagree.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import click
+import numpy as np
+import torch
+
+from racer.shared.deepracer.model_metadata import ModelMetadata, parse_model_metadata
+from racer.shared.policy.checkpoints import CheckpointStore
+from racer.shared.services import PROJECT_ROOT
+from racer.shared.sim.camera_bench import GAZEBO_FRAMES, load_gazebo_frames, rgb_to_y
+from racer.shared.sim.config import EnvConfig
+from racer.shared.sim.env import DeepRacerEnv
+from racer.shared.sim.worlds import WORLD_NAMES
+from racer.shared.store import LocalStore
+from racer.trainer.precision import cpu_description
+
+SHARED_DATA = PROJECT_ROOT.parent / "shared" / "deepracer-data"
+DEFAULT_MODELS = SHARED_DATA / "models"
+DEFAULT_TRACK = SHARED_DATA / "routes" / "reinvent_base.npy"
+MAX_STEPS_PER_START = 2000
+"""Far more than a lap of re:Invent 2018 at 1 m/s takes (about 260 steps at 15 Hz)."""
+
+
+@dataclass(frozen=True)
+class RealModel:
+    """One checkpoint of a DeepRacer model, as racer imported it."""
+
+    folder: str
+    checkpoint: str
+    metadata: ModelMetadata
+    network: torch.nn.Module
+
+    @property
+    def label(self) -> str:
+        return f"{self.folder}/{self.checkpoint}"
+
+
+def _metadata_file(folder: Path) -> Path | None:
+    for candidate in (folder / "model_metadata.json", folder / "model" / "model_metadata.json"):
+        if candidate.is_file():
+            return candidate
+    return None
+
+
+def model_folders(root: Path) -> list[Path]:
+    """Folders under `root` (itself included) that hold a model_metadata.json and frozen graphs; not their
+    subfolders (a folder's own `model/` holds its graphs)."""
+    found: list[Path] = []
+    for folder in [root, *sorted(path for path in root.rglob("*") if path.is_dir())]:
+        if any(folder.is_relative_to(parent) for parent in found):
+            continue
+        has_graphs = any(folder.glob("*.pb")) or any(folder.glob("model/*.pb"))
+        if _metadata_file(folder) is not None and has_graphs:
+            found.append(folder)
+    return found
+
+
+def import_real_models(folders: list[Path], store_root: Path) -> list[RealModel]:
+    """Each folder through `racer model import`'s frozen-graph path; every checkpoint's policy, ready to act."""
+    from racer.model_io.deepracer_import import frozen_graph_keys, import_frozen_graphs
+    from racer.model_io.sources import FolderSource
+
+    store = LocalStore(store_root)
+    models = []
+    for folder in folders:
+        source = FolderSource(folder)
+        keys = frozen_graph_keys(source.list_files())
+        if not keys:
+            raise click.ClickException(
+                f"{folder}: no frozen graph (model.pb or model_<N>.pb) beside model_metadata.json"
+            )
+        name = folder.name.replace("_", "-")[:64]
+        print(f"transfer bench: importing {folder} ({', '.join(keys)})", file=sys.stderr, flush=True)
+        outcome = import_frozen_graphs(source, keys, store, name)
+        checkpoints = CheckpointStore(store, name)
+        metadata_path = _metadata_file(folder)
+        metadata = parse_model_metadata(json.loads(metadata_path.read_text()), source=str(metadata_path))
+        for checkpoint in outcome.written:
+            models.append(RealModel(folder.name, checkpoint, metadata, checkpoints.load_policy(checkpoint)))
+    return models
+
+
+def greedy_action(network: torch.nn.Module, camera: str, grey: np.ndarray) -> int:
+    with torch.no_grad():
+        probabilities = network.distribution({camera: torch.from_numpy(np.ascontiguousarray(grey)[None])}).probs
+    return int(probabilities[0].argmax())
+
+
+def drive(model: RealModel, config: EnvConfig, starts: int) -> dict:
+    """Greedy laps from `starts` evenly spaced places, evaluation rules, no resets."""
+    env = DeepRacerEnv(config)
+    camera = model.metadata.camera_sensor
+    progress, steps_driven = [], []
+    try:
+        for k in range(starts):
+            observation, _ = env.reset(seed=1, options={"evaluation": True, "start_ndist": k / starts})
+            done, steps, info = False, 0, {"progress": 0.0}
+            while not done and steps < MAX_STEPS_PER_START:
+                observation, _, terminated, truncated, info = env.step(
+                    greedy_action(model.network, camera, observation[camera])
+                )
+                done, steps = terminated or truncated, steps + 1
+            progress.append(float(info["progress"]))
+            steps_driven.append(steps)
+    finally:
+        env.close()
+    return {
+        "laps": int(sum(p >= 100.0 for p in progress)),
+        "starts": starts,
+        "mean_progress": round(float(np.mean(progress)), 1),
+        "progress_per_start": [round(p, 1) for p in progress],
+    }
+
+
+def steering_sides(model_metadata: ModelMetadata, network: torch.nn.Module, frames_grey: np.ndarray) -> np.ndarray:
+    """-1 right, 0 straight, +1 left (DeepRacer's sign) of the greedy action on each frame."""
+    sides = []
+    for grey in frames_grey:
+        action = greedy_action(network, model_metadata.camera_sensor, grey[:, :, None])
+        sides.append(int(np.sign(model_metadata.discrete_actions[action].steering_angle_deg)))
+    return np.asarray(sides)
+
+
+def shares(sides: np.ndarray) -> dict[str, float]:
+    return {
+        name: round(float(np.mean(sides == value)), 3) for name, value in (("left", 1), ("straight", 0), ("right", -1))
+    }
+
+
+def reverse_check(racer_model: Path, real: list[RealModel], frames_grey: np.ndarray) -> dict:
+    """A racer model (a folder of racer's local store) on the Gazebo frames, against each real checkpoint."""
+    metadata_path = racer_model / "model" / "model_metadata.json"
+    if not metadata_path.is_file():
+        raise click.ClickException(f"{metadata_path} is missing: --racer-model takes a racer model folder")
+    metadata = parse_model_metadata(json.loads(metadata_path.read_text()), source=str(metadata_path))
+    if metadata.is_continuous:
+        raise click.ClickException(f"{racer_model}: the reverse check compares discrete action spaces")
+    checkpoints = CheckpointStore(LocalStore(racer_model.parent), racer_model.name)
+    result: dict = {"model": str(racer_model), "checkpoints": {}}
+    real_sides = {model.label: steering_sides(model.metadata, model.network, frames_grey) for model in real}
+    result["real_shares"] = {label: shares(sides) for label, sides in real_sides.items()}
+    for name in checkpoints.names():
+        sides = steering_sides(metadata, checkpoints.load_policy(name), frames_grey)
+        result["checkpoints"][name] = {
+            "shares": shares(sides),
+            "sign_agreement": {label: round(float(np.mean(sides == other)), 3) for label, other in real_sides.items()},
+        }
+    return result
+
+
+def proxies(track: Path, world: str, frames_rgb: np.ndarray) -> dict:
+    """The camera distance and the open-loop replay error, as `racer bench camera` / `fidelity` compute them."""
+    from racer.shared.sim.camera_bench import frame_stats, histogram_emd, render_lap
+    from racer.shared.sim.fidelity import run_fidelity
+
+    gazebo = frame_stats(np.stack([rgb_to_y(frame) for frame in frames_rgb]))
+    rendered, _ = render_lap(track, world, 40, full_resolution=False)
+    ours = frame_stats(np.stack([rgb_to_y(frame) for frame in rendered]))
+    simtraces = sorted((SHARED_DATA / "simtrace").rglob("*.csv"))
+    replay = run_fidelity(simtraces, track) if simtraces else {}
+    return {
+        "camera_histogram_emd": round(histogram_emd(ours.histogram, gazebo.histogram), 2),
+        "open_loop_replay": replay.get("bands", replay),
+    }
+
+
+@click.command(name="transfer")
+@click.option(
+    "--models",
+    "models_root",
+    type=click.Path(exists=True, file_okay=False, path_type=Path),
+    default=DEFAULT_MODELS,
+    show_default=True,
+    help="A folder of DeepRacer models (model_metadata.json beside model_<N>.pb or model.pb), searched recursively.",
+)
+@click.option("--track", type=click.Path(exists=True, dir_okay=False, path_type=Path), default=DEFAULT_TRACK)
+@click.option("--world", type=click.Choice(WORLD_NAMES), multiple=True, default=("base",), show_default=True)
+@click.option("--render", type=click.Choice(["default", "full"]), multiple=True, default=("default",))
+@click.option("--starts", type=click.IntRange(1, 100), default=10, show_default=True)
+@click.option(
+    "--racer-model",
+    type=click.Path(exists=True, file_okay=False, path_type=Path),
+    default=None,
+    help="A racer model folder (racer-data/MODEL): its steering shares and sign agreement on the Gazebo frames.",
+)
+@click.option("--proxies", "with_proxies", is_flag=True, help="Also print the camera distance and open-loop replay.")
+def transfer_bench_command(models_root, track, world, render, starts, racer_model, with_proxies) -> None:
+    """Real DeepRacer checkpoints drive racer, closed loop: laps and mean progress per checkpoint, one JSON line."""
+    torch.set_num_threads(1)
+    started = time.monotonic()
+    folders = model_folders(models_root)
+    if not folders:
+        raise click.ClickException(f"{models_root}: no DeepRacer model folder (model_metadata.json with .pb graphs)")
+    with tempfile.TemporaryDirectory(prefix="racer-transfer-") as store_root:
+        real = import_real_models(folders, Path(store_root))
+    result: dict = {"benchmark": "transfer", "cpu": cpu_description(), "track": str(track), "drives": []}
+    for model in real:
+        for world_name in world:
+            for render_mode in render:
+                config = EnvConfig(
+                    track=track,
+                    world=world_name,
+                    model_metadata=model.metadata,
+                    render_full_resolution=render_mode == "full",
+                )
+                figures = drive(model, config, starts)
+                print(
+                    f"transfer bench: {model.label} {world_name}/{render_mode}: {figures['laps']}/{starts} laps, "
+                    f"mean progress {figures['mean_progress']} %",
+                    file=sys.stderr,
+                    flush=True,
+                )
+                result["drives"].append({"model": model.label, "world": world_name, "render": render_mode, **figures})
+    frames_rgb = load_gazebo_frames(SHARED_DATA / GAZEBO_FRAMES)
+    if racer_model is not None:
+        frames_grey = np.stack([rgb_to_y(frame) for frame in frames_rgb])
+        result["reverse_check"] = reverse_check(racer_model, real, frames_grey)
+    if with_proxies:
+        result["proxies"] = proxies(track, world[0], frames_rgb)
+    result["wall_s"] = round(time.monotonic() - started, 1)
+    click.echo(json.dumps(result))

@@ -1,0 +1,50 @@
+"""`racer bench transfer` imports the real DeepRacer checkpoints through `racer model import`'s path and drives them
+in racer closed loop; `--racer-model` compares a racer model's steering with theirs on DeepRacer's Gazebo frames."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+import torch
+from click.testing import CliRunner
+
+from racer.shared.deepracer.model_metadata import parse_model_metadata
+from racer.shared.policy.checkpoints import CheckpointStore
+from racer.shared.policy.networks import build_actor_critic
+from racer.shared.store import LocalStore
+from racer.transfer_bench import transfer_bench_command
+from tests.shared_data import SHARED_DATA
+
+pytestmark = pytest.mark.slow
+
+SAMPLE = SHARED_DATA / "models" / "gazebo-sample-reinvent2018"
+
+
+def _racer_model(store_root):
+    """A fresh (untrained) racer model with the sample's 12 actions, in racer's local store layout."""
+    metadata = parse_model_metadata(json.loads((SAMPLE / "model_metadata.json").read_text()))
+    torch.manual_seed(0)
+    checkpoints = CheckpointStore(LocalStore(store_root), "fresh")
+    checkpoints.put_model_metadata(metadata)
+    checkpoints.save(0, 0, build_actor_critic(metadata), model_metadata=metadata)
+    return store_root / "fresh"
+
+
+def test_two_starts_of_each_real_checkpoint_and_the_reverse_check(tmp_path):
+    racer_model = _racer_model(tmp_path)
+    result = CliRunner().invoke(
+        transfer_bench_command, ["--starts", "2", "--racer-model", str(racer_model)], catch_exceptions=False
+    )
+    assert result.exit_code == 0, result.output
+    report = json.loads([line for line in result.stdout.splitlines() if line.startswith("{")][-1])
+    drives = {drive["model"]: drive for drive in report["drives"]}
+    assert sorted(drives) == ["gazebo-sample-reinvent2018/15_Step-0.ckpt", "gazebo-sample-reinvent2018/30_Step-0.ckpt"]
+    for drive in drives.values():
+        assert drive["starts"] == 2 and len(drive["progress_per_start"]) == 2
+        assert 0 < drive["mean_progress"] <= 100  # it drove somewhere before leaving the track or finishing
+        assert drive["laps"] == sum(p >= 100 for p in drive["progress_per_start"])
+    reverse = report["reverse_check"]["checkpoints"]["0_Step-0.ckpt"]
+    assert sum(reverse["shares"].values()) == pytest.approx(1.0, abs=0.002)
+    assert set(reverse["sign_agreement"]) == set(drives)
+    assert all(0.0 <= value <= 1.0 for value in reverse["sign_agreement"].values())
