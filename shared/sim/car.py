@@ -17,7 +17,7 @@ import numpy as np
 
 from racer.shared.sim._mujoco import mujoco
 from racer.shared.sim.car_dynamics import (  # noqa: F401  (re-exported: the fit and its tests read them here)
-    SIMTRACE_FIT_DYNAMICS,
+    GAZEBO_DYNAMICS,
     STEERING_TIME_CONSTANT_S,
     YAW_INERTIA_KGM2,
     CarDynamics,
@@ -144,7 +144,7 @@ def car_mjcf(
     friction: float,
     camera_names: tuple[tuple[str, float], ...],
     camera_pos_m: tuple[float, float, float] = CAMERA_POS_M,
-    dynamics: CarDynamics = SIMTRACE_FIT_DYNAMICS,
+    dynamics: CarDynamics = GAZEBO_DYNAMICS,
 ) -> str:
     """The car body (free joint at the origin) with wheels, steering hinges, cameras and the LIDAR site."""
     fovy = vertical_fov_deg()
@@ -191,7 +191,7 @@ def car_mjcf(
     </body>"""
 
 
-def car_actuators_mjcf(dynamics: CarDynamics = SIMTRACE_FIT_DYNAMICS) -> str:
+def car_actuators_mjcf(dynamics: CarDynamics = GAZEBO_DYNAMICS) -> str:
     wheels = "\n".join(
         f'    <velocity name="{name}_motor" joint="{name}_joint" kv="{WHEEL_VELOCITY_GAIN}" '
         f'forcelimited="true" forcerange="-{WHEEL_MAX_TORQUE_NM} {WHEEL_MAX_TORQUE_NM}"/>'
@@ -241,7 +241,7 @@ class Car:
         self.car_dofs = np.arange(model.body_dofadr[self.body_id], model.nv)
         """The car's dofs are the last ones of the model (its body is the last subtree)."""
         self.car_qpos = np.arange(self.qpos_adr, model.nq)
-        self.tyres = self._tyres(model, tyre_params or SIMTRACE_FIT_DYNAMICS.tyres)
+        self.tyres = self._tyres(model, tyre_params or GAZEBO_DYNAMICS.tyres)
 
     def _tyres(self, model: mujoco.MjModel, params: TyreParams | None) -> Tyres:
         return Tyres(

@@ -48,7 +48,7 @@ class SceneSpec:
     """DeepRacer's own world meshes and lights to draw instead of racer's look (`EnvConfig.simapp_dir`)."""
     object_slots: tuple[ObjectSlot, ...] = ()
     """One mocap body per obstacle or bot car (`object_bodies.py`), moved by `ObjectBodies.place` every step."""
-    car_dynamics: car_geometry.CarDynamics = car_geometry.SIMTRACE_FIT_DYNAMICS
+    car_dynamics: car_geometry.CarDynamics = car_geometry.GAZEBO_DYNAMICS
     """The car's yaw inertia and steering servo (compiled in); its tyres are `Car`'s (`EnvConfig.car_dynamics`)."""
 
 
