@@ -6,6 +6,7 @@ All four wheels get the same angular velocity `speed / 0.035` and both steering 
 (no Ackermann), as DeepRacer's `send_action`. Commands are clipped to 0.1–4 m/s and ±30° before being sent;
 the zero command of the `prepare` step is sent unclipped. The wheels touch the floor without friction; the
 horizontal tyre forces come from `tyres.py`, so the car is stepped with `Car.step`, not `mujoco.mj_step` alone.
+The dynamics constants (tyres, steering servo, yaw inertia) come as one `car_dynamics.CarDynamics`.
 """
 
 from __future__ import annotations
@@ -16,6 +17,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from racer.shared.sim._mujoco import mujoco
+from racer.shared.sim.car_dynamics import (  # noqa: F401  (re-exported: the fit and its tests read them here)
+    GAZEBO_DYNAMICS,
+    STEERING_TIME_CONSTANT_S,
+    YAW_INERTIA_KGM2,
+    CarDynamics,
+)
 from racer.shared.sim.tyres import TyreParams, Tyres
 
 WHEEL_RADIUS_M = 0.035
@@ -65,8 +72,6 @@ STEERING_KP = 20.0
 HINGE_DAMPING = 0.02
 HINGE_ARMATURE = 0.0005
 HINGE_RADIUS_M = 0.008
-STEERING_TIME_CONSTANT_S = 0.0166
-"""How fast the hinges follow a new angle, fitted with the tyre model on real simtraces (`racer bench fidelity`)."""
 _HINGE_AXIS_INERTIA_KGM2 = HINGE_ARMATURE + 0.4 * (
     WHEEL_MASS_KG * WHEEL_RADIUS_M**2 + HINGE_MASS_KG * HINGE_RADIUS_M**2
 )
@@ -76,14 +81,17 @@ updates halve its cost; 8 ms is well inside the fastest tyre mode (≈ 13 ms, sl
 and the fit's twin integrates at the same rate (8 steps per 67 ms row)."""
 URDF_CHASSIS_INERTIA_KGM2 = (0.010609, 0.050409, 0.05865)
 """The SimApp URDF's chassis inertia (ixx, iyy, izz)."""
-YAW_INERTIA_KGM2 = 0.475
-"""The whole car's inertia about the vertical, fitted with the tyre model on real simtraces: the real cars' yaw rate
-carries on between steps as if the car were ≈ 6× as hard to turn as the URDF's (0.078 kg·m² with the wheels)."""
 _WHEELS_YAW_INERTIA_KGM2 = (
     WHEEL_MASS_KG * (2 * (REAR_AXLE_X_M**2 + REAR_HALF_TRACK_M**2) + 2 * (FRONT_AXLE_X_M**2 + FRONT_HALF_TRACK_M**2))
     + 4 * 0.4 * WHEEL_MASS_KG * WHEEL_RADIUS_M**2
 )
 _HINGES_YAW_INERTIA_KGM2 = HINGE_MASS_KG * 2 * (FRONT_AXLE_X_M**2 + FRONT_HALF_TRACK_M**2)
+
+
+def urdf_yaw_inertia_kgm2() -> float:
+    """The whole car's inertia about the vertical from the URDF: chassis izz, wheels and hinges (`car_dynamics`'s
+    URDF_YAW_INERTIA_KGM2, tested)."""
+    return URDF_CHASSIS_INERTIA_KGM2[2] + _WHEELS_YAW_INERTIA_KGM2 + _HINGES_YAW_INERTIA_KGM2
 
 
 def steering_kv(time_constant_s: float) -> float:
@@ -138,6 +146,7 @@ def car_mjcf(
     friction: float,
     camera_names: tuple[tuple[str, float], ...],
     camera_pos_m: tuple[float, float, float] = CAMERA_POS_M,
+    dynamics: CarDynamics = GAZEBO_DYNAMICS,
 ) -> str:
     """The car body (free joint at the origin) with wheels, steering hinges, cameras and the LIDAR site."""
     fovy = vertical_fov_deg()
@@ -149,7 +158,7 @@ def car_mjcf(
         for name, y in camera_names
     )
     r = WHEEL_RADIUS_M
-    ixx, iyy, izz = chassis_inertia_kgm2(YAW_INERTIA_KGM2)
+    ixx, iyy, izz = chassis_inertia_kgm2(dynamics.yaw_inertia_kgm2)
     wheel_geom = (
         # condim 1 and priority over the floor: a frictionless contact that carries the weight (the friction value
         # is the tyre model's μ).
@@ -184,14 +193,14 @@ def car_mjcf(
     </body>"""
 
 
-def car_actuators_mjcf() -> str:
+def car_actuators_mjcf(dynamics: CarDynamics = GAZEBO_DYNAMICS) -> str:
     wheels = "\n".join(
         f'    <velocity name="{name}_motor" joint="{name}_joint" kv="{WHEEL_VELOCITY_GAIN}" '
         f'forcelimited="true" forcerange="-{WHEEL_MAX_TORQUE_NM} {WHEEL_MAX_TORQUE_NM}"/>'
         for name in WHEEL_NAMES
     )
     steering = "\n".join(
-        f'    <position name="{joint}_servo" joint="{joint}" kp="{STEERING_KP}" kv="{steering_kv(STEERING_TIME_CONSTANT_S):.6f}" '
+        f'    <position name="{joint}_servo" joint="{joint}" kp="{STEERING_KP}" kv="{steering_kv(dynamics.steering_time_constant_s):.6f}" '
         f'ctrllimited="true" ctrlrange="-{STEERING_LIMIT_RAD} {STEERING_LIMIT_RAD}"/>'
         for joint in STEERING_JOINTS
     )
@@ -222,6 +231,7 @@ class Car:
         command_wheel_radius: float = COMMAND_WHEEL_RADIUS_M,
         tyre_params: TyreParams | None = None,
     ) -> None:
+        """`tyre_params`: the tyres the model was built with (`CarDynamics.tyres`; None = the default car's)."""
         self.command_wheel_radius = command_wheel_radius
         self.body_id = model.body("car").id
         joint = model.joint("car_free")
@@ -233,7 +243,7 @@ class Car:
         self.car_dofs = np.arange(model.body_dofadr[self.body_id], model.nv)
         """The car's dofs are the last ones of the model (its body is the last subtree)."""
         self.car_qpos = np.arange(self.qpos_adr, model.nq)
-        self.tyres = self._tyres(model, tyre_params)
+        self.tyres = self._tyres(model, tyre_params or GAZEBO_DYNAMICS.tyres)
 
     def _tyres(self, model: mujoco.MjModel, params: TyreParams | None) -> Tyres:
         return Tyres(

@@ -6,6 +6,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from racer.shared.deepracer.model_metadata import ModelMetadata, parse_model_metadata
+from racer.shared.sim.car_dynamics import GAZEBO_DYNAMICS, CarDynamics
 from racer.shared.sim.race_config import RaceConfig
 from racer.shared.sim.worlds import WORLD_NAMES
 
@@ -92,6 +93,10 @@ class EnvConfig:
     render_full_resolution: bool = False
     """True = DeepRacer's path: render 640×480, bilinear-resize to the image size (PIL, as the SimApp).
     False (default) = render the image size directly, about 5-8x cheaper with software GL."""
+    car_dynamics: CarDynamics = GAZEBO_DYNAMICS
+    """The car's tyres, steering servo and yaw inertia. The default is what policies trained in DeepRacer's Gazebo
+    lap with (stiff equal-axle tyres at the commanded speed, the URDF's yaw inertia); `car_dynamics.SIMTRACE_FIT_DYNAMICS`
+    is the open-loop fit to real simtraces (shared/sim/README.md, "Closed loop")."""
     race: RaceConfig = RaceConfig()
     """RACE_TYPE and the obstacle / bot-car keys; the default is a time trial (nothing on the track)."""
 

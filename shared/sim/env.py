@@ -150,10 +150,11 @@ class DeepRacerEnv(gym.Env):
                 camera_mount_m(self._metadata.version),
                 load_simapp_world(cfg.simapp_dir, cfg.world) if cfg.simapp_dir is not None else None,
                 object_slots=object_slots(cfg.race),
+                car_dynamics=cfg.car_dynamics,
             )
         )
         self._data = mujoco.MjData(self._model)
-        self._car = Car(self._model, command_wheel_radius_m(self._metadata.version))
+        self._car = Car(self._model, command_wheel_radius_m(self._metadata.version), cfg.car_dynamics.tyres)
         self._camera = CameraRenderer(
             self._model,
             cfg.image_width_px,

@@ -29,6 +29,7 @@ import numpy as np
 from racer.shared.deepracer.simtrace import read_simtrace
 from racer.shared.sim._mujoco import mujoco
 from racer.shared.sim.car import STEERING_JOINTS, WHEEL_NAMES, WHEEL_RADIUS_M, Car, clip_command
+from racer.shared.sim.car_dynamics import CAR_DYNAMICS, SIMTRACE_FIT_DYNAMICS, CarDynamics
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
 from racer.shared.sim.fidelity_floor import heading_floor_deg
@@ -127,8 +128,10 @@ def load_segments(paths: Iterable[Path], horizon_s: float = max(HORIZONS_S)) -> 
 class CarReplay:
     """Racer's car (the base world: DeepRacer's tyre μ 0.5) driven by logged commands, outside the env's rules."""
 
-    def __init__(self, route: Path) -> None:
-        self.env = DeepRacerEnv(EnvConfig(track=route, world="base"))
+    def __init__(self, route: Path, dynamics: CarDynamics = SIMTRACE_FIT_DYNAMICS) -> None:
+        """`dynamics`: the car to replay; by default the simtrace fit (the constants this bench fits), not the env's
+        default car (`car_dynamics.GAZEBO_DYNAMICS`, chosen closed loop with real policies)."""
+        self.env = DeepRacerEnv(EnvConfig(track=route, world="base", car_dynamics=dynamics))
         self.model, self.data, self.car = self.env.model, self.env.data, self.env.car
         self.timestep_s = float(self.model.opt.timestep)
         self._wheel_dofs = [int(self.model.joint(f"{name}_joint").dofadr[0]) for name in WHEEL_NAMES]
@@ -268,8 +271,15 @@ def add_log_limits(bands: dict[str, dict], segments: Sequence[Segment], simtrace
     }
 
 
-def run_fidelity(simtraces: Sequence[Path], route: Path, progress: bool = False, fit_mode: str = "none") -> dict:
-    """The replay's error table. `fit_mode` "none" replays racer's car as it is; "all" first fits the dynamics
+def run_fidelity(
+    simtraces: Sequence[Path],
+    route: Path,
+    progress: bool = False,
+    fit_mode: str = "none",
+    car: str = "simtrace-fit",
+) -> dict:
+    """The replay's error table. `car` names the preset replayed (`car_dynamics.CAR_DYNAMICS`). `fit_mode` "none"
+    replays that car as it is; "all" first fits the dynamics
     constants on all segments (tyre_fit.py) and replays with them; "leave-one-file-out" replays each file with the
     constants fitted on the other files (errors on data the fit did not see)."""
     segments = load_segments(simtraces)
@@ -287,7 +297,7 @@ def run_fidelity(simtraces: Sequence[Path], route: Path, progress: bool = False,
             constants = leave_one_file_out(SegmentBatch.of(segments), progress=progress)
         except ValueError as exc:
             raise click.ClickException(str(exc)) from None
-    replay = CarReplay(route)
+    replay = CarReplay(route, CAR_DYNAMICS[car])
     errors = []
     try:
         tuned_for = None
@@ -312,6 +322,7 @@ def run_fidelity(simtraces: Sequence[Path], route: Path, progress: bool = False,
         "bands": bands,
         "goal_median_position_1s_le_0_05_m": goal_met,
         "fit": fit_mode,
+        "car": car,
         **noise,
         **({"constants": {source: c.as_dict() for source, c in sorted(constants.items())}} if constants else {}),
     }
@@ -347,7 +358,15 @@ def run_fidelity(simtraces: Sequence[Path], route: Path, progress: bool = False,
     help="Instead of the replay, vary how the logs are read (command delay, time base, start state) with the "
     "fit's twin and print the errors per variant (fidelity_hypotheses.py; seconds).",
 )
-def fidelity_bench_command(simtraces: Path, route: Path, fit_mode: str, hypotheses: bool) -> None:
+@click.option(
+    "--car",
+    type=click.Choice(sorted(CAR_DYNAMICS)),
+    default="simtrace-fit",
+    show_default=True,
+    help="The car to replay: the constants fitted on these logs, or the env's default (gazebo: what real "
+    'DeepRacer policies lap with; shared/sim/README.md, "Closed loop").',
+)
+def fidelity_bench_command(simtraces: Path, route: Path, fit_mode: str, hypotheses: bool, car: str) -> None:
     """Open-loop replay of real simtraces: median and p90 position/heading error after 1 s and 2 s per speed band."""
     paths = sorted(simtraces.glob("*.csv")) if simtraces.is_dir() else [simtraces]
     if hypotheses:
@@ -357,4 +376,4 @@ def fidelity_bench_command(simtraces: Path, route: Path, fit_mode: str, hypothes
         table = screen(segments, SPEED_BANDS_MPS, band_label)
         click.echo(json.dumps({"segments": len(segments), "files": len(paths), "hypotheses": table}))
         return
-    click.echo(json.dumps(run_fidelity(paths, route, progress=True, fit_mode=fit_mode)))
+    click.echo(json.dumps(run_fidelity(paths, route, progress=True, fit_mode=fit_mode, car=car)))

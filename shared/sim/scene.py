@@ -48,6 +48,8 @@ class SceneSpec:
     """DeepRacer's own world meshes and lights to draw instead of racer's look (`EnvConfig.simapp_dir`)."""
     object_slots: tuple[ObjectSlot, ...] = ()
     """One mocap body per obstacle or bot car (`object_bodies.py`), moved by `ObjectBodies.place` every step."""
+    car_dynamics: car_geometry.CarDynamics = car_geometry.GAZEBO_DYNAMICS
+    """The car's yaw inertia and steering servo (compiled in); its tyres are `Car`'s (`EnvConfig.car_dynamics`)."""
 
 
 def _floats(values: np.ndarray) -> str:
@@ -190,9 +192,9 @@ def scene_mjcf_and_assets(spec: SceneSpec) -> tuple[str, dict[str, bytes]]:
           {floor_look} friction="{mu} 0.005 0.0001" contype="1" conaffinity="2"/>
 {geoms_xml}
 {object_bodies_mjcf(spec.object_slots)}
-{car_geometry.car_mjcf(mu, spec.camera_names, spec.camera_pos_m)}
+{car_geometry.car_mjcf(mu, spec.camera_names, spec.camera_pos_m, spec.car_dynamics)}
   </worldbody>
-{car_geometry.car_actuators_mjcf()}
+{car_geometry.car_actuators_mjcf(spec.car_dynamics)}
 </mujoco>
 """
     return xml, files

@@ -38,7 +38,7 @@ def _sliding_sideways_force(world: str, steering_deg: float = 0.0) -> np.ndarray
 
 
 def test_lateral_force_saturates_at_grip_times_the_worlds_mu_times_the_axle_load():
-    params = TyreParams()
+    params = EnvConfig().car_dynamics.tyres
     weight_n = 6.5622 * GRAVITY_MPS2
     front_load, rear_load = weight_n * -REAR_AXLE_X_M / WHEELBASE_M, weight_n * (1 + REAR_AXLE_X_M / WHEELBASE_M)
     for world, mu in (("carpet", 0.65), ("wood", 0.42)):

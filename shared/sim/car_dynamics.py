@@ -1,0 +1,44 @@
+"""The car's dynamics constants as one value (`EnvConfig.car_dynamics`) and its two presets. MuJoCo-free, so the
+config can name them without importing the simulator.
+
+* `GAZEBO_DYNAMICS` (the default): what policies trained in DeepRacer's Gazebo lap with in racer's simulator, judged
+  closed loop with real policies (shared/sim/README.md, "Closed loop: what real DeepRacer policies respond to").
+* `SIMTRACE_FIT_DYNAMICS`: the constants fitted open loop on the real simtraces (`racer bench fidelity --fit`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from racer.shared.sim.tyres import GAZEBO_TYRES, TyreParams
+
+STEERING_TIME_CONSTANT_S = 0.0166
+"""How fast the hinges follow a new angle, fitted with the tyre model on real simtraces (`racer bench fidelity`);
+both presets use it (closed loop a slower servo loses laps: 0.066 s 7/10, 0.135 s 5/10 for model_30)."""
+YAW_INERTIA_KGM2 = 0.475
+"""The whole car's inertia about the vertical, fitted with the tyre model on real simtraces: the real cars' yaw rate
+carries on between steps as if the car were ≈ 6× as hard to turn as the URDF's (URDF_YAW_INERTIA_KGM2)."""
+URDF_YAW_INERTIA_KGM2 = 0.079886
+"""The whole car's inertia about the vertical from the SimApp URDF: chassis izz 0.05865 kg·m² plus the wheels and
+hinges at their positions (`car.urdf_yaw_inertia_kgm2()`, tested)."""
+
+
+@dataclass(frozen=True)
+class CarDynamics:
+    """The car's dynamics constants (one `EnvConfig.car_dynamics`): the tyre model, the steering servo's time
+    constant and the whole car's yaw inertia. Each can be changed on its own with `dataclasses.replace`."""
+
+    tyres: TyreParams
+    steering_time_constant_s: float
+    yaw_inertia_kgm2: float
+
+
+SIMTRACE_FIT_DYNAMICS = CarDynamics(TyreParams(), STEERING_TIME_CONSTANT_S, YAW_INERTIA_KGM2)
+"""The constants fitted on the real simtraces (console 2022 / DRfC runs, `racer bench fidelity --fit`): the open-loop
+replay's best car, but real DeepRacer policies do not lap with it (soft front axle, 6× the URDF's yaw inertia)."""
+GAZEBO_DYNAMICS = CarDynamics(GAZEBO_TYRES, STEERING_TIME_CONSTANT_S, URDF_YAW_INERTIA_KGM2)
+"""The env's default: stiff equal-axle tyres rolling at the commanded speed, the URDF's yaw inertia and the fast
+servo. Policies trained in DeepRacer's Gazebo drive racer's simulator with it (model_30 of the re:Invent 2018 sample
+10/10 laps, model_15 10/10; with the simtrace fit 0/10 and 0/10; shared/sim/README.md, "Closed loop")."""
+CAR_DYNAMICS: dict[str, CarDynamics] = {"gazebo": GAZEBO_DYNAMICS, "simtrace-fit": SIMTRACE_FIT_DYNAMICS}
+"""The presets by name (`racer bench fidelity --car`)."""
