@@ -1,4 +1,4 @@
-"""`racer model validate | import | export`.
+"""`racer model validate | import | export | explain`.
 
 Exit status: 0 when the model is fine / the copy succeeded, 1 when problems were printed (each with the
 DeepRacer console's code and a fix), 2 for usage errors.
@@ -21,6 +21,7 @@ from racer.model_io.deepracer_import import (
     import_frozen_graphs,
     tensorflow_only_checkpoints,
 )
+from racer.model_io.explain import explain_command
 from racer.model_io.problems import ValidationProblem, ValidationReport
 from racer.model_io.sources import split_s3_location
 from racer.model_io.tensorflow.errors import UnsupportedGraphError
@@ -305,3 +306,6 @@ def _finish(result: TransferResult, success: str) -> None:
         _print_problems(result.check.problems)
         sys.exit(1)
     click.echo(f"{success}: {len(result.written)} files")
+
+
+model_group.add_command(explain_command)
