@@ -9,7 +9,7 @@ Protocol (see racer.shared.transport.channels for the keys):
    updates deepracer_checkpoints.json (best by BEST_MODEL_METRIC).
 3. Wait (blocking read, no polling) for the next announcement: a new iteration, a `replay` notice (episodes went
    back to the queue: a worker died holding them; claim them), or `finished`.
-The worker steps `envs` envs of its world at once (racer.shared.batched_rollout). A heartbeat thread keeps
+The worker steps `envs` envs of its world at once (racer.rollout_worker.batched_rollout). A heartbeat thread keeps
 `heartbeat:<id>` alive so the trainer can tell a dead worker from a slow one.
 """
 
@@ -28,13 +28,13 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from racer.rollout_worker.batched_rollout import BatchedRollout, EpisodeTicket
+from racer.rollout_worker.episode_runner import EpisodeRecorder, play_episode
 from racer.rollout_worker.run_files import RunFiles, load_run_files
 from racer.rollout_worker.training_log import WorkerLog
-from racer.shared.batched_rollout import BatchedRollout, EpisodeTicket
 from racer.shared.config import ServiceSettings
 from racer.shared.deepracer.hyperparameters import Hyperparameters
 from racer.shared.deepracer.model_metadata import ModelMetadata
-from racer.shared.episode_runner import EpisodeRecorder, play_episode
 from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.policy.networks import E_GREEDY_EVALUATION_EPSILON, e_greedy_epsilon
 from racer.shared.redis_connection import RedisLink, RedisUnavailableError

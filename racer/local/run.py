@@ -20,11 +20,12 @@ from pathlib import Path
 
 import click
 
+from racer.local.services import PROJECT_ROOT, MinioServer, RedisServer, _die_with_parent
+from racer.local.supervisor import RunSupervisor, stop_children
+from racer.rollout_worker.batched_rollout import DEFAULT_ENVS_PER_WORKER, default_workers
 from racer.shared import model_layout
-from racer.shared.batched_rollout import DEFAULT_ENVS_PER_WORKER, default_workers
 from racer.shared.config import LocalStoreSettings, RedisSettings, S3Settings, ServiceSettings, settings_from_env
 from racer.shared.redis_connection import RedisLink, RedisUnavailableError
-from racer.shared.services import PROJECT_ROOT, MinioServer, RedisServer, _die_with_parent
 from racer.shared.sim.config import DEFAULT_TRACK
 from racer.shared.sim.gl import ensure_gl_backend
 from racer.shared.sim.race_cli import race_option_args, race_options, race_params_from_options
@@ -32,7 +33,6 @@ from racer.shared.sim.track_option import direction_option
 from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
 from racer.shared.store import S3Store, open_store
 from racer.shared.transport.channels import RunChannel
-from racer.supervisor import RunSupervisor, stop_children
 from racer.trainer.precision import DEFAULT_PRECISION, PRECISION_NAMES
 
 
@@ -203,7 +203,7 @@ class LocalRun:
 
     def stop_processes(self, interrupted: bool = False) -> None:
         """Interrupted: SIGTERM to all (the trainer writes its final checkpoint and .finished), killed after
-        racer.supervisor's budget whatever Redis does; else the trainer has ended the run and the workers follow."""
+        racer.local.supervisor's budget whatever Redis does; else the trainer has ended the run and the workers follow."""
         stop_children(self.children, trainer="trainer", at_once=interrupted, never_ending=(VIEWER,))
 
     def stop(self, interrupted: bool = True) -> None:
