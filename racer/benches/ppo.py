@@ -34,6 +34,7 @@ import torch
 from torch import nn
 
 from racer.benches.precision_agreement import update_agreement
+from racer.benches.workdir import cpu_description, native_bf16_available
 from racer.shared.deepracer.hyperparameters import Hyperparameters
 from racer.shared.deepracer.model_metadata import parse_model_metadata
 from racer.shared.episode import Episode
@@ -51,7 +52,7 @@ from racer.trainer.ppo import (
     minibatch_size_for,
     shuffled_minibatches,
 )
-from racer.trainer.precision import Precision, cpu_description, native_bf16_available
+from racer.trainer.precision import Precision
 
 __all__ = ["bench_network", "plain_ppo_update", "ppo_bench_command", "synthetic_episodes"]
 

@@ -26,8 +26,8 @@ import time
 
 import click
 
-from racer.benches.workdir import bench_workdir
-from racer.local.run import LocalRunPlan, read_iteration_records, run_local_training, service_environment
+from racer.benches.workdir import bench_workdir, read_iteration_records
+from racer.local.run import LocalRunPlan, run_local_training, service_environment
 from racer.local.services import PROJECT_ROOT
 from racer.rollout_worker.batched_rollout import DEFAULT_ENVS_PER_WORKER, default_workers
 from racer.shared.config import LocalStoreSettings, RedisSettings, ServiceSettings

@@ -7,7 +7,6 @@ Every child dies with this process (PR_SET_PDEATHSIG), so nothing is left behind
 
 from __future__ import annotations
 
-import json
 import os
 import signal
 import subprocess
@@ -23,7 +22,6 @@ import click
 from racer.local.services import PROJECT_ROOT, MinioServer, RedisServer, _die_with_parent
 from racer.local.supervisor import RunSupervisor, stop_children
 from racer.rollout_worker.batched_rollout import DEFAULT_ENVS_PER_WORKER, default_workers
-from racer.shared import model_layout
 from racer.shared.config import LocalStoreSettings, RedisSettings, S3Settings, ServiceSettings, settings_from_env
 from racer.shared.redis_connection import RedisLink, RedisUnavailableError
 from racer.shared.sim.config import DEFAULT_TRACK
@@ -472,11 +470,3 @@ def train_command(
         trainer_options=("--precision", precision),
     )
     sys.exit(run_local_training(plan, base_settings))
-
-
-def read_iteration_records(store_root: Path, plan: LocalRunPlan) -> list[dict]:
-    """Iteration summaries the trainer also writes to the store (Redis is gone once the run stops)."""
-    path = store_root / plan.model_prefix / model_layout.ITERATIONS_LOG
-    if not path.is_file():
-        return []
-    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
