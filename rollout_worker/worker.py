@@ -69,6 +69,21 @@ class _WorkerState:
     extra: dict = field(default_factory=dict)
 
 
+def claim_next_episode(
+    channel: RunChannel, iteration: int, worker_id: int, num_workers: int, own_in_flight: set[int]
+) -> int | None:
+    """The worker's claim rule: the next episode of its own DeepRacer share (added to `own_in_flight`, the own
+    episodes it is playing); once its own share is all claimed and played, an unclaimed episode of a slower worker's
+    share (racer.shared.transport.channels.RunChannel.claim_other). None when there is nothing to claim now."""
+    number = channel.claim_own(iteration, worker_id)
+    if number is not None:
+        own_in_flight.add(number)
+    elif not own_in_flight:  # its own share is played: help with what is left
+        live = channel.live_workers()
+        number = channel.claim_other(iteration, worker_id, num_workers, live)
+    return number
+
+
 def uses_e_greedy(hyperparameters: Hyperparameters, metadata: ModelMetadata) -> bool:
     """RL Coach's e-greedy applies to discrete action spaces only (continuous ones keep Gaussian sampling)."""
     return hyperparameters.exploration_type.lower().strip() == "e-greedy" and not metadata.continuous_action_space
@@ -326,12 +341,7 @@ class RolloutWorker:
         def next_episode(_env_index: int) -> EpisodeTicket | None:
             if self._stop.is_set():
                 return None
-            number = self.channel.claim_own(iteration, self.worker_id)
-            if number is not None:
-                own_in_flight.add(number)
-            elif not own_in_flight:  # its own share is played: help with what is left
-                live = self.channel.live_workers()
-                number = self.channel.claim_other(iteration, self.worker_id, num_workers, live)
+            number = claim_next_episode(self.channel, iteration, self.worker_id, num_workers, own_in_flight)
             if number is None:
                 return None
             if played["episodes"] == 0 and self.state.status != "playing":
