@@ -1,8 +1,8 @@
 """racer: a local, open DeepRacer-compatible training system (MuJoCo + PyTorch PPO + Redis + S3).
 
-This folder is the `racer` package itself: the command line (`cli`, `local_run`) and the user's tools around
-training (`analysis`, `model_io`, `bench`). The other top-level folders install beneath it (setup.py's PACKAGE_DIRS):
-shared/ is `racer.shared`, trainer/ `racer.trainer`, rollout_worker/ `racer.rollout_worker`,
+This folder is the `racer` package itself: the command line (`cli`, `local`: the local launcher) and the user's
+tools around training (`analysis`, `model_io`, `viewer`, `benches`). The other top-level folders install beneath it
+(setup.py's PACKAGE_DIRS): shared/ is `racer.shared`, trainer/ `racer.trainer`, rollout_worker/ `racer.rollout_worker`,
 evaluation_worker/ `racer.evaluation_worker`, tracks/ `racer.tracks`.
 """
 

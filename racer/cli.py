@@ -9,7 +9,7 @@ from racer.lazy_group import LazyGroup
 # name -> (module:attribute of a click command, one-line help). Each module owns its command.
 COMMANDS: dict[str, tuple[str, str]] = {
     "train": (
-        "racer.local_run:train_command",
+        "racer.local.run:train_command",
         "Train a model: Redis, store, trainer and N rollout workers as local processes.",
     ),
     "trainer": ("racer.trainer.main:trainer_command", "Run the PPO trainer process alone (one per training run)."),
@@ -24,7 +24,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     ),
     "analyze": ("racer.analysis.cli:analyze_command", "Analyse simtrace logs into tables, plots and an HTML report."),
     "model": ("racer.model_io.cli:model_group", "Validate, import and export models in DeepRacer's layout."),
-    "bench": ("racer.bench:bench_group", "Benchmarks that print one JSON line (sim, ppo, time-to-lap, viewer)."),
+    "bench": ("racer.benches:bench_group", "Benchmarks that print one JSON line (sim, ppo, time-to-lap, viewer)."),
     "track": ("racer.shared.sim.track_cli:track_group", "List, inspect and plot tracks."),
     "reward": ("racer.shared.sim.reward_cli:reward_group", "Test a reward function over a whole track."),
     "view": (

@@ -7,7 +7,7 @@ import signal
 
 import click
 
-from racer.shared.batched_rollout import DEFAULT_ENVS_PER_WORKER
+from racer.rollout_worker.batched_rollout import DEFAULT_ENVS_PER_WORKER
 from racer.shared.config import settings_from_env
 from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
 from racer.shared.user_errors import user_error_types

@@ -9,7 +9,7 @@ Protocol (see racer.shared.transport.channels for the keys):
    updates deepracer_checkpoints.json (best by BEST_MODEL_METRIC).
 3. Wait (blocking read, no polling) for the next announcement: a new iteration, a `replay` notice (episodes went
    back to the queue: a worker died holding them; claim them), or `finished`.
-The worker steps `envs` envs of its world at once (racer.shared.batched_rollout). A heartbeat thread keeps
+The worker steps `envs` envs of its world at once (racer.rollout_worker.batched_rollout). A heartbeat thread keeps
 `heartbeat:<id>` alive so the trainer can tell a dead worker from a slow one.
 """
 
@@ -28,13 +28,13 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from racer.rollout_worker.batched_rollout import BatchedRollout, EpisodeTicket
+from racer.rollout_worker.episode_runner import EpisodeRecorder, play_episode
 from racer.rollout_worker.run_files import RunFiles, load_run_files
 from racer.rollout_worker.training_log import WorkerLog
-from racer.shared.batched_rollout import BatchedRollout, EpisodeTicket
 from racer.shared.config import ServiceSettings
 from racer.shared.deepracer.hyperparameters import Hyperparameters
 from racer.shared.deepracer.model_metadata import ModelMetadata
-from racer.shared.episode_runner import EpisodeRecorder, play_episode
 from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.policy.networks import E_GREEDY_EVALUATION_EPSILON, e_greedy_epsilon
 from racer.shared.redis_connection import RedisLink, RedisUnavailableError
@@ -67,6 +67,21 @@ class _WorkerState:
     episodes_played: int = 0
     steps_per_s: float = 0.0
     extra: dict = field(default_factory=dict)
+
+
+def claim_next_episode(
+    channel: RunChannel, iteration: int, worker_id: int, num_workers: int, own_in_flight: set[int]
+) -> int | None:
+    """The worker's claim rule: the next episode of its own DeepRacer share (added to `own_in_flight`, the own
+    episodes it is playing); once its own share is all claimed and played, an unclaimed episode of a slower worker's
+    share (racer.shared.transport.channels.RunChannel.claim_other). None when there is nothing to claim now."""
+    number = channel.claim_own(iteration, worker_id)
+    if number is not None:
+        own_in_flight.add(number)
+    elif not own_in_flight:  # its own share is played: help with what is left
+        live = channel.live_workers()
+        number = channel.claim_other(iteration, worker_id, num_workers, live)
+    return number
 
 
 def uses_e_greedy(hyperparameters: Hyperparameters, metadata: ModelMetadata) -> bool:
@@ -326,12 +341,7 @@ class RolloutWorker:
         def next_episode(_env_index: int) -> EpisodeTicket | None:
             if self._stop.is_set():
                 return None
-            number = self.channel.claim_own(iteration, self.worker_id)
-            if number is not None:
-                own_in_flight.add(number)
-            elif not own_in_flight:  # its own share is played: help with what is left
-                live = self.channel.live_workers()
-                number = self.channel.claim_other(iteration, self.worker_id, num_workers, live)
+            number = claim_next_episode(self.channel, iteration, self.worker_id, num_workers, own_in_flight)
             if number is None:
                 return None
             if played["episodes"] == 0 and self.state.status != "playing":

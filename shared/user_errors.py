@@ -17,7 +17,6 @@ def user_error_types() -> tuple[type[Exception], ...]:
     from racer.shared.sim.reward import RewardFunctionError
     from racer.shared.sim.track import TrackError
     from racer.shared.store import StoreError
-    from racer.trainer.preflight import UnsupportedConfigurationError
 
     return (
         HyperparametersError,
@@ -41,3 +40,8 @@ class CloneError(ValueError):
 
 class RunConfigError(ValueError):
     """A run setting (workers.json, training_params.yaml) that cannot work."""
+
+
+class UnsupportedConfigurationError(ValueError):
+    """A configuration DeepRacer refuses, or one racer cannot train yet: names the file, the field, why and the fix.
+    (The trainer's preflight, racer.trainer.preflight, raises it.)"""

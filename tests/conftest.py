@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from racer.local.services import MinioServer, RedisServer
 from racer.shared.config import RedisSettings, S3Settings
-from racer.shared.services import MinioServer, RedisServer
 from racer.shared.store import S3Store
 from tests.shared_data import SHARED_DATA
 

@@ -13,14 +13,29 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable, Sequence
+from typing import TYPE_CHECKING, TypeVar
 
+import numpy as np
 import torch
 from torch import nn
 
+if TYPE_CHECKING:
+    from racer.shared.episode import Episode
+
 log = logging.getLogger(__name__)
 
-__all__ = ["LastGoodState", "NonFiniteError", "check_finite", "first_non_finite_parameter", "gradient_norm"]
+__all__ = [
+    "LastGoodState",
+    "NanGuard",
+    "NonFiniteError",
+    "check_finite",
+    "finite_episodes",
+    "first_non_finite_parameter",
+    "gradient_norm",
+]
+
+T = TypeVar("T")
 
 
 class NonFiniteError(ArithmeticError):
@@ -106,3 +121,62 @@ def roll_back(last_good: LastGoodState, learning_rate: float, reason: str) -> fl
         learning_rate / 2,
     )
     return learning_rate / 2
+
+
+def finite_episodes(episodes: Sequence[Episode]) -> list[Episode]:
+    """Drop (and log) episodes carrying NaN/inf in rewards, float observations or actions: they would poison GAE."""
+    kept = []
+    for episode in episodes:
+        arrays = [episode.rewards, episode.actions, *episode.observations.values()]
+        bad = [a for a in arrays if np.issubdtype(a.dtype, np.floating) and not np.all(np.isfinite(a))]
+        if bad:
+            log.warning(
+                "NaN guard: dropped episode %d of worker %d (world %s): it contains NaN or infinite values",
+                episode.episode_index,
+                episode.worker_id,
+                episode.world,
+            )
+            continue
+        kept.append(episode)
+    return kept
+
+
+class NanGuard:
+    """The rollback-and-halve retry of one learner's updates: up to `max_retries` retries, then the data is skipped."""
+
+    def __init__(self, network: nn.Module, optimizer: torch.optim.Optimizer, max_retries: int):
+        self.network = network
+        self.optimizer = optimizer
+        self.max_retries = max_retries
+        self.last_good = LastGoodState(network, optimizer)
+        self.rollbacks = 0
+        """How many times an update was rolled back because of a non-finite number (for logs and tests)."""
+
+    @property
+    def learning_rate(self) -> float:
+        return float(self.optimizer.param_groups[0]["lr"])
+
+    def run(self, train: Callable[[], T], skipped: str) -> T | None:
+        """`train()` from the last good state until it returns without a non-finite number; None (after logging that
+        `skipped`, e.g. "80 transitions", was skipped) when every attempt failed."""
+        if first_non_finite_parameter(self.network) is not None:  # changed behind our back: start from the last good
+            self._roll_back("weights were not finite at the start of the update")
+        self.last_good.capture()
+        for attempt in range(1, self.max_retries + 2):
+            try:
+                return train()
+            except NonFiniteError as error:
+                self._roll_back(f"{error.what} (attempt {attempt} of {self.max_retries + 1})")
+        log.warning(
+            "NaN guard: skipped this iteration's %s; training continues from the last good "
+            "weights with learning rate %g",
+            skipped,
+            self.learning_rate,
+        )
+        return None
+
+    def _roll_back(self, reason: str) -> None:
+        halved = roll_back(self.last_good, self.learning_rate, reason)
+        for group in self.optimizer.param_groups:
+            group["lr"] = halved
+        self.rollbacks += 1

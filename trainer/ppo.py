@@ -5,10 +5,10 @@ Public API
 ----------
     trainer = PPOTrainer(network, hyperparameters)          # one Adam over both towers
     stats = trainer.update(episodes)                        # list[EpochStats], one per epoch
-    for s in stats: print(format_policy_training_line(s))   # DeepRacer's "Policy training> ..." line
+    for line in trainer.training_lines(stats): print(line)  # DeepRacer's "Policy training> ..." lines
     trainer.learning_rate, trainer.optimizer                # for checkpoints and logs
 
-`format_training_episode_line(...)` prints DeepRacer's per-episode "Training> Name=main_level/agent, ..." line.
+`racer.trainer.log_lines` formats DeepRacer's per-episode "Training> Name=main_level/agent, ..." line.
 
 One update, as DeepRacer's `ClippedPPOAgent.train()` does it:
 
@@ -43,7 +43,6 @@ retries the update (up to `PPOSettings.max_nan_retries` times, then the iteratio
 
 from __future__ import annotations
 
-import logging
 import math
 import os
 from collections.abc import Callable, Mapping, Sequence
@@ -58,13 +57,15 @@ from racer.shared.deepracer.hyperparameters import Hyperparameters
 from racer.shared.episode import Episode
 from racer.shared.policy.networks import ActionDistribution, ActorCritic, CategoricalPolicy, GaussianPolicy
 from racer.trainer.gae import GAE_LAMBDA, compute_gae, episode_ends_from_lengths
+from racer.trainer.learner import ADAM_BETAS, ADAM_EPSILON, UpdateAbandoned, adam, seed_or_fresh
+from racer.trainer.log_lines import format_policy_training_line
 from racer.trainer.nan_guard import (
-    LastGoodState,
+    NanGuard,
     NonFiniteError,
     check_finite,
+    finite_episodes,
     first_non_finite_parameter,
     gradient_norm,
-    roll_back,
 )
 from racer.trainer.precision import DEFAULT_PRECISION, Precision
 
@@ -74,24 +75,14 @@ __all__ = [
     "PPOSettings",
     "PPOTrainer",
     "TrainingBatch",
-    "format_policy_training_line",
-    "format_training_episode_line",
     "make_training_batch",
     "minibatch_size_for",
     "shuffled_minibatches",
 ]
 
-log = logging.getLogger(__name__)
-
 CLIP_EPSILON = 0.2
-ADAM_EPSILON = 1e-5
-ADAM_BETAS = (0.9, 0.999)
 ADVANTAGE_STD_EPSILON = 1e-8
 HUBER_DELTA = 1.0
-
-
-class UpdateAbandoned(Exception):
-    """`update(abandon=...)` said stop: the network holds a partial update and must not be saved."""
 
 
 @dataclass(frozen=True)
@@ -191,24 +182,6 @@ def shuffled_minibatches(transitions: int, minibatch_size: int, generator: torch
     return [permutation[i * minibatch_size : (i + 1) * minibatch_size] for i in range(count)]
 
 
-def _finite_episodes(episodes: Sequence[Episode]) -> list[Episode]:
-    """Drop (and log) episodes carrying NaN/inf in rewards, float observations or actions: they would poison GAE."""
-    kept = []
-    for episode in episodes:
-        arrays = [episode.rewards, episode.actions, *episode.observations.values()]
-        bad = [a for a in arrays if np.issubdtype(a.dtype, np.floating) and not np.all(np.isfinite(a))]
-        if bad:
-            log.warning(
-                "NaN guard: dropped episode %d of worker %d (world %s): it contains NaN or infinite values",
-                episode.episode_index,
-                episode.worker_id,
-                episode.world,
-            )
-            continue
-        kept.append(episode)
-    return kept
-
-
 def _slice_distribution(distribution: ActionDistribution, indices: torch.Tensor) -> ActionDistribution:
     if isinstance(distribution, CategoricalPolicy):
         return CategoricalPolicy(distribution.probs[indices])
@@ -232,20 +205,16 @@ class PPOTrainer:
         self.network = network
         self.hyperparameters = hyperparameters
         self.settings = settings
-        self.optimizer = torch.optim.Adam(
-            network.parameters(),
-            lr=hyperparameters.lr,
-            betas=settings.adam_betas,
-            eps=settings.adam_epsilon,
-            fused=True,
-        )
-        seed = settings.seed if settings.seed is not None else int(np.random.SeedSequence().generate_state(1)[0])
-        self.generator = torch.Generator().manual_seed(seed)
-        self.last_good = LastGoodState(network, self.optimizer)
+        self.optimizer = adam(network.parameters(), hyperparameters.lr, settings.adam_betas, settings.adam_epsilon)
+        self.generator = torch.Generator().manual_seed(seed_or_fresh(settings.seed))
+        self.nan_guard = NanGuard(network, self.optimizer, settings.max_nan_retries)
         self.tower_dtype: torch.dtype | None = Precision(settings.precision).tower_dtype
         """Autocast dtype of the towers during updates (None: fp32)."""
-        self.nan_rollbacks = 0
+
+    @property
+    def nan_rollbacks(self) -> int:
         """How many times an update was rolled back because of a non-finite number (for logs and tests)."""
+        return self.nan_guard.rollbacks
 
     @property
     def learning_rate(self) -> float:
@@ -263,29 +232,20 @@ class PPOTrainer:
 
         `abandon()` is asked before every minibatch; True raises `UpdateAbandoned` (a stopping trainer that cannot
         wait for a long update)."""
-        episodes = _finite_episodes(episodes)
+        episodes = finite_episodes(episodes)
         if not episodes:
             return []
         batch = make_training_batch(episodes, self.network.input_names)
-        if first_non_finite_parameter(self.network) is not None:  # changed behind our back: start from the last good
-            self._roll_back("weights were not finite at the start of the update")
-        self.last_good.capture()
-        for attempt in range(1, self.settings.max_nan_retries + 2):
-            try:
-                return self._train(batch, abandon)
-            except NonFiniteError as error:
-                self._roll_back(f"{error.what} (attempt {attempt} of {self.settings.max_nan_retries + 1})")
-        log.warning(
-            "NaN guard: skipped this iteration's %d transitions; training continues from the last good "
-            "weights with learning rate %g",
-            batch.size,
-            self.learning_rate,
-        )
-        return []
+        stats = self.nan_guard.run(lambda: self._train(batch, abandon), skipped=f"{batch.size} transitions")
+        return stats if stats is not None else []
 
-    def _roll_back(self, reason: str) -> None:
-        self.learning_rate = roll_back(self.last_good, self.learning_rate, reason)
-        self.nan_rollbacks += 1
+    def training_lines(self, stats: Sequence[EpochStats]) -> list[str]:
+        """DeepRacer's `Policy training>` line, one per epoch."""
+        return [format_policy_training_line(epoch) for epoch in stats]
+
+    def take_late_batch(self, batch, iteration: int) -> bool:
+        """Clipped PPO is strictly on-policy: a batch of an older policy is never kept."""
+        return False
 
     # -- the algorithm -----------------------------------------------------------------------------------------------
 
@@ -410,32 +370,3 @@ class PPOTrainer:
                 )
             )
         return stats
-
-
-# --------------------------------------------------------------------------------------------------------------------
-# DeepRacer's log lines (existing regex-based tools parse them)
-
-
-def format_policy_training_line(stats: EpochStats) -> str:
-    """`Policy training> Surrogate loss=-0.0109..., KL divergence=0.0099..., Entropy=2.628..., training epoch=0,
-    learning_rate=0.0003` (console 2022 trainer log)."""
-    return (
-        f"Policy training> Surrogate loss={float(stats.surrogate_loss)}, KL divergence={float(stats.kl_divergence)}, "
-        f"Entropy={float(stats.entropy)}, training epoch={stats.epoch}, learning_rate={float(stats.learning_rate)}"
-    )
-
-
-def format_training_episode_line(
-    worker: int, episode: int, total_reward: float, steps: int, training_iteration: int
-) -> str:
-    """`Training> Name=main_level/agent, Worker=0, Episode=20, Total reward=0, Steps=519, Training iteration=0`.
-
-    `episode` and `steps` are the trainer's running totals (episodes received, transitions consumed); the reward is
-    rounded to 2 decimals as RL Coach does, and printed without a fraction when it is whole ("0", "12", "3.25").
-    """
-    reward = round(float(total_reward), 2)
-    reward_text = str(int(reward)) if reward.is_integer() else str(reward)
-    return (
-        f"Training> Name=main_level/agent, Worker={worker}, Episode={episode}, Total reward={reward_text}, "
-        f"Steps={steps}, Training iteration={training_iteration}"
-    )

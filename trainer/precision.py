@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:  # the launchers read the names without loading torch
     import torch
 
-__all__ = ["DEFAULT_PRECISION", "PRECISION_NAMES", "Precision", "cpu_description", "native_bf16_available"]
+__all__ = ["DEFAULT_PRECISION", "PRECISION_NAMES", "Precision"]
 
 
 class Precision(StrEnum):
@@ -33,31 +33,3 @@ class Precision(StrEnum):
 
 DEFAULT_PRECISION = Precision.FP32
 PRECISION_NAMES = tuple(p.value for p in Precision)
-
-
-def native_bf16_available() -> bool:
-    """True when this CPU has bf16 arithmetic (AVX512-BF16 or AMX tiles): bf16 is then fast; elsewhere oneDNN
-    emulates it with the same rounding, many times slower. Informative only: no default depends on it."""
-    import torch
-
-    checks = [getattr(torch.cpu, name, None) for name in ("_is_avx512_bf16_supported", "_is_amx_tile_supported")]
-    return any(check() for check in checks if check is not None)
-
-
-def cpu_description() -> str:
-    """The CPU a figure came from, e.g. 'Intel(R) Xeon(R) Processor, 2 cores, avx512_bf16 amx_bf16' (Linux only)."""
-    import os
-
-    model, flags = "unknown CPU", set()
-    try:
-        with open("/proc/cpuinfo", encoding="utf-8") as cpuinfo:
-            for line in cpuinfo:
-                key, _, value = line.partition(":")
-                if key.strip() == "model name":
-                    model = value.strip()
-                elif key.strip() == "flags":
-                    flags = set(value.split())
-    except OSError:
-        pass
-    wide = [flag for flag in ("avx2", "avx512f", "avx512_bf16", "amx_bf16") if flag in flags]
-    return f"{model}, {len(os.sched_getaffinity(0))} cores, {' '.join(wide) or 'no AVX2'}"

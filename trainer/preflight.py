@@ -30,7 +30,7 @@ from racer.shared.sim.race_config import param_text
 from racer.shared.sim.reward import load_reward_function
 from racer.shared.sim.track import Track, TrackError
 from racer.shared.store import ObjectNotFoundError, ObjectStore
-from racer.shared.user_errors import CloneError, RunConfigError
+from racer.shared.user_errors import CloneError, RunConfigError, UnsupportedConfigurationError
 from racer.shared.worker_settings import WorkerSettings, default_worker_settings
 
 __all__ = [
@@ -46,10 +46,6 @@ PPO_EXPLORATION_TYPES = ("categorical", "e-greedy")
 """What DeepRacer's clipped-PPO agent accepts; anything else ends its job with 'Unknown exploration_type'."""
 SAC_IGNORED_KEYS = ("beta_entropy", "num_epochs", "exploration_type", "e_greedy_value", "epsilon_steps")
 """Keys DeepRacer's SAC agent does not read (users' SAC files still carry some of them)."""
-
-
-class UnsupportedConfigurationError(ValueError):
-    """A configuration DeepRacer refuses, or one racer cannot train yet: names the file, the field, why and the fix."""
 
 
 def _refuse(source: str, field: str, problem: str, fix: str) -> UnsupportedConfigurationError:

@@ -4,7 +4,7 @@ Public API
 ----------
     trainer = SACTrainer(networks, hyperparameters, SACSettings())   # one Adam over policy, Q and V
     stats = trainer.update(episodes)            # list[SACStats] (one entry, [] when nothing was trained)
-    print(format_sac_training_line(stats[0]))
+    for line in trainer.training_lines(stats): print(line)
     trainer.optimizer, trainer.learning_rate, trainer.replay
 
 One iteration, as DeepRacer's trainer runs it:
@@ -47,25 +47,21 @@ from torch import nn
 from racer.shared.deepracer.hyperparameters import Hyperparameters
 from racer.shared.episode import Episode
 from racer.shared.policy.sac_networks import QAtStoredActions, SACNetworks
+from racer.trainer.learner import UpdateAbandoned, adam, seed_or_fresh
+from racer.trainer.log_lines import format_sac_training_line
 from racer.trainer.nan_guard import (
-    LastGoodState,
+    NanGuard,
     NonFiniteError,
     check_finite,
+    finite_episodes,
     first_non_finite_parameter,
     gradient_norm,
-    roll_back,
 )
-from racer.trainer.ppo import (
-    ADAM_BETAS,
-    ADAM_EPSILON,
-    HUBER_DELTA,
-    UpdateAbandoned,
-    _finite_episodes,
-)
+from racer.trainer.ppo import HUBER_DELTA
 from racer.trainer.precision import DEFAULT_PRECISION, Precision
 from racer.trainer.replay import ReplayBatch, ReplayBuffer
 
-__all__ = ["SACSettings", "SACStats", "SACTrainer", "format_sac_training_line", "sac_minibatch_size"]
+__all__ = ["SACSettings", "SACStats", "SACTrainer", "sac_minibatch_size"]
 
 log = logging.getLogger(__name__)
 
@@ -113,16 +109,22 @@ class SACTrainer:
         self.hyperparameters = hyperparameters
         settings = settings or SACSettings()
         self.settings = settings
-        self.optimizer = torch.optim.Adam(
-            networks.trainable_parameters(), lr=hyperparameters.lr, betas=ADAM_BETAS, eps=ADAM_EPSILON, fused=True
-        )
-        seed = settings.seed if settings.seed is not None else int(np.random.SeedSequence().generate_state(1)[0])
+        self.optimizer = adam(networks.trainable_parameters(), hyperparameters.lr)
+        seed = seed_or_fresh(settings.seed)
         self.rng = np.random.default_rng(seed)
         self.generator = torch.Generator().manual_seed(seed)
         self.replay = ReplayBuffer(networks.config.inputs, settings.replay_memory_bytes)
-        self.last_good = LastGoodState(networks, self.optimizer)
+        self.nan_guard = NanGuard(networks, self.optimizer, settings.max_nan_retries)
         self.tower_dtype: torch.dtype | None = Precision(settings.precision).tower_dtype
-        self.nan_rollbacks = 0
+
+    @property
+    def network(self) -> SACNetworks:
+        """The learner's network (policy, twin Q, V and V_target): what checkpoints save."""
+        return self.networks
+
+    @property
+    def nan_rollbacks(self) -> int:
+        return self.nan_guard.rollbacks
 
     @property
     def learning_rate(self) -> float:
@@ -135,7 +137,7 @@ class SACTrainer:
 
     def add_experience(self, episodes: Sequence[Episode]) -> int:
         """Store finite episodes in the replay memory (also used for late batches of the previous checkpoint)."""
-        kept = _finite_episodes(episodes)
+        kept = finite_episodes(episodes)
         for episode in kept:
             self.replay.add_episode(episode)
         return sum(episode.steps for episode in kept)
@@ -147,26 +149,28 @@ class SACTrainer:
         if transitions == 0:
             return []
         steps = max(1, round(transitions * self.settings.updates_per_transition))
-        if first_non_finite_parameter(self.networks) is not None:
-            self._roll_back("weights were not finite at the start of the update")
-        self.last_good.capture()
         minibatch = sac_minibatch_size(len(self.replay), transitions, self.hyperparameters.batch_size)
-        for attempt in range(1, self.settings.max_nan_retries + 2):
-            try:
-                return [self._train(steps, minibatch, abandon)]
-            except NonFiniteError as error:
-                self._roll_back(f"{error.what} (attempt {attempt} of {self.settings.max_nan_retries + 1})")
-        log.warning(
-            "NaN guard: skipped this iteration's %d gradient steps; training continues from the last good "
-            "weights with learning rate %g",
-            steps,
-            self.learning_rate,
-        )
-        return []
+        stats = self.nan_guard.run(lambda: [self._train(steps, minibatch, abandon)], skipped=f"{steps} gradient steps")
+        return stats if stats is not None else []
 
-    def _roll_back(self, reason: str) -> None:
-        self.learning_rate = roll_back(self.last_good, self.learning_rate, reason)
-        self.nan_rollbacks += 1
+    def training_lines(self, stats: Sequence[SACStats]) -> list[str]:
+        """One `Policy training>` line per iteration."""
+        return [format_sac_training_line(entry) for entry in stats]
+
+    def take_late_batch(self, batch, iteration: int) -> bool:
+        """SAC learns off-policy: a late batch played with the previous checkpoint (a share re-played for a worker
+        that came back, a worker that finished after the trainer moved on) is still good experience. Anything older
+        is dropped: what enters the memory during iteration k was played by checkpoint k or k-1."""
+        if batch.policy_version != iteration - 1 or batch.iteration >= iteration:
+            return False
+        log.info(
+            "SAC: %d episodes of checkpoint %d (one behind) from worker %d go into the replay memory",
+            len(batch.episodes),
+            batch.policy_version,
+            batch.worker_id,
+        )
+        self.add_experience(batch.episodes)
+        return True
 
     def _train(self, steps: int, minibatch: int, abandon: Callable[[], bool] | None = None) -> SACStats:
         threads = self.settings.threads_per_tower or max(1, len(os.sched_getaffinity(0)) // 2)
@@ -256,13 +260,3 @@ class SACTrainer:
             "mean_q": float(min_q_new.detach().mean()),
             "grad_norm": grad_norm,
         }
-
-
-def format_sac_training_line(stats: SACStats) -> str:
-    """One line per iteration, in the spirit of DeepRacer's `Policy training>` line."""
-    return (
-        f"Policy training> Policy loss={stats.policy_loss}, Q loss={stats.q_loss}, V loss={stats.value_loss}, "
-        f"Entropy={stats.entropy}, Mean Q={stats.mean_q}, training steps={stats.gradient_steps}, "
-        f"batch size={stats.minibatch_size}, replay transitions={stats.replay_transitions}, "
-        f"learning_rate={stats.learning_rate}"
-    )

@@ -1,5 +1,5 @@
 """The trainer process: iteration after iteration, collect every worker's share, update the policy (clipped PPO or
-SAC, as model_metadata.json says), publish a checkpoint.
+SAC, as model_metadata.json says: racer.trainer.algorithms), publish a checkpoint.
 
 One iteration k, top to bottom:
 1. announce checkpoint k on the control stream (it is already complete in the store);
@@ -7,8 +7,8 @@ One iteration k, top to bottom:
    DeepRacer share first, then whatever is left) from the episode stream (consumer group `trainer`): episodes of an
    older policy are dropped (PPO is strictly on-policy; SAC keeps a late batch of checkpoint k-1 in its replay
    memory without counting it, and drops older ones), a second copy of an episode number is dropped, and the
-   claims of a worker with no heartbeat go back to the queue for a live worker;
-3. print DeepRacer's `Training>` line per episode, run the clipped-PPO update, print `Policy training>` lines;
+   claims of a worker with no heartbeat go back to the queue for a live worker (racer.trainer.collector);
+3. print DeepRacer's `Training>` line per episode, run the learner's update, print `Policy training>` lines;
 4. save checkpoint k+1 to the store (files first, then `.coach_checkpoint`), then acknowledge the batches.
 A trainer killed at any point restarts from the newest checkpoint: unacknowledged batches are read again.
 """
@@ -35,29 +35,19 @@ from racer.shared.deepracer.training_params import training_params_to_yaml
 from racer.shared.episode import Episode
 from racer.shared.model_layout import ModelLayout
 from racer.shared.policy.checkpoints import CheckpointStore
-from racer.shared.policy.factory import build_network_for_metadata
-from racer.shared.policy.sac_networks import SACNetworks
 from racer.shared.redis_connection import RedisLink, RedisUnavailableError
 from racer.shared.store import ObjectNotFoundError, open_store
 from racer.shared.transport.channels import ReceivedBatch, RunChannel
 from racer.shared.worker_settings import WorkerSettings
+from racer.trainer.algorithms import LearnerOptions, build_learner
+from racer.trainer.collector import Collector, CollectTimes, StopRequested
+from racer.trainer.learner import UpdateAbandoned
+from racer.trainer.log_lines import format_training_episode_line
 from racer.trainer.memory_cap import cap_episodes, default_max_memory_steps, global_episode_order
-from racer.trainer.ppo import (
-    PPOSettings,
-    PPOTrainer,
-    UpdateAbandoned,
-    format_policy_training_line,
-    format_training_episode_line,
-)
 from racer.trainer.precision import DEFAULT_PRECISION, Precision
 from racer.trainer.preflight import check_clone_source, preflight
-from racer.trainer.sac import SACSettings, SACTrainer, format_sac_training_line
 
 log = logging.getLogger(__name__)
-
-
-class StopRequested(Exception):
-    """SIGTERM / Ctrl-C / a stop condition: finish cleanly."""
 
 
 STOP_UPDATE_GRACE_S = 10.0
@@ -171,27 +161,31 @@ class Trainer:
         torch.manual_seed(self.options.seed)
         metadata, hyperparameters, reward_bytes, workers = self._read_custom_files()
         self.metadata, self.hyperparameters = metadata, hyperparameters
-        self.network = build_network_for_metadata(metadata)
-        if isinstance(self.network, SACNetworks):
-            self.learner = SACTrainer(
-                self.network,
-                hyperparameters,
-                SACSettings(
-                    replay_memory_bytes=int(self.options.sac_replay_memory_mb * 2**20),
-                    updates_per_transition=self.options.sac_updates_per_transition,
-                    seed=self.options.seed,
-                    precision=self.options.precision,
-                ),
-            )
-            log.info(
-                "SAC replay memory: %d transitions in %.0f MB",
-                self.learner.replay.capacity,
-                self.options.sac_replay_memory_mb,
-            )
-        else:
-            self.learner = PPOTrainer(
-                self.network, hyperparameters, PPOSettings(seed=self.options.seed, precision=self.options.precision)
-            )
+        self.learner = build_learner(
+            metadata,
+            hyperparameters,
+            LearnerOptions(
+                seed=self.options.seed,
+                precision=self.options.precision,
+                sac_replay_memory_mb=self.options.sac_replay_memory_mb,
+                sac_updates_per_transition=self.options.sac_updates_per_transition,
+            ),
+        )
+        self.network = self.learner.network
+        self.collector = Collector(
+            self.channel,
+            self.consumer,
+            self.options.num_workers,
+            hyperparameters.num_episodes_between_training,
+            self.learner,
+            self.checkpoints.latest_name,
+            self.stop_event,
+            CollectTimes(
+                share_timeout_s=self.options.share_timeout_s,
+                dead_worker_grace_s=self.options.dead_worker_grace_s,
+                announcement_check_s=self.options.announcement_check_s,
+            ),
+        )
         latest = self.checkpoints.latest_name()
         if latest is not None:
             iteration, self.env_steps = self.checkpoints.restore(latest, self.network, self.learner.optimizer)
@@ -237,138 +231,11 @@ class Trainer:
 
     # ---- one iteration -----------------------------------------------------------------------------
     def collect(self, iteration: int) -> dict[int, ReceivedBatch]:
-        """The iteration's E episodes, by episode number. Workers claim them from Redis lists (see
-        racer.shared.transport.channels); the claims of a worker whose heartbeat lapsed go back to the queue, and a
-        live worker plays them."""
-        num_workers = self.options.num_workers
-        expected = set(range(self.hyperparameters.num_episodes_between_training))
-        got: dict[int, ReceivedBatch] = {}
-        waiting_since = time.monotonic()
-        next_notice = waiting_since + 60
-        next_announcement_check = waiting_since + self.options.announcement_check_s
-        next_reconcile = waiting_since + self.options.dead_worker_grace_s
-        last_queued: set[int] = set()
-
-        def consider(received: ReceivedBatch) -> None:
-            batch = received.batch
-            if self._keep_as_replay(batch, iteration):
-                log.info(
-                    "SAC: %d episodes of checkpoint %d (one behind) from worker %d go into the replay memory",
-                    len(batch.episodes),
-                    batch.policy_version,
-                    batch.worker_id,
-                )
-                self.learner.add_experience(batch.episodes)
-                self.channel.ack(received.stream_id)
-            elif batch.iteration != iteration or batch.policy_version != iteration:
-                log.info(
-                    "dropping a stale batch (iteration %d, policy %d) while training iteration %d",
-                    batch.iteration,
-                    batch.policy_version,
-                    iteration,
-                )
-                self.channel.ack(received.stream_id)
-            elif batch.share in got or batch.share not in expected:
-                log.info(
-                    "dropping a duplicate of episode %d of iteration %d from worker %d",
-                    batch.share,
-                    iteration,
-                    batch.worker_id,
-                )
-                self.channel.ack(received.stream_id)
-            else:
-                got[batch.share] = received
-                self.channel.mark_received(iteration, batch.share)
-
-        def read_all_now() -> None:
-            while received := self.channel.read_batches(self.consumer, block_s=0.001):
-                for item in received:
-                    consider(item)
-
-        for received in self.channel.read_batches(self.consumer, 0, pending=True):
-            consider(received)
-        while expected - got.keys():
-            if self.stop_event.is_set():
-                raise StopRequested()
-            for received in self.channel.read_batches(self.consumer, block_s=2.0):
-                consider(received)
-            missing = sorted(expected - got.keys())
-            if not missing:
-                break
-            now = time.monotonic()
-            live = self.channel.live_workers()
-            if now - waiting_since > self.options.dead_worker_grace_s:
-                for worker_id in range(num_workers):
-                    if worker_id in live:
-                        continue
-                    released = self.channel.release_claims(iteration, worker_id)
-                    if released:
-                        log.warning(
-                            "worker %d has no heartbeat: its episodes %s of iteration %d go back to the queue and "
-                            "a live worker replays it",
-                            worker_id,
-                            released,
-                            iteration,
-                        )
-                        self.channel.request_replay(iteration)
-            if now > next_reconcile:
-                next_reconcile = now + 10.0
-                queued, claimed = self.channel.queued_and_claimed(iteration, num_workers)
-                read_all_now()  # anything delivered before the snapshot is in the stream now
-                held = queued.union(*claimed.values())
-                lost = sorted(expected - got.keys() - held)
-                if lost:
-                    log.warning(
-                        "episodes %s of iteration %d are nowhere in Redis; queueing them again", lost, iteration
-                    )
-                    self.channel.requeue(iteration, lost, num_workers)
-                    self.channel.request_replay(iteration)
-                elif queued and queued == last_queued:  # nobody claimed for 10 s: wake workers that wait
-                    self.channel.request_replay(iteration)
-                last_queued = queued
-            if now > next_announcement_check:
-                next_announcement_check = now + self.options.announcement_check_s
-                self._announce_again_if_lost(iteration)
-            if now > next_notice:
-                log.info(
-                    "iteration %d: waiting for episodes %s (live workers %s)",
-                    iteration,
-                    missing,
-                    sorted(live),
-                )
-                next_notice = now + 60
-            if now - waiting_since > self.options.share_timeout_s:
-                raise TimeoutError(
-                    f"iteration {iteration}: no episodes for shares {missing} after "
-                    f"{self.options.share_timeout_s:.0f} s (live workers: {sorted(live) or 'none'}); "
-                    f"are the rollout workers running against {self.channel.key('episodes')}?"
-                )
-        return got
-
-    def _keep_as_replay(self, batch, iteration: int) -> bool:
-        """SAC learns off-policy: a late batch played with the previous checkpoint (a share re-played for a worker
-        that came back, a worker that finished after the trainer moved on) is still good experience. Anything older
-        is dropped: what enters the memory during iteration k was played by checkpoint k or k-1."""
-        sac = isinstance(self.learner, SACTrainer)
-        return sac and batch.policy_version == iteration - 1 and batch.iteration < iteration
-
-    def _announce_again_if_lost(self, iteration: int) -> None:
-        """Workers learn of an iteration only from the control stream: if Redis lost the announcement (restarted
-        before its append-only file had it), nobody would ever play the iteration."""
-        latest = self.channel.latest_iteration_announcement()
-        if latest is not None and latest.kind == "iteration" and latest.iteration == iteration:
-            return
-        log.warning(
-            "the announcement of iteration %d is no longer in Redis (restarted without it?); announcing it again",
-            iteration,
-        )
-        self._announce(iteration, self.checkpoints.latest_name())
+        """The iteration's E episodes, by episode number (racer.trainer.collector)."""
+        return self.collector.collect(iteration)
 
     def _announce(self, iteration: int, checkpoint: str) -> None:
-        """Queue the iteration's episodes (once), then tell the workers."""
-        episodes = self.hyperparameters.num_episodes_between_training
-        self.channel.open_episodes(iteration, episodes, self.options.num_workers)
-        self.channel.announce_iteration(iteration, checkpoint, episodes, self.options.num_workers)
+        self.collector.announce(iteration, checkpoint)
 
     def _memory_cap(self) -> int | None:
         if self.options.max_memory_steps is not None:
@@ -419,12 +286,7 @@ class Trainer:
                 self.checkpoints.latest_name(),
             )
             raise StopRequested() from None
-        for stats in all_stats:
-            line = (
-                format_sac_training_line(stats)
-                if isinstance(self.learner, SACTrainer)
-                else format_policy_training_line(stats)
-            )
+        for line in self.learner.training_lines(all_stats):
             print(line, flush=True)
         update_s = time.monotonic() - update_started
         summary = self._summary(iteration, episodes, rollout_wall_s)
@@ -535,7 +397,7 @@ class Trainer:
     def _iterate(self, iteration: int) -> None:
         """Announce, collect, train and save one iteration (`self.iteration` moves on once its checkpoint is
         saved)."""
-        self._announce(iteration, self.checkpoints.latest_name())
+        self.collector.announce(iteration, self.checkpoints.latest_name())
         announced = time.monotonic()
         batches = self.collect(iteration)
         summary = self.train_iteration(iteration, batches, time.monotonic() - announced)

@@ -24,6 +24,7 @@ from racer.model_io.deepracer_import import (
 from racer.model_io.explain import explain_command
 from racer.model_io.problems import ValidationProblem, ValidationReport
 from racer.model_io.sources import split_s3_location
+from racer.model_io.store_location import open_store_option
 from racer.model_io.tensorflow.errors import UnsupportedGraphError
 from racer.model_io.tensorflow.runner import (
     INSTALL_HINT,
@@ -45,22 +46,12 @@ from racer.model_io.transfer import (
 from racer.model_io.validate import validate_location, validate_model
 from racer.shared.config import S3Settings, parse_store_location, settings_from_env
 from racer.shared.model_layout import COACH_CHECKPOINT, DEEPRACER_CHECKPOINTS
-from racer.shared.store import ObjectStore, S3Store, open_store
+from racer.shared.store import S3Store
 
 STORE_HELP = (
     "This system's store: s3://bucket (endpoint and keys from S3_ENDPOINT_URL, AWS_*) or a folder. "
     "Default: RACER_STORE."
 )
-
-
-def _open_store(location: str | None) -> ObjectStore:
-    settings = settings_from_env()
-    if location is None:
-        return open_store(settings.store)
-    try:
-        return open_store(parse_store_location(location, os.environ, settings.redis.connect_timeout_s))
-    except ValueError as error:
-        raise click.BadParameter(str(error), param_hint="--store") from None
 
 
 def _print_problems(problems: tuple[ValidationProblem, ...]) -> None:
@@ -152,7 +143,7 @@ def import_command(source: str, model_name: str, store_location: str | None, ove
                 'holds logs and metrics only: download the model itself ("virtual model" or physical car)'
             )
         sys.exit(1)
-    store = _open_store(store_location)
+    store = open_store_option(store_location)
     try:
         result = import_model(opened, store, model_name, overwrite=overwrite)
     except ValueError as error:
@@ -195,7 +186,7 @@ def _import_graphs(
             f"{source} holds TensorFlow frozen graphs ({', '.join(graph_keys)}); reading them needs TensorFlow: "
             f"{INSTALL_HINT}"
         )
-    store = _open_store(store_location)
+    store = open_store_option(store_location)
     existing = store.list_keys(model_name + "/")
     if existing and not overwrite:
         raise click.ClickException(
@@ -253,7 +244,7 @@ def export_command(model: str, dest: str, store_location: str | None, overwrite:
             f"note: {message}; exporting racer's files only (the car bundle holds agent/model.onnx, which no "
             "DeepRacer software loads)"
         )
-    store = _open_store(store_location)
+    store = open_store_option(store_location)
     destination = _destination(dest, overwrite)
     if tensorflow:
         click.echo("writing DeepRacer's TensorFlow files (a TensorFlow process; this takes a minute) ...")

@@ -112,9 +112,9 @@ def open_model(model: str, store_location: str | None, checkpoint: str) -> Itera
 
     path = Path(model).expanduser()
     if not model.startswith("s3://") and not path.exists():
-        from racer.model_io.cli import _open_store
+        from racer.model_io.store_location import open_store_option
 
-        yield _from_store(_open_store(store_location), model.strip("/"), checkpoint, model)
+        yield _from_store(open_store_option(store_location), model.strip("/"), checkpoint, model)
         return
     if path.is_dir() and (path / "model" / "model_metadata.json").is_file():
         local = LocalStore(path.resolve().parent)

@@ -6,7 +6,7 @@ import botocore.exceptions
 
 from racer.model_io.codes import ProblemCode
 from racer.model_io.problems import ValidationProblem
-from racer.model_io.sources import SourceFormatError, SourceMissingError
+from racer.model_io.source_errors import SourceFormatError, SourceMissingError
 from racer.shared.store import AccessDeniedError, BucketNotFoundError, ObjectNotFoundError, StoreUnavailableError
 
 ACCESS_FIX = (

@@ -13,19 +13,24 @@ import tarfile
 from pathlib import Path, PurePosixPath
 from typing import Protocol
 
+from racer.model_io.source_errors import SourceFormatError, SourceMissingError
+from racer.model_io.zip_source import ZipSource, is_zip
 from racer.shared.config import S3Settings, parse_store_location, settings_from_env
 from racer.shared.store import ObjectStore, S3Store, join_key
 
 TAR_SUFFIXES = (".tar.gz", ".tgz", ".tar")
 _LOCAL_STORE_STAGING = ".racer-staging"
 
-
-class SourceMissingError(Exception):
-    """The folder or archive given on the command line does not exist."""
-
-
-class SourceFormatError(Exception):
-    """The archive can't be read as a model (not a tar, unsafe member paths)."""
+__all__ = [
+    "FolderSource",
+    "ModelSource",
+    "SourceFormatError",
+    "SourceMissingError",
+    "StoreSource",
+    "TarSource",
+    "ZipSource",
+    "open_source",
+]
 
 
 class ModelSource(Protocol):
@@ -169,9 +174,7 @@ def open_source(location: str) -> ModelSource:
     if path.is_dir():
         return FolderSource(path)
     if path.is_file():
-        from racer.model_io.zip_source import ZipSource, is_zip  # DRoA <= 1.0.9 wrote ZIPs named .tar.gz
-
-        return ZipSource(path) if is_zip(path) else TarSource(path)
+        return ZipSource(path) if is_zip(path) else TarSource(path)  # DRoA <= 1.0.9 wrote ZIPs named .tar.gz
     if location.endswith(TAR_SUFFIXES):
         return TarSource(path)
     raise SourceMissingError(f"{location}: no such folder or archive")

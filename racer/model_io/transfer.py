@@ -33,6 +33,7 @@ from racer.model_io import checkpoints as ck
 from racer.model_io.codes import ProblemCode
 from racer.model_io.deepracer_export import EXPORT_LAYOUTS, droa_plan, droa_targets, tensorflow_exports
 from racer.model_io.problems import DEFAULT_LIMITS, ImportPlan, SizeLimits, ValidationProblem, ValidationReport
+from racer.model_io.source_errors import SOURCE_ERRORS
 from racer.model_io.source_problems import problem_for_source_error
 from racer.model_io.sources import FolderSource, ModelSource, StoreSource, TarSource
 from racer.model_io.validate import CAR_BUNDLE_KEY, validate_model
@@ -40,12 +41,8 @@ from racer.shared import model_layout
 from racer.shared.model_layout import CheckpointName
 from racer.shared.policy.best_and_last import names_to_bytes as best_and_last_names_to_bytes
 from racer.shared.store import (
-    AccessDeniedError,
-    BucketNotFoundError,
-    ObjectNotFoundError,
     ObjectStore,
     StoreError,
-    StoreUnavailableError,
     join_key,
 )
 
@@ -56,16 +53,6 @@ METADATA_TARGET = model_layout.MODEL_METADATA
 HYPERPARAMETERS_TARGET = model_layout.HYPERPARAMETERS
 CAR_BUNDLE_ONNX = "agent/model.onnx"
 CAR_BUNDLE_PB = "agent/model.pb"
-
-_SOURCE_ERRORS = (
-    OSError,
-    botocore.exceptions.BotoCoreError,
-    botocore.exceptions.ClientError,
-    AccessDeniedError,
-    BucketNotFoundError,
-    ObjectNotFoundError,
-    StoreUnavailableError,
-)
 
 
 class Destination(Protocol):
@@ -202,7 +189,7 @@ def _copy_plan(
             return extra_files[key]
         try:
             return source.read(key)
-        except _SOURCE_ERRORS as error:
+        except SOURCE_ERRORS as error:
             raise _CopyFailed(problem_for_source_error(error, source.describe(), key)) from error
 
     def put(target: str, data: bytes) -> None:
@@ -300,7 +287,7 @@ def import_model(
     except _CopyFailed as failure:
         _remove_partial(store, model_name)
         return TransferResult(destination.describe(), report, problems=(failure.problem,))
-    except _SOURCE_ERRORS as error:
+    except SOURCE_ERRORS as error:
         _remove_partial(store, model_name)
         return TransferResult(
             destination.describe(), report, problems=(problem_for_source_error(error, source.describe()),)
@@ -383,7 +370,7 @@ def export_model(
         if isinstance(destination, ArchiveDestination):
             destination.discard()
         return TransferResult(destination.describe(), report, problems=(failure.problem,))
-    except _SOURCE_ERRORS as error:
+    except SOURCE_ERRORS as error:
         if isinstance(destination, ArchiveDestination):
             destination.discard()
         return TransferResult(

@@ -17,7 +17,6 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TypeVar
 
-import botocore.exceptions
 import yaml
 
 from racer.model_io import checkpoints as ck
@@ -30,6 +29,7 @@ from racer.model_io.problems import (
     ValidationProblem,
     ValidationReport,
 )
+from racer.model_io.source_errors import SOURCE_ERRORS
 from racer.model_io.source_problems import problem_for_source_error
 from racer.model_io.sources import ModelSource, SourceFormatError, SourceMissingError, TarSource, open_source
 from racer.model_io.validation_run import CHECKPOINT_FIX, ValidationRun
@@ -37,12 +37,6 @@ from racer.shared import model_layout
 from racer.shared.deepracer.hyperparameters import parse_hyperparameters
 from racer.shared.deepracer.model_metadata import ModelMetadata, parse_model_metadata
 from racer.shared.model_layout import MANIFEST_SUFFIX, CheckpointName
-from racer.shared.store import (
-    AccessDeniedError,
-    BucketNotFoundError,
-    ObjectNotFoundError,
-    StoreUnavailableError,
-)
 
 METADATA_KEYS = (model_layout.MODEL_METADATA, "model_metadata.json")
 """Trainer layout (deepracer-simapp v5.3.3 `bundle/markov/boto/s3/constants.py`) first, then the prefix root
@@ -377,15 +371,7 @@ def validate_model(source: ModelSource, limits: SizeLimits = DEFAULT_LIMITS) -> 
     where = source.describe()
     try:
         files = source.list_files()
-    except (
-        OSError,
-        botocore.exceptions.BotoCoreError,
-        botocore.exceptions.ClientError,
-        AccessDeniedError,
-        BucketNotFoundError,
-        ObjectNotFoundError,
-        StoreUnavailableError,
-    ) as error:
+    except SOURCE_ERRORS as error:
         return ValidationReport(where, (problem_for_source_error(error, where),))
     if not files:
         return ValidationReport(

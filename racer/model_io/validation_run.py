@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import botocore.exceptions
-
 from racer.model_io.codes import ProblemCode
 from racer.model_io.problems import ValidationProblem
+from racer.model_io.source_errors import SOURCE_ERRORS
 from racer.model_io.source_problems import problem_for_source_error
-from racer.model_io.sources import ModelSource, SourceFormatError
-from racer.shared.store import AccessDeniedError, BucketNotFoundError, ObjectNotFoundError, StoreUnavailableError
+from racer.model_io.sources import ModelSource
+from racer.shared.store import ObjectNotFoundError
 
 CHECKPOINT_FIX = (
     "restore the missing files from your copy of the model, or point model/.coach_checkpoint "
@@ -37,16 +36,7 @@ class ValidationRun:
             return None
         try:
             return self.source.read(key)
-        except (
-            OSError,
-            SourceFormatError,
-            botocore.exceptions.BotoCoreError,
-            botocore.exceptions.ClientError,
-            AccessDeniedError,
-            BucketNotFoundError,
-            ObjectNotFoundError,
-            StoreUnavailableError,
-        ) as error:
+        except SOURCE_ERRORS as error:
             self.problems.append(problem_for_source_error(error, self.source.describe(), key))
             self.cut_off = not isinstance(error, ObjectNotFoundError | FileNotFoundError)
             return None

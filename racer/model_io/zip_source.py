@@ -6,7 +6,7 @@ from __future__ import annotations
 import zipfile
 from pathlib import Path, PurePosixPath
 
-from racer.model_io.sources import SourceFormatError, SourceMissingError
+from racer.model_io.source_errors import SourceFormatError, SourceMissingError
 
 ZIP_MAGIC = b"PK\x03\x04"
 GZIP_MAGIC = b"\x1f\x8b"

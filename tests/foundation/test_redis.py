@@ -7,9 +7,9 @@ import time
 import pytest
 import redis
 
+from racer.local.services import free_port
 from racer.shared.config import RedisSettings
 from racer.shared.redis_connection import RedisLink, RedisUnavailableError, connect_redis
-from racer.shared.services import free_port
 
 
 def test_round_trip(redis_settings):
@@ -99,7 +99,7 @@ def test_servers_die_with_a_test_process_that_is_killed(tmp_path, server_class):
 
     script = (
         "import sys, time\n"
-        f"from racer.shared.services import {server_class}\n"
+        f"from racer.local.services import {server_class}\n"
         f"server = {server_class}(__import__('pathlib').Path({str(tmp_path / 'data')!r}))\n"
         "server.start(timeout_s=60)\n"
         "print(server.pid, flush=True)\n"

@@ -6,8 +6,8 @@ import time
 
 import pytest
 
+from racer.local.services import free_port
 from racer.shared.config import S3Settings
-from racer.shared.services import free_port
 from racer.shared.store import (
     BucketNotFoundError,
     LocalStore,
@@ -130,7 +130,7 @@ def test_settings_from_environment_read_s3_and_session_token():
 
 def test_a_restarted_minio_keeps_the_objects_and_the_store_reconnects(tmp_path):
     """Tests (and users) can restart MinIO: data stays on disk, and the same S3Store goes on working."""
-    from racer.shared.services import MinioServer
+    from racer.local.services import MinioServer
 
     with MinioServer(tmp_path / "minio") as server:
         store = S3Store(

@@ -15,10 +15,10 @@ import pytest
 from click.testing import CliRunner
 
 from racer.cli import main
+from racer.local.services import free_port
 from racer.model_io import ProblemCode, SizeLimits, StoreSource, import_model, validate_model
 from racer.model_io.sources import FolderSource
 from racer.shared.config import S3Settings
-from racer.shared.services import free_port
 from racer.shared.store import LocalStore, S3Store
 from tests.model_io.model_io_builders import BROKEN, deepracer_model, upload
 

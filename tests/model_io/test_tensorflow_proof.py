@@ -21,13 +21,7 @@ import numpy as np
 import pytest
 import torch
 
-from racer.model_io.tensorflow.coach_layout import (
-    POLICY_OUTPUT_NODE,
-    coach_variables,
-    input_node,
-)
-from racer.model_io.tensorflow.convert import ExportJob, tensorflow_files
-from racer.model_io.tensorflow.proof import (
+from racer.benches.tf_proof import (
     FP16_SAME_ACTION,
     FP16_TOLERANCE,
     FP32_TOLERANCE,
@@ -38,6 +32,12 @@ from racer.model_io.tensorflow.proof import (
     run_proof,
     summarize,
 )
+from racer.model_io.tensorflow.coach_layout import (
+    POLICY_OUTPUT_NODE,
+    coach_variables,
+    input_node,
+)
+from racer.model_io.tensorflow.convert import ExportJob, tensorflow_files
 from racer.model_io.tensorflow.runner import run_tool
 from racer.shared.deepracer.model_metadata import NEURAL_NETWORKS, parse_model_metadata
 from racer.shared.policy.networks import build_actor_critic

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 import torch
 
+from racer.rollout_worker.batched_rollout import BatchedRollout, EpisodeTicket
+from racer.rollout_worker.episode_runner import play_episode
 from racer.rollout_worker.worker import env_generator, spread_env_configs
-from racer.shared.batched_rollout import BatchedRollout, EpisodeTicket
 from racer.shared.deepracer.model_metadata import load_model_metadata
-from racer.shared.episode_runner import play_episode
 from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.policy.networks import build_actor_critic
 from racer.shared.sim.env import DeepRacerEnv, EnvConfig

@@ -15,12 +15,12 @@ from pathlib import Path
 
 import pytest
 
-from racer.local_run import service_environment
+from racer.local.run import service_environment
+from racer.local.services import _die_with_parent
 from racer.shared.config import RedisSettings, ServiceSettings
 from racer.shared.deepracer.simtrace import read_simtrace
 from racer.shared.model_layout import ModelLayout
 from racer.shared.redis_connection import RedisLink
-from racer.shared.services import _die_with_parent
 from racer.shared.store import open_store
 from racer.shared.transport.channels import RunChannel
 from tests.conftest import write_custom_files

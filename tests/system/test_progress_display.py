@@ -1,6 +1,6 @@
 """`racer train`'s status line: a worker is "starting" until its first heartbeat, "DOWN" only once it was seen."""
 
-from racer.local_run import ProgressDisplay
+from racer.local.run import ProgressDisplay
 from racer.shared.redis_connection import RedisLink
 from racer.shared.transport.channels import RunChannel
 

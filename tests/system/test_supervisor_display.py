@@ -1,4 +1,4 @@
-"""`racer train`'s display says when a worker is down and when it is back (racer/supervisor.py), with a real
+"""`racer train`'s display says when a worker is down and when it is back (racer/local/supervisor.py), with a real
 redis-server for the heartbeats and real child processes."""
 
 from __future__ import annotations
@@ -6,9 +6,9 @@ from __future__ import annotations
 import subprocess
 import sys
 
+from racer.local.supervisor import RunSupervisor
 from racer.shared.redis_connection import RedisLink
 from racer.shared.transport.channels import RunChannel
-from racer.supervisor import RunSupervisor
 
 
 def test_the_display_shows_a_worker_down_and_back(redis_server, redis_settings):

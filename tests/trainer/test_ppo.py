@@ -12,14 +12,13 @@ import pytest
 import torch
 
 from racer.shared.deepracer.hyperparameters import Hyperparameters
+from racer.trainer.learner import UpdateAbandoned
+from racer.trainer.log_lines import format_policy_training_line, format_training_episode_line
 from racer.trainer.nan_guard import first_non_finite_parameter
 from racer.trainer.ppo import (
     EpochStats,
     PPOSettings,
     PPOTrainer,
-    UpdateAbandoned,
-    format_policy_training_line,
-    format_training_episode_line,
     minibatch_size_for,
     shuffled_minibatches,
 )

@@ -18,9 +18,9 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
+from racer.rollout_worker.episode_runner import play_episode
 from racer.shared.config import LocalStoreSettings, ServiceSettings
 from racer.shared.episode import Episode
-from racer.shared.episode_runner import play_episode
 from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.redis_connection import RedisLink
 from racer.shared.sim.env import DeepRacerEnv, EnvConfig
@@ -278,7 +278,7 @@ def test_cloning_sac_from_ppo_is_refused_before_anything_starts(tmp_path):
 
 
 def test_racer_train_refuses_before_starting_redis_or_any_process(tmp_path, monkeypatch):
-    from racer.local_run import train_command
+    from racer.local.run import train_command
 
     custom = write_custom(tmp_path, PPO_METADATA, {"exploration_type": "additive_noise"})
     monkeypatch.setenv("RACER_STORE", str(tmp_path / "racer-data"))

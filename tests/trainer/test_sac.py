@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 import torch
 
+from racer.benches.sac import plain_sac_step, synthetic_episodes
 from racer.shared.config import LocalStoreSettings
 from racer.shared.deepracer.hyperparameters import Hyperparameters, load_hyperparameters
 from racer.shared.deepracer.model_metadata import load_model_metadata, parse_model_metadata
@@ -24,7 +25,6 @@ from racer.shared.store import open_store
 from racer.trainer.precision import Precision
 from racer.trainer.replay import ReplayBuffer, bytes_per_transition
 from racer.trainer.sac import SACSettings, SACTrainer, sac_minibatch_size
-from racer.trainer.sac_bench import plain_sac_step, synthetic_episodes
 
 LIDAR_ONLY = PolicyConfig(
     neural_network="DEEP_CONVOLUTIONAL_NETWORK_SHALLOW",

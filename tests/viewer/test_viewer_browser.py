@@ -20,7 +20,7 @@ import pytest
 from selenium import webdriver
 from selenium.webdriver.chrome.service import Service
 
-from racer.shared.services import _die_with_parent
+from racer.local.services import _die_with_parent
 from tests.conftest import write_custom_files
 from tests.viewer.conftest import free_port
 

@@ -7,7 +7,6 @@ Every child dies with this process (PR_SET_PDEATHSIG), so nothing is left behind
 
 from __future__ import annotations
 
-import json
 import os
 import signal
 import subprocess
@@ -20,11 +19,11 @@ from pathlib import Path
 
 import click
 
-from racer.shared import model_layout
-from racer.shared.batched_rollout import DEFAULT_ENVS_PER_WORKER, DEFAULT_WORKERS
+from racer.local.services import PROJECT_ROOT, MinioServer, RedisServer, _die_with_parent
+from racer.local.supervisor import RunSupervisor, stop_children
+from racer.rollout_worker.batched_rollout import DEFAULT_ENVS_PER_WORKER, DEFAULT_WORKERS
 from racer.shared.config import LocalStoreSettings, RedisSettings, S3Settings, ServiceSettings, settings_from_env
 from racer.shared.redis_connection import RedisLink, RedisUnavailableError
-from racer.shared.services import PROJECT_ROOT, MinioServer, RedisServer, _die_with_parent
 from racer.shared.sim.config import DEFAULT_TRACK
 from racer.shared.sim.gl import ensure_gl_backend
 from racer.shared.sim.race_cli import race_option_args, race_options, race_params_from_options
@@ -32,7 +31,6 @@ from racer.shared.sim.track_option import direction_option
 from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
 from racer.shared.store import S3Store, open_store
 from racer.shared.transport.channels import RunChannel
-from racer.supervisor import RunSupervisor, stop_children
 from racer.trainer.precision import DEFAULT_PRECISION, PRECISION_NAMES
 
 
@@ -203,7 +201,7 @@ class LocalRun:
 
     def stop_processes(self, interrupted: bool = False) -> None:
         """Interrupted: SIGTERM to all (the trainer writes its final checkpoint and .finished), killed after
-        racer.supervisor's budget whatever Redis does; else the trainer has ended the run and the workers follow."""
+        racer.local.supervisor's budget whatever Redis does; else the trainer has ended the run and the workers follow."""
         stop_children(self.children, trainer="trainer", at_once=interrupted, never_ending=(VIEWER,))
 
     def stop(self, interrupted: bool = True) -> None:
@@ -474,11 +472,3 @@ def train_command(
         trainer_options=("--precision", precision),
     )
     sys.exit(run_local_training(plan, base_settings))
-
-
-def read_iteration_records(store_root: Path, plan: LocalRunPlan) -> list[dict]:
-    """Iteration summaries the trainer also writes to the store (Redis is gone once the run stops)."""
-    path = store_root / plan.model_prefix / model_layout.ITERATIONS_LOG
-    if not path.is_file():
-        return []
-    return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]

@@ -6,7 +6,7 @@ import shutil
 
 import pytest
 
-from racer.bench_workdir import bench_workdir
+from racer.benches.workdir import bench_workdir
 
 
 def test_the_folder_is_removed_when_the_bench_ends_well():

@@ -6,7 +6,7 @@ import json
 
 from click.testing import CliRunner
 
-from racer.precision_bench import precision_bench_command
+from racer.benches.precision import precision_bench_command
 
 
 def _run() -> dict:

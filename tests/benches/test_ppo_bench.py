@@ -10,11 +10,11 @@ import pytest
 import torch
 from click.testing import CliRunner
 
+from racer.benches.ppo import bench_network, plain_ppo_update, ppo_bench_command, synthetic_episodes
+from racer.benches.precision_agreement import update_agreement
 from racer.shared.deepracer.hyperparameters import Hyperparameters
-from racer.trainer.bench import bench_network, plain_ppo_update, ppo_bench_command, synthetic_episodes
 from racer.trainer.ppo import PPOSettings, PPOTrainer
 from racer.trainer.precision import Precision
-from racer.trainer.precision_agreement import update_agreement
 from tests.trainer.ppo_task import play, task_network
 
 

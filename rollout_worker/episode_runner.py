@@ -43,7 +43,7 @@ class PlayedEpisode:
 class EpisodeRecorder:
     """Collects one episode step by step (observation -> action -> reward, simtrace row) and builds its PlayedEpisode.
 
-    Shared by `play_episode` (one env) and `racer.shared.batched_rollout` (several envs, one batched forward pass), so
+    Shared by `play_episode` (one env) and `racer.rollout_worker.batched_rollout` (several envs, one batched forward pass), so
     both produce the same episode from the same steps."""
 
     def __init__(self, observation: dict[str, np.ndarray], reset_info: dict):

@@ -27,13 +27,13 @@ import onnxruntime
 import torch
 import zstandard
 
+from racer.local.services import PROJECT_ROOT
+from racer.rollout_worker.batched_rollout import BatchedRollout, EpisodeTicket
 from racer.rollout_worker.worker import env_generator, spread_env_configs
-from racer.shared.batched_rollout import BatchedRollout, EpisodeTicket
 from racer.shared.deepracer.model_metadata import load_model_metadata
 from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.policy.networks import build_actor_critic
 from racer.shared.policy.onnx_export import export_onnx
-from racer.shared.services import PROJECT_ROOT
 from racer.shared.sim.env import DeepRacerEnv, EnvConfig
 from racer.shared.store import LocalStore
 from racer.shared.transport.codec import ZSTD_LEVEL, EpisodeBatch, encode_batch

@@ -26,15 +26,15 @@ import click
 import numpy as np
 import torch
 
+from racer.benches.workdir import cpu_description
+from racer.local.services import PROJECT_ROOT
 from racer.shared.deepracer.model_metadata import ModelMetadata, parse_model_metadata
 from racer.shared.policy.checkpoints import CheckpointStore
-from racer.shared.services import PROJECT_ROOT
 from racer.shared.sim.camera_bench import GAZEBO_FRAMES, load_gazebo_frames, rgb_to_y
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
 from racer.shared.sim.worlds import WORLD_NAMES
 from racer.shared.store import LocalStore
-from racer.trainer.precision import cpu_description
 
 SHARED_DATA = PROJECT_ROOT.parent / "shared" / "deepracer-data"
 DEFAULT_MODELS = SHARED_DATA / "models"

@@ -6,7 +6,7 @@ episode depends on timing and no two runs see the same data. This bench takes ti
 discount 0.99, the AWS centre-line reward), episodes played one after another with a seeded generator, then one PPO
 update, then three greedy evaluation laps from 0, 1/3 and 2/3 of the lap. With one seed, fp32 and bf16 start from the
 same weights and the same first batch, so any difference is the arithmetic's. It also compares the first update's
-outcome on that real batch (racer.trainer.precision_agreement). bf16 is emulated where the CPU lacks it: slower, same
+outcome on that real batch (racer.benches.precision_agreement). bf16 is emulated where the CPU lacks it: slower, same
 rounding, so the learning effect shows on any machine.
 """
 
@@ -22,17 +22,18 @@ import click
 import numpy as np
 import torch
 
+from racer.benches.precision_agreement import update_agreement
+from racer.benches.time_to_lap_races import time_to_lap_hyperparameters
+from racer.benches.workdir import cpu_description
+from racer.local.services import PROJECT_ROOT
+from racer.rollout_worker.episode_runner import play_episode
 from racer.shared.deepracer.hyperparameters import parse_hyperparameters
 from racer.shared.deepracer.model_metadata import parse_model_metadata
-from racer.shared.episode_runner import play_episode
 from racer.shared.policy.networks import ActorCritic, build_actor_critic
-from racer.shared.services import PROJECT_ROOT
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
-from racer.time_to_lap_races import time_to_lap_hyperparameters
 from racer.trainer.ppo import PPOSettings, PPOTrainer
-from racer.trainer.precision import PRECISION_NAMES, Precision, cpu_description
-from racer.trainer.precision_agreement import update_agreement
+from racer.trainer.precision import PRECISION_NAMES, Precision
 
 SHARED_DATA = PROJECT_ROOT.parent / "shared" / "deepracer-data"
 EVALUATION_STARTS = (0.0, 1 / 3, 2 / 3)

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import pytest
 
+from racer.benches.time_to_lap_races import TIME_TO_LAP_RACES, time_to_lap_hyperparameters
 from racer.shared.deepracer.hyperparameters import parse_hyperparameters
 from racer.shared.sim.race_cli import race_params_from_options
-from racer.time_to_lap_races import TIME_TO_LAP_RACES, time_to_lap_hyperparameters
 
 
 @pytest.mark.parametrize("race_type", sorted(TIME_TO_LAP_RACES))

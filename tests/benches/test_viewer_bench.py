@@ -5,12 +5,7 @@ import time
 
 from click.testing import CliRunner
 
-from racer.shared.deepracer.hyperparameters import load_hyperparameters
-from racer.shared.redis_connection import RedisLink
-from racer.shared.store import LocalStore
-from racer.shared.transport.frames import FrameChannel
-from racer.viewer.app import create_app
-from racer.viewer.bench import (
+from racer.benches.viewer import (
     PagePolls,
     WatchingOnly,
     _bench_hyperparameters,
@@ -19,6 +14,11 @@ from racer.viewer.bench import (
     _write_custom_files,
     viewer_bench_command,
 )
+from racer.shared.deepracer.hyperparameters import load_hyperparameters
+from racer.shared.redis_connection import RedisLink
+from racer.shared.store import LocalStore
+from racer.shared.transport.frames import FrameChannel
+from racer.viewer.app import create_app
 from racer.viewer.live import LiveRun
 from racer.viewer.run_files import RunFiles, RunLocation
 from tests.viewer.conftest import ServedApp

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from racer.shared.episode_runner import EpisodeRecorder
+from racer.rollout_worker.episode_runner import EpisodeRecorder
 
 DEFAULT_ENVS_PER_WORKER = 4
 """Per-frame inference cost falls steeply from batch 1 to 4 and less after (README, Benchmarks): the dense layer's

@@ -12,7 +12,7 @@ import subprocess
 import time
 from collections.abc import Callable, Iterable, Mapping
 
-from racer.shared.services import RedisServer
+from racer.local.services import RedisServer
 
 STOP_CHILDREN_BUDGET_S = 18.0
 """Ctrl-C / SIGTERM: how long the trainer and workers get to stop (the trainer's final checkpoint included) before

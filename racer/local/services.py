@@ -19,7 +19,7 @@ import urllib.error
 import urllib.request
 from pathlib import Path
 
-PROJECT_ROOT = Path(__file__).resolve().parents[1]
+PROJECT_ROOT = Path(__file__).resolve().parents[2]
 """The repository (or image) folder holding redis.conf, tracks/ and the code folders."""
 
 _PR_SET_PDEATHSIG = 1

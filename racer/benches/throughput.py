@@ -26,12 +26,12 @@ import time
 
 import click
 
-from racer.bench_workdir import bench_workdir
-from racer.local_run import LocalRunPlan, read_iteration_records, run_local_training, service_environment
-from racer.shared.batched_rollout import DEFAULT_ENVS_PER_WORKER, default_workers
+from racer.benches.workdir import bench_workdir, read_iteration_records
+from racer.local.run import LocalRunPlan, run_local_training, service_environment
+from racer.local.services import PROJECT_ROOT
+from racer.rollout_worker.batched_rollout import DEFAULT_ENVS_PER_WORKER, default_workers
 from racer.shared.config import LocalStoreSettings, RedisSettings, ServiceSettings
 from racer.shared.deepracer.hyperparameters import load_hyperparameters
-from racer.shared.services import PROJECT_ROOT
 from racer.shared.sim.config import DEFAULT_TRACK
 from racer.shared.sim.worlds import WORLD_NAMES
 

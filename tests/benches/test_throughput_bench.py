@@ -3,7 +3,7 @@
 import click
 import pytest
 
-from racer.throughput_bench import policy_forward_cpu_ms, ratio_ceilings, system_rates
+from racer.benches.throughput import policy_forward_cpu_ms, ratio_ceilings, system_rates
 
 
 def test_rates_leave_out_the_first_iteration_and_split_the_wall_time():

@@ -31,11 +31,11 @@ from pathlib import Path
 import click
 import numpy as np
 
-from racer.bench_workdir import bench_workdir
+from racer.benches.workdir import bench_workdir
+from racer.local.services import PROJECT_ROOT
 from racer.shared.config import LocalStoreSettings, RedisSettings, ServiceSettings
 from racer.shared.deepracer.hyperparameters import HyperparametersError, parse_hyperparameters
 from racer.shared.redis_connection import RedisLink
-from racer.shared.services import PROJECT_ROOT
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
 from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
@@ -376,7 +376,7 @@ def viewer_bench_command(
     iterations, warmup_iterations, num_workers, episodes_per_iteration, track, learning_rate, load_kind, swap_phase
 ) -> None:
     """Experience steps/s with one viewer page open vs none, in one training run."""
-    from racer.local_run import LocalRun, LocalRunPlan
+    from racer.local.run import LocalRun, LocalRunPlan
 
     if load_kind == "page" and not (Path(CHROMIUM).is_file() and Path(CHROMEDRIVER).is_file()):
         raise click.ClickException(f"{CHROMIUM} and {CHROMEDRIVER} are needed (scripts/setup.sh installs them)")

@@ -8,7 +8,7 @@ import click
 import pytest
 from click.testing import CliRunner
 
-from racer.time_to_lap_bench import hyperparameter_overrides, time_to_lap_command
+from racer.benches.time_to_lap import hyperparameter_overrides, time_to_lap_command
 
 
 def test_pairs_become_hyperparameters_json_entries():

@@ -9,11 +9,11 @@ import pytest
 import torch
 from click.testing import CliRunner
 
+from racer.benches.transfer import transfer_bench_command
 from racer.shared.deepracer.model_metadata import parse_model_metadata
 from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.policy.networks import build_actor_critic
 from racer.shared.store import LocalStore
-from racer.transfer_bench import transfer_bench_command
 from tests.shared_data import SHARED_DATA
 
 pytestmark = pytest.mark.slow

@@ -10,7 +10,7 @@ the same cores and use the same network module (channels-last), so the speedup c
 differently: policy and value towers on one core each (`PPOSettings.threads_per_tower`), the fused Adam kernel, and
 one old-policy pass per update instead of one per minibatch. The trainer is timed in both precisions it offers
 (`PPOSettings.precision`: fp32, the default, and bf16 towers), and `agreement` says how far the bf16 update lands from
-the fp32 one on the same batch (racer.trainer.precision_agreement). Neither path is compiled (torch.compile measured
+the fp32 one on the same batch (racer.benches.precision_agreement). Neither path is compiled (torch.compile measured
 ~20 % slower, so there is no compile time to amortise).
 A small untimed warm-up update runs first on each path (oneDNN primitive creation). With `--repeats` > 1 the two
 paths alternate and medians are reported; `*_cpu_s` are process CPU seconds (OpenMP spin-waits included), less
@@ -33,6 +33,8 @@ import numpy as np
 import torch
 from torch import nn
 
+from racer.benches.precision_agreement import update_agreement
+from racer.benches.workdir import cpu_description, native_bf16_available
 from racer.shared.deepracer.hyperparameters import Hyperparameters
 from racer.shared.deepracer.model_metadata import parse_model_metadata
 from racer.shared.episode import Episode
@@ -50,8 +52,7 @@ from racer.trainer.ppo import (
     minibatch_size_for,
     shuffled_minibatches,
 )
-from racer.trainer.precision import Precision, cpu_description, native_bf16_available
-from racer.trainer.precision_agreement import update_agreement
+from racer.trainer.precision import Precision
 
 __all__ = ["bench_network", "plain_ppo_update", "ppo_bench_command", "synthetic_episodes"]
 

@@ -12,14 +12,14 @@ from pathlib import Path
 
 import click
 
-from racer.bench_workdir import bench_workdir
-from racer.local_run import LocalRunPlan, read_iteration_records, run_local_training
+from racer.benches.time_to_lap_races import TIME_TO_LAP_RACES, time_to_lap_hyperparameters
+from racer.benches.workdir import bench_workdir, cpu_description, read_iteration_records
+from racer.local.run import LocalRunPlan, run_local_training
+from racer.local.services import PROJECT_ROOT
 from racer.shared.config import LocalStoreSettings, RedisSettings, ServiceSettings
 from racer.shared.deepracer.hyperparameters import HyperparametersError, parse_hyperparameters
-from racer.shared.services import PROJECT_ROOT
 from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
-from racer.time_to_lap_races import TIME_TO_LAP_RACES, time_to_lap_hyperparameters
-from racer.trainer.precision import DEFAULT_PRECISION, PRECISION_NAMES, cpu_description
+from racer.trainer.precision import DEFAULT_PRECISION, PRECISION_NAMES
 
 
 @click.command(name="time-to-lap")

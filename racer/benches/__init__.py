@@ -1,4 +1,9 @@
-"""`racer bench ...`: benchmarks that print one JSON line each (speed goals are measured, not asserted)."""
+"""`racer bench ...`: benchmarks that print one JSON line each (speed goals are measured, not asserted).
+
+This package is every benchmark's home, one module per bench (`ppo`, `sac`, `rollout`, `throughput`,
+`time_to_lap`, `viewer`, `tf_proof`) and their helpers (`workdir`: the work folder a bench's training run writes to).
+The simulator's own benches (`sim`, `camera`, `fidelity`) still live beside the simulator in `racer.shared.sim`.
+"""
 
 from __future__ import annotations
 
@@ -16,15 +21,15 @@ BENCHMARKS: dict[str, tuple[str, str]] = {
         "racer's camera frames vs DeepRacer's Gazebo frames, per world; frame cost.",
     ),
     "ppo": (
-        "racer.trainer.bench:ppo_bench_command",
+        "racer.benches.ppo:ppo_bench_command",
         "One PPO update: samples/s of the trainer vs a plain fp32 baseline.",
     ),
     "precision": (
-        "racer.precision_bench:precision_bench_command",
+        "racer.benches.precision:precision_bench_command",
         "Env steps to 3 of 3 greedy laps per trainer precision and seed, in one deterministic process.",
     ),
     "transfer": (
-        "racer.transfer_bench:transfer_bench_command",
+        "racer.benches.transfer:transfer_bench_command",
         "Real DeepRacer checkpoints drive racer closed loop: laps and mean progress from evenly spaced starts.",
     ),
     "fidelity": (
@@ -32,26 +37,29 @@ BENCHMARKS: dict[str, tuple[str, str]] = {
         "Open-loop replay of real simtraces: pose error after 1 s and 2 s per speed band.",
     ),
     "tf-proof": (
-        "racer.model_io.tensorflow.proof:tf_proof_command",
+        "racer.benches.tf_proof:tf_proof_command",
         "72 models (PPO and SAC): racer vs TensorFlow, OpenVINO and LiteRT (fp32, fp16) outputs.",
     ),
     "sac": (
-        "racer.trainer.sac_bench:sac_bench_command",
+        "racer.benches.sac:sac_bench_command",
         "SAC gradient steps/s (one step per transition in DeepRacer).",
     ),
     "time-to-lap": (
-        "racer.time_to_lap_bench:time_to_lap_command",
+        "racer.benches.time_to_lap:time_to_lap_command",
         "Minutes from scratch until greedy evaluation completes 3 of 3 laps.",
     ),
     "rollout": (
-        "racer.rollout_worker.bench:rollout_bench_command",
+        "racer.benches.rollout:rollout_bench_command",
         "Per-frame inference cost at batch 1/4/8 and one worker's CPU per env step with 1/4/8 envs.",
     ),
     "throughput": (
-        "racer.throughput_bench:throughput_bench_command",
+        "racer.benches.throughput:throughput_bench_command",
         "The default system's experience steps/s vs one raw env process per core, and the ratio.",
     ),
-    "viewer": ("racer.viewer.bench:viewer_bench_command", "Experience steps/s with one live viewer page open vs none."),
+    "viewer": (
+        "racer.benches.viewer:viewer_bench_command",
+        "Experience steps/s with one live viewer page open vs none.",
+    ),
 }
 
 
