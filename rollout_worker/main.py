@@ -9,8 +9,13 @@ import click
 
 from racer.rollout_worker.batched_rollout import DEFAULT_ENVS_PER_WORKER
 from racer.shared.config import settings_from_env
+from racer.shared.sim.reward import RewardFunctionError
 from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
 from racer.shared.user_errors import user_error_types
+
+EXIT_RUN_CANNOT_GO_ON = 3
+"""Exit status of a worker whose failure a restart cannot mend (the reward function raised on a pose the run met):
+`racer train` stops the run instead of restarting the worker, as the SimApp's RewardFunctionError ends its job."""
 
 
 @click.command(name="rollout")
@@ -54,5 +59,22 @@ def rollout_command(model_prefix, worker_id, world, track, seed, envs, wait_time
         signal.signal(signal.SIGTERM, lambda signum, frame: worker.stop())
         signal.signal(signal.SIGINT, lambda signum, frame: worker.stop())
         worker.run_forever()
+    except RewardFunctionError as error:
+        _stop_the_run(model_prefix, worker_id, str(error))
     except user_error_types() as error:
         raise click.ClickException(str(error)) from error
+
+
+def _stop_the_run(model_prefix: str, worker_id: int, message: str) -> None:
+    """Tell the trainer and `racer train` (a Redis key) that the run cannot go on, then exit with its own status."""
+    from racer.shared.redis_connection import RedisLink, RedisUnavailableError
+    from racer.shared.transport.channels import RunChannel
+
+    click.echo(f"Error: worker {worker_id}: {message}", err=True)
+    try:
+        RunChannel(RedisLink(settings_from_env().redis, reconnect_budget_s=5.0), model_prefix).report_fatal(
+            f"worker {worker_id}", message
+        )
+    except RedisUnavailableError as error:  # the exit status still stops a local run
+        click.echo(f"(could not tell the trainer through Redis: {error})", err=True)
+    raise SystemExit(EXIT_RUN_CANNOT_GO_ON)

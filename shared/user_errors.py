@@ -31,6 +31,7 @@ def user_error_types() -> tuple[type[Exception], ...]:
         RunConfigError,
         CheckpointError,
         UnsupportedConfigurationError,
+        RunCannotGoOnError,
     )
 
 
@@ -45,3 +46,8 @@ class RunConfigError(ValueError):
 class UnsupportedConfigurationError(ValueError):
     """A configuration DeepRacer refuses, or one racer cannot train yet: names the file, the field, why and the fix.
     (The trainer's preflight, racer.trainer.preflight, raises it.)"""
+
+
+class RunCannotGoOnError(RuntimeError):
+    """A process of the run reported an error no restart can mend (the reward function raised during training);
+    the message is that process's, naming the file, the line and the params."""

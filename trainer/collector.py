@@ -17,6 +17,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from racer.shared.transport.channels import ReceivedBatch, RunChannel
+from racer.shared.user_errors import RunCannotGoOnError
 from racer.trainer.learner import Learner
 
 __all__ = ["CollectTimes", "Collector", "StopRequested"]
@@ -109,6 +110,9 @@ class Collector:
         while expected - got.keys():
             if self.stop_event.is_set():
                 raise StopRequested()
+            fatal = self.channel.fatal()
+            if fatal is not None:  # as the SimApp's RewardFunctionError ends its job: no training on what is left
+                raise RunCannotGoOnError(f"{fatal['source']}: {fatal['message']}")
             for received in self.channel.read_batches(self.consumer, block_s=2.0):
                 consider(received)
             missing = sorted(expected - got.keys())

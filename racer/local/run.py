@@ -22,6 +22,7 @@ import click
 from racer.local.services import PROJECT_ROOT, MinioServer, RedisServer, _die_with_parent
 from racer.local.supervisor import RunSupervisor, stop_children
 from racer.rollout_worker.batched_rollout import DEFAULT_ENVS_PER_WORKER, DEFAULT_WORKERS
+from racer.rollout_worker.main import EXIT_RUN_CANNOT_GO_ON
 from racer.shared.config import LocalStoreSettings, RedisSettings, S3Settings, ServiceSettings, settings_from_env
 from racer.shared.redis_connection import RedisLink, RedisUnavailableError
 from racer.shared.sim.config import DEFAULT_TRACK
@@ -331,6 +332,8 @@ def run_local_training(plan: LocalRunPlan, base_settings: ServiceSettings, on_ev
         trainer = run.children["trainer"]
         while trainer.poll() is None and not interrupted:
             supervisor.check_processes()
+            if supervisor.fatal_worker is not None:
+                break
             if supervisor.redis_up:
                 try:
                     for record in display.poll():
@@ -351,12 +354,18 @@ def run_local_training(plan: LocalRunPlan, base_settings: ServiceSettings, on_ev
         if interrupted:
             click.echo("stopping: the trainer writes a final checkpoint and .finished ...", err=True)
             stopping.set()
-        run.stop_processes(interrupted)
+        run.stop_processes(interrupted or supervisor.fatal_worker is not None)
         try:
             display.poll()  # the last iteration and evaluation lines, while Redis is still up
         except RedisUnavailableError:
             pass
         status = run.children["trainer"].returncode
+        if supervisor.fatal_worker is not None:
+            log_file = plan.log_dir / f"worker-{supervisor.fatal_worker}.log"
+            error_lines = [line for line in log_file.read_text(errors="replace").splitlines() if line.strip()]
+            start = max((i for i, line in enumerate(error_lines) if line.startswith("Error: ")), default=0)
+            click.echo(f"racer train: the run stopped: {chr(10).join(error_lines[start:])[-3000:]}", err=True)
+            return EXIT_RUN_CANNOT_GO_ON
         if status not in (0, None) and not interrupted:
             click.echo(f"trainer exited with status {status}; see {plan.log_dir / 'trainer.log'}:", err=True)
             click.echo((plan.log_dir / "trainer.log").read_text(errors="replace")[-3000:], err=True)

@@ -13,6 +13,7 @@ import time
 from collections.abc import Callable, Iterable, Mapping
 
 from racer.local.services import RedisServer
+from racer.rollout_worker.main import EXIT_RUN_CANNOT_GO_ON
 
 STOP_CHILDREN_BUDGET_S = 18.0
 """Ctrl-C / SIGTERM: how long the trainer and workers get to stop (the trainer's final checkpoint included) before
@@ -40,6 +41,8 @@ class RunSupervisor:
         self._redis_retry_s = 1.0
         self._seen_alive: set[int] = set()
         self._down: dict[int, float] = {}
+        self.fatal_worker: int | None = None
+        """A worker that exited with EXIT_RUN_CANNOT_GO_ON: the run stops (it is not restarted)."""
 
     @property
     def redis_up(self) -> bool:
@@ -49,9 +52,13 @@ class RunSupervisor:
         self._check_redis()
         for worker_id in range(self.num_workers):
             child = self.children.get(f"worker-{worker_id}")
-            if child is not None and child.poll() not in (None, 0):
-                self._worker_down(worker_id, f"exit status {child.returncode}; restarting it")
-                self.restart_worker(worker_id)
+            if child is None or child.poll() in (None, 0):
+                continue
+            if child.returncode == EXIT_RUN_CANNOT_GO_ON:
+                self.fatal_worker = worker_id  # restarting it would fail the same way, again and again
+                continue
+            self._worker_down(worker_id, f"exit status {child.returncode}; restarting it")
+            self.restart_worker(worker_id)
 
     def check_heartbeats(self, live: Mapping[int, dict]) -> None:
         """Heartbeats (Redis keys with a TTL) tell a stuck or dead worker from a live one."""

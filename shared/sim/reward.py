@@ -27,6 +27,26 @@ class RewardFunctionError(ValueError):
     """The reward function could not be loaded, raised, or returned an unusable value."""
 
 
+PARAMS_SHOWN = ("x", "y", "heading", "speed", "steering_angle", "progress", "steps", "distance_from_center",
+                "is_left_of_center", "all_wheels_on_track", "is_offtrack", "is_reversed", "closest_waypoints",
+                "closest_objects", "objects_location")  # fmt: skip
+"""The params an error message shows, enough to recreate the pose (`racer reward test` shows every one)."""
+
+
+def describe_params(params: Mapping) -> str:
+    """A one-line summary of the params a reward function was called with, numbers rounded."""
+
+    def short(value: object) -> str:
+        if isinstance(value, float):
+            return f"{value:.4g}"
+        if isinstance(value, (list, tuple)):
+            inner = ", ".join(short(item) for item in list(value)[:4])
+            return f"[{inner}{', ...' if len(value) > 4 else ''}]"
+        return repr(value)
+
+    return ", ".join(f"{name}={short(params[name])}" for name in PARAMS_SHOWN if name in params)
+
+
 def _user_traceback(exc: BaseException, path: Path) -> str:
     """The traceback without the frames of this module, so the user's file and line come first."""
     frames = [f for f in traceback.extract_tb(exc.__traceback__) if f.filename != __file__]
@@ -48,9 +68,13 @@ class RewardFunction:
         # A user function may raise anything; it is re-raised with its traceback, never swallowed.
         except Exception as exc:
             raise RewardFunctionError(
-                f"reward function {self.path} raised {type(exc).__name__}:\n{_user_traceback(exc, self.path)}"
+                f"reward function {self.path} raised {type(exc).__name__}:\n{_user_traceback(exc, self.path)}\n"
+                f"with params {describe_params(params)}"
             ) from exc
-        return check_reward_value(value, self.path)
+        try:
+            return check_reward_value(value, self.path)
+        except RewardFunctionError as error:
+            raise RewardFunctionError(f"{error}\nwith params {describe_params(params)}") from None
 
     def __repr__(self) -> str:
         return f"RewardFunction({str(self.path)!r})"

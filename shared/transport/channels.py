@@ -321,6 +321,17 @@ class RunChannel:
 
         return self.link.do(scan)
 
+    # ---- a run that cannot go on ----------------------------------------------------------------
+    def report_fatal(self, source: str, message: str) -> None:
+        """A process hit an error no restart can mend (the user's reward function raised): the run must stop.
+        The first report stays; the trainer and `racer train` read it and stop with it."""
+        body = json.dumps({"source": source, "message": message, "time": time.time()})
+        self.link.do(lambda r: r.set(self.key("fatal"), body, nx=True))
+
+    def fatal(self) -> dict | None:
+        raw = self.link.do(lambda r: r.get(self.key("fatal")))
+        return None if raw is None else json.loads(raw)
+
     # ---- summaries for displays -----------------------------------------------------------------
     def publish(self, stream: str, record: dict) -> None:
         fields = {"json": json.dumps(record)}

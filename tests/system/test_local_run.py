@@ -99,3 +99,25 @@ def test_ctrl_c_writes_a_final_checkpoint_and_leaves_no_process(tmp_path, small_
     assert f"Training finished at checkpoint {number} " in trainer_log
     time.sleep(1)
     assert processes_mentioning(str(tmp_path)) == [], output[-2000:]
+
+
+def test_a_reward_that_raises_during_training_stops_the_run_with_its_file_line_and_params(tmp_path, small_custom_files):
+    """The SimApp's RewardFunctionError ends its job; racer stops the run (no worker restarted in a loop) and says
+    where the user's code failed and on which params, and the run's exit status says it failed."""
+    (small_custom_files / "reward_function.py").write_text(
+        "calls = 0\n\n\n"
+        "def reward_function(params):\n"
+        "    global calls\n"
+        "    calls += 1\n"
+        "    if calls > 1500:  # well after the preflight's calls: the first iterations train\n"
+        "        return params['objects_location'][0][0]\n"
+        "    return 1.0\n"
+    )
+    process = racer_train(tmp_path, small_custom_files, "--max-minutes", "8", "--viewer-port", "0")
+    output, _ = process.communicate(timeout=900)
+    assert process.returncode == 3, output[-4000:]
+    assert "the run stopped" in output and 'reward_function.py", line 8' in output, output[-4000:]
+    assert "IndexError" in output and "with params x=" in output, output[-4000:]
+    assert "restarting it" not in output, output[-4000:]
+    time.sleep(1)
+    assert processes_mentioning(str(tmp_path)) == []
