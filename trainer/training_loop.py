@@ -38,6 +38,7 @@ from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.policy.factory import build_network_for_metadata
 from racer.shared.policy.sac_networks import SACNetworks
 from racer.shared.redis_connection import RedisLink, RedisUnavailableError
+from racer.shared.sim.car_dynamics import DEFAULT_CAR_PROFILE
 from racer.shared.store import ObjectNotFoundError, open_store
 from racer.shared.transport.channels import ReceivedBatch, RunChannel
 from racer.shared.worker_settings import WorkerSettings
@@ -82,6 +83,8 @@ class TrainerOptions:
     """Default ENABLE_DOMAIN_RANDOMIZATION of every worker (workers.json may override it per worker)."""
     car_randomization: bool = False
     """Default RACER_CAR_RANDOMIZATION of every worker."""
+    car_profile: str = DEFAULT_CAR_PROFILE
+    """Default RACER_CAR_PROFILE of every worker (`car_dynamics.CAR_DYNAMICS`; workers.json may override it)."""
     race_params: tuple[tuple[str, str], ...] = ()
     """RACE_TYPE and obstacle / bot-car training_params keys for every worker (workers.json may override them)."""
     share_timeout_s: float = 3600.0
@@ -135,6 +138,7 @@ class Trainer:
             domain_randomization=self.options.domain_randomization,
             car_randomization=self.options.car_randomization,
             race_params=self.options.race_params,
+            car_profile=self.options.car_profile,
         )
         for warning in report.warnings:
             log.warning(warning)
