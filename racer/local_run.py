@@ -437,6 +437,13 @@ def run_local_training(plan: LocalRunPlan, base_settings: ServiceSettings, on_ev
     show_default=True,
     help="The car's dynamics for every worker (RACER_CAR_PROFILE; workers.json may set it per worker).",
 )
+@click.option(
+    "--dynamics-randomization",
+    type=bool,
+    default=False,
+    show_default=True,
+    help="A car drawn around the profile every episode, for every worker (RACER_DYNAMICS_RANDOMIZATION).",
+)
 @race_options
 @direction_option
 def train_command(
@@ -456,6 +463,7 @@ def train_command(
     viewer_host,
     precision,
     car_profile,
+    dynamics_randomization,
     race_type,
     race_param,
 ) -> None:
@@ -480,7 +488,14 @@ def train_command(
         viewer_port=viewer_port or None,
         race_params=race_params_from_options(race_type, race_param),
         envs_per_worker=envs_per_worker,
-        trainer_options=("--precision", precision, "--car-profile", car_profile),
+        trainer_options=(
+            "--precision",
+            precision,
+            "--car-profile",
+            car_profile,
+            "--dynamics-randomization",
+            str(dynamics_randomization),
+        ),
     )
     sys.exit(run_local_training(plan, base_settings))
 

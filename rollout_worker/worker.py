@@ -99,6 +99,7 @@ def training_env_config(run: RunFiles) -> EnvConfig:
         domain_randomization=worker.domain_randomization,
         car_randomization=worker.car_randomization,
         car_dynamics=worker.car_dynamics,
+        dynamics_randomization=worker.dynamics_randomization,
         simapp_dir=Path(worker.simapp_dir) if worker.simapp_dir else None,
         race=worker.race,
     )

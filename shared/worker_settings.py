@@ -52,6 +52,9 @@ class WorkerSettings:
     """ENABLE_DOMAIN_RANDOMIZATION: random light colours and attenuation at every episode, as the SimApp."""
     car_randomization: bool = False
     """racer's RACER_CAR_RANDOMIZATION: tint, brightness, camera blur, noise and pose jitter per episode."""
+    dynamics_randomization: bool = False
+    """racer's RACER_DYNAMICS_RANDOMIZATION: a car drawn around the profile every episode (tyres, yaw inertia,
+    steering servo, rolling radius, a 0-1 step command delay; shared/sim/dynamics_randomization.py)."""
     car_profile: str = DEFAULT_CAR_PROFILE
     """racer's RACER_CAR_PROFILE: the car's dynamics, one of `car_dynamics.CAR_DYNAMICS` (gazebo, simtrace-fit)."""
     simapp_dir: str = ""
@@ -106,6 +109,7 @@ class WorkerSettings:
             "RACER_EVAL_SPREAD_STARTS": str(self.eval_spread_starts),
             "ENABLE_DOMAIN_RANDOMIZATION": str(self.domain_randomization),
             "RACER_CAR_RANDOMIZATION": str(self.car_randomization),
+            "RACER_DYNAMICS_RANDOMIZATION": str(self.dynamics_randomization),
             "RACER_CAR_PROFILE": self.car_profile,
             "RACER_SIMAPP_DIR": self.simapp_dir,
             **race,
@@ -147,6 +151,7 @@ class WorkerSettings:
                 number_of_reverse_counts=whole("NUMBER_OF_REVERSE_COUNTS", defaults.number_of_reverse_counts),
                 domain_randomization=flag("ENABLE_DOMAIN_RANDOMIZATION", defaults.domain_randomization),
                 car_randomization=flag("RACER_CAR_RANDOMIZATION", defaults.car_randomization),
+                dynamics_randomization=flag("RACER_DYNAMICS_RANDOMIZATION", defaults.dynamics_randomization),
                 car_profile=str(params.get("RACER_CAR_PROFILE") or defaults.car_profile).strip(),
                 simapp_dir=str(params.get("RACER_SIMAPP_DIR") or defaults.simapp_dir),
                 race=RaceConfig.from_training_params(params),
@@ -167,6 +172,7 @@ def default_worker_settings(
     domain_randomization: bool = False,
     car_randomization: bool = False,
     car_profile: str = DEFAULT_CAR_PROFILE,
+    dynamics_randomization: bool = False,
 ) -> list[WorkerSettings]:
     """Worker i gets world i (cycling through `worlds`) on the same track."""
     return [
@@ -176,6 +182,7 @@ def default_worker_settings(
             domain_randomization=domain_randomization,
             car_randomization=car_randomization,
             car_profile=car_profile,
+            dynamics_randomization=dynamics_randomization,
         )
         for i in range(num_workers)
     ]

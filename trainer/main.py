@@ -62,6 +62,13 @@ from racer.trainer.precision import DEFAULT_PRECISION, PRECISION_NAMES
     help="racer's RACER_CAR_RANDOMIZATION for every worker (tint, blur, noise, camera jitter).",
 )
 @click.option(
+    "--dynamics-randomization",
+    type=bool,
+    default=False,
+    show_default=True,
+    help="racer's RACER_DYNAMICS_RANDOMIZATION for every worker (a car drawn around the profile every episode).",
+)
+@click.option(
     "--car-profile",
     type=click.Choice(CAR_PROFILE_NAMES),
     default=DEFAULT_CAR_PROFILE,
@@ -106,6 +113,7 @@ def trainer_command(
     max_memory_steps,
     domain_randomization,
     car_randomization,
+    dynamics_randomization,
     car_profile,
     sac_replay_memory_mb,
     sac_updates_per_transition,
@@ -147,6 +155,7 @@ def trainer_command(
         domain_randomization=domain_randomization,
         car_randomization=car_randomization,
         car_profile=car_profile,
+        dynamics_randomization=dynamics_randomization,
         sac_replay_memory_mb=sac_replay_memory_mb,
         sac_updates_per_transition=sac_updates_per_transition,
         precision=Precision(precision),

@@ -121,17 +121,24 @@ def load_worker_settings(
     car_randomization: bool = False,
     race_params: tuple[tuple[str, str], ...] = (),
     car_profile: str = DEFAULT_CAR_PROFILE,
+    dynamics_randomization: bool = False,
 ) -> list[WorkerSettings]:
     """Defaults (world i to worker i, one track) plus the optional custom_files/workers.json.
 
     workers.json holds DeepRacer training_params keys applied to every worker, and optionally
     `"workers": [{...}, {...}]` with per-worker overrides (like DeepRacer-for-Cloud's worker-N.env).
     `race_params` (RACE_TYPE and obstacle / bot-car keys from `racer train` options) apply to every worker under
-    workers.json, as does `car_profile` (`--car-profile`).
+    workers.json, as do `car_profile` and `dynamics_randomization` (`--car-profile`, `--dynamics-randomization`).
     """
     try:
         settings = default_worker_settings(
-            num_workers, track, worlds, domain_randomization, car_randomization, car_profile=car_profile
+            num_workers,
+            track,
+            worlds,
+            domain_randomization,
+            car_randomization,
+            car_profile=car_profile,
+            dynamics_randomization=dynamics_randomization,
         )
     except ValueError as error:
         raise RunConfigError(f"racer train options (--car-profile): {error}") from error
@@ -246,6 +253,7 @@ def preflight(
     car_randomization: bool = False,
     race_params: tuple[tuple[str, str], ...] = (),
     car_profile: str = DEFAULT_CAR_PROFILE,
+    dynamics_randomization: bool = False,
 ) -> PreflightReport:
     """Every check that needs no running server. Raises a user error (file, field, fix) or returns the parsed
     settings and warnings. `store`: where a clone source is looked up (only when it needs no server to read)."""
@@ -259,7 +267,15 @@ def preflight(
     )
     load_reward_function(folder / "reward_function.py")
     workers = load_worker_settings(
-        folder, num_workers, track, worlds, domain_randomization, car_randomization, race_params, car_profile
+        folder,
+        num_workers,
+        track,
+        worlds,
+        domain_randomization,
+        car_randomization,
+        race_params,
+        car_profile,
+        dynamics_randomization,
     )
     for worker_id, worker in enumerate(workers):
         try:  # a track name no worker could find fails here, listing where it looked, not in every worker

@@ -83,6 +83,8 @@ class TrainerOptions:
     """Default ENABLE_DOMAIN_RANDOMIZATION of every worker (workers.json may override it per worker)."""
     car_randomization: bool = False
     """Default RACER_CAR_RANDOMIZATION of every worker."""
+    dynamics_randomization: bool = False
+    """Default RACER_DYNAMICS_RANDOMIZATION of every worker."""
     car_profile: str = DEFAULT_CAR_PROFILE
     """Default RACER_CAR_PROFILE of every worker (`car_dynamics.CAR_DYNAMICS`; workers.json may override it)."""
     race_params: tuple[tuple[str, str], ...] = ()
@@ -139,6 +141,7 @@ class Trainer:
             car_randomization=self.options.car_randomization,
             race_params=self.options.race_params,
             car_profile=self.options.car_profile,
+            dynamics_randomization=self.options.dynamics_randomization,
         )
         for warning in report.warnings:
             log.warning(warning)

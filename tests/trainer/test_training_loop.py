@@ -304,6 +304,32 @@ def test_the_car_profile_travels_from_train_options_and_workers_json_to_each_wor
         make_trainer(redis_settings, tmp_path / "bad", custom_files, car_profile="f1").setup()
 
 
+def test_dynamics_randomization_travels_from_train_options_and_workers_json_to_each_workers_env(
+    redis_settings, tmp_path, custom_files
+):
+    from racer.rollout_worker.run_files import load_run_files
+    from racer.rollout_worker.worker import training_env_config
+    from racer.shared.deepracer.training_params import parse_training_params
+
+    make_trainer(redis_settings, tmp_path / "default", custom_files).setup()
+    store = open_store(LocalStoreSettings(root=tmp_path / "default" / "store"))
+    assert not training_env_config(load_run_files(store, PREFIX, 0, tmp_path / "w")).dynamics_randomization
+
+    (custom_files / "workers.json").write_text(json.dumps({"workers": [{}, {"RACER_DYNAMICS_RANDOMIZATION": False}]}))
+    make_trainer(redis_settings, tmp_path, custom_files, dynamics_randomization=True).setup()
+    store = open_store(LocalStoreSettings(root=tmp_path / "store"))
+    layout = ModelLayout(PREFIX)
+    recorded = [
+        parse_training_params(store.get_bytes(layout.training_params(i)).decode()).values[
+            "RACER_DYNAMICS_RANDOMIZATION"
+        ]
+        for i in (0, 1)
+    ]
+    assert recorded == ["True", "False"]
+    configs = [training_env_config(load_run_files(store, PREFIX, i, tmp_path / f"worker-{i}")) for i in (0, 1)]
+    assert [config.dynamics_randomization for config in configs] == [True, False]
+
+
 def test_a_bad_car_profile_option_is_refused_before_anything_starts(tmp_path, custom_files):
     from click.testing import CliRunner
 
