@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from racer.shared.sim.car_dynamics import CAR_PROFILE_NAMES, DEFAULT_CAR_PROFILE
 from racer.shared.sim.config import DEFAULT_TRACK, RESET_POSITIONS
 from racer.shared.sim.race_config import RaceConfig
 from racer.shared.sim.worlds import WORLD_NAMES
@@ -122,8 +123,15 @@ class EvaluationConfig:
     mcap: bool = True
     seed: int = 0
     """Seeds the LIDAR noise; the sim clock starts at 0."""
+    car_profile: str = DEFAULT_CAR_PROFILE
+    """RACER_CAR_PROFILE: the car's dynamics (`car_dynamics.CAR_DYNAMICS`)."""
 
     def __post_init__(self) -> None:
+        if self.car_profile not in CAR_PROFILE_NAMES:
+            raise EvaluationConfigError(
+                f"--car-profile (RACER_CAR_PROFILE) must be one of {', '.join(CAR_PROFILE_NAMES)}, "
+                f"got {self.car_profile!r}"
+            )
         if self.mode not in MODES:
             raise EvaluationConfigError(f"--mode must be one of {', '.join(MODES)}, got {self.mode!r}")
         if self.world not in WORLD_NAMES:

@@ -20,6 +20,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from racer.shared.deepracer.model_metadata import ModelMetadata
+from racer.shared.sim.car_dynamics import GAZEBO_DYNAMICS, CarDynamics
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
 from racer.shared.sim.race_config import RaceConfig
@@ -116,6 +117,7 @@ def make_env_config(
     reverse_penalty_s: float | None,
     reset_position: str = "deepracer",
     race: RaceConfig | None = None,
+    car_dynamics: CarDynamics = GAZEBO_DYNAMICS,
 ) -> EnvConfig:
     """The env of an evaluation job: default evaluation reward, start at the line, the job's reset budget."""
     return EnvConfig(
@@ -133,6 +135,7 @@ def make_env_config(
         reverse_penalty_s=reverse_penalty_s,
         reset_position=reset_position,
         race=race or RaceConfig(),
+        car_dynamics=car_dynamics,
     )
 
 

@@ -11,6 +11,7 @@ from pathlib import Path
 import click
 
 from racer.evaluation_worker.config import CONSOLE_NUMBER_OF_RESETS, MODES
+from racer.shared.sim.car_dynamics import CAR_PROFILE_NAMES, DEFAULT_CAR_PROFILE
 from racer.shared.sim.config import DEFAULT_TRACK, RESET_POSITIONS
 from racer.shared.sim.race_cli import race_options, race_params_from_options
 from racer.shared.sim.track_option import direction_option
@@ -119,6 +120,13 @@ def _video_size(text: str) -> tuple[int, int]:
     help="Also keep a local copy of the outputs here (same layout as under the model prefix).",
 )
 @click.option("--seed", type=int, default=0, show_default=True, help="Seeds sensor noise; the sim clock starts at 0.")
+@click.option(
+    "--car-profile",
+    type=click.Choice(CAR_PROFILE_NAMES),
+    default=DEFAULT_CAR_PROFILE,
+    show_default=True,
+    help="The car's dynamics (RACER_CAR_PROFILE); the model's training_params record the one it trained in.",
+)
 @race_options
 @direction_option
 def evaluate_command(
@@ -142,6 +150,7 @@ def evaluate_command(
     mcap,
     out_dir,
     seed,
+    car_profile,
     race_type,
     race_param,
 ) -> None:
@@ -189,6 +198,7 @@ def evaluate_command(
             mcap=mcap,
             seed=seed,
             race_setup=race_setup,
+            car_profile=car_profile,
         )
         store = open_store(settings_from_env().store)
         session = EvaluationSession(store, config, out_dir=out_dir)

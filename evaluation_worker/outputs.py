@@ -96,6 +96,7 @@ def evaluation_params(config: EvaluationConfig, layout: EvaluationLayout, checkp
         "SIMTRACE_S3_PREFIX": layout.key(layout.run_name),
         "MP4_S3_OBJECT_PREFIX": layout.key(layout.run_name),
         "RACER_EVALUATION_MODE": config.mode,
+        "RACER_CAR_PROFILE": config.car_profile,
     }
     if config.race_setup.has_objects:
         params.update(config.race_setup.to_training_params())  # OBJECT_POSITIONS stays a YAML list

@@ -43,6 +43,7 @@ from racer.shared.model_layout import EvaluationLayout, ModelLayout
 from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.policy.manifest import CheckpointError
 from racer.shared.policy.networks import ActorCritic
+from racer.shared.sim.car_dynamics import car_profile
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
 from racer.shared.store import ObjectNotFoundError, ObjectStore
@@ -171,6 +172,7 @@ class EvaluationSession:
                 reverse_penalty_s=penalty,
                 reset_position=config.race.put_back,
                 race=config.race_setup,
+                car_dynamics=car_profile(config.car_profile),
             )
         rules = config.deepracer
         return make_env_config(
@@ -184,6 +186,7 @@ class EvaluationSession:
             immobilized_penalty_s=rules.immobilized_penalty_s,
             reverse_penalty_s=None,
             race=config.race_setup,
+            car_dynamics=car_profile(config.car_profile),
         )
 
     def _header(self) -> dict[str, Any]:
@@ -197,6 +200,7 @@ class EvaluationSession:
             "track_length_m": round(self.env.base_track.length_m, 6),
             "world": config.world,
             "reverse_dir": config.reverse_dir,
+            "car_profile": config.car_profile,
             "action_space_type": "continuous" if self.model_metadata.is_continuous else "discrete",
             "sensors": sorted(self.env.observation_space.spaces),
         }

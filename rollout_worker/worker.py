@@ -113,6 +113,8 @@ def training_env_config(run: RunFiles) -> EnvConfig:
         number_of_reverse_counts=worker.number_of_reverse_counts,
         domain_randomization=worker.domain_randomization,
         car_randomization=worker.car_randomization,
+        car_dynamics=worker.car_dynamics,
+        dynamics_randomization=worker.dynamics_randomization,
         simapp_dir=Path(worker.simapp_dir) if worker.simapp_dir else None,
         race=worker.race,
     )

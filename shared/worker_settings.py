@@ -8,6 +8,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, fields
 
+from racer.shared.sim.car_dynamics import DEFAULT_CAR_PROFILE, CarDynamics, car_profile
 from racer.shared.sim.config import DEFAULT_TRACK
 from racer.shared.sim.race_config import RaceConfig
 from racer.shared.sim.route_search import world_name_for_direction
@@ -51,6 +52,11 @@ class WorkerSettings:
     """ENABLE_DOMAIN_RANDOMIZATION: random light colours and attenuation at every episode, as the SimApp."""
     car_randomization: bool = False
     """racer's RACER_CAR_RANDOMIZATION: tint, brightness, camera blur, noise and pose jitter per episode."""
+    dynamics_randomization: bool = False
+    """racer's RACER_DYNAMICS_RANDOMIZATION: a car drawn around the profile every episode (tyres, yaw inertia,
+    steering servo, rolling radius, a 0-1 step command delay; shared/sim/dynamics_randomization.py)."""
+    car_profile: str = DEFAULT_CAR_PROFILE
+    """racer's RACER_CAR_PROFILE: the car's dynamics, one of `car_dynamics.CAR_DYNAMICS` (gazebo, simtrace-fit)."""
     simapp_dir: str = ""
     """racer's RACER_SIMAPP_DIR: a SimApp bundle/ folder on the worker's machine whose world meshes and textures
     the camera draws instead of racer's look ("" = racer's look)."""
@@ -71,6 +77,12 @@ class WorkerSettings:
             )
         if self.off_track_penalty_s < 0 or self.collision_penalty_s < 0:
             raise ValueError("OFF_TRACK_PENALTY and COLLISION_PENALTY must be >= 0 seconds")
+        car_profile(self.car_profile)  # an unknown name: ValueError naming RACER_CAR_PROFILE and the valid names
+
+    @property
+    def car_dynamics(self) -> CarDynamics:
+        """The dynamics of this worker's car profile (`EnvConfig.car_dynamics`)."""
+        return car_profile(self.car_profile)
 
     def to_training_params(self, model_prefix: str, num_workers: int) -> dict[str, object]:
         """DeepRacer's training_params.yaml keys, values strings as DeepRacer-for-Cloud writes them (OBJECT_POSITIONS,
@@ -97,6 +109,8 @@ class WorkerSettings:
             "RACER_EVAL_SPREAD_STARTS": str(self.eval_spread_starts),
             "ENABLE_DOMAIN_RANDOMIZATION": str(self.domain_randomization),
             "RACER_CAR_RANDOMIZATION": str(self.car_randomization),
+            "RACER_DYNAMICS_RANDOMIZATION": str(self.dynamics_randomization),
+            "RACER_CAR_PROFILE": self.car_profile,
             "RACER_SIMAPP_DIR": self.simapp_dir,
             **race,
         }
@@ -137,6 +151,8 @@ class WorkerSettings:
                 number_of_reverse_counts=whole("NUMBER_OF_REVERSE_COUNTS", defaults.number_of_reverse_counts),
                 domain_randomization=flag("ENABLE_DOMAIN_RANDOMIZATION", defaults.domain_randomization),
                 car_randomization=flag("RACER_CAR_RANDOMIZATION", defaults.car_randomization),
+                dynamics_randomization=flag("RACER_DYNAMICS_RANDOMIZATION", defaults.dynamics_randomization),
+                car_profile=str(params.get("RACER_CAR_PROFILE") or defaults.car_profile).strip(),
                 simapp_dir=str(params.get("RACER_SIMAPP_DIR") or defaults.simapp_dir),
                 race=RaceConfig.from_training_params(params),
             )
@@ -155,6 +171,8 @@ def default_worker_settings(
     worlds: tuple[str, ...] = WORLDS,
     domain_randomization: bool = False,
     car_randomization: bool = False,
+    car_profile: str = DEFAULT_CAR_PROFILE,
+    dynamics_randomization: bool = False,
 ) -> list[WorkerSettings]:
     """Worker i gets world i (cycling through `worlds`) on the same track."""
     return [
@@ -163,6 +181,8 @@ def default_worker_settings(
             track=track,
             domain_randomization=domain_randomization,
             car_randomization=car_randomization,
+            car_profile=car_profile,
+            dynamics_randomization=dynamics_randomization,
         )
         for i in range(num_workers)
     ]

@@ -8,6 +8,7 @@ from pathlib import Path
 import click
 
 from racer.shared.config import settings_from_env
+from racer.shared.sim.car_dynamics import CAR_PROFILE_NAMES, DEFAULT_CAR_PROFILE
 from racer.shared.sim.config import DEFAULT_TRACK
 from racer.shared.sim.race_cli import race_options, race_params_from_options
 from racer.shared.sim.track_option import direction_option
@@ -61,6 +62,20 @@ from racer.trainer.precision import DEFAULT_PRECISION, PRECISION_NAMES
     help="racer's RACER_CAR_RANDOMIZATION for every worker (tint, blur, noise, camera jitter).",
 )
 @click.option(
+    "--dynamics-randomization",
+    type=bool,
+    default=False,
+    show_default=True,
+    help="racer's RACER_DYNAMICS_RANDOMIZATION for every worker (a car drawn around the profile every episode).",
+)
+@click.option(
+    "--car-profile",
+    type=click.Choice(CAR_PROFILE_NAMES),
+    default=DEFAULT_CAR_PROFILE,
+    show_default=True,
+    help="racer's RACER_CAR_PROFILE for every worker: the car's dynamics (workers.json may set it per worker).",
+)
+@click.option(
     "--sac-replay-memory-mb",
     type=click.FloatRange(1.0),
     default=1024.0,
@@ -98,6 +113,8 @@ def trainer_command(
     max_memory_steps,
     domain_randomization,
     car_randomization,
+    dynamics_randomization,
+    car_profile,
     sac_replay_memory_mb,
     sac_updates_per_transition,
     precision,
@@ -119,7 +136,8 @@ def trainer_command(
     except ValueError as error:
         raise click.ClickException(str(error)) from error
     try:
-        preflight(custom_files, num_workers, track, world_names, race_params=race_params)  # the trainer logs warnings
+        # the trainer logs the warnings
+        preflight(custom_files, num_workers, track, world_names, race_params=race_params, car_profile=car_profile)
     except user_error_types() as error:
         raise click.ClickException(str(error)) from error
     options = TrainerOptions(
@@ -136,6 +154,8 @@ def trainer_command(
         max_memory_steps=memory_cap,
         domain_randomization=domain_randomization,
         car_randomization=car_randomization,
+        car_profile=car_profile,
+        dynamics_randomization=dynamics_randomization,
         sac_replay_memory_mb=sac_replay_memory_mb,
         sac_updates_per_transition=sac_updates_per_transition,
         precision=Precision(precision),

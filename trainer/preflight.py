@@ -26,6 +26,7 @@ from pathlib import Path
 from racer.shared.deepracer.hyperparameters import Hyperparameters, load_hyperparameters
 from racer.shared.deepracer.model_metadata import ModelMetadata, load_model_metadata, parse_model_metadata
 from racer.shared.model_layout import ModelLayout
+from racer.shared.sim.car_dynamics import DEFAULT_CAR_PROFILE
 from racer.shared.sim.race_config import param_text
 from racer.shared.sim.reward import load_reward_function
 from racer.shared.sim.track import Track, TrackError
@@ -115,15 +116,28 @@ def load_worker_settings(
     domain_randomization: bool = False,
     car_randomization: bool = False,
     race_params: tuple[tuple[str, str], ...] = (),
+    car_profile: str = DEFAULT_CAR_PROFILE,
+    dynamics_randomization: bool = False,
 ) -> list[WorkerSettings]:
     """Defaults (world i to worker i, one track) plus the optional custom_files/workers.json.
 
     workers.json holds DeepRacer training_params keys applied to every worker, and optionally
     `"workers": [{...}, {...}]` with per-worker overrides (like DeepRacer-for-Cloud's worker-N.env).
     `race_params` (RACE_TYPE and obstacle / bot-car keys from `racer train` options) apply to every worker under
-    workers.json.
+    workers.json, as do `car_profile` and `dynamics_randomization` (`--car-profile`, `--dynamics-randomization`).
     """
-    settings = default_worker_settings(num_workers, track, worlds, domain_randomization, car_randomization)
+    try:
+        settings = default_worker_settings(
+            num_workers,
+            track,
+            worlds,
+            domain_randomization,
+            car_randomization,
+            car_profile=car_profile,
+            dynamics_randomization=dynamics_randomization,
+        )
+    except ValueError as error:
+        raise RunConfigError(f"racer train options (--car-profile): {error}") from error
     path = custom_files / "workers.json"
     if race_params:
         source = "racer train options (--race-type / --race-param)"
@@ -234,6 +248,8 @@ def preflight(
     domain_randomization: bool = False,
     car_randomization: bool = False,
     race_params: tuple[tuple[str, str], ...] = (),
+    car_profile: str = DEFAULT_CAR_PROFILE,
+    dynamics_randomization: bool = False,
 ) -> PreflightReport:
     """Every check that needs no running server. Raises a user error (file, field, fix) or returns the parsed
     settings and warnings. `store`: where a clone source is looked up (only when it needs no server to read)."""
@@ -247,7 +263,15 @@ def preflight(
     )
     load_reward_function(folder / "reward_function.py")
     workers = load_worker_settings(
-        folder, num_workers, track, worlds, domain_randomization, car_randomization, race_params
+        folder,
+        num_workers,
+        track,
+        worlds,
+        domain_randomization,
+        car_randomization,
+        race_params,
+        car_profile,
+        dynamics_randomization,
     )
     for worker_id, worker in enumerate(workers):
         try:  # a track name no worker could find fails here, listing where it looked, not in every worker

@@ -36,6 +36,7 @@ from racer.shared.episode import Episode
 from racer.shared.model_layout import ModelLayout
 from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.redis_connection import RedisLink, RedisUnavailableError
+from racer.shared.sim.car_dynamics import DEFAULT_CAR_PROFILE
 from racer.shared.store import ObjectNotFoundError, open_store
 from racer.shared.transport.channels import ReceivedBatch, RunChannel
 from racer.shared.worker_settings import WorkerSettings
@@ -72,6 +73,10 @@ class TrainerOptions:
     """Default ENABLE_DOMAIN_RANDOMIZATION of every worker (workers.json may override it per worker)."""
     car_randomization: bool = False
     """Default RACER_CAR_RANDOMIZATION of every worker."""
+    dynamics_randomization: bool = False
+    """Default RACER_DYNAMICS_RANDOMIZATION of every worker."""
+    car_profile: str = DEFAULT_CAR_PROFILE
+    """Default RACER_CAR_PROFILE of every worker (`car_dynamics.CAR_DYNAMICS`; workers.json may override it)."""
     race_params: tuple[tuple[str, str], ...] = ()
     """RACE_TYPE and obstacle / bot-car training_params keys for every worker (workers.json may override them)."""
     share_timeout_s: float = 3600.0
@@ -125,6 +130,8 @@ class Trainer:
             domain_randomization=self.options.domain_randomization,
             car_randomization=self.options.car_randomization,
             race_params=self.options.race_params,
+            car_profile=self.options.car_profile,
+            dynamics_randomization=self.options.dynamics_randomization,
         )
         for warning in report.warnings:
             log.warning(warning)

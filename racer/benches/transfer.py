@@ -4,8 +4,9 @@ A model trained in DeepRacer's Gazebo simulator drives well in racer only if rac
 enough to what it learnt on. So every model folder under `--models` (default: the shared `models/`, a real model
 trained in DeepRacer's simulator) goes through `racer model import`'s own path (its frozen graphs become racer
 checkpoints) and each checkpoint drives re:Invent 2018 greedily from `--starts` evenly spaced starts under evaluation
-rules without resets; the bench prints laps and mean progress per checkpoint. A change to the car, the camera or the
-look that costs a lap or more than 3 points of mean progress on a shared checkpoint does not land (shared/sim/README.md).
+rules without resets, in each world, render path and car profile asked for (`--car-profile`, repeatable; default
+the default car); the bench prints laps and mean progress per checkpoint. A change to the car, the camera or the look
+that costs a lap or more than 3 points of mean progress on a shared checkpoint does not land (shared/sim/README.md).
 
 `--racer-model` adds the reverse check: a racer model's greedy steering side on DeepRacer's 92 Gazebo frames (left /
 straight / right shares) and how often its side agrees with each real checkpoint's. `--proxies` prints the two
@@ -31,6 +32,7 @@ from racer.local.services import PROJECT_ROOT
 from racer.shared.deepracer.model_metadata import ModelMetadata, parse_model_metadata
 from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.sim.camera_bench import GAZEBO_FRAMES, load_gazebo_frames, rgb_to_y
+from racer.shared.sim.car_dynamics import CAR_PROFILE_NAMES, DEFAULT_CAR_PROFILE, car_profile
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
 from racer.shared.sim.worlds import WORLD_NAMES
@@ -198,6 +200,15 @@ def proxies(track: Path, world: str, frames_rgb: np.ndarray) -> dict:
 @click.option("--track", type=click.Path(exists=True, dir_okay=False, path_type=Path), default=DEFAULT_TRACK)
 @click.option("--world", type=click.Choice(WORLD_NAMES), multiple=True, default=("base",), show_default=True)
 @click.option("--render", type=click.Choice(["default", "full"]), multiple=True, default=("default",))
+@click.option(
+    "--car-profile",
+    "car_profile_names",
+    type=click.Choice(CAR_PROFILE_NAMES),
+    multiple=True,
+    default=(DEFAULT_CAR_PROFILE,),
+    show_default=True,
+    help="Drive in this car profile (RACER_CAR_PROFILE); repeat to drive in each one given.",
+)
 @click.option("--starts", type=click.IntRange(1, 100), default=10, show_default=True)
 @click.option(
     "--racer-model",
@@ -206,7 +217,9 @@ def proxies(track: Path, world: str, frames_rgb: np.ndarray) -> dict:
     help="A racer model folder (racer-data/MODEL): its steering shares and sign agreement on the Gazebo frames.",
 )
 @click.option("--proxies", "with_proxies", is_flag=True, help="Also print the camera distance and open-loop replay.")
-def transfer_bench_command(models_root, track, world, render, starts, racer_model, with_proxies) -> None:
+def transfer_bench_command(
+    models_root, track, world, render, car_profile_names, starts, racer_model, with_proxies
+) -> None:
     """Real DeepRacer checkpoints drive racer, closed loop: laps and mean progress per checkpoint, one JSON line."""
     torch.set_num_threads(1)
     started = time.monotonic()
@@ -219,20 +232,25 @@ def transfer_bench_command(models_root, track, world, render, starts, racer_mode
     for model in real:
         for world_name in world:
             for render_mode in render:
-                config = EnvConfig(
-                    track=track,
-                    world=world_name,
-                    model_metadata=model.metadata,
-                    render_full_resolution=render_mode == "full",
-                )
-                figures = drive(model, config, starts)
-                print(
-                    f"transfer bench: {model.label} {world_name}/{render_mode}: {figures['laps']}/{starts} laps, "
-                    f"mean progress {figures['mean_progress']} %",
-                    file=sys.stderr,
-                    flush=True,
-                )
-                result["drives"].append({"model": model.label, "world": world_name, "render": render_mode, **figures})
+                for profile in car_profile_names:
+                    config = EnvConfig(
+                        track=track,
+                        world=world_name,
+                        model_metadata=model.metadata,
+                        render_full_resolution=render_mode == "full",
+                        car_dynamics=car_profile(profile),
+                    )
+                    figures = drive(model, config, starts)
+                    print(
+                        f"transfer bench: {model.label} {world_name}/{render_mode}/{profile}: "
+                        f"{figures['laps']}/{starts} laps, mean progress {figures['mean_progress']} %",
+                        file=sys.stderr,
+                        flush=True,
+                    )
+                    result["drives"].append(
+                        {"model": model.label, "world": world_name, "render": render_mode, "car_profile": profile,
+                         **figures}
+                    )  # fmt: skip
     frames_rgb = load_gazebo_frames(SHARED_DATA / GAZEBO_FRAMES)
     if racer_model is not None:
         frames_grey = np.stack([rgb_to_y(frame) for frame in frames_rgb])

@@ -41,4 +41,17 @@ GAZEBO_DYNAMICS = CarDynamics(GAZEBO_TYRES, STEERING_TIME_CONSTANT_S, URDF_YAW_I
 servo. Policies trained in DeepRacer's Gazebo drive racer's simulator with it (model_30 of the re:Invent 2018 sample
 10/10 laps, model_15 10/10; with the simtrace fit 0/10 and 0/10; shared/sim/README.md, "Closed loop")."""
 CAR_DYNAMICS: dict[str, CarDynamics] = {"gazebo": GAZEBO_DYNAMICS, "simtrace-fit": SIMTRACE_FIT_DYNAMICS}
-"""The presets by name (`racer bench fidelity --car`)."""
+"""The presets by name: the car profiles (`RACER_CAR_PROFILE`, `--car-profile`; `racer bench fidelity --car`)."""
+CAR_PROFILE_NAMES: tuple[str, ...] = tuple(CAR_DYNAMICS)
+DEFAULT_CAR_PROFILE = "gazebo"
+"""The car a worker, an evaluation and the benches drive unless told otherwise (`EnvConfig`'s default)."""
+
+
+def car_profile(name: str) -> CarDynamics:
+    """The car profile called `name`; an unknown name is a ValueError naming RACER_CAR_PROFILE and the valid names."""
+    try:
+        return CAR_DYNAMICS[name]
+    except KeyError:
+        raise ValueError(
+            f"RACER_CAR_PROFILE: unknown car profile {name!r}; choose one of {', '.join(CAR_PROFILE_NAMES)}"
+        ) from None

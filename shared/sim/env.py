@@ -22,8 +22,10 @@ from racer.shared.sim.car import (
     clip_command,
     command_wheel_radius_m,
 )
+from racer.shared.sim.car_dynamics import CarDynamics
 from racer.shared.sim.config import STEPS_PER_SECOND, EnvConfig
 from racer.shared.sim.domain_randomization import SceneRandomizer
+from racer.shared.sim.dynamics_randomization import draw_dynamics
 from racer.shared.sim.episode_phase import PhaseMachine, StepVerdict
 from racer.shared.sim.object_bodies import OBJECT_GEOM_GROUP, ObjectBodies
 from racer.shared.sim.race import RaceObjects, object_slots
@@ -39,6 +41,8 @@ from racer.shared.sim.worlds import get_world
 
 _SCENE_RNG_STREAM = 22
 """Seeds the scene randomisation apart from the LIDAR noise (which uses `np_random`)."""
+_DYNAMICS_RNG_STREAM = 23
+"""Seeds the dynamics randomisation apart from both, so turning it on changes no other draw."""
 
 
 class DeepRacerEnv(gym.Env):
@@ -94,8 +98,9 @@ class DeepRacerEnv(gym.Env):
     starts spread over the lap, which may fall on a box where the SimApp's start line never does).
 
     ## Reproducibility
-    `reset(seed=s)` seeds the LIDAR noise and restarts the simulation clock; physics and rendering are
-    deterministic, so two envs given the same seed and actions produce the same observations and rewards.
+    `reset(seed=s)` seeds the LIDAR noise, the scene and dynamics randomisation and restarts the simulation clock;
+    physics and rendering are deterministic, so two envs given the same seed and actions produce the same
+    observations and rewards.
     The simtrace `wall_clock` comes from the `wall_clock` callable (default `time.time`).
 
     ## Info
@@ -164,6 +169,11 @@ class DeepRacerEnv(gym.Env):
         )
         self._randomizer = SceneRandomizer(self._model, cfg.domain_randomization, cfg.car_randomization)
         self._scene_rng = np.random.default_rng()
+        # The car of the current episode: the profile's, or one drawn at every reset (dynamics randomisation).
+        self._dynamics: CarDynamics = cfg.car_dynamics
+        self._command_delay_steps = 0
+        self._delayed_command = (0.0, 0.0)
+        self._dynamics_rng = np.random.default_rng()
         self._gray = GrayConverter((cfg.image_height_px, cfg.image_width_px))
         self._lidar = lidar_sensor.Lidar(self._model, self._car.body_id) if self._lidar_key else None
         self._last_rgb: np.ndarray | None = None
@@ -209,6 +219,17 @@ class DeepRacerEnv(gym.Env):
         return self._car
 
     @property
+    def car_dynamics(self) -> CarDynamics:
+        """The car of the current episode: `config.car_dynamics`, or this episode's draw when
+        `config.dynamics_randomization` is on."""
+        return self._dynamics
+
+    @property
+    def command_delay_steps(self) -> int:
+        """1 when this episode drives each step with the previous step's command (dynamics randomisation), else 0."""
+        return self._command_delay_steps
+
+    @property
     def start_ndist(self) -> float:
         """Normalised start position of the next (or current, before its first step) training episode."""
         return self._start_ndist
@@ -239,6 +260,7 @@ class DeepRacerEnv(gym.Env):
             # A seeded reset restarts the simulation clock too, so seeded runs are reproducible row for row.
             self._data.time = 0.0
             self._scene_rng = np.random.default_rng((seed, _SCENE_RNG_STREAM))
+            self._dynamics_rng = np.random.default_rng((seed, _DYNAMICS_RNG_STREAM))
         options = options or {}
         unknown = set(options) - {"evaluation", "start_ndist", "clear_start"}
         if unknown:
@@ -257,6 +279,9 @@ class DeepRacerEnv(gym.Env):
         self._init_episode_state(evaluation, start_ndist)
         if self._randomizer.enabled:
             self._randomizer.randomize(self._model, self._scene_rng)
+        if self.config.dynamics_randomization:
+            self._randomize_dynamics()
+        self._delayed_command = (0.0, 0.0)
         x, y, yaw = self._track.pose_at(start_ndist, "center")
         if self._race is not None:
             self._race_start_time_s = float(self._data.time)
@@ -277,6 +302,14 @@ class DeepRacerEnv(gym.Env):
             "start_time_s": self._episode_start_time_s,
         }
         return observation, info
+
+    def _randomize_dynamics(self) -> None:
+        """Draw this episode's car and change the compiled model in place (inertia, servo) and the tyres."""
+        episode = draw_dynamics(self.config.car_dynamics, self._dynamics_rng)
+        car = episode.car
+        self._car.retune(self._model, car.tyres, car.steering_time_constant_s, car.yaw_inertia_kgm2)
+        self._dynamics = car
+        self._command_delay_steps = episode.command_delay_steps
 
     def _finish_episode(self) -> None:
         """End-of-episode bookkeeping: only training episodes move the start and flip the direction."""
@@ -363,6 +396,10 @@ class DeepRacerEnv(gym.Env):
         if verdict.hold_pose is not None:
             self._car.teleport(self._model, self._data, *verdict.hold_pose)
         command = clip_command(chosen.speed_mps, chosen.steering_deg) if verdict.drives else (0.0, 0.0)
+        if not verdict.drives:  # a pause holds the car: no late command drives it, none is left for after
+            self._delayed_command = (0.0, 0.0)
+        elif self._command_delay_steps:
+            command, self._delayed_command = self._delayed_command, command
         self._car.command(self._data, command[0], command[1])
         self._car.step(self._model, self._data, self._substeps)
         if self._race is not None:

@@ -48,3 +48,25 @@ def test_two_starts_of_each_real_checkpoint_and_the_reverse_check(tmp_path):
     assert sum(reverse["shares"].values()) == pytest.approx(1.0, abs=0.002)
     assert set(reverse["sign_agreement"]) == set(drives)
     assert all(0.0 <= value <= 1.0 for value in reverse["sign_agreement"].values())
+
+
+def test_each_car_profile_given_is_driven(monkeypatch):
+    """`--car-profile` repeats: every checkpoint drives in each profile given, and the line says which."""
+    from racer import transfer_bench
+    from racer.shared.sim.car_dynamics import CAR_DYNAMICS
+
+    driven = []
+
+    def drive(model, config, starts):
+        driven.append((model.label, config.car_dynamics))
+        return {"laps": 0, "starts": starts, "mean_progress": 1.0, "progress_per_start": [1.0] * starts}
+
+    monkeypatch.setattr(transfer_bench, "drive", drive)
+    args = ["--starts", "1", "--car-profile", "gazebo", "--car-profile", "simtrace-fit"]
+    result = CliRunner().invoke(transfer_bench_command, args, catch_exceptions=False)
+    assert result.exit_code == 0, result.output
+    report = json.loads([line for line in result.stdout.splitlines() if line.startswith("{")][-1])
+    assert [drive["car_profile"] for drive in report["drives"]] == ["gazebo", "simtrace-fit"] * 2
+    assert [dynamics for _, dynamics in driven] == [CAR_DYNAMICS["gazebo"], CAR_DYNAMICS["simtrace-fit"]] * 2
+    bad = CliRunner().invoke(transfer_bench_command, ["--car-profile", "f1"])
+    assert bad.exit_code == 2 and "'gazebo', 'simtrace-fit'" in bad.output

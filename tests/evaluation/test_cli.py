@@ -139,6 +139,28 @@ def test_best_checkpoint_comes_from_deepracer_checkpoints_json(tmp_path):
     assert json.loads(store.get_bytes(files_of(store, named.output)["summary"]))["checkpoint"] == names[1]
 
 
+def test_the_car_profile_reaches_the_env_and_the_evaluation_params(tmp_path, monkeypatch):
+    from racer.evaluation_worker import runner
+    from racer.shared.deepracer.training_params import parse_training_params
+    from racer.shared.sim.car_dynamics import SIMTRACE_FIT_DYNAMICS
+
+    store = LocalStore(tmp_path / "store")
+    save_model(store)
+    configs, env_type = [], runner.DeepRacerEnv
+    monkeypatch.setattr(runner, "DeepRacerEnv", lambda config, **kw: configs.append(config) or env_type(config, **kw))
+    result = invoke(
+        str(tmp_path / "store"), "--trials", "1", "--no-video", "--no-mcap", "--car-profile", "simtrace-fit"
+    )
+    assert result.exit_code == 0, result.output
+    assert [config.car_dynamics for config in configs] == [SIMTRACE_FIT_DYNAMICS]
+    keys = files_of(store, result.output)
+    assert json.loads(store.get_bytes(keys["summary"]))["car_profile"] == "simtrace-fit"
+    params = parse_training_params(store.get_bytes(keys["params"]).decode(), source="evaluation_params.yaml")
+    assert params.values["RACER_CAR_PROFILE"] == "simtrace-fit"
+    bad = invoke(str(tmp_path / "store"), "--car-profile", "f1")
+    assert bad.exit_code == 2 and "--car-profile" in bad.output and "'gazebo', 'simtrace-fit'" in bad.output
+
+
 def test_bad_input_gives_one_clear_line(tmp_path):
     store = LocalStore(tmp_path / "store")
     save_model(store)

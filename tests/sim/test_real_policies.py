@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from racer.shared.deepracer.model_metadata import parse_model_metadata
-from racer.shared.sim.car_dynamics import SIMTRACE_FIT_DYNAMICS
+from racer.shared.sim.car_dynamics import GAZEBO_DYNAMICS, SIMTRACE_FIT_DYNAMICS
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
 
@@ -130,3 +130,28 @@ def test_gazebo_trained_policies_lap_with_the_default_car(deepracer_data, checkp
 def test_the_simtrace_fit_car_loses_them(deepracer_data):
     """The open-loop fit's car (soft front axle, 6x the URDF's yaw inertia): model_30 leaves the road every time."""
     assert max(laps(deepracer_data, 30, STARTS, car_dynamics=SIMTRACE_FIT_DYNAMICS)) < 100.0
+
+
+def test_with_dynamics_randomization_the_real_policy_still_drives(deepracer_data):
+    """A few steps of model_30 on cars drawn around the default: the env runs and the car gets going."""
+    folder = deepracer_data / "models" / "gazebo-sample-reinvent2018"
+    metadata = parse_model_metadata(json.loads((folder / "model_metadata.json").read_text()), source="sample")
+    weights = frozen_graph_weights(folder / "model_30.pb")
+    env = DeepRacerEnv(
+        EnvConfig(
+            track=deepracer_data / "routes" / "reinvent_base.npy", model_metadata=metadata, dynamics_randomization=True
+        )
+    )
+    key = next(iter(env.observation_space.spaces))
+    try:
+        for seed in (0, 1, 2):
+            obs, _ = env.reset(seed=seed, options={"evaluation": True, "start_ndist": 0.0})
+            assert env.car_dynamics != GAZEBO_DYNAMICS
+            for _ in range(20):
+                obs, _, terminated, truncated, info = env.step(greedy_action(weights, obs[key][..., 0]))
+                assert not truncated and np.isfinite(env.data.qpos).all()
+                if terminated:
+                    break
+            assert info["progress"] > 0.0
+    finally:
+        env.close()

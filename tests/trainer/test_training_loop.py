@@ -268,6 +268,85 @@ def test_race_settings_travel_from_train_options_and_workers_json_to_each_worker
     assert configs[0].collision_penalty_s == configs[1].collision_penalty_s == 1.5
 
 
+def test_the_car_profile_travels_from_train_options_and_workers_json_to_each_workers_env(
+    redis_settings, tmp_path, custom_files
+):
+    """`--car-profile` for every worker, workers.json's RACER_CAR_PROFILE over it per worker; the model's
+    training_params record each worker's car and each worker's env drives it. A bad name is refused by name."""
+    from racer.rollout_worker.run_files import load_run_files
+    from racer.rollout_worker.worker import training_env_config
+    from racer.shared.deepracer.training_params import parse_training_params
+    from racer.shared.sim.car_dynamics import GAZEBO_DYNAMICS, SIMTRACE_FIT_DYNAMICS
+    from racer.shared.user_errors import RunConfigError
+
+    make_trainer(redis_settings, tmp_path / "default", custom_files).setup()
+    store = open_store(LocalStoreSettings(root=tmp_path / "default" / "store"))
+    assert training_env_config(load_run_files(store, PREFIX, 0, tmp_path / "w")).car_dynamics == GAZEBO_DYNAMICS
+
+    (custom_files / "workers.json").write_text(json.dumps({"workers": [{}, {"RACER_CAR_PROFILE": "gazebo"}]}))
+    make_trainer(redis_settings, tmp_path, custom_files, car_profile="simtrace-fit").setup()
+    store = open_store(LocalStoreSettings(root=tmp_path / "store"))
+    layout = ModelLayout(PREFIX)
+    recorded = [
+        parse_training_params(store.get_bytes(layout.training_params(i)).decode()).values["RACER_CAR_PROFILE"]
+        for i in (0, 1)
+    ]
+    assert recorded == ["simtrace-fit", "gazebo"]
+    configs = [training_env_config(load_run_files(store, PREFIX, i, tmp_path / f"worker-{i}")) for i in (0, 1)]
+    assert [config.car_dynamics for config in configs] == [SIMTRACE_FIT_DYNAMICS, GAZEBO_DYNAMICS]
+
+    valid = r"unknown car profile 'f1'; choose one of gazebo, simtrace-fit"
+    (custom_files / "workers.json").write_text(json.dumps({"workers": [{}, {"RACER_CAR_PROFILE": "f1"}]}))
+    with pytest.raises(RunConfigError, match=rf"workers.json \(worker 1\): RACER_CAR_PROFILE: {valid}"):
+        make_trainer(redis_settings, tmp_path / "bad", custom_files).setup()
+    (custom_files / "workers.json").unlink()
+    with pytest.raises(RunConfigError, match=rf"--car-profile.*RACER_CAR_PROFILE: {valid}"):
+        make_trainer(redis_settings, tmp_path / "bad", custom_files, car_profile="f1").setup()
+
+
+def test_dynamics_randomization_travels_from_train_options_and_workers_json_to_each_workers_env(
+    redis_settings, tmp_path, custom_files
+):
+    from racer.rollout_worker.run_files import load_run_files
+    from racer.rollout_worker.worker import training_env_config
+    from racer.shared.deepracer.training_params import parse_training_params
+
+    make_trainer(redis_settings, tmp_path / "default", custom_files).setup()
+    store = open_store(LocalStoreSettings(root=tmp_path / "default" / "store"))
+    assert not training_env_config(load_run_files(store, PREFIX, 0, tmp_path / "w")).dynamics_randomization
+
+    (custom_files / "workers.json").write_text(json.dumps({"workers": [{}, {"RACER_DYNAMICS_RANDOMIZATION": False}]}))
+    make_trainer(redis_settings, tmp_path, custom_files, dynamics_randomization=True).setup()
+    store = open_store(LocalStoreSettings(root=tmp_path / "store"))
+    layout = ModelLayout(PREFIX)
+    recorded = [
+        parse_training_params(store.get_bytes(layout.training_params(i)).decode()).values[
+            "RACER_DYNAMICS_RANDOMIZATION"
+        ]
+        for i in (0, 1)
+    ]
+    assert recorded == ["True", "False"]
+    configs = [training_env_config(load_run_files(store, PREFIX, i, tmp_path / f"worker-{i}")) for i in (0, 1)]
+    assert [config.dynamics_randomization for config in configs] == [True, False]
+
+
+def test_a_bad_car_profile_option_is_refused_before_anything_starts(tmp_path, custom_files):
+    from click.testing import CliRunner
+
+    from racer.local.run import train_command
+    from racer.trainer.main import trainer_command
+
+    for command, args in (
+        (train_command, ["--custom-files", str(custom_files)]),
+        (trainer_command, ["--model-prefix", PREFIX, "--custom-files", str(custom_files)]),
+    ):
+        store = tmp_path / "store"
+        result = CliRunner().invoke(command, [*args, "--car-profile", "f1"], env={"RACER_STORE": str(store)})
+        assert result.exit_code == 2, result.output
+        assert "--car-profile" in result.output and "'gazebo', 'simtrace-fit'" in result.output
+    assert not (tmp_path / "store").exists()
+
+
 def test_training_params_keys_work_or_are_refused_by_name(redis_settings, tmp_path, custom_files):
     """NUMBER_OF_RESETS, OFF_TRACK_PENALTY and NUMBER_OF_REVERSE_COUNTS reach the training env as the SimApp reads
     them; bad race keys (an unknown RACE_TYPE, a count that is no number, objects in a time trial) are a clear error
