@@ -52,7 +52,7 @@ def test_two_starts_of_each_real_checkpoint_and_the_reverse_check(tmp_path):
 
 def test_each_car_profile_given_is_driven(monkeypatch):
     """`--car-profile` repeats: every checkpoint drives in each profile given, and the line says which."""
-    from racer import transfer_bench
+    from racer.benches import transfer as transfer_bench
     from racer.shared.sim.car_dynamics import CAR_DYNAMICS
 
     driven = []
