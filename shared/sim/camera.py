@@ -12,12 +12,15 @@ import functools
 import os
 import weakref
 
+# mujoco first: for MUJOCO_GL=osmesa it sets PYOPENGL_PLATFORM, which PyOpenGL reads once, at its first import.
+from racer.shared.sim._mujoco import mujoco
+
+# isort: split
 import cv2
 import numpy as np
 from OpenGL import GL
 from PIL import Image
 
-from racer.shared.sim._mujoco import mujoco
 from racer.shared.sim.gl import GLBackendError
 
 IMAGE_WIDTH_PX = 160
