@@ -12,6 +12,7 @@ import/export/validation, analysis) imports its names from here.
     model/.lock                             present only while a checkpoint is being uploaded
     model/deepracer_checkpoints.json        best and last evaluated checkpoint
     model/model_metadata.json               action space, sensors, network (copied verbatim)
+    model/network.json                      your own network, when model_metadata.json names one (copied verbatim)
     model/.ready, model/.finished           trainer ready / training ended
     ip/hyperparameters.json, ip/done        resolved hyperparameters; DeepRacer's "trainer is up" marker
     reward_function.py
@@ -34,6 +35,8 @@ COACH_CHECKPOINT = "model/.coach_checkpoint"
 LOCK = "model/.lock"
 DEEPRACER_CHECKPOINTS = "model/deepracer_checkpoints.json"
 MODEL_METADATA = "model/model_metadata.json"
+NETWORK = "model/network.json"
+"""Your own network (network.json of the custom files), beside model_metadata.json; only when it names one."""
 READY = "model/.ready"
 FINISHED = "model/.finished"
 TF_CHECKPOINT_POINTER = "model/checkpoint"
@@ -237,6 +240,10 @@ class ModelLayout:
     @property
     def model_metadata(self) -> str:
         return self.key(MODEL_METADATA)
+
+    @property
+    def network(self) -> str:
+        return self.key(NETWORK)
 
     @property
     def hyperparameters(self) -> str:

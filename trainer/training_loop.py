@@ -35,6 +35,7 @@ from racer.shared.deepracer.training_params import training_params_to_yaml
 from racer.shared.episode import Episode
 from racer.shared.model_layout import ModelLayout
 from racer.shared.policy.checkpoints import CheckpointStore
+from racer.shared.policy.network_file import NETWORK_FILE, NetworkFile
 from racer.shared.redis_connection import RedisLink, RedisUnavailableError
 from racer.shared.store import ObjectNotFoundError, open_store
 from racer.shared.transport.channels import ReceivedBatch, RunChannel
@@ -113,6 +114,8 @@ class Trainer:
         self.env_steps = 0
         self.iteration = 0
         """The newest saved checkpoint's number: the iteration being collected."""
+        self.network_file: NetworkFile | None = None
+        """network.json of the custom files when model_metadata.json names it."""
 
     # ---- set-up ----------------------------------------------------------------------------------
     def _read_custom_files(self) -> tuple[ModelMetadata, Hyperparameters, bytes, list[WorkerSettings]]:
@@ -128,6 +131,7 @@ class Trainer:
         )
         for warning in report.warnings:
             log.warning(warning)
+        self.network_file = report.network
         return (
             report.model_metadata,
             report.hyperparameters,
@@ -144,6 +148,8 @@ class Trainer:
         workers: list[WorkerSettings],
     ) -> None:
         self.store.put_bytes(self.layout.model_metadata, metadata_bytes)
+        if self.network_file is not None:  # beside model_metadata.json, verbatim: evaluation and clones read it
+            self.store.put_bytes(self.layout.network, (self.options.custom_files / NETWORK_FILE).read_bytes())
         self.store.put_bytes(
             self.layout.hyperparameters, hyperparameters_to_json_bytes(hyperparameters, metadata.training_algorithm)
         )
@@ -169,6 +175,7 @@ class Trainer:
                 precision=self.options.precision,
                 sac_replay_memory_mb=self.options.sac_replay_memory_mb,
                 sac_updates_per_transition=self.options.sac_updates_per_transition,
+                network=self.network_file,
             ),
         )
         self.network = self.learner.network
@@ -209,7 +216,11 @@ class Trainer:
         """Start from another model's weights. Action values may change; the number of actions may not."""
         source_prefix = self.options.pretrained_prefix
         check_clone_source(
-            self.store, source_prefix, self.metadata, str(self.options.custom_files / "model_metadata.json")
+            self.store,
+            source_prefix,
+            self.metadata,
+            str(self.options.custom_files / "model_metadata.json"),
+            self.network_file,
         )
         source = CheckpointStore(self.store, source_prefix)
         name = source.select(self.options.pretrained_checkpoint)
