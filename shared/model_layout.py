@@ -15,6 +15,7 @@ import/export/validation, analysis) imports its names from here.
     model/network.json                      your own network, when model_metadata.json names one (copied verbatim)
     model/.ready, model/.finished           trainer ready / training ended
     ip/hyperparameters.json, ip/done        resolved hyperparameters; DeepRacer's "trainer is up" marker
+    ip/preset.json                          the training preset, when the run has one (copied verbatim)
     reward_function.py
     training_params.yaml                    worker 0's settings; training_params_<i>.yaml for worker i
     training-simtrace/<n>-iteration.csv     one worker (several: <i>/training-simtrace/<n>-iteration.csv)
@@ -42,6 +43,8 @@ FINISHED = "model/.finished"
 TF_CHECKPOINT_POINTER = "model/checkpoint"
 """TensorFlow's own pointer file, which some DeepRacer-for-Cloud folders carry beside `.coach_checkpoint`."""
 HYPERPARAMETERS = "ip/hyperparameters.json"
+PRESET = "ip/preset.json"
+"""The custom files' preset.json (racer.trainer.preset), verbatim, when the run has one."""
 IP_DONE = "ip/done"
 REWARD_FUNCTION = "reward_function.py"
 TRAINING_PARAMS = "training_params.yaml"
@@ -248,6 +251,10 @@ class ModelLayout:
     @property
     def hyperparameters(self) -> str:
         return self.key(HYPERPARAMETERS)
+
+    @property
+    def preset(self) -> str:
+        return self.key(PRESET)
 
     @property
     def ip_done(self) -> str:

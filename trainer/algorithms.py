@@ -14,6 +14,7 @@ from racer.shared.policy.network_file import NetworkFile
 from racer.trainer.learner import Learner
 from racer.trainer.ppo import PPOSettings, PPOTrainer
 from racer.trainer.precision import DEFAULT_PRECISION, Precision
+from racer.trainer.preset import Preset
 from racer.trainer.sac import SACSettings, SACTrainer
 
 __all__ = ["LEARNERS", "LearnerOptions", "build_learner"]
@@ -33,11 +34,16 @@ class LearnerOptions:
     """SAC: gradient steps per transition received (DeepRacer: 1)."""
     network: NetworkFile | None = None
     """The custom files' network.json when model_metadata.json names it (racer.shared.policy.network_file)."""
+    preset: Preset | None = None
+    """The custom files' preset.json (racer.trainer.preset); None: DeepRacer's settings."""
 
 
 def _clipped_ppo(metadata: ModelMetadata, hyperparameters: Hyperparameters, options: LearnerOptions) -> Learner:
     network = build_network_for_metadata(metadata, options.network)
-    return PPOTrainer(network, hyperparameters, PPOSettings(seed=options.seed, precision=options.precision))
+    settings = PPOSettings(seed=options.seed, precision=options.precision)
+    if options.preset is not None:
+        settings = options.preset.ppo_settings(settings)
+    return PPOTrainer(network, hyperparameters, settings)
 
 
 def _sac(metadata: ModelMetadata, hyperparameters: Hyperparameters, options: LearnerOptions) -> Learner:
@@ -47,6 +53,8 @@ def _sac(metadata: ModelMetadata, hyperparameters: Hyperparameters, options: Lea
         seed=options.seed,
         precision=options.precision,
     )
+    if options.preset is not None:
+        settings = options.preset.sac_settings(settings)
     learner = SACTrainer(build_network_for_metadata(metadata, options.network), hyperparameters, settings)
     log.info("SAC replay memory: %d transitions in %.0f MB", learner.replay.capacity, options.sac_replay_memory_mb)
     return learner

@@ -15,7 +15,8 @@ Checks, in the order a user would fix them:
    racer.shared.worker_settings), and every worker's track loads;
 6. a clone source (`--pretrained-prefix`) in a local store has the same algorithm, action space and network;
 7. your own network (network.json, when model_metadata.json names it) parses, embeds every sensor, and is not too
-   large: refused above racer.shared.policy.network_size's parameter and one-core forward-time limits.
+   large: refused above racer.shared.policy.network_size's parameter and one-core forward-time limits;
+8. preset.json, when there is one, parses for the model's training algorithm (racer.trainer.preset).
 Notes that do not stop training (keys the chosen algorithm ignores, idle workers) come back as warnings.
 """
 
@@ -48,6 +49,7 @@ from racer.shared.sim.track import Track, TrackError
 from racer.shared.store import ObjectNotFoundError, ObjectStore
 from racer.shared.user_errors import CloneError, RunConfigError, UnsupportedConfigurationError
 from racer.shared.worker_settings import WorkerSettings, default_worker_settings
+from racer.trainer.preset import Preset, PresetError, load_preset
 
 __all__ = [
     "PreflightReport",
@@ -76,6 +78,8 @@ class PreflightReport:
     warnings: tuple[str, ...]
     network: NetworkFile | None = None
     """network.json when model_metadata.json names it."""
+    preset: Preset | None = None
+    """preset.json, when the custom files have one."""
 
 
 def _check_files_present(folder: Path) -> None:
@@ -304,6 +308,10 @@ def preflight(
         metadata, hyperparameters, metadata_path, hyperparameters_path, _given_keys(hyperparameters_path)
     )
     network, network_warnings = load_network(folder, metadata)
+    try:
+        preset = load_preset(folder, metadata.training_algorithm)
+    except PresetError as error:
+        raise RunConfigError(str(error)) from error
     warnings += network_warnings
     load_reward_function(folder / "reward_function.py")
     workers = load_worker_settings(
@@ -324,4 +332,4 @@ def preflight(
         )
     if pretrained_prefix and store is not None:
         check_clone_source(store, pretrained_prefix, metadata, str(metadata_path), network)
-    return PreflightReport(metadata, hyperparameters, tuple(workers), tuple(warnings), network)
+    return PreflightReport(metadata, hyperparameters, tuple(workers), tuple(warnings), network, preset)

@@ -47,6 +47,7 @@ from racer.trainer.log_lines import format_training_episode_line
 from racer.trainer.memory_cap import cap_episodes, default_max_memory_steps, global_episode_order
 from racer.trainer.precision import DEFAULT_PRECISION, Precision
 from racer.trainer.preflight import check_clone_source, preflight
+from racer.trainer.preset import PRESET_FILE, Preset
 
 log = logging.getLogger(__name__)
 
@@ -116,6 +117,8 @@ class Trainer:
         """The newest saved checkpoint's number: the iteration being collected."""
         self.network_file: NetworkFile | None = None
         """network.json of the custom files when model_metadata.json names it."""
+        self.preset: Preset | None = None
+        """preset.json of the custom files, when there is one."""
 
     # ---- set-up ----------------------------------------------------------------------------------
     def _read_custom_files(self) -> tuple[ModelMetadata, Hyperparameters, bytes, list[WorkerSettings]]:
@@ -131,7 +134,7 @@ class Trainer:
         )
         for warning in report.warnings:
             log.warning(warning)
-        self.network_file = report.network
+        self.network_file, self.preset = report.network, report.preset
         return (
             report.model_metadata,
             report.hyperparameters,
@@ -150,6 +153,8 @@ class Trainer:
         self.store.put_bytes(self.layout.model_metadata, metadata_bytes)
         if self.network_file is not None:  # beside model_metadata.json, verbatim: evaluation and clones read it
             self.store.put_bytes(self.layout.network, (self.options.custom_files / NETWORK_FILE).read_bytes())
+        if self.preset is not None:  # beside the hyperparameters, verbatim
+            self.store.put_bytes(self.layout.preset, (self.options.custom_files / PRESET_FILE).read_bytes())
         self.store.put_bytes(
             self.layout.hyperparameters, hyperparameters_to_json_bytes(hyperparameters, metadata.training_algorithm)
         )
@@ -176,6 +181,7 @@ class Trainer:
                 sac_replay_memory_mb=self.options.sac_replay_memory_mb,
                 sac_updates_per_transition=self.options.sac_updates_per_transition,
                 network=self.network_file,
+                preset=self.preset,
             ),
         )
         self.network = self.learner.network
@@ -235,7 +241,8 @@ class Trainer:
             self.learner.optimizer,
             self.metadata,
             self.hyperparameters,
-            extra={"trainer_precision": self.options.precision.value},
+            extra={"trainer_precision": self.options.precision.value}
+            | ({"preset": self.preset.to_dict()} if self.preset is not None else {}),
         )
         print(f"Checkpoint> Saving in path=['{self.layout.key(model_layout.MODEL_DIR, name)}']", flush=True)
         return name

@@ -48,13 +48,16 @@ def test_preflight_refuses_a_missing_or_bad_network_file_naming_the_files(tmp_pa
 
 def test_a_custom_network_trains_an_iteration_and_is_stored_with_the_model(tmp_path, redis_settings):
     folder = custom_network_files(tmp_path)
+    (folder / "preset.json").write_text(json.dumps({"clip_gradients": 5.0, "value_loss_weight": 0.5}))
     report = preflight(folder, 1, "racer_oval", ("base",))
     assert report.network is not None and report.network.name == "EXTRA_CONV_BATCHNORM"
     train_one_iteration(folder, report, tmp_path, redis_settings)  # set-up, one episode, update, checkpoint 1
     store = open_store(LocalStoreSettings(root=tmp_path / "store"))
     assert store.get_bytes(ModelLayout("pair").network) == (folder / "network.json").read_bytes()
+    assert store.get_bytes(ModelLayout("pair").preset) == (folder / "preset.json").read_bytes()
     checkpoints = CheckpointStore(store, "pair")
     assert checkpoints.load_policy().config.network == report.network  # what `racer evaluate` rebuilds
+    assert checkpoints.read_info(checkpoints.latest_name()).extra["preset"]["clip_gradients"] == 5.0
 
 
 def test_a_clone_with_a_different_network_is_refused_naming_the_difference(tmp_path):
