@@ -12,8 +12,10 @@ import/export/validation, analysis) imports its names from here.
     model/.lock                             present only while a checkpoint is being uploaded
     model/deepracer_checkpoints.json        best and last evaluated checkpoint
     model/model_metadata.json               action space, sensors, network (copied verbatim)
+    model/network.json                      your own network, when model_metadata.json names one (copied verbatim)
     model/.ready, model/.finished           trainer ready / training ended
     ip/hyperparameters.json, ip/done        resolved hyperparameters; DeepRacer's "trainer is up" marker
+    ip/preset.json                          the training preset, when the run has one (copied verbatim)
     reward_function.py
     training_params.yaml                    worker 0's settings; training_params_<i>.yaml for worker i
     training-simtrace/<n>-iteration.csv     one worker (several: <i>/training-simtrace/<n>-iteration.csv)
@@ -34,11 +36,15 @@ COACH_CHECKPOINT = "model/.coach_checkpoint"
 LOCK = "model/.lock"
 DEEPRACER_CHECKPOINTS = "model/deepracer_checkpoints.json"
 MODEL_METADATA = "model/model_metadata.json"
+NETWORK = "model/network.json"
+"""Your own network (network.json of the custom files), beside model_metadata.json; only when it names one."""
 READY = "model/.ready"
 FINISHED = "model/.finished"
 TF_CHECKPOINT_POINTER = "model/checkpoint"
 """TensorFlow's own pointer file, which some DeepRacer-for-Cloud folders carry beside `.coach_checkpoint`."""
 HYPERPARAMETERS = "ip/hyperparameters.json"
+PRESET = "ip/preset.json"
+"""The custom files' preset.json (racer.trainer.preset), verbatim, when the run has one."""
 IP_DONE = "ip/done"
 REWARD_FUNCTION = "reward_function.py"
 TRAINING_PARAMS = "training_params.yaml"
@@ -239,8 +245,16 @@ class ModelLayout:
         return self.key(MODEL_METADATA)
 
     @property
+    def network(self) -> str:
+        return self.key(NETWORK)
+
+    @property
     def hyperparameters(self) -> str:
         return self.key(HYPERPARAMETERS)
+
+    @property
+    def preset(self) -> str:
+        return self.key(PRESET)
 
     @property
     def ip_done(self) -> str:

@@ -10,9 +10,11 @@ from dataclasses import dataclass
 from racer.shared.deepracer.hyperparameters import Hyperparameters
 from racer.shared.deepracer.model_metadata import ModelMetadata
 from racer.shared.policy.factory import build_network_for_metadata
+from racer.shared.policy.network_file import NetworkFile
 from racer.trainer.learner import Learner
 from racer.trainer.ppo import PPOSettings, PPOTrainer
 from racer.trainer.precision import DEFAULT_PRECISION, Precision
+from racer.trainer.preset import Preset
 from racer.trainer.sac import SACSettings, SACTrainer
 
 __all__ = ["LEARNERS", "LearnerOptions", "build_learner"]
@@ -30,24 +32,30 @@ class LearnerOptions:
     """SAC: memory budget of the replay ring (its capacity in transitions follows from it)."""
     sac_updates_per_transition: float = 1.0
     """SAC: gradient steps per transition received (DeepRacer: 1)."""
+    network: NetworkFile | None = None
+    """The custom files' network.json when model_metadata.json names it (racer.shared.policy.network_file)."""
+    preset: Preset | None = None
+    """The custom files' preset.json (racer.trainer.preset); None: DeepRacer's settings."""
 
 
 def _clipped_ppo(metadata: ModelMetadata, hyperparameters: Hyperparameters, options: LearnerOptions) -> Learner:
-    network = build_network_for_metadata(metadata)
-    return PPOTrainer(network, hyperparameters, PPOSettings(seed=options.seed, precision=options.precision))
+    network = build_network_for_metadata(metadata, options.network)
+    settings = PPOSettings(seed=options.seed, precision=options.precision)
+    if options.preset is not None:
+        settings = options.preset.ppo_settings(settings)
+    return PPOTrainer(network, hyperparameters, settings)
 
 
 def _sac(metadata: ModelMetadata, hyperparameters: Hyperparameters, options: LearnerOptions) -> Learner:
-    learner = SACTrainer(
-        build_network_for_metadata(metadata),
-        hyperparameters,
-        SACSettings(
-            replay_memory_bytes=int(options.sac_replay_memory_mb * 2**20),
-            updates_per_transition=options.sac_updates_per_transition,
-            seed=options.seed,
-            precision=options.precision,
-        ),
+    settings = SACSettings(
+        replay_memory_bytes=int(options.sac_replay_memory_mb * 2**20),
+        updates_per_transition=options.sac_updates_per_transition,
+        seed=options.seed,
+        precision=options.precision,
     )
+    if options.preset is not None:
+        settings = options.preset.sac_settings(settings)
+    learner = SACTrainer(build_network_for_metadata(metadata, options.network), hyperparameters, settings)
     log.info("SAC replay memory: %d transitions in %.0f MB", learner.replay.capacity, options.sac_replay_memory_mb)
     return learner
 

@@ -106,6 +106,12 @@ class PPOSettings:
     precision: Precision = DEFAULT_PRECISION
     """What the towers' convs and dense layers compute in (heads, probabilities, losses, GAE and Adam stay fp32):
     fp32 on every CPU unless the user asks for bf16 (see racer.trainer.precision)."""
+    value_loss_weight: float = 1.0
+    """The value loss's weight in the loss (a preset's `value_loss_weight`; DeepRacer: 1)."""
+    max_gradient_norm: float | None = None
+    """Clip the gradient to this global norm before each step (a preset's `clip_gradients`; DeepRacer: none)."""
+    kl_cutoff: float | None = None
+    """Stop the update's remaining epochs once an epoch's mean KL exceeds this (a preset's; DeepRacer: none)."""
 
 
 @dataclass(frozen=True)
@@ -273,7 +279,10 @@ class PPOTrainer:
             value_loss = nn.functional.huber_loss(value, targets, delta=HUBER_DELTA)
         else:
             value_loss = nn.functional.mse_loss(value, targets)
-        value_loss.backward()
+        if self.settings.value_loss_weight == 1.0:
+            value_loss.backward()
+        else:
+            (self.settings.value_loss_weight * value_loss).backward()
         return value_loss.detach()
 
     def _train(self, batch: TrainingBatch, abandon: Callable[[], bool] | None = None) -> list[EpochStats]:
@@ -337,11 +346,17 @@ class PPOTrainer:
                 # loss = value loss + surrogate - beta * entropy; one Adam step for both towers.
                 (surrogate - hp.beta_entropy * entropy).backward()
                 value_loss = value_loss_job.result()
-                loss = value_loss + surrogate.detach() - hp.beta_entropy * entropy.detach()
+                loss = (
+                    self.settings.value_loss_weight * value_loss
+                    + surrogate.detach()
+                    - hp.beta_entropy * entropy.detach()
+                )
                 where = f"epoch {epoch}, minibatch {number}"
                 check_finite(loss.item(), f"loss at {where}")
                 grad_norm = gradient_norm(self.network.parameters())
                 check_finite(grad_norm, f"gradient at {where}")
+                if self.settings.max_gradient_norm is not None:
+                    nn.utils.clip_grad_norm_(self.network.parameters(), self.settings.max_gradient_norm)
                 self.optimizer.step()
 
                 with torch.no_grad():
@@ -369,4 +384,6 @@ class PPOTrainer:
                     gradient_norm=sums["grad_norm"] / count,
                 )
             )
+            if self.settings.kl_cutoff is not None and stats[-1].kl_divergence > self.settings.kl_cutoff:
+                break  # the preset's KL cut-off: the policy moved far enough for this iteration
         return stats

@@ -13,7 +13,10 @@ Checks, in the order a user would fix them:
    params DeepRacer produces is refused;
 5. workers.json parses (race types racer does not simulate yet -- obstacles, bot cars -- are refused by name,
    racer.shared.worker_settings), and every worker's track loads;
-6. a clone source (`--pretrained-prefix`) in a local store has the same algorithm, action space and network.
+6. a clone source (`--pretrained-prefix`) in a local store has the same algorithm, action space and network;
+7. your own network (network.json, when model_metadata.json names it) parses, embeds every sensor, and is not too
+   large: refused above racer.shared.policy.network_size's parameter and one-core forward-time limits;
+8. preset.json, when there is one, parses for the model's training algorithm (racer.trainer.preset).
 Notes that do not stop training (keys the chosen algorithm ignores, idle workers) come back as warnings.
 """
 
@@ -24,8 +27,22 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from racer.shared.deepracer.hyperparameters import Hyperparameters, load_hyperparameters
-from racer.shared.deepracer.model_metadata import ModelMetadata, load_model_metadata, parse_model_metadata
+from racer.shared.deepracer.model_metadata import (
+    NEURAL_NETWORKS,
+    ModelMetadata,
+    load_model_metadata,
+    parse_model_metadata,
+)
 from racer.shared.model_layout import ModelLayout
+from racer.shared.policy.network_file import (
+    NETWORK_FILE,
+    NetworkFile,
+    NetworkFileError,
+    network_difference,
+    network_for_metadata,
+    parse_network_file,
+)
+from racer.shared.policy.network_size import network_size_findings
 from racer.shared.sim.car_dynamics import DEFAULT_CAR_PROFILE
 from racer.shared.sim.race_config import param_text
 from racer.shared.sim.reward import load_reward_function
@@ -33,6 +50,7 @@ from racer.shared.sim.track import Track, TrackError
 from racer.shared.store import ObjectNotFoundError, ObjectStore
 from racer.shared.user_errors import CloneError, RunConfigError, UnsupportedConfigurationError
 from racer.shared.worker_settings import WorkerSettings, default_worker_settings
+from racer.trainer.preset import Preset, PresetError, load_preset
 
 __all__ = [
     "PreflightReport",
@@ -59,6 +77,10 @@ class PreflightReport:
     hyperparameters: Hyperparameters
     workers: tuple[WorkerSettings, ...]
     warnings: tuple[str, ...]
+    network: NetworkFile | None = None
+    """network.json when model_metadata.json names it."""
+    preset: Preset | None = None
+    """preset.json, when the custom files have one."""
 
 
 def _check_files_present(folder: Path) -> None:
@@ -201,9 +223,47 @@ def _check_reward_over_track(path: Path, workers: list[WorkerSettings], metadata
     return warnings
 
 
-def check_clone_source(store: ObjectStore, source_prefix: str, metadata: ModelMetadata, ours: str) -> None:
+def load_network(folder: Path, metadata: ModelMetadata) -> tuple[NetworkFile | None, list[str]]:
+    """network.json when model_metadata.json names it, checked and measured once (racer.shared.policy.network_file);
+    a network.json that model_metadata.json does not name is only a warning."""
+    from racer.shared.policy.networks import policy_config_from_metadata
+
+    try:
+        network = network_for_metadata(folder, metadata)
+    except NetworkFileError as error:
+        raise RunConfigError(str(error)) from error
+    if network is None:
+        if not (folder / NETWORK_FILE).is_file():
+            return None, []
+        return None, [f"{folder / NETWORK_FILE}: not used: model_metadata.json names {metadata.neural_network}"]
+    findings = network_size_findings(policy_config_from_metadata(metadata, network), str(folder / NETWORK_FILE))
+    if findings.errors:
+        raise RunConfigError("; ".join(findings.errors))
+    return network, list(findings.warnings)
+
+
+def _check_clone_network(store: ObjectStore, source_prefix: str, network: NetworkFile | None, ours: str) -> None:
+    try:
+        raw = store.get_bytes(ModelLayout(source_prefix).network)
+    except ObjectNotFoundError as error:
+        raise CloneError(f"cannot clone {source_prefix!r}: it has no model/{NETWORK_FILE} for its network") from error
+    try:
+        theirs = parse_network_file(json.loads(raw), f"{source_prefix}/model/{NETWORK_FILE}").to_dict()
+    except (ValueError, NetworkFileError) as error:
+        raise CloneError(f"cannot clone {source_prefix!r}: {error}") from error
+    difference = network_difference(network.to_dict() if network else None, theirs)
+    if difference:
+        raise CloneError(
+            f"cannot clone {source_prefix!r}: its network differs from {Path(ours).parent / NETWORK_FILE} at "
+            f"{difference} (ours vs theirs); fix: clone with the same network.json, or train this one from scratch"
+        )
+
+
+def check_clone_source(
+    store: ObjectStore, source_prefix: str, metadata: ModelMetadata, ours: str, network: NetworkFile | None = None
+) -> None:
     """A clone continues another model's weights: same algorithm, action-space type, number of actions, sensors and
-    network. Raises CloneError naming what differs and the fix."""
+    network (your own network: the same network.json). Raises CloneError naming what differs and the fix."""
     source_layout = ModelLayout(source_prefix)
     try:
         raw = store.get_bytes(source_layout.model_metadata)
@@ -236,6 +296,8 @@ def check_clone_source(store: ObjectStore, source_prefix: str, metadata: ModelMe
             f"{source.neural_network} differ from {ours}: {metadata.sensors} "
             f"{metadata.neural_network}"
         )
+    if network is not None or source.neural_network not in NEURAL_NETWORKS:
+        _check_clone_network(store, source_prefix, network, ours)
 
 
 def preflight(
@@ -261,6 +323,12 @@ def preflight(
     warnings += _check_combination(
         metadata, hyperparameters, metadata_path, hyperparameters_path, _given_keys(hyperparameters_path)
     )
+    network, network_warnings = load_network(folder, metadata)
+    try:
+        preset = load_preset(folder, metadata.training_algorithm)
+    except PresetError as error:
+        raise RunConfigError(str(error)) from error
+    warnings += network_warnings
     load_reward_function(folder / "reward_function.py")
     workers = load_worker_settings(
         folder,
@@ -287,5 +355,5 @@ def preflight(
             f"workers: {idle} worker(s) only wait (worker 0 still evaluates)"
         )
     if pretrained_prefix and store is not None:
-        check_clone_source(store, pretrained_prefix, metadata, str(metadata_path))
-    return PreflightReport(metadata, hyperparameters, tuple(workers), tuple(warnings))
+        check_clone_source(store, pretrained_prefix, metadata, str(metadata_path), network)
+    return PreflightReport(metadata, hyperparameters, tuple(workers), tuple(warnings), network, preset)

@@ -79,6 +79,8 @@ class SACSettings:
     process may use, at least 1 (as PPOSettings.threads_per_tower)."""
     precision: Precision = DEFAULT_PRECISION
     """What the towers compute in (as PPOSettings.precision): fp32 unless the user asks for bf16."""
+    target_copy_rate: float = 1.0
+    """tau of V_target <- tau V + (1 - tau) V_target (a preset's `rate_for_copying_weights_to_target`; DeepRacer: 1)."""
 
 
 @dataclass(frozen=True)
@@ -185,7 +187,7 @@ class SACTrainer:
                     for key, value in self._step(minibatch, step, critic).items():
                         sums[key] += value
                     if step == 0:
-                        self.networks.sync_target()
+                        self.networks.sync_target(self.settings.target_copy_rate)
             bad_weight = first_non_finite_parameter(self.networks)
             if bad_weight is not None:
                 raise NonFiniteError(f"weight {bad_weight} after {steps} gradient steps")

@@ -35,6 +35,7 @@ from racer.shared.deepracer.training_params import training_params_to_yaml
 from racer.shared.episode import Episode
 from racer.shared.model_layout import ModelLayout
 from racer.shared.policy.checkpoints import CheckpointStore
+from racer.shared.policy.network_file import NETWORK_FILE, NetworkFile
 from racer.shared.redis_connection import RedisLink, RedisUnavailableError
 from racer.shared.sim.car_dynamics import DEFAULT_CAR_PROFILE
 from racer.shared.store import ObjectNotFoundError, open_store
@@ -47,6 +48,7 @@ from racer.trainer.log_lines import format_training_episode_line
 from racer.trainer.memory_cap import cap_episodes, default_max_memory_steps, global_episode_order
 from racer.trainer.precision import DEFAULT_PRECISION, Precision
 from racer.trainer.preflight import check_clone_source, preflight
+from racer.trainer.preset import PRESET_FILE, Preset
 
 log = logging.getLogger(__name__)
 
@@ -118,6 +120,10 @@ class Trainer:
         self.env_steps = 0
         self.iteration = 0
         """The newest saved checkpoint's number: the iteration being collected."""
+        self.network_file: NetworkFile | None = None
+        """network.json of the custom files when model_metadata.json names it."""
+        self.preset: Preset | None = None
+        """preset.json of the custom files, when there is one."""
 
     # ---- set-up ----------------------------------------------------------------------------------
     def _read_custom_files(self) -> tuple[ModelMetadata, Hyperparameters, bytes, list[WorkerSettings]]:
@@ -135,6 +141,7 @@ class Trainer:
         )
         for warning in report.warnings:
             log.warning(warning)
+        self.network_file, self.preset = report.network, report.preset
         return (
             report.model_metadata,
             report.hyperparameters,
@@ -151,6 +158,10 @@ class Trainer:
         workers: list[WorkerSettings],
     ) -> None:
         self.store.put_bytes(self.layout.model_metadata, metadata_bytes)
+        if self.network_file is not None:  # beside model_metadata.json, verbatim: evaluation and clones read it
+            self.store.put_bytes(self.layout.network, (self.options.custom_files / NETWORK_FILE).read_bytes())
+        if self.preset is not None:  # beside the hyperparameters, verbatim
+            self.store.put_bytes(self.layout.preset, (self.options.custom_files / PRESET_FILE).read_bytes())
         self.store.put_bytes(
             self.layout.hyperparameters, hyperparameters_to_json_bytes(hyperparameters, metadata.training_algorithm)
         )
@@ -176,6 +187,8 @@ class Trainer:
                 precision=self.options.precision,
                 sac_replay_memory_mb=self.options.sac_replay_memory_mb,
                 sac_updates_per_transition=self.options.sac_updates_per_transition,
+                network=self.network_file,
+                preset=self.preset,
             ),
         )
         self.network = self.learner.network
@@ -216,7 +229,11 @@ class Trainer:
         """Start from another model's weights. Action values may change; the number of actions may not."""
         source_prefix = self.options.pretrained_prefix
         check_clone_source(
-            self.store, source_prefix, self.metadata, str(self.options.custom_files / "model_metadata.json")
+            self.store,
+            source_prefix,
+            self.metadata,
+            str(self.options.custom_files / "model_metadata.json"),
+            self.network_file,
         )
         source = CheckpointStore(self.store, source_prefix)
         name = source.select(self.options.pretrained_checkpoint)
@@ -231,7 +248,8 @@ class Trainer:
             self.learner.optimizer,
             self.metadata,
             self.hyperparameters,
-            extra={"trainer_precision": self.options.precision.value},
+            extra={"trainer_precision": self.options.precision.value}
+            | ({"preset": self.preset.to_dict()} if self.preset is not None else {}),
         )
         print(f"Checkpoint> Saving in path=['{self.layout.key(model_layout.MODEL_DIR, name)}']", flush=True)
         return name

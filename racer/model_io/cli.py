@@ -25,7 +25,7 @@ from racer.model_io.explain import explain_command
 from racer.model_io.problems import ValidationProblem, ValidationReport
 from racer.model_io.sources import split_s3_location
 from racer.model_io.store_location import open_store_option
-from racer.model_io.tensorflow.errors import UnsupportedGraphError
+from racer.model_io.tensorflow.errors import CustomNetworkExportError, UnsupportedGraphError
 from racer.model_io.tensorflow.runner import (
     INSTALL_HINT,
     TensorFlowMissingError,
@@ -250,7 +250,7 @@ def export_command(model: str, dest: str, store_location: str | None, overwrite:
         click.echo("writing DeepRacer's TensorFlow files (a TensorFlow process; this takes a minute) ...")
     try:
         result = export_model(store, model, destination, tensorflow=tensorflow, layout=target)
-    except (TensorFlowToolError, TensorFlowMissingError) as error:
+    except (TensorFlowToolError, TensorFlowMissingError, CustomNetworkExportError) as error:
         raise click.ClickException(str(error)) from None
     _finish(
         result,

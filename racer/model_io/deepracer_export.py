@@ -9,6 +9,9 @@ frozen graph the car and DRoA run), made in a TensorFlow process of their own (t
 `model_metadata.json`, `reward_function.py`, `training_params.yaml`, `hyperparameters.json` and the training metrics
 as `metrics/training/training-<name>.json`. racer's own files (safetensors, manifests, ONNX) stay out: DRoA would
 ignore them and they count against its 1 GB limit.
+
+A model with your own network (network.json) is refused (`refuse_custom_network`): its frozen graph cannot be
+written yet, and DeepRacer on AWS imports only its three built-in networks.
 """
 
 from __future__ import annotations
@@ -20,12 +23,13 @@ import re
 from racer.model_io import checkpoints as ck
 from racer.model_io.problems import ImportPlan
 from racer.model_io.sources import StoreSource
+from racer.model_io.tensorflow.errors import CustomNetworkExportError, custom_network_export_refusal
 from racer.shared import model_layout
-from racer.shared.deepracer.model_metadata import ContinuousActionSpace, parse_model_metadata
+from racer.shared.deepracer.model_metadata import NEURAL_NETWORKS, ContinuousActionSpace, parse_model_metadata
 from racer.shared.model_layout import RACER_CHECKPOINT_SUFFIXES, CheckpointName
-from racer.shared.store import join_key
+from racer.shared.store import ObjectNotFoundError, join_key
 
-__all__ = ["EXPORT_LAYOUTS", "droa_plan", "droa_targets", "tensorflow_exports"]
+__all__ = ["EXPORT_LAYOUTS", "droa_plan", "droa_targets", "refuse_custom_network", "tensorflow_exports"]
 
 EXPORT_LAYOUTS = ("racer", "droa")
 _TRAINING_METRICS = re.compile(r"^(?:metrics/)?(TrainingMetrics[^/]*)\.json$")
@@ -59,6 +63,17 @@ def _action_space(source: StoreSource, checkpoints, name: str) -> ContinuousActi
         where = join_key(source.prefix, model_layout.MODEL_METADATA)
         metadata = json.loads(source.store.get_bytes(where).decode("utf-8-sig"))
     return parse_model_metadata(metadata, where).continuous_action_space
+
+
+def refuse_custom_network(source: StoreSource, layout: str) -> None:
+    """Your own network (network.json) has no TensorFlow export yet, and DeepRacer on AWS knows only its three."""
+    try:
+        metadata = json.loads(source.store.get_bytes(join_key(source.prefix, model_layout.MODEL_METADATA)))
+    except (ObjectNotFoundError, ValueError):
+        return  # validation reports it
+    network = metadata.get("neural_network") if isinstance(metadata, dict) else None
+    if isinstance(network, str) and network not in NEURAL_NETWORKS:
+        raise CustomNetworkExportError(custom_network_export_refusal(network, layout))
 
 
 def droa_plan(plan: ImportPlan) -> ImportPlan:

@@ -72,10 +72,7 @@ def _head(network, observations):
 
 def _cell_grid(network, spec) -> tuple[float, float]:
     """(offset, stride) in pixels of the last conv cells' receptive-field centres."""
-    from racer.shared.policy.networks import NETWORK_ARCHITECTURES
-
-    architecture = NETWORK_ARCHITECTURES[network.config.neural_network]
-    convs = architecture.stereo_convs if spec.shape[2] == 2 else architecture.camera_convs
+    convs, _ = network.config.embedder_layers(spec)
     field, jump = 1, 1
     for conv in convs:
         field += (conv.kernel_px - 1) * jump

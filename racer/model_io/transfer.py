@@ -31,7 +31,13 @@ import botocore.exceptions
 
 from racer.model_io import checkpoints as ck
 from racer.model_io.codes import ProblemCode
-from racer.model_io.deepracer_export import EXPORT_LAYOUTS, droa_plan, droa_targets, tensorflow_exports
+from racer.model_io.deepracer_export import (
+    EXPORT_LAYOUTS,
+    droa_plan,
+    droa_targets,
+    refuse_custom_network,
+    tensorflow_exports,
+)
 from racer.model_io.problems import DEFAULT_LIMITS, ImportPlan, SizeLimits, ValidationProblem, ValidationReport
 from racer.model_io.source_errors import SOURCE_ERRORS
 from racer.model_io.source_problems import problem_for_source_error
@@ -341,6 +347,7 @@ def export_model(
         raise ValueError(f"layout must be one of {', '.join(EXPORT_LAYOUTS)}, got {layout!r}")
     tensorflow = tensorflow or layout == "droa"
     source = StoreSource(store, model_prefix)
+    refuse_custom_network(source, layout)
     report = validate_model(source, limits)
     if report.plan is None:
         return TransferResult(destination.describe(), report)

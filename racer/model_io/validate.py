@@ -318,7 +318,7 @@ def _check_racer_checkpoints(
                 )
         if metadata is not None:
             try:
-                wanted = policy_config_from_metadata(metadata)
+                wanted = policy_config_from_metadata(metadata, info.policy_config.network)
                 wanted_text = f"{wanted.num_actions} {wanted.action_space_type} actions, {wanted.neural_network}"
             except ValueError as error:
                 wanted, wanted_text = None, str(error)

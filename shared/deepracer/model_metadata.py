@@ -13,6 +13,7 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from os import PathLike
+from pathlib import Path
 
 from racer.shared.deepracer._jsonfile import read_json_file
 
@@ -41,6 +42,7 @@ class ModelMetadataError(ValueError):
 CAMERA_SENSORS: tuple[str, ...] = ("FRONT_FACING_CAMERA", "STEREO_CAMERAS", "LEFT_CAMERA", "observation")
 LIDAR_SENSORS: tuple[str, ...] = ("LIDAR", "SECTOR_LIDAR", "DISCRETIZED_SECTOR_LIDAR")
 SENSOR_NAMES: tuple[str, ...] = CAMERA_SENSORS + LIDAR_SENSORS
+NETWORK_FILE = "network.json"
 NEURAL_NETWORKS: tuple[str, ...] = (
     "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW",
     "DEEP_CONVOLUTIONAL_NETWORK",
@@ -365,7 +367,7 @@ def parse_model_metadata(data: object, source: str = "model_metadata.json") -> M
 
     neural_network = NEURAL_NETWORKS[0]
     if "neural_network" in data:
-        neural_network = check.choice(data["neural_network"], "neural_network", NEURAL_NETWORKS, False)
+        neural_network = _parse_neural_network(check, data["neural_network"])
 
     lidar_config = LidarConfig()
     if "lidar_config" in data:
@@ -383,9 +385,36 @@ def parse_model_metadata(data: object, source: str = "model_metadata.json") -> M
     )
 
 
+def _parse_neural_network(check: _Checker, value: object) -> str:
+    """One of DeepRacer's three networks, or the name of your own (a network.json beside model_metadata.json defines
+    it: racer.shared.policy.network_file checks that file where the network is built)."""
+    if isinstance(value, str) and value.strip() and value.isprintable() and len(value) <= 64:
+        return value
+    raise check.error(
+        "neural_network",
+        f"{value!r} is not allowed; allowed: {', '.join(NEURAL_NETWORKS)}, or the name of your own network in a "
+        f"{NETWORK_FILE} beside this file",
+    )
+
+
 def load_model_metadata(path: str | PathLike[str]) -> ModelMetadata:
-    """Read and validate a model_metadata.json file; errors name the file (and line/column for bad JSON)."""
-    return parse_model_metadata(read_json_file(path, ModelMetadataError), source=str(path))
+    """Read and validate a model_metadata.json file; errors name the file (and line/column for bad JSON). A
+    `neural_network` that is not one of DeepRacer's three must be the `name` of the network.json beside it."""
+    metadata = parse_model_metadata(read_json_file(path, ModelMetadataError), source=str(path))
+    if metadata.neural_network not in NEURAL_NETWORKS:
+        network_path = Path(path).parent / NETWORK_FILE
+        name = None
+        if network_path.is_file():
+            data = read_json_file(network_path, ModelMetadataError)
+            name = data.get("name") if isinstance(data, dict) else None
+        if name != metadata.neural_network:
+            found = f"its name is {name!r}" if network_path.is_file() else "there is none"
+            raise ModelMetadataError(
+                f"{path}: neural_network: {metadata.neural_network!r} is not one of DeepRacer's networks "
+                f"({', '.join(NEURAL_NETWORKS)}), so it must be the name of {network_path}, but {found}; fix: name a "
+                f'built-in network, or give {NETWORK_FILE} "name": "{metadata.neural_network}"'
+            )
+    return metadata
 
 
 def _json_number(value: float) -> int | float:

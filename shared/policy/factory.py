@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from racer.shared.policy.network_file import NetworkFile
 from racer.shared.policy.networks import ActorCritic, PolicyConfig, policy_config_from_metadata
 from racer.shared.policy.sac_networks import SACNetworks
 
@@ -24,6 +25,7 @@ def build_network(config: PolicyConfig) -> PolicyNetwork:
     return ActorCritic(config)
 
 
-def build_network_for_metadata(metadata: ModelMetadata) -> PolicyNetwork:
-    """The freshly initialised network a model_metadata.json asks for."""
-    return build_network(policy_config_from_metadata(metadata))
+def build_network_for_metadata(metadata: ModelMetadata, network: NetworkFile | None = None) -> PolicyNetwork:
+    """The freshly initialised network a model_metadata.json asks for (`network`: the custom files' network.json
+    when model_metadata.json names one)."""
+    return build_network(policy_config_from_metadata(metadata, network))

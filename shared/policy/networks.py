@@ -22,8 +22,10 @@ grayscale values (uint8 or float), lidar (B, n) float. The network divides image
 kept end to end (a (B, H, W, C) array viewed as NCHW *is* PyTorch's channels_last layout, so no copy), and conv
 features are flattened in (H, W, C) order, Keras' order, so weights map one to one onto a TF-style graph.
 
-Layers: Conv2d with 'valid' padding and ReLU after every conv and dense layer of the embedders and middleware
-(RL Coach's SCHEME embedders ignore the batch-norm/dropout/tanh entries of DeepRacer's scheme dicts). The policy
+Layers (racer.shared.policy.layers): DeepRacer's three networks have Conv2d with 'valid' padding and ReLU after every
+conv and dense layer of the embedders and middleware (RL Coach's SCHEME embedders ignore the batch-norm/dropout/tanh
+entries of DeepRacer's scheme dicts); your own network (network.json, racer.shared.policy.network_file, carried in
+`PolicyConfig.network`) may add batch-norm, tanh or no activation, and dropout per layer. The policy
 and value towers are separate copies of embedders + middleware (`use_separate_networks_per_head = True`).
 
 Heads: discrete = Dense(num_actions) -> softmax -> max(p, 1e-8) (not renormalised, as DeepRacer). Continuous =
@@ -44,6 +46,18 @@ import numpy as np
 import torch
 from torch import nn
 
+from racer.shared.policy.layers import (
+    LIDAR_EMBEDDER_DENSE,
+    NETWORK_ARCHITECTURES,
+    ConvLayer,
+    DenseLayer,
+    NetworkArchitecture,
+    conv_modules,
+    conv_output_shape,
+    dense_modules,
+)
+from racer.shared.policy.network_file import NetworkFile, parse_network_file
+
 if TYPE_CHECKING:
     from racer.shared.deepracer.model_metadata import ModelMetadata
 
@@ -52,9 +66,12 @@ __all__ = [
     "ActorCritic",
     "CategoricalPolicy",
     "ConvLayer",
+    "DenseLayer",
     "GaussianPolicy",
     "InputSpec",
+    "LIDAR_EMBEDDER_DENSE",
     "NetworkArchitecture",
+    "NetworkFile",
     "PolicyConfig",
     "build_actor_critic",
     "conv_output_shape",
@@ -75,78 +92,9 @@ LOG_STD_MIN = -20.0
 LOG_STD_MAX = 3.0
 CONTINUOUS_MEAN = "linear"
 """The continuous head's mean function, recorded in every checkpoint manifest: DeepRacer's linear mean."""
-LIDAR_EMBEDDER_DENSE = (256, 256)
-"""All three LIDAR-type sensors use the same dense embedder, whatever the network type."""
-
 CAMERA_CHANNELS: dict[str, int] = {"FRONT_FACING_CAMERA": 1, "LEFT_CAMERA": 1, "observation": 1, "STEREO_CAMERAS": 2}
 LIDAR_SIZES: dict[str, int] = {"LIDAR": 64, "SECTOR_LIDAR": 8}
 """DISCRETIZED_SECTOR_LIDAR's size comes from `lidar_config` (num_sectors * num_values_per_sector)."""
-
-
-@dataclass(frozen=True)
-class ConvLayer:
-    filters: int
-    kernel_px: int
-    stride_px: int
-
-
-@dataclass(frozen=True)
-class NetworkArchitecture:
-    """One `neural_network` value of model_metadata.json: its embedders and middleware."""
-
-    camera_convs: tuple[ConvLayer, ...]
-    stereo_convs: tuple[ConvLayer, ...]
-    camera_dense: tuple[int, ...]
-    """Dense layers after the camera convs (also used after the stereo convs only when the stereo table says so)."""
-    stereo_dense: tuple[int, ...]
-    middleware_dense: tuple[int, ...]
-
-
-_SHALLOW_CONVS = (ConvLayer(32, 8, 4), ConvLayer(64, 4, 2), ConvLayer(64, 3, 1))
-_DEEP_STEREO_CONVS = (
-    ConvLayer(32, 3, 1),
-    ConvLayer(64, 3, 2),
-    ConvLayer(64, 3, 1),
-    ConvLayer(128, 3, 2),
-    ConvLayer(128, 3, 1),
-)
-
-NETWORK_ARCHITECTURES: dict[str, NetworkArchitecture] = {
-    "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW": NetworkArchitecture(
-        camera_convs=_SHALLOW_CONVS,
-        stereo_convs=_SHALLOW_CONVS,
-        camera_dense=(),
-        stereo_dense=(),
-        middleware_dense=(512,),
-    ),
-    "DEEP_CONVOLUTIONAL_NETWORK": NetworkArchitecture(
-        camera_convs=(ConvLayer(32, 5, 2), ConvLayer(32, 3, 1), ConvLayer(64, 3, 2), ConvLayer(64, 3, 1)),
-        stereo_convs=_DEEP_STEREO_CONVS,
-        camera_dense=(64,),
-        stereo_dense=(),
-        middleware_dense=(512,),
-    ),
-    "DEEP_CONVOLUTIONAL_NETWORK_DEEP": NetworkArchitecture(
-        camera_convs=(ConvLayer(32, 8, 4), ConvLayer(32, 4, 2), ConvLayer(64, 4, 2), ConvLayer(64, 3, 1)),
-        stereo_convs=_DEEP_STEREO_CONVS,
-        camera_dense=(512, 512),
-        stereo_dense=(),
-        middleware_dense=(256, 128),
-    ),
-}
-"""Reference section 8.2 (sensors/utils.py embedders, custom_architectures.py middleware)."""
-
-
-def conv_output_shape(height_px: int, width_px: int, convs: Sequence[ConvLayer]) -> tuple[int, int, int]:
-    """(height, width, channels) after 'valid' convolutions: out = floor((in - kernel) / stride) + 1."""
-    channels = 0
-    for conv in convs:
-        height_px = (height_px - conv.kernel_px) // conv.stride_px + 1
-        width_px = (width_px - conv.kernel_px) // conv.stride_px + 1
-        channels = conv.filters
-        if height_px < 1 or width_px < 1:
-            raise ValueError(f"convolution {conv} leaves no pixels")
-    return height_px, width_px, channels
 
 
 # --------------------------------------------------------------------------------------------------------------------
@@ -175,12 +123,23 @@ class PolicyConfig:
     """Number of discrete actions, or 2 (steering, speed) when continuous."""
     training_algorithm: str = "clipped_ppo"
     """`clipped_ppo` (ActorCritic here) or `sac` (racer.shared.policy.sac_networks.SACNetworks)."""
+    network: NetworkFile | None = None
+    """Your own network (network.json, racer.shared.policy.network_file) when `neural_network` names it; None for
+    DeepRacer's three."""
 
     def __post_init__(self) -> None:
-        if self.neural_network not in NETWORK_ARCHITECTURES:
+        if self.network is None and self.neural_network not in NETWORK_ARCHITECTURES:
             raise ValueError(
-                f"unknown neural_network {self.neural_network!r}; allowed: {', '.join(NETWORK_ARCHITECTURES)}"
+                f"unknown neural_network {self.neural_network!r} and no network file defines it; built-in: "
+                f"{', '.join(NETWORK_ARCHITECTURES)}"
             )
+        if self.network is not None and self.network.name != self.neural_network:
+            raise ValueError(f"neural_network {self.neural_network!r} but the network file is {self.network.name!r}")
+        if self.network is not None:
+            names = {sensor for sensor, _ in self.network.input_embedders}
+            missing = [spec.name for spec in self.inputs if spec.name not in names]
+            if missing:
+                raise ValueError(f"network {self.network.name!r} has no input_embedders for {', '.join(missing)}")
         if self.action_space_type not in ("discrete", "continuous"):
             raise ValueError(f"action_space_type must be 'discrete' or 'continuous', got {self.action_space_type!r}")
         if self.action_space_type == "continuous" and self.num_actions != 2:
@@ -203,13 +162,16 @@ class PolicyConfig:
         return self.action_space_type == "continuous"
 
     def to_dict(self) -> dict:
-        return {
+        data = {
             "neural_network": self.neural_network,
             "inputs": [{"name": spec.name, "kind": spec.kind, "shape": list(spec.shape)} for spec in self.inputs],
             "action_space_type": self.action_space_type,
             "num_actions": self.num_actions,
             "training_algorithm": self.training_algorithm,
         }
+        if self.network is not None:  # built-in networks' manifests stay as they were
+            data["network"] = self.network.to_dict()
+        return data
 
     @classmethod
     def from_dict(cls, data: Mapping) -> PolicyConfig:
@@ -222,7 +184,27 @@ class PolicyConfig:
             action_space_type=str(data["action_space_type"]),
             num_actions=int(data["num_actions"]),
             training_algorithm=str(data.get("training_algorithm", "clipped_ppo")),
+            network=parse_network_file(data["network"], "policy_config.network") if data.get("network") else None,
         )
+
+    def embedder_layers(self, spec: InputSpec) -> tuple[tuple[ConvLayer, ...], tuple[DenseLayer, ...]]:
+        """(convs, dense layers) of one input's embedder."""
+        if self.network is not None:
+            layers = self.network.embedder(spec.name)
+            convs = tuple(layer for layer in layers if isinstance(layer, ConvLayer))
+            return convs, tuple(layer for layer in layers if isinstance(layer, DenseLayer))
+        architecture = NETWORK_ARCHITECTURES[self.neural_network]
+        if spec.kind == "vector":
+            return (), LIDAR_EMBEDDER_DENSE
+        if spec.shape[2] == 2:
+            return architecture.stereo_convs, architecture.stereo_dense
+        return architecture.camera_convs, architecture.camera_dense
+
+    @property
+    def middleware_layers(self) -> tuple[DenseLayer, ...]:
+        if self.network is not None:
+            return self.network.middleware
+        return NETWORK_ARCHITECTURES[self.neural_network].middleware_dense
 
 
 def _input_spec(sensor: str, metadata: ModelMetadata) -> InputSpec:
@@ -236,14 +218,16 @@ def _input_spec(sensor: str, metadata: ModelMetadata) -> InputSpec:
     raise ValueError(f"sensor {sensor!r} has no network input (known: {', '.join([*CAMERA_CHANNELS, *LIDAR_SIZES])})")
 
 
-def policy_config_from_metadata(metadata: ModelMetadata) -> PolicyConfig:
-    """The network a parsed model_metadata.json asks for (clipped PPO or SAC)."""
+def policy_config_from_metadata(metadata: ModelMetadata, network: NetworkFile | None = None) -> PolicyConfig:
+    """The network a parsed model_metadata.json asks for (clipped PPO or SAC); `network`: the custom files' network
+    file when `neural_network` names one (racer.shared.policy.network_file.network_for_metadata)."""
     return PolicyConfig(
         neural_network=metadata.neural_network,
         inputs=tuple(_input_spec(sensor, metadata) for sensor in sorted(metadata.sensors)),
         action_space_type=metadata.action_space_type,
         num_actions=metadata.num_actions,
         training_algorithm=metadata.training_algorithm,
+        network=network,
     )
 
 
@@ -258,28 +242,16 @@ def _normalized_columns_(weight: torch.Tensor, std: float) -> None:
         weight.mul_(std / weight.norm(dim=1, keepdim=True))
 
 
-def _dense_stack(in_features: int, sizes: Sequence[int]) -> tuple[nn.Sequential, int]:
-    layers: list[nn.Module] = []
-    for size in sizes:
-        layers += [nn.Linear(in_features, size), nn.ReLU()]
-        in_features = size
-    return nn.Sequential(*layers), in_features
-
-
 class CameraEmbedder(nn.Module):
     """Raw (B, H, W, C) 0-255 images -> /255 -> valid convs + ReLU -> flatten (H, W, C order) -> dense + ReLU."""
 
-    def __init__(self, spec: InputSpec, convs: Sequence[ConvLayer], dense: Sequence[int]):
+    def __init__(self, spec: InputSpec, convs: Sequence[ConvLayer], dense: Sequence[DenseLayer]):
         super().__init__()
         height_px, width_px, channels = spec.shape
-        layers: list[nn.Module] = []
-        for conv in convs:
-            layers += [nn.Conv2d(channels, conv.filters, conv.kernel_px, conv.stride_px, padding=0), nn.ReLU()]
-            channels = conv.filters
-        self.convs = nn.Sequential(*layers)
+        self.convs = conv_modules(channels, convs)
         out_h, out_w, out_c = conv_output_shape(height_px, width_px, convs)
         self.flatten_size = out_h * out_w * out_c
-        self.dense, self.out_features = _dense_stack(self.flatten_size, dense)
+        self.dense, self.out_features = dense_modules(self.flatten_size, dense)
 
     def forward(self, images: torch.Tensor) -> torch.Tensor:
         dtype = self.convs[0].weight.dtype
@@ -292,9 +264,9 @@ class CameraEmbedder(nn.Module):
 class VectorEmbedder(nn.Module):
     """LIDAR-type inputs: dense [256, 256] + ReLU, values used as they come (no rescaling)."""
 
-    def __init__(self, spec: InputSpec, dense: Sequence[int]):
+    def __init__(self, spec: InputSpec, dense: Sequence[DenseLayer]):
         super().__init__()
-        self.dense, self.out_features = _dense_stack(spec.shape[0], dense)
+        self.dense, self.out_features = dense_modules(spec.shape[0], dense)
 
     def forward(self, values: torch.Tensor) -> torch.Tensor:
         return self.dense(values.to(self.dense[0].weight.dtype))
@@ -305,19 +277,17 @@ class Tower(nn.Module):
 
     def __init__(self, config: PolicyConfig):
         super().__init__()
-        architecture = NETWORK_ARCHITECTURES[config.neural_network]
         embedders: dict[str, nn.Module] = {}
         for spec in config.inputs:
-            if spec.kind == "camera" and spec.shape[2] == 2:
-                embedders[spec.name] = CameraEmbedder(spec, architecture.stereo_convs, architecture.stereo_dense)
-            elif spec.kind == "camera":
-                embedders[spec.name] = CameraEmbedder(spec, architecture.camera_convs, architecture.camera_dense)
+            convs, dense = config.embedder_layers(spec)
+            if spec.kind == "camera":
+                embedders[spec.name] = CameraEmbedder(spec, convs, dense)
             else:
-                embedders[spec.name] = VectorEmbedder(spec, LIDAR_EMBEDDER_DENSE)
+                embedders[spec.name] = VectorEmbedder(spec, dense)
         self.input_names = tuple(spec.name for spec in config.inputs)
         self.embedders = nn.ModuleDict(embedders)
         merged = sum(embedder.out_features for embedder in embedders.values())
-        self.middleware, self.out_features = _dense_stack(merged, architecture.middleware_dense)
+        self.middleware, self.out_features = dense_modules(merged, config.middleware_layers)
         for module in self.modules():
             if isinstance(module, nn.Conv2d | nn.Linear):
                 nn.init.xavier_uniform_(module.weight)  # Keras/TF default (glorot_uniform, zero bias)

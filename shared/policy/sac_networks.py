@@ -264,7 +264,18 @@ class SACNetworks(nn.Module):
         return self.target_value_head(_features(self.target_value_tower, observations, dtype)).squeeze(1)
 
     @torch.no_grad()
-    def sync_target(self) -> None:
-        """Copy V into the target V (DeepRacer: rate_for_copying_weights_to_target = 1)."""
-        self.target_value_tower.load_state_dict(self.value_tower.state_dict())
-        self.target_value_head.load_state_dict(self.value_head.state_dict())
+    def sync_target(self, rate: float = 1.0) -> None:
+        """Copy V into the target V (DeepRacer: rate_for_copying_weights_to_target = 1), or with `rate` < 1 move the
+        target that fraction of the way: target <- rate V + (1 - rate) target (buffers are copied)."""
+        if rate == 1.0:
+            self.target_value_tower.load_state_dict(self.value_tower.state_dict())
+            self.target_value_head.load_state_dict(self.value_head.state_dict())
+            return
+        with torch.no_grad():
+            for target, source in (
+                (self.target_value_tower, self.value_tower),
+                (self.target_value_head, self.value_head),
+            ):
+                for key, value in source.state_dict().items():
+                    kept = target.state_dict()[key]
+                    kept.copy_(kept.lerp(value, rate) if value.is_floating_point() else value)

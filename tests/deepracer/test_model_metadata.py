@@ -151,7 +151,7 @@ BAD_INPUTS = [
     (DISCRETE, ("action_space_type",), "box", "action_space_type", "allowed: discrete, continuous"),
     (DISCRETE, ("training_algorithm",), "dqn", "training_algorithm", "allowed: clipped_ppo, sac"),
     (DISCRETE, ("training_algorithm",), "sac", "training_algorithm", "requires action_space_type 'continuous'"),
-    (DISCRETE, ("neural_network",), "RESNET", "neural_network", "allowed: DEEP_CONVOLUTIONAL_NETWORK_SHALLOW"),
+    (DISCRETE, ("neural_network",), ["RESNET"], "neural_network", "allowed: DEEP_CONVOLUTIONAL_NETWORK_SHALLOW"),
     (DISCRETE, ("sensor",), ["LIDAR"], "sensor", "exactly one camera"),
     (DISCRETE, ("sensor",), [], "sensor", "exactly one camera"),
     (DISCRETE, ("sensor",), ["FRONT_FACING_CAMERA", "STEREO_CAMERAS"], "sensor", "exactly one camera"),
@@ -269,3 +269,18 @@ def test_load_accepts_a_utf8_bom(tmp_path):
     path = tmp_path / "bom.json"
     path.write_bytes(b"\xef\xbb\xbf" + json.dumps(DISCRETE).encode())
     assert load_model_metadata(path).num_actions == 3
+
+
+def test_a_custom_network_name_needs_the_network_file_beside_it(tmp_path):
+    """A neural_network that is not DeepRacer's is the name of network.json in the same folder; the error names
+    both files."""
+    path = tmp_path / "model_metadata.json"
+    path.write_text(json.dumps(changed(DISCRETE, ("neural_network",), "WIDE")))
+    assert parse_model_metadata(json.loads(path.read_text()), "dict").neural_network == "WIDE"  # stores carry it
+    with pytest.raises(ModelMetadataError, match=f"^{path}: neural_network: 'WIDE' .*network.json.*there is none"):
+        load_model_metadata(path)
+    (tmp_path / "network.json").write_text(json.dumps({"name": "NARROW"}))
+    with pytest.raises(ModelMetadataError, match="its name is 'NARROW'"):
+        load_model_metadata(path)
+    (tmp_path / "network.json").write_text(json.dumps({"name": "WIDE"}))
+    assert load_model_metadata(path).neural_network == "WIDE"

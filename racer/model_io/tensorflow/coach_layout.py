@@ -31,6 +31,7 @@ from racer.shared.policy.networks import (
 
 __all__ = [
     "AGENT_SCOPE",
+    "CUSTOM_NETWORK_EXPORT_REFUSAL",
     "CoachVariable",
     "INPUT_NODE_FORMAT",
     "POLICY_OUTPUT_NODE",
@@ -75,8 +76,17 @@ class CoachVariable:
     `same`, `row` ((n,) -> (1, n)) or `scalar` (the rescaler, value 1.0)."""
 
 
+CUSTOM_NETWORK_EXPORT_REFUSAL = (
+    "network {name!r} is your own network (network.json): racer cannot write its TensorFlow frozen graph yet (the "
+    "graph writer knows DeepRacer's three networks only: ReLU layers without batch-norm or dropout); train, evaluate "
+    "and race it in racer, or use one of DeepRacer's networks to reach the car"
+)
+
+
 def tower_layers(config: PolicyConfig) -> list[dict]:
     """Per tower: the embedders (sorted sensor names) with their layers, then the middleware. Scope names as RL Coach."""
+    if config.network is not None:
+        raise ValueError(CUSTOM_NETWORK_EXPORT_REFUSAL.format(name=config.neural_network))
     architecture = NETWORK_ARCHITECTURES[config.neural_network]
     embedders = []
     for spec in config.inputs:
@@ -109,7 +119,7 @@ def tower_layers(config: PolicyConfig) -> list[dict]:
             features = spec.shape[0]
             first_dense = 0
             rescale = 1.0
-        for index, units in enumerate(dense):
+        for index, units in enumerate(layer.units for layer in dense):
             layers.append(
                 {
                     "type": "dense",
@@ -124,7 +134,7 @@ def tower_layers(config: PolicyConfig) -> list[dict]:
         )
     merged = sum(embedder["features"] for embedder in embedders)
     middleware = []
-    for index, units in enumerate(architecture.middleware_dense):
+    for index, units in enumerate(layer.units for layer in architecture.middleware_dense):
         middleware.append(
             {
                 "type": "dense",
