@@ -8,13 +8,12 @@ from pathlib import Path
 import click
 
 from racer.shared.config import settings_from_env
-from racer.shared.sim.car_dynamics import CAR_PROFILE_NAMES, DEFAULT_CAR_PROFILE
 from racer.shared.sim.config import DEFAULT_TRACK
 from racer.shared.sim.race_cli import race_options, race_params_from_options
 from racer.shared.sim.track_option import direction_option
 from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
 from racer.shared.user_errors import user_error_types
-from racer.trainer.precision import DEFAULT_PRECISION, PRECISION_NAMES
+from racer.trainer.run_options import trainer_run_options
 
 
 @click.command(name="trainer")
@@ -62,20 +61,6 @@ from racer.trainer.precision import DEFAULT_PRECISION, PRECISION_NAMES
     help="racer's RACER_CAR_RANDOMIZATION for every worker (tint, blur, noise, camera jitter).",
 )
 @click.option(
-    "--dynamics-randomization",
-    type=bool,
-    default=False,
-    show_default=True,
-    help="racer's RACER_DYNAMICS_RANDOMIZATION for every worker (a car drawn around the profile every episode).",
-)
-@click.option(
-    "--car-profile",
-    type=click.Choice(CAR_PROFILE_NAMES),
-    default=DEFAULT_CAR_PROFILE,
-    show_default=True,
-    help="racer's RACER_CAR_PROFILE for every worker: the car's dynamics (workers.json may set it per worker).",
-)
-@click.option(
     "--sac-replay-memory-mb",
     type=click.FloatRange(1.0),
     default=1024.0,
@@ -89,14 +74,7 @@ from racer.trainer.precision import DEFAULT_PRECISION, PRECISION_NAMES
     show_default=True,
     help="SAC: gradient steps per transition received (DeepRacer: 1).",
 )
-@click.option(
-    "--precision",
-    type=click.Choice(PRECISION_NAMES),
-    default=DEFAULT_PRECISION.value,
-    show_default=True,
-    help="What the towers compute in during updates. bf16 is about twice as fast on CPUs with native bf16 "
-    "(AVX512-BF16, AMX) but learns differently (see docs/benchmarks.md); fp32 learns the same on every CPU.",
-)
+@trainer_run_options
 @race_options
 @direction_option
 def trainer_command(

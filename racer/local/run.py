@@ -25,7 +25,6 @@ from racer.rollout_worker.batched_rollout import DEFAULT_ENVS_PER_WORKER, DEFAUL
 from racer.rollout_worker.main import EXIT_RUN_CANNOT_GO_ON
 from racer.shared.config import LocalStoreSettings, RedisSettings, S3Settings, ServiceSettings, settings_from_env
 from racer.shared.redis_connection import RedisLink, RedisUnavailableError
-from racer.shared.sim.car_dynamics import CAR_PROFILE_NAMES, DEFAULT_CAR_PROFILE
 from racer.shared.sim.config import DEFAULT_TRACK
 from racer.shared.sim.gl import ensure_gl_backend
 from racer.shared.sim.race_cli import race_option_args, race_options, race_params_from_options
@@ -33,7 +32,7 @@ from racer.shared.sim.track_option import direction_option
 from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
 from racer.shared.store import S3Store, open_store
 from racer.shared.transport.channels import RunChannel
-from racer.trainer.precision import DEFAULT_PRECISION, PRECISION_NAMES
+from racer.trainer.run_options import trainer_arguments, trainer_run_options
 
 
 @dataclass(frozen=True)
@@ -430,27 +429,7 @@ def run_local_training(plan: LocalRunPlan, base_settings: ServiceSettings, on_ev
     show_default=True,
     help="Address the page listens on; the default is reachable from this machine only.",
 )
-@click.option(
-    "--precision",
-    type=click.Choice(PRECISION_NAMES),
-    default=DEFAULT_PRECISION.value,
-    show_default=True,
-    help="What the trainer's towers compute in. bf16 is faster on CPUs with native bf16 but learns differently.",
-)
-@click.option(
-    "--car-profile",
-    type=click.Choice(CAR_PROFILE_NAMES),
-    default=DEFAULT_CAR_PROFILE,
-    show_default=True,
-    help="The car's dynamics for every worker (RACER_CAR_PROFILE; workers.json may set it per worker).",
-)
-@click.option(
-    "--dynamics-randomization",
-    type=bool,
-    default=False,
-    show_default=True,
-    help="A car drawn around the profile every episode, for every worker (RACER_DYNAMICS_RANDOMIZATION).",
-)
+@trainer_run_options
 @race_options
 @direction_option
 def train_command(
@@ -495,13 +474,6 @@ def train_command(
         viewer_port=viewer_port or None,
         race_params=race_params_from_options(race_type, race_param),
         envs_per_worker=envs_per_worker,
-        trainer_options=(
-            "--precision",
-            precision,
-            "--car-profile",
-            car_profile,
-            "--dynamics-randomization",
-            str(dynamics_randomization),
-        ),
+        trainer_options=trainer_arguments(precision, car_profile, dynamics_randomization),
     )
     sys.exit(run_local_training(plan, base_settings))

@@ -1,0 +1,56 @@
+"""The trainer options that `racer train` passes on unchanged to `racer trainer`: one definition for both commands."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import click
+
+from racer.shared.sim.car_dynamics import CAR_PROFILE_NAMES, DEFAULT_CAR_PROFILE
+from racer.trainer.precision import DEFAULT_PRECISION, PRECISION_NAMES
+
+PASSED_ON = ("precision", "car_profile", "dynamics_randomization")
+"""The parameter names the decorator adds, in the order `trainer_arguments` writes them."""
+
+
+def trainer_run_options(command: Callable) -> Callable:
+    """--precision, --car-profile and --dynamics-randomization."""
+    options = (
+        click.option(
+            "--precision",
+            type=click.Choice(PRECISION_NAMES),
+            default=DEFAULT_PRECISION.value,
+            show_default=True,
+            help="What the trainer's towers compute in during updates. bf16 is about twice as fast on CPUs with native "
+            "bf16 (AVX512-BF16, AMX) but learns differently (docs/benchmarks.md); fp32 learns the same on every CPU.",
+        ),
+        click.option(
+            "--car-profile",
+            type=click.Choice(CAR_PROFILE_NAMES),
+            default=DEFAULT_CAR_PROFILE,
+            show_default=True,
+            help="RACER_CAR_PROFILE for every worker: the car's dynamics (workers.json may set it per worker).",
+        ),
+        click.option(
+            "--dynamics-randomization",
+            type=bool,
+            default=False,
+            show_default=True,
+            help="RACER_DYNAMICS_RANDOMIZATION for every worker: a car drawn around the profile every episode.",
+        ),
+    )
+    for option in reversed(options):
+        command = option(command)
+    return command
+
+
+def trainer_arguments(precision: str, car_profile: str, dynamics_randomization: bool) -> tuple[str, ...]:
+    """The same options as `racer trainer` arguments."""
+    return (
+        "--precision",
+        precision,
+        "--car-profile",
+        car_profile,
+        "--dynamics-randomization",
+        str(dynamics_randomization),
+    )
