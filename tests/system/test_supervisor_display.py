@@ -7,13 +7,14 @@ import subprocess
 import sys
 
 from racer.local.supervisor import RunSupervisor
+from racer.rollout_worker.main import EXIT_RUN_CANNOT_GO_ON
 from racer.shared.redis_connection import RedisLink
 from racer.shared.transport.channels import RunChannel
 
 
 def test_the_display_shows_a_worker_down_and_back(redis_server, redis_settings):
     channel = RunChannel(RedisLink(redis_settings), "display-model")
-    crashing = subprocess.Popen([sys.executable, "-c", "raise SystemExit(3)"])
+    crashing = subprocess.Popen([sys.executable, "-c", "raise SystemExit(1)"])
     crashing.wait(30)
     children = {
         "worker-0": crashing,
@@ -31,7 +32,7 @@ def test_the_display_shows_a_worker_down_and_back(redis_server, redis_settings):
         channel.beat(1, {"state": "playing"})
         supervisor.check_processes()  # worker 0 exited with an error: down, restarted
         supervisor.check_heartbeats(channel.live_workers())
-        assert lines == ["worker 0 is DOWN (exit status 3; restarting it)"]
+        assert lines == ["worker 0 is DOWN (exit status 1; restarting it)"]
         assert restarted == [0]
 
         channel.beat(0, {"state": "playing"})  # the restarted worker's first heartbeat
@@ -51,3 +52,14 @@ def test_the_display_shows_a_worker_down_and_back(redis_server, redis_settings):
         for child in children.values():
             child.kill()
             child.wait()
+
+
+def test_a_worker_whose_failure_no_restart_mends_stops_the_run_instead_of_restarting(redis_server):
+    """Exit status EXIT_RUN_CANNOT_GO_ON (the reward function raised): restarting would fail the same way."""
+    failed = subprocess.Popen([sys.executable, "-c", f"raise SystemExit({EXIT_RUN_CANNOT_GO_ON})"])
+    failed.wait(30)
+    restarted = []
+    supervisor = RunSupervisor(redis_server, {"worker-0": failed}, restarted.append, say=print, num_workers=1)
+    supervisor.check_processes()
+    supervisor.check_processes()
+    assert supervisor.fatal_worker == 0 and restarted == []
