@@ -11,7 +11,7 @@ from dataclasses import dataclass, fields
 from racer.shared.sim.car_dynamics import DEFAULT_CAR_PROFILE, CarDynamics, car_profile
 from racer.shared.sim.config import DEFAULT_TRACK
 from racer.shared.sim.race_config import RaceConfig
-from racer.shared.sim.route_search import world_name_for_direction
+from racer.shared.sim.track_catalog import world_name_for_direction
 from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
 
 __all__ = ["WorkerSettings", "default_worker_settings"]

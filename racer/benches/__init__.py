@@ -1,8 +1,10 @@
 """`racer bench ...`: benchmarks that print one JSON line each (speed goals are measured, not asserted).
 
-This package is every benchmark's home, one module per bench (`ppo`, `sac`, `rollout`, `throughput`,
-`time_to_lap`, `viewer`, `tf_proof`) and their helpers (`workdir`: the work folder a bench's training run writes to).
-The simulator's own benches (`sim`, `camera`, `fidelity`) still live beside the simulator in `racer.shared.sim`.
+This package is every benchmark's home, one module per bench (`sim`, `camera`, `ppo`, `precision`, `transfer`,
+`sac`, `rollout`, `throughput`, `time_to_lap`, `viewer`, `tf_proof`), the calibration research beside them
+(`fidelity/`: `racer bench fidelity` and its studies) and their helpers (`workdir`: the work folder a bench's training
+run writes to; `sim_loop`, `sim_races`: the simulator bench's step loop and its envs with objects; `camera_frames`:
+DeepRacer's reference camera frames and racer's at the same poses).
 """
 
 from __future__ import annotations
@@ -13,11 +15,11 @@ from racer.lazy_group import LazyGroup
 
 BENCHMARKS: dict[str, tuple[str, str]] = {
     "sim": (
-        "racer.shared.sim.bench:sim_bench_command",
+        "racer.benches.sim:sim_bench_command",
         "Environment steps/s with the front camera vs the raw MuJoCo bound.",
     ),
     "camera": (
-        "racer.shared.sim.camera_bench:camera_bench_command",
+        "racer.benches.camera:camera_bench_command",
         "racer's camera frames vs DeepRacer's Gazebo frames, per world; frame cost.",
     ),
     "ppo": (
@@ -33,7 +35,7 @@ BENCHMARKS: dict[str, tuple[str, str]] = {
         "Real DeepRacer checkpoints drive racer closed loop: laps and mean progress from evenly spaced starts.",
     ),
     "fidelity": (
-        "racer.shared.sim.fidelity:fidelity_bench_command",
+        "racer.benches.fidelity.replay:fidelity_bench_command",
         "Open-loop replay of real simtraces: pose error after 1 s and 2 s per speed band.",
     ),
     "tf-proof": (

@@ -27,11 +27,11 @@ import click
 import numpy as np
 import torch
 
+from racer.benches.camera import GAZEBO_FRAMES, load_gazebo_frames, rgb_to_y
 from racer.benches.workdir import cpu_description
 from racer.local.services import PROJECT_ROOT
 from racer.shared.deepracer.model_metadata import ModelMetadata, parse_model_metadata
 from racer.shared.policy.checkpoints import CheckpointStore
-from racer.shared.sim.camera_bench import GAZEBO_FRAMES, load_gazebo_frames, rgb_to_y
 from racer.shared.sim.car_dynamics import CAR_PROFILE_NAMES, DEFAULT_CAR_PROFILE, car_profile
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
@@ -174,8 +174,8 @@ def reverse_check(racer_model: Path, real: list[RealModel], frames_grey: np.ndar
 
 def proxies(track: Path, world: str, frames_rgb: np.ndarray) -> dict:
     """The camera distance and the open-loop replay error, as `racer bench camera` / `fidelity` compute them."""
-    from racer.shared.sim.camera_bench import frame_stats, histogram_emd, render_lap
-    from racer.shared.sim.fidelity import run_fidelity
+    from racer.benches.camera import frame_stats, histogram_emd, render_lap
+    from racer.benches.fidelity.replay import run_fidelity
 
     gazebo = frame_stats(np.stack([rgb_to_y(frame) for frame in frames_rgb]))
     rendered, _ = render_lap(track, world, 40, full_resolution=False)

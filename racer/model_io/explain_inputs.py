@@ -162,8 +162,8 @@ def load_frames(paths: tuple[Path, ...]) -> tuple[list[str], np.ndarray]:
 
 def racer_frames_of(count: int, world: str, track: Path) -> tuple[list[str], np.ndarray]:
     """racer's front camera at `count` centre-line poses around the lap (`racer bench camera`'s poses)."""
+    from racer.benches.camera_frames import render_lap
     from racer.shared.sim.camera import rgb_to_y
-    from racer.shared.sim.camera_bench import render_lap
 
     rendered, _ = render_lap(track, world, count, full_resolution=False)
     return [f"racer-{world}-{k:03d}" for k in range(count)], np.stack([rgb_to_y(frame) for frame in rendered])

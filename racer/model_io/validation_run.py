@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 from racer.model_io.codes import ProblemCode
 from racer.model_io.problems import ValidationProblem
 from racer.model_io.source_errors import SOURCE_ERRORS
@@ -40,3 +42,13 @@ class ValidationRun:
             self.problems.append(problem_for_source_error(error, self.source.describe(), key))
             self.cut_off = not isinstance(error, ObjectNotFoundError | FileNotFoundError)
             return None
+
+
+def decode_json(data: bytes, key: str) -> object:
+    """JSON with the byte-order mark some editors add; ValueError naming line and column."""
+    try:
+        return json.loads(data.decode("utf-8-sig"))
+    except UnicodeDecodeError as error:
+        raise ValueError(f"{key}: not UTF-8 text (byte {error.start})") from None
+    except json.JSONDecodeError as error:
+        raise ValueError(f"{key}: invalid JSON at line {error.lineno}, column {error.colno}: {error.msg}") from None

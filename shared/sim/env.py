@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Callable
 from typing import Any
@@ -11,13 +10,9 @@ import gymnasium as gym
 import numpy as np
 
 from racer.shared.deepracer.episode_status import EpisodeStatus
-from racer.shared.sim import lidar as lidar_sensor
 from racer.shared.sim._mujoco import mujoco
-from racer.shared.sim.camera import CENTER_CAMERA, LEFT_CAMERA, RIGHT_CAMERA, CameraRenderer, GrayConverter, rgb_to_l
 from racer.shared.sim.car import (
-    STEREO_HALF_BASELINE_M,
     Car,
-    CarPose,
     camera_mount_m,
     clip_command,
     command_wheel_radius_m,
@@ -27,16 +22,18 @@ from racer.shared.sim.config import STEPS_PER_SECOND, EnvConfig
 from racer.shared.sim.domain_randomization import SceneRandomizer
 from racer.shared.sim.dynamics_randomization import draw_dynamics
 from racer.shared.sim.episode_phase import PhaseMachine, StepVerdict
-from racer.shared.sim.object_bodies import OBJECT_GEOM_GROUP, ObjectBodies
+from racer.shared.sim.episode_start import StartRotation, read_reset_options
+from racer.shared.sim.judged_pose import PoseJudge, judged_reward_params
+from racer.shared.sim.object_bodies import ObjectBodies
+from racer.shared.sim.observation import Observer, scene_cameras
 from racer.shared.sim.race import RaceObjects, object_slots
 from racer.shared.sim.race_objects import RaceObject
 from racer.shared.sim.reward import RewardFunction, default_evaluation_reward, load_reward_function
-from racer.shared.sim.reward_params import make_reward_params
 from racer.shared.sim.scene import SceneSpec, build_model
 from racer.shared.sim.simapp_world import load_simapp_world
-from racer.shared.sim.spaces import ChosenAction, action_space, decode_action, lidar_observation, observation_space
+from racer.shared.sim.spaces import ChosenAction, action_space, decode_action, observation_space
 from racer.shared.sim.step_info import step_info
-from racer.shared.sim.track import PointGeometry, Track
+from racer.shared.sim.track import Track
 from racer.shared.sim.worlds import get_world
 
 _SCENE_RNG_STREAM = 22
@@ -131,20 +128,7 @@ class DeepRacerEnv(gym.Env):
             load_reward_function(cfg.reward_function_path) if cfg.reward_function_path is not None else None
         )
 
-        self._camera_key = self._metadata.camera_sensor
-        self._lidar_key = self._metadata.lidar_sensor
-        if self._camera_key == "STEREO_CAMERAS":
-            cameras = ((LEFT_CAMERA, STEREO_HALF_BASELINE_M), (RIGHT_CAMERA, -STEREO_HALF_BASELINE_M))
-            self._render_cameras: tuple[str, ...] = (LEFT_CAMERA, RIGHT_CAMERA)
-        elif self._camera_key == "LEFT_CAMERA":
-            cameras = ((LEFT_CAMERA, STEREO_HALF_BASELINE_M),)
-            self._render_cameras = (LEFT_CAMERA,)
-        else:
-            cameras = ((CENTER_CAMERA, 0.0),)
-            self._render_cameras = (CENTER_CAMERA,)
-        if self.render_mode == "rgb_array" and CENTER_CAMERA not in dict(cameras):
-            cameras = cameras + ((CENTER_CAMERA, 0.0),)
-
+        cameras, rendered_cameras = scene_cameras(self._metadata.camera_sensor, render_mode == "rgb_array")
         self._substeps = cfg.physics_substeps
         self._model = build_model(
             SceneSpec(
@@ -160,24 +144,24 @@ class DeepRacerEnv(gym.Env):
         )
         self._data = mujoco.MjData(self._model)
         self._car = Car(self._model, command_wheel_radius_m(self._metadata.version), cfg.car_dynamics.tyres)
-        self._camera = CameraRenderer(
-            self._model,
-            cfg.image_width_px,
-            cfg.image_height_px,
-            cfg.render_full_resolution,
-            front_groups=(OBJECT_GEOM_GROUP,) if cfg.race.has_objects else (),
-        )
         self._randomizer = SceneRandomizer(self._model, cfg.domain_randomization, cfg.car_randomization)
+        self._observer = Observer(
+            self._model,
+            self._car.body_id,
+            cfg,
+            self._metadata,
+            self._randomizer,
+            rendered_cameras,
+            keep_front_rgb=render_mode == "rgb_array",
+        )
+        self._camera = self._observer.camera  # the env's renderer, for tools that render at the env's poses
         self._scene_rng = np.random.default_rng()
         # The car of the current episode: the profile's, or one drawn at every reset (dynamics randomisation).
         self._dynamics: CarDynamics = cfg.car_dynamics
         self._command_delay_steps = 0
         self._delayed_command = (0.0, 0.0)
         self._dynamics_rng = np.random.default_rng()
-        self._gray = GrayConverter((cfg.image_height_px, cfg.image_width_px))
-        self._lidar = lidar_sensor.Lidar(self._model, self._car.body_id) if self._lidar_key else None
-        self._last_rgb: np.ndarray | None = None
-        self._judged_cache: tuple[tuple, tuple[CarPose, PointGeometry, np.ndarray]] | None = None
+        self._judge = PoseJudge(self._car, self._data)
         # Obstacles and bot cars; None in a time trial, so nothing of theirs runs per step.
         self._race = RaceObjects(cfg.race) if cfg.race.has_objects else None
         self._race_start_time_s = 0.0
@@ -187,13 +171,10 @@ class DeepRacerEnv(gym.Env):
         self.observation_space = observation_space(self._metadata, cfg.image_height_px, cfg.image_width_px)
 
         # Round-robin state carried across episodes (per env = per rollout worker, as in the SimApp).
-        self._start_ndist = cfg.start_position_offset % 1.0
-        self._reverse_dir = cfg.reverse_dir
-        self._training_episodes_done = 0
-        self._evaluation_episodes_done = 0
+        self._starts = StartRotation(cfg)
         self._episode_open = False
-        self._phases = PhaseMachine(cfg, self._race, self._tracks[self._reverse_dir], self._start_ndist)
-        self._init_episode_state(False, self._start_ndist)
+        self._phases = PhaseMachine(cfg, self._race, self._tracks[self._starts.reverse_dir], self._starts.start_ndist)
+        self._init_episode_state(False, self._starts.start_ndist)
 
     # ----- public properties ---------------------------------------------------------------------------------
 
@@ -232,7 +213,7 @@ class DeepRacerEnv(gym.Env):
     @property
     def start_ndist(self) -> float:
         """Normalised start position of the next (or current, before its first step) training episode."""
-        return self._start_ndist
+        return self._starts.start_ndist
 
     @property
     def race_objects(self) -> list[RaceObject]:
@@ -247,10 +228,10 @@ class DeepRacerEnv(gym.Env):
 
     def _init_episode_state(self, evaluation: bool, start_ndist: float) -> None:
         self._evaluation = evaluation
-        self._track = self._tracks[self._reverse_dir]
+        self._track = self._tracks[self._starts.reverse_dir]
         self._phases.start(self._track, start_ndist)
         self._steps = 0.0
-        self._episode_index = self._evaluation_episodes_done if evaluation else self._training_episodes_done
+        self._episode_index = self._starts.episode_index(evaluation)
         self._episode_start_time_s = float(self._data.time)
         self._last_status = EpisodeStatus.PREPARE
 
@@ -261,21 +242,7 @@ class DeepRacerEnv(gym.Env):
             self._data.time = 0.0
             self._scene_rng = np.random.default_rng((seed, _SCENE_RNG_STREAM))
             self._dynamics_rng = np.random.default_rng((seed, _DYNAMICS_RNG_STREAM))
-        options = options or {}
-        unknown = set(options) - {"evaluation", "start_ndist", "clear_start"}
-        if unknown:
-            raise ValueError(
-                f"unknown reset option(s) {sorted(unknown)}; supported: 'evaluation', 'start_ndist', 'clear_start'"
-            )
-        evaluation = bool(options.get("evaluation", False))
-        start_ndist = self._start_ndist
-        if options.get("start_ndist") is not None:
-            if not evaluation:
-                raise ValueError(
-                    "reset option 'start_ndist' is for evaluation episodes; training episodes start at "
-                    "the round-robin position"
-                )
-            start_ndist = float(options["start_ndist"]) % 1.0
+        evaluation, start_ndist = read_reset_options(options, self._starts.start_ndist)
         self._init_episode_state(evaluation, start_ndist)
         if self._randomizer.enabled:
             self._randomizer.randomize(self._model, self._scene_rng)
@@ -286,12 +253,12 @@ class DeepRacerEnv(gym.Env):
         if self._race is not None:
             self._race_start_time_s = float(self._data.time)
             self._race.restart(self._track, self._scene_rng)
-            if not evaluation or options.get("clear_start"):  # the SimApp moves only training starts
+            if not evaluation or (options or {}).get("clear_start"):  # the SimApp moves only training starts
                 x, y, yaw = self._race.start_pose(self._track, start_ndist) or (x, y, yaw)
             self._place_objects()
         self._car.teleport(self._model, self._data, x, y, yaw)
-        if self._lidar is not None:
-            self._lidar.reset()
+        if self._observer.lidar is not None:
+            self._observer.lidar.reset()
         self._episode_open = True
         observation = self._observe()
         info = {
@@ -312,16 +279,9 @@ class DeepRacerEnv(gym.Env):
         self._command_delay_steps = episode.command_delay_steps
 
     def _finish_episode(self) -> None:
-        """End-of-episode bookkeeping: only training episodes move the start and flip the direction."""
+        """End-of-episode bookkeeping (`StartRotation`)."""
         self._episode_open = False
-        if self._evaluation:
-            self._evaluation_episodes_done += 1
-            return
-        self._training_episodes_done += 1
-        if self.config.change_start_position:
-            self._start_ndist = (self._start_ndist + self.config.round_robin_advance_dist) % 1.0
-        if self.config.alternate_driving_direction:
-            self._reverse_dir = not self._reverse_dir
+        self._starts.finish(self._evaluation)
 
     def continue_after_lap(self, lap_start_time_s: float, *, renew_reset_budget: bool) -> None:
         """Keep an evaluation episode going across the finish line instead of starting a new one.
@@ -350,7 +310,7 @@ class DeepRacerEnv(gym.Env):
         track = self._track
         self._steps += 1.0
         # Judge the pose observation o_t was rendered at (the previous step computed it while rendering).
-        pose, geometry, on_track = self._judged_pose(track)
+        pose, geometry, on_track = self._judge.judge(track)
         all_on, any_on = bool(on_track.all()), bool(on_track.any())
         now_s = float(self._data.time)
         bot_poses = self._race.bot_poses() if self._race is not None else []
@@ -360,12 +320,14 @@ class DeepRacerEnv(gym.Env):
         # The SimApp stamps a row when the step's physics has run (judge_action after unpausing), so the prepare
         # row is one step after the episode start and the last row's time is the lap's end.
         tstamp_s = self._drive(chosen, verdict)
-        self._start_observation()
+        self._observer.start(self._data)
 
         # While the next frame renders: the pose it shows with its track geometry (the next step judges it),
         # then the reward and the simtrace row of the pose judged above.
-        self._judged_pose(track)
-        params = self._reward_params(track, pose, geometry, chosen, verdict, all_on, any_on, now_s, bot_poses)
+        self._judge.judge(track)
+        params = judged_reward_params(
+            track, pose, geometry, chosen, verdict, all_on, any_on, self._steps, now_s, self._race, bot_poses
+        )
         reward = 0.0
         if verdict.run_step:
             reward = self._reward(params) if self._reward is not None else default_evaluation_reward(params)
@@ -388,7 +350,7 @@ class DeepRacerEnv(gym.Env):
         self._last_status = verdict.status
         if terminated or truncated:
             self._finish_episode()
-        return self._finish_observation(), reward, terminated, truncated, info
+        return self._observer.finish(self._data, self.np_random, self._scene_rng), reward, terminated, truncated, info
 
     def _drive(self, chosen: ChosenAction, verdict: StepVerdict) -> float:
         """The physics of one camera period: the chosen command, or held where it is put back while paused; the
@@ -407,53 +369,6 @@ class DeepRacerEnv(gym.Env):
             self._place_objects()
         return float(self._data.time)
 
-    def _reward_params(
-        self,
-        track: Track,
-        pose: CarPose,
-        geometry: PointGeometry,
-        chosen: ChosenAction,
-        verdict: StepVerdict,
-        all_on: bool,
-        any_on: bool,
-        now_s: float,
-        bot_poses: list[RaceObject],
-    ) -> dict[str, Any]:
-        """The reward params of the judged pose, with the objects where they stood then."""
-        objects, objects_track = self._race.reward_view(bot_poses) if self._race is not None else ((), None)
-        mx, my = pose.model_point
-        return make_reward_params(
-            track,
-            x=mx,
-            y=my,
-            heading_deg=math.degrees(pose.yaw_rad),
-            speed_mps=chosen.speed_mps,
-            steering_angle_deg=chosen.steering_deg,
-            steps=self._steps,
-            progress=verdict.progress,
-            all_wheels_on_track=all_on,
-            is_offtrack=not any_on,
-            is_crashed=verdict.is_crashed,
-            sim_time_s=now_s,
-            objects=objects,
-            geometry=geometry,
-            objects_track=objects_track,
-        )
-
-    def _judged_pose(self, track: Track) -> tuple[CarPose, PointGeometry, np.ndarray]:
-        """The car's pose, the track geometry of its front-of-car point and the on-track flag per wheel.
-
-        Remembered for one state of the joints: `step()` computes it for the frame it starts rendering, and the
-        next `step()` finds it here when nothing moved the car in between (a teleport or reset changes qpos).
-        """
-        key = (track, self._data.qpos.tobytes())
-        if self._judged_cache is not None and self._judged_cache[0] == key:
-            return self._judged_cache[1]
-        pose = self._car.pose(self._data)
-        result = (pose, track.point_geometry(*pose.model_point), track.contains_points(pose.wheel_xs, pose.wheel_ys))
-        self._judged_cache = (key, result)
-        return result
-
     def _place_objects(self) -> None:
         """Hand the objects' poses to the scene (bodies the cameras and LIDAR see)."""
         if self._object_bodies is not None and self._race is not None:
@@ -462,48 +377,18 @@ class DeepRacerEnv(gym.Env):
     # ----- observations --------------------------------------------------------------------------------------
 
     def _observe(self) -> dict[str, np.ndarray]:
-        self._start_observation()
-        return self._finish_observation()
-
-    def _start_observation(self) -> None:
-        """Begin rendering the single camera's frame (stereo renders both eyes in `_finish_observation`)."""
-        if self._camera_key != "STEREO_CAMERAS":
-            self._camera.start(self._data, self._render_cameras[0])
-
-    def _finish_observation(self) -> dict[str, np.ndarray]:
-        data = self._data
-        if self._camera_key == "STEREO_CAMERAS":
-            left = rgb_to_l(self._camera_frame(self._camera.rgb(data, LEFT_CAMERA)))
-            right = rgb_to_l(self._camera_frame(self._camera.rgb(data, RIGHT_CAMERA)))
-            image = np.stack((left, right), axis=-1)
-        else:
-            rgb = self._camera_frame(self._camera.finish())
-            if self.render_mode == "rgb_array" and self._render_cameras[0] == CENTER_CAMERA:
-                self._last_rgb = rgb.copy()
-            image = self._gray.to_y(rgb)[:, :, None]
-        observation = {self._camera_key: image}
-        if self._lidar is not None:
-            ranges = self._lidar.scan(self._model, data, self.np_random)
-            observation[self._lidar_key] = lidar_observation(self._lidar_key, self._metadata.lidar_config, ranges)
-        return observation
-
-    def _camera_frame(self, rgb: np.ndarray) -> np.ndarray:
-        """The rendered frame with the episode's camera blur and noise (car randomisation only)."""
-        return self._randomizer.process_frame(rgb, self._scene_rng) if self._randomizer.car else rgb
+        self._observer.start(self._data)
+        return self._observer.finish(self._data, self.np_random, self._scene_rng)
 
     def render(self) -> np.ndarray | None:
         """`rgb_array`: the front camera's RGB frame of the latest observation."""
-        if self.render_mode != "rgb_array":
-            return None
-        if self._last_rgb is None or self._render_cameras[0] != CENTER_CAMERA:
-            return self._camera.rgb(self._data, CENTER_CAMERA).copy()
-        return self._last_rgb
+        return self._observer.front_rgb(self._data) if self.render_mode == "rgb_array" else None
 
     def close(self) -> None:
-        camera = getattr(self, "_camera", None)
-        if camera is not None:
-            camera.close()
-            self._camera = None  # type: ignore[assignment]
+        observer = getattr(self, "_observer", None)
+        if observer is not None:
+            observer.close()
+            self._observer = self._camera = None  # type: ignore[assignment]
 
     # ----- test and tooling hooks ----------------------------------------------------------------------------
 

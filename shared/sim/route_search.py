@@ -5,7 +5,7 @@ SimApp loads `routes/<WORLD_NAME>.npy`. The folders of `RACER_ROUTES_PATH` (read
 first, in order, then the per-user route library (`racer track import` copies the SimApp's `bundle/routes/` there,
 which makes every console track name work), then racer's own `tracks/`. DeepRacer-on-AWS sends
 `TRACK_DIRECTION_CLOCKWISE` only for its tracks with two directions; the SimApp's yaml reader then appends `_cw` or
-`_ccw` to the name. Its single-direction tracks are the bare trackId (`world_name_for_direction`).
+`_ccw` to the name. Its single-direction tracks are the bare trackId (`track_catalog.world_name_for_direction`).
 """
 
 from __future__ import annotations
@@ -42,21 +42,6 @@ def is_route_name(name_or_path: str | Path) -> bool:
     """A bare name (`reInvent2019_track`) rather than a path (`routes/x.npy`, `x.npy`)."""
     text = str(name_or_path)
     return not text.endswith(ROUTE_SUFFIX) and Path(text).parent == Path(".")
-
-
-def world_name_for_direction(world_name: str, clockwise: bool | None, folders: Sequence[Path] | None = None) -> str:
-    """The route name for WORLD_NAME driven in a direction (TRACK_DIRECTION_CLOCKWISE; None: the name as given).
-
-    The SimApp appends `_cw` (true) or `_ccw` (false). DeepRacer-on-AWS sets the key only for tracks with two enabled
-    directions; a single-direction track is the bare trackId. So: a track the DeepRacer-on-AWS track list (on the
-    search path) gives one direction stays bare -- a direction it does not offer is refused, naming the one it does;
-    a name with no suffixed route file but a bare one stays bare when the bare route runs that way. Otherwise the
-    suffix is appended as the SimApp does (a missing file is then reported where the route is loaded)."""
-    if clockwise is None:
-        return world_name
-    from racer.shared.sim.track_catalog import resolve_track
-
-    return resolve_track(world_name, "clockwise" if clockwise else "counter-clockwise", folders).world_name
 
 
 def available_routes(folders: Sequence[Path]) -> list[str]:

@@ -180,7 +180,7 @@ class ResolvedTrack:
 
 def _route_direction(name: str, folders: Sequence[Path] | None) -> str | None:
     """CLOCKWISE or COUNTER_CLOCKWISE for a route that exists, None when there is no such route."""
-    from racer.shared.sim.track import Track
+    from racer.shared.sim.track import Track  # shapely and numpy, only when a direction is asked
 
     try:
         path = find_route(name, folders) if is_route_name(name) else Path(name)
@@ -267,3 +267,16 @@ def offered_directions(track_id: str, folders: Sequence[Path] | None = None) -> 
         return found
     runs = _route_direction(track_id, folders)
     return (runs,) if runs else ()
+
+
+def world_name_for_direction(world_name: str, clockwise: bool | None, folders: Sequence[Path] | None = None) -> str:
+    """The route name for WORLD_NAME driven in a direction (TRACK_DIRECTION_CLOCKWISE; None: the name as given).
+
+    The SimApp appends `_cw` (true) or `_ccw` (false). DeepRacer-on-AWS sets the key only for tracks with two enabled
+    directions; a single-direction track is the bare trackId. So: a track the DeepRacer-on-AWS track list (on the
+    search path) gives one direction stays bare -- a direction it does not offer is refused, naming the one it does;
+    a name with no suffixed route file but a bare one stays bare when the bare route runs that way. Otherwise the
+    suffix is appended as the SimApp does (a missing file is then reported where the route is loaded)."""
+    if clockwise is None:
+        return world_name
+    return resolve_track(world_name, "clockwise" if clockwise else "counter-clockwise", folders).world_name

@@ -6,14 +6,13 @@ import time
 from click.testing import CliRunner
 
 from racer.benches.viewer import (
-    PagePolls,
-    WatchingOnly,
     _bench_hyperparameters,
     _paired_ratios,
     _phase_steps,
     _write_custom_files,
     viewer_bench_command,
 )
+from racer.benches.viewer_loads import PagePolls, WatchingOnly
 from racer.shared.deepracer.hyperparameters import load_hyperparameters
 from racer.shared.redis_connection import RedisLink
 from racer.shared.store import LocalStore

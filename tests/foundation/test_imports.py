@@ -5,8 +5,8 @@
   `racer.shared` and `racer.tracks`), at module level or inside a function.
 - No import loops among racer's modules: the graph of module-level imports (every `import` statement not inside a
   function; `if TYPE_CHECKING:` blocks excluded, they never run) has no cycle; and with the imports inside functions
-  added as edges (a deferred import hides a loop rather than removing it) the only cycles are the two known ones in
-  the simulator (`KNOWN_DEFERRED_LOOPS`), whose folder is being reworked; a new one fails.
+  added as edges (a deferred import hides a loop rather than removing it) there is no cycle either
+  (`KNOWN_DEFERRED_LOOPS` would list one allowed; it is empty); a new one fails.
 
 Every non-test Python file under the folders setup.py maps to `racer` is checked (tests/ and shared/deepracer-data
 are not racer modules).
@@ -163,11 +163,8 @@ def test_no_import_loops_among_racer_modules():
     assert _cycles(_module_graph()) == []
 
 
-KNOWN_DEFERRED_LOOPS = [
-    ["racer.shared.sim.bench", "racer.shared.sim.race_bench"],
-    ["racer.shared.sim.route_search", "racer.shared.sim.track", "racer.shared.sim.track_catalog"],
-]
-"""Loops closed only by an import inside a function, left for the simulator's rework (shared/sim/)."""
+KNOWN_DEFERRED_LOOPS: list[list[str]] = []
+"""Loops closed only by an import inside a function (none left)."""
 
 
 def test_no_import_loops_even_through_imports_inside_functions():

@@ -17,7 +17,7 @@ import click
 import pytest
 from click.testing import CliRunner
 
-from racer.shared.sim.route_search import default_tracks_dir, search_folders, world_name_for_direction
+from racer.shared.sim.route_search import default_tracks_dir, search_folders
 from racer.shared.sim.track import Track, available_tracks
 from racer.shared.sim.track_catalog import (
     CATALOGUE_FILE,
@@ -25,6 +25,7 @@ from racer.shared.sim.track_catalog import (
     parse_catalogue,
     read_catalogue,
     resolve_track,
+    world_name_for_direction,
 )
 from racer.shared.sim.track_cli import track_group
 from racer.shared.sim.track_option import resolved_track_name

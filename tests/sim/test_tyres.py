@@ -1,4 +1,4 @@
-"""The tyre model (tyres.py) and its planar twin used for fitting (tyre_fit.py)."""
+"""The tyre model (tyres.py) and its planar twin used for fitting (racer/benches/fidelity/tyre_fit.py)."""
 
 from __future__ import annotations
 
@@ -8,11 +8,11 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from racer.benches.fidelity.replay import CarReplay, load_segments
+from racer.benches.fidelity.tyre_fit import CarConstants, SegmentBatch, fit, loss, simulate
 from racer.shared.sim.car import REAR_AXLE_X_M, STEERING_JOINTS, WHEELBASE_M
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
-from racer.shared.sim.fidelity import CarReplay, load_segments
-from racer.shared.sim.tyre_fit import CarConstants, SegmentBatch, fit, loss, simulate
 from racer.shared.sim.tyres import GRAVITY_MPS2, TyreParams
 
 

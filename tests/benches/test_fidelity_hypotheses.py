@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from racer.shared.sim.fidelity import SPEED_BANDS_MPS, band_label, fidelity_bench_command, load_segments
-from racer.shared.sim.fidelity_hypotheses import VARIANTS, screen, step_lengths
-from racer.shared.sim.tyre_fit import CarConstants, SegmentBatch, position_errors_m, simulate
+from racer.benches.fidelity.hypotheses import VARIANTS, screen, step_lengths
+from racer.benches.fidelity.replay import SPEED_BANDS_MPS, band_label, fidelity_bench_command, load_segments
+from racer.benches.fidelity.tyre_fit import CarConstants, SegmentBatch, position_errors_m, simulate
 
 
 @pytest.fixture(scope="module")

@@ -6,8 +6,8 @@ import math
 
 import numpy as np
 
-from racer.shared.sim.fidelity import load_segments
-from racer.shared.sim.fidelity_floor import heading_floor_deg
+from racer.benches.fidelity.floor import heading_floor_deg
+from racer.benches.fidelity.replay import load_segments
 
 
 def test_one_file_has_nothing_to_fit_on(deepracer_data):

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from racer.shared.sim.bench import BENCH_REWARD, env_block
+from racer.benches.sim_loop import BENCH_REWARD, env_block
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
 from racer.shared.sim.race_config import RaceConfig

@@ -7,7 +7,7 @@ its pose after 1 s and 2 s is compared with the log. No closed loop: the errors 
 Timing in a simtrace (SimApp v4+): row k's pose is read before step k's action acts; the row's `tstamp` is taken
 after that step's physics. So pose k holds at `tstamp[k-1]`, and action k acts from pose k to pose k+1. Every row
 is replayed for DeepRacer's nominal 1/15 s (16 substeps of 1/240 s), not for its logged tstamp difference: at a
-held speed the logged step lengths explain only ≈ 11 % of the spread of the distance per row (fidelity_noise.py),
+held speed the logged step lengths explain only ≈ 11 % of the spread of the distance per row (noise.py),
 and held out the nominal step replays better in every band (shared/sim/README.md). The logged tstamps still pick
 the poses compared after 1 s and 2 s. The starting velocity and yaw rate are central differences of the logged
 car-origin track around the start pose (poses 1/15 s apart); the steering hinges start at the previous row's
@@ -26,16 +26,16 @@ from pathlib import Path
 import click
 import numpy as np
 
+from racer.benches.fidelity.floor import heading_floor_deg
+from racer.benches.fidelity.hypotheses import screen
+from racer.benches.fidelity.noise import in_progress_rows, oracle_start_errors_m, replay_floor_m, row_timing
+from racer.benches.fidelity.tyre_fit import CarConstants, SegmentBatch, fit, leave_one_file_out
 from racer.shared.deepracer.simtrace import read_simtrace
 from racer.shared.sim._mujoco import mujoco
 from racer.shared.sim.car import STEERING_JOINTS, WHEEL_NAMES, WHEEL_RADIUS_M, Car, clip_command
 from racer.shared.sim.car_dynamics import CAR_DYNAMICS, SIMTRACE_FIT_DYNAMICS, CarDynamics
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
-from racer.shared.sim.fidelity_floor import heading_floor_deg
-from racer.shared.sim.fidelity_hypotheses import screen
-from racer.shared.sim.fidelity_noise import in_progress_rows, oracle_start_errors_m, replay_floor_m, row_timing
-from racer.shared.sim.tyre_fit import CarConstants, SegmentBatch, fit, leave_one_file_out
 
 HORIZONS_S: tuple[float, ...] = (1.0, 2.0)
 SPEED_BANDS_MPS: tuple[tuple[float, float], ...] = ((0.0, 0.75), (0.75, 1.25), (1.25, 1.75), (1.75, 10.0))
@@ -234,7 +234,7 @@ def summarise(errors: Sequence[SegmentError]) -> dict[str, dict]:
 
 
 def add_heading_floor(bands: dict[str, dict], segments: Sequence[Segment], errors: Sequence[SegmentError]) -> None:
-    """Per band, the median 1 s heading error of a linear predictor fitted on the other files (fidelity_floor.py)."""
+    """Per band, the median 1 s heading error of a linear predictor fitted on the other files (floor.py)."""
     floor = heading_floor_deg(segments, 1.0)
     for low, high in SPEED_BANDS_MPS:
         members = [f for f, e in zip(floor, errors, strict=True) if f is not None and low <= e.start_speed_mps < high]
@@ -243,7 +243,7 @@ def add_heading_floor(bands: dict[str, dict], segments: Sequence[Segment], error
 
 
 def add_log_limits(bands: dict[str, dict], segments: Sequence[Segment], simtraces: Sequence[Path]) -> dict:
-    """Per band, two medians of the 1 s error (fidelity_noise.py, with the fit's twin and the default constants):
+    """Per band, two medians of the 1 s error (noise.py, with the fit's twin and the default constants):
     an exact twin replayed on its own pseudo-log with the files' row-timing jitter (what the logs' noise and the
     replay's protocol cost any car model), and the twin from a start state fitted to the next logged poses (what
     a better estimate of the unlogged start state could gain at most)."""
@@ -356,7 +356,7 @@ def run_fidelity(
     "--hypotheses",
     is_flag=True,
     help="Instead of the replay, vary how the logs are read (command delay, time base, start state) with the "
-    "fit's twin and print the errors per variant (fidelity_hypotheses.py; seconds).",
+    "fit's twin and print the errors per variant (hypotheses.py; seconds).",
 )
 @click.option(
     "--car",

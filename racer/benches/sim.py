@@ -20,33 +20,12 @@ from pathlib import Path
 import click
 import numpy as np
 
+from racer.benches.sim_loop import BENCH_REWARD, env_block
+from racer.benches.sim_races import run_race_benchmark
 from racer.shared.sim._mujoco import mujoco
 from racer.shared.sim.camera import CENTER_CAMERA, FULL_HEIGHT_PX, FULL_WIDTH_PX, CameraRenderer
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
-
-BENCH_REWARD = """
-def reward_function(params):
-    width = params["track_width"]
-    distance = params["distance_from_center"]
-    if distance <= 0.1 * width:
-        return 1.0
-    if distance <= 0.25 * width:
-        return 0.5
-    if distance <= 0.5 * width:
-        return 0.1
-    return 1e-3
-"""
-
-
-def env_block(env: DeepRacerEnv, rng: np.random.Generator, steps: int) -> tuple[float, float]:
-    """(wall seconds, process CPU seconds) for `steps` env steps."""
-    start, cpu_start = time.perf_counter(), time.process_time()
-    for _ in range(steps):
-        _, _, terminated, truncated, _ = env.step(int(rng.integers(env.action_space.n)))
-        if terminated or truncated:
-            env.reset()
-    return time.perf_counter() - start, time.process_time() - cpu_start
 
 
 def _raw_block(
@@ -167,8 +146,6 @@ def sim_bench_command(steps: int, seed: int, full_resolution: bool, obstacles: i
     if obstacles or bot_cars:
         if full_resolution:
             raise click.UsageError("--full-resolution measures the time trial against the raw bound only")
-        from racer.shared.sim.race_bench import run_race_benchmark
-
         click.echo(json.dumps(run_race_benchmark(obstacles, bot_cars, steps=steps, seed=seed)))
         return
     click.echo(json.dumps(run_benchmark(steps=steps, seed=seed, full_resolution=full_resolution)))

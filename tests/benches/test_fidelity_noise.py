@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from racer.shared.sim.fidelity import load_segments
-from racer.shared.sim.fidelity_noise import in_progress_rows, oracle_start_errors_m, replay_floor_m, row_timing
-from racer.shared.sim.tyre_fit import CarConstants, SegmentBatch, position_errors_m, simulate
+from racer.benches.fidelity.noise import in_progress_rows, oracle_start_errors_m, replay_floor_m, row_timing
+from racer.benches.fidelity.replay import load_segments
+from racer.benches.fidelity.tyre_fit import CarConstants, SegmentBatch, position_errors_m, simulate
 
 
 def _synthetic_episode(tstamp_noise_s: float, seed: int) -> tuple[np.ndarray, ...]:

@@ -6,7 +6,7 @@ import json
 
 from click.testing import CliRunner
 
-from racer.shared.sim.bench import sim_bench_command
+from racer.benches.sim import sim_bench_command
 
 
 def test_bench_prints_one_json_line():

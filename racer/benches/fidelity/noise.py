@@ -26,12 +26,12 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from racer.benches.fidelity.tyre_fit import CarConstants, SegmentBatch, position_errors_m, simulate
 from racer.shared.deepracer.simtrace import read_simtrace
 from racer.shared.sim.car import Car
-from racer.shared.sim.tyre_fit import CarConstants, SegmentBatch, position_errors_m, simulate
 
 if TYPE_CHECKING:
-    from racer.shared.sim.fidelity import Segment
+    from racer.benches.fidelity.replay import Segment
 
 HELD_ROWS_BEFORE = 4
 HELD_ROWS_AFTER = 9
@@ -62,7 +62,7 @@ def in_progress_rows(paths: Iterable[Path]) -> list[tuple[np.ndarray, np.ndarray
 
 
 def row_timing(episodes: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]) -> RowTiming:
-    """From (x, y, tstamp, speed command) per episode's `in_progress` rows. Pose k holds at tstamp[k-1] (fidelity.py),
+    """From (x, y, tstamp, speed command) per episode's `in_progress` rows. Pose k holds at tstamp[k-1] (replay.py),
     so the distance from pose k to k+1 is driven during tstamp[k-1] .. tstamp[k]."""
     distance_dev, step_dev, steps = [], [], []
     for x, y, tstamp, speed in episodes:

@@ -15,11 +15,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from racer.shared.sim.fidelity_noise import oracle_start_errors_m
-from racer.shared.sim.tyre_fit import FIT_HORIZONS_S, CarConstants, SegmentBatch, position_errors_m, simulate
+from racer.benches.fidelity.noise import oracle_start_errors_m
+from racer.benches.fidelity.tyre_fit import FIT_HORIZONS_S, CarConstants, SegmentBatch, position_errors_m, simulate
 
 if TYPE_CHECKING:
-    from racer.shared.sim.fidelity import Segment
+    from racer.benches.fidelity.replay import Segment
 
 
 def step_lengths(batch: SegmentBatch, base: str) -> np.ndarray:

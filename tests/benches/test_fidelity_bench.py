@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from racer.shared.sim.fidelity import HORIZONS_S, CarReplay, fidelity_bench_command, load_segments, segment_errors
+from racer.benches.fidelity.replay import HORIZONS_S, CarReplay, fidelity_bench_command, load_segments, segment_errors
 
 
 def test_segments_follow_the_simapps_timing(deepracer_data):

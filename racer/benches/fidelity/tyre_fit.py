@@ -34,7 +34,7 @@ from racer.shared.sim.tyres import GRAVITY_MPS2, TyreParams
 from racer.shared.sim.worlds import get_world
 
 if TYPE_CHECKING:
-    from racer.shared.sim.fidelity import Segment
+    from racer.benches.fidelity.replay import Segment
 
 FIT_HORIZONS_S = (0.5, 1.0, 1.5)
 """The fit minimises the mean front-of-car position error at these times after the start (a robust, smooth loss)."""

@@ -1,0 +1,97 @@
+"""DeepRacer's reference camera frames and racer's frames at the same poses: the Gazebo episode's in-car frames
+(`frames/gazebo_reinvent_episode` in the shared deepracer-data), their grey-level statistics and distance, and
+racer's front camera rendered at evenly spread centre-line poses of the re:Invent 2018 lap. Used by
+`racer bench camera`, `racer bench transfer` and `racer model explain --racer-frames`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import click
+import numpy as np
+from PIL import Image
+
+from racer.shared.sim.camera import CENTER_CAMERA, CameraRenderer
+from racer.shared.sim.config import DEFAULT_MODEL_METADATA, EnvConfig
+from racer.shared.sim.env import DeepRacerEnv
+
+DATA_DIR = Path(__file__).resolve().parents[2].parent / "shared" / "deepracer-data"
+"""The shared DeepRacer data folder next to the repository (routes and Gazebo frames)."""
+GAZEBO_FRAMES = "frames/gazebo_reinvent_episode"
+ROUTE = "routes/reinvent_base.npy"
+UPPER_ROWS = slice(0, 40)
+LOWER_ROWS = slice(60, 120)
+GAZEBO_EPISODE_SIMAPP_VERSION = 2.0
+"""The Gazebo frames come from a 2019 episode: a model of SimApp version < 3, with the older camera mount."""
+
+
+@dataclass(frozen=True)
+class FrameStats:
+    """Grey-level statistics of a set of 160x120 frames."""
+
+    histogram: np.ndarray
+    lower_half_mean: float
+    upper_third_mean: float
+
+
+def frame_stats(gray_frames: np.ndarray) -> FrameStats:
+    """(N, 120, 160) uint8 grey frames -> normalised histogram and region means."""
+    histogram = np.bincount(gray_frames.ravel(), minlength=256).astype(np.float64)
+    return FrameStats(
+        histogram / histogram.sum(),
+        float(gray_frames[:, LOWER_ROWS].mean()),
+        float(gray_frames[:, UPPER_ROWS].mean()),
+    )
+
+
+def histogram_emd(a: np.ndarray, b: np.ndarray) -> float:
+    """Earth-mover distance between two normalised 256-bin histograms, in grey levels."""
+    return float(np.abs(np.cumsum(a) - np.cumsum(b)).sum())
+
+
+def load_gazebo_frames(folder: Path) -> np.ndarray:
+    """(N, 120, 160, 3) uint8 RGB frames of the Gazebo episode, in file order; a clear error when missing."""
+    files = sorted(folder.glob("*.png"))
+    if not files:
+        raise click.ClickException(f"no Gazebo frames (*.png) in {folder}; pass --data DIR (the shared deepracer-data)")
+    frames = []
+    for path in files:
+        image = np.asarray(Image.open(path).convert("RGB"))
+        if image.shape != (120, 160, 3):
+            raise click.ClickException(f"{path}: expected a 160x120 frame, got {image.shape[1]}x{image.shape[0]}")
+        frames.append(image)
+    return np.stack(frames)
+
+
+def gazebo_episode_config(route: Path, world: str, full_resolution: bool, simapp_dir: Path | None = None) -> EnvConfig:
+    """An env with the camera of the car that recorded the Gazebo frames: a 2019 model (SimApp version < 3),
+    whose camera sits at (0.2, 0, 0.164) m instead of (0.145, 0, 0.130)."""
+    metadata = dataclasses.replace(DEFAULT_MODEL_METADATA, version=GAZEBO_EPISODE_SIMAPP_VERSION)
+    return EnvConfig(
+        track=route, world=world, model_metadata=metadata, render_full_resolution=full_resolution, simapp_dir=simapp_dir
+    )
+
+
+def render_lap(
+    route: Path, world: str, poses: int, full_resolution: bool, simapp_dir: Path | None = None
+) -> tuple[np.ndarray, float]:
+    """RGB frames at `poses` evenly spread centre-line poses, and the mean milliseconds per frame."""
+    env = DeepRacerEnv(gazebo_episode_config(route, world, full_resolution, simapp_dir))
+    try:
+        env.reset(seed=0)
+        renderer: CameraRenderer = env._camera  # the env's own renderer: the path training uses
+        frames, elapsed_s = [], 0.0
+        for ndist in np.arange(poses) / poses:
+            env.teleport(*env.track.pose_at(float(ndist), "center"))
+            start = time.perf_counter()
+            renderer.start(env.data, CENTER_CAMERA)
+            frame = renderer.finish()
+            elapsed_s += time.perf_counter() - start
+            frames.append(frame.copy())
+        return np.stack(frames), 1e3 * elapsed_s / poses
+    finally:
+        env.close()

@@ -1,0 +1,55 @@
+"""Where the next episode starts: the round-robin start and driving direction carried across training episodes
+(per env = per rollout worker, as in the SimApp), the episode counters, and `reset()`'s options."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from racer.shared.sim.config import EnvConfig
+
+RESET_OPTIONS = ("evaluation", "start_ndist", "clear_start")
+
+
+class StartRotation:
+    """Training episodes start at `start_position_offset` and advance by `round_robin_advance_dist` of a lap after
+    each finished one (`change_start_position`); `alternate_driving_direction` flips the direction after each.
+    Evaluation episodes change neither."""
+
+    def __init__(self, config: EnvConfig) -> None:
+        self._config = config
+        self.start_ndist = config.start_position_offset % 1.0
+        self.reverse_dir = config.reverse_dir
+        self.training_episodes_done = 0
+        self.evaluation_episodes_done = 0
+
+    def episode_index(self, evaluation: bool) -> int:
+        return self.evaluation_episodes_done if evaluation else self.training_episodes_done
+
+    def finish(self, evaluation: bool) -> None:
+        """End-of-episode bookkeeping: only training episodes move the start and flip the direction."""
+        if evaluation:
+            self.evaluation_episodes_done += 1
+            return
+        self.training_episodes_done += 1
+        if self._config.change_start_position:
+            self.start_ndist = (self.start_ndist + self._config.round_robin_advance_dist) % 1.0
+        if self._config.alternate_driving_direction:
+            self.reverse_dir = not self.reverse_dir
+
+
+def read_reset_options(options: dict[str, Any] | None, next_start_ndist: float) -> tuple[bool, float]:
+    """(evaluation?, start ndist) from `reset()`'s options; an evaluation episode may start at `start_ndist`."""
+    options = options or {}
+    unknown = set(options) - set(RESET_OPTIONS)
+    if unknown:
+        raise ValueError(
+            f"unknown reset option(s) {sorted(unknown)}; supported: 'evaluation', 'start_ndist', 'clear_start'"
+        )
+    evaluation = bool(options.get("evaluation", False))
+    if options.get("start_ndist") is None:
+        return evaluation, next_start_ndist
+    if not evaluation:
+        raise ValueError(
+            "reset option 'start_ndist' is for evaluation episodes; training episodes start at the round-robin position"
+        )
+    return evaluation, float(options["start_ndist"]) % 1.0
