@@ -5,10 +5,13 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from racer.shared.deepracer.model_metadata import ModelMetadata
+from racer.shared.run_settings import JobSettings
 from racer.shared.sim.car_dynamics import CAR_PROFILE_NAMES, DEFAULT_CAR_PROFILE
 from racer.shared.sim.config import DEFAULT_TRACK, RESET_POSITIONS
 from racer.shared.sim.race_config import RaceConfig
 from racer.shared.sim.worlds import WORLD_NAMES
+from racer.shared.worker_settings import WorkerSettings
 
 MODES: tuple[str, ...] = ("deepracer", "race")
 MIN_RESET_COUNT = 2
@@ -138,3 +141,27 @@ class EvaluationConfig:
             raise EvaluationConfigError(f"--world must be one of {', '.join(WORLD_NAMES)}, got {self.world!r}")
         if not self.model_prefix.strip("/"):
             raise EvaluationConfigError("--model-prefix must not be empty")
+
+    def run_settings(self, model_metadata: ModelMetadata) -> tuple[WorkerSettings, JobSettings]:
+        """This evaluation as a worker's settings and a job's (racer.shared.run_settings.env_config builds the env
+        from them, as for a rollout worker): DeepRacer's default evaluation reward, the start on the line, the mode's
+        reset budget and penalties."""
+        if self.mode == "race":
+            penalty = self.race.reset_penalty_s
+            resets, off_track, collision = self.race.resets_per_lap, penalty, penalty
+            job = JobSettings(model_metadata, None, penalty, penalty, self.race.put_back)
+        else:
+            rules = self.deepracer
+            resets, off_track, collision = rules.number_of_resets, rules.off_track_penalty_s, rules.collision_penalty_s
+            job = JobSettings(model_metadata, None, rules.immobilized_penalty_s, None, "deepracer")
+        settings = WorkerSettings(
+            world=self.world,
+            track=self.track,  # type: ignore[arg-type]  # a Path stays a Path (EnvConfig.track takes both)
+            reverse_dir=self.reverse_dir,
+            number_of_resets=resets,
+            off_track_penalty_s=off_track,
+            collision_penalty_s=collision,
+            car_profile=self.car_profile,
+            race=self.race_setup,
+        )
+        return settings, job

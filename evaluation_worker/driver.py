@@ -19,11 +19,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from racer.shared.deepracer.model_metadata import ModelMetadata
-from racer.shared.sim.car_dynamics import GAZEBO_DYNAMICS, CarDynamics
-from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
-from racer.shared.sim.race_config import RaceConfig
 
 PENALTY_STATUSES: tuple[str, ...] = ("crashed", "immobilized", "off_track", "reversed")
 """Statuses a reset rule produces; each such step counts once in EvaluationMetrics (`<status>_count`)."""
@@ -102,41 +98,6 @@ class StepObserver(Protocol):
     def on_step(self, record: StepRecord) -> None: ...
 
     def close(self) -> None: ...
-
-
-def make_env_config(
-    *,
-    track: Any,
-    world: str,
-    model_metadata: ModelMetadata,
-    reverse_dir: bool,
-    number_of_resets: int,
-    off_track_penalty_s: float,
-    collision_penalty_s: float,
-    immobilized_penalty_s: float,
-    reverse_penalty_s: float | None,
-    reset_position: str = "deepracer",
-    race: RaceConfig | None = None,
-    car_dynamics: CarDynamics = GAZEBO_DYNAMICS,
-) -> EnvConfig:
-    """The env of an evaluation job: default evaluation reward, start at the line, the job's reset budget."""
-    return EnvConfig(
-        track=track,
-        world=world,
-        model_metadata=model_metadata,
-        reward_function_path=None,
-        reverse_dir=reverse_dir,
-        alternate_driving_direction=False,
-        start_position_offset=0.0,
-        number_of_resets=number_of_resets,
-        off_track_penalty_s=off_track_penalty_s,
-        collision_penalty_s=collision_penalty_s,
-        immobilized_penalty_s=immobilized_penalty_s,
-        reverse_penalty_s=reverse_penalty_s,
-        reset_position=reset_position,
-        race=race or RaceConfig(),
-        car_dynamics=car_dynamics,
-    )
 
 
 class EvaluationDriver:

@@ -23,7 +23,7 @@ import torch
 
 from racer.evaluation_worker.config import EvaluationConfig
 from racer.evaluation_worker.deepracer_eval import run_deepracer_evaluation
-from racer.evaluation_worker.driver import EvaluationDriver, Policy, ProgressLog, StepObserver, make_env_config, no_log
+from racer.evaluation_worker.driver import EvaluationDriver, Policy, ProgressLog, StepObserver, no_log
 from racer.evaluation_worker.laps import LapResult, describe_lap
 from racer.evaluation_worker.mcap_recording import McapRecorder
 from racer.evaluation_worker.outputs import (
@@ -43,7 +43,7 @@ from racer.shared.model_layout import EvaluationLayout, ModelLayout
 from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.policy.manifest import CheckpointError
 from racer.shared.policy.networks import ActorCritic
-from racer.shared.sim.car_dynamics import car_profile
+from racer.shared.run_settings import env_config
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
 from racer.shared.store import ObjectNotFoundError, ObjectStore
@@ -157,37 +157,7 @@ class EvaluationSession:
         self.driver = EvaluationDriver(self.env, policy, observers, seed=config.seed)
 
     def _env_config(self) -> EnvConfig:
-        config = self.config
-        if config.mode == "race":
-            penalty = config.race.reset_penalty_s
-            return make_env_config(
-                track=config.track,
-                world=config.world,
-                model_metadata=self.model_metadata,
-                reverse_dir=config.reverse_dir,
-                number_of_resets=config.race.resets_per_lap,
-                off_track_penalty_s=penalty,
-                collision_penalty_s=penalty,
-                immobilized_penalty_s=penalty,
-                reverse_penalty_s=penalty,
-                reset_position=config.race.put_back,
-                race=config.race_setup,
-                car_dynamics=car_profile(config.car_profile),
-            )
-        rules = config.deepracer
-        return make_env_config(
-            track=config.track,
-            world=config.world,
-            model_metadata=self.model_metadata,
-            reverse_dir=config.reverse_dir,
-            number_of_resets=rules.number_of_resets,
-            off_track_penalty_s=rules.off_track_penalty_s,
-            collision_penalty_s=rules.collision_penalty_s,
-            immobilized_penalty_s=rules.immobilized_penalty_s,
-            reverse_penalty_s=None,
-            race=config.race_setup,
-            car_dynamics=car_profile(config.car_profile),
-        )
+        return env_config(*self.config.run_settings(self.model_metadata))
 
     def _header(self) -> dict[str, Any]:
         config = self.config

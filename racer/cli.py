@@ -9,7 +9,7 @@ from racer.lazy_group import LazyGroup
 # name -> (module:attribute of a click command, one-line help). Each module owns its command.
 COMMANDS: dict[str, tuple[str, str]] = {
     "train": (
-        "racer.local.run:train_command",
+        "racer.local.command:train_command",
         "Train a model: Redis, store, trainer and N rollout workers as local processes.",
     ),
     "trainer": ("racer.trainer.main:trainer_command", "Run the PPO trainer process alone (one per training run)."),

@@ -14,6 +14,8 @@ from racer.shared.deepracer.hyperparameters import Hyperparameters, parse_hyperp
 from racer.shared.deepracer.model_metadata import ModelMetadata, parse_model_metadata
 from racer.shared.deepracer.training_params import parse_training_params
 from racer.shared.model_layout import ModelLayout
+from racer.shared.run_settings import JobSettings, env_config
+from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.race_config import param_text
 from racer.shared.store import ObjectNotFoundError, ObjectStore
 from racer.shared.worker_settings import WorkerSettings
@@ -74,4 +76,12 @@ def load_run_files(
         hyperparameters=hyperparameters,
         reward_function_path=reward_path,
         worker=worker,
+    )
+
+
+def training_env_config(run: RunFiles) -> EnvConfig:
+    """The env of a training worker: its training_params (DeepRacer's keys) applied to DeepRacer's defaults, through
+    the run-settings builder the evaluation worker uses too (racer.shared.run_settings.env_config)."""
+    return env_config(
+        run.worker, JobSettings(model_metadata=run.model_metadata, reward_function_path=run.reward_function_path)
     )

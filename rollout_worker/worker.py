@@ -15,7 +15,6 @@ The worker steps `envs` envs of its world at once (racer.rollout_worker.batched_
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 import os
 import shutil
@@ -29,16 +28,17 @@ import numpy as np
 import torch
 
 from racer.rollout_worker.batched_rollout import BatchedRollout, EpisodeTicket
-from racer.rollout_worker.episode_runner import EpisodeRecorder, play_episode
-from racer.rollout_worker.run_files import RunFiles, load_run_files
+from racer.rollout_worker.checkpoint_evaluation import evaluate_checkpoint, uses_e_greedy
+from racer.rollout_worker.claims import claim_next_episode
+from racer.rollout_worker.envs import env_generator, spread_env_configs
+from racer.rollout_worker.episode_runner import EpisodeRecorder
+from racer.rollout_worker.run_files import RunFiles, load_run_files, training_env_config
 from racer.rollout_worker.training_log import WorkerLog
 from racer.shared.config import ServiceSettings
-from racer.shared.deepracer.hyperparameters import Hyperparameters
-from racer.shared.deepracer.model_metadata import ModelMetadata
 from racer.shared.policy.checkpoints import CheckpointStore
-from racer.shared.policy.networks import E_GREEDY_EVALUATION_EPSILON, e_greedy_epsilon
+from racer.shared.policy.networks import e_greedy_epsilon
 from racer.shared.redis_connection import RedisLink, RedisUnavailableError
-from racer.shared.sim.env import DeepRacerEnv, EnvConfig
+from racer.shared.sim.env import DeepRacerEnv
 from racer.shared.store import open_store
 from racer.shared.transport.channels import Announcement, RunChannel
 from racer.shared.transport.codec import EpisodeBatch
@@ -67,85 +67,6 @@ class _WorkerState:
     episodes_played: int = 0
     steps_per_s: float = 0.0
     extra: dict = field(default_factory=dict)
-
-
-def claim_next_episode(
-    channel: RunChannel, iteration: int, worker_id: int, num_workers: int, own_in_flight: set[int]
-) -> int | None:
-    """The worker's claim rule: the next episode of its own DeepRacer share (added to `own_in_flight`, the own
-    episodes it is playing); once its own share is all claimed and played, an unclaimed episode of a slower worker's
-    share (racer.shared.transport.channels.RunChannel.claim_other). None when there is nothing to claim now."""
-    number = channel.claim_own(iteration, worker_id)
-    if number is not None:
-        own_in_flight.add(number)
-    elif not own_in_flight:  # its own share is played: help with what is left
-        live = channel.live_workers()
-        number = channel.claim_other(iteration, worker_id, num_workers, live)
-    return number
-
-
-def uses_e_greedy(hyperparameters: Hyperparameters, metadata: ModelMetadata) -> bool:
-    """RL Coach's e-greedy applies to discrete action spaces only (continuous ones keep Gaussian sampling)."""
-    return hyperparameters.exploration_type.lower().strip() == "e-greedy" and not metadata.continuous_action_space
-
-
-def evaluation_epsilon(hyperparameters: Hyperparameters, metadata: ModelMetadata) -> float:
-    """ε of worker 0's in-training evaluation episodes: RL Coach keeps its evaluation ε (0.05) under e-greedy."""
-    return E_GREEDY_EVALUATION_EPSILON if uses_e_greedy(hyperparameters, metadata) else 0.0
-
-
-def training_env_config(run: RunFiles) -> EnvConfig:
-    """The env of a training worker: its training_params (DeepRacer's keys) applied to DeepRacer's defaults."""
-    worker = run.worker
-    return EnvConfig(
-        track=worker.track,
-        world=worker.world,
-        model_metadata=run.model_metadata,
-        reward_function_path=run.reward_function_path,
-        reverse_dir=worker.reverse_dir,
-        alternate_driving_direction=worker.alternate_driving_direction,
-        change_start_position=worker.change_start_position,
-        round_robin_advance_dist=worker.round_robin_advance_dist,
-        start_position_offset=worker.start_position_offset,
-        number_of_resets=worker.number_of_resets,
-        off_track_penalty_s=worker.off_track_penalty_s,
-        collision_penalty_s=worker.collision_penalty_s,
-        number_of_reverse_counts=worker.number_of_reverse_counts,
-        domain_randomization=worker.domain_randomization,
-        car_randomization=worker.car_randomization,
-        car_dynamics=worker.car_dynamics,
-        dynamics_randomization=worker.dynamics_randomization,
-        simapp_dir=Path(worker.simapp_dir) if worker.simapp_dir else None,
-        race=worker.race,
-    )
-
-
-def spread_env_configs(config: EnvConfig, count: int) -> list[EnvConfig]:
-    """`count` envs that together start where one env would over `count` times as many episodes: env j starts j
-    round-robin steps after the first and advances `count` steps per episode (directions alternate to match)."""
-    if count == 1:
-        return [config]
-    configs = []
-    for j in range(count):
-        configs.append(
-            dataclasses.replace(
-                config,
-                start_position_offset=(
-                    config.start_position_offset
-                    + (j * config.round_robin_advance_dist if config.change_start_position else 0.0)
-                )
-                % 1.0,
-                round_robin_advance_dist=count * config.round_robin_advance_dist,
-                reverse_dir=config.reverse_dir != (config.alternate_driving_direction and j % 2 == 1),
-                alternate_driving_direction=config.alternate_driving_direction and count % 2 == 1,
-            )
-        )
-    return configs
-
-
-def env_generator(seed: int, index: int) -> np.random.Generator:
-    """Env 0 samples as a single-env worker always did; the others get their own streams."""
-    return np.random.default_rng(seed if index == 0 else (seed, index))
 
 
 class RolloutWorker:
@@ -435,41 +356,19 @@ class RolloutWorker:
         return uses_e_greedy(self.run.hyperparameters, self.run.model_metadata)
 
     def _evaluate(self, announcement: Announcement) -> None:
-        trials = self.run.worker.min_eval_trials
-        if trials <= 0:
+        if self.run.worker.min_eval_trials <= 0:
             return
         self.state.status = "evaluating"
-        epsilon = evaluation_epsilon(self.run.hyperparameters, self.run.model_metadata)
         self.frame_tap.phase = "evaluation"
-        results = []
-        first_start = self.env.start_ndist
-        for trial in range(trials):
-            if self._stop.is_set():
-                return
-            start = (first_start + trial / trials) % 1.0 if self.run.worker.eval_spread_starts else None
-            results.append(
-                play_episode(
-                    self.env,
-                    self.policy,
-                    greedy=True,
-                    generator=self.rng,
-                    epsilon=epsilon,
-                    policy_version=announcement.iteration,
-                    worker_id=self.worker_id,
-                    world=self.run.worker.world,
-                    episode_index=trial,
-                    start_ndist=start,
-                    clear_start=start is not None,
-                    on_step=self.frame_tap,
-                )
-            )
-            log.info(
-                "worker %d: evaluation trial %d of checkpoint %d from %.3f of the lap: %s, progress %.1f%%",
-                self.worker_id,
-                trial,
-                announcement.iteration,
-                first_start if start is None else start,
-                results[-1].final_status,
-                results[-1].progress,
-            )
-        self.log.record_evaluation(announcement, results, self.checkpoints, self.channel)
+        results = evaluate_checkpoint(
+            self.env,
+            self.policy,
+            self.run,
+            announcement.iteration,
+            self.worker_id,
+            self.rng,
+            self.frame_tap,
+            self._stop,
+        )
+        if results is not None:
+            self.log.record_evaluation(announcement, results, self.checkpoints, self.channel)

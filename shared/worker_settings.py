@@ -5,8 +5,10 @@ The keys of a model folder (where these settings are stored, per worker) live in
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from dataclasses import dataclass, fields
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import Any
 
 from racer.shared.sim.car_dynamics import DEFAULT_CAR_PROFILE, CarDynamics, car_profile
 from racer.shared.sim.config import DEFAULT_TRACK
@@ -14,53 +16,122 @@ from racer.shared.sim.race_config import RaceConfig
 from racer.shared.sim.track_catalog import world_name_for_direction
 from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
 
-__all__ = ["WorkerSettings", "default_worker_settings"]
+__all__ = ["SETTING", "Setting", "WorkerSettings", "default_worker_settings", "setting"]
+
+SETTING = "racer.setting"
+"""The key of a WorkerSettings field's metadata that holds its `Setting`."""
+
+
+def _flag(params: Mapping[str, object], name: str, default: object, source: str) -> bool:
+    raw = str(params.get(name, default)).strip().lower()
+    if raw not in {"true", "false", "1", "0"}:
+        raise ValueError(f"{name}: {params[name]!r} is not True or False")
+    return raw in {"true", "1"}
+
+
+def _whole(params: Mapping[str, object], name: str, default: object, source: str) -> int:
+    number = float(params.get(name, default))  # type: ignore[arg-type]
+    if not number.is_integer():
+        raise ValueError(f"{name}: {params[name]!r} is not a whole number")
+    return int(number)
+
+
+Reader = Callable[[Mapping[str, object], str, Any, str], Any]
+"""How a training_params value is read: (params, key, the field's default, source) -> the field's value."""
+FLAG: Reader = _flag
+"""True/False (DeepRacer's spelling; also true/false, 1/0)."""
+WHOLE: Reader = _whole
+"""A whole number, also written as 3.0."""
+INTEGER: Reader = lambda params, name, default, source: int(params.get(name, default))  # noqa: E731
+NUMBER: Reader = lambda params, name, default, source: float(params.get(name, default))  # noqa: E731
+TEXT: Reader = lambda params, name, default, source: str(params.get(name, default))  # noqa: E731
+LOWER: Reader = lambda params, name, default, source: str(params.get(name, default)).lower()  # noqa: E731
+TEXT_OR_DEFAULT: Reader = lambda params, name, default, source: str(params.get(name) or default).strip()  # noqa: E731
+"""Text where an empty value means the default."""
+RACE: Reader = lambda params, name, default, source: RaceConfig.from_training_params(params)  # noqa: E731
+"""RACE_TYPE and the obstacle / bot-car keys (shared/sim/race_config.py)."""
+
+_SAME = "<same name>"
+
+
+@dataclass(frozen=True)
+class Setting:
+    """Where a WorkerSettings field comes from and goes to."""
+
+    key: str
+    """Its training_params.yaml key (DeepRacer's name, or racer's RACER_*)."""
+    read: Reader
+    env: str | None
+    """The `EnvConfig` field it sets; None: the worker itself uses it (evaluation trials, best-model metric)."""
+    to_env: Callable[[Any], Any] | None = None
+    """Its value as the EnvConfig field wants it (a car profile name -> its CarDynamics); None: as it is."""
+
+    def env_field(self, name: str) -> str | None:
+        """The EnvConfig field of the WorkerSettings field `name`."""
+        return name if self.env == _SAME else self.env
+
+
+def setting(
+    default: Any,
+    key: str,
+    read: Reader,
+    env: str | None = _SAME,
+    to_env: Callable[[Any], Any] | None = None,
+) -> Any:
+    """A WorkerSettings field: its default, training_params key, reader and EnvConfig field (default: the field's own
+    name, `Setting.env_field`)."""
+    return field(default=default, metadata={SETTING: Setting(key, read, env, to_env)})
 
 
 @dataclass(frozen=True)
 class WorkerSettings:
-    """One rollout worker's world and episode settings (DeepRacer-for-Cloud's worker-N.env)."""
+    """One rollout worker's world and episode settings (DeepRacer-for-Cloud's worker-N.env).
 
-    world: str = "base"
+    Each field names its training_params key, how the key is read and the `EnvConfig` field it sets (`setting()`):
+    `to_training_params`, `from_training_params` and racer.shared.run_settings.env_config follow these, so a new
+    setting is one field here."""
+
+    world: str = setting("base", "RACER_WORLD", TEXT)
     """Surface and look: base, carpet, concrete or wood."""
-    track: str = DEFAULT_TRACK
+    track: str = setting(DEFAULT_TRACK, "WORLD_NAME", TEXT)
     """Route name (WORLD_NAME: looked up on the route search path, RACER_ROUTES_PATH then tracks/) or a path to a
     DeepRacer .npy route file. TRACK_DIRECTION_CLOCKWISE appends `_cw`/`_ccw` as DeepRacer-on-AWS does."""
-    reverse_dir: bool = False
-    alternate_driving_direction: bool = False
-    change_start_position: bool = True
-    round_robin_advance_dist: float = 0.05
-    start_position_offset: float = 0.0
-    min_eval_trials: int = 5
+    reverse_dir: bool = setting(False, "REVERSE_DIR", FLAG)
+    alternate_driving_direction: bool = setting(False, "ALTERNATE_DRIVING_DIRECTION", FLAG)
+    change_start_position: bool = setting(True, "CHANGE_START_POSITION", FLAG)
+    round_robin_advance_dist: float = setting(0.05, "ROUND_ROBIN_ADVANCE_DIST", NUMBER)
+    start_position_offset: float = setting(0.0, "START_POSITION_OFFSET", NUMBER)
+    min_eval_trials: int = setting(5, "MIN_EVAL_TRIALS", INTEGER, env=None)
     """Greedy evaluation episodes per checkpoint (worker 0 only)."""
-    best_model_metric: str = "progress"
+    best_model_metric: str = setting("progress", "BEST_MODEL_METRIC", LOWER, env=None)
     """progress, reward or laptime: how deepracer_checkpoints.json picks the best checkpoint."""
-    number_of_resets: int = 0
+    number_of_resets: int = setting(0, "NUMBER_OF_RESETS", WHOLE)
     """NUMBER_OF_RESETS: pause-and-resets per episode before a reset rule ends it (SimApp training default 0)."""
-    off_track_penalty_s: float = 0.0
+    off_track_penalty_s: float = setting(0.0, "OFF_TRACK_PENALTY", NUMBER)
     """OFF_TRACK_PENALTY (also for `reversed`): seconds paused per reset; the SimApp's training default is 0."""
-    collision_penalty_s: float = 0.0
+    collision_penalty_s: float = setting(0.0, "COLLISION_PENALTY", NUMBER)
     """COLLISION_PENALTY; training default 0 as in the SimApp."""
-    number_of_reverse_counts: int = 15
+    number_of_reverse_counts: int = setting(15, "NUMBER_OF_REVERSE_COUNTS", WHOLE)
     """NUMBER_OF_REVERSE_COUNTS: steps of decreasing progress that make `reversed` (SimApp ReverseResetRule)."""
-    eval_spread_starts: bool = False
+    eval_spread_starts: bool = setting(False, "RACER_EVAL_SPREAD_STARTS", FLAG, env=None)
     """racer's option (training_params key RACER_EVAL_SPREAD_STARTS): evaluation trial i of n starts i/n of a lap
     further on. DeepRacer starts them all at one place; in a deterministic simulator they would all be the same
     drive, so spread starts make "3 of 3 laps" mean three different laps. A spread start within 1 m of an object
     takes the lane away from it, as a training start does (the SimApp's start line never has a box on it)."""
-    domain_randomization: bool = False
+    domain_randomization: bool = setting(False, "ENABLE_DOMAIN_RANDOMIZATION", FLAG)
     """ENABLE_DOMAIN_RANDOMIZATION: random light colours and attenuation at every episode, as the SimApp."""
-    car_randomization: bool = False
+    car_randomization: bool = setting(False, "RACER_CAR_RANDOMIZATION", FLAG)
     """racer's RACER_CAR_RANDOMIZATION: tint, brightness, camera blur, noise and pose jitter per episode."""
-    dynamics_randomization: bool = False
+    dynamics_randomization: bool = setting(False, "RACER_DYNAMICS_RANDOMIZATION", FLAG)
     """racer's RACER_DYNAMICS_RANDOMIZATION: a car drawn around the profile every episode (tyres, yaw inertia,
     steering servo, rolling radius, a 0-1 step command delay; shared/sim/dynamics_randomization.py)."""
-    car_profile: str = DEFAULT_CAR_PROFILE
+    car_profile: str = setting(DEFAULT_CAR_PROFILE, "RACER_CAR_PROFILE", TEXT_OR_DEFAULT, env="car_dynamics",
+                               to_env=car_profile)  # fmt: skip
     """racer's RACER_CAR_PROFILE: the car's dynamics, one of `car_dynamics.CAR_DYNAMICS` (gazebo, simtrace-fit)."""
-    simapp_dir: str = ""
+    simapp_dir: str = setting("", "RACER_SIMAPP_DIR", TEXT_OR_DEFAULT, to_env=lambda text: Path(text) if text else None)
     """racer's RACER_SIMAPP_DIR: a SimApp bundle/ folder on the worker's machine whose world meshes and textures
     the camera draws instead of racer's look ("" = racer's look)."""
-    race: RaceConfig = RaceConfig()
+    race: RaceConfig = setting(RaceConfig(), "RACE_TYPE", RACE)
     """RACE_TYPE and the obstacle / bot-car keys (shared/sim/race_config.py)."""
 
     def __post_init__(self) -> None:
@@ -88,74 +159,32 @@ class WorkerSettings:
         """DeepRacer's training_params.yaml keys, values strings as DeepRacer-for-Cloud writes them (OBJECT_POSITIONS,
         when set, a list of "ndist,lane" strings as in DeepRacer's yaml)."""
         race = self.race.to_training_params()
-        return {
+        params: dict[str, object] = {
             "JOB_TYPE": "TRAINING",
             "WORLD_NAME": self.track,
             "RACER_WORLD": self.world,
             "RACE_TYPE": race.pop("RACE_TYPE"),
             "SAGEMAKER_SHARED_S3_PREFIX": model_prefix,
             "NUM_WORKERS": str(num_workers),
-            "REVERSE_DIR": str(self.reverse_dir),
-            "ALTERNATE_DRIVING_DIRECTION": str(self.alternate_driving_direction),
-            "CHANGE_START_POSITION": str(self.change_start_position),
-            "ROUND_ROBIN_ADVANCE_DIST": str(self.round_robin_advance_dist),
-            "START_POSITION_OFFSET": str(self.start_position_offset),
-            "MIN_EVAL_TRIALS": str(self.min_eval_trials),
-            "BEST_MODEL_METRIC": self.best_model_metric,
-            "NUMBER_OF_RESETS": str(self.number_of_resets),
-            "OFF_TRACK_PENALTY": str(self.off_track_penalty_s),
-            "COLLISION_PENALTY": str(self.collision_penalty_s),
-            "NUMBER_OF_REVERSE_COUNTS": str(self.number_of_reverse_counts),
-            "RACER_EVAL_SPREAD_STARTS": str(self.eval_spread_starts),
-            "ENABLE_DOMAIN_RANDOMIZATION": str(self.domain_randomization),
-            "RACER_CAR_RANDOMIZATION": str(self.car_randomization),
-            "RACER_DYNAMICS_RANDOMIZATION": str(self.dynamics_randomization),
-            "RACER_CAR_PROFILE": self.car_profile,
-            "RACER_SIMAPP_DIR": self.simapp_dir,
-            **race,
         }
+        for item in fields(self):
+            if item.name not in {"world", "track", "race"}:
+                value = getattr(self, item.name)
+                params[item.metadata[SETTING].key] = value if isinstance(value, str) else str(value)
+        return {**params, **race}
 
     @classmethod
     def from_training_params(cls, params: Mapping[str, object], source: str) -> WorkerSettings:
-        def whole(name: str, default: int) -> int:
-            number = float(params.get(name, default))
-            if not number.is_integer():
-                raise ValueError(f"{name}: {params[name]!r} is not a whole number")
-            return int(number)
-
-        def flag(name: str, default: bool) -> bool:
-            raw = str(params.get(name, default)).strip().lower()
-            if raw not in {"true", "false", "1", "0"}:
-                raise ValueError(f"{source}: {name}: {params[name]!r} is not True or False")
-            return raw in {"true", "1"}
-
-        defaults = cls()
-        clockwise = flag("TRACK_DIRECTION_CLOCKWISE", False) if "TRACK_DIRECTION_CLOCKWISE" in params else None
+        clockwise = (
+            _flag(params, "TRACK_DIRECTION_CLOCKWISE", False, source) if "TRACK_DIRECTION_CLOCKWISE" in params else None
+        )
+        values: dict[str, object] = {}
         try:
-            return cls(
-                world=str(params.get("RACER_WORLD", defaults.world)),
-                track=world_name_for_direction(str(params.get("WORLD_NAME", defaults.track)), clockwise),
-                reverse_dir=flag("REVERSE_DIR", defaults.reverse_dir),
-                alternate_driving_direction=flag("ALTERNATE_DRIVING_DIRECTION", defaults.alternate_driving_direction),
-                change_start_position=flag("CHANGE_START_POSITION", defaults.change_start_position),
-                round_robin_advance_dist=float(
-                    params.get("ROUND_ROBIN_ADVANCE_DIST", defaults.round_robin_advance_dist)
-                ),
-                start_position_offset=float(params.get("START_POSITION_OFFSET", defaults.start_position_offset)),
-                min_eval_trials=int(params.get("MIN_EVAL_TRIALS", defaults.min_eval_trials)),
-                best_model_metric=str(params.get("BEST_MODEL_METRIC", defaults.best_model_metric)).lower(),
-                eval_spread_starts=flag("RACER_EVAL_SPREAD_STARTS", defaults.eval_spread_starts),
-                number_of_resets=whole("NUMBER_OF_RESETS", defaults.number_of_resets),
-                off_track_penalty_s=float(params.get("OFF_TRACK_PENALTY", defaults.off_track_penalty_s)),
-                collision_penalty_s=float(params.get("COLLISION_PENALTY", defaults.collision_penalty_s)),
-                number_of_reverse_counts=whole("NUMBER_OF_REVERSE_COUNTS", defaults.number_of_reverse_counts),
-                domain_randomization=flag("ENABLE_DOMAIN_RANDOMIZATION", defaults.domain_randomization),
-                car_randomization=flag("RACER_CAR_RANDOMIZATION", defaults.car_randomization),
-                dynamics_randomization=flag("RACER_DYNAMICS_RANDOMIZATION", defaults.dynamics_randomization),
-                car_profile=str(params.get("RACER_CAR_PROFILE") or defaults.car_profile).strip(),
-                simapp_dir=str(params.get("RACER_SIMAPP_DIR") or defaults.simapp_dir),
-                race=RaceConfig.from_training_params(params),
-            )
+            for item in fields(cls):
+                spec: Setting = item.metadata[SETTING]
+                values[item.name] = spec.read(params, spec.key, item.default, source)
+            values["track"] = world_name_for_direction(str(values["track"]), clockwise)
+            return cls(**values)
         except ValueError as error:
             raise ValueError(f"{source}: {error}") from error
 

@@ -74,6 +74,12 @@ from racer.trainer.run_options import trainer_run_options
     show_default=True,
     help="SAC: gradient steps per transition received (DeepRacer: 1).",
 )
+@click.option(
+    "--preflight-passed",
+    is_flag=True,
+    hidden=True,
+    help="The launcher (racer train) has run the preflight on these custom files: read them without checking again.",
+)
 @trainer_run_options
 @race_options
 @direction_option
@@ -98,48 +104,78 @@ def trainer_command(
     precision,
     race_type,
     race_param,
+    preflight_passed,
 ) -> None:
     """Run the trainer (clipped PPO or SAC, as model_metadata.json says): Redis and the store come from
     RACER_REDIS_URL / RACER_STORE. The custom files are checked before anything connects."""
     from racer.shared.config import max_memory_steps_from_env
+    from racer.shared.run_settings import RunOptions
     from racer.trainer.precision import Precision
-    from racer.trainer.preflight import preflight
     from racer.trainer.training_loop import TrainerOptions, run_trainer
 
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
-    world_names = tuple(w.strip() for w in worlds.split(",") if w.strip())
-    race_params = race_params_from_options(race_type, race_param)
+    run = RunOptions(
+        num_workers=num_workers,
+        track=track,
+        worlds=tuple(w.strip() for w in worlds.split(",") if w.strip()),
+        domain_randomization=domain_randomization,
+        car_randomization=car_randomization,
+        car_profile=car_profile,
+        dynamics_randomization=dynamics_randomization,
+        race_params=race_params_from_options(race_type, race_param),
+    )
     try:
         memory_cap = max_memory_steps if max_memory_steps is not None else max_memory_steps_from_env()
     except ValueError as error:
         raise click.ClickException(str(error)) from error
-    try:
-        # the trainer logs the warnings
-        preflight(custom_files, num_workers, track, world_names, race_params=race_params, car_profile=car_profile)
+    try:  # before anything connects; the trainer logs the warnings
+        report = checked_custom_files(custom_files, run, preflight_passed)
     except user_error_types() as error:
         raise click.ClickException(str(error)) from error
     options = TrainerOptions(
         model_prefix=model_prefix,
         custom_files=custom_files,
-        num_workers=num_workers,
-        track=track,
-        worlds=world_names,
+        num_workers=run.num_workers,
+        track=run.track,
+        worlds=run.worlds,
         max_episodes=max_episodes,
         max_minutes=max_minutes,
         seed=seed,
         pretrained_prefix=pretrained_prefix,
         pretrained_checkpoint=pretrained_checkpoint,
         max_memory_steps=memory_cap,
-        domain_randomization=domain_randomization,
-        car_randomization=car_randomization,
-        car_profile=car_profile,
-        dynamics_randomization=dynamics_randomization,
+        domain_randomization=run.domain_randomization,
+        car_randomization=run.car_randomization,
+        car_profile=run.car_profile,
+        dynamics_randomization=run.dynamics_randomization,
         sac_replay_memory_mb=sac_replay_memory_mb,
         sac_updates_per_transition=sac_updates_per_transition,
         precision=Precision(precision),
-        race_params=race_params,
+        race_params=run.race_params,
+        preflight=report,
     )
     try:
         run_trainer(settings_from_env(), options)
     except user_error_types() as error:
         raise click.ClickException(str(error)) from error
+
+
+def checked_custom_files(custom_files: Path, run, preflight_passed: bool):
+    """The preflight's report on the custom files: the preflight itself, or, when the launcher (`racer train`) has
+    run it already (`--preflight-passed`), the files read without checking them again. Either way a run checks its
+    custom files once."""
+    from racer.trainer.preflight import preflight, read_checked_files
+
+    if preflight_passed:
+        return read_checked_files(custom_files, run)
+    return preflight(
+        custom_files,
+        run.num_workers,
+        run.track,
+        run.worlds,
+        domain_randomization=run.domain_randomization,
+        car_randomization=run.car_randomization,
+        race_params=run.race_params,
+        car_profile=run.car_profile,
+        dynamics_randomization=run.dynamics_randomization,
+    )

@@ -2,7 +2,9 @@
 
 `racer train`, `racer trainer` (and so the compose trainer service) call `preflight()` first. A model a user brings
 either passes, or is refused here with one message naming the file, the field, the problem and the fix -- never
-later, from inside a running trainer, after Redis and the workers were started.
+later, from inside a running trainer, after Redis and the workers were started. It runs once per run: `racer train`
+runs it before it starts anything and passes `--preflight-passed` to its trainer, which then reads the files with
+`read_checked_files`; `racer trainer` alone runs it before it connects and hands the report to the trainer.
 
 Checks, in the order a user would fix them:
 1. the three custom files exist;
@@ -43,13 +45,13 @@ from racer.shared.policy.network_file import (
     parse_network_file,
 )
 from racer.shared.policy.network_size import network_size_findings
+from racer.shared.run_settings import RunOptions, load_worker_settings
 from racer.shared.sim.car_dynamics import DEFAULT_CAR_PROFILE
-from racer.shared.sim.race_config import param_text
 from racer.shared.sim.reward import load_reward_function
 from racer.shared.sim.track import Track, TrackError
 from racer.shared.store import ObjectNotFoundError, ObjectStore
 from racer.shared.user_errors import CloneError, RunConfigError, UnsupportedConfigurationError
-from racer.shared.worker_settings import WorkerSettings, default_worker_settings
+from racer.shared.worker_settings import WorkerSettings
 from racer.trainer.preset import Preset, PresetError, load_preset
 
 __all__ = [
@@ -58,6 +60,7 @@ __all__ = [
     "check_clone_source",
     "load_worker_settings",
     "preflight",
+    "read_checked_files",
 ]
 
 CUSTOM_FILES = ("model_metadata.json", "hyperparameters.json", "reward_function.py")
@@ -128,72 +131,6 @@ def _check_combination(
 def _given_keys(path: Path) -> set[str]:
     data = json.loads(path.read_text(encoding="utf-8-sig"))  # already parsed once: cannot fail here
     return set(data) if isinstance(data, dict) else set()
-
-
-def load_worker_settings(
-    custom_files: Path,
-    num_workers: int,
-    track: str,
-    worlds: tuple[str, ...],
-    domain_randomization: bool = False,
-    car_randomization: bool = False,
-    race_params: tuple[tuple[str, str], ...] = (),
-    car_profile: str = DEFAULT_CAR_PROFILE,
-    dynamics_randomization: bool = False,
-) -> list[WorkerSettings]:
-    """Defaults (world i to worker i, one track) plus the optional custom_files/workers.json.
-
-    workers.json holds DeepRacer training_params keys applied to every worker, and optionally
-    `"workers": [{...}, {...}]` with per-worker overrides (like DeepRacer-for-Cloud's worker-N.env).
-    `race_params` (RACE_TYPE and obstacle / bot-car keys from `racer train` options) apply to every worker under
-    workers.json, as do `car_profile` and `dynamics_randomization` (`--car-profile`, `--dynamics-randomization`).
-    """
-    try:
-        settings = default_worker_settings(
-            num_workers,
-            track,
-            worlds,
-            domain_randomization,
-            car_randomization,
-            car_profile=car_profile,
-            dynamics_randomization=dynamics_randomization,
-        )
-    except ValueError as error:
-        raise RunConfigError(f"racer train options (--car-profile): {error}") from error
-    path = custom_files / "workers.json"
-    if race_params:
-        source = "racer train options (--race-type / --race-param)"
-        try:
-            settings = [
-                WorkerSettings.from_training_params(
-                    {**w.to_training_params("", num_workers), **dict(race_params)}, source
-                )
-                for w in settings
-            ]
-        except ValueError as error:
-            raise RunConfigError(str(error)) from error
-    if not path.is_file():
-        return settings
-    try:
-        data = json.loads(path.read_text())
-    except json.JSONDecodeError as error:
-        raise RunConfigError(f"{path}: line {error.lineno} column {error.colno}: {error.msg}") from error
-    if not isinstance(data, dict):
-        raise RunConfigError(f"{path}: expected a JSON object of training_params keys")
-    per_worker = data.pop("workers", [])
-    if not isinstance(per_worker, list):
-        raise RunConfigError(f"{path}: workers: expected a list with one object per worker")
-    result = []
-    for worker_id, base in enumerate(settings):
-        params = {k: param_text(v) for k, v in base.to_training_params("", num_workers).items()}
-        params.update({k: param_text(v) for k, v in data.items()})
-        if worker_id < len(per_worker):
-            params.update({k: param_text(v) for k, v in per_worker[worker_id].items()})
-        try:
-            result.append(WorkerSettings.from_training_params(params, source=f"{path} (worker {worker_id})"))
-        except ValueError as error:
-            raise RunConfigError(str(error)) from error
-    return result
 
 
 def _check_reward_over_track(path: Path, workers: list[WorkerSettings], metadata: ModelMetadata) -> list[str]:
@@ -330,17 +267,17 @@ def preflight(
         raise RunConfigError(str(error)) from error
     warnings += network_warnings
     load_reward_function(folder / "reward_function.py")
-    workers = load_worker_settings(
-        folder,
+    options = RunOptions(
         num_workers,
         track,
-        worlds,
+        tuple(worlds),
         domain_randomization,
         car_randomization,
-        race_params,
         car_profile,
         dynamics_randomization,
+        tuple(race_params),
     )
+    workers = load_worker_settings(folder, options)
     for worker_id, worker in enumerate(workers):
         try:  # a track name no worker could find fails here, listing where it looked, not in every worker
             Track.load(worker.track)
@@ -357,3 +294,18 @@ def preflight(
     if pretrained_prefix and store is not None:
         check_clone_source(store, pretrained_prefix, metadata, str(metadata_path), network)
     return PreflightReport(metadata, hyperparameters, tuple(workers), tuple(warnings), network, preset)
+
+
+def read_checked_files(custom_files: Path, options: RunOptions) -> PreflightReport:
+    """What `preflight` returns, read without its checks, for a trainer whose launcher (`racer train`) has run the
+    preflight on these files before anything started: a run checks its custom files once."""
+    folder = Path(custom_files)
+    metadata = load_model_metadata(folder / "model_metadata.json")
+    hyperparameters, _warnings = load_hyperparameters(folder / "hyperparameters.json")
+    try:
+        network = network_for_metadata(folder, metadata)
+        preset = load_preset(folder, metadata.training_algorithm)
+    except (NetworkFileError, PresetError) as error:
+        raise RunConfigError(str(error)) from error
+    workers = load_worker_settings(folder, options)
+    return PreflightReport(metadata, hyperparameters, tuple(workers), (), network, preset)

@@ -9,9 +9,6 @@ import click
 from racer.shared.sim.car_dynamics import CAR_PROFILE_NAMES, DEFAULT_CAR_PROFILE
 from racer.trainer.precision import DEFAULT_PRECISION, PRECISION_NAMES
 
-PASSED_ON = ("precision", "car_profile", "dynamics_randomization")
-"""The parameter names the decorator adds, in the order `trainer_arguments` writes them."""
-
 
 def trainer_run_options(command: Callable) -> Callable:
     """--precision, --car-profile and --dynamics-randomization."""
@@ -42,15 +39,3 @@ def trainer_run_options(command: Callable) -> Callable:
     for option in reversed(options):
         command = option(command)
     return command
-
-
-def trainer_arguments(precision: str, car_profile: str, dynamics_randomization: bool) -> tuple[str, ...]:
-    """The same options as `racer trainer` arguments."""
-    return (
-        "--precision",
-        precision,
-        "--car-profile",
-        car_profile,
-        "--dynamics-randomization",
-        str(dynamics_randomization),
-    )

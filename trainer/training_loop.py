@@ -47,7 +47,7 @@ from racer.trainer.learner import UpdateAbandoned
 from racer.trainer.log_lines import format_training_episode_line
 from racer.trainer.memory_cap import cap_episodes, default_max_memory_steps, global_episode_order
 from racer.trainer.precision import DEFAULT_PRECISION, Precision
-from racer.trainer.preflight import check_clone_source, preflight
+from racer.trainer.preflight import PreflightReport, check_clone_source, preflight
 from racer.trainer.preset import PRESET_FILE, Preset
 
 log = logging.getLogger(__name__)
@@ -97,6 +97,8 @@ class TrainerOptions:
     """SAC: gradient steps per transition received (DeepRacer: 1)."""
     precision: Precision = DEFAULT_PRECISION
     """What the towers compute in during updates (racer.trainer.precision); written into every checkpoint."""
+    preflight: PreflightReport | None = None
+    """The custom files as `racer trainer` checked them; None: the trainer runs the preflight itself."""
 
 
 def _world_steps_per_s(episodes: list[Episode]) -> float:
@@ -128,7 +130,7 @@ class Trainer:
     # ---- set-up ----------------------------------------------------------------------------------
     def _read_custom_files(self) -> tuple[ModelMetadata, Hyperparameters, bytes, list[WorkerSettings]]:
         folder = self.options.custom_files
-        report = preflight(
+        report = self.options.preflight or preflight(
             folder,
             self.options.num_workers,
             self.options.track,

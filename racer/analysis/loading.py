@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import sys
 
+import click
 import numpy as np
 import pandas as pd
 
@@ -45,13 +46,12 @@ def fill_missing_status(frame: pd.DataFrame) -> pd.DataFrame:
 
 
 def load_steps(files: RunFiles, *, progress: bool = True) -> pd.DataFrame:
-    """Read every CSV (showing a counter on stderr for long runs) and derive the per-step columns analysis needs."""
-    frames = []
-    total = len(files.simtraces)
-    for index, file in enumerate(files.simtraces, start=1):
-        if progress and (index == total or index % 10 == 0):
-            print(f"\rread {index}/{total} simtrace files", end="\n" if index == total else "", file=sys.stderr)
-        frames.append(read_one(file))
+    """Read every CSV (with a progress bar on stderr: drawn on a terminal, its label once in a log) and derive the
+    per-step columns analysis needs."""
+    with click.progressbar(
+        files.simtraces, label=f"reading {len(files.simtraces)} simtrace files", hidden=not progress, file=sys.stderr
+    ) as simtraces:
+        frames = [read_one(file) for file in simtraces]
     return add_step_deltas(pd.concat(frames, ignore_index=True))
 
 

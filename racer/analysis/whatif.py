@@ -14,6 +14,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+import click
 import numpy as np
 import pandas as pd
 
@@ -64,30 +65,40 @@ def replay_reward(
     observed_at_s = steps.groupby("file", sort=False)["tstamp"].shift(1).loc[training.index]
     observed_at_s = observed_at_s.fillna(training["tstamp"]).to_numpy()
     rows = zip(training[columns].itertuples(index=False, name=None), is_reversed.to_numpy(), observed_at_s, strict=True)
-    for position, (row, backwards, sim_time_s) in enumerate(rows):
-        x, y, yaw, throttle, steer, step, progress, on_track, status, _tstamp = row
-        if show_progress and position % 5000 == 0:
-            print(f"\rreward what-if: {position}/{total} steps", end="", file=sys.stderr)
-        if status in NOT_CALLED_STATUSES:
-            continue
-        params = make_reward_params(
-            tracks[bool(backwards)],
-            x=x,
-            y=y,
-            heading_deg=yaw,
-            speed_mps=throttle,
-            steering_angle_deg=steer,
-            steps=step,
-            progress=progress,
-            all_wheels_on_track=bool(on_track),
-            is_offtrack=status == "off_track",
-            is_crashed=status == "crashed",
-            sim_time_s=sim_time_s,
-        )
-        new_reward[position] = reward_function(params)
-    if show_progress:
-        print(f"\rreward what-if: {total}/{total} steps", file=sys.stderr)
+    bar = click.progressbar(
+        rows,
+        length=total,
+        label=f"reward what-if over {total} steps",
+        hidden=not show_progress,
+        file=sys.stderr,
+        update_min_steps=1000,
+    )
+    with bar:
+        for position, (row, backwards, sim_time_s) in enumerate(bar):
+            new_reward[position] = _replayed_reward(reward_function, tracks[bool(backwards)], row, sim_time_s)
     return pd.Series(new_reward, index=training.index, name="new_reward")
+
+
+def _replayed_reward(reward_function, track: Track, row: tuple, sim_time_s: float) -> float:
+    """The candidate's reward for one logged step (0 without a call on `prepare` and `pause` rows)."""
+    x, y, yaw, throttle, steer, step, progress, on_track, status, _tstamp = row
+    if status in NOT_CALLED_STATUSES:
+        return 0.0
+    params = make_reward_params(
+        track,
+        x=x,
+        y=y,
+        heading_deg=yaw,
+        speed_mps=throttle,
+        steering_angle_deg=steer,
+        steps=step,
+        progress=progress,
+        all_wheels_on_track=bool(on_track),
+        is_offtrack=status == "off_track",
+        is_crashed=status == "crashed",
+        sim_time_s=sim_time_s,
+    )
+    return reward_function(params)
 
 
 def compare(

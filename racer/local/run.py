@@ -14,25 +14,21 @@ import sys
 import threading
 import time
 from dataclasses import dataclass
-from datetime import datetime
 from pathlib import Path
 
 import click
 
-from racer.local.services import PROJECT_ROOT, MinioServer, RedisServer, _die_with_parent
+from racer.local.progress import ProgressDisplay
+from racer.local.services import MinioServer, RedisServer, _die_with_parent
 from racer.local.supervisor import RunSupervisor, stop_children
-from racer.rollout_worker.batched_rollout import DEFAULT_ENVS_PER_WORKER, DEFAULT_WORKERS
 from racer.rollout_worker.main import EXIT_RUN_CANNOT_GO_ON
-from racer.shared.config import LocalStoreSettings, RedisSettings, S3Settings, ServiceSettings, settings_from_env
+from racer.shared.config import LocalStoreSettings, RedisSettings, S3Settings, ServiceSettings
 from racer.shared.redis_connection import RedisLink, RedisUnavailableError
-from racer.shared.sim.config import DEFAULT_TRACK
+from racer.shared.run_settings import RunOptions
+from racer.shared.sim.car_dynamics import DEFAULT_CAR_PROFILE
 from racer.shared.sim.gl import ensure_gl_backend
-from racer.shared.sim.race_cli import race_option_args, race_options, race_params_from_options
-from racer.shared.sim.track_option import direction_option
-from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
 from racer.shared.store import S3Store, open_store
 from racer.shared.transport.channels import RunChannel
-from racer.trainer.run_options import trainer_arguments, trainer_run_options
 
 
 @dataclass(frozen=True)
@@ -58,6 +54,22 @@ class LocalRunPlan:
     """Further `racer trainer` options, e.g. ("--sac-updates-per-transition", "0.5")."""
     race_params: tuple[tuple[str, str], ...] = ()
     """RACE_TYPE and obstacle / bot-car training_params keys for every worker (`--race-type`, `--race-param`)."""
+    car_profile: str = DEFAULT_CAR_PROFILE
+    """RACER_CAR_PROFILE for every worker (`--car-profile`)."""
+    dynamics_randomization: bool = False
+    """RACER_DYNAMICS_RANDOMIZATION for every worker (`--dynamics-randomization`)."""
+
+    @property
+    def run_options(self) -> RunOptions:
+        """The settings every worker gets: what the launcher's preflight checks and the trainer is given."""
+        return RunOptions(
+            num_workers=self.num_workers,
+            track=self.track,
+            worlds=self.worlds,
+            car_profile=self.car_profile,
+            dynamics_randomization=self.dynamics_randomization,
+            race_params=self.race_params,
+        )
 
 
 def service_environment(settings: ServiceSettings) -> dict[str, str]:
@@ -80,6 +92,20 @@ def service_environment(settings: ServiceSettings) -> dict[str, str]:
         env["RACER_STORE"] = str(settings.store.root)
     env.setdefault("LP_NUM_THREADS", "1")  # one llvmpipe render thread per worker: workers already fill the cores
     return env
+
+
+def trainer_argv(plan: LocalRunPlan) -> list[str]:
+    """The `racer trainer` command line of a local run. `--preflight-passed`: the launcher has run the preflight
+    (`check_before_start`), so the trainer reads the custom files without checking them a second time."""
+    args = ["trainer", "--model-prefix", plan.model_prefix, "--custom-files", str(plan.custom_files)]
+    args += [*plan.run_options.trainer_args(), "--seed", str(plan.seed), "--preflight-passed"]
+    if plan.max_episodes is not None:
+        args += ["--max-episodes", str(plan.max_episodes)]
+    if plan.max_minutes is not None:
+        args += ["--max-minutes", str(plan.max_minutes)]
+    if plan.pretrained_prefix:
+        args += ["--pretrained-prefix", plan.pretrained_prefix, "--pretrained-checkpoint", plan.pretrained_checkpoint]
+    return args + list(plan.trainer_options)
 
 
 VIEWER = "viewer"
@@ -134,33 +160,7 @@ class LocalRun:
 
     def start_processes(self) -> None:
         plan = self.plan
-        trainer_args = [
-            "trainer",
-            "--model-prefix",
-            plan.model_prefix,
-            "--custom-files",
-            str(plan.custom_files),
-            "--workers",
-            str(plan.num_workers),
-            "--track",
-            plan.track,
-            "--worlds",
-            ",".join(plan.worlds),
-            "--seed",
-            str(plan.seed),
-        ]
-        if plan.max_episodes is not None:
-            trainer_args += ["--max-episodes", str(plan.max_episodes)]
-        if plan.max_minutes is not None:
-            trainer_args += ["--max-minutes", str(plan.max_minutes)]
-        if plan.pretrained_prefix:
-            trainer_args += [
-                "--pretrained-prefix",
-                plan.pretrained_prefix,
-                "--pretrained-checkpoint",
-                plan.pretrained_checkpoint,
-            ]
-        trainer_args += race_option_args(plan.race_params) + list(plan.trainer_options)
+        trainer_args = trainer_argv(plan)
         self._spawn("trainer", trainer_args)
         for worker_id in range(plan.num_workers):
             self._spawn(
@@ -213,61 +213,6 @@ class LocalRun:
             self.redis.stop(timeout_s=3)
 
 
-class ProgressDisplay:
-    """Prints one line per finished iteration and per evaluation, plus a status line while waiting."""
-
-    def __init__(self, channel: RunChannel, num_workers: int, started: float, echo=click.echo):
-        self.channel = channel
-        self.num_workers = num_workers
-        self.started = started
-        self.echo = echo
-        self.iteration_id = "0"
-        self.evaluation_id = "0"
-        self.last_status = 0.0
-        self.seen_workers: set[int] = set()
-
-    def poll(self) -> list[dict]:
-        """Print what is new; return the new evaluation records (benchmarks watch them)."""
-        for stream_id, record in self.channel.read_records("iterations", self.iteration_id):
-            self.iteration_id = stream_id
-            worlds = "  ".join(
-                f"{world}: R={stats['mean_reward']:.1f} P={stats['mean_progress']:.0f}%"
-                for world, stats in sorted(record["worlds"].items())
-            )
-            self.echo(
-                f"[{self._elapsed()}] iteration {record['iteration']:>3}  episodes {record['episodes']:>3}  "
-                f"steps {record['env_steps_total']:>8}  reward {record['mean_reward']:7.2f}  "
-                f"progress {record['mean_progress']:5.1f}%  complete {record['completion_rate']:4.0%}  "
-                f"{record['experience_steps_per_s']:6.0f} steps/s  | {worlds}"
-            )
-        evaluations = []
-        for stream_id, record in self.channel.read_records("evaluations", self.evaluation_id):
-            self.evaluation_id = stream_id
-            evaluations.append(record)
-            self.echo(
-                f"[{self._elapsed()}] evaluation of {record['checkpoint']}: {record['laps_completed']}/{record['trials']} laps, "
-                f"mean progress {record['mean_progress']:.1f}%"
-                + (f", best lap {record['best_lap_time_s']:.2f} s" if record.get("best_lap_time_s") else "")
-            )
-        if time.monotonic() - self.last_status > 30:
-            self.last_status = time.monotonic()
-            live = self.channel.live_workers()
-            self.seen_workers.update(live)
-            states = ", ".join(f"w{i}:{self._worker_state(i, live)}" for i in range(self.num_workers))
-            self.echo(f"[{self._elapsed()}] workers {states}", err=True)
-        return evaluations
-
-    def _worker_state(self, worker_id: int, live: dict[int, dict]) -> str:
-        """Its heartbeat's state; "starting" until its first heartbeat (importing, building its envs)."""
-        if worker_id in live:
-            return live[worker_id].get("state", "?")
-        return "DOWN" if worker_id in self.seen_workers else "starting"
-
-    def _elapsed(self) -> str:
-        seconds = int(time.monotonic() - self.started)
-        return f"{seconds // 60:02d}:{seconds % 60:02d}"
-
-
 def check_before_start(plan: LocalRunPlan, base_settings: ServiceSettings) -> None:
     """The trainer's preflight, here, before Redis or any process starts: a model that cannot train is refused with
     one message (file, field, fix). A clone source is checked too when the store is a local directory."""
@@ -276,14 +221,19 @@ def check_before_start(plan: LocalRunPlan, base_settings: ServiceSettings) -> No
 
     local_store = isinstance(base_settings.store, LocalStoreSettings) and not plan.use_minio
     try:
+        options = plan.run_options
         report = preflight(
             plan.custom_files,
-            plan.num_workers,
-            plan.track,
-            plan.worlds,
+            options.num_workers,
+            options.track,
+            options.worlds,
             pretrained_prefix=plan.pretrained_prefix,
             store=open_store(base_settings.store) if local_store else None,
-            race_params=plan.race_params,
+            domain_randomization=options.domain_randomization,
+            car_randomization=options.car_randomization,
+            race_params=options.race_params,
+            car_profile=options.car_profile,
+            dynamics_randomization=options.dynamics_randomization,
         )
     except user_error_types() as error:
         raise click.ClickException(str(error)) from error
@@ -374,106 +324,3 @@ def run_local_training(plan: LocalRunPlan, base_settings: ServiceSettings, on_ev
         run.stop()
         for sig, handler in previous.items():
             signal.signal(sig, handler)
-
-
-@click.command(name="train")
-@click.option("--model-prefix", default=None, help="Model name (store prefix). Default: racer-<date>-<time>.")
-@click.option(
-    "--custom-files",
-    type=click.Path(exists=True, file_okay=False, path_type=Path),
-    default=PROJECT_ROOT / "custom_files",
-    show_default=True,
-    help="Folder with reward_function.py, model_metadata.json, hyperparameters.json.",
-)
-@click.option(
-    "--workers",
-    "num_workers",
-    type=click.IntRange(1, 32),
-    default=DEFAULT_WORKERS,
-    show_default=True,
-    help="Rollout workers, one per world in turn. The default is the same on every machine, so a seed gives the "
-    "same kind of run everywhere; on more than 4 cores raise it to use them (the run then plays its episodes on "
-    "other workers and so differs, though it learns the same way).",
-)
-@click.option(
-    "--envs",
-    "envs_per_worker",
-    type=click.IntRange(1, 64),
-    default=DEFAULT_ENVS_PER_WORKER,
-    show_default=True,
-    help="Envs each worker steps at once, all actions from one batched forward pass.",
-)
-@click.option("--worlds", default=",".join(WORLDS), show_default=True, help="Worlds given to workers in turn.")
-@click.option("--track", default=DEFAULT_TRACK, show_default=True, help="Track name in tracks/ or a .npy route path.")
-@click.option(
-    "--max-episodes",
-    type=int,
-    default=None,
-    help="Stop after this many training episodes (default: hyperparameters' term_cond_max_episodes).",
-)
-@click.option("--max-minutes", type=float, default=None, help="Stop after this much wall time.")
-@click.option("--minio", "use_minio", is_flag=True, help="Store in a local MinIO server instead of a directory.")
-@click.option("--pretrained-prefix", default=None, help="Clone: start from this model's checkpoint.")
-@click.option("--pretrained-checkpoint", type=click.Choice(["last", "best"]), default="last", show_default=True)
-@click.option("--seed", type=int, default=0, show_default=True)
-@click.option(
-    "--viewer-port",
-    type=click.IntRange(0, 65535),
-    default=8100,
-    show_default=True,
-    help="Port of the live web page (camera streams, curves, evaluations); 0: no page.",
-)
-@click.option(
-    "--viewer-host",
-    default="127.0.0.1",
-    show_default=True,
-    help="Address the page listens on; the default is reachable from this machine only.",
-)
-@trainer_run_options
-@race_options
-@direction_option
-def train_command(
-    model_prefix,
-    custom_files,
-    num_workers,
-    envs_per_worker,
-    worlds,
-    track,
-    max_episodes,
-    max_minutes,
-    use_minio,
-    pretrained_prefix,
-    pretrained_checkpoint,
-    seed,
-    viewer_port,
-    viewer_host,
-    precision,
-    car_profile,
-    dynamics_randomization,
-    race_type,
-    race_param,
-) -> None:
-    """Train with the embedded default: Redis, store, trainer and rollout workers as local processes."""
-    base_settings = settings_from_env()
-    model_prefix = model_prefix or datetime.now().strftime("racer-%Y%m%d-%H%M%S")
-    store_root = base_settings.store.root if isinstance(base_settings.store, LocalStoreSettings) else Path("racer-data")
-    plan = LocalRunPlan(
-        model_prefix=model_prefix,
-        custom_files=custom_files.resolve(),
-        num_workers=num_workers,
-        worlds=tuple(w.strip() for w in worlds.split(",") if w.strip()),
-        track=track,
-        max_episodes=max_episodes,
-        max_minutes=max_minutes,
-        use_minio=use_minio,
-        log_dir=Path(store_root) / ".runs" / model_prefix,
-        seed=seed,
-        pretrained_prefix=pretrained_prefix,
-        pretrained_checkpoint=pretrained_checkpoint,
-        viewer_host=viewer_host,
-        viewer_port=viewer_port or None,
-        race_params=race_params_from_options(race_type, race_param),
-        envs_per_worker=envs_per_worker,
-        trainer_options=trainer_arguments(precision, car_profile, dynamics_randomization),
-    )
-    sys.exit(run_local_training(plan, base_settings))

@@ -8,7 +8,7 @@
 | `/api/live` | workers (up/down, state, newest frame's pose, trail and JPEG), Redis reachable; renews `watching` (`watch=0`: no frames; `workers=0,2`: frames of these workers only) |
 | `/api/progress` | per-iteration curves, evaluations per checkpoint, best lap path, `racer evaluate` runs |
 | `/api/workers/<id>/frame.jpg` | the newest camera frame of a worker |
-| `/files/<key>` | a file of the run (videos, simtraces, metrics) from the store; nothing outside the model prefix |
+| `/files/<key>` | a file of the run (videos, simtraces, metrics) from the store; nothing outside the model prefix; HTTP Range (206, 416) on a local and an S3 store |
 """
 
 from __future__ import annotations
@@ -24,9 +24,10 @@ from starlette.responses import FileResponse, JSONResponse, Response
 from starlette.routing import Mount, Route
 from starlette.staticfiles import StaticFiles
 
-from racer.shared.store import LocalStore, ObjectNotFoundError
+from racer.shared.store import LocalStore, ObjectNotFoundError, S3Store
 from racer.shared.store.base import validate_key
 from racer.viewer.live import LiveRun
+from racer.viewer.object_ranges import s3_object_response
 from racer.viewer.run_files import RunFiles
 
 STATIC_DIR = Path(__file__).resolve().parent / "static"
@@ -154,6 +155,8 @@ def create_app(files: RunFiles, live: LiveRun | None) -> Starlette:
             if not path.is_relative_to(run_root) or not path.is_file():
                 raise HTTPException(404, "no such file")
             return FileResponse(path, media_type=media_type)  # Range requests: videos can seek
+        if isinstance(files.store, S3Store):  # Range from S3 itself: videos seek in the compose deployment
+            return s3_object_response(files.store, key, media_type, request.headers.get("range"))
         try:
             data = files.store.get_bytes(key)
         except ObjectNotFoundError:

@@ -12,6 +12,7 @@ Source: deepracer-simapp v5.3.3 `bundle/markov/metrics/constants.py` (StepMetric
 from __future__ import annotations
 
 import enum
+import io
 import re
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from os import PathLike
@@ -31,6 +32,7 @@ __all__ = [
     "format_simtrace_value",
     "parse_simtrace_action",
     "read_simtrace",
+    "read_simtrace_lines",
 ]
 
 
@@ -241,6 +243,10 @@ def read_simtrace(path_or_bytes: str | PathLike[str] | bytes, source: str | None
     Types: episode, closest_waypoint, obstacle_crash_counter int64; done, all_wheels_on_track bool; episode_status
     str (validated); action int64 for discrete files, the `[<steer> <speed>]` strings for continuous ones; all
     other columns float64 (`steps` too, as the SimApp counts it as a float).
+
+    pandas' C parser reads the file (its one float converter since pandas 3.1 is the round-trip one, so every float is
+    Python's `float()` of its text; the `float_precision` argument is deprecated);
+    when it cannot, the line parser reads it again to name the file, line and field at fault (SimtraceError).
     """
     if isinstance(path_or_bytes, (bytes, bytearray)):
         raw = bytes(path_or_bytes)
@@ -250,10 +256,70 @@ def read_simtrace(path_or_bytes: str | PathLike[str] | bytes, source: str | None
             raw = handle.read()
         name = source or str(path_or_bytes)
     try:
+        frame = _read_with_pandas(raw)
+    except (ValueError, TypeError, OverflowError, pd.errors.ParserError):  # UnicodeDecodeError is a ValueError
+        frame = None
+    if frame is not None:
+        return frame
+    return read_simtrace_lines(raw, name)
+
+
+_TEXT_READ = _BOOL_COLUMNS | {"action"}
+"""Columns the fast path reads as text and converts itself: pandas' own booleans also take true/TRUE, which no
+simtrace holds (the SimApp writes str(bool)) and the line parser refuses."""
+
+
+def _read_with_pandas(raw: bytes) -> pd.DataFrame | None:
+    """The fast path; None (or an exception) when the file is not a well-formed simtrace."""
+    first_line, _, body = raw.partition(b"\n")
+    header = tuple(first_line.decode("utf-8").removesuffix("\r").split(","))
+    if len(header) not in SIMTRACE_COLUMN_COUNTS or header != SIMTRACE_COLUMNS[: len(header)]:
+        return None
+    rows = body.count(b"\n") + (1 if body and not body.endswith(b"\n") else 0)
+    if body.count(b",") != rows * (len(header) - 1) or b"\n\n" in body or body.startswith(b"\n"):
+        return None  # a short, long or blank line: the line parser names it
+    frame = pd.read_csv(
+        io.BytesIO(raw),
+        engine="c",
+        dtype={column: ("str" if column in _TEXT_READ else _DTYPES[column]) for column in header},
+        keep_default_na=False,
+        na_filter=False,
+        encoding="utf-8",
+    )
+    if len(frame) != rows or tuple(frame.columns) != header:
+        return None
+    if "episode_status" in frame and not frame["episode_status"].isin(list(EpisodeStatus)).all():
+        return None
+    actions = frame["action"]
+    if len(actions) and actions.iloc[0].startswith("["):
+        if not actions.str.fullmatch(_CONTINUOUS_ACTION.pattern).all():
+            return None
+        frame["action"] = _continuous_texts(actions)
+    else:
+        if not actions.str.fullmatch(r"[+-]?[0-9]+").all():
+            return None
+        frame["action"] = actions.astype("int64")
+    for column in _BOOL_COLUMNS & set(header):
+        texts = frame[column]
+        if not texts.isin(("True", "False")).all():
+            return None
+        frame[column] = (texts == "True").astype("bool")
+    return frame
+
+
+def _continuous_texts(actions: pd.Series) -> pd.Series:
+    """The action strings, checked as the line parser checks them (two numbers)."""
+    for text in actions:
+        parse_simtrace_action(text)  # ValueError: the line parser names the line
+    return actions.astype("str")
+
+
+def read_simtrace_lines(raw: bytes, name: str) -> pd.DataFrame:
+    """The line parser: slow, but it names the file, line and field of the first thing that is not a simtrace."""
+    try:
         text = raw.decode("utf-8")
     except UnicodeDecodeError as error:
         raise SimtraceError(f"{name}: not UTF-8 text (byte {error.start})") from None
-
     lines = text.split("\n")
     if lines and lines[-1] == "":
         lines.pop()

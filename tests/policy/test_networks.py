@@ -338,7 +338,7 @@ def test_in_training_evaluation_keeps_rl_coachs_evaluation_epsilon_under_e_greed
     in that phase, so under `e-greedy` they still take 5 % random actions. Categorical exploration stays argmax."""
     import json
 
-    from racer.rollout_worker.worker import evaluation_epsilon
+    from racer.rollout_worker.checkpoint_evaluation import evaluation_epsilon
     from racer.shared.deepracer.hyperparameters import parse_hyperparameters
 
     raw = json.loads((deepracer_data / "config" / "console2022_ip_hyperparameters.json").read_text())

@@ -9,8 +9,8 @@ import pytest
 import torch
 
 from racer.rollout_worker.batched_rollout import BatchedRollout, EpisodeTicket
+from racer.rollout_worker.envs import env_generator, spread_env_configs
 from racer.rollout_worker.episode_runner import play_episode
-from racer.rollout_worker.worker import env_generator, spread_env_configs
 from racer.shared.deepracer.model_metadata import load_model_metadata
 from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.policy.networks import build_actor_critic

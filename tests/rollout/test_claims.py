@@ -1,4 +1,4 @@
-"""The rollout worker's claim protocol against a real redis-server (racer.rollout_worker.worker.claim_next_episode on
+"""The rollout worker's claim protocol against a real redis-server (racer.rollout_worker.claims.claim_next_episode on
 racer.shared.transport.channels): a worker claims its own DeepRacer share first, a finished worker helps a slower
 one only after its own episodes are played, and the claims of a worker whose heartbeat lapsed go back to the queue."""
 
@@ -9,7 +9,7 @@ import time
 
 import pytest
 
-from racer.rollout_worker.worker import claim_next_episode
+from racer.rollout_worker.claims import claim_next_episode
 from racer.shared.redis_connection import RedisLink
 from racer.shared.transport.channels import RunChannel
 from racer.shared.transport.codec import EpisodeBatch

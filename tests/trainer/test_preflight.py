@@ -278,7 +278,7 @@ def test_cloning_sac_from_ppo_is_refused_before_anything_starts(tmp_path):
 
 
 def test_racer_train_refuses_before_starting_redis_or_any_process(tmp_path, monkeypatch):
-    from racer.local.run import train_command
+    from racer.local.command import train_command
 
     custom = write_custom(tmp_path, PPO_METADATA, {"exploration_type": "additive_noise"})
     monkeypatch.setenv("RACER_STORE", str(tmp_path / "racer-data"))

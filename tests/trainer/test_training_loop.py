@@ -228,8 +228,7 @@ def test_race_settings_travel_from_train_options_and_workers_json_to_each_worker
 ):
     """`--race-type` / `--race-param` for every worker, workers.json over them per worker; the store's yaml keeps
     OBJECT_POSITIONS as DeepRacer's list of "ndist,lane"; each worker's env gets its RaceConfig."""
-    from racer.rollout_worker.run_files import load_run_files
-    from racer.rollout_worker.worker import training_env_config
+    from racer.rollout_worker.run_files import load_run_files, training_env_config
     from racer.shared.deepracer.training_params import parse_training_params
     from racer.shared.sim.race_config import ObjectPosition, RaceConfig
 
@@ -273,8 +272,7 @@ def test_the_car_profile_travels_from_train_options_and_workers_json_to_each_wor
 ):
     """`--car-profile` for every worker, workers.json's RACER_CAR_PROFILE over it per worker; the model's
     training_params record each worker's car and each worker's env drives it. A bad name is refused by name."""
-    from racer.rollout_worker.run_files import load_run_files
-    from racer.rollout_worker.worker import training_env_config
+    from racer.rollout_worker.run_files import load_run_files, training_env_config
     from racer.shared.deepracer.training_params import parse_training_params
     from racer.shared.sim.car_dynamics import GAZEBO_DYNAMICS, SIMTRACE_FIT_DYNAMICS
     from racer.shared.user_errors import RunConfigError
@@ -307,8 +305,7 @@ def test_the_car_profile_travels_from_train_options_and_workers_json_to_each_wor
 def test_dynamics_randomization_travels_from_train_options_and_workers_json_to_each_workers_env(
     redis_settings, tmp_path, custom_files
 ):
-    from racer.rollout_worker.run_files import load_run_files
-    from racer.rollout_worker.worker import training_env_config
+    from racer.rollout_worker.run_files import load_run_files, training_env_config
     from racer.shared.deepracer.training_params import parse_training_params
 
     make_trainer(redis_settings, tmp_path / "default", custom_files).setup()
@@ -333,7 +330,7 @@ def test_dynamics_randomization_travels_from_train_options_and_workers_json_to_e
 def test_a_bad_car_profile_option_is_refused_before_anything_starts(tmp_path, custom_files):
     from click.testing import CliRunner
 
-    from racer.local.run import train_command
+    from racer.local.command import train_command
     from racer.trainer.main import trainer_command
 
     for command, args in (
@@ -351,8 +348,7 @@ def test_training_params_keys_work_or_are_refused_by_name(redis_settings, tmp_pa
     """NUMBER_OF_RESETS, OFF_TRACK_PENALTY and NUMBER_OF_REVERSE_COUNTS reach the training env as the SimApp reads
     them; bad race keys (an unknown RACE_TYPE, a count that is no number, objects in a time trial) are a clear error
     naming the key."""
-    from racer.rollout_worker.run_files import load_run_files
-    from racer.rollout_worker.worker import training_env_config
+    from racer.rollout_worker.run_files import load_run_files, training_env_config
     from racer.shared.sim.env import DeepRacerEnv
     from racer.shared.user_errors import RunConfigError
     from tests.sim.conftest import place_front_at
