@@ -8,7 +8,7 @@
 #   docker swarm init                                             # or join nodes to an existing swarm
 #   docker node update --label-add racer.trainer=true <this node>  # trainer, Redis and MinIO run there
 # and make the images available where they run (a registry, or `docker save IMAGE | ssh NODE docker load`):
-# RACER_WORKER_IMAGE (no torch, ~1 GB) on every node, RACER_TRAINER_IMAGE (with torch, ~7 GB) and the
+# RACER_WORKER_IMAGE (no torch, ~1.5 GB) on every node, RACER_TRAINER_IMAGE (with torch, ~7 GB) and the
 # Redis/MinIO images on the trainer's node only. Rollout workers run on any node.
 #
 # The file goes through `docker compose config` (interpolates .env, resolves paths) and
