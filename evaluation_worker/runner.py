@@ -19,8 +19,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import torch
-
 from racer.evaluation_worker.config import EvaluationConfig
 from racer.evaluation_worker.deepracer_eval import run_deepracer_evaluation
 from racer.evaluation_worker.driver import EvaluationDriver, Policy, ProgressLog, StepObserver, no_log
@@ -42,7 +40,7 @@ from racer.shared.deepracer.training_params import training_params_to_yaml
 from racer.shared.model_layout import EvaluationLayout, ModelLayout
 from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.policy.manifest import CheckpointError
-from racer.shared.policy.networks import ActorCritic
+from racer.shared.policy.torch_threads import one_torch_thread_if_loaded
 from racer.shared.run_settings import env_config
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
@@ -90,7 +88,7 @@ def read_model_metadata(
 
 
 def _check_policy_inputs(policy: Policy, env: DeepRacerEnv, checkpoint: str | None) -> None:
-    if isinstance(policy, ActorCritic):
+    if hasattr(policy, "input_names"):  # a torch network (ActorCritic, SACNetworks) given in-process
         needed, given = set(policy.input_names), set(env.observation_space.spaces)
         if not needed <= given:
             raise CheckpointError(
@@ -177,7 +175,7 @@ class EvaluationSession:
 
     def run(self, log: ProgressLog = no_log) -> EvaluationReport:
         config = self.config
-        torch.set_num_threads(1)
+        one_torch_thread_if_loaded()
         log(
             f"evaluating {self.layout.model_prefix} checkpoint {self.checkpoint or '(given policy)'}: mode {config.mode}, "
             f"track {config.track} ({self.env.base_track.length_m:.2f} m){' reversed' if config.reverse_dir else ''}, "

@@ -13,7 +13,7 @@ from racer.rollout_worker.episode_runner import play_episode
 from racer.rollout_worker.run_files import RunFiles
 from racer.shared.deepracer.hyperparameters import Hyperparameters
 from racer.shared.deepracer.model_metadata import ModelMetadata
-from racer.shared.policy.networks import E_GREEDY_EVALUATION_EPSILON
+from racer.shared.policy.action_selection import E_GREEDY_EVALUATION_EPSILON
 from racer.shared.sim.env import DeepRacerEnv
 
 log = logging.getLogger(__name__)

@@ -25,7 +25,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-import torch
 
 from racer.rollout_worker.batched_rollout import BatchedRollout, EpisodeTicket
 from racer.rollout_worker.checkpoint_evaluation import evaluate_checkpoint, uses_e_greedy
@@ -35,8 +34,9 @@ from racer.rollout_worker.episode_runner import EpisodeRecorder
 from racer.rollout_worker.run_files import RunFiles, load_run_files, training_env_config
 from racer.rollout_worker.training_log import WorkerLog
 from racer.shared.config import ServiceSettings
+from racer.shared.policy.action_selection import e_greedy_epsilon
 from racer.shared.policy.checkpoints import CheckpointStore
-from racer.shared.policy.networks import e_greedy_epsilon
+from racer.shared.policy.torch_threads import one_torch_thread_if_loaded
 from racer.shared.redis_connection import RedisLink, RedisUnavailableError
 from racer.shared.sim.env import DeepRacerEnv
 from racer.shared.store import open_store
@@ -125,7 +125,7 @@ class RolloutWorker:
         )
 
     def run_forever(self) -> None:
-        torch.set_num_threads(1)
+        one_torch_thread_if_loaded()
         self._beat()
         threading.Thread(target=self._heartbeat_loop, name="heartbeat", daemon=True).start()
         try:

@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Compose smoke test: builds every image without a container registry, runs `docker compose up`
+# Compose smoke test: builds every image without a container registry (racer's two: the worker image
+# without torch and the trainer image with it, whose sizes it prints), runs `docker compose up`
 # for two training iterations with two workers in two worlds (base, carpet) on the short
 # racer_oval track, checks what the run left in MinIO and the trainer's log, runs the evaluation and
 # analysis services, loads the viewer service's page and script over HTTP, then `down -v`.
@@ -43,7 +44,9 @@ PREFIX=smoke-model
 BUCKET=racer-smoke
 BASE_IMAGE="${SMOKE_BASE_IMAGE:-racer-base:bookworm}"
 PIP_CERT_IN_BUILD="${SMOKE_PIP_CERT-/etc/ssl/certs/host-ca-bundle.crt}"
-RACER_IMAGE=racer:local
+WORKER_IMAGE=racer-worker:local
+TRAINER_IMAGE=racer-trainer:local
+WORKER_IMAGE_LIMIT_BYTES=1500000000  # issue 31: the image of a node that only runs workers stays <= 1.5 GB
 REDIS_IMAGE=racer-redis:local
 MINIO_IMAGE=racer-minio:local
 port_in_use() { (exec 3<>"/dev/tcp/127.0.0.1/$1") 2>/dev/null; }
@@ -180,12 +183,23 @@ if [ "$BASE_IMAGE" = racer-base:bookworm ]; then
   done_step
 fi
 
-step "racer image $RACER_IMAGE from docker/Dockerfile (torch download the first time)"
-build_image racer -f docker/Dockerfile --build-arg BASE_IMAGE="$BASE_IMAGE" \
-  --build-arg PIP_CERT="$PIP_CERT_IN_BUILD" -t "$RACER_IMAGE" .
+image_size() { docker image inspect -f '{{.Size}}' "$1"; }
+gigabytes() { awk '{printf "%.2f GB", $1/1e9}' <<<"$1"; }
+step "racer images from docker/Dockerfile: $WORKER_IMAGE (target worker), $TRAINER_IMAGE (target trainer; torch download the first time)"
+build_image worker -f docker/Dockerfile --target worker --build-arg BASE_IMAGE="$BASE_IMAGE" \
+  --build-arg PIP_CERT="$PIP_CERT_IN_BUILD" -t "$WORKER_IMAGE" .
+build_image trainer -f docker/Dockerfile --target trainer --build-arg BASE_IMAGE="$BASE_IMAGE" \
+  --build-arg PIP_CERT="$PIP_CERT_IN_BUILD" -t "$TRAINER_IMAGE" .
 # A rebuild after a dependency change leaves the previous image untagged (7 GB): remove those, and only those.
 docker image prune -f --filter label=racer.image=racer >/dev/null || true
-done_step "$(docker image inspect -f '{{.Size}}' "$RACER_IMAGE" | awk '{printf "%.2f GB", $1/1e9}')"
+worker_bytes="$(image_size "$WORKER_IMAGE")"
+trainer_bytes="$(image_size "$TRAINER_IMAGE")"
+say "  image sizes: worker $WORKER_IMAGE $(gigabytes "$worker_bytes") ($worker_bytes bytes), trainer $TRAINER_IMAGE $(gigabytes "$trainer_bytes") ($trainer_bytes bytes)"
+[ "$worker_bytes" -le "$WORKER_IMAGE_LIMIT_BYTES" ] \
+  || fail "the worker image is $(gigabytes "$worker_bytes"), over $(gigabytes "$WORKER_IMAGE_LIMIT_BYTES")"
+docker run --rm --entrypoint python3 "$WORKER_IMAGE" -c 'import importlib.util as u, sys; sys.exit(1 if u.find_spec("torch") else 0)' \
+  || fail "the worker image $WORKER_IMAGE has torch installed"
+done_step "worker $(gigabytes "$worker_bytes"), trainer $(gigabytes "$trainer_bytes")"
 
 step "redis and minio images from docker/services.Dockerfile"
 minio_bin="${MINIO_BINARY:-}"
@@ -237,7 +251,8 @@ RACER_EVAL_ARGS=--checkpoint last --trials 1 --no-video --no-mcap
 RACER_ANALYSIS_OUT=$WORK/analysis
 RACER_UID=$(id -u)
 RACER_GID=$(id -g)
-RACER_IMAGE=$RACER_IMAGE
+RACER_WORKER_IMAGE=$WORKER_IMAGE
+RACER_TRAINER_IMAGE=$TRAINER_IMAGE
 REDIS_IMAGE=$REDIS_IMAGE
 MINIO_IMAGE=$MINIO_IMAGE
 MINIO_PUBLISH_ADDRESS=127.0.0.1
@@ -264,6 +279,12 @@ exec 3<>"/dev/tcp/127.0.0.1/$MINIO_PORT" || fail "MinIO is not reachable on the 
 printf 'GET /minio/health/live HTTP/1.1\r\nHost: localhost\r\nConnection: close\r\n\r\n' >&3
 timeout 10 head -n1 <&3 | grep -q ' 200 ' || fail "MinIO on 127.0.0.1:$MINIO_PORT did not answer its health check"
 exec 3<&-
+# Each service runs the image it belongs to: torch only in the trainer's.
+for service in trainer rollout-0 rollout-1 minio-setup; do
+  expected="$WORKER_IMAGE"; [ "$service" = trainer ] && expected="$TRAINER_IMAGE"
+  actual="$(docker inspect -f '{{.Config.Image}}' "$(compose ps -a -q "$service")")"
+  [ "$actual" = "$expected" ] || fail "$service runs image $actual, expected $expected"
+done
 # Redis must not be published.
 [ -z "$(docker port "$(compose ps -a -q redis)")" ] || fail "redis has a published port: $(docker port "$(compose ps -a -q redis)")"
 done_step "redis, minio healthy; bucket set up; MinIO published on 127.0.0.1:$MINIO_PORT only"
@@ -300,7 +321,7 @@ check_store() {  # check_store NETWORK ENV_FILE: reads MinIO from inside that ne
     -e AWS_SECRET_ACCESS_KEY="$(grep '^MINIO_ROOT_PASSWORD=' "$env_file" | cut -d= -f2-)" \
     -e BUCKET="$(grep '^RACER_BUCKET=' "$env_file" | cut -d= -f2-)" \
     -e PREFIX="$(grep '^RACER_MODEL_PREFIX=' "$env_file" | cut -d= -f2-)" \
-    "$RACER_IMAGE" - >"$log" 2>&1 <<'PY' || { cat "$log" >&2; fail "the store check (${3:-training}) failed: see above"; }
+    "$WORKER_IMAGE" - >"$log" 2>&1 <<'PY' || { cat "$log" >&2; fail "the store check (${3:-training}) failed: see above"; }
 import os, re, sys
 import boto3
 
@@ -426,7 +447,12 @@ else
   services="$(docker stack services "$STACK" --format '{{.Name}}' | sort | tr '\n' ' ')"
   [ "$services" = "${STACK}_minio ${STACK}_minio-setup ${STACK}_redis ${STACK}_rollout-0 ${STACK}_rollout-1 ${STACK}_trainer " ] \
     || fail "the stack has services '$services', expected minio, minio-setup, redis, rollout-0, rollout-1, trainer"
-  done_step "services: $services"
+  for service in trainer rollout-0 rollout-1; do
+    expected="$WORKER_IMAGE"; [ "$service" = trainer ] && expected="$TRAINER_IMAGE"
+    actual="$(docker service inspect -f '{{.Spec.TaskTemplate.ContainerSpec.Image}}' "${STACK}_$service")"
+    [ "${actual%%@*}" = "$expected" ] || fail "swarm service $service runs image $actual, expected $expected"
+  done
+  done_step "services: $services (trainer on $TRAINER_IMAGE, the others on $WORKER_IMAGE)"
 
   step "waiting for the swarm trainer to finish (at most $TRAIN_TIMEOUT_S s)"
   deadline=$((SECONDS + TRAIN_TIMEOUT_S))

@@ -20,6 +20,11 @@ keep the 4 newest checkpoints plus the best one named in deepracer_checkpoints.j
     number, env_steps = checkpoints.restore(name, network, optimizer=None)
     checkpoints.load(name), .load_policy(name), .load_inference_policy(name)
     checkpoints.record_evaluation(name, avg_eval_metric, time_stamp)    DeepRacer's best/last rule
+
+Importing this module imports no torch: what the rollout and evaluation workers do (the pointer, manifests,
+`load_inference_policy`: the ONNX model and a continuous policy's log-std through safetensors' numpy API, best/last)
+runs without it, so their image has none. The methods that build or fill a torch network (`load`, `restore`,
+`load_policy`, `save`) import the torch side, racer.shared.policy.checkpoint_tensors, when called.
 """
 
 from __future__ import annotations
@@ -28,9 +33,10 @@ import json
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-import torch
-from safetensors.torch import load as load_safetensors
+import numpy as np
+from safetensors.numpy import load as load_numpy_tensors
 
 from racer.shared import model_layout
 from racer.shared.deepracer.hyperparameters import (
@@ -48,6 +54,7 @@ from racer.shared.model_layout import (
     ModelLayout,
     checkpoint_name,
 )
+from racer.shared.policy.action_selection import LOG_STD_MAX, LOG_STD_MIN
 from racer.shared.policy.best_and_last import (
     BestAndLast,
     CheckpointRecord,
@@ -55,22 +62,23 @@ from racer.shared.policy.best_and_last import (
     best_and_last_to_bytes,
     read_best_and_last,
 )
-from racer.shared.policy.factory import PolicyNetwork, build_network
-from racer.shared.policy.manifest import (
-    CheckpointError,
-    CheckpointInfo,
-    package_versions,
-    sha256_hex,
-    tensors_to_bytes,
-)
-from racer.shared.policy.networks import LOG_STD_MAX, LOG_STD_MIN
-from racer.shared.policy.onnx_export import export_onnx
-from racer.shared.policy.optimizer_files import (
-    load_optimizer_state,
-    optimizer_state_from_files,
-    optimizer_state_to_files,
-)
+from racer.shared.policy.manifest import CheckpointError, CheckpointInfo, package_versions, sha256_hex
 from racer.shared.store import ObjectNotFoundError, ObjectStore
+
+if TYPE_CHECKING:
+    import torch
+
+    from racer.shared.policy.factory import PolicyNetwork
+
+__all__ = [
+    "NUM_CHECKPOINTS_TO_KEEP",
+    "BestAndLast",
+    "CheckpointError",
+    "CheckpointInfo",
+    "CheckpointRecord",
+    "CheckpointStore",
+    "LoadedCheckpoint",
+]
 
 NUM_CHECKPOINTS_TO_KEEP = 4
 
@@ -151,14 +159,16 @@ class CheckpointStore:
 
     def load(self, name: str | None = None) -> LoadedCheckpoint:
         """Weights, optimiser state and manifest of `name` (default: the pointer's checkpoint)."""
+        from racer.shared.policy.checkpoint_tensors import build_network, optimizer_state_from_files, tensors_from_bytes
+
         name = name or self.latest_name()
         if name is None:
             raise self._nothing_to_load()
         info = self.read_info(name)
-        network_state = load_safetensors(self._read_verified(info, name + WEIGHTS_SUFFIX))
+        network_state = tensors_from_bytes(self._read_verified(info, name + WEIGHTS_SUFFIX))
         optimizer_state = None
         if name + OPTIMIZER_TENSORS_SUFFIX in info.files:
-            tensors = load_safetensors(self._read_verified(info, name + OPTIMIZER_TENSORS_SUFFIX))
+            tensors = tensors_from_bytes(self._read_verified(info, name + OPTIMIZER_TENSORS_SUFFIX))
             scalars = json.loads(self._read_verified(info, name + OPTIMIZER_SCALARS_SUFFIX))
             network = build_network(info.policy_config)
             optimizer_state = optimizer_state_from_files(tensors, scalars, network)
@@ -172,6 +182,8 @@ class CheckpointStore:
         The network must have the checkpoint's structure (same PolicyConfig); without an optimiser only the weights
         are restored (e.g. cloning a pretrained model).
         """
+        from racer.shared.policy.checkpoint_tensors import load_optimizer_state, tensors_from_bytes
+
         loaded = self.load(name) if optimizer is not None else None
         info = loaded.info if loaded is not None else self.read_info(name)
         if info.policy_config != network.config:
@@ -184,7 +196,7 @@ class CheckpointStore:
                 raise CheckpointError(f"checkpoint {name} has no optimiser state to restore")
             load_optimizer_state(optimizer, network, loaded.optimizer_state)
         else:
-            network.load_state_dict(load_safetensors(self._read_verified(info, name + WEIGHTS_SUFFIX)))
+            network.load_state_dict(tensors_from_bytes(self._read_verified(info, name + WEIGHTS_SUFFIX)))
         return info.number, info.env_steps
 
     def select(self, which: str) -> str:
@@ -209,12 +221,14 @@ class CheckpointStore:
 
     def load_policy(self, name: str | None = None) -> PolicyNetwork:
         """The network of a checkpoint, ready to act (eval mode). Reads the weights only, not the optimiser."""
+        from racer.shared.policy.checkpoint_tensors import build_network, tensors_from_bytes
+
         name = name or self.latest_name()
         if name is None:
             raise self._nothing_to_load()
         info = self.read_info(name)
         network = build_network(info.policy_config)
-        network.load_state_dict(load_safetensors(self._read_verified(info, name + WEIGHTS_SUFFIX)))
+        network.load_state_dict(tensors_from_bytes(self._read_verified(info, name + WEIGHTS_SUFFIX)))
         return network.eval()
 
     def load_inference_policy(self, name: str | None = None):
@@ -222,7 +236,8 @@ class CheckpointStore:
 
         Same actions and log-probabilities as `load_policy(name).act` (see racer.shared.policy.onnx_policy), and
         cheaper per observation, because single-frame inference is mostly framework overhead. No torch network is
-        built: workers load a policy every iteration, so this stays cheap.
+        built, and torch is not imported: workers load a policy every iteration, so this stays cheap, and their image
+        has no torch (the log-std is read with safetensors' numpy API).
         """
         from racer.shared.policy.onnx_policy import OnnxPolicy, SacOnnxPolicy
 
@@ -235,8 +250,8 @@ class CheckpointStore:
             return SacOnnxPolicy(self._read_verified(info, onnx_file), info.policy_config)
         log_std = None
         if info.policy_config.is_continuous:  # the Gaussian's state-independent log-std is a weight, not in the graph
-            weights = load_safetensors(self._read_verified(info, name + WEIGHTS_SUFFIX))
-            log_std = weights["log_std"].clamp(LOG_STD_MIN, LOG_STD_MAX)
+            weights = load_numpy_tensors(self._read_verified(info, name + WEIGHTS_SUFFIX))
+            log_std = np.clip(weights["log_std"], LOG_STD_MIN, LOG_STD_MAX)
         return OnnxPolicy(self._read_verified(info, onnx_file), info.policy_config, log_std)
 
     def read_best_and_last(self) -> BestAndLast | None:
@@ -266,6 +281,8 @@ class CheckpointStore:
         `model_metadata` and `hyperparameters` go into the manifest (as DeepRacer's dicts) so a checkpoint says what
         produced it. Retention runs after the pointer moved.
         """
+        from racer.shared.policy.checkpoint_tensors import export_onnx, optimizer_state_to_files, tensors_to_bytes
+
         name = checkpoint_name(number, env_steps)
         files: dict[str, bytes] = {name + WEIGHTS_SUFFIX: tensors_to_bytes(network.state_dict())}
         if optimizer is not None:

@@ -6,14 +6,15 @@ A layer is a `ConvLayer` (RL Coach's `Conv2d(num_filters, kernel_size, strides)`
 activation (`relu`, `tanh` or `none`) and an optional dropout. DeepRacer's built-in networks use ReLU after every layer
 and neither batch-norm nor dropout (RL Coach's SCHEME embedders ignore those entries of DeepRacer's scheme dicts), so
 their layers are the defaults and build exactly the modules racer always built.
+
+This table needs no torch (a worker reads a checkpoint's PolicyConfig without it); the torch modules built from it are
+in racer.shared.policy.layer_modules.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-
-from torch import nn
 
 __all__ = [
     "ACTIVATIONS",
@@ -22,9 +23,7 @@ __all__ = [
     "ConvLayer",
     "DenseLayer",
     "NetworkArchitecture",
-    "conv_modules",
     "conv_output_shape",
-    "dense_modules",
 ]
 
 ACTIVATIONS = ("relu", "tanh", "none")
@@ -115,37 +114,3 @@ def conv_output_shape(height_px: int, width_px: int, convs: Sequence[ConvLayer])
         if height_px < 1 or width_px < 1:
             raise ValueError(f"convolution {conv} leaves no pixels")
     return height_px, width_px, channels
-
-
-def _after(layer: ConvLayer | DenseLayer, features: int, batchnorm: type[nn.Module]) -> list[nn.Module]:
-    """RL Coach's BatchnormActivationDropout: batch-norm, then the activation, then dropout."""
-    modules: list[nn.Module] = [batchnorm(features)] if layer.batchnorm else []
-    if layer.activation == "relu":
-        modules.append(nn.ReLU())
-    elif layer.activation == "tanh":
-        modules.append(nn.Tanh())
-    elif layer.activation != "none":
-        raise ValueError(f"activation must be one of {', '.join(ACTIVATIONS)}, got {layer.activation!r}")
-    if layer.dropout > 0.0:
-        modules.append(nn.Dropout(layer.dropout))
-    return modules
-
-
-def conv_modules(channels: int, convs: Sequence[ConvLayer]) -> nn.Sequential:
-    """'valid' Conv2d layers with what follows each; DeepRacer's: [Conv2d, ReLU] * n."""
-    modules: list[nn.Module] = []
-    for conv in convs:
-        modules.append(nn.Conv2d(channels, conv.filters, conv.kernel_px, conv.stride_px, padding=0))
-        modules += _after(conv, conv.filters, nn.BatchNorm2d)
-        channels = conv.filters
-    return nn.Sequential(*modules)
-
-
-def dense_modules(in_features: int, layers: Sequence[DenseLayer]) -> tuple[nn.Sequential, int]:
-    """Dense layers with what follows each, and the output size; DeepRacer's: [Linear, ReLU] * n."""
-    modules: list[nn.Module] = []
-    for layer in layers:
-        modules.append(nn.Linear(in_features, layer.units))
-        modules += _after(layer, layer.units, nn.BatchNorm1d)
-        in_features = layer.units
-    return nn.Sequential(*modules), in_features

@@ -1,6 +1,6 @@
 """The manifest racer writes last for each checkpoint (`model/<N>_Step-<M>.ckpt.json`): what produced the
 checkpoint and the size and sha256 of each of its files, so a reader can tell a complete checkpoint from a
-half-written or replaced one."""
+half-written or replaced one. Reading one needs no torch (the rollout and evaluation workers have none)."""
 
 from __future__ import annotations
 
@@ -10,10 +10,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from importlib import metadata as package_metadata
 
-import torch
-from safetensors.torch import save as save_safetensors
-
-from racer.shared.policy.networks import CONTINUOUS_MEAN, PolicyConfig
+from racer.shared.policy.policy_config import CONTINUOUS_MEAN, PolicyConfig
 
 FORMAT = "racer-checkpoint-1"
 
@@ -84,12 +81,11 @@ def sha256_hex(data: bytes) -> str:
     return hashlib.sha256(data).hexdigest()
 
 
-def tensors_to_bytes(tensors: Mapping[str, torch.Tensor]) -> bytes:
-    """safetensors bytes of a state dict (no pickle anywhere)."""
-    return save_safetensors({name: tensor.detach().contiguous() for name, tensor in tensors.items()})
-
-
 def package_versions() -> dict[str, str]:
+    """What saved a checkpoint (the trainer, which has torch: imported here, not at module level, so that reading a
+    manifest needs no torch)."""
+    import torch
+
     versions = {"python": platform.python_version(), "torch": torch.__version__}
     for package in ("racer", "safetensors", "onnx"):
         try:

@@ -12,8 +12,9 @@ Public API
   or the Gaussian mean, DeepRacer's linear head output).
 - `ActorCritic.act(observation, greedy, generator=None, epsilon=0.0) -> (action, log_prob)`: one observation as a dict
   of numpy arrays (sensor name -> array without batch axis), for the rollout and evaluation workers;
-  `select_action(distribution, ...)` is the sampling rule it applies (argmax/mean, sampling, e-greedy).
-- `e_greedy_epsilon(env_step, final_epsilon, decay_steps)`: DeepRacer's `LinearSchedule(1.0, e_greedy_value,
+  `select_action(distribution, ...)` is the sampling rule it applies (argmax/mean, sampling, e-greedy), numpy code
+  from racer.shared.policy.action_selection, which the torch-free workers run on ONNX Runtime's outputs.
+- `e_greedy_epsilon(env_step, final_epsilon, decay_steps)` (from action_selection): DeepRacer's `LinearSchedule(1.0, e_greedy_value,
   epsilon_steps)` for the `e-greedy` exploration type.
 - `conv_output_shape(...)`, `NETWORK_ARCHITECTURES`: the layer tables, exposed for tests and tools.
 
@@ -22,9 +23,10 @@ grayscale values (uint8 or float), lidar (B, n) float. The network divides image
 kept end to end (a (B, H, W, C) array viewed as NCHW *is* PyTorch's channels_last layout, so no copy), and conv
 features are flattened in (H, W, C) order, Keras' order, so weights map one to one onto a TF-style graph.
 
-Layers (racer.shared.policy.layers): DeepRacer's three networks have Conv2d with 'valid' padding and ReLU after every
-conv and dense layer of the embedders and middleware (RL Coach's SCHEME embedders ignore the batch-norm/dropout/tanh
-entries of DeepRacer's scheme dicts); your own network (network.json, racer.shared.policy.network_file, carried in
+Layers (racer.shared.policy.layers, the table; racer.shared.policy.layer_modules, its torch modules): DeepRacer's
+three networks have Conv2d with 'valid' padding and ReLU after every conv and dense layer of the embedders and
+middleware (RL Coach's SCHEME embedders ignore the batch-norm/dropout/tanh entries of DeepRacer's scheme dicts); your
+own network (network.json, racer.shared.policy.network_file, carried in
 `PolicyConfig.network`) may add batch-norm, tanh or no activation, and dropout per layer. The policy
 and value towers are separate copies of embedders + middleware (`use_separate_networks_per_head = True`).
 
@@ -46,23 +48,34 @@ import numpy as np
 import torch
 from torch import nn
 
+from racer.shared.policy.action_selection import (
+    E_GREEDY_EVALUATION_EPSILON,
+    LOG_STD_MAX,
+    LOG_STD_MIN,
+    e_greedy_epsilon,
+    sample_categorical,
+    select_discrete_action,
+    select_gaussian_action,
+)
+from racer.shared.policy.layer_modules import conv_modules, dense_modules
 from racer.shared.policy.layers import (
     LIDAR_EMBEDDER_DENSE,
     NETWORK_ARCHITECTURES,
     ConvLayer,
     DenseLayer,
     NetworkArchitecture,
-    conv_modules,
     conv_output_shape,
-    dense_modules,
 )
 from racer.shared.policy.network_file import NetworkFile
-from racer.shared.policy.policy_config import InputSpec, PolicyConfig, policy_config_from_metadata
+from racer.shared.policy.policy_config import CONTINUOUS_MEAN, InputSpec, PolicyConfig, policy_config_from_metadata
 
 if TYPE_CHECKING:
     from racer.shared.deepracer.model_metadata import ModelMetadata
 
 __all__ = [
+    "CONTINUOUS_MEAN",
+    "LOG_STD_MAX",
+    "LOG_STD_MIN",
     "NETWORK_ARCHITECTURES",
     "ActorCritic",
     "CategoricalPolicy",
@@ -81,16 +94,13 @@ __all__ = [
     "policy_config_from_metadata",
     "sample_categorical",
     "select_action",
+    "select_discrete_action",
 ]
 
 PIXEL_SCALE = 255.0
 """RL Coach's `input_rescaling['image']`: images enter raw 0-255 and are divided inside the network."""
 MIN_PROBABILITY = 1e-8
 """Discrete head floor, `max(softmax, 1e-8)` (ppo_head.py)."""
-LOG_STD_MIN = -20.0
-LOG_STD_MAX = 3.0
-CONTINUOUS_MEAN = "linear"
-"""The continuous head's mean function, recorded in every checkpoint manifest: DeepRacer's linear mean."""
 
 
 # --------------------------------------------------------------------------------------------------------------------
@@ -311,28 +321,6 @@ class ActorCritic(nn.Module):
         return select_action(distribution, greedy, generator, epsilon)
 
 
-def select_discrete_action(
-    probs: np.ndarray, greedy: bool, rng: np.random.Generator, epsilon: float = 0.0
-) -> tuple[int, float]:
-    """`select_action` for one row of action probabilities (float64), without building a torch distribution: the
-    rollout workers' per-step path."""
-    if epsilon > 0.0:
-        action = int(rng.integers(len(probs))) if rng.random() < epsilon else int(probs.argmax())
-    elif greedy:
-        action = int(probs.argmax())
-    else:
-        action = sample_categorical(probs / probs.sum(), rng)
-    return action, float(np.log(probs[action]))
-
-
-def sample_categorical(p: np.ndarray, rng: np.random.Generator) -> int:
-    """`int(rng.choice(len(p), p=p))` for probabilities that sum to 1: the same draw from the same generator state,
-    without `choice`'s argument checks, which took most of a rollout step's action choice (tests hold the two equal)."""
-    cdf = p.cumsum()
-    cdf /= cdf[-1]
-    return int(cdf.searchsorted(rng.random(), side="right"))
-
-
 def select_action(
     distribution: ActionDistribution,
     greedy: bool,
@@ -350,14 +338,9 @@ def select_action(
     rng = generator if generator is not None else np.random.default_rng()
     if isinstance(distribution, CategoricalPolicy):
         return select_discrete_action(distribution.probs[0].double().numpy(), greedy, rng, epsilon)
-    if epsilon > 0.0:
-        raise ValueError("e-greedy exploration is for discrete action spaces; continuous policies sample a Gaussian")
-    mean = distribution.mean[0].double().numpy()
-    log_std = distribution.log_std.double().numpy()
-    action = mean if greedy else mean + np.exp(log_std) * rng.standard_normal(mean.shape)
-    z = (action - mean) / np.exp(log_std)
-    log_prob = float(np.sum(-0.5 * z**2 - log_std - 0.5 * math.log(2 * math.pi)))
-    return action.astype(np.float32), log_prob
+    return select_gaussian_action(
+        distribution.mean[0].double().numpy(), distribution.log_std.double().numpy(), greedy, rng, epsilon
+    )
 
 
 def build_actor_critic(metadata: ModelMetadata) -> ActorCritic:
@@ -368,16 +351,3 @@ def build_actor_critic(metadata: ModelMetadata) -> ActorCritic:
             f"training_algorithm {config.training_algorithm!r}: build it with racer.shared.policy.factory.build_network"
         )
     return ActorCritic(config)
-
-
-E_GREEDY_EVALUATION_EPSILON = 0.05
-"""RL Coach's `EGreedyParameters.evaluation_epsilon`: with `e-greedy` exploration the in-training evaluation episodes
-(TEST phase) still take a random action with this probability; DeepRacer does not change it."""
-
-
-def e_greedy_epsilon(env_step: int, final_epsilon: float, decay_steps: int) -> float:
-    """DeepRacer's e-greedy schedule, `LinearSchedule(1.0, e_greedy_value, epsilon_steps)`, at `env_step`."""
-    if decay_steps <= 0:
-        return final_epsilon
-    fraction = min(1.0, max(0, env_step) / decay_steps)
-    return 1.0 + fraction * (final_epsilon - 1.0)

@@ -4,8 +4,9 @@ A rollout worker chooses one action per frame. ONNX Runtime's default graph opti
 the fastest exact path measured on AVX2, ahead of the PyTorch module in either memory layout. In the shallow
 network most of a small batch's call is the 11264x512 dense layer, which streams its 23 MB of weights from memory
 once per call whatever the batch; so the cost per frame falls with the batch (the README's benchmarks give figures).
-Action choice itself is `networks.select_action`, so
-sampling, argmax and e-greedy behave exactly as `ActorCritic.act`.
+Action choice itself is numpy alone (racer.shared.policy.action_selection, which
+`networks.select_action` runs too), so sampling, argmax and e-greedy behave exactly as `ActorCritic.act`, and this
+module imports no torch: the rollout and evaluation workers' image carries none.
 
 The exported graph (`model_<N>.onnx`) declares batch 1, as DeepRacer's car model does; its operators (Conv, Flatten,
 Gemm, Softmax) do not depend on the batch, so the session is built from a copy whose batch dimension is declared
@@ -20,9 +21,13 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 import onnx
 import onnxruntime
-import torch
 
-from racer.shared.policy.networks import GaussianPolicy, PolicyConfig, select_action, select_discrete_action
+from racer.shared.policy.action_selection import (
+    select_discrete_action,
+    select_gaussian_action,
+    select_squashed_gaussian_action,
+)
+from racer.shared.policy.policy_config import PolicyConfig
 
 
 def _free_batch(onnx_bytes: bytes) -> bytes:
@@ -53,15 +58,15 @@ def _feed(inputs: Mapping[str, tuple[int, ...]], observations: Sequence[Mapping[
 
 
 class OnnxPolicy:
-    def __init__(self, onnx_bytes: bytes, config: PolicyConfig, log_std: torch.Tensor | None = None):
-        """`log_std` (continuous policies): the network's clipped log-std parameter, shape (2,)."""
+    def __init__(self, onnx_bytes: bytes, config: PolicyConfig, log_std: np.ndarray | None = None):
+        """`log_std` (continuous policies): the network's clipped log-std parameter (float32), shape (2,)."""
         self._session = _session(onnx_bytes)
         self.config = config
         self._inputs = {spec.name: spec.shape for spec in config.inputs}
         self._continuous = config.is_continuous
         if self._continuous and log_std is None:
             raise ValueError("a continuous policy needs the network's log_std")
-        self._log_std = None if log_std is None else torch.as_tensor(log_std, dtype=torch.float32).detach().clone()
+        self._log_std = None if log_std is None else np.array(log_std, dtype=np.float32).astype(np.float64)
 
     def eval(self) -> OnnxPolicy:
         """For symmetry with ActorCritic (an inference session has no training mode)."""
@@ -77,12 +82,10 @@ class OnnxPolicy:
         return self.policy_outputs([observation])[0]
 
     def _select(self, output: np.ndarray, greedy: bool, generator, epsilon: float) -> tuple[int | np.ndarray, float]:
+        rng = generator if generator is not None else np.random.default_rng()
         if not self._continuous:
-            rng = generator if generator is not None else np.random.default_rng()
             return select_discrete_action(output.astype(np.float64), greedy, rng, epsilon)
-        return select_action(
-            GaussianPolicy(mean=torch.from_numpy(output[None]), log_std=self._log_std), greedy, generator, epsilon
-        )
+        return select_gaussian_action(output.astype(np.float64), self._log_std, greedy, rng, epsilon)
 
     def act(
         self,
@@ -153,14 +156,5 @@ class SacOnnxPolicy:
 
     @staticmethod
     def _act_row(deterministic, mean, log_std, greedy: bool, generator, epsilon: float) -> tuple[np.ndarray, float]:
-        from racer.shared.policy.sac_networks import squashed_gaussian_log_prob
-
-        if epsilon > 0.0:
-            raise ValueError("e-greedy exploration is for discrete action spaces; SAC samples its squashed Gaussian")
-        if greedy:
-            return deterministic.astype(np.float32), 0.0
         rng = generator if generator is not None else np.random.default_rng()
-        raw = mean + np.exp(log_std) * rng.standard_normal(mean.shape)
-        action = np.tanh(raw)
-        log_prob = squashed_gaussian_log_prob(*(torch.from_numpy(a) for a in (raw, action, mean, log_std)))
-        return action.astype(np.float32), float(log_prob)
+        return select_squashed_gaussian_action(deterministic, mean, log_std, greedy, rng, epsilon)

@@ -23,6 +23,8 @@ if TYPE_CHECKING:
 IMAGE_HEIGHT_PX = 120
 IMAGE_WIDTH_PX = 160
 CAMERA_CHANNELS: dict[str, int] = {"FRONT_FACING_CAMERA": 1, "LEFT_CAMERA": 1, "observation": 1, "STEREO_CAMERAS": 2}
+CONTINUOUS_MEAN = "linear"
+"""The continuous head's mean function, recorded in every checkpoint manifest: DeepRacer's linear mean."""
 LIDAR_SIZES: dict[str, int] = {"LIDAR": 64, "SECTOR_LIDAR": 8}
 """DISCRETIZED_SECTOR_LIDAR's size comes from `lidar_config` (num_sectors * num_values_per_sector)."""
 

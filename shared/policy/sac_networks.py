@@ -18,7 +18,8 @@ Public API
   tanh(mean) in the network's [-1, 1] box, which evaluation drives and the ONNX model outputs first.
 - The exported ONNX model (`racer.shared.policy.onnx_export`) outputs `policy` (tanh(mean), [1, 2]), `policy_mean`
   (before tanh) and `policy_log_std` (clipped): a worker samples from it, evaluation and the car read `policy`.
-- `squashed_gaussian_log_prob(raw, action, mean, log_std)`: one formula for the trainer and the workers.
+- `squashed_gaussian_log_prob(raw, action, mean, log_std)`: the trainer's (torch, differentiable); the workers run its
+  numpy twin in racer.shared.policy.action_selection, tested equal.
 
 Actions live in the network's [-1, 1] box, like racer's continuous PPO: the environment maps them linearly onto
 [low, high] of model_metadata.json (DeepRacer's `BoxActionSpace(low, high)` with the head rescaling). Two conscious
@@ -38,6 +39,7 @@ from dataclasses import dataclass
 import torch
 from torch import nn
 
+from racer.shared.policy.action_selection import SQUASH_EPSILON
 from racer.shared.policy.networks import PolicyConfig, Tower
 
 __all__ = [
@@ -55,15 +57,14 @@ SAC_HIDDEN_UNITS = 256
 SAC_LOG_STD_MIN = -20.0
 SAC_LOG_STD_MAX = 2.0
 """SACPolicyHeadParameters.log_std_bounds."""
-SQUASH_EPSILON = float(torch.finfo(torch.float32).eps)
-"""RL Coach's `eps` in the tanh correction log(1 - a^2 + eps)."""
 
 
 def squashed_gaussian_log_prob(
     raw: torch.Tensor, action: torch.Tensor, mean: torch.Tensor, log_std: torch.Tensor
 ) -> torch.Tensor:
     """log pi(a|s) of a = tanh(raw), raw ~ N(mean, exp(log_std)): Gaussian density minus sum log(1 - a^2 + eps), the
-    correction clipped to [1e-10, 1] as in DeepRacer's head. Shapes (B, 2) -> (B,)."""
+    correction clipped to [1e-10, 1] as in DeepRacer's head. Shapes (B, 2) -> (B,). The workers' numpy twin is
+    racer.shared.policy.action_selection.squashed_gaussian_log_prob (tested equal)."""
     z = (raw - mean) * torch.exp(-log_std)
     gaussian = (-0.5 * z.square() - log_std - 0.5 * math.log(2 * math.pi)).sum(dim=-1)
     correction = torch.log((1.0 - action.square() + SQUASH_EPSILON).clamp(1e-10, 1.0)).sum(dim=-1)

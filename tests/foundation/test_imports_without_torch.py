@@ -1,0 +1,56 @@
+"""The worker image's contract: the rollout worker, the evaluation worker and the live viewer import no torch.
+
+Their docker image (docker/Dockerfile, target `worker`) has no torch; the trainer's has. Each entry module is imported
+in a fresh interpreter, with the module the command then runs (`racer rollout` builds a `RolloutWorker`, `racer
+evaluate` an `EvaluationSession`, `racer view` the app), and `torch` must not be in `sys.modules` afterwards. A module
+that needs torch again on that path fails here, before the worker image fails at run time.
+(tests/policy/test_action_selection.py also acts with saved checkpoints in a process where torch cannot be imported.)
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import pytest
+
+WORKER_PATHS = {
+    "rollout": ["racer.cli", "racer.rollout_worker.main", "racer.rollout_worker.worker"],
+    "evaluation": ["racer.cli", "racer.evaluation_worker.main", "racer.evaluation_worker.runner"],
+    "viewer": ["racer.cli", "racer.viewer.cli", "racer.viewer.app", "racer.viewer.live"],
+    "minio-setup": ["racer.shared.store"],
+}
+TORCH_MODULES = ("torch", "safetensors.torch")
+
+_PROBE = """
+import importlib, json, sys
+for name in sys.argv[1:]:
+    importlib.import_module(name)
+print(json.dumps(sorted(name for name in sys.modules if name in {torch_modules!r})))
+"""
+
+
+@pytest.mark.parametrize("role", sorted(WORKER_PATHS))
+def test_the_worker_image_roles_import_no_torch(role):
+    result = subprocess.run(
+        [sys.executable, "-c", _PROBE.format(torch_modules=set(TORCH_MODULES)), *WORKER_PATHS[role]],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.strip() == "[]", (
+        f"importing {WORKER_PATHS[role]} imported {result.stdout.strip()}: the {role} runs in the image without torch "
+        f"(find the importer with: python -X importtime -c 'import {WORKER_PATHS[role][-1]}' 2>&1 | grep -w torch)"
+    )
+
+
+def test_the_probe_sees_torch_when_a_module_imports_it():
+    result = subprocess.run(
+        [sys.executable, "-c", _PROBE.format(torch_modules=set(TORCH_MODULES)), "racer.shared.policy.networks"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert result.returncode == 0, result.stderr
+    assert "torch" in result.stdout
