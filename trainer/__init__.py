@@ -2,7 +2,9 @@
 
 `racer.trainer.preflight` (custom files checked before anything starts), `racer.trainer.ppo` (PPOTrainer.update,
 DeepRacer's log lines), `racer.trainer.sac` (SACTrainer.update) with `racer.trainer.replay` (its replay memory),
-`racer.trainer.gae`, `racer.trainer.nan_guard`; the process loop is `racer.trainer.training_loop` / `racer.trainer.main`.
+`racer.trainer.gae`, `racer.trainer.nan_guard`; the process loop is `racer.trainer.training_loop` / `racer.trainer.main`,
+with the run's files (`racer.trainer.run_files`), the iteration summary (`racer.trainer.iteration_summary`) and the
+stop signals and time limit (`racer.trainer.stopping`) beside it.
 Networks and checkpoints live in `racer.shared.policy`, because the rollout and evaluation workers load them too.
 The trainer's benches (`racer bench ppo`, `racer bench sac`) live in `racer.benches`.
 """

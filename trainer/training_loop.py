@@ -9,53 +9,46 @@ One iteration k, top to bottom:
    memory without counting it, and drops older ones), a second copy of an episode number is dropped, and the
    claims of a worker with no heartbeat go back to the queue for a live worker (racer.trainer.collector);
 3. print DeepRacer's `Training>` line per episode, run the learner's update, print `Policy training>` lines;
-4. save checkpoint k+1 to the store (files first, then `.coach_checkpoint`), then acknowledge the batches.
+4. save checkpoint k+1 to the store (files first, then `.coach_checkpoint`), record the iteration's summary
+   (racer.trainer.iteration_summary), then acknowledge the batches.
 A trainer killed at any point restarts from the newest checkpoint: unacknowledged batches are read again.
+
+Before the first iteration the run's custom files are checked and published (racer.trainer.run_files); a signal
+or the wall-time limit stops the loop (racer.trainer.stopping).
 """
 
 from __future__ import annotations
 
-import json
 import logging
-import signal
 import threading
 import time
-from collections import defaultdict
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
 import torch
 
 from racer.shared import model_layout
 from racer.shared.config import ServiceSettings
-from racer.shared.deepracer.hyperparameters import Hyperparameters, hyperparameters_to_json_bytes
-from racer.shared.deepracer.model_metadata import ModelMetadata
-from racer.shared.deepracer.training_params import training_params_to_yaml
-from racer.shared.episode import Episode
 from racer.shared.model_layout import ModelLayout
 from racer.shared.policy.checkpoints import CheckpointStore
-from racer.shared.policy.network_file import NETWORK_FILE, NetworkFile
+from racer.shared.policy.network_file import NetworkFile
 from racer.shared.redis_connection import RedisLink, RedisUnavailableError
 from racer.shared.sim.car_dynamics import DEFAULT_CAR_PROFILE
-from racer.shared.store import ObjectNotFoundError, open_store
+from racer.shared.store import open_store
 from racer.shared.transport.channels import ReceivedBatch, RunChannel
-from racer.shared.worker_settings import WorkerSettings
 from racer.trainer.algorithms import LearnerOptions, build_learner
 from racer.trainer.collector import Collector, CollectTimes, StopRequested
+from racer.trainer.iteration_summary import iteration_summary, record_summary
 from racer.trainer.learner import UpdateAbandoned
 from racer.trainer.log_lines import format_training_episode_line
 from racer.trainer.memory_cap import cap_episodes, default_max_memory_steps, global_episode_order
 from racer.trainer.precision import DEFAULT_PRECISION, Precision
-from racer.trainer.preflight import PreflightReport, check_clone_source, preflight
-from racer.trainer.preset import PRESET_FILE, Preset
+from racer.trainer.preflight import PreflightReport, check_clone_source
+from racer.trainer.preset import Preset
+from racer.trainer.run_files import MODEL_METADATA_FILE, publish_run_files, read_run_files
+from racer.trainer.stopping import STOP_UPDATE_GRACE_S, start_time_limit, stop_on_signals, update_abandoner
 
 log = logging.getLogger(__name__)
-
-
-STOP_UPDATE_GRACE_S = 10.0
-"""A stop that arrives during the PPO update lets it run this much longer (then save the checkpoint); a longer
-update is abandoned, the newest saved checkpoint stays the final one, so every process is gone within 30 s."""
 
 
 @dataclass(frozen=True)
@@ -101,12 +94,6 @@ class TrainerOptions:
     """The custom files as `racer trainer` checked them; None: the trainer runs the preflight itself."""
 
 
-def _world_steps_per_s(episodes: list[Episode]) -> float:
-    """Experience rate of one world: the rates its workers measured while playing their shares, added up."""
-    by_worker = {e.worker_id: float(e.info.get("rollout_steps_per_s", 0.0)) for e in episodes}
-    return round(sum(by_worker.values()), 1)
-
-
 class Trainer:
     def __init__(self, settings: ServiceSettings, options: TrainerOptions):
         self.options = options
@@ -128,58 +115,24 @@ class Trainer:
         """preset.json of the custom files, when there is one."""
 
     # ---- set-up ----------------------------------------------------------------------------------
-    def _read_custom_files(self) -> tuple[ModelMetadata, Hyperparameters, bytes, list[WorkerSettings]]:
-        folder = self.options.custom_files
-        report = self.options.preflight or preflight(
-            folder,
-            self.options.num_workers,
-            self.options.track,
-            self.options.worlds,
-            domain_randomization=self.options.domain_randomization,
-            car_randomization=self.options.car_randomization,
-            race_params=self.options.race_params,
-            car_profile=self.options.car_profile,
-            dynamics_randomization=self.options.dynamics_randomization,
-        )
-        for warning in report.warnings:
-            log.warning(warning)
-        self.network_file, self.preset = report.network, report.preset
-        return (
-            report.model_metadata,
-            report.hyperparameters,
-            (folder / "reward_function.py").read_bytes(),
-            list(report.workers),
-        )
-
-    def _upload_run_files(
-        self,
-        metadata_bytes: bytes,
-        hyperparameters: Hyperparameters,
-        metadata: ModelMetadata,
-        reward_bytes: bytes,
-        workers: list[WorkerSettings],
-    ) -> None:
-        self.store.put_bytes(self.layout.model_metadata, metadata_bytes)
-        if self.network_file is not None:  # beside model_metadata.json, verbatim: evaluation and clones read it
-            self.store.put_bytes(self.layout.network, (self.options.custom_files / NETWORK_FILE).read_bytes())
-        if self.preset is not None:  # beside the hyperparameters, verbatim
-            self.store.put_bytes(self.layout.preset, (self.options.custom_files / PRESET_FILE).read_bytes())
-        self.store.put_bytes(
-            self.layout.hyperparameters, hyperparameters_to_json_bytes(hyperparameters, metadata.training_algorithm)
-        )
-        self.store.put_bytes(self.layout.reward_function, reward_bytes)
-        params = [w.to_training_params(self.options.model_prefix, len(workers)) for w in workers]
-        for worker_id, worker_params in enumerate(params):
-            if worker_id == 0 or worker_params != params[0]:
-                self.store.put_bytes(
-                    self.layout.training_params(worker_id), training_params_to_yaml(worker_params).encode()
-                )
-        self.store.put_bytes(self.layout.ip_done, b"done")
-
     def setup(self) -> int:
         """Upload the run's files, restore or create the newest checkpoint; returns its number."""
         torch.manual_seed(self.options.seed)
-        metadata, hyperparameters, reward_bytes, workers = self._read_custom_files()
+        options = self.options
+        files = read_run_files(
+            options.custom_files,
+            options.num_workers,
+            options.track,
+            options.worlds,
+            domain_randomization=options.domain_randomization,
+            car_randomization=options.car_randomization,
+            race_params=options.race_params,
+            car_profile=options.car_profile,
+            dynamics_randomization=options.dynamics_randomization,
+            report=options.preflight,
+        )
+        self.network_file, self.preset = files.network, files.preset
+        metadata, hyperparameters = files.model_metadata, files.hyperparameters
         self.metadata, self.hyperparameters = metadata, hyperparameters
         self.learner = build_learner(
             metadata,
@@ -218,8 +171,7 @@ class Trainer:
             if self.options.pretrained_prefix:
                 self._clone_from_pretrained()  # checked first: a refused clone leaves nothing behind
             self.channel.delete_run_keys()
-            metadata_bytes = (self.options.custom_files / "model_metadata.json").read_bytes()
-            self._upload_run_files(metadata_bytes, hyperparameters, metadata, reward_bytes, workers)
+            publish_run_files(self.store, self.layout, self.options.model_prefix, files)
             iteration = 0
             self._save(iteration)
             self.store.put_bytes(self.layout.ready, b"")
@@ -234,7 +186,7 @@ class Trainer:
             self.store,
             source_prefix,
             self.metadata,
-            str(self.options.custom_files / "model_metadata.json"),
+            str(self.options.custom_files / MODEL_METADATA_FILE),
             self.network_file,
         )
         source = CheckpointStore(self.store, source_prefix)
@@ -294,17 +246,9 @@ class Trainer:
                 flush=True,
             )
         self.episodes_consumed += len(capped.dropped)  # played, so they count towards the episode limit
-        stop_seen: list[float] = []
-
-        def abandon() -> bool:
-            if not self.stop_event.is_set():
-                return False
-            stop_seen[:] = stop_seen or [time.monotonic()]
-            return time.monotonic() - stop_seen[0] > STOP_UPDATE_GRACE_S
-
         update_started = time.monotonic()
         try:
-            all_stats = self.learner.update(episodes, abandon=abandon)
+            all_stats = self.learner.update(episodes, abandon=update_abandoner(self.stop_event))
         except UpdateAbandoned:
             log.warning(
                 "stopping: abandoned the update of iteration %d after %.0f s; the final checkpoint is %s",
@@ -316,7 +260,9 @@ class Trainer:
         for line in self.learner.training_lines(all_stats):
             print(line, flush=True)
         update_s = time.monotonic() - update_started
-        summary = self._summary(iteration, episodes, rollout_wall_s)
+        summary = iteration_summary(
+            iteration, episodes, self.env_steps, rollout_wall_s, elapsed_s=time.monotonic() - self.started
+        )
         summary.update(
             episodes_dropped=len(capped.dropped),
             steps_dropped=capped.dropped_steps,
@@ -324,41 +270,6 @@ class Trainer:
             update_s=round(update_s, 3),
         )
         return summary
-
-    def _summary(self, iteration: int, episodes: list[Episode], rollout_wall_s: float) -> dict:
-        by_world = defaultdict(list)
-        for episode in episodes:
-            by_world[episode.world].append(episode)
-        steps = sum(e.steps for e in episodes)
-        return {
-            "iteration": iteration,
-            "episodes": len(episodes),
-            "env_steps_total": self.env_steps,
-            "mean_reward": float(np.mean([e.total_reward for e in episodes])),
-            "mean_progress": float(np.mean([e.progress for e in episodes])),
-            "completion_rate": float(np.mean([e.final_status == "lap_complete" for e in episodes])),
-            "experience_steps_per_s": steps / max(rollout_wall_s, 1e-6),
-            "elapsed_s": time.monotonic() - self.started,
-            "worlds": {
-                world: {
-                    "episodes": len(items),
-                    "mean_reward": float(np.mean([e.total_reward for e in items])),
-                    "mean_progress": float(np.mean([e.progress for e in items])),
-                    "completion_rate": float(np.mean([e.final_status == "lap_complete" for e in items])),
-                    "steps_per_s": _world_steps_per_s(items),
-                }
-                for world, items in by_world.items()
-            },
-        }
-
-    def _record_summary(self, summary: dict) -> None:
-        key = self.layout.iterations_log  # the store first: it is the record, the stream only feeds displays
-        try:
-            existing = self.store.get_bytes(key)
-        except ObjectNotFoundError:
-            existing = b""
-        self.store.put_bytes(key, existing + json.dumps(summary).encode() + b"\n")
-        self.channel.publish("iterations", summary)
 
     def _should_stop(self) -> bool:
         max_episodes = self.options.max_episodes or self.hyperparameters.term_cond_max_episodes
@@ -376,7 +287,8 @@ class Trainer:
         A failure (an exception) writes neither: the run stays resumable, and a restarted trainer continues from
         the newest checkpoint with the workers still waiting for it.
         """
-        time_limit = self._start_time_limit()  # before setup: its last step waits for Redis too
+        # The time limit starts before setup: its last step waits for Redis too.
+        time_limit = start_time_limit(self.stop_event, self.options.max_minutes, self.started)
         stopped_cleanly = False
         try:
             try:
@@ -430,34 +342,12 @@ class Trainer:
         summary = self.train_iteration(iteration, batches, time.monotonic() - announced)
         self._save(iteration + 1)
         self.iteration = iteration + 1
-        self._record_summary(summary)
+        record_summary(self.store, self.layout, self.channel, summary)
         self.channel.ack(*[b.stream_id for b in batches.values()])
         self.channel.forget_iteration(iteration, self.options.num_workers)
-
-    def _start_time_limit(self) -> threading.Timer | None:
-        """`max_minutes` as a timer on the stop event: honoured while the trainer waits for episodes or for Redis,
-        not only between iterations."""
-        if self.options.max_minutes is None:
-            return None
-
-        def time_is_up() -> None:
-            log.info("stopping: wall-time limit of %.1f minutes reached", self.options.max_minutes)
-            self.stop_event.set()
-
-        delay_s = max(0.0, 60 * self.options.max_minutes - (time.monotonic() - self.started))
-        timer = threading.Timer(delay_s, time_is_up)
-        timer.daemon = True
-        timer.start()
-        return timer
 
 
 def run_trainer(settings: ServiceSettings, options: TrainerOptions) -> None:
     trainer = Trainer(settings, options)
-
-    def request_stop(signum, frame):
-        log.info("signal %d: finishing the current step, then writing .finished", signum)
-        trainer.stop_event.set()
-
-    signal.signal(signal.SIGTERM, request_stop)
-    signal.signal(signal.SIGINT, request_stop)
+    stop_on_signals(trainer.stop_event)
     trainer.run()

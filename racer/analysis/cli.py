@@ -9,8 +9,9 @@ import click
 import pandas as pd
 
 from racer.analysis import aggregate
-from racer.analysis.pipeline import Analysis, analyze
+from racer.analysis.pipeline import analyze
 from racer.analysis.report import format_table
+from racer.analysis.results import Analysis
 from racer.analysis.sources import TRAINING, SourceError
 from racer.analysis.track_sections import TrackError
 from racer.shared.deepracer.simtrace import SimtraceError

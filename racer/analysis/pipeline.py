@@ -1,124 +1,27 @@
-"""From a source to tables, pictures and the HTML report; the CLI is a thin shell around `analyze`."""
+"""From a source to tables, pictures and the HTML report; the CLI is a thin shell around `analyze`.
+
+The tables and what was made of them are an `Analysis` (racer.analysis.results); the run's track is found by
+racer.analysis.run_track, the report's contents are chosen by racer.analysis.report_contents.
+"""
 
 from __future__ import annotations
 
-import re
 import sys
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import pandas as pd
-import yaml
 
 from racer.analysis import action_distributions, aggregate, plots, training_metrics, whatif
 from racer.analysis.loading import load_steps
-from racer.analysis.race_layout import RaceLayout, race_layout
-from racer.analysis.report import Report, write_html
+from racer.analysis.race_layout import race_layout
+from racer.analysis.report_contents import build_report
+from racer.analysis.results import Analysis, for_pictures, on_track
+from racer.analysis.run_track import resolve_track
 from racer.analysis.sources import EVALUATION, TRAINING, RunFiles, open_source
-from racer.analysis.track_sections import Track, TrackError, forward_waypoint, load_track, reversed_episodes
+from racer.analysis.track_sections import TrackError, forward_waypoint, reversed_episodes
 from racer.shared.deepracer.metrics import MetricsError
 
 NEEDS_TRACK = "the reward what-if rebuilds params from the track: give --track NAME|PATH.npy"
-HTML_EPISODES = 200
-"""Episode rows shown in the report; a long run has thousands, the CSV has them all."""
-
-
-@dataclass
-class Analysis:
-    files: RunFiles
-    steps: pd.DataFrame
-    episodes: pd.DataFrame
-    iterations: pd.DataFrame
-    iterations_by_worker: pd.DataFrame
-    workers: pd.DataFrame
-    evaluation_laps: pd.DataFrame
-    evaluations: pd.DataFrame
-    track: Track | None
-    notes: list[str] = field(default_factory=list)
-    pictures: dict[str, Path] = field(default_factory=dict)
-    tables_written: dict[str, Path] = field(default_factory=dict)
-    report_path: Path | None = None
-    reward_comparison: pd.DataFrame | None = None
-    reversed_episodes: pd.Series | None = None
-    """Per episode, whether it was driven on the reversed route (only known with a track)."""
-    track_workers: set[int] | None = None
-    """Training workers that drove `track` (None = all of them)."""
-    metrics_iterations: pd.DataFrame | None = None
-    """Per iteration from TrainingMetrics JSON (training and in-training evaluation), when the source has it."""
-    picture_iterations: tuple[int, int | None] | None = None
-    """(first, last or None = to the end): training iterations the track pictures and the what-if use."""
-    layout: RaceLayout = field(default_factory=RaceLayout)
-    """Race type and fixed obstacles from the run's params yaml (drawn on the track maps)."""
-
-    @property
-    def has_crashes(self) -> bool:
-        return bool((self.steps["episode_status"] == "crashed").any())
-
-
-def run_tracks(files: RunFiles) -> dict[int | str, str]:
-    """WORLD_NAME by who used it: worker i (training_params.yaml = worker 0, training_params_<i>.yaml = worker i)
-    or "evaluation" (eval_params*.yaml, evaluation_params*.yaml)."""
-    tracks: dict[int | str, str] = {}
-    for name, data in sorted(files.params_yaml.items()):
-        try:
-            params = yaml.safe_load(data)
-        except yaml.YAMLError as error:
-            print(f"warning: {name}: not readable yaml ({error}); ignored", file=sys.stderr)
-            continue
-        world = params.get("WORLD_NAME") if isinstance(params, dict) else None
-        if not world:
-            continue
-        filename = Path(name).name
-        worker = re.match(r"training_params(?:_(\d+))?\.ya?ml$", filename)
-        role = (int(worker.group(1) or 0)) if worker else EVALUATION
-        tracks.setdefault(role, str(world))
-    return tracks
-
-
-def resolve_track(
-    files: RunFiles, track_arg: str | None, tracks_dir: Path | None, notes: list[str]
-) -> tuple[Track | None, set[int] | None]:
-    """(track, training workers that drove it; None = all).
-
-    --track wins and is used for every worker. Otherwise the run's own WORLD_NAME (worker 0's first), if a route
-    of that name is in the tracks folder; workers that trained on another track are left out of the pictures.
-    """
-    tracks = run_tracks(files)
-    by_worker = {role: name for role, name in tracks.items() if isinstance(role, int)}
-    several = len(set(by_worker.values())) > 1
-    if track_arg:
-        if several:
-            notes.append(
-                f"The workers trained on several tracks ({_listing(by_worker)}); all are drawn on {track_arg}."
-            )
-        return load_track(track_arg, tracks_dir), None  # an explicit track that cannot be loaded is an error
-    if not tracks:
-        notes.append(
-            "No track given (--track NAME|PATH.npy) and none named by the run: tables only, no track pictures."
-        )
-        return None, None
-    world = by_worker[min(by_worker)] if by_worker else tracks[EVALUATION]
-    try:
-        track = load_track(world, tracks_dir)
-    except TrackError:
-        notes.append(
-            f"The run was on track {world!r}, which is not in the tracks folder; give its route with "
-            "--track PATH.npy (or --tracks-dir): tables only, no track pictures."
-        )
-        return None, None
-    notes.append(f"Track {world!r} taken from the run's params yaml.")
-    if not several:
-        return track, None
-    others = {worker: name for worker, name in by_worker.items() if name != world}
-    notes.append(
-        f"Workers on other tracks ({_listing(others)}) are left out of the track pictures and the reward "
-        "what-if; analyse them with --track."
-    )
-    return track, {worker for worker, name in by_worker.items() if name == world}
-
-
-def _listing(by_worker: dict[int, str]) -> str:
-    return ", ".join(f"worker {worker}: {name}" for worker, name in sorted(by_worker.items()))
 
 
 def build_tables(
@@ -181,23 +84,6 @@ def read_metrics(files: RunFiles, notes: list[str]) -> pd.DataFrame | None:
         except MetricsError as error:
             notes.append(f"TrainingMetrics left out: {error}")
     return pd.concat(tables, ignore_index=True) if tables else None
-
-
-def on_track(table: pd.DataFrame, track_workers: set[int] | None) -> pd.DataFrame:
-    """Rows (steps or episodes) driven on the analysis track: evaluations, and training workers on that track."""
-    if track_workers is None:
-        return table
-    return table[(table["phase"] != TRAINING) | table["worker"].isin(track_workers)]
-
-
-def for_pictures(table: pd.DataFrame, analysis: Analysis) -> pd.DataFrame:
-    """Rows the track pictures and the reward what-if use: on the track, and in the chosen training iterations."""
-    table = on_track(table, analysis.track_workers)
-    if analysis.picture_iterations is None:
-        return table
-    first, last = analysis.picture_iterations
-    chosen = table["iteration"].between(first, last if last is not None else table["iteration"].max())
-    return table[(table["phase"] != TRAINING) | chosen]
 
 
 def draw_pictures(analysis: Analysis, out_dir: Path, *, sections: int, top_laps: int) -> None:
@@ -268,121 +154,6 @@ def write_tables(analysis: Analysis, out_dir: Path) -> None:
             path = out_dir / f"{name}.csv"
             table.to_csv(path, index=False)
             analysis.tables_written[name] = path
-
-
-_PICTURE_TEXT = {
-    "training_progress": (
-        "Training progress",
-        "Mean ± std of episode reward and progress per iteration, share of "
-        "episodes that completed a lap, best lap time; dashed: the in-training evaluations of "
-        "TrainingMetrics, when present.",
-    ),
-    "best_laps": (
-        "Fastest training laps on the track",
-        "Driven path coloured by speed (distance / time over 1/3 s); green dot = start, red cross = off track, crash, "
-        "immobilized or reversed.",
-    ),
-    "evaluation_laps": (
-        "Evaluation laps on the track",
-        "Driven path coloured by speed; green dot = start of the lap, red cross = where a reset happened.",
-    ),
-    "reward_heatmap": ("Reward heatmap", "Mean step reward of all training steps in each cell of the track."),
-    "crashes": (
-        "Crashes",
-        "Left: every crashed row on the track (training coloured by iteration, evaluation as black crosses) and the "
-        "run's fixed obstacles (collision rectangles). Right: crashes per training iteration and the share of "
-        "episodes with one.",
-    ),
-    "action_usage": ("Action usage per track section", "Share of the steps in each section that used each action."),
-    "action_distributions": (
-        "Continuous actions",
-        "Commanded steering and speed of the training steps: histograms "
-        "for early, middle and late iterations, and steering against speed.",
-    ),
-    "reward_comparison": (
-        "Reward what-if",
-        "Logged reward and the candidate's along the fastest lap, and episode "
-        "totals of both for every training episode.",
-    ),
-}
-
-
-def build_report(analysis: Analysis, out_dir: Path) -> Path:
-    """report.html: each picture next to the table it summarises, the long tables last."""
-    report = Report(title="racer analysis", source=analysis.files.description, notes=list(analysis.notes))
-    metrics = analysis.metrics_iterations if analysis.metrics_iterations is not None else pd.DataFrame()
-    training = analysis.episodes[analysis.episodes["phase"] == TRAINING]
-    comparison = analysis.reward_comparison if analysis.reward_comparison is not None else pd.DataFrame()
-    sections = [
-        ("table", "Training iterations", analysis.iterations, "All workers together."),
-        ("picture", "training_progress"),
-        (
-            "table",
-            "Training by worker",
-            analysis.workers if analysis.workers["worker"].nunique() > 1 else pd.DataFrame(),
-            "One row per worker (world).",
-        ),
-        (
-            "table",
-            "In-training evaluations (TrainingMetrics)",
-            metrics,
-            "From DeepRacer's TrainingMetrics JSON (worker 0): training episodes and the greedy evaluation episodes run "
-            "after each checkpoint; its times include the prepare step.",
-        ),
-        (
-            "table",
-            "Fastest training laps",
-            aggregate.best_laps(training, TRAINING, 10),
-            "Complete laps, fastest first (when no lap was completed: the episodes that got furthest).",
-        ),
-        (
-            "table",
-            "Crashes by iteration",
-            _crash_table(analysis),
-            "Training episodes with a collision (status crashed) per iteration; obstacle_crash_counter is the "
-            "simtrace column's largest value (resets behind the same obstacle in a row).",
-        ),
-        ("picture", "crashes"),
-        ("picture", "best_laps"),
-        ("picture", "reward_heatmap"),
-        ("picture", "action_usage"),
-        ("picture", "action_distributions"),
-        ("table", "Evaluations", analysis.evaluations, "One row per evaluation run."),
-        ("table", "Evaluation laps", analysis.evaluation_laps, "Per lap: time, progress, resets and penalty time."),
-        ("picture", "evaluation_laps"),
-        ("table", "Reward what-if by iteration", comparison, "Logged reward and the candidate's, per iteration."),
-        ("picture", "reward_comparison"),
-        (
-            "table",
-            "Training episodes (latest)",
-            training.tail(HTML_EPISODES),
-            f"The last {HTML_EPISODES} training episodes; every episode is in episodes.csv.",
-        ),
-    ]
-    for kind, key, *rest in sections:
-        if kind == "picture" and key in analysis.pictures:
-            heading, caption = _PICTURE_TEXT[key]
-            report.add_picture(heading, analysis.pictures[key], caption)
-        elif kind == "table" and len(rest[0]):
-            report.add_table(key, rest[0], rest[1])
-    analysis.report_path = write_html(report, out_dir / "report.html")
-    return analysis.report_path
-
-
-def _crash_table(analysis: Analysis) -> pd.DataFrame:
-    """Per training iteration: episodes, crashes, episodes with a crash (empty for a run without any)."""
-    if not analysis.has_crashes and not analysis.layout.obstacles:
-        return pd.DataFrame()
-    columns = ["run", "iteration", "episodes", "crashes", "crashed_episodes"]
-    table = analysis.iterations[columns].copy()
-    table["crashed_episodes_pct"] = 100.0 * table["crashed_episodes"] / table["episodes"]
-    training = analysis.episodes[analysis.episodes["phase"] == TRAINING]
-    if "obstacle_crash_counter" in training:
-        counter = (
-            training.groupby(["run", "iteration"])["obstacle_crash_counter"].max().rename("obstacle_crash_counter")
-        )
-        table = table.merge(counter.reset_index(), on=["run", "iteration"], how="left")
-    return table
 
 
 def compare_reward(

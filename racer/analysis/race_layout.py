@@ -38,7 +38,7 @@ def _first_params(params_yaml: dict[str, bytes]) -> tuple[str, dict] | None:
         try:
             params = yaml.safe_load(data)
         except yaml.YAMLError:
-            continue  # run_tracks already warned about it
+            continue  # racer.analysis.run_track.run_tracks already warned about it
         if not isinstance(params, dict):
             continue
         worker = _TRAINING_PARAMS.search(Path(name).name)

@@ -6,6 +6,7 @@
 """
 
 from racer.model_io.codes import CODE_INFO, ProblemCode
+from racer.model_io.destinations import ArchiveDestination, FolderDestination, StoreDestination
 from racer.model_io.problems import (
     DEFAULT_LIMITS,
     CheckpointSelection,
@@ -15,15 +16,7 @@ from racer.model_io.problems import (
     ValidationReport,
 )
 from racer.model_io.sources import FolderSource, ModelSource, StoreSource, TarSource, open_source
-from racer.model_io.transfer import (
-    ArchiveDestination,
-    FolderDestination,
-    ModelExistsError,
-    StoreDestination,
-    TransferResult,
-    export_model,
-    import_model,
-)
+from racer.model_io.transfer import ModelExistsError, TransferResult, export_model, import_model
 from racer.model_io.validate import validate_location, validate_model
 
 __all__ = [

@@ -21,6 +21,7 @@ from racer.model_io.deepracer_import import (
     import_frozen_graphs,
     tensorflow_only_checkpoints,
 )
+from racer.model_io.destinations import ArchiveDestination, Destination, FolderDestination, StoreDestination
 from racer.model_io.explain import explain_command
 from racer.model_io.problems import ValidationProblem, ValidationReport
 from racer.model_io.sources import split_s3_location
@@ -32,17 +33,7 @@ from racer.model_io.tensorflow.runner import (
     TensorFlowToolError,
     tensorflow_available,
 )
-from racer.model_io.transfer import (
-    MODEL_NAME,
-    ArchiveDestination,
-    Destination,
-    FolderDestination,
-    ModelExistsError,
-    StoreDestination,
-    TransferResult,
-    export_model,
-    import_model,
-)
+from racer.model_io.transfer import MODEL_NAME, ModelExistsError, TransferResult, export_model, import_model
 from racer.model_io.validate import validate_location, validate_model
 from racer.shared.config import S3Settings, parse_store_location, settings_from_env
 from racer.shared.model_layout import COACH_CHECKPOINT, DEEPRACER_CHECKPOINTS

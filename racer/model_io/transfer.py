@@ -8,28 +8,21 @@ a reader never sees a pointer to a half-copied model.
 
 Export writes the import-ready prefix (ip/, model/, reward_function.py, training_params.yaml, metrics/, and
 model_metadata.json + hyperparameters.json also at the root, where DeepRacer-on-AWS's importer looks) plus the
-car bundle `model.tar.gz`: `model_metadata.json` and the inference model. DeepRacer's bundle holds the TensorFlow graph at
-`agent/model.pb` (deepracer-simapp v5.3.3 `bundle/markov/training_worker.py`); this system's inference model is ONNX, so
-it goes to
-`agent/model.onnx`, the same folder a car-side loader already opens, with the extension telling it
-which runtime to use. An imported TensorFlow model keeps `agent/model.pb`.
+car bundle `model.tar.gz` (racer.model_io.car_bundle). An imported TensorFlow model keeps `agent/model.pb`.
+Export writes to a folder, a .tar.gz or a store prefix (racer.model_io.destinations).
 """
 
 from __future__ import annotations
 
 import dataclasses
-import gzip
-import io
 import re
-import tarfile
 from collections.abc import Callable
 from dataclasses import dataclass
-from pathlib import Path
-from typing import Protocol
 
 import botocore.exceptions
 
 from racer.model_io import checkpoints as ck
+from racer.model_io.car_bundle import car_bundle, car_bundle_member, car_inference_model
 from racer.model_io.codes import ProblemCode
 from racer.model_io.deepracer_export import (
     EXPORT_LAYOUTS,
@@ -38,100 +31,22 @@ from racer.model_io.deepracer_export import (
     refuse_custom_network,
     tensorflow_exports,
 )
+from racer.model_io.destinations import ArchiveDestination, Destination, StoreDestination, read_back
 from racer.model_io.problems import DEFAULT_LIMITS, ImportPlan, SizeLimits, ValidationProblem, ValidationReport
 from racer.model_io.source_errors import SOURCE_ERRORS
 from racer.model_io.source_problems import problem_for_source_error
-from racer.model_io.sources import FolderSource, ModelSource, StoreSource, TarSource
+from racer.model_io.sources import ModelSource, StoreSource
 from racer.model_io.validate import CAR_BUNDLE_KEY, validate_model
 from racer.shared import model_layout
 from racer.shared.model_layout import CheckpointName
 from racer.shared.policy.best_and_last import names_to_bytes as best_and_last_names_to_bytes
-from racer.shared.store import (
-    ObjectStore,
-    StoreError,
-    join_key,
-)
+from racer.shared.store import ObjectStore, StoreError
 
 MODEL_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9-]{0,63}$")
 """The console's rule for model names: 1-64 characters, letters, digits and hyphens."""
 
 METADATA_TARGET = model_layout.MODEL_METADATA
 HYPERPARAMETERS_TARGET = model_layout.HYPERPARAMETERS
-CAR_BUNDLE_ONNX = "agent/model.onnx"
-CAR_BUNDLE_PB = "agent/model.pb"
-
-
-class Destination(Protocol):
-    def describe(self) -> str: ...
-
-    def put_bytes(self, key: str, data: bytes) -> None: ...
-
-
-class FolderDestination:
-    """Plain files under a folder (no staging folder inside it, unlike LocalStore)."""
-
-    def __init__(self, root: Path):
-        self.root = Path(root)
-
-    def describe(self) -> str:
-        return str(self.root)
-
-    def put_bytes(self, key: str, data: bytes) -> None:
-        target = self.root / key
-        target.parent.mkdir(parents=True, exist_ok=True)
-        partial = target.with_name(target.name + ".partial")
-        partial.write_bytes(data)
-        partial.replace(target)
-
-
-class ArchiveDestination:
-    """A .tar.gz holding the layout at its root (DeepRacer-on-AWS's portable "virtual model" bundle).
-
-    The archive is created on the first file and finished by `close()`; `discard()` removes a partial one.
-    Byte-reproducible like the car bundle."""
-
-    def __init__(self, path: Path):
-        self.path = Path(path)
-        self._file: io.BufferedWriter | None = None
-        self._gzip: gzip.GzipFile | None = None
-        self._tar: tarfile.TarFile | None = None
-
-    def describe(self) -> str:
-        return str(self.path)
-
-    def put_bytes(self, key: str, data: bytes) -> None:
-        if self._tar is None:
-            self.path.parent.mkdir(parents=True, exist_ok=True)
-            self._file = open(self.path, "wb")
-            self._gzip = gzip.GzipFile(fileobj=self._file, mode="wb", mtime=0)
-            self._tar = tarfile.open(fileobj=self._gzip, mode="w", format=tarfile.PAX_FORMAT)
-        info = tarfile.TarInfo(key)
-        info.size = len(data)
-        info.mode = 0o644
-        info.mtime = 0
-        self._tar.addfile(info, io.BytesIO(data))
-
-    def close(self) -> None:
-        for part in (self._tar, self._gzip, self._file):
-            if part is not None:
-                part.close()
-        self._tar = self._gzip = self._file = None
-
-    def discard(self) -> None:
-        self.close()
-        self.path.unlink(missing_ok=True)
-
-
-class StoreDestination:
-    def __init__(self, store: ObjectStore, prefix: str):
-        self.store = store
-        self.prefix = prefix.strip("/")
-
-    def describe(self) -> str:
-        return StoreSource(self.store, self.prefix).describe()
-
-    def put_bytes(self, key: str, data: bytes) -> None:
-        self.store.put_bytes(join_key(self.prefix, key), data)
 
 
 class ModelExistsError(Exception):
@@ -310,24 +225,6 @@ def _remove_partial(store: ObjectStore, prefix: str) -> None:
         return
 
 
-def car_bundle(metadata: bytes, inference_key: str, inference_model: bytes) -> tuple[bytes, str]:
-    """`model.tar.gz` for the car: model_metadata.json + agent/model.onnx (or .pb). Byte-reproducible."""
-    member = CAR_BUNDLE_ONNX if inference_key.endswith(".onnx") else CAR_BUNDLE_PB
-    buffer = io.BytesIO()
-    # gzip stamps the time into its header unless told otherwise; 0 keeps the bytes reproducible.
-    with (
-        gzip.GzipFile(fileobj=buffer, mode="wb", mtime=0) as compressed,
-        tarfile.open(fileobj=compressed, mode="w", format=tarfile.PAX_FORMAT) as bundle,
-    ):
-        for name, data in (("model_metadata.json", metadata), (member, inference_model)):
-            info = tarfile.TarInfo(name)
-            info.size = len(data)
-            info.mode = 0o644
-            info.mtime = 0
-            bundle.addfile(info, io.BytesIO(data))
-    return buffer.getvalue(), member
-
-
 def export_model(
     store: ObjectStore,
     model_prefix: str,
@@ -360,7 +257,7 @@ def export_model(
     if layout == "droa":
         plan = droa_plan(plan)
         hyperparameters_targets = ("hyperparameters.json",)
-    inference_key = _car_inference_model(plan, extra_files, prefer_pb=tensorflow)
+    inference_key = car_inference_model(plan, extra_files, prefer_pb=tensorflow)
     try:
         written = _copy_plan(
             source,
@@ -385,23 +282,11 @@ def export_model(
         )
     if isinstance(destination, ArchiveDestination):
         destination.close()
-    checked = validate_model(_source_for(destination), limits) if check else None
-    car_model = (
-        None if inference_key is None else (CAR_BUNDLE_ONNX if inference_key.endswith(".onnx") else CAR_BUNDLE_PB)
-    )
+    checked = validate_model(read_back(destination), limits) if check else None
+    car_model = None if inference_key is None else car_bundle_member(inference_key)
     return TransferResult(
         destination.describe(), report, written=tuple(written), car_bundle_model=car_model, check=checked
     )
-
-
-def _car_inference_model(plan: ImportPlan, extra_files: dict[str, bytes], prefer_pb: bool) -> str | None:
-    """The best checkpoint's inference model for the car bundle: the TensorFlow frozen graph when asked for (what
-    every DeepRacer car software loads) or when it is the only one, else racer's ONNX."""
-    best = CheckpointName.parse(plan.selection.best)
-    assert best is not None  # validation accepted it
-    candidates = ck.inference_model_files(best, {*plan.checkpoint_files, *extra_files})
-    wanted = ".pb" if prefer_pb else ".onnx"
-    return next((key for key in candidates if key.endswith(wanted)), candidates[0] if candidates else None)
 
 
 def _exported_plan(plan: ImportPlan) -> ImportPlan:
@@ -416,13 +301,3 @@ def _exported_plan(plan: ImportPlan) -> ImportPlan:
     )
     selection = dataclasses.replace(plan.selection, checkpoints=(pointer.name,))
     return dataclasses.replace(plan, selection=selection, checkpoint_files=files)
-
-
-def _source_for(destination: Destination) -> ModelSource:
-    if isinstance(destination, FolderDestination):
-        return FolderSource(destination.root)
-    if isinstance(destination, StoreDestination):
-        return StoreSource(destination.store, destination.prefix)
-    if isinstance(destination, ArchiveDestination):
-        return TarSource(destination.path)
-    raise TypeError(f"don't know how to read back {destination!r}")

@@ -394,21 +394,6 @@ def test_training_params_keys_work_or_are_refused_by_name(redis_settings, tmp_pa
     assert statuses[6] == "pause"  # with resets left it pauses for OFF_TRACK_PENALTY and goes on
 
 
-def test_the_iteration_summary_has_each_worlds_experience_rate(redis_settings, tmp_path, custom_files):
-    """The viewer's steps/s curve per world: the rates the world's workers measured while playing, added up."""
-    trainer = make_trainer(redis_settings, tmp_path, custom_files)
-    played = [(0, "base", 100.0), (0, "base", 100.0), (1, "carpet", 40.0), (2, "carpet", 60.5)]
-    episodes = []
-    for seed, (worker_id, world, rate) in enumerate(played):
-        episode = make_episode(10, seed=seed, worker_id=worker_id, world=world)
-        episode.info["rollout_steps_per_s"] = rate
-        episodes.append(episode)
-    summary = trainer._summary(0, episodes, rollout_wall_s=2.0)
-    assert summary["worlds"]["base"]["steps_per_s"] == 100.0  # one worker, not counted once per episode
-    assert summary["worlds"]["carpet"]["steps_per_s"] == 100.5
-    assert summary["experience_steps_per_s"] == 40 / 2.0
-
-
 def test_an_episode_claimed_by_a_worker_killed_while_holding_it_is_played_by_another(
     redis_settings, tmp_path, custom_files
 ):

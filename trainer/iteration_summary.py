@@ -1,0 +1,62 @@
+"""The summary of one training iteration: what its episodes scored, overall and per world, and how fast experience
+came in; recorded as one JSON line of the run's iterations log in the store and published on the `iterations`
+stream (the viewer and the analysis read them)."""
+
+from __future__ import annotations
+
+import json
+from collections import defaultdict
+
+import numpy as np
+
+from racer.shared.episode import Episode
+from racer.shared.model_layout import ModelLayout
+from racer.shared.store import ObjectNotFoundError, ObjectStore
+from racer.shared.transport.channels import RunChannel
+
+
+def world_steps_per_s(episodes: list[Episode]) -> float:
+    """Experience rate of one world: the rates its workers measured while playing their shares, added up."""
+    by_worker = {e.worker_id: float(e.info.get("rollout_steps_per_s", 0.0)) for e in episodes}
+    return round(sum(by_worker.values()), 1)
+
+
+def _scores(episodes: list[Episode]) -> dict:
+    return {
+        "mean_reward": float(np.mean([e.total_reward for e in episodes])),
+        "mean_progress": float(np.mean([e.progress for e in episodes])),
+        "completion_rate": float(np.mean([e.final_status == "lap_complete" for e in episodes])),
+    }
+
+
+def iteration_summary(
+    iteration: int, episodes: list[Episode], env_steps_total: int, rollout_wall_s: float, elapsed_s: float
+) -> dict:
+    """The iteration's scores and rates over the episodes it trains on, overall and per world."""
+    by_world = defaultdict(list)
+    for episode in episodes:
+        by_world[episode.world].append(episode)
+    steps = sum(e.steps for e in episodes)
+    return {
+        "iteration": iteration,
+        "episodes": len(episodes),
+        "env_steps_total": env_steps_total,
+        **_scores(episodes),
+        "experience_steps_per_s": steps / max(rollout_wall_s, 1e-6),
+        "elapsed_s": elapsed_s,
+        "worlds": {
+            world: {"episodes": len(items), **_scores(items), "steps_per_s": world_steps_per_s(items)}
+            for world, items in by_world.items()
+        },
+    }
+
+
+def record_summary(store: ObjectStore, layout: ModelLayout, channel: RunChannel, summary: dict) -> None:
+    """Append the summary to the store's iterations log, then publish it on the `iterations` stream."""
+    key = layout.iterations_log  # the store first: it is the record, the stream only feeds displays
+    try:
+        existing = store.get_bytes(key)
+    except ObjectNotFoundError:
+        existing = b""
+    store.put_bytes(key, existing + json.dumps(summary).encode() + b"\n")
+    channel.publish("iterations", summary)
