@@ -42,7 +42,10 @@ replay's best car, but real DeepRacer policies do not lap with it (soft front ax
 GAZEBO_DYNAMICS = CarDynamics(GAZEBO_TYRES, STEERING_TIME_CONSTANT_S, URDF_YAW_INERTIA_KGM2)
 """The env's default: stiff equal-axle tyres rolling at the commanded speed, the URDF's yaw inertia and the fast
 servo. Policies trained in DeepRacer's Gazebo drive racer's simulator with it (model_30 of the re:Invent 2018 sample
-10/10 laps, model_15 10/10; with the simtrace fit 0/10 and 0/10; shared/sim/README.md, "Closed loop")."""
+10/10 laps, model_15 10/10; with the simtrace fit 0/10 and 0/10; shared/sim/README.md, "Closed loop"). It stays the
+default over the profiles built from DeepRacer's source (`simapp5-ros1` 0/10 and 0/10, `simapp6-ros2` 4/10 and 3/10):
+its servo is ≈ 30× faster than the ROS 1 hinge PD's 0.5 s and its peak grip ≈ 2× a Coulomb μ 0.5, the two source
+facts that cost those laps (README, "Car profiles from DeepRacer's source")."""
 SIMAPP5_ROS1_DYNAMICS = CarDynamics(
     simapp.source_tyres(), simapp.ROS1_STEERING_TIME_CONSTANT_S, simapp.ROS1_YAW_INERTIA_KGM2
 )
@@ -65,7 +68,8 @@ CAR_DYNAMICS: dict[str, CarDynamics] = {
 """The presets by name: the car profiles (`RACER_CAR_PROFILE`, `--car-profile`; `racer bench fidelity --car`)."""
 CAR_PROFILE_NAMES: tuple[str, ...] = tuple(CAR_DYNAMICS)
 DEFAULT_CAR_PROFILE = "gazebo"
-"""The car a worker, an evaluation and the benches drive unless told otherwise (`EnvConfig`'s default)."""
+"""The car a worker, an evaluation and the benches drive unless told otherwise (`EnvConfig`'s default): the profile
+real DeepRacer policies drive best in (`racer bench transfer`, every profile, four worlds, both sample checkpoints)."""
 
 
 def car_profile(name: str) -> CarDynamics:
