@@ -272,6 +272,7 @@ def transfer_bench_command(
         result = run_matrix(
             SHARED_DATA,
             track,
+            drive,
             train_profiles=tuple(train_profile_names),
             drive_profiles=tuple(car_profile_names) if explicit else None,
             minutes=minutes,

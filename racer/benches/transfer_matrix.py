@@ -17,6 +17,7 @@ import json
 import os
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -81,9 +82,20 @@ def train_cell(cell: MatrixCell, workdir: Path, custom: Path, track: Path, minut
     return store_root, read_iteration_records(store_root, plan)
 
 
-def drive_last_checkpoint(store_root: Path, cell: MatrixCell, track: Path, profiles: tuple[str, ...], starts: int):
-    """The cell's last checkpoint, greedy in every profile: {profile: figures}, and the checkpoint's name."""
-    from racer.benches.transfer import RealModel, drive
+@dataclass(frozen=True)
+class TrainedModel:
+    """A matrix model's last checkpoint, shaped as the transfer bench's `drive` takes a model."""
+
+    label: str
+    metadata: object
+    network: object
+
+
+def drive_last_checkpoint(
+    store_root: Path, cell: MatrixCell, track: Path, profiles: tuple[str, ...], starts: int, drive: Callable
+):
+    """The cell's last checkpoint, greedy in every profile (`drive` is the transfer bench's): {profile: figures},
+    and the checkpoint's name."""
     from racer.shared.deepracer.model_metadata import parse_model_metadata
     from racer.shared.policy.checkpoints import CheckpointStore
     from racer.shared.sim.car_dynamics import car_profile
@@ -96,7 +108,7 @@ def drive_last_checkpoint(store_root: Path, cell: MatrixCell, track: Path, profi
         return None, {}
     metadata_path = store_root / cell.model_prefix / "model" / "model_metadata.json"
     metadata = parse_model_metadata(json.loads(metadata_path.read_text()), source=str(metadata_path))
-    model = RealModel(cell.model_prefix, last, metadata, checkpoints.load_policy(last))
+    model = TrainedModel(f"{cell.model_prefix}/{last}", metadata, checkpoints.load_policy(last))
     drives = {}
     for profile in profiles:
         config = EnvConfig(track=track, world="base", model_metadata=metadata, car_dynamics=car_profile(profile))
@@ -114,6 +126,7 @@ def drive_last_checkpoint(store_root: Path, cell: MatrixCell, track: Path, profi
 def run_matrix(
     shared_data: Path,
     track: Path,
+    drive: Callable,
     train_profiles: tuple[str, ...] = SOURCE_PROFILES,
     drive_profiles: tuple[str, ...] | None = None,
     minutes: float = DEFAULT_MINUTES,
@@ -121,7 +134,8 @@ def run_matrix(
     workers: int = DEFAULT_WORKERS,
     seed: int = 0,
 ) -> dict:
-    """Train every (profile, randomisation) cell and drive each in every profile; the matrix as a dict."""
+    """Train every (profile, randomisation) cell and drive each in every profile with `drive(model, config, starts)`
+    (the transfer bench's); the matrix as a dict."""
     from racer.shared.sim.car_dynamics import CAR_PROFILE_NAMES
 
     drive_profiles = drive_profiles or CAR_PROFILE_NAMES
@@ -144,7 +158,7 @@ def run_matrix(
         for cell in cells:
             load_before = os.getloadavg()[0]
             store_root, records = train_cell(cell, workdir, custom, track, minutes, workers, seed)
-            checkpoint, drives = drive_last_checkpoint(store_root, cell, track, drive_profiles, starts)
+            checkpoint, drives = drive_last_checkpoint(store_root, cell, track, drive_profiles, starts, drive)
             result["runs"].append(
                 {
                     "model": cell.model_prefix,
