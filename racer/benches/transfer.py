@@ -12,6 +12,9 @@ that costs a lap or more than 3 points of mean progress on a shared checkpoint d
 straight / right shares) and how often its side agrees with each real checkpoint's. `--proxies` prints the two
 diagnostics beside the closed-loop figure: the grey-histogram distance of racer's frames to the Gazebo frames and
 the open-loop replay error of real simtraces after 1 s. They are diagnostics; the closed loop wins when they disagree.
+
+`--matrix` trains a model per car profile, with and without dynamics randomisation, and drives each in every profile
+(`transfer_matrix.py`).
 """
 
 from __future__ import annotations
@@ -28,6 +31,7 @@ import numpy as np
 import torch
 
 from racer.benches.camera import GAZEBO_FRAMES, load_gazebo_frames, rgb_to_y
+from racer.benches.transfer_matrix import DEFAULT_MINUTES, DEFAULT_WORKERS, SOURCE_PROFILES, run_matrix
 from racer.benches.workdir import cpu_description
 from racer.local.services import PROJECT_ROOT
 from racer.shared.deepracer.model_metadata import ModelMetadata, parse_model_metadata
@@ -217,12 +221,67 @@ def proxies(track: Path, world: str, frames_rgb: np.ndarray) -> dict:
     help="A racer model folder (racer-data/MODEL): its steering shares and sign agreement on the Gazebo frames.",
 )
 @click.option("--proxies", "with_proxies", is_flag=True, help="Also print the camera distance and open-loop replay.")
+@click.option(
+    "--matrix",
+    is_flag=True,
+    help="Instead: train a model per --train-profile with and without dynamics randomisation (the reverse-check "
+    "setup) and drive each in every profile (or each --car-profile given); one JSON matrix.",
+)
+@click.option(
+    "--train-profile",
+    "train_profile_names",
+    type=click.Choice(CAR_PROFILE_NAMES),
+    multiple=True,
+    default=SOURCE_PROFILES,
+    show_default=True,
+    help="--matrix: train in this profile (repeatable).",
+)
+@click.option(
+    "--minutes",
+    type=click.FloatRange(min=0.05),
+    default=DEFAULT_MINUTES,
+    show_default=True,
+    help="--matrix: per model.",
+)
+@click.option(
+    "--workers", type=click.IntRange(1, 16), default=DEFAULT_WORKERS, show_default=True, help="--matrix: per model."
+)
+@click.option("--seed", type=int, default=0, show_default=True, help="--matrix: the training seed.")
+@click.pass_context
 def transfer_bench_command(
-    models_root, track, world, render, car_profile_names, starts, racer_model, with_proxies
+    ctx,
+    models_root,
+    track,
+    world,
+    render,
+    car_profile_names,
+    starts,
+    racer_model,
+    with_proxies,
+    matrix,
+    train_profile_names,
+    minutes,
+    workers,
+    seed,
 ) -> None:
     """Real DeepRacer checkpoints drive racer, closed loop: laps and mean progress per checkpoint, one JSON line."""
     torch.set_num_threads(1)
     started = time.monotonic()
+    if matrix:
+        explicit = ctx.get_parameter_source("car_profile_names") != click.core.ParameterSource.DEFAULT
+        result = run_matrix(
+            SHARED_DATA,
+            track,
+            drive,
+            train_profiles=tuple(train_profile_names),
+            drive_profiles=tuple(car_profile_names) if explicit else None,
+            minutes=minutes,
+            starts=starts,
+            workers=workers,
+            seed=seed,
+        )
+        click.echo(json.dumps(result))
+        return
     folders = model_folders(models_root)
     if not folders:
         raise click.ClickException(f"{models_root}: no DeepRacer model folder (model_metadata.json with .pb graphs)")

@@ -1,15 +1,18 @@
-"""The car's dynamics constants as one value (`EnvConfig.car_dynamics`) and its two presets. MuJoCo-free, so the
-config can name them without importing the simulator.
+"""The car's dynamics constants as one value (`EnvConfig.car_dynamics`) and its presets, the car profiles.
+MuJoCo-free, so the config can name them without importing the simulator.
 
 * `GAZEBO_DYNAMICS` (the default): what policies trained in DeepRacer's Gazebo lap with in racer's simulator, judged
   closed loop with real policies (shared/sim/README.md, "Closed loop: what real DeepRacer policies respond to").
 * `SIMTRACE_FIT_DYNAMICS`: the constants fitted open loop on the real simtraces (`racer bench fidelity --fit`).
+* `SIMAPP5_ROS1_DYNAMICS`, `SIMAPP6_ROS2_DYNAMICS`: DeepRacer's car per SimApp generation, built from the SimApp's
+  URDF, contact and controller files (`simapp_car_profiles`).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+from racer.shared.sim import simapp_car_profiles as simapp
 from racer.shared.sim.tyres import GAZEBO_TYRES, TyreParams
 
 STEERING_TIME_CONSTANT_S = 0.0166
@@ -39,12 +42,34 @@ replay's best car, but real DeepRacer policies do not lap with it (soft front ax
 GAZEBO_DYNAMICS = CarDynamics(GAZEBO_TYRES, STEERING_TIME_CONSTANT_S, URDF_YAW_INERTIA_KGM2)
 """The env's default: stiff equal-axle tyres rolling at the commanded speed, the URDF's yaw inertia and the fast
 servo. Policies trained in DeepRacer's Gazebo drive racer's simulator with it (model_30 of the re:Invent 2018 sample
-10/10 laps, model_15 10/10; with the simtrace fit 0/10 and 0/10; shared/sim/README.md, "Closed loop")."""
-CAR_DYNAMICS: dict[str, CarDynamics] = {"gazebo": GAZEBO_DYNAMICS, "simtrace-fit": SIMTRACE_FIT_DYNAMICS}
+10/10 laps, model_15 10/10; with the simtrace fit 0/10 and 0/10; shared/sim/README.md, "Closed loop"). It stays the
+default over the profiles built from DeepRacer's source (`simapp5-ros1` 0/10 and 0/10, `simapp6-ros2` 4/10 and 3/10):
+its servo is ≈ 30× faster than the ROS 1 hinge PD's 0.5 s and its peak grip ≈ 2× a Coulomb μ 0.5, the two source
+facts that cost those laps (README, "Car profiles from DeepRacer's source")."""
+SIMAPP5_ROS1_DYNAMICS = CarDynamics(
+    simapp.source_tyres(), simapp.ROS1_STEERING_TIME_CONSTANT_S, simapp.ROS1_YAW_INERTIA_KGM2
+)
+"""The ROS 1 / Gazebo classic SimApp's car (deepracer-simapp v5.3.3; the console until 2025, DRfC 5), from its
+source: the URDF's masses and yaw inertia (0.0803 kg·m²), the hinge PD (p 1, d 0.5) as a 0.50 s servo, rigid μ 0.5
+wheels (peak grip 1) driven to the 0.036 m mesh's rolling speed (1.029 × commanded). Only the cornering and drive
+stiffness are racer's (the stiffest its tyre update resolves; `simapp_car_profiles`)."""
+SIMAPP6_ROS2_DYNAMICS = CarDynamics(
+    simapp.source_tyres(), simapp.ROS2_STEERING_TIME_CONSTANT_S, simapp.ROS2_YAW_INERTIA_KGM2
+)
+"""The ROS 2 / gz-sim SimApp's car (v6.0.5; DeepRacer on AWS, DRfC 6), models of version >= 5: as the ROS 1 car but
+with 0.98 kg more on the camera links and shell (yaw inertia 0.0828 kg·m² for racer's body) and gz_ros2_control's
+60 Hz position loop on the hinges (gain 0.1: a 0.158 s servo); the wheels are velocity-commanded."""
+CAR_DYNAMICS: dict[str, CarDynamics] = {
+    "gazebo": GAZEBO_DYNAMICS,
+    "simtrace-fit": SIMTRACE_FIT_DYNAMICS,
+    "simapp5-ros1": SIMAPP5_ROS1_DYNAMICS,
+    "simapp6-ros2": SIMAPP6_ROS2_DYNAMICS,
+}
 """The presets by name: the car profiles (`RACER_CAR_PROFILE`, `--car-profile`; `racer bench fidelity --car`)."""
 CAR_PROFILE_NAMES: tuple[str, ...] = tuple(CAR_DYNAMICS)
 DEFAULT_CAR_PROFILE = "gazebo"
-"""The car a worker, an evaluation and the benches drive unless told otherwise (`EnvConfig`'s default)."""
+"""The car a worker, an evaluation and the benches drive unless told otherwise (`EnvConfig`'s default): the profile
+real DeepRacer policies drive best in (`racer bench transfer`, every profile, four worlds, both sample checkpoints)."""
 
 
 def car_profile(name: str) -> CarDynamics:

@@ -1,14 +1,16 @@
 """racer's dynamics randomisation (`RACER_DYNAMICS_RANDOMIZATION`, off by default): a new car every episode.
 
 DeepRacer's car is not one car (shared/sim/README.md, "Closed loop"): the Gazebo classic SimApp, the gz-sim SimApp
-and the physical car differ in grip, servo, inertia, speed and latency, and the two profiles in `car_dynamics` bracket
-what racer knows of them. A policy meant to drive in all of them trains on a car drawn at every reset across the
-range between the profiles and a little around them (`DynamicsRandomizationRanges`):
+and the physical car differ in grip, servo, inertia, speed and latency. The car profiles in `car_dynamics` (the
+hand-chosen `gazebo`, the open-loop `simtrace-fit`, and `simapp5-ros1` / `simapp6-ros2` built from the SimApps'
+source) bracket what racer knows of them, and a policy meant to drive in all of them trains on a car drawn at every
+reset across the range between the profiles and a little around them (`DynamicsRandomizationRanges`; a test checks
+that every registered profile lies inside):
 
 * tyre cornering stiffness: the axles' mean (geometric) and their balance (front / rear), so both the stiff neutral
   car of `gazebo` (300 / 300 N/rad) and the soft understeering one of `simtrace-fit` (50.9 / 104.9) are inside;
 * the whole car's yaw inertia, from below the URDF's (0.080 kg·m²) to above the fit's (0.475);
-* the steering servo's time constant around both profiles' 0.0166 s;
+* the steering servo's time constant, from the fitted 0.0166 s to beyond the ROS 1 SimApp's 0.5 s hinge PD;
 * the rolling radius: the car covers from just under the commanded speed to beyond the fit's 1.12×;
 * a command delay of 0 or 1 step: in a delayed episode each step drives the previous step's command.
 
@@ -34,15 +36,18 @@ class DynamicsRandomizationRanges:
     """The ranges each episode's car is drawn from (log-uniform for the scale-like ones, uniform otherwise)."""
 
     cornering_stiffness_n_per_rad: tuple[float, float] = (60.0, 500.0)
-    """Geometric mean of the front and rear axles' cornering stiffness, log-uniform (simtrace-fit 73, gazebo 300)."""
+    """Geometric mean of the front and rear axles' cornering stiffness, log-uniform (simtrace-fit 73, gazebo 300, the
+    simapp profiles 394)."""
     front_rear_balance: tuple[float, float] = (0.45, 1.15)
     """Front / rear cornering stiffness, log-uniform (simtrace-fit 0.485: understeer; gazebo 1: neutral)."""
     yaw_inertia_kgm2: tuple[float, float] = (0.07, 0.5)
-    """The whole car's yaw inertia, log-uniform (gazebo: the URDF's 0.080; simtrace-fit 0.475)."""
-    steering_time_constant_s: tuple[float, float] = (0.011, 0.05)
-    """The steering servo's time constant, log-uniform (both profiles 0.0166 s; 15eb48f's servo 0.034 s)."""
+    """The whole car's yaw inertia, log-uniform (gazebo: the URDF's 0.080; simapp 0.080 / 0.083; simtrace-fit 0.475)."""
+    steering_time_constant_s: tuple[float, float] = (0.011, 0.6)
+    """The steering servo's time constant, log-uniform (gazebo and simtrace-fit 0.0166 s, simapp6-ros2 0.158 s,
+    simapp5-ros1 0.50 s)."""
     speed_factor: tuple[float, float] = (0.97, 1.15)
-    """Rolling radius / 0.035 m, uniform: the speed the car covers per commanded m/s (gazebo 1, simtrace-fit 1.12)."""
+    """Rolling radius / 0.035 m, uniform: the speed the car covers per commanded m/s (gazebo 1, simapp 1.029 on the
+    0.036 m wheel mesh, simtrace-fit 1.12)."""
     command_delay_probability: float = 0.5
     """Chance that an episode's commands come one step late."""
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from racer.shared.sim.car import chassis_inertia_kgm2, steering_kv
-from racer.shared.sim.car_dynamics import GAZEBO_DYNAMICS, SIMTRACE_FIT_DYNAMICS
+from racer.shared.sim.car_dynamics import CAR_DYNAMICS, GAZEBO_DYNAMICS, SIMTRACE_FIT_DYNAMICS
 from racer.shared.sim.dynamics_randomization import DYNAMICS_RANDOMIZATION_RANGES, draw_dynamics
 
 
@@ -39,8 +39,9 @@ def test_draws_are_seeded_within_the_ranges_and_span_both_profiles():
             GAZEBO_DYNAMICS.tyres.drive_stiffness_n_per_mps,
         )
     assert 0.35 < np.mean([draw.command_delay_steps for draw in draws]) < 0.65
-    # the range is between the profiles and around them
-    for profile in (GAZEBO_DYNAMICS, SIMTRACE_FIT_DYNAMICS):
+    # the range is between the profiles and around them: every registered profile, the source-built ones included
+    assert {"simapp5-ros1", "simapp6-ros2"} <= set(CAR_DYNAMICS)
+    for profile in CAR_DYNAMICS.values():
         tyres = profile.tyres
         assert _within(
             math.sqrt(tyres.front_cornering_stiffness_n_per_rad * tyres.rear_cornering_stiffness_n_per_rad),

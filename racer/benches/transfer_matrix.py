@@ -1,0 +1,179 @@
+"""`racer bench transfer --matrix`: does a model trained in one car profile drive in the others?
+
+For each training profile (default: the profiles built from DeepRacer's source, `simapp5-ros1` and `simapp6-ros2`)
+and with and without `RACER_DYNAMICS_RANDOMIZATION`, a model is trained for `--minutes` with the reverse-check setup
+(issue 29): the re:Invent 2018 sample's `model_metadata.json` (12 actions), the AWS centre-line reward
+(`reward_functions/awsdoc_example_1.py`), `custom_files/hyperparameters.json`, re:Invent 2018, world base, fp32, one
+seed, through the same local training `racer train` runs. The last checkpoint of each then drives greedily in every
+profile from `--starts` evenly spaced starts (as the transfer bench drives the real checkpoints). One JSON line:
+`matrix[trained in][driven in]` = laps / mean progress. The goal (issue 29): trained with dynamics randomisation,
+>= 8 of 10 laps in every profile.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+from racer.benches.workdir import bench_workdir, cpu_description, read_iteration_records
+from racer.local.services import PROJECT_ROOT
+
+SAMPLE_MODEL = "gazebo-sample-reinvent2018"
+REWARD_FUNCTION = "awsdoc_example_1.py"
+SOURCE_PROFILES = ("simapp5-ros1", "simapp6-ros2")
+DEFAULT_MINUTES = 15.0
+DEFAULT_WORKERS = 4
+
+
+@dataclass(frozen=True)
+class MatrixCell:
+    """One training run of the matrix."""
+
+    profile: str
+    dynamics_randomization: bool
+
+    @property
+    def model_prefix(self) -> str:
+        return f"matrix-{self.profile}-{'dr' if self.dynamics_randomization else 'fixed'}"
+
+
+def write_custom_files(folder: Path, shared_data: Path) -> Path:
+    """The reverse-check setup's custom files: the sample's metadata, the centre-line reward, racer's hyperparameters."""
+    folder.mkdir(parents=True, exist_ok=True)
+    sources = {
+        "model_metadata.json": shared_data / "models" / SAMPLE_MODEL / "model_metadata.json",
+        "reward_function.py": shared_data / "reward_functions" / REWARD_FUNCTION,
+        "hyperparameters.json": PROJECT_ROOT / "custom_files" / "hyperparameters.json",
+    }
+    for name, source in sources.items():
+        (folder / name).write_bytes(source.read_bytes())
+    return folder
+
+
+def train_cell(cell: MatrixCell, workdir: Path, custom: Path, track: Path, minutes: float, workers: int, seed: int):
+    """Train one cell's model to the time limit; returns (store root, iteration records)."""
+    from racer.local.run import LocalRunPlan, run_local_training
+    from racer.shared.config import LocalStoreSettings, RedisSettings, ServiceSettings
+    from racer.trainer.run_options import trainer_arguments
+
+    store_root = workdir / "store"
+    plan = LocalRunPlan(
+        model_prefix=cell.model_prefix,
+        custom_files=custom,
+        num_workers=workers,
+        worlds=("base",) * workers,
+        track=str(track),
+        max_episodes=None,
+        max_minutes=minutes,
+        use_minio=False,
+        log_dir=workdir / "logs" / cell.model_prefix,
+        seed=seed,
+        trainer_options=trainer_arguments("fp32", cell.profile, cell.dynamics_randomization),
+    )
+    base = ServiceSettings(redis=RedisSettings(), store=LocalStoreSettings(root=store_root))
+    with contextlib.redirect_stdout(sys.stderr):  # the training's progress lines; stdout stays the one JSON line
+        run_local_training(plan, base)
+    return store_root, read_iteration_records(store_root, plan)
+
+
+@dataclass(frozen=True)
+class TrainedModel:
+    """A matrix model's last checkpoint, shaped as the transfer bench's `drive` takes a model."""
+
+    label: str
+    metadata: object
+    network: object
+
+
+def drive_last_checkpoint(
+    store_root: Path, cell: MatrixCell, track: Path, profiles: tuple[str, ...], starts: int, drive: Callable
+):
+    """The cell's last checkpoint, greedy in every profile (`drive` is the transfer bench's): {profile: figures},
+    and the checkpoint's name."""
+    from racer.shared.deepracer.model_metadata import parse_model_metadata
+    from racer.shared.policy.checkpoints import CheckpointStore
+    from racer.shared.sim.car_dynamics import car_profile
+    from racer.shared.sim.config import EnvConfig
+    from racer.shared.store import LocalStore
+
+    checkpoints = CheckpointStore(LocalStore(store_root), cell.model_prefix)
+    last = checkpoints.latest_name()
+    if last is None:
+        return None, {}
+    metadata_path = store_root / cell.model_prefix / "model" / "model_metadata.json"
+    metadata = parse_model_metadata(json.loads(metadata_path.read_text()), source=str(metadata_path))
+    model = TrainedModel(f"{cell.model_prefix}/{last}", metadata, checkpoints.load_policy(last))
+    drives = {}
+    for profile in profiles:
+        config = EnvConfig(track=track, world="base", model_metadata=metadata, car_dynamics=car_profile(profile))
+        figures = drive(model, config, starts)
+        print(
+            f"transfer matrix: {cell.model_prefix}/{last} in {profile}: {figures['laps']}/{starts} laps, "
+            f"mean progress {figures['mean_progress']} %",
+            file=sys.stderr,
+            flush=True,
+        )
+        drives[profile] = figures
+    return last, drives
+
+
+def run_matrix(
+    shared_data: Path,
+    track: Path,
+    drive: Callable,
+    train_profiles: tuple[str, ...] = SOURCE_PROFILES,
+    drive_profiles: tuple[str, ...] | None = None,
+    minutes: float = DEFAULT_MINUTES,
+    starts: int = 10,
+    workers: int = DEFAULT_WORKERS,
+    seed: int = 0,
+) -> dict:
+    """Train every (profile, randomisation) cell and drive each in every profile with `drive(model, config, starts)`
+    (the transfer bench's); the matrix as a dict."""
+    from racer.shared.sim.car_dynamics import CAR_PROFILE_NAMES
+
+    drive_profiles = drive_profiles or CAR_PROFILE_NAMES
+    cells = [MatrixCell(profile, randomized) for profile in train_profiles for randomized in (False, True)]
+    started = time.monotonic()
+    result: dict = {
+        "benchmark": "transfer-matrix",
+        "cpu": cpu_description(),
+        "cores": len(os.sched_getaffinity(0)),
+        "minutes_per_model": minutes,
+        "workers": workers,
+        "seed": seed,
+        "precision": "fp32",
+        "track": str(track),
+        "runs": [],
+        "matrix": {},
+    }
+    with bench_workdir("racer-transfer-matrix-") as workdir:
+        custom = write_custom_files(workdir / "custom_files", shared_data)
+        for cell in cells:
+            load_before = os.getloadavg()[0]
+            store_root, records = train_cell(cell, workdir, custom, track, minutes, workers, seed)
+            checkpoint, drives = drive_last_checkpoint(store_root, cell, track, drive_profiles, starts, drive)
+            result["runs"].append(
+                {
+                    "model": cell.model_prefix,
+                    "car_profile": cell.profile,
+                    "dynamics_randomization": cell.dynamics_randomization,
+                    "iterations": len(records),
+                    "env_steps": records[-1]["env_steps_total"] if records else 0,
+                    "checkpoint": checkpoint,
+                    "load_average_1min": [round(load_before, 2), round(os.getloadavg()[0], 2)],
+                    "drives": drives,
+                }
+            )
+            result["matrix"][cell.model_prefix] = {
+                profile: f"{figures['laps']}/{figures['starts']} {figures['mean_progress']} %"
+                for profile, figures in drives.items()
+            }
+    result["wall_minutes"] = round((time.monotonic() - started) / 60, 1)
+    return result
