@@ -107,3 +107,31 @@ def test_finishing_order_puts_finishers_first_then_distance():
 
     cars = [run(0, False, None, 80.0), run(1, True, 30.0, 100.0), run(2, True, 20.0, 100.0), run(3, False, None, 90.0)]
     assert finishing_order(cars) == (2, 1, 3, 0)
+
+
+def test_multi_car_evaluation_writes_each_cars_files(tmp_path):
+    import json
+
+    from racer.evaluation_worker.config import DeepRacerRules
+    from racer.evaluation_worker.multi_car_session import run_multi_car_evaluation
+    from racer.shared.store import LocalStore
+    from tests.evaluation.conftest import NO_VIDEO
+
+    store = LocalStore(tmp_path)
+    configs = [
+        EvaluationConfig(model_prefix=name, track="racer_oval", video=NO_VIDEO, mcap=False, deepracer=DeepRacerRules())
+        for name in ("slow-model", "fast-model")
+    ]
+    policies = [ScriptedPolicy(1.0), ScriptedPolicy(3.0)]
+    lines: list[str] = []
+    reports, result = run_multi_car_evaluation(
+        store, configs, MultiCarRules("HEAD_TO_MODEL"), policies=[(p, CONTINUOUS_METADATA) for p in policies],
+        log=lines.append, attach=lambda i, driver: policies[i].attach(driver),
+    )
+    assert result.finishing_order == (0, 1)
+    slow, fast = (json.loads((tmp_path / r.keys["summary"]).read_bytes()) for r in reports)
+    assert slow["multi_car"]["finishing_place"] == 1 and fast["multi_car"]["finishing_place"] == 2
+    assert fast["multi_car"]["finishing_order"] == ["slow-model", "fast-model"]
+    metrics = json.loads((tmp_path / reports[1].keys["metrics"]).read_bytes())["metrics"]
+    assert sum(m["crash_count"] for m in metrics) >= 1
+    assert any("1. slow-model" in line for line in lines)
