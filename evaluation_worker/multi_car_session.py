@@ -102,8 +102,8 @@ def describe_result(result: MultiCarResult, names: Sequence[str]) -> str:
     lines = [f"{result.rules.race_type}: {result.rules.laps} lap(s)"]
     for place, index in enumerate(result.finishing_order, start=1):
         car = result.cars[index]
-        end = f"finished {car.finish_time_s:8.3f} s" if car.finish_time_s is not None else f"raced {car.raced_pct:6.1f} %"
-        lines.append(
-            f"{place:2d}. {names[index]:<30} laps {car.laps_completed}  {end}  crashes {car.crash_count}"
+        end = (
+            f"finished {car.finish_time_s:8.3f} s" if car.finish_time_s is not None else f"raced {car.raced_pct:6.1f} %"
         )
+        lines.append(f"{place:2d}. {names[index]:<30} laps {car.laps_completed}  {end}  crashes {car.crash_count}")
     return "\n".join(lines)

@@ -60,9 +60,7 @@ class PeerCars(RaceObjects):
     def __init__(self, own_index: int, car_count: int, race: RaceConfig | None = None) -> None:
         super().__init__(race or RaceConfig())
         self.own_index = own_index
-        self._slots = tuple(
-            ObjectSlot(car_name(i), ObjectKind.BOT_CAR) for i in range(car_count) if i != own_index
-        )
+        self._slots = tuple(ObjectSlot(car_name(i), ObjectKind.BOT_CAR) for i in range(car_count) if i != own_index)
         self._peers: tuple[PeerState, ...] = ()
         self._objects: list[RaceObject] = []
         self._collidable: list[RaceObject] = []
@@ -82,12 +80,11 @@ class PeerCars(RaceObjects):
     def update(self, peers: Sequence[PeerState]) -> None:
         """The other cars where they are now (this car's own entry, if given, is left out)."""
         self._peers = tuple(p for p in peers if p.index != self.own_index)
+        on_track = [p for p in self._peers if p.on_track]
         self._objects = [
-            RaceObject(car_name(p.index), ObjectKind.BOT_CAR, p.x_m, p.y_m, p.yaw_rad, p.speed_mps)
-            for p in self._peers
-            if p.on_track
+            RaceObject(car_name(p.index), ObjectKind.BOT_CAR, p.x_m, p.y_m, p.yaw_rad, p.speed_mps) for p in on_track
         ]
-        self._collidable = [o for o, p in zip(self._objects, (p for p in self._peers if p.on_track)) if p.collidable]
+        self._collidable = [o for o, p in zip(self._objects, on_track, strict=True) if p.collidable]
         self._raced_by_name = {car_name(p.index): p.raced_pct for p in self._peers}
 
     def restart(self, track: Track, rng: np.random.Generator) -> list[RaceObject]:

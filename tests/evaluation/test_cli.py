@@ -190,7 +190,14 @@ def test_opponent_runs_a_head_to_model_evaluation_of_stored_models(tmp_path):
     torch.manual_seed(5)
     opponent.save(0, 0, build_actor_critic(DEFAULT_MODEL_METADATA), model_metadata=DEFAULT_MODEL_METADATA)
     result = invoke(
-        str(tmp_path / "store"), "--opponent", "opponent-model", "--trials", "1", "--resets", "0", "--no-video",
+        str(tmp_path / "store"),
+        "--opponent",
+        "opponent-model",
+        "--trials",
+        "1",
+        "--resets",
+        "0",
+        "--no-video",
         "--no-mcap",
     )
     assert result.exit_code == 0, result.output

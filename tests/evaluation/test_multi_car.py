@@ -125,8 +125,12 @@ def test_multi_car_evaluation_writes_each_cars_files(tmp_path):
     policies = [ScriptedPolicy(1.0), ScriptedPolicy(3.0)]
     lines: list[str] = []
     reports, result = run_multi_car_evaluation(
-        store, configs, MultiCarRules("HEAD_TO_MODEL"), policies=[(p, CONTINUOUS_METADATA) for p in policies],
-        log=lines.append, attach=lambda i, driver: policies[i].attach(driver),
+        store,
+        configs,
+        MultiCarRules("HEAD_TO_MODEL"),
+        policies=[(p, CONTINUOUS_METADATA) for p in policies],
+        log=lines.append,
+        attach=lambda i, driver: policies[i].attach(driver),
     )
     assert result.finishing_order == (0, 1)
     slow, fast = (json.loads((tmp_path / r.keys["summary"]).read_bytes()) for r in reports)
