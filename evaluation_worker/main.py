@@ -127,6 +127,21 @@ def _video_size(text: str) -> tuple[int, int]:
     show_default=True,
     help="The car's dynamics (RACER_CAR_PROFILE); the model's training_params record the one it trained in.",
 )
+@click.option(
+    "--opponent",
+    "opponents",
+    multiple=True,
+    help="Another model (store prefix) on the track at once: a HEAD_TO_MODEL race, the SimApp's single-file start "
+    "(this model first), crashes between cars; --trials laps each, continuous. Repeatable.",
+)
+@click.option(
+    "--multi-car-type",
+    type=click.Choice(["head-to-model", "f1"]),
+    default="head-to-model",
+    show_default=True,
+    help="With --opponent: head-to-model (the race ends when the first car is done) or f1 (finished cars park, "
+    "the race runs until every car is done; places by finishing order).",
+)
 @race_options
 @direction_option
 def evaluate_command(
@@ -151,6 +166,8 @@ def evaluate_command(
     out_dir,
     seed,
     car_profile,
+    opponents,
+    multi_car_type,
     race_type,
     race_param,
 ) -> None:
@@ -162,6 +179,7 @@ def evaluate_command(
         RaceRules,
         VideoOptions,
     )
+    from racer.evaluation_worker.multi_car import MultiCarError
     from racer.evaluation_worker.runner import EvaluationSession
     from racer.evaluation_worker.video import VideoError
     from racer.shared.config import settings_from_env
@@ -201,9 +219,12 @@ def evaluate_command(
             car_profile=car_profile,
         )
         store = open_store(settings_from_env().store)
+        if opponents:
+            _evaluate_multi_car(store, config, opponents, multi_car_type, out_dir)
+            return
         session = EvaluationSession(store, config, out_dir=out_dir)
         report = session.run(log=click.echo)
-    except (EvaluationConfigError, CheckpointError, VideoError, *user_error_types()) as error:
+    except (EvaluationConfigError, CheckpointError, VideoError, MultiCarError, *user_error_types()) as error:
         raise click.ClickException(str(error)) from error
     click.echo("")
     click.echo(report.table)
@@ -217,3 +238,25 @@ def evaluate_command(
         click.echo(f"  {name:<16} {key}")
     if report.local_dir is not None:
         click.echo(f"local copy: {report.local_dir}")
+
+
+def _evaluate_multi_car(store, config, opponents, multi_car_type, out_dir) -> None:
+    """`--opponent`: this model and the opponents race together (`multi_car_session`)."""
+    import dataclasses
+
+    from racer.evaluation_worker.multi_car import MultiCarError, MultiCarRules
+    from racer.evaluation_worker.multi_car_session import run_multi_car_evaluation
+
+    if config.mode != "deepracer":
+        raise MultiCarError("--opponent races in --mode deepracer (the SimApp's multi-car evaluation)")
+    if config.race_setup.has_objects:
+        raise MultiCarError("--opponent: a multi-car race has no obstacles or bot cars (leave --race-type unset)")
+    configs = [config] + [dataclasses.replace(config, model_prefix=name) for name in opponents]
+    names = [c.model_prefix.strip("/") for c in configs]
+    if len(set(names)) != len(names):
+        raise MultiCarError(f"--opponent: each car needs its own model, got {names}")
+    rules = MultiCarRules("F1" if multi_car_type == "f1" else "HEAD_TO_MODEL", laps=config.deepracer.number_of_trials)
+    reports, _result = run_multi_car_evaluation(store, configs, rules, out_dir=out_dir, log=click.echo)
+    click.echo(f"files in {store.describe()}:")
+    for name, report in zip(names, reports, strict=True):
+        click.echo(f"  {name}: {report.keys['summary']}")

@@ -44,6 +44,7 @@ from racer.shared.policy.torch_threads import one_torch_thread_if_loaded
 from racer.shared.run_settings import env_config
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
+from racer.shared.sim.race import RaceObjects
 from racer.shared.store import ObjectNotFoundError, ObjectStore
 
 
@@ -106,7 +107,9 @@ class EvaluationSession:
         model_metadata: ModelMetadata | None = None,
         out_dir: Path | None = None,
         now: dt.datetime | None = None,
+        race_objects: RaceObjects | None = None,
     ) -> None:
+        """`race_objects`: the other cars of a multi-car race (`multi_car_session`), in place of `race_setup`'s."""
         self.store = store
         self.config = config
         prefix = config.model_prefix.strip("/")
@@ -124,7 +127,9 @@ class EvaluationSession:
         timestamp = (now or dt.datetime.now(dt.UTC)).strftime("%Y%m%d%H%M%S")
         self.layout = EvaluationLayout(prefix, choose_run_name(store, prefix, timestamp))
         self.env = DeepRacerEnv(
-            self._env_config(), render_mode="rgb_array" if (config.video.enabled or config.mcap) else None
+            self._env_config(),
+            render_mode="rgb_array" if (config.video.enabled or config.mcap) else None,
+            race_objects=race_objects,
         )
         self._keep_dir = out_dir is not None
         self.simtrace = SimtraceRecorder()
@@ -201,14 +206,22 @@ class EvaluationSession:
         finally:
             self.driver.close()
             self.env.close()
-        wall_s = time.perf_counter() - started
+        return self.finish(laps, race, time.perf_counter() - started)
+
+    def finish(
+        self, laps: tuple[LapResult, ...], race: RaceResult | None, wall_s: float, extra: dict[str, Any] | None = None
+    ) -> EvaluationReport:
+        """Write the files of a run whose steps the driver has taken (and closed), and drop the work folder.
+        `extra`: more summary keys (a multi-car race's)."""
         try:
-            return self._write(laps, race, wall_s)
+            return self._write(laps, race, wall_s, extra or {})
         finally:
             if not self._keep_dir:
                 shutil.rmtree(self.workdir, ignore_errors=True)
 
-    def _write(self, laps: tuple[LapResult, ...], race: RaceResult | None, wall_s: float) -> EvaluationReport:
+    def _write(
+        self, laps: tuple[LapResult, ...], race: RaceResult | None, wall_s: float, extra: dict[str, Any]
+    ) -> EvaluationReport:
         config, layout = self.config, self.layout
         steps = self.driver.steps_total
         files: dict[str, str] = {
@@ -248,6 +261,7 @@ class EvaluationSession:
             timings=timings,
             files={name: layout.key(relative) for name, relative in files.items()},
         )
+        summary.update(extra)
         contents = {
             files["metrics"]: metrics.to_bytes(),
             files["simtrace"]: self.simtrace.writer.to_bytes(),

@@ -241,7 +241,11 @@ def parse_race(data: object, source: str, default_name: str) -> RaceDefinition:
         raise track.error("trackConfig.trackId", "missing")
     race_type_text = str(top.data.get("raceType", "")).strip().upper()
     if race_type_text in OUT_OF_SCOPE_RACE_TYPES:
-        raise top.error("raceType", f"{race_type_text} (several models on the track at once) is not supported yet")
+        raise top.error(
+            "raceType",
+            f"{race_type_text} (several models on the track at once) is not a race file type yet; race the models "
+            f"with `racer evaluate --model-prefix A --opponent B --multi-car-type {race_type_text.lower().replace('_', '-')}`",
+        )
     race_type = top.choice("raceType", RACE_TYPES)
     timing = top.choice("timingMethod", TIMING_METHODS)
     resetting = top.sub("resettingBehaviorConfig", required=False)

@@ -114,6 +114,7 @@ class DeepRacerEnv(gym.Env):
         config: EnvConfig | None = None,
         render_mode: str | None = None,
         wall_clock: Callable[[], float] = time.time,
+        race_objects: RaceObjects | None = None,
     ) -> None:
         self.config = config or EnvConfig()
         self._wall_clock = wall_clock
@@ -128,6 +129,8 @@ class DeepRacerEnv(gym.Env):
             load_reward_function(cfg.reward_function_path) if cfg.reward_function_path is not None else None
         )
 
+        # `race_objects` replaces what config.race describes (a multi-car race's other cars: peer_cars.PeerCars).
+        slots = race_objects.slots if race_objects is not None else object_slots(cfg.race)
         cameras, rendered_cameras = scene_cameras(self._metadata.camera_sensor, render_mode == "rgb_array")
         self._substeps = cfg.physics_substeps
         self._model = build_model(
@@ -138,7 +141,7 @@ class DeepRacerEnv(gym.Env):
                 cameras,
                 camera_mount_m(self._metadata.version),
                 load_simapp_world(cfg.simapp_dir, cfg.world) if cfg.simapp_dir is not None else None,
-                object_slots=object_slots(cfg.race),
+                object_slots=slots,
                 car_dynamics=cfg.car_dynamics,
             )
         )
@@ -163,9 +166,9 @@ class DeepRacerEnv(gym.Env):
         self._dynamics_rng = np.random.default_rng()
         self._judge = PoseJudge(self._car, self._data)
         # Obstacles and bot cars; None in a time trial, so nothing of theirs runs per step.
-        self._race = RaceObjects(cfg.race) if cfg.race.has_objects else None
+        self._race = race_objects or (RaceObjects(cfg.race) if cfg.race.has_objects else None)
         self._race_start_time_s = 0.0
-        self._object_bodies = ObjectBodies(self._model, object_slots(cfg.race)) if self._race is not None else None
+        self._object_bodies = ObjectBodies(self._model, slots) if self._race is not None else None
 
         self.action_space = action_space(self._metadata)
         self.observation_space = observation_space(self._metadata, cfg.image_height_px, cfg.image_width_px)

@@ -51,6 +51,11 @@ class RaceObjects:
         """The simtrace's obstacle_crash_counter: resets behind the same obstacle in a row (mercy rule only)."""
 
     @property
+    def slots(self) -> tuple[ObjectSlot, ...]:
+        """The scene's bodies for these objects (`object_slots`)."""
+        return object_slots(self.race)
+
+    @property
     def objects(self) -> list[RaceObject]:
         return self._obstacles + (self._bots.objects if self._bots else [])
 

@@ -12,7 +12,9 @@ from collections.abc import Mapping
 from dataclasses import dataclass, fields
 
 RACE_TYPES: tuple[str, ...] = ("TIME_TRIAL", "OBJECT_AVOIDANCE", "HEAD_TO_BOT")
-"""The race types racer runs; HEAD_TO_MODEL and F1 (several trained cars) are not supported."""
+"""The race types of one env; HEAD_TO_MODEL and F1 (several trained cars) are multi-car runs
+(`racer.evaluation_worker.multi_car`: `racer evaluate --opponent`)."""
+MULTI_CAR_RACE_TYPES: tuple[str, ...] = ("HEAD_TO_MODEL", "F1")
 
 OBSTACLE_TYPES: tuple[str, ...] = ("box_obstacle", "deepracer_box_obstacle", "amazon_box_obstacle")
 """The SimApp's OBSTACLE_TYPE_LIST; all three have the same 0.4 x 0.5 m collision rectangle (drawn as a box)."""
@@ -71,6 +73,11 @@ class RaceConfig:
     """RESET_AHEAD_DIST: where a mercy reset puts the car, ahead of the obstacle."""
 
     def __post_init__(self) -> None:
+        if self.race_type in MULTI_CAR_RACE_TYPES:
+            raise ValueError(
+                f"RACE_TYPE: {self.race_type} puts several trained cars on the track: run it with `racer evaluate "
+                f"--opponent MODEL` (evaluation_worker/multi_car.py), not as one env's race type"
+            )
         if self.race_type not in RACE_TYPES:
             raise ValueError(f"RACE_TYPE: {self.race_type!r} is not one of {', '.join(RACE_TYPES)}")
         if self.obstacle_type not in OBSTACLE_TYPES:

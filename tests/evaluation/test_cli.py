@@ -180,3 +180,31 @@ def test_bad_input_gives_one_clear_line(tmp_path):
 def test_resets_option_defaults_to_the_consoles_number_of_resets():
     option = next(param for param in evaluate_command.params if param.name == "resets")
     assert option.default == 10000  # console2022_evaluation_robomaker.log: NUMBER_OF_RESETS '10000'
+
+
+def test_opponent_runs_a_head_to_model_evaluation_of_stored_models(tmp_path):
+    store = LocalStore(tmp_path / "store")
+    save_model(store)
+    opponent = CheckpointStore(store, "opponent-model")
+    opponent.put_model_metadata(DEFAULT_MODEL_METADATA)
+    torch.manual_seed(5)
+    opponent.save(0, 0, build_actor_critic(DEFAULT_MODEL_METADATA), model_metadata=DEFAULT_MODEL_METADATA)
+    result = invoke(
+        str(tmp_path / "store"),
+        "--opponent",
+        "opponent-model",
+        "--trials",
+        "1",
+        "--resets",
+        "0",
+        "--no-video",
+        "--no-mcap",
+    )
+    assert result.exit_code == 0, result.output
+    assert "HEAD_TO_MODEL: 1 lap(s)" in result.output
+    summaries = [line.split()[1] for line in result.output.splitlines() if line.strip().endswith("summary.json")]
+    assert len(summaries) == 2, result.output
+    places = sorted(json.loads(store.get_bytes(key))["multi_car"]["finishing_place"] for key in summaries)
+    assert places == [1, 2]
+    same = invoke(str(tmp_path / "store"), "--opponent", PREFIX, "--no-video", "--no-mcap")
+    assert same.exit_code != 0 and "its own model" in same.output

@@ -40,7 +40,8 @@ def test_training_params_round_trip_and_the_yaml_list_form():
 @pytest.mark.parametrize(
     ("params", "message"),
     [
-        ({"RACE_TYPE": "F1"}, "RACE_TYPE: 'F1' is not one of"),
+        ({"RACE_TYPE": "F1"}, "RACE_TYPE: F1 puts several trained cars on the track"),
+        ({"RACE_TYPE": "SPRINT"}, "RACE_TYPE: 'SPRINT' is not one of"),
         ({"RACE_TYPE": "HEAD_TO_BOT", "NUMBER_OF_BOT_CARS": "2.5"}, "NUMBER_OF_BOT_CARS: '2.5' is not a whole number"),
         (
             {"RACE_TYPE": "HEAD_TO_BOT", "NUMBER_OF_BOT_CARS": "1", "IS_LANE_CHANGE": "yes"},
