@@ -102,3 +102,27 @@ def test_a_track_with_its_own_look_renders_in_its_colours(deepracer_data):
     assert np.all(np.abs(np.median(frame[field], axis=0) - look.field_rgb) <= 15)
     base_road = world_look.LOOKS["base"].road_rgb
     assert np.abs(road - base_road).max() > 20
+
+
+def test_rendered_plot_works_for_every_track_racer_finds(tmp_path, deepracer_data, monkeypatch):
+    """`racer track plot NAME OUT.png --rendered base` for the shared routes (on RACER_ROUTES_PATH) and tracks/."""
+    from click.testing import CliRunner
+    from PIL import Image
+
+    from racer.shared.sim.route_search import available_routes, search_folders
+    from racer.shared.sim.track_cli import track_group
+
+    monkeypatch.setenv("RACER_ROUTES_PATH", str(deepracer_data / "routes"))
+    names = available_routes(search_folders())
+    assert {"reinvent_base", "reInvent2019_track", "Vegas_track", "racer_oval"} <= set(names)
+    runner = CliRunner()
+    for name in names:
+        out = tmp_path / f"{name}.png"
+        result = runner.invoke(track_group, ["plot", name, str(out), "--rendered", "base"])
+        assert result.exit_code == 0, (name, result.output)
+        pixels = np.asarray(Image.open(out).convert("RGB"))
+        assert pixels.shape == (480, 640, 3)
+        # The field is drawn in the track's own field colour (or re:Invent 2018's): a good share of the picture.
+        look = world_look_of(name) or world_look.LOOKS["base"]
+        near_field = np.abs(pixels.astype(int) - look.field_rgb).max(axis=2) <= 25
+        assert near_field.mean() >= 0.2, (name, near_field.mean())
