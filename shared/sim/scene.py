@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from racer.shared.sim import car as car_geometry
-from racer.shared.sim import world_look
+from racer.shared.sim import track_looks, world_look
 from racer.shared.sim._mujoco import mujoco
 from racer.shared.sim.object_bodies import (
     ObjectSlot,
@@ -135,8 +135,9 @@ def _lights_xml() -> str:
 
 
 def _racer_visuals(spec: SceneSpec, lo: np.ndarray, hi: np.ndarray) -> tuple[str, str, str, dict[str, bytes]]:
-    """racer's own look of the world: (asset elements, geoms, lights, texture files)."""
-    look = world_look.get_look(spec.world.name)
+    """racer's own look of the world, or of the track where its SimApp world has one (`track_looks.py`):
+    (asset elements, geoms, lights, texture files)."""
+    look = track_looks.look_for(spec.track.name, spec.world.name)
     road_mesh, width_m = _road_band_mesh(spec.track)
     tile = world_look.FIELD_TILE_M
     assets_xml = f"""    <texture name="field_tex" type="2d" file="field.png"/>
@@ -161,7 +162,7 @@ def _racer_visuals(spec: SceneSpec, lo: np.ndarray, hi: np.ndarray) -> tuple[str
 def scene_mjcf_and_assets(spec: SceneSpec) -> tuple[str, dict[str, bytes]]:
     """The MJCF text and the texture files (PNG bytes by file name) it refers to."""
     track, world = spec.track, spec.world
-    look = world_look.get_look(world.name)
+    look = track_looks.look_for(track.name, world.name)
     lo = np.min(track.waypoints.reshape(-1, 3, 2), axis=(0, 1)) - look.field_margin_m
     hi = np.max(track.waypoints.reshape(-1, 3, 2), axis=(0, 1)) + look.field_margin_m
     mid, half = (lo + hi) / 2, (hi - lo) / 2

@@ -7,7 +7,7 @@ import numpy as np
 from racer.shared.sim._mujoco import mujoco
 from racer.shared.sim.scene import SceneSpec, build_model
 from racer.shared.sim.track import Track
-from racer.shared.sim.world_look import get_look
+from racer.shared.sim.track_looks import look_for
 from racer.shared.sim.worlds import get_world
 
 TOP_VIEW_WIDTH_PX = 640
@@ -20,7 +20,7 @@ def render_top_view(track: Track, world: str = "base") -> np.ndarray:
     data = mujoco.MjData(model)
     data.qpos[2] = -10.0  # the car (drawn in a hidden group anyway) well below the floor
     mujoco.mj_forward(model, data)
-    margin = get_look(world).field_margin_m
+    margin = look_for(track.name, world).field_margin_m
     lo = track.waypoints.reshape(-1, 3, 2).min(axis=(0, 1)) - margin
     hi = track.waypoints.reshape(-1, 3, 2).max(axis=(0, 1)) + margin
     span_x, span_y = hi - lo

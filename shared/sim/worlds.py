@@ -2,7 +2,8 @@
 
 DeepRacer ships re:Invent 2018 as `reinvent_base`, `reinvent_carpet`, `reinvent_concrete` and `reinvent_wood`:
 one route, different surfaces. Training on several makes a policy less sensitive to the look of the floor.
-What each world looks like (colours, textures, walls, light) is in `world_look.py`; the tyre friction below is
+What each world looks like (colours, textures, walls, light) is in `world_look.py` (and, for a track whose SimApp
+world has its own colours, `track_looks.py`: in `base` it gets them); the tyre friction below is
 this project's choice (DeepRacer's tyre μ is 0.5 on every surface: deepracer-simapp v5.3.3
 `bundle/urdf/deepracer/racecar.gazebo`).
 """
