@@ -104,6 +104,7 @@ def test_crashes_per_episode_and_iteration_in_tables_and_report(oa_run, tmp_path
     assert _brown_pixels(out / "best_laps.png") > 200
 
 
+@pytest.mark.slow
 def test_a_time_trial_report_has_no_crash_section(tmp_path, deepracer_data):
     root = tmp_path / "tt-model"
     with open(deepracer_data / "simtrace/drfc1_training_0-iteration.csv", newline="") as handle:

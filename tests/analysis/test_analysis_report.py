@@ -41,6 +41,7 @@ def assert_real_picture(data: bytes, name: str) -> None:
     assert background < 0.97, f"{name}: {background:.1%} white"
 
 
+@pytest.mark.slow
 def test_report_with_track_and_reward_whatif(console_export, reinvent_route, deepracer_data, tmp_path):
     out = tmp_path / "report"
     reward = deepracer_data / "reward_functions/dpr401_prevent_zig_zag.py"

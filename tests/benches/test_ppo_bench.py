@@ -17,6 +17,8 @@ from racer.trainer.ppo import PPOSettings, PPOTrainer
 from racer.trainer.precision import Precision
 from tests.trainer.ppo_task import play, task_network
 
+pytestmark = pytest.mark.slow  # seconds to minutes each: the full suite runs them, the fast loop does not
+
 
 def test_fast_path_gives_the_same_learning_result_as_the_plain_baseline():
     hp = Hyperparameters(

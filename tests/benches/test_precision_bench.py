@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 
+import pytest
 from click.testing import CliRunner
 
 from racer.benches.precision import precision_bench_command
@@ -17,6 +18,7 @@ def _run() -> dict:
     return json.loads([line for line in result.stdout.splitlines() if line.startswith("{")][-1])
 
 
+@pytest.mark.slow
 def test_one_iteration_reports_the_steps_it_played_and_repeats_exactly():
     first, second = _run(), _run()
     run = first["runs"]["fp32"]["0"]

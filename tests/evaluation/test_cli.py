@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import pytest
 import torch
 from click.testing import CliRunner
 
@@ -51,6 +52,7 @@ def files_of(store: ObjectStore, output: str) -> dict[str, str]:
     return keys
 
 
+@pytest.mark.slow
 def test_race_on_a_local_store_prints_the_table_and_writes_every_file(tmp_path):
     store = LocalStore(tmp_path / "store")
     save_model(store)

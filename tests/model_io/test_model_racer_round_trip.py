@@ -252,6 +252,7 @@ def test_metadata_edited_to_another_action_space_is_caught(exported_copy):
     assert "5 discrete actions" in report.problems[0].message and "3 discrete actions" in report.problems[0].message
 
 
+@pytest.mark.slow
 def test_command_line_round_trip_through_a_bucket(trained, s3_settings, tmp_path):
     """racer model export -> s3://bucket/prefix -> racer model validate -> racer model import, all as a user would."""
     runner = CliRunner()

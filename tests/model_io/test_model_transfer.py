@@ -250,6 +250,7 @@ def test_export_to_a_bucket_then_import_back(tmp_path, store, s3_settings):
 # --- command line ---------------------------------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_cli_validate_import_export(tmp_path):
     runner = CliRunner()
     source = deepracer_model(tmp_path / "m")

@@ -21,6 +21,8 @@ from racer.shared.sim.env import DeepRacerEnv
 
 NETWORK = "main_level/agent/main/online/network_1/"
 
+pytestmark = pytest.mark.slow  # seconds to minutes each: the full suite runs them, the fast loop does not
+
 
 def _varint(buffer: bytes, i: int) -> tuple[int, int]:
     value = shift = 0

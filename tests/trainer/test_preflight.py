@@ -88,6 +88,7 @@ def first_steps(episode: Episode, steps: int) -> Episode:
     )
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("metadata", "hyperparameters"), config_pairs(), ids=lambda name: name.removesuffix(".json"))
 def test_every_users_pair_trains_an_iteration_or_is_refused_before_anything_starts(
     metadata, hyperparameters, tmp_path, redis_settings

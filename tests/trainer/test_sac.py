@@ -135,6 +135,7 @@ def test_minibatch_follows_deepracers_rule():
     assert sac_minibatch_size(replay_transitions=50, iteration_transitions=50, batch_size=64) == 32
 
 
+@pytest.mark.slow
 def test_sac_learns_a_one_step_task():
     torch.manual_seed(0)
     networks = SACNetworks(LIDAR_ONLY)
