@@ -31,6 +31,7 @@ import numpy as np
 import torch
 
 from racer.benches.camera import GAZEBO_FRAMES, load_gazebo_frames, rgb_to_y
+from racer.benches.camera_frames import render_lap
 from racer.benches.transfer_matrix import DEFAULT_MINUTES, DEFAULT_WORKERS, SOURCE_PROFILES, run_matrix
 from racer.benches.workdir import cpu_description
 from racer.local.services import PROJECT_ROOT
@@ -155,8 +156,15 @@ def shares(sides: np.ndarray) -> dict[str, float]:
     }
 
 
-def reverse_check(racer_model: Path, real: list[RealModel], frames_grey: np.ndarray) -> dict:
-    """A racer model (a folder of racer's local store) on the Gazebo frames, against each real checkpoint."""
+RACER_FRAME_POSES = 60
+"""Centre-line poses of re:Invent 2018 rendered in racer for the reverse check's baseline."""
+
+
+def reverse_check(racer_model: Path, real: list[RealModel], frames_grey: np.ndarray, racer_grey: np.ndarray) -> dict:
+    """A racer model (a folder of racer's local store) on the Gazebo frames, against each real checkpoint; and the
+    same comparison on racer's own frames (`racer_frames`), the baseline: how far two policies that both lap differ
+    in style whatever the simulator (sign agreement there bounds what a simulator change can reach on the Gazebo
+    frames)."""
     metadata_path = racer_model / "model" / "model_metadata.json"
     if not metadata_path.is_file():
         raise click.ClickException(f"{metadata_path} is missing: --racer-model takes a racer model folder")
@@ -166,12 +174,22 @@ def reverse_check(racer_model: Path, real: list[RealModel], frames_grey: np.ndar
     checkpoints = CheckpointStore(LocalStore(racer_model.parent), racer_model.name)
     result: dict = {"model": str(racer_model), "checkpoints": {}}
     real_sides = {model.label: steering_sides(model.metadata, model.network, frames_grey) for model in real}
+    real_on_racer = {model.label: steering_sides(model.metadata, model.network, racer_grey) for model in real}
     result["real_shares"] = {label: shares(sides) for label, sides in real_sides.items()}
+    result["real_shares_on_racer_frames"] = {label: shares(sides) for label, sides in real_on_racer.items()}
     for name in checkpoints.names():
-        sides = steering_sides(metadata, checkpoints.load_policy(name), frames_grey)
+        network = checkpoints.load_policy(name)
+        sides = steering_sides(metadata, network, frames_grey)
+        ours = steering_sides(metadata, network, racer_grey)
         result["checkpoints"][name] = {
             "shares": shares(sides),
             "sign_agreement": {label: round(float(np.mean(sides == other)), 3) for label, other in real_sides.items()},
+            "racer_frames": {
+                "shares": shares(ours),
+                "sign_agreement": {
+                    label: round(float(np.mean(ours == other)), 3) for label, other in real_on_racer.items()
+                },
+            },
         }
     return result
 
@@ -313,7 +331,9 @@ def transfer_bench_command(
     frames_rgb = load_gazebo_frames(SHARED_DATA / GAZEBO_FRAMES)
     if racer_model is not None:
         frames_grey = np.stack([rgb_to_y(frame) for frame in frames_rgb])
-        result["reverse_check"] = reverse_check(racer_model, real, frames_grey)
+        rendered, _ = render_lap(track, world[0], RACER_FRAME_POSES, full_resolution=False)
+        racer_grey = np.stack([rgb_to_y(frame) for frame in rendered])
+        result["reverse_check"] = reverse_check(racer_model, real, frames_grey, racer_grey)
     if with_proxies:
         result["proxies"] = proxies(track, world[0], frames_rgb)
     result["wall_s"] = round(time.monotonic() - started, 1)

@@ -48,6 +48,11 @@ def test_two_starts_of_each_real_checkpoint_and_the_reverse_check(tmp_path):
     assert sum(reverse["shares"].values()) == pytest.approx(1.0, abs=0.002)
     assert set(reverse["sign_agreement"]) == set(drives)
     assert all(0.0 <= value <= 1.0 for value in reverse["sign_agreement"].values())
+    # the baseline: the same policies on racer's own frames of the lap
+    on_racer = reverse["racer_frames"]
+    assert sum(on_racer["shares"].values()) == pytest.approx(1.0, abs=0.002)
+    assert set(on_racer["sign_agreement"]) == set(drives)
+    assert set(report["reverse_check"]["real_shares_on_racer_frames"]) == set(drives)
 
 
 def test_each_car_profile_given_is_driven(monkeypatch):
