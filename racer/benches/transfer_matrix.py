@@ -60,7 +60,6 @@ def train_cell(cell: MatrixCell, workdir: Path, custom: Path, track: Path, minut
     """Train one cell's model to the time limit; returns (store root, iteration records)."""
     from racer.local.run import LocalRunPlan, run_local_training
     from racer.shared.config import LocalStoreSettings, RedisSettings, ServiceSettings
-    from racer.trainer.run_options import trainer_arguments
 
     store_root = workdir / "store"
     plan = LocalRunPlan(
@@ -74,7 +73,9 @@ def train_cell(cell: MatrixCell, workdir: Path, custom: Path, track: Path, minut
         use_minio=False,
         log_dir=workdir / "logs" / cell.model_prefix,
         seed=seed,
-        trainer_options=trainer_arguments("fp32", cell.profile, cell.dynamics_randomization),
+        trainer_options=("--precision", "fp32"),
+        car_profile=cell.profile,
+        dynamics_randomization=cell.dynamics_randomization,
     )
     base = ServiceSettings(redis=RedisSettings(), store=LocalStoreSettings(root=store_root))
     with contextlib.redirect_stdout(sys.stderr):  # the training's progress lines; stdout stays the one JSON line
