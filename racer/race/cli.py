@@ -32,14 +32,16 @@ def race_command(race_file: Path, entrants: tuple[str, ...], workers, seed, out_
     resettingBehaviorConfig, submissionTerminationConditions, maxResets, objectAvoidanceConfig) in YAML or JSON.
     ENTRANT: [NAME=]SOURCE, SOURCE a model prefix in the store (RACER_STORE) or anything `racer model import`
     takes (a folder, .tar.gz, .zip, s3://bucket/prefix); imports go under races/<race>/<NAME> in the store.
-    A broken entrant gets a row with its reason; the others race.
+    A broken entrant gets a row with its reason; the others race. HEAD_TO_MODEL and F1 put every entrant on the
+    track at once (one multi-car evaluation; --workers does not apply): F1 ranks by finishing order over
+    maximumLaps laps, HEAD_TO_MODEL by the timing method on each car's laps.
     """
     from racer.race.entrants import EntrantError, parse_entrants
     from racer.race.html_report import write_html
     from racer.race.leaderboard import board_json, format_board, standings_from_results, write_board
     from racer.race.race_file import RaceFileError, read_race_file
     from racer.race.rules import resolve_route
-    from racer.race.runner import default_workers, run_race
+    from racer.race.runner import default_workers, run_multi_car_race, run_race
     from racer.shared.config import settings_from_env
     from racer.shared.store import open_store
 
@@ -51,15 +53,22 @@ def race_command(race_file: Path, entrants: tuple[str, ...], workers, seed, out_
     except (RaceFileError, EntrantError) as error:
         raise click.ClickException(str(error)) from None
     out = (out_dir or Path("races") / definition.name).resolve()
-    count = min(workers or default_workers(), len(field))
+    count = 1 if definition.multi_car else min(workers or default_workers(), len(field))
+    at_once = "all on the track at once" if definition.multi_car else f"{count} at a time"
+    ranked_by = "finishing order" if definition.race_type == "F1" else definition.timing_method
     click.echo(
-        f"race {definition.name}: {definition.race_type} on {route}, {definition.timing_method}, "
-        f"{len(field)} entrants, {count} at a time, seed {seed} -> {out}"
+        f"race {definition.name}: {definition.race_type} on {route}, {ranked_by}, "
+        f"{len(field)} entrants, {at_once}, seed {seed} -> {out}"
     )
-    run = run_race(definition, field, route=route, out_dir=out, seed=seed, workers=count, video=video, log=click.echo)
+    if definition.multi_car:
+        run = run_multi_car_race(definition, field, route=route, out_dir=out, seed=seed, video=video, log=click.echo)
+    else:
+        run = run_race(
+            definition, field, route=route, out_dir=out, seed=seed, workers=count, video=video, log=click.echo
+        )
     standings = standings_from_results(definition, run.results)
     paths = write_board(out, definition, route, seed, standings, run.results)
     page = write_html(out, definition, board_json(definition, route, seed, standings, run.results), run.results)
     click.echo("")
-    click.echo(format_board(standings, definition.timing_method))
+    click.echo(format_board(standings, "FINISH_TIME" if definition.race_type == "F1" else definition.timing_method))
     click.echo(f"{len(field)} entrants in {run.wall_s:.1f} s; {paths['json']}, {paths['csv']}, {page}")

@@ -114,7 +114,7 @@ td,th{{border:1px solid #ccc;padding:4px 8px;text-align:right}}td:nth-child(2),t
 <p>{esc(race.description)}</p>
 <p>{esc(race.race_type)} on {esc(board["route"])} ({esc(race.track_id)}{", " + esc(race.track_direction) if race.track_direction else ""}),
 ranked by {esc(race.timing_method)} (lower wins); {esc(limits)}; seed {board["seed"]}.</p>
-<table><tr><th>rank</th><th>entrant</th><th>{esc(race.timing_method)} (s)</th><th>laps</th><th>best lap (s)</th>
+<table><tr><th>rank</th><th>entrant</th><th>{esc("finish time" if race.race_type == "F1" else race.timing_method)} (s)</th><th>laps</th><th>best lap (s)</th>
 <th>avg lap (s)</th><th>resets</th><th>off track</th><th>crashes</th><th>videos</th><th>DNF reason</th></tr>
 {"".join(rows)}</table>
 {map_html}

@@ -4,6 +4,11 @@ Columns (DRoA's SubmissionStats / leaderboard names where it has them): rank, en
 DRoA: racerAlias), rankingScore (the timing method's figure, ms), completedLapCount, bestLapTime, avgLapTime,
 totalLapTime (ms), resetCount, avgResets, offTrackCount, collisionCount; racer adds lapCount, dnfReason and
 errorCode. Nothing time- or machine-dependent is written, so one seed gives one board.
+
+HEAD_TO_MODEL ranks each car's laps by the timing method, as a time trial. F1 ranks by the multi-car result's
+finishing order: the cars that completed every lap (maximumLaps) by the time of their last crossing (rankingScore:
+that time, ms from the start), then the others as DNF rows in the order they reached (distance raced), each with
+its reason, then the entrants that could not race.
 """
 
 from __future__ import annotations
@@ -16,7 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from racer.race.race_file import RaceDefinition
-from racer.race.ranking import Lap, Standing, rank_entrants
+from racer.race.ranking import Lap, Standing, rank_entrants, submission_stats
 
 CSV_COLUMNS = (
     "rank",
@@ -36,7 +41,37 @@ CSV_COLUMNS = (
 )
 
 
+def f1_standings(definition: RaceDefinition, results: Sequence[dict[str, Any]]) -> tuple[Standing, ...]:
+    """F1: the finishing order; finishers ranked, the other cars DNF in the order they reached, then the rest."""
+    raced = sorted((r for r in results if r.get("multi_car")), key=lambda r: r["multi_car"]["finishingPlace"])
+    standings: list[Standing] = []
+    rank = 0
+    for result in raced:
+        car = result["multi_car"]
+        laps = [Lap.from_metrics_entry(entry) for entry in result.get("metrics", [])]
+        stats = submission_stats(laps, definition.minimum_laps)
+        if car["finished"]:
+            rank += 1
+            standings.append(Standing(result["entrant"], stats, car["finishTimeMs"], rank, None))
+            continue
+        reason = (
+            f"did not finish: {car['completedLaps']} of {car['laps']} laps, {car['racedPct']:.1f} % of a lap raced"
+            f" from the line (place {car['finishingPlace']} on the road)"
+        )
+        standings.append(Standing(result["entrant"], stats, None, None, reason, result.get("code")))
+    for result in results:
+        if not result.get("multi_car"):
+            standings.append(
+                Standing(
+                    result["entrant"], None, None, None, result.get("reason") or "did not race", result.get("code")
+                )
+            )
+    return tuple(standings)
+
+
 def standings_from_results(definition: RaceDefinition, results: Sequence[dict[str, Any]]) -> tuple[Standing, ...]:
+    if definition.race_type == "F1":
+        return f1_standings(definition, results)
     rows = []
     for result in results:
         metrics = result.get("metrics")
@@ -73,6 +108,7 @@ def board_json(
                 "checkpoint": result.get("checkpoint"),
                 "videos": result.get("videos", {}),
                 "sectorTimes": (result.get("best_lap") or {}).get("sector_times_s"),
+                **({"multiCar": result["multi_car"]} if result.get("multi_car") else {}),
             }
         )
     return {"race": definition.to_dict(), "route": route, "seed": seed, "leaderboard": entries}

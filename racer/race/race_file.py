@@ -2,13 +2,14 @@
 
     name: club-cup                       # optional; default: the file name
     trackConfig: {trackId: reinvent_base, trackDirection: COUNTER_CLOCKWISE}
-    raceType: TIME_TRIAL                 # TIME_TRIAL | OBJECT_AVOIDANCE | HEAD_TO_BOT (racer's addition)
+    raceType: TIME_TRIAL                 # TIME_TRIAL | OBJECT_AVOIDANCE; racer's additions HEAD_TO_BOT, HEAD_TO_MODEL, F1
     timingMethod: AVG_LAP_TIME           # BEST_LAP_TIME | AVG_LAP_TIME | TOTAL_TIME
     resettingBehaviorConfig: {continuousLap: true, offTrackPenaltySeconds: 2, collisionPenaltySeconds: 5}
     submissionTerminationConditions: {minimumLaps: 3, maximumLaps: 5, maxTimeInMinutes: 20}
     maxResets: 10000                     # optional (NUMBER_OF_RESETS)
     objectAvoidanceConfig: {numberOfObjects: 2, objectPositions: [{laneNumber: 1, trackPercentage: 0.3}, ...]}
     NUMBER_OF_BOT_CARS: 2                # racer's additions: the SimApp's training_params names
+    DONE_CONDITION: all                  # HEAD_TO_MODEL / F1 only: any | all; START_POS_OFFSET: 0.75 (m, 0..1)
 
 Every key is checked before anything starts; an unknown key or a bad value raises RaceFileError naming the file
 and the key (`trackConfig.trackDirection`).
@@ -27,8 +28,9 @@ import yaml
 
 from racer.shared.sim.race_config import RaceConfig
 
-RACE_TYPES = ("TIME_TRIAL", "OBJECT_AVOIDANCE", "HEAD_TO_BOT")
-OUT_OF_SCOPE_RACE_TYPES = ("HEAD_TO_MODEL", "F1")
+MULTI_CAR_RACE_TYPES = ("HEAD_TO_MODEL", "F1")
+"""Every entrant on the track at once, in one multi-car evaluation (evaluation_worker/multi_car.py)."""
+RACE_TYPES = ("TIME_TRIAL", "OBJECT_AVOIDANCE", "HEAD_TO_BOT", *MULTI_CAR_RACE_TYPES)
 TIMING_METHODS = ("BEST_LAP_TIME", "AVG_LAP_TIME", "TOTAL_TIME")
 DIRECTIONS = ("CLOCKWISE", "COUNTER_CLOCKWISE")
 DEFAULT_MAX_TIME_MINUTES = 20.0
@@ -42,6 +44,8 @@ _SIMAPP_KEYS = tuple(
     if key not in ("RACE_TYPE", "NUMBER_OF_OBSTACLES", "OBJECT_POSITIONS")
 )
 """racer's additions: the SimApp's training_params names RaceConfig reads (bot cars, obstacle details)."""
+_MULTI_CAR_KEYS = ("DONE_CONDITION", "START_POS_OFFSET")
+"""racer's additions for HEAD_TO_MODEL / F1: the SimApp's training_params names (`evaluation_worker.py`)."""
 
 
 class RaceFileError(ValueError):
@@ -79,12 +83,32 @@ class RaceDefinition:
 
     def race_config(self) -> RaceConfig:
         """RACE_TYPE and the objects as `racer evaluate --race-type/--race-param` would build them."""
+        if self.multi_car:  # the other cars are the entrants, not one env's race objects
+            return RaceConfig()
         params: dict[str, object] = {"RACE_TYPE": self.race_type, **dict(self.simapp_params)}
         if self.race_type == "OBJECT_AVOIDANCE":
             params["NUMBER_OF_OBSTACLES"] = str(self.number_of_objects)
             if self.object_positions:
                 params["OBJECT_POSITIONS"] = [f"{p.track_percentage},{p.lane_number}" for p in self.object_positions]
         return RaceConfig.from_training_params(params)
+
+    @property
+    def multi_car(self) -> bool:
+        return self.race_type in MULTI_CAR_RACE_TYPES
+
+    def multi_car_rules(self):
+        """HEAD_TO_MODEL / F1: `maximumLaps` laps each (NUMBER_OF_TRIALS), DONE_CONDITION and START_POS_OFFSET as
+        given (else the SimApp's), the race stopped at `maxTimeInMinutes` of simulated time."""
+        from racer.evaluation_worker.multi_car import START_POS_OFFSET_M, MultiCarRules
+
+        params = dict(self.simapp_params)
+        return MultiCarRules(
+            race_type=self.race_type,
+            laps=self.maximum_laps,
+            start_pos_offset_m=float(params.get("START_POS_OFFSET", START_POS_OFFSET_M)),
+            done_condition=params["DONE_CONDITION"].strip().lower() if "DONE_CONDITION" in params else None,
+            max_race_s=self.max_time_minutes * 60.0,
+        )
 
     def to_dict(self) -> dict[str, Any]:
         """The definition back under DRoA's names (written into leaderboard.json)."""
@@ -217,6 +241,25 @@ def _object_avoidance(top: _Reader, race_type: str) -> tuple[int, tuple[ObjectPl
     return count, tuple(positions)
 
 
+def _check_race_type_keys(top: _Reader, race_type: str) -> None:
+    """Bot-car and obstacle keys belong to one env's race; DONE_CONDITION / START_POS_OFFSET to a multi-car one."""
+    multi = race_type in MULTI_CAR_RACE_TYPES
+    for key in _MULTI_CAR_KEYS if not multi else _SIMAPP_KEYS:
+        if top.has(key):
+            use = "HEAD_TO_MODEL and F1 use it" if not multi else "a multi-car race has no obstacles or bot cars"
+            raise top.error(key, f"given for raceType {race_type}; {use}")
+    if top.has("DONE_CONDITION") and str(top.data["DONE_CONDITION"]).strip().lower() not in ("any", "all"):
+        raise top.error("DONE_CONDITION", f"{top.data['DONE_CONDITION']!r} is not any or all")
+    if top.has("START_POS_OFFSET"):  # a number (or its text: to_dict writes the SimApp's values as text)
+        value = top.data["START_POS_OFFSET"]
+        try:
+            offset = float(value) if not isinstance(value, bool) else -1.0
+        except (TypeError, ValueError):
+            offset = -1.0
+        if not 0.0 <= offset <= 1.0:
+            raise top.error("START_POS_OFFSET", f"{value!r} is not a distance in [0, 1] m")
+
+
 def parse_race(data: object, source: str, default_name: str) -> RaceDefinition:
     top = _Reader(source, data)
     known = (
@@ -230,6 +273,7 @@ def parse_race(data: object, source: str, default_name: str) -> RaceDefinition:
         "objectAvoidanceConfig",
         *IGNORED_KEYS,
         *_SIMAPP_KEYS,
+        *_MULTI_CAR_KEYS,
     )
     top.refuse_unknown(known)
     name = str(top.data.get("name") or default_name)
@@ -239,14 +283,8 @@ def parse_race(data: object, source: str, default_name: str) -> RaceDefinition:
     track.refuse_unknown(("trackId", "trackDirection"))
     if not track.has("trackId") or not str(track.data["trackId"]).strip():
         raise track.error("trackConfig.trackId", "missing")
-    race_type_text = str(top.data.get("raceType", "")).strip().upper()
-    if race_type_text in OUT_OF_SCOPE_RACE_TYPES:
-        raise top.error(
-            "raceType",
-            f"{race_type_text} (several models on the track at once) is not a race file type yet; race the models "
-            f"with `racer evaluate --model-prefix A --opponent B --multi-car-type {race_type_text.lower().replace('_', '-')}`",
-        )
     race_type = top.choice("raceType", RACE_TYPES)
+    _check_race_type_keys(top, assert_str(race_type))
     timing = top.choice("timingMethod", TIMING_METHODS)
     resetting = top.sub("resettingBehaviorConfig", required=False)
     resetting.refuse_unknown(("continuousLap", "offTrackPenaltySeconds", "collisionPenaltySeconds"))
@@ -260,7 +298,7 @@ def parse_race(data: object, source: str, default_name: str) -> RaceDefinition:
     if max_resets == 1:
         raise top.error("maxResets", "1 is not allowed: 0 (the first exit ends the lap) or >= 2, as the SimApp")
     count, positions = _object_avoidance(top, assert_str(race_type))
-    simapp = tuple((key, str(top.data[key])) for key in _SIMAPP_KEYS if top.has(key))
+    simapp = tuple((key, str(top.data[key])) for key in (*_SIMAPP_KEYS, *_MULTI_CAR_KEYS) if top.has(key))
     definition = RaceDefinition(
         name=name,
         source=source,
@@ -282,6 +320,8 @@ def parse_race(data: object, source: str, default_name: str) -> RaceDefinition:
     )
     try:
         definition.race_config()
+        if definition.multi_car:
+            definition.multi_car_rules()
     except ValueError as error:
         raise RaceFileError(f"{source}: {error}") from None
     return definition

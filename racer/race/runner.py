@@ -58,6 +58,59 @@ def _task(entrant: Entrant, definition: RaceDefinition, route: str, seed: int, v
     }
 
 
+def run_multi_car_race(
+    definition: RaceDefinition,
+    entrants: Sequence[Entrant],
+    *,
+    route: str,
+    out_dir: Path,
+    seed: int,
+    video: bool,
+    log: Callable[[str], None] = print,
+) -> RaceRun:
+    """HEAD_TO_MODEL / F1: every entrant in ONE multi-car evaluation, in one process (`racer.race.worker`); a
+    process that dies leaves every entrant's row with the reason."""
+    started = time.perf_counter()
+    work = out_dir / "multi-car"
+    shutil.rmtree(work, ignore_errors=True)
+    work.mkdir(parents=True)
+    task = {
+        "multi_car": True,
+        "entrants": [
+            {"name": e.name, "source": e.source, "kind": e.kind, "model_prefix": e.model_prefix} for e in entrants
+        ],
+        "race": definition.to_dict(),
+        "race_source": definition.source,
+        "route": route,
+        "seed": seed,
+        "video": video,
+        "work_dir": str(work),
+        "videos_dir": str(out_dir / "videos"),
+        "result_path": str(work / "result.json"),
+    }
+    task_path = work / "task.json"
+    task_path.write_text(json.dumps(task, indent=1) + "\n")
+    env = {**os.environ, "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+    log(f"started {definition.race_type}: {', '.join(e.name for e in entrants)} on one track")
+    with (work / "stderr.log").open("w") as stderr:
+        done = subprocess.run(
+            [sys.executable, "-m", "racer.race.worker", str(task_path)],
+            stdout=stderr,
+            stderr=subprocess.STDOUT,
+            env=env,
+        )
+    result_path = Path(task["result_path"])
+    if result_path.is_file():
+        results = list(json.loads(result_path.read_text())["results"])
+    else:
+        reason = f"the evaluation died (exit status {done.returncode}; see {work / 'stderr.log'})"
+        results = [{"entrant": e.name, "reason": reason, "code": None} for e in entrants]
+    for result in results:
+        outcome = result.get("reason") or f"{len(result.get('metrics', []))} laps"
+        log(f"{result['entrant']}: {outcome}")
+    return RaceRun(results=tuple(results), wall_s=time.perf_counter() - started)
+
+
 def run_race(
     definition: RaceDefinition,
     entrants: Sequence[Entrant],

@@ -157,6 +157,166 @@ def race_entrant(task: dict[str, Any], store: ObjectStore, log) -> dict[str, Any
     return result
 
 
+class _CarPolicyFailed(Exception):
+    def __init__(self, index: int, reason: str) -> None:
+        super().__init__(reason)
+        self.index = index
+        self.reason = reason
+
+
+class _CarGuard:
+    """A multi-car entrant's policy: NaN stops the race with the car's index, so it can run again without it."""
+
+    def __init__(self, index: int, policy: Any) -> None:
+        self.index = index
+        self.guard = PolicyGuard(policy, time_limit_s=float("inf"))  # MultiCarRules.max_race_s stops the race
+
+    def act(self, observation, greedy, generator=None, epsilon=0.0):
+        try:
+            return self.guard.act(observation, greedy, generator, epsilon)
+        except PolicyReturnedNaN as error:
+            raise _CarPolicyFailed(self.index, str(error)) from None
+
+
+def _multi_car_row(report, car, result, rules, task: dict[str, Any], name: str) -> dict[str, Any]:
+    place = result.finishing_order.index(car.index) + 1
+    row: dict[str, Any] = {
+        "metrics": report.metrics.to_dict()["metrics"],
+        "ended_by": "finished" if car.finished else "did not finish",
+        "multi_car": {
+            "raceType": rules.race_type,
+            "laps": rules.laps,
+            "gridPlace": car.index + 1,
+            "finishingPlace": place,
+            "finished": car.finished,
+            "parked": car.parked,
+            "finishTimeMs": None if car.finish_time_s is None else int(round(car.finish_time_s * 1000.0)),
+            "completedLaps": car.laps_completed,
+            "racedPct": round(car.raced_pct, 3),
+            "crashCount": car.crash_count,
+        },
+    }
+    local = report.local_dir
+    videos = {}
+    if task["video"] and local is not None:
+        from racer.evaluation_worker.video import VIEWS
+
+        videos_dir = Path(task["videos_dir"])
+        videos_dir.mkdir(parents=True, exist_ok=True)
+        for view in VIEWS:
+            path = local / report.layout.video(view)
+            if path.is_file():
+                target = videos_dir / f"{name}-{view}.mp4"
+                shutil.move(path, target)
+                videos[view] = target.name
+    row["videos"] = videos
+    if local is not None:
+        row["best_lap"] = best_lap_trace(local / report.layout.relative("simtrace"), report.laps)
+    return row
+
+
+def race_multi_car(task: dict[str, Any], store: ObjectStore, log) -> list[dict[str, Any]]:
+    """HEAD_TO_MODEL / F1: every entrant that loads races in ONE multi-car evaluation; the others get their rows.
+
+    A car whose policy returns NaN, or whose model the simulator cannot run, is taken out and the race runs again
+    without it (seeded, so the others' race is the one they would have had without it)."""
+    import dataclasses
+
+    from racer.evaluation_worker.multi_car_session import run_multi_car_evaluation
+    from racer.shared.sim.peer_cars import PeerCars
+
+    definition = parse_race(task["race"], task["race_source"], task["race"]["name"])
+    rules = definition.multi_car_rules()
+    rows: dict[str, dict[str, Any]] = {}
+    loaded: list[tuple[dict[str, Any], str, Any, Any]] = []
+    for entrant in task["entrants"]:
+        sub = {**task, **entrant, "work_dir": str(Path(task["work_dir"]) / entrant["name"])}
+        try:
+            if entrant["kind"] == "missing":
+                raise EntrantFailure(
+                    f"{entrant['source']}: no model with that prefix in {store.describe()} and no such file or folder",
+                    "FILE_DOES_NOT_EXIST",
+                )
+            notes = import_entrant(sub, store, log) if entrant["kind"] == "import" else []
+            try:
+                checkpoint, policy, metadata = _load(store, entrant["model_prefix"])
+            except EntrantFailure as failure:
+                if notes:
+                    failure.reason += " (" + " ".join(notes) + ")"
+                raise
+        except EntrantFailure as failure:
+            rows[entrant["name"]] = {"reason": failure.reason, "code": failure.code}
+            log(f"{entrant['name']}: {failure.reason}")
+            continue
+        loaded.append((entrant, checkpoint, policy, metadata))
+
+    def config_of(entrant: dict[str, Any]):
+        config = evaluation_config(
+            definition,
+            route=task["route"],
+            model_prefix=entrant["model_prefix"],
+            seed=task["seed"],
+            video=task["video"],
+        )
+        # racer's multi-car evaluation runs the laps continuously, one reset budget per car (multi_car.py)
+        return dataclasses.replace(config, deepracer=dataclasses.replace(config.deepracer, is_continuous=True))
+
+    out_dir = Path(task["work_dir"]) / "evaluation"
+    while len(loaded) >= 2:
+        configs = [config_of(entrant) for entrant, *_ in loaded]
+        policies = [(_CarGuard(i, policy), metadata) for i, (_, _, policy, metadata) in enumerate(loaded)]
+        try:
+            reports, result = run_multi_car_evaluation(
+                store,
+                configs,
+                rules,
+                policies=policies,
+                out_dir=out_dir,
+                log=log,
+            )
+        except _CarPolicyFailed as failure:
+            entrant = loaded.pop(failure.index)[0]
+            rows[entrant["name"]] = {"reason": failure.reason, "code": None}
+            log(f"{entrant['name']}: {failure.reason}; the race runs again without it")
+            shutil.rmtree(out_dir, ignore_errors=True)
+            continue
+        except ValueError as error:  # a model whose sensors or action space the simulator cannot run: find which
+            unfit = []
+            for i, (_, _, policy, metadata) in enumerate(loaded):
+                try:
+                    from racer.evaluation_worker.runner import EvaluationSession
+
+                    probe = EvaluationSession(
+                        store, configs[i], policy=policy, model_metadata=metadata, race_objects=PeerCars(i, len(loaded))
+                    )
+                    probe.driver.close()
+                    probe.env.close()
+                except ValueError as reason:
+                    unfit.append((i, str(reason)))
+            if not unfit:
+                raise
+            for i, reason in reversed(unfit):
+                entrant = loaded.pop(i)[0]
+                rows[entrant["name"]] = {"reason": f"the race cannot run this model: {reason}", "code": None}
+            log(f"{error}; the race runs again without {len(unfit)} car(s)")
+            continue
+        for (entrant, checkpoint, _, _), report, car in zip(loaded, reports, result.cars, strict=True):
+            row = _multi_car_row(report, car, result, rules, task, entrant["name"])
+            rows[entrant["name"]] = {
+                "checkpoint": checkpoint,
+                "evaluation": report.layout.key(report.layout.run_name),
+                **row,
+            }
+        break
+    for entrant, *_ in loaded:
+        if entrant["name"] not in rows:
+            rows[entrant["name"]] = {
+                "reason": f"{definition.race_type} needs two or more cars; the other entrants could not race",
+                "code": None,
+            }
+    return [{"entrant": entrant["name"], **rows[entrant["name"]]} for entrant in task["entrants"]]
+
+
 def run_task(task_path: Path) -> None:
     task = json.loads(task_path.read_text())
     from racer.shared.config import settings_from_env
@@ -170,6 +330,9 @@ def run_task(task_path: Path) -> None:
             log_file.write(line.rstrip("\n") + "\n")
             log_file.flush()
 
+        if task.get("multi_car"):
+            _run_multi_car_task(task, log)
+            return
         result: dict[str, Any] = {"entrant": task["name"]}
         try:
             store = open_store(settings_from_env().store)
@@ -180,6 +343,20 @@ def run_task(task_path: Path) -> None:
             log(traceback.format_exc())
             result.update(reason=f"the evaluation died: {type(error).__name__}: {error}", code=None)
     Path(task["result_path"]).write_text(json.dumps(result, indent=1) + "\n")
+
+
+def _run_multi_car_task(task: dict[str, Any], log) -> None:
+    """The multi-car task's result file: {"results": [one row per entrant]}; a failure is every entrant's row."""
+    from racer.shared.config import settings_from_env
+    from racer.shared.store import open_store
+
+    try:
+        results = race_multi_car(task, open_store(settings_from_env().store), log)
+    except Exception as error:  # noqa: BLE001 (the race's failure: every entrant's row says why)
+        log(traceback.format_exc())
+        reason = f"the multi-car evaluation died: {type(error).__name__}: {error}"
+        results = [{"entrant": e["name"], "reason": reason, "code": None} for e in task["entrants"]]
+    Path(task["result_path"]).write_text(json.dumps({"results": results}, indent=1) + "\n")
 
 
 if __name__ == "__main__":
