@@ -55,7 +55,7 @@ def f1_standings(definition: RaceDefinition, results: Sequence[dict[str, Any]]) 
             standings.append(Standing(result["entrant"], stats, car["finishTimeMs"], rank, None))
             continue
         reason = (
-            f"did not finish: {car['completedLaps']} of {car['laps']} laps, {car['racedPct']:.1f} % of a lap raced"
+            f"did not finish: {car['completedLaps']} of {car['laps']} laps, {car['racedPct'] / 100.0:.2f} laps raced"
             f" from the line (place {car['finishingPlace']} on the road)"
         )
         standings.append(Standing(result["entrant"], stats, None, None, reason, result.get("code")))

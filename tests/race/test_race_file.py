@@ -63,7 +63,7 @@ def test_defaults_and_a_bot_car_race_under_the_simapp_names(tmp_path):
         ({"trackConfig": {"trackId": "racer_oval", "direction": "CW"}}, "trackConfig.direction: unknown key"),
         ({"trackConfig": {"trackId": "racer_oval", "trackDirection": "UP"}}, "trackConfig.trackDirection: 'UP'"),
         ({"raceType": "DRAG"}, "raceType: 'DRAG' is not one of"),
-        ({"raceType": "F1"}, "raceType: F1"),
+        ({"raceType": "F1", "objectAvoidanceConfig": None, "DONE_CONDITION": "first"}, "DONE_CONDITION: 'first'"),
         ({"timingMethod": "FASTEST"}, "timingMethod: 'FASTEST'"),
         ({"submissionTerminationConditions": {"minimumLaps": 3, "maximumLaps": 2}}, "maximumLaps: 2 is below"),
         ({"submissionTerminationConditions": {"minimumLaps": 1.5, "maximumLaps": 2}}, "minimumLaps: 1.5 is not"),
