@@ -191,7 +191,7 @@ def run_multi_car(
                 race_over = race_over or not rules.waits_for_all
         if all(car.state != "racing" for car in cars):
             race_over = True
-        if cars[0].driver.sim_time_s >= rules.max_race_s:
+        if max(car.driver.sim_time_s for car in cars) >= rules.max_race_s:  # car 0 may have parked
             race_over = True
     for car in cars:
         if car.state == "racing":
