@@ -139,3 +139,13 @@ def test_multi_car_evaluation_writes_each_cars_files(tmp_path):
     metrics = json.loads((tmp_path / reports[1].keys["metrics"]).read_bytes())["metrics"]
     assert sum(m["crash_count"] for m in metrics) >= 1
     assert any("1. slow-model" in line for line in lines)
+
+
+def test_the_time_limit_holds_after_the_front_car_parks():
+    # F1: car 0 finishes and parks, its clock stops; the race still ends at max_race_s by the others' clocks.
+    full, _ = _race([3.0, 0.5], MultiCarRules("F1", laps=1))
+    assert full.cars[0].finished and full.cars[1].finished
+    limit_s = (full.cars[0].finish_time_s + full.cars[1].finish_time_s) / 2.0
+    result, drivers = _race([3.0, 0.5], MultiCarRules("F1", laps=1, max_race_s=limit_s))
+    assert result.cars[0].finished and not result.cars[1].finished
+    assert drivers[1].sim_time_s <= limit_s + 0.1
