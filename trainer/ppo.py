@@ -55,8 +55,8 @@ from torch import nn
 
 from racer.shared.deepracer.hyperparameters import Hyperparameters
 from racer.shared.episode import Episode
-from racer.shared.policy.networks import ActionDistribution, ActorCritic, CategoricalPolicy, GaussianPolicy
 from racer.shared.policy.frame_stack import stack_episode_observations
+from racer.shared.policy.networks import ActionDistribution, ActorCritic, CategoricalPolicy, GaussianPolicy
 from racer.shared.policy.policy_config import PolicyConfig
 from racer.trainer.gae import GAE_LAMBDA, compute_gae, episode_ends_from_lengths
 from racer.trainer.learner import ADAM_BETAS, ADAM_EPSILON, UpdateAbandoned, adam, seed_or_fresh
