@@ -55,7 +55,9 @@ def _sac(metadata: ModelMetadata, hyperparameters: Hyperparameters, options: Lea
     )
     if options.preset is not None:
         settings = options.preset.sac_settings(settings)
-    learner = SACTrainer(build_network_for_metadata(metadata, options.network, hyperparameters.stack_size), hyperparameters, settings)
+    learner = SACTrainer(
+        build_network_for_metadata(metadata, options.network, hyperparameters.stack_size), hyperparameters, settings
+    )
     log.info("SAC replay memory: %d transitions in %.0f MB", learner.replay.capacity, options.sac_replay_memory_mb)
     return learner
 
