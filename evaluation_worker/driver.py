@@ -19,6 +19,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from racer.shared.policy.frame_stack import frame_stacker_for
 from racer.shared.sim.env import DeepRacerEnv
 
 PENALTY_STATUSES: tuple[str, ...] = ("crashed", "immobilized", "off_track", "reversed")
@@ -117,6 +118,10 @@ class EvaluationDriver:
         self._seed = seed
         self._generator = np.random.default_rng(seed)
         self._observation: Mapping[str, np.ndarray] | None = None
+        self._stacker = frame_stacker_for(policy)
+        """stack_size > 1: the policy reads the last N camera frames (reset with the env); observers see single
+        frames."""
+        self._policy_observation: Mapping[str, np.ndarray] | None = None
         self._pending: StepOutcome | None = None
         self._started = False
         self.lap_index = 0
@@ -143,6 +148,7 @@ class EvaluationDriver:
             observation, _info = self.env.reset(seed=self._seed, options={"evaluation": True})
             self._started = True
         self._observation = observation
+        self._policy_observation = observation if self._stacker is None else self._stacker.reset(observation)
         self.lap_index = lap_index
         self.lap_resets = 0
         return self.sim_time_s
@@ -160,9 +166,13 @@ class EvaluationDriver:
         pose = self.core.car.pose(self.core.data)
         car = CarState(pose.origin_x_m, pose.origin_y_m, pose.yaw_rad, self.sim_time_s)
         observation = self._observation
-        action, _log_prob = self.policy.act(observation, greedy=True, generator=self._generator)
+        action, _log_prob = self.policy.act(self._policy_observation, greedy=True, generator=self._generator)
         next_observation, reward, terminated, truncated, info = self.env.step(action)
         self._observation = next_observation
+        if self._stacker is None:
+            self._policy_observation = next_observation
+        else:
+            self._policy_observation = self._stacker.push(next_observation)
         row = dict(info["simtrace"])
         self._pending = StepOutcome(
             row=row,

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from racer.rollout_worker.episode_runner import EpisodeRecorder
+from racer.shared.policy.frame_stack import frame_stacker_for
 
 DEFAULT_ENVS_PER_WORKER = 4
 """Per-frame inference cost falls steeply from batch 1 to 4 and less after (README, Benchmarks): the dense layer's
@@ -70,7 +71,8 @@ class BatchedRollout:
             if ticket is None:
                 slots[index] = None
                 return
-            slots[index] = (ticket, EpisodeRecorder(*self.envs[index].reset(options={"evaluation": False})))
+            observation, info = self.envs[index].reset(options={"evaluation": False})
+            slots[index] = (ticket, EpisodeRecorder(observation, info, stacker=frame_stacker_for(policy)))
 
         for index in range(len(self.envs)):
             start(index)
@@ -81,7 +83,7 @@ class BatchedRollout:
             if stop.is_set():
                 return False
             choices = policy.act_batch(
-                [slots[index][1].observation for index in active],
+                [slots[index][1].policy_observation for index in active],
                 False,
                 [self.generators[index] for index in active],
                 [slots[index][0].epsilon for index in active],

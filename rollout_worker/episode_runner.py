@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from racer.shared.episode import Episode
+from racer.shared.policy.frame_stack import FrameStacker, frame_stacker_for
 
 
 @dataclass(frozen=True)
@@ -46,8 +47,13 @@ class EpisodeRecorder:
     Shared by `play_episode` (one env) and `racer.rollout_worker.batched_rollout` (several envs, one batched forward pass), so
     both produce the same episode from the same steps."""
 
-    def __init__(self, observation: dict[str, np.ndarray], reset_info: dict):
+    def __init__(self, observation: dict[str, np.ndarray], reset_info: dict, stacker: FrameStacker | None = None):
+        """`stacker` (stack_size > 1, racer.shared.policy.frame_stack.frame_stacker_for): the policy reads
+        `policy_observation`, the last N camera frames; the episode keeps single frames (`observation`), which the
+        trainer stacks the same way."""
         self.observation = observation
+        self._stacker = stacker
+        self.policy_observation = observation if stacker is None else stacker.reset(observation)
         self.start_time_s = float(reset_info["start_time_s"])
         self._observations: dict[str, list[np.ndarray]] = {name: [] for name in observation}
         self._actions: list = []
@@ -67,6 +73,7 @@ class EpisodeRecorder:
         self._rows.append(info["simtrace"])
         self._info = info
         self.observation = observation
+        self.policy_observation = observation if self._stacker is None else self._stacker.push(observation)
         return bool(terminated or truncated)
 
     def finish(
@@ -130,9 +137,9 @@ def play_episode(
         options["start_ndist"] = start_ndist
     if clear_start:
         options["clear_start"] = True
-    recorder = EpisodeRecorder(*env.reset(options=options))
+    recorder = EpisodeRecorder(*env.reset(options=options), stacker=frame_stacker_for(policy))
     while True:
-        action, log_prob = policy.act(recorder.observation, greedy=greedy, generator=generator, epsilon=epsilon)
+        action, log_prob = policy.act(recorder.policy_observation, greedy=greedy, generator=generator, epsilon=epsilon)
         result = env.step(action)
         if on_step is not None:
             on_step(result[0], float(result[1]), result[4])

@@ -39,7 +39,7 @@ class LearnerOptions:
 
 
 def _clipped_ppo(metadata: ModelMetadata, hyperparameters: Hyperparameters, options: LearnerOptions) -> Learner:
-    network = build_network_for_metadata(metadata, options.network)
+    network = build_network_for_metadata(metadata, options.network, hyperparameters.stack_size)
     settings = PPOSettings(seed=options.seed, precision=options.precision)
     if options.preset is not None:
         settings = options.preset.ppo_settings(settings)
@@ -55,7 +55,9 @@ def _sac(metadata: ModelMetadata, hyperparameters: Hyperparameters, options: Lea
     )
     if options.preset is not None:
         settings = options.preset.sac_settings(settings)
-    learner = SACTrainer(build_network_for_metadata(metadata, options.network), hyperparameters, settings)
+    learner = SACTrainer(
+        build_network_for_metadata(metadata, options.network, hyperparameters.stack_size), hyperparameters, settings
+    )
     log.info("SAC replay memory: %d transitions in %.0f MB", learner.replay.capacity, options.sac_replay_memory_mb)
     return learner
 

@@ -55,7 +55,9 @@ from torch import nn
 
 from racer.shared.deepracer.hyperparameters import Hyperparameters
 from racer.shared.episode import Episode
+from racer.shared.policy.frame_stack import stack_episode_observations
 from racer.shared.policy.networks import ActionDistribution, ActorCritic, CategoricalPolicy, GaussianPolicy
+from racer.shared.policy.policy_config import PolicyConfig
 from racer.trainer.gae import GAE_LAMBDA, compute_gae, episode_ends_from_lengths
 from racer.trainer.learner import ADAM_BETAS, ADAM_EPSILON, UpdateAbandoned, adam, seed_or_fresh
 from racer.trainer.log_lines import format_policy_training_line
@@ -152,16 +154,24 @@ class TrainingBatch:
         return {name: array[indices] for name, array in self.observations.items()}
 
 
-def make_training_batch(episodes: Sequence[Episode], input_names: Sequence[str]) -> TrainingBatch:
-    """Concatenate episodes (in the order given) into one batch with the sensors the network reads."""
+def make_training_batch(
+    episodes: Sequence[Episode], input_names: Sequence[str], config: PolicyConfig | None = None
+) -> TrainingBatch:
+    """Concatenate episodes (in the order given) into one batch with the sensors the network reads. With a `config`
+    whose stack_size > 1 each episode's camera frames are stacked first (racer.shared.policy.frame_stack), as the
+    workers stacked them for the policy."""
     for episode in episodes:
         missing = [name for name in input_names if name not in episode.observations]
         if missing:
             raise ValueError(
                 f"episode {episode.episode_index} of worker {episode.worker_id} lacks observations {missing}"
             )
+    if config is not None and config.stack_size > 1:
+        per_episode = [stack_episode_observations(episode.observations, config, input_names) for episode in episodes]
+    else:
+        per_episode = [episode.observations for episode in episodes]
     observations = {
-        name: torch.from_numpy(np.concatenate([episode.observations[name] for episode in episodes]))
+        name: torch.from_numpy(np.concatenate([episode_observations[name] for episode_observations in per_episode]))
         for name in input_names
     }
     return TrainingBatch(
@@ -241,7 +251,7 @@ class PPOTrainer:
         episodes = finite_episodes(episodes)
         if not episodes:
             return []
-        batch = make_training_batch(episodes, self.network.input_names)
+        batch = make_training_batch(episodes, self.network.input_names, self.network.config)
         stats = self.nan_guard.run(lambda: self._train(batch, abandon), skipped=f"{batch.size} transitions")
         return stats if stats is not None else []
 

@@ -19,6 +19,7 @@ import numpy as np
 import torch
 
 from racer.shared.episode import Episode
+from racer.shared.policy.frame_stack import stack_episode_frames
 from racer.shared.policy.networks import InputSpec
 
 __all__ = ["ReplayBatch", "ReplayBuffer", "bytes_per_transition"]
@@ -46,8 +47,11 @@ class ReplayBatch:
 
 
 class ReplayBuffer:
-    def __init__(self, inputs: Sequence[InputSpec], memory_budget_bytes: int):
+    def __init__(self, inputs: Sequence[InputSpec], memory_budget_bytes: int, stack_size: int = 1):
+        """`inputs`: the network's (camera shapes already stacked); `stack_size` > 1: episodes bring single frames,
+        stacked here as the workers stacked them (racer.shared.policy.frame_stack)."""
         self.inputs = tuple(inputs)
+        self.stack_size = int(stack_size)
         self.capacity = int(memory_budget_bytes // bytes_per_transition(self.inputs))
         if self.capacity < 2:
             raise ValueError(f"a replay memory of {memory_budget_bytes} bytes holds fewer than 2 transitions")
@@ -74,7 +78,10 @@ class ReplayBuffer:
             raise ValueError(f"an episode of {steps} steps does not fit a replay memory of {self.capacity}")
         slots = (self._next + np.arange(steps)) % self.capacity
         for spec in self.inputs:
-            self._observations[spec.name][slots] = episode.observations[spec.name]
+            frames = episode.observations[spec.name]
+            if self.stack_size > 1 and spec.kind == "camera":
+                frames = stack_episode_frames(frames, self.stack_size)
+            self._observations[spec.name][slots] = frames
         self._actions[slots] = np.asarray(episode.actions, np.float32).reshape(steps, ACTION_SIZE)
         self._rewards[slots] = episode.rewards
         self._dones[slots] = False

@@ -115,7 +115,7 @@ class SACTrainer:
         seed = seed_or_fresh(settings.seed)
         self.rng = np.random.default_rng(seed)
         self.generator = torch.Generator().manual_seed(seed)
-        self.replay = ReplayBuffer(networks.config.inputs, settings.replay_memory_bytes)
+        self.replay = ReplayBuffer(networks.config.inputs, settings.replay_memory_bytes, networks.config.stack_size)
         self.nan_guard = NanGuard(networks, self.optimizer, settings.max_nan_retries)
         self.tower_dtype: torch.dtype | None = Precision(settings.precision).tower_dtype
 

@@ -11,7 +11,8 @@ as `metrics/training/training-<name>.json`. racer's own files (safetensors, mani
 ignore them and they count against its 1 GB limit.
 
 A model with your own network (network.json) is refused (`refuse_custom_network`): its frozen graph cannot be
-written yet, and DeepRacer on AWS imports only its three built-in networks.
+written yet, and DeepRacer on AWS imports only its three built-in networks. So is a model trained on stacked frames
+(hyperparameters.json stack_size > 1): its frozen graph is not yet proven against the car's runtimes.
 """
 
 from __future__ import annotations
@@ -23,7 +24,11 @@ import re
 from racer.model_io import checkpoints as ck
 from racer.model_io.problems import ImportPlan
 from racer.model_io.sources import StoreSource
-from racer.model_io.tensorflow.errors import CustomNetworkExportError, custom_network_export_refusal
+from racer.model_io.tensorflow.errors import (
+    CustomNetworkExportError,
+    custom_network_export_refusal,
+    stacked_frames_export_refusal,
+)
 from racer.shared import model_layout
 from racer.shared.deepracer.model_metadata import NEURAL_NETWORKS, ContinuousActionSpace, parse_model_metadata
 from racer.shared.model_layout import RACER_CHECKPOINT_SUFFIXES, CheckpointName
@@ -47,6 +52,8 @@ def tensorflow_exports(source: StoreSource, plan: ImportPlan) -> dict[str, bytes
         if not ck.is_racer_checkpoint(name, plan.checkpoint_files):
             continue  # a TensorFlow checkpoint already: its files are copied as they are
         network = checkpoints.load_policy(name.name)
+        if network.config.stack_size > 1:  # the manifest's word, whatever hyperparameters.json says
+            raise CustomNetworkExportError(stacked_frames_export_refusal(network.config.stack_size, "racer"))
         jobs.append(ExportJob(network, name.name, name.number, _action_space(source, checkpoints, name.name)))
     files: dict[str, bytes] = {}
     for produced in tensorflow_files(jobs) if jobs else []:
@@ -74,6 +81,23 @@ def refuse_custom_network(source: StoreSource, layout: str) -> None:
     network = metadata.get("neural_network") if isinstance(metadata, dict) else None
     if isinstance(network, str) and network not in NEURAL_NETWORKS:
         raise CustomNetworkExportError(custom_network_export_refusal(network, layout))
+    stack_size = _stack_size(source)
+    if stack_size > 1:
+        raise CustomNetworkExportError(stacked_frames_export_refusal(stack_size, layout))
+
+
+def _stack_size(source: StoreSource) -> int:
+    """hyperparameters.json's stack_size (1 when the file or the key is missing or unreadable: validation reports it)."""
+    for key in (model_layout.HYPERPARAMETERS, "hyperparameters.json"):
+        try:
+            data = json.loads(source.store.get_bytes(join_key(source.prefix, key)).decode("utf-8-sig"))
+        except (ObjectNotFoundError, ValueError):
+            continue
+        try:
+            return int(float(data.get("stack_size", 1))) if isinstance(data, dict) else 1
+        except (TypeError, ValueError):
+            return 1
+    return 1
 
 
 def droa_plan(plan: ImportPlan) -> ImportPlan:

@@ -107,7 +107,11 @@ def check_racer_checkpoints(
                 )
         if metadata is not None:
             try:
-                wanted = policy_config_from_metadata(metadata, info.policy_config.network)
+                wanted = policy_config_from_metadata(
+                    metadata,
+                    info.policy_config.network,
+                    info.policy_config.stack_size,  # not model_metadata's to say
+                )
                 wanted_text = f"{wanted.num_actions} {wanted.action_space_type} actions, {wanted.neural_network}"
             except ValueError as error:
                 wanted, wanted_text = None, str(error)

@@ -27,6 +27,11 @@ class PolicyGuard:
         self.time_limit_s = time_limit_s
         self._driver: Any = None
 
+    @property
+    def config(self) -> Any:
+        """The guarded policy's PolicyConfig (its stack_size decides what the driver feeds it)."""
+        return getattr(self.policy, "config", None)
+
     def attach(self, driver: Any) -> None:
         self._driver = driver
 

@@ -78,7 +78,8 @@ class Hyperparameters:
     num_episodes_between_training: int = 20
     num_epochs: int = 10
     stack_size: int = 1
-    """Parsed by the SimApp but not used: frame stacking is fixed at 1."""
+    """Camera frames the policy sees (RL Coach observation stacking; racer.shared.policy.frame_stack). The SimApp
+    parses it but fixes stacking at 1; racer stacks 1 to 8 frames."""
     term_cond_avg_score: float = 100000.0
     """Parsed by the SimApp but not used."""
     term_cond_max_episodes: int = 100000
@@ -115,7 +116,7 @@ _RULES: dict[str, _Rule] = {
     "lr": _Rule(float, 1e-8, 1e-3),
     "num_episodes_between_training": _Rule(int, 1, 100),
     "num_epochs": _Rule(int, 3, 10),
-    "stack_size": _Rule(int, choices=(1,)),
+    "stack_size": _Rule(int, 1, 8),
     "term_cond_avg_score": _Rule(float),
     "term_cond_max_episodes": _Rule(int, 1),
     "sac_alpha": _Rule(float, 0.0, 1.0),

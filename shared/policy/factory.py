@@ -25,7 +25,9 @@ def build_network(config: PolicyConfig) -> PolicyNetwork:
     return ActorCritic(config)
 
 
-def build_network_for_metadata(metadata: ModelMetadata, network: NetworkFile | None = None) -> PolicyNetwork:
+def build_network_for_metadata(
+    metadata: ModelMetadata, network: NetworkFile | None = None, stack_size: int = 1
+) -> PolicyNetwork:
     """The freshly initialised network a model_metadata.json asks for (`network`: the custom files' network.json
-    when model_metadata.json names one)."""
-    return build_network(policy_config_from_metadata(metadata, network))
+    when model_metadata.json names one; `stack_size`: hyperparameters.json's)."""
+    return build_network(policy_config_from_metadata(metadata, network, stack_size))

@@ -54,6 +54,9 @@ class PolicyConfig:
     network: NetworkFile | None = None
     """Your own network (network.json, racer.shared.policy.network_file) when `neural_network` names it; None for
     DeepRacer's three."""
+    stack_size: int = 1
+    """hyperparameters.json `stack_size`: camera inputs are the last N frames on the channel axis (their InputSpec
+    shapes carry C * N channels; racer.shared.policy.frame_stack). LIDAR inputs are not stacked."""
 
     def __post_init__(self) -> None:
         if self.network is None and self.neural_network not in NETWORK_ARCHITECTURES:
@@ -68,6 +71,8 @@ class PolicyConfig:
             missing = [spec.name for spec in self.inputs if spec.name not in names]
             if missing:
                 raise ValueError(f"network {self.network.name!r} has no input_embedders for {', '.join(missing)}")
+        if self.stack_size < 1:
+            raise ValueError(f"stack_size must be at least 1, got {self.stack_size}")
         if self.action_space_type not in ("discrete", "continuous"):
             raise ValueError(f"action_space_type must be 'discrete' or 'continuous', got {self.action_space_type!r}")
         if self.action_space_type == "continuous" and self.num_actions != 2:
@@ -99,6 +104,8 @@ class PolicyConfig:
         }
         if self.network is not None:  # built-in networks' manifests stay as they were
             data["network"] = self.network.to_dict()
+        if self.stack_size != 1:  # so do single-frame models' manifests
+            data["stack_size"] = self.stack_size
         return data
 
     @classmethod
@@ -113,6 +120,7 @@ class PolicyConfig:
             num_actions=int(data["num_actions"]),
             training_algorithm=str(data.get("training_algorithm", "clipped_ppo")),
             network=parse_network_file(data["network"], "policy_config.network") if data.get("network") else None,
+            stack_size=int(data.get("stack_size", 1)),
         )
 
     def embedder_layers(self, spec: InputSpec) -> tuple[tuple[ConvLayer, ...], tuple[DenseLayer, ...]]:
@@ -124,7 +132,7 @@ class PolicyConfig:
         architecture = NETWORK_ARCHITECTURES[self.neural_network]
         if spec.kind == "vector":
             return (), LIDAR_EMBEDDER_DENSE
-        if spec.shape[2] == 2:
+        if spec.name == "STEREO_CAMERAS":  # not by channels: a stacked mono camera has 2 * N of them
             return architecture.stereo_convs, architecture.stereo_dense
         return architecture.camera_convs, architecture.camera_dense
 
@@ -135,9 +143,9 @@ class PolicyConfig:
         return NETWORK_ARCHITECTURES[self.neural_network].middleware_dense
 
 
-def _input_spec(sensor: str, metadata: ModelMetadata) -> InputSpec:
+def _input_spec(sensor: str, metadata: ModelMetadata, stack_size: int = 1) -> InputSpec:
     if sensor in CAMERA_CHANNELS:
-        return InputSpec(sensor, "camera", (IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, CAMERA_CHANNELS[sensor]))
+        return InputSpec(sensor, "camera", (IMAGE_HEIGHT_PX, IMAGE_WIDTH_PX, CAMERA_CHANNELS[sensor] * stack_size))
     if sensor in LIDAR_SIZES:
         return InputSpec(sensor, "vector", (LIDAR_SIZES[sensor],))
     if sensor == "DISCRETIZED_SECTOR_LIDAR":
@@ -146,14 +154,18 @@ def _input_spec(sensor: str, metadata: ModelMetadata) -> InputSpec:
     raise ValueError(f"sensor {sensor!r} has no network input (known: {', '.join([*CAMERA_CHANNELS, *LIDAR_SIZES])})")
 
 
-def policy_config_from_metadata(metadata: ModelMetadata, network: NetworkFile | None = None) -> PolicyConfig:
+def policy_config_from_metadata(
+    metadata: ModelMetadata, network: NetworkFile | None = None, stack_size: int = 1
+) -> PolicyConfig:
     """The network a parsed model_metadata.json asks for (clipped PPO or SAC); `network`: the custom files' network
-    file when `neural_network` names one (racer.shared.policy.network_file.network_for_metadata)."""
+    file when `neural_network` names one (racer.shared.policy.network_file.network_for_metadata); `stack_size`:
+    hyperparameters.json's (camera inputs get that many frames)."""
     return PolicyConfig(
         neural_network=metadata.neural_network,
-        inputs=tuple(_input_spec(sensor, metadata) for sensor in sorted(metadata.sensors)),
+        inputs=tuple(_input_spec(sensor, metadata, stack_size) for sensor in sorted(metadata.sensors)),
         action_space_type=metadata.action_space_type,
         num_actions=metadata.num_actions,
         training_algorithm=metadata.training_algorithm,
         network=network,
+        stack_size=stack_size,
     )

@@ -137,7 +137,7 @@ BAD_VALUES = [
     ("num_episodes_between_training", 101, "1 to 100"),
     ("num_epochs", 2, "3 to 10"),
     ("num_epochs", 11, "3 to 10"),
-    ("stack_size", 2, "one of 1"),
+    ("stack_size", 9, "1 to 8"),
     ("term_cond_avg_score", "inf", "not a finite number"),
     ("term_cond_max_episodes", 0, "at least 1"),
     ("sac_alpha", 2.0, "0 to 1"),

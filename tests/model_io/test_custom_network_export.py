@@ -44,3 +44,22 @@ def test_the_cli_says_why(tmp_path):
     )
     assert result.exit_code != 0
     assert "is your own (network.json)" in result.output
+
+
+@pytest.mark.parametrize(
+    ("layout", "reason"),
+    [("racer", "not yet proven"), ("droa", "single-frame models only")],
+)
+def test_export_refuses_stacked_frames_with_the_reason(tmp_path, layout, reason):
+    store = LocalStore(tmp_path / "store")
+    model = ModelLayout("stacked")
+    metadata = {"action_space": ACTIONS, "sensor": ["FRONT_FACING_CAMERA"], "version": "5"}
+    store.put_bytes(model.model_metadata, json.dumps(metadata).encode())
+    store.put_bytes(model.hyperparameters, json.dumps({"stack_size": 2}).encode())
+    with pytest.raises(CustomNetworkExportError, match=rf"2 stacked .*{reason}"):
+        export_model(store, "stacked", FolderDestination(tmp_path / "out"), layout=layout)
+    assert not (tmp_path / "out").exists()
+    result = CliRunner().invoke(
+        main, ["model", "export", "stacked", str(tmp_path / "out"), "--store", str(tmp_path / "store")]
+    )
+    assert result.exit_code != 0 and "stack_size" in result.output

@@ -22,6 +22,7 @@ from racer.rollout_worker.episode_runner import play_episode
 from racer.shared.config import LocalStoreSettings, ServiceSettings
 from racer.shared.episode import Episode
 from racer.shared.policy.checkpoints import CheckpointStore
+from racer.shared.policy.frame_stack import frame_stacker_for
 from racer.shared.redis_connection import RedisLink
 from racer.shared.sim.env import DeepRacerEnv, EnvConfig
 from racer.shared.store import open_store
@@ -159,7 +160,9 @@ def train_one_iteration(custom: Path, report, tmp_path: Path, redis_settings) ->
     assert summary["episodes"] == episodes
     assert checkpoints.latest_name() == name and name.startswith("1_Step-")
     trained = checkpoints.load_inference_policy(name)
-    action, _ = trained.act({key: value[0] for key, value in played.episode.observations.items()}, greedy=True)
+    observation = {key: value[0] for key, value in played.episode.observations.items()}
+    stacker = frame_stacker_for(trained)  # stack_size > 1: the first frame fills the stack, as at a reset
+    action, _ = trained.act(observation if stacker is None else stacker.reset(observation), greedy=True)
     assert np.all(np.isfinite(np.asarray(action, dtype=np.float64)))
     if report.model_metadata.is_continuous:
         assert np.asarray(action).shape == (2,) and np.all(np.abs(action) <= 1.0)
