@@ -10,7 +10,7 @@ import pytest
 from click.testing import CliRunner
 
 import racer.trainer.preflight as preflight_module
-import racer.trainer.training_loop as training_loop
+import racer.trainer.run_files as run_files
 from racer.local.run import LocalRunPlan, check_before_start, trainer_argv
 from racer.shared.config import LocalStoreSettings, ServiceSettings
 from racer.shared.deepracer.training_params import parse_training_params
@@ -33,7 +33,7 @@ def counted_preflight(monkeypatch) -> list[tuple]:
         return real(*args, **kwargs)
 
     monkeypatch.setattr(preflight_module, "preflight", counting)
-    monkeypatch.setattr(training_loop, "preflight", counting)  # the name the trainer imported
+    monkeypatch.setattr(run_files, "preflight", counting)  # the name the trainer's run files imported
     return calls
 
 

@@ -354,7 +354,7 @@ def test_training_params_keys_work_or_are_refused_by_name(redis_settings, tmp_pa
     from tests.sim.conftest import place_front_at
 
     for values, message in (
-        ({"RACE_TYPE": "F1"}, r"RACE_TYPE: 'F1' is not one of TIME_TRIAL, OBJECT_AVOIDANCE, HEAD_TO_BOT"),
+        ({"RACE_TYPE": "F1"}, r"RACE_TYPE: F1 puts several trained cars on the track: run it with `racer evaluate"),
         (
             {"RACE_TYPE": "OBJECT_AVOIDANCE", "NUMBER_OF_OBSTACLES": "three"},
             r"NUMBER_OF_OBSTACLES: 'three' is not a number",
