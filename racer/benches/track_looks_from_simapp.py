@@ -93,7 +93,7 @@ class Reader:
                 image = Image.open(io.BytesIO(self.show(path))).convert("RGB")
                 pixels = np.asarray(image, dtype=np.float64) / 255.0
                 self._means[path] = tuple(round(float(v), 4) for v in pixels.reshape(-1, 3).mean(axis=0))  # type: ignore[assignment]
-            except Exception:  # noqa: BLE001
+            except (OSError, ValueError):  # PIL's UnidentifiedImageError is an OSError; a git-lfs pointer is one
                 self._means[path] = None
         return self._means[path]
 
