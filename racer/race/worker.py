@@ -102,7 +102,6 @@ def _metrics_so_far(store: ObjectStore, key: str) -> list[dict[str, Any]]:
 
 def race_entrant(task: dict[str, Any], store: ObjectStore, log) -> dict[str, Any]:
     from racer.evaluation_worker.runner import EvaluationSession
-    from racer.evaluation_worker.video import VIEWS
 
     definition = parse_race(task["race"], task["race_source"], task["race"]["name"])
     notes: list[str] = []
@@ -142,17 +141,7 @@ def race_entrant(task: dict[str, Any], store: ObjectStore, log) -> dict[str, Any
     result["metrics"] = report.metrics.to_dict()["metrics"]
     result["ended_by"] = "maximumLaps" if len(report.laps) == definition.maximum_laps else "reset rule"
     local = report.local_dir or out_dir
-    videos = {}
-    if task["video"]:
-        videos_dir = Path(task["videos_dir"])
-        videos_dir.mkdir(parents=True, exist_ok=True)
-        for view in VIEWS:
-            path = local / session.layout.video(view)
-            if path.is_file():
-                target = videos_dir / f"{task['name']}-{view}.mp4"
-                shutil.move(path, target)
-                videos[view] = target.name
-    result["videos"] = videos
+    result["videos"] = _move_videos(local, session.layout, task, task["name"]) if task["video"] else {}
     result["best_lap"] = best_lap_trace(local / session.layout.relative("simtrace"), report.laps)
     return result
 
@@ -197,19 +186,7 @@ def _multi_car_row(report, car, result, rules, task: dict[str, Any], name: str) 
         },
     }
     local = report.local_dir
-    videos = {}
-    if task["video"] and local is not None:
-        from racer.evaluation_worker.video import VIEWS
-
-        videos_dir = Path(task["videos_dir"])
-        videos_dir.mkdir(parents=True, exist_ok=True)
-        for view in VIEWS:
-            path = local / report.layout.video(view)
-            if path.is_file():
-                target = videos_dir / f"{name}-{view}.mp4"
-                shutil.move(path, target)
-                videos[view] = target.name
-    row["videos"] = videos
+    row["videos"] = _move_videos(local, report.layout, task, name) if task["video"] and local is not None else {}
     if local is not None:
         row["best_lap"] = best_lap_trace(local / report.layout.relative("simtrace"), report.laps)
     return row
@@ -361,3 +338,19 @@ def _run_multi_car_task(task: dict[str, Any], log) -> None:
 
 if __name__ == "__main__":
     run_task(Path(sys.argv[1]))
+
+
+def _move_videos(local: Path, layout: Any, task: dict[str, Any], name: str) -> dict[str, str]:
+    """The evaluation's videos moved into the race's videos folder as `<name>-<view>.mp4`: {view: file name}."""
+    from racer.evaluation_worker.video import VIEWS
+
+    videos_dir = Path(task["videos_dir"])
+    videos_dir.mkdir(parents=True, exist_ok=True)
+    videos = {}
+    for view in VIEWS:
+        path = local / layout.video(view)
+        if path.is_file():
+            target = videos_dir / f"{name}-{view}.mp4"
+            shutil.move(path, target)
+            videos[view] = target.name
+    return videos
