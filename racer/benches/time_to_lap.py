@@ -19,7 +19,7 @@ from racer.local.services import PROJECT_ROOT
 from racer.shared.config import LocalStoreSettings, RedisSettings, ServiceSettings
 from racer.shared.deepracer.hyperparameters import HyperparametersError, parse_hyperparameters
 from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
-from racer.trainer.precision import DEFAULT_PRECISION, PRECISION_NAMES
+from racer.trainer.run_options import trainer_run_options
 
 
 @click.command(name="time-to-lap")
@@ -87,12 +87,20 @@ from racer.trainer.precision import DEFAULT_PRECISION, PRECISION_NAMES
     help="A hyperparameters.json key over the recipe and the SimApp defaults (repeatable), e.g. sac_alpha=0.05.",
 )
 @click.option(
-    "--precision",
-    type=click.Choice(PRECISION_NAMES),
-    default=DEFAULT_PRECISION.value,
-    show_default=True,
-    help="The trainer's tower precision (racer train --precision).",
+    "--network",
+    "network_file",
+    type=click.Path(exists=True, dir_okay=False, path_type=Path),
+    default=None,
+    help="Your own network.json (docs/custom-networks.md); the model's neural_network becomes its name.",
 )
+@click.option(
+    "--preset",
+    "preset_file",
+    type=click.Path(exists=True, dir_okay=False, path_type=Path),
+    default=None,
+    help="A preset.json (docs/custom-networks.md).",
+)
+@trainer_run_options
 @click.option("--seed", type=int, default=0, show_default=True)
 def time_to_lap_command(
     track,
@@ -109,7 +117,11 @@ def time_to_lap_command(
     race_type,
     sensors,
     hyperparameter_pairs,
+    network_file,
+    preset_file,
     precision,
+    car_profile,
+    dynamics_randomization,
     seed,
 ):
     """Train from scratch until greedy evaluation completes 3 of 3 laps (from three starts a third of a lap
@@ -139,13 +151,20 @@ def time_to_lap_command(
             actions = [
                 {"steering_angle": angle, "speed": speed, "index": i} for i, angle in enumerate([-30, -15, 0, 15, 30])
             ]
+        network_name = "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW"
+        if network_file is not None:
+            # The preflight checks the file and names what is wrong with it, a missing name included.
+            network_name = str(json.loads(network_file.read_text()).get("name", "NETWORK_WITHOUT_NAME"))
+            (custom / "network.json").write_bytes(network_file.read_bytes())
+        if preset_file is not None:
+            (custom / "preset.json").write_bytes(preset_file.read_bytes())
         (custom / "model_metadata.json").write_text(
             json.dumps(
                 {
                     "action_space": actions,
                     "action_space_type": action_space,
                     "sensor": ["FRONT_FACING_CAMERA"] if sensors == "camera" else ["STEREO_CAMERAS", "LIDAR"],
-                    "neural_network": "DEEP_CONVOLUTIONAL_NETWORK_SHALLOW",
+                    "neural_network": network_name,
                     "training_algorithm": algorithm,
                     "version": "5",
                 }
@@ -174,6 +193,8 @@ def time_to_lap_command(
                 "--precision",
                 precision,
             ),
+            car_profile=car_profile,
+            dynamics_randomization=dynamics_randomization,
             race_params=race.race_params,
         )
         result = {
@@ -182,6 +203,10 @@ def time_to_lap_command(
             "algorithm": algorithm,
             "action_space": action_space,
             "precision": precision,
+            "network": network_name,
+            "preset": json.loads(preset_file.read_text()) if preset_file is not None else None,
+            "car_profile": car_profile,
+            "dynamics_randomization": dynamics_randomization,
             "cpu": cpu_description(),
             "minutes": None,
             "env_steps": None,

@@ -33,3 +33,21 @@ def test_the_command_refuses_a_bad_pair_before_anything_starts(tmp_path, monkeyp
     assert result.exit_code == 2
     assert "discount_factor" in result.output and "out of range" in result.output
     assert list(tmp_path.iterdir()) == []  # no run folder was made
+
+
+def test_a_network_file_reaches_the_run_and_a_bad_layer_is_refused_by_name(tmp_path, monkeypatch):
+    """--network copies the file into the run's custom files: the preflight reads it and names the bad layer."""
+    network = tmp_path / "network.json"
+    network.write_text(
+        '{"name": "BAD_KERNEL", "input_embedders": {"FRONT_FACING_CAMERA": '
+        '[{"type": "Conv2d", "num_filters": 8, "kernel_size": 0, "strides": 1}]}, "middleware": []}'
+    )
+    runs = tmp_path / "runs"
+    runs.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(runs))
+    result = CliRunner().invoke(
+        time_to_lap_command,
+        ["--track", "reinvent_base", "--network", str(network), "--time-limit-minutes", "0.1", "--workers", "1"],
+    )
+    assert result.exit_code != 0
+    assert "network.json" in result.output and "kernel_size" in result.output, result.output
