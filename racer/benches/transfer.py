@@ -264,6 +264,19 @@ def proxies(track: Path, world: str, frames_rgb: np.ndarray) -> dict:
 @click.option(
     "--workers", type=click.IntRange(1, 16), default=DEFAULT_WORKERS, show_default=True, help="--matrix: per model."
 )
+@click.option(
+    "--randomization",
+    type=click.Choice(["both", "on", "off"]),
+    default="both",
+    show_default=True,
+    help="--matrix: train with dynamics randomisation, without, or both.",
+)
+@click.option(
+    "--keep-models",
+    type=click.Path(file_okay=False, path_type=Path),
+    default=None,
+    help="--matrix: copy each trained model folder here (the bench's own folder is removed at the end).",
+)
 @click.option("--seed", type=int, default=0, show_default=True, help="--matrix: the training seed.")
 @click.pass_context
 def transfer_bench_command(
@@ -280,6 +293,8 @@ def transfer_bench_command(
     train_profile_names,
     minutes,
     workers,
+    randomization,
+    keep_models,
     seed,
 ) -> None:
     """Real DeepRacer checkpoints drive racer, closed loop: laps and mean progress per checkpoint, one JSON line."""
@@ -297,6 +312,8 @@ def transfer_bench_command(
             starts=starts,
             workers=workers,
             seed=seed,
+            randomizations={"both": (False, True), "on": (True,), "off": (False,)}[randomization],
+            keep_models=keep_models,
         )
         click.echo(json.dumps(result))
         return

@@ -15,6 +15,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import shutil
 import sys
 import time
 from collections.abc import Callable
@@ -134,13 +135,15 @@ def run_matrix(
     starts: int = 10,
     workers: int = DEFAULT_WORKERS,
     seed: int = 0,
+    randomizations: tuple[bool, ...] = (False, True),
+    keep_models: Path | None = None,
 ) -> dict:
-    """Train every (profile, randomisation) cell and drive each in every profile with `drive(model, config, starts)`
+    """Train every (profile, randomisation in `randomizations`) cell and drive each in every profile with `drive(model, config, starts)`
     (the transfer bench's); the matrix as a dict."""
     from racer.shared.sim.car_dynamics import CAR_PROFILE_NAMES
 
     drive_profiles = drive_profiles or CAR_PROFILE_NAMES
-    cells = [MatrixCell(profile, randomized) for profile in train_profiles for randomized in (False, True)]
+    cells = [MatrixCell(profile, randomized) for profile in train_profiles for randomized in randomizations]
     started = time.monotonic()
     result: dict = {
         "benchmark": "transfer-matrix",
@@ -160,6 +163,8 @@ def run_matrix(
             load_before = os.getloadavg()[0]
             store_root, records = train_cell(cell, workdir, custom, track, minutes, workers, seed)
             checkpoint, drives = drive_last_checkpoint(store_root, cell, track, drive_profiles, starts, drive)
+            if keep_models is not None:  # for `--racer-model` reverse checks after the bench's folder is gone
+                shutil.copytree(store_root / cell.model_prefix, keep_models / cell.model_prefix, dirs_exist_ok=True)
             result["runs"].append(
                 {
                     "model": cell.model_prefix,

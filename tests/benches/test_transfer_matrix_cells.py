@@ -1,0 +1,38 @@
+"""`racer bench transfer --matrix --randomization` picks the cells it trains, and `--keep-models` keeps each model."""
+
+from __future__ import annotations
+
+import json
+
+from click.testing import CliRunner
+
+from racer.benches import transfer_matrix
+from racer.benches.transfer import transfer_bench_command
+
+
+def test_randomization_on_trains_only_the_randomised_cell_and_keeps_its_model(tmp_path, monkeypatch):
+    trained = []
+
+    def train_cell(cell, workdir, custom, track, minutes, workers, seed):
+        """Stands in for a training run: a model folder with one file, no iteration records."""
+        trained.append(cell.model_prefix)
+        (workdir / "store" / cell.model_prefix).mkdir(parents=True)
+        (workdir / "store" / cell.model_prefix / "marker").write_text(cell.model_prefix)
+        return workdir / "store", []
+
+    monkeypatch.setattr(transfer_matrix, "train_cell", train_cell)
+    monkeypatch.setattr(transfer_matrix, "drive_last_checkpoint", lambda *args: (None, {}))
+    kept = tmp_path / "kept"
+    args = ["--matrix", "--train-profile", "gazebo", "--train-profile", "simapp6-ros2", "--randomization", "on"]
+    result = CliRunner().invoke(transfer_bench_command, [*args, "--keep-models", str(kept)], catch_exceptions=False)
+    assert result.exit_code == 0, result.output
+    assert trained == ["matrix-gazebo-dr", "matrix-simapp6-ros2-dr"]
+    report = json.loads(result.stdout.strip().splitlines()[-1])
+    assert [run["dynamics_randomization"] for run in report["runs"]] == [True, True]
+    assert (kept / "matrix-simapp6-ros2-dr" / "marker").read_text() == "matrix-simapp6-ros2-dr"
+
+    trained.clear()
+    result = CliRunner().invoke(
+        transfer_bench_command, ["--matrix", "--train-profile", "gazebo", "--randomization", "off"]
+    )
+    assert result.exit_code == 0 and trained == ["matrix-gazebo-fixed"]
