@@ -1,4 +1,4 @@
-"""racer's dynamics randomisation (`RACER_DYNAMICS_RANDOMIZATION`, off by default): a new car every episode.
+"""racer's dynamics randomisation (`RACER_DYNAMICS_RANDOMIZATION`, off by default): a new car every training episode.
 
 DeepRacer's car is not one car (shared/sim/README.md, "Closed loop"): the Gazebo classic SimApp, the gz-sim SimApp
 and the physical car differ in grip, servo, inertia, speed and latency. The car profiles in `car_dynamics` (the

@@ -11,12 +11,7 @@ import numpy as np
 
 from racer.shared.deepracer.episode_status import EpisodeStatus
 from racer.shared.sim._mujoco import mujoco
-from racer.shared.sim.car import (
-    Car,
-    camera_mount_m,
-    clip_command,
-    command_wheel_radius_m,
-)
+from racer.shared.sim.car import Car, camera_mount_m, clip_command, command_wheel_radius_m
 from racer.shared.sim.car_dynamics import CarDynamics
 from racer.shared.sim.config import STEPS_PER_SECOND, EnvConfig
 from racer.shared.sim.domain_randomization import SceneRandomizer
@@ -46,9 +41,8 @@ class DeepRacerEnv(gym.Env):
     """AWS DeepRacer's time-trial simulation in MuJoCo.
 
     ## Description
-    A 1/18 car (DeepRacer geometry, deepracer-simapp v5.3.3 `bundle/urdf/deepracer/`) drives on a route (`tracks/*.npy`
-    or a DeepRacer route file)
-    in one of four worlds (base, carpet, concrete, wood). Episode rules, reward params and simtrace rows follow
+    A 1/18 car (DeepRacer geometry, deepracer-simapp v5.3.3 `bundle/urdf/deepracer/`) drives on a route
+    (`tracks/*.npy` or a DeepRacer route file) in one of four worlds (base, carpet, concrete, wood). Episode rules, reward params and simtrace rows follow
     the SimApp exactly (deepracer-simapp v5.3.3 `bundle/markov/agent_ctrl/`, `bundle/markov/metrics/`). 15 steps per
     simulated second.
 
@@ -250,7 +244,7 @@ class DeepRacerEnv(gym.Env):
         if self._randomizer.enabled:
             self._randomizer.randomize(self._model, self._scene_rng)
         if self.config.dynamics_randomization:
-            self._randomize_dynamics()
+            self._draw_episode_dynamics(evaluation)
         self._delayed_command = (0.0, 0.0)
         x, y, yaw = self._track.pose_at(start_ndist, "center")
         if self._race is not None:
@@ -273,13 +267,15 @@ class DeepRacerEnv(gym.Env):
         }
         return observation, info
 
-    def _randomize_dynamics(self) -> None:
-        """Draw this episode's car and change the compiled model in place (inertia, servo) and the tyres."""
-        episode = draw_dynamics(self.config.car_dynamics, self._dynamics_rng)
-        car = episode.car
-        self._car.retune(self._model, car.tyres, car.steering_time_constant_s, car.yaw_inertia_kgm2)
-        self._dynamics = car
-        self._command_delay_steps = episode.command_delay_steps
+    def _draw_episode_dynamics(self, evaluation: bool) -> None:
+        """Draw a training episode's car, or go back to `config.car_dynamics` for an evaluation (which measures the
+        checkpoint on the run's own car, as `racer evaluate` does); retune the compiled model and the tyres."""
+        episode = None if evaluation else draw_dynamics(self.config.car_dynamics, self._dynamics_rng)
+        car = self.config.car_dynamics if episode is None else episode.car
+        if car != self._dynamics:
+            self._car.retune(self._model, car.tyres, car.steering_time_constant_s, car.yaw_inertia_kgm2)
+            self._dynamics = car
+        self._command_delay_steps = 0 if episode is None else episode.command_delay_steps
 
     def _finish_episode(self) -> None:
         """End-of-episode bookkeeping (`StartRotation`)."""

@@ -108,3 +108,20 @@ def test_a_delayed_episode_drives_each_step_with_the_previous_command(make_env):
     assert math.degrees(env.data.ctrl[servo]) == pytest.approx(-30.0)
     env.step(4)
     assert math.degrees(env.data.ctrl[servo]) == pytest.approx(30.0)
+
+
+def test_an_evaluation_episode_drives_the_profiles_own_car_between_randomised_ones(make_env):
+    """Evaluation measures the checkpoint on the run's car (as `racer evaluate` does); training goes on drawing."""
+    env = make_env(dynamics_randomization=True)
+    inertia, servo = env.model.body_inertia.copy(), env.model.actuator_biasprm.copy()
+    env.reset(seed=3)
+    drawn = env.car_dynamics
+    assert drawn != GAZEBO_DYNAMICS
+    env.reset(options={"evaluation": True})
+    assert env.car_dynamics == GAZEBO_DYNAMICS and env.command_delay_steps == 0
+    assert env.car.tyres.params == GAZEBO_DYNAMICS.tyres
+    # retuned from the profile's figures, not copied: the compiled model's rounded inertia differs in the 5th digit
+    np.testing.assert_allclose(env.model.body_inertia, inertia, rtol=1e-4)
+    np.testing.assert_allclose(env.model.actuator_biasprm, servo, rtol=1e-6)
+    env.reset()
+    assert env.car_dynamics not in (GAZEBO_DYNAMICS, drawn)

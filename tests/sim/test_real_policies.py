@@ -135,7 +135,8 @@ def test_the_simtrace_fit_car_loses_them(deepracer_data):
 
 
 def test_with_dynamics_randomization_the_real_policy_still_drives(deepracer_data):
-    """A few steps of model_30 on cars drawn around the default: the env runs and the car gets going."""
+    """A few steps of model_30 on cars drawn around the default (training episodes: evaluation drives the profile's
+    own car): the env runs and the car gets going."""
     folder = deepracer_data / "models" / "gazebo-sample-reinvent2018"
     metadata = parse_model_metadata(json.loads((folder / "model_metadata.json").read_text()), source="sample")
     weights = frozen_graph_weights(folder / "model_30.pb")
@@ -147,7 +148,7 @@ def test_with_dynamics_randomization_the_real_policy_still_drives(deepracer_data
     key = next(iter(env.observation_space.spaces))
     try:
         for seed in (0, 1, 2):
-            obs, _ = env.reset(seed=seed, options={"evaluation": True, "start_ndist": 0.0})
+            obs, _ = env.reset(seed=seed)
             assert env.car_dynamics != GAZEBO_DYNAMICS
             for _ in range(20):
                 obs, _, terminated, truncated, info = env.step(greedy_action(weights, obs[key][..., 0]))
