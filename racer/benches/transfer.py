@@ -177,6 +177,16 @@ def reverse_check(racer_model: Path, real: list[RealModel], frames_grey: np.ndar
     real_on_racer = {model.label: steering_sides(model.metadata, model.network, racer_grey) for model in real}
     result["real_shares"] = {label: shares(sides) for label, sides in real_sides.items()}
     result["real_shares_on_racer_frames"] = {label: shares(sides) for label, sides in real_on_racer.items()}
+    # The real run's own spread: how much two of its checkpoints differ is the scale for any racer model's figures.
+    labels = sorted(real_sides)
+    result["real_sign_agreement"] = {
+        f"{first} vs {second}": {
+            "gazebo_frames": round(float(np.mean(real_sides[first] == real_sides[second])), 3),
+            "racer_frames": round(float(np.mean(real_on_racer[first] == real_on_racer[second])), 3),
+        }
+        for i, first in enumerate(labels)
+        for second in labels[i + 1 :]
+    }
     for name in checkpoints.names():
         network = checkpoints.load_policy(name)
         sides = steering_sides(metadata, network, frames_grey)

@@ -53,6 +53,10 @@ def test_two_starts_of_each_real_checkpoint_and_the_reverse_check(tmp_path):
     assert sum(on_racer["shares"].values()) == pytest.approx(1.0, abs=0.002)
     assert set(on_racer["sign_agreement"]) == set(drives)
     assert set(report["reverse_check"]["real_shares_on_racer_frames"]) == set(drives)
+    # the real run's own spread: its two checkpoints against each other, on both sets of frames
+    spread = report["reverse_check"]["real_sign_agreement"]
+    assert list(spread) == [" vs ".join(sorted(drives))]
+    assert all(0.0 < value < 1.0 for value in spread[" vs ".join(sorted(drives))].values())
 
 
 def test_each_car_profile_given_is_driven(monkeypatch):
