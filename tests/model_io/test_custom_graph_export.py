@@ -5,12 +5,15 @@ and never by the channel count; and the graph imports back into racer computing 
 from __future__ import annotations
 
 import json
+import re
 import shutil
+from pathlib import Path
 
 import numpy as np
 import pytest
 import torch
 
+from racer.benches.tf_proof_examples import EXAMPLE_NETWORKS
 from racer.model_io.deepracer_import import import_frozen_graphs
 from racer.model_io.destinations import FolderDestination
 from racer.model_io.sources import FolderSource
@@ -152,3 +155,14 @@ def test_a_custom_stacked_model_exports_and_imports_back_computing_the_same(tmp_
     with torch.inference_mode():
         back = imported.policy_output({name: torch.from_numpy(value) for name, value in batch.items()}).numpy()
     np.testing.assert_array_equal(back, expected)
+
+
+def test_the_proof_examples_are_the_documented_network_files():
+    """`racer bench tf-proof --examples` proves the network files docs/custom-networks.md shows, not others."""
+    text = (Path(__file__).resolve().parents[2] / "docs" / "custom-networks.md").read_text()
+    documented = {}
+    for block in re.findall(r"```json\n(.*?)```", text, flags=re.S):
+        data = json.loads(block)
+        if isinstance(data, dict) and "input_embedders" in data:
+            documented[data["name"]] = data
+    assert documented == EXAMPLE_NETWORKS
