@@ -2,8 +2,9 @@
 OpenVINO IR and LiteRT (TFLite) models the cars make from it, fp32 and fp16, on frames racer's simulator renders.
 
 `racer bench tf-proof` runs the whole matrix (every network, every sensor set DRoA's validation accepts, PPO
-discrete, PPO continuous and SAC: 72 models) and prints one JSON line; the test suite runs a subset (tests/model_io). Frames are rendered
-in this process; every TensorFlow, OpenVINO and LiteRT step runs in one TensorFlow process (`tool.py prove`) that
+discrete, PPO continuous and SAC: 72 models) and prints one JSON line; `--examples` runs docs/custom-networks.md's
+examples instead (tf_proof_examples.py: your own networks, batch-norm, a two-frame stack, on DeepRacer's Gazebo
+frames); the test suite runs a subset (tests/model_io). Frames are rendered in this process; every TensorFlow, OpenVINO and LiteRT step runs in one TensorFlow process (`tool.py prove`) that
 takes the models one at a time (a stereo DEEP policy network is 230 MB).
 """
 
