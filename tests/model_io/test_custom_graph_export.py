@@ -18,7 +18,7 @@ from racer.model_io.deepracer_import import import_frozen_graphs
 from racer.model_io.destinations import FolderDestination
 from racer.model_io.sources import FolderSource
 from racer.model_io.tensorflow.coach_layout import coach_tensors_from_racer, coach_variables, input_node, tower_layers
-from racer.model_io.tensorflow.convert import output_node
+from racer.model_io.tensorflow.convert import UnsupportedGraphError, output_node
 from racer.model_io.tensorflow.runner import run_tool, tensorflow_available
 from racer.model_io.transfer import export_model
 from racer.shared.deepracer.hyperparameters import parse_hyperparameters
@@ -95,7 +95,8 @@ def trained_like(config, seed: int) -> ActorCritic:
 @pytest.mark.skipif(not tensorflow_available(), reason="needs the TensorFlow extra")
 def test_a_custom_stacked_model_exports_and_imports_back_computing_the_same(tmp_path):
     """racer -> `racer model export` (frozen graph) -> TensorFlow equals racer; the graph folder -> `racer model
-    import` (network.json and stack_size read from the folder) -> racer equals racer. Three TensorFlow processes."""
+    import` (network.json and stack_size read from the folder) -> racer equals racer; without the stack_size the
+    import says what is missing. Four TensorFlow processes."""
     network_file = {
         **BATCHNORM,
         "input_embedders": {
@@ -155,6 +156,10 @@ def test_a_custom_stacked_model_exports_and_imports_back_computing_the_same(tmp_
     with torch.inference_mode():
         back = imported.policy_output({name: torch.from_numpy(value) for name, value in batch.items()}).numpy()
     np.testing.assert_array_equal(back, expected)
+
+    (graph_only / "ip" / "hyperparameters.json").unlink()  # the car's tarball says nothing of the stack either
+    with pytest.raises(UnsupportedGraphError, match=r"racer needs \[-1, 120, 160, 1\] \(stack_size 1\); a graph of"):
+        import_frozen_graphs(FolderSource(graph_only), ("model/model_0.pb",), LocalStore(tmp_path / "third"), "x")
 
 
 def test_the_proof_examples_are_the_documented_network_files():

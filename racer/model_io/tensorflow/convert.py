@@ -249,9 +249,14 @@ def network_from_frozen_graph(frozen_path: Path, config: PolicyConfig) -> Import
         )
     for name, shape in result["placeholders"].items():
         if shape and shape[1:] != wanted_inputs[name][1:]:
-            raise UnsupportedGraphError(
-                f"{frozen_path}: input {name} has shape {shape}, racer needs {wanted_inputs[name]}"
+            wanted = wanted_inputs[name]
+            hint = (
+                f" (stack_size {config.stack_size}); a graph of stacked frames imports with the model's "
+                "hyperparameters.json, which says its stack_size"
+                if len(shape) == 4 and shape[1:3] == wanted[1:3] and shape[3] != wanted[3]
+                else ""
             )
+            raise UnsupportedGraphError(f"{frozen_path}: input {name} has shape {shape}, racer needs {wanted}{hint}")
     scalars = result.get("scalars", {})
     for spec in config.inputs:  # RL Coach divides camera pixels by 255 inside the graph, lidar values by 1
         wanted_scale = PIXEL_SCALE if spec.kind == "camera" else 1.0
