@@ -93,22 +93,39 @@ def example_specs() -> list[ExampleSpec]:
 
 
 def make_example(spec: ExampleSpec, seed: int) -> ActorCritic:
-    """The example's network with weights like a trained one's: a wider policy head (as tf_proof.make_model) and
-    batch-norm statistics and affine weights drawn far from their initial 0 and 1."""
+    """The example's network with weights like a trained one's: a wider policy head (as tf_proof.make_model), and
+    batch-norm as training leaves it: running statistics of the real frames (means far from 0, variances far from
+    1, so a dropped or misplaced batch-norm shows) and scales and shifts away from 1 and 0. Fresh running statistics
+    (0 and 1) would leave every frame's features nearly alike, and the discrete policy would pick one action for
+    all: the fp16 greedy comparison would then prove nothing."""
     torch.manual_seed(seed)
     metadata = parse_model_metadata(spec.metadata(), spec.key)
     network_file = EXAMPLE_NETWORKS.get(spec.neural_network)
     parsed = parse_network_file(network_file, spec.neural_network) if network_file else None
     model = ActorCritic(policy_config_from_metadata(metadata, parsed, spec.stack_size))
+    norms = [module for module in model.modules() if isinstance(module, torch.nn.BatchNorm1d | torch.nn.BatchNorm2d)]
     with torch.no_grad():
         model.policy_head.weight.normal_(0.0, 0.05)
-        for module in model.modules():
-            if isinstance(module, torch.nn.BatchNorm1d | torch.nn.BatchNorm2d):
-                module.running_mean.uniform_(-0.5, 0.5)
-                module.running_var.uniform_(0.3, 3.0)
-                module.weight.uniform_(0.5, 1.5)
-                module.bias.uniform_(-0.3, 0.3)
+        for module in norms:
+            module.weight.uniform_(0.5, 1.5)
+            module.bias.uniform_(-0.3, 0.3)
+        if norms:
+            _running_statistics_of_frames(model, norms, example_frames(spec.stack_size))
     return model.eval()
+
+
+def _running_statistics_of_frames(model: ActorCritic, norms: list, frames: dict[str, np.ndarray]) -> None:
+    """Each batch-norm's running mean and variance over `frames` (a cumulative average over one pass, layer after
+    layer as training's forward passes compute them)."""
+    for module in norms:
+        module.reset_running_stats()
+        module.momentum = None  # the cumulative average: one pass gives the frames' own statistics
+    model.train()
+    observations = {name: torch.from_numpy(value) for name, value in frames.items()}
+    model.policy_output(observations)
+    model.value(observations)
+    for module in norms:
+        module.momentum = 0.1  # torch's default, what racer trains with
 
 
 def example_frames(stack_size: int, folder: Path = GAZEBO_FRAMES) -> dict[str, np.ndarray]:
