@@ -160,9 +160,10 @@ def _check_reward_over_track(path: Path, workers: list[WorkerSettings], metadata
     return warnings
 
 
-def load_network(folder: Path, metadata: ModelMetadata) -> tuple[NetworkFile | None, list[str]]:
-    """network.json when model_metadata.json names it, checked and measured once (racer.shared.policy.network_file);
-    a network.json that model_metadata.json does not name is only a warning."""
+def load_network(folder: Path, metadata: ModelMetadata, stack_size: int = 1) -> tuple[NetworkFile | None, list[str]]:
+    """network.json when model_metadata.json names it, checked and measured once (racer.shared.policy.network_file)
+    with the run's stack_size (the first conv reads C * stack_size channels, so a stack costs more); a network.json
+    that model_metadata.json does not name is only a warning."""
     from racer.shared.policy.networks import policy_config_from_metadata
 
     try:
@@ -173,7 +174,9 @@ def load_network(folder: Path, metadata: ModelMetadata) -> tuple[NetworkFile | N
         if not (folder / NETWORK_FILE).is_file():
             return None, []
         return None, [f"{folder / NETWORK_FILE}: not used: model_metadata.json names {metadata.neural_network}"]
-    findings = network_size_findings(policy_config_from_metadata(metadata, network), str(folder / NETWORK_FILE))
+    findings = network_size_findings(
+        policy_config_from_metadata(metadata, network, stack_size), str(folder / NETWORK_FILE)
+    )
     if findings.errors:
         raise RunConfigError("; ".join(findings.errors))
     return network, list(findings.warnings)
@@ -196,11 +199,33 @@ def _check_clone_network(store: ObjectStore, source_prefix: str, network: Networ
         )
 
 
+def _source_stack_size(store: ObjectStore, source_prefix: str) -> tuple[int, str]:
+    """The clone source's stack_size and the file that says it (DeepRacer's 1 when it has no hyperparameters)."""
+    where = ModelLayout(source_prefix).hyperparameters
+    try:
+        data = json.loads(store.get_bytes(where).decode("utf-8-sig"))
+    except ObjectNotFoundError:
+        return 1, f"{where} (missing: DeepRacer's 1)"
+    except ValueError as error:
+        raise CloneError(f"cannot clone {source_prefix!r}: {where} is not JSON: {error}") from error
+    value = data.get("stack_size", 1) if isinstance(data, dict) else 1
+    try:
+        return int(value), where
+    except (TypeError, ValueError) as error:
+        raise CloneError(f"cannot clone {source_prefix!r}: {where}: stack_size {value!r} is not a number") from error
+
+
 def check_clone_source(
-    store: ObjectStore, source_prefix: str, metadata: ModelMetadata, ours: str, network: NetworkFile | None = None
+    store: ObjectStore,
+    source_prefix: str,
+    metadata: ModelMetadata,
+    ours: str,
+    network: NetworkFile | None = None,
+    stack_size: int = 1,
 ) -> None:
-    """A clone continues another model's weights: same algorithm, action-space type, number of actions, sensors and
-    network (your own network: the same network.json). Raises CloneError naming what differs and the fix."""
+    """A clone continues another model's weights: same algorithm, action-space type, number of actions, sensors,
+    network (your own network: the same network.json) and frame stack (the first conv's input channels). Raises
+    CloneError naming what differs and the fix."""
     source_layout = ModelLayout(source_prefix)
     try:
         raw = store.get_bytes(source_layout.model_metadata)
@@ -235,6 +260,13 @@ def check_clone_source(
         )
     if network is not None or source.neural_network not in NEURAL_NETWORKS:
         _check_clone_network(store, source_prefix, network, ours)
+    theirs, their_file = _source_stack_size(store, source_prefix)
+    if theirs != stack_size:
+        raise CloneError(
+            f"cannot clone {source_prefix!r}: stack_size {stack_size} in {Path(ours).parent / 'hyperparameters.json'} "
+            f"vs {theirs} in {their_file} (ours vs theirs): the first conv layer reads one channel per stacked frame, "
+            f"so the weights do not fit; fix: set stack_size to {theirs}, or train this one from scratch"
+        )
 
 
 def preflight(
@@ -260,7 +292,7 @@ def preflight(
     warnings += _check_combination(
         metadata, hyperparameters, metadata_path, hyperparameters_path, _given_keys(hyperparameters_path)
     )
-    network, network_warnings = load_network(folder, metadata)
+    network, network_warnings = load_network(folder, metadata, hyperparameters.stack_size)
     try:
         preset = load_preset(folder, metadata.training_algorithm)
     except PresetError as error:
@@ -292,7 +324,7 @@ def preflight(
             f"workers: {idle} worker(s) only wait (worker 0 still evaluates)"
         )
     if pretrained_prefix and store is not None:
-        check_clone_source(store, pretrained_prefix, metadata, str(metadata_path), network)
+        check_clone_source(store, pretrained_prefix, metadata, str(metadata_path), network, hyperparameters.stack_size)
     return PreflightReport(metadata, hyperparameters, tuple(workers), tuple(warnings), network, preset)
 
 

@@ -188,6 +188,7 @@ class Trainer:
             self.metadata,
             str(self.options.custom_files / MODEL_METADATA_FILE),
             self.network_file,
+            self.hyperparameters.stack_size,
         )
         source = CheckpointStore(self.store, source_prefix)
         name = source.select(self.options.pretrained_checkpoint)

@@ -40,7 +40,8 @@ BENCHMARKS: dict[str, tuple[str, str]] = {
     ),
     "tf-proof": (
         "racer.benches.tf_proof:tf_proof_command",
-        "72 models (PPO and SAC): racer vs TensorFlow, OpenVINO and LiteRT (fp32, fp16) outputs.",
+        "72 models (PPO and SAC; --examples: your own networks and a frame stack): racer vs TensorFlow, OpenVINO "
+        "and LiteRT (fp32, fp16) outputs.",
     ),
     "sac": (
         "racer.benches.sac:sac_bench_command",

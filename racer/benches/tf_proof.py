@@ -2,8 +2,9 @@
 OpenVINO IR and LiteRT (TFLite) models the cars make from it, fp32 and fp16, on frames racer's simulator renders.
 
 `racer bench tf-proof` runs the whole matrix (every network, every sensor set DRoA's validation accepts, PPO
-discrete, PPO continuous and SAC: 72 models) and prints one JSON line; the test suite runs a subset (tests/model_io). Frames are rendered
-in this process; every TensorFlow, OpenVINO and LiteRT step runs in one TensorFlow process (`tool.py prove`) that
+discrete, PPO continuous and SAC: 72 models) and prints one JSON line; `--examples` runs docs/custom-networks.md's
+examples instead (tf_proof_examples.py: your own networks, batch-norm, a two-frame stack, on DeepRacer's Gazebo
+frames); the test suite runs a subset (tests/model_io). Frames are rendered in this process; every TensorFlow, OpenVINO and LiteRT step runs in one TensorFlow process (`tool.py prove`) that
 takes the models one at a time (a stereo DEEP policy network is 230 MB).
 """
 
@@ -13,8 +14,10 @@ import json
 import sys
 import tempfile
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import click
 import numpy as np
@@ -144,14 +147,19 @@ def render_frames(count: int) -> dict[str, np.ndarray]:
 
 
 def run_proof(
-    specs: list[ModelSpec], frames: dict[str, np.ndarray], runtimes: tuple[str, ...] = RUNTIMES, first_seed: int = 0
+    specs: list,
+    frames: dict[str, np.ndarray],
+    runtimes: tuple[str, ...] = RUNTIMES,
+    first_seed: int = 0,
+    make: Callable[[Any, int], PolicyNetwork] = make_model,
 ) -> dict:
     """racer's policy outputs and every runtime's, per model key; `cpu_s`: TensorFlow-process CPU seconds per
-    model and runtime (conversion included). All models in one TensorFlow process."""
+    model and runtime (conversion included). All models in one TensorFlow process. `specs`: ModelSpec, or any spec
+    with a `key` that `make` builds a network from (tf_proof_examples)."""
     expected, requests = {}, []
     with tempfile.TemporaryDirectory(prefix="racer-proof-") as folder:
         for index, spec in enumerate(specs):
-            model = make_model(spec, first_seed + index)
+            model = make(spec, first_seed + index)
             feeds = {name: torch.from_numpy(frames[name]) for name in model.input_names}
             with torch.inference_mode():
                 expected[spec.key] = graph_output(model, feeds).numpy()
@@ -233,10 +241,23 @@ def summarize(proof: dict) -> dict:
     show_default=True,
     help="Models per TensorFlow process; each process's figures are printed (stderr) when it ends.",
 )
-def tf_proof_command(frame_count: int, algorithm: str, matches: tuple[str, ...], models_per_process: int) -> None:
+@click.option(
+    "--examples",
+    is_flag=True,
+    help="Instead: docs/custom-networks.md's examples (WIDE_MIDDLEWARE, EXTRA_CONV_BATCHNORM, a two-frame stack of "
+    "the shallow network; 6 models) on DeepRacer's Gazebo frames.",
+)
+def tf_proof_command(
+    frame_count: int, algorithm: str, matches: tuple[str, ...], models_per_process: int, examples: bool
+) -> None:
     """All 72 models (PPO discrete and continuous, SAC) through TensorFlow, OpenVINO and LiteRT (fp32, fp16) vs
     racer; one JSON line (and one per group of models on stderr as they finish)."""
     started = time.monotonic()
+    if examples:
+        figures = prove_examples(matches)
+        figures["wall_s"] = round(time.monotonic() - started, 1)
+        print(json.dumps(figures))
+        return
     specs = [
         spec
         for spec in all_specs()
@@ -264,3 +285,24 @@ def tf_proof_command(frame_count: int, algorithm: str, matches: tuple[str, ...],
     figures["frames"] = frame_count
     figures["wall_s"] = round(time.monotonic() - started, 1)
     print(json.dumps(figures))
+
+
+def prove_examples(matches: tuple[str, ...]) -> dict:
+    """docs/custom-networks.md's examples, one TensorFlow process per stack size (a process feeds one set of
+    frames to all its models); the figures of all of them."""
+    from racer.benches.tf_proof_examples import example_frames, example_specs, make_example
+
+    specs = [spec for spec in example_specs() if not matches or any(text in spec.key for text in matches)]
+    if not specs:
+        raise click.UsageError("no example matches --match")
+    proofs = []
+    for stack_size in sorted({spec.stack_size for spec in specs}):
+        group = [spec for spec in specs if spec.stack_size == stack_size]
+        frames = example_frames(stack_size)
+        print(f"{len(group)} examples on {len(next(iter(frames.values())))} Gazebo frames ...", file=sys.stderr)
+        proofs.append(run_proof(group, frames, make=make_example))
+        print(json.dumps({"keys": [spec.key for spec in group], **summarize(proofs[-1])}), file=sys.stderr, flush=True)
+    figures = summarize(merge_proofs(proofs))
+    figures["examples"] = [spec.key for spec in specs]
+    figures["frames"] = "gazebo_reinvent_episode"
+    return figures

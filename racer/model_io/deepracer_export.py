@@ -10,9 +10,9 @@ frozen graph the car and DRoA run), made in a TensorFlow process of their own (t
 as `metrics/training/training-<name>.json`. racer's own files (safetensors, manifests, ONNX) stay out: DRoA would
 ignore them and they count against its 1 GB limit.
 
-A model with your own network (network.json) is refused (`refuse_custom_network`): its frozen graph cannot be
-written yet, and DeepRacer on AWS imports only its three built-in networks. So is a model trained on stacked frames
-(hyperparameters.json stack_size > 1): its frozen graph is not yet proven against the car's runtimes.
+Any network racer trains gets its TensorFlow files: DeepRacer's three, your own (network.json) and stacked frames
+(hyperparameters.json stack_size > 1, the camera placeholder taking C * N channels). `--for droa` refuses your own
+network and stacked frames (`refuse_for_droa`): DeepRacer on AWS imports only its three networks, fed single frames.
 """
 
 from __future__ import annotations
@@ -32,16 +32,19 @@ from racer.model_io.tensorflow.errors import (
 from racer.shared import model_layout
 from racer.shared.deepracer.model_metadata import NEURAL_NETWORKS, ContinuousActionSpace, parse_model_metadata
 from racer.shared.model_layout import RACER_CHECKPOINT_SUFFIXES, CheckpointName
+from racer.shared.policy.policy_config import PolicyConfig
 from racer.shared.store import ObjectNotFoundError, join_key
 
-__all__ = ["EXPORT_LAYOUTS", "droa_plan", "droa_targets", "refuse_custom_network", "tensorflow_exports"]
+__all__ = ["EXPORT_LAYOUTS", "droa_plan", "droa_targets", "refuse_for_droa", "tensorflow_exports"]
 
 EXPORT_LAYOUTS = ("racer", "droa")
 _TRAINING_METRICS = re.compile(r"^(?:metrics/)?(TrainingMetrics[^/]*)\.json$")
 
 
-def tensorflow_exports(source: StoreSource, plan: ImportPlan) -> dict[str, bytes]:
-    """TensorFlow checkpoint files and `model_<N>.pb` for every racer checkpoint of the plan, keyed like the plan."""
+def tensorflow_exports(source: StoreSource, plan: ImportPlan, layout: str = "racer") -> dict[str, bytes]:
+    """TensorFlow checkpoint files and `model_<N>.pb` for every racer checkpoint of the plan, keyed like the plan.
+    `layout` droa: a checkpoint whose manifest says your own network or stacked frames is refused (the manifest's
+    word, whatever the model's files say)."""
     from racer.model_io.tensorflow.convert import ExportJob, tensorflow_files  # torch and numpy, only when asked
     from racer.shared.policy.checkpoints import CheckpointStore
 
@@ -52,8 +55,8 @@ def tensorflow_exports(source: StoreSource, plan: ImportPlan) -> dict[str, bytes
         if not ck.is_racer_checkpoint(name, plan.checkpoint_files):
             continue  # a TensorFlow checkpoint already: its files are copied as they are
         network = checkpoints.load_policy(name.name)
-        if network.config.stack_size > 1:  # the manifest's word, whatever hyperparameters.json says
-            raise CustomNetworkExportError(stacked_frames_export_refusal(network.config.stack_size, "racer"))
+        if layout == "droa":
+            _refuse_config_for_droa(network.config)
         jobs.append(ExportJob(network, name.name, name.number, _action_space(source, checkpoints, name.name)))
     files: dict[str, bytes] = {}
     for produced in tensorflow_files(jobs) if jobs else []:
@@ -72,18 +75,27 @@ def _action_space(source: StoreSource, checkpoints, name: str) -> ContinuousActi
     return parse_model_metadata(metadata, where).continuous_action_space
 
 
-def refuse_custom_network(source: StoreSource, layout: str) -> None:
-    """Your own network (network.json) has no TensorFlow export yet, and DeepRacer on AWS knows only its three."""
+def refuse_for_droa(source: StoreSource, layout: str) -> None:
+    """Before anything is copied: DeepRacer on AWS imports only its three networks, fed single frames."""
+    if layout != "droa":
+        return
     try:
         metadata = json.loads(source.store.get_bytes(join_key(source.prefix, model_layout.MODEL_METADATA)))
     except (ObjectNotFoundError, ValueError):
         return  # validation reports it
     network = metadata.get("neural_network") if isinstance(metadata, dict) else None
     if isinstance(network, str) and network not in NEURAL_NETWORKS:
-        raise CustomNetworkExportError(custom_network_export_refusal(network, layout))
+        raise CustomNetworkExportError(custom_network_export_refusal(network))
     stack_size = _stack_size(source)
     if stack_size > 1:
-        raise CustomNetworkExportError(stacked_frames_export_refusal(stack_size, layout))
+        raise CustomNetworkExportError(stacked_frames_export_refusal(stack_size))
+
+
+def _refuse_config_for_droa(config: PolicyConfig) -> None:
+    if config.network is not None:
+        raise CustomNetworkExportError(custom_network_export_refusal(config.neural_network))
+    if config.stack_size > 1:
+        raise CustomNetworkExportError(stacked_frames_export_refusal(config.stack_size))
 
 
 def _stack_size(source: StoreSource) -> int:

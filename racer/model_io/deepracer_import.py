@@ -21,6 +21,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from racer.model_io import checkpoints as ck
+from racer.model_io.import_config import NETWORK_KEYS, imported_policy_config
 from racer.model_io.sources import ModelSource
 from racer.shared import model_layout
 from racer.shared.deepracer.model_metadata import ModelMetadata, parse_model_metadata
@@ -106,16 +107,6 @@ def _metadata(store: ObjectStore, model_name: str) -> tuple[ModelMetadata, bytes
     return parse_model_metadata(json.loads(data.decode("utf-8-sig")), source=key), data
 
 
-def _policy_config(metadata: ModelMetadata):
-    from racer.model_io.tensorflow.errors import UnsupportedGraphError
-    from racer.shared.policy.networks import policy_config_from_metadata
-
-    try:
-        return policy_config_from_metadata(metadata)
-    except ValueError as error:
-        raise UnsupportedGraphError(f"model_metadata.json: {error}") from None
-
-
 def tensorflow_only_checkpoints(keys: list[str] | tuple[str, ...]) -> list[str]:
     """Names of the complete TensorFlow checkpoints among `keys` that have no racer checkpoint beside them."""
     files = dict.fromkeys(keys, 0)
@@ -143,7 +134,10 @@ def convert_tf_checkpoints(store: ObjectStore, model_name: str) -> ConversionOut
     if not tf_names:
         return ConversionOutcome((), ())
     metadata, _ = _metadata(store, model_name)
-    config = _policy_config(metadata)
+    model_files = {key.removeprefix(model_name + "/") for key in store.list_keys(model_name + "/")}
+    config = imported_policy_config(
+        metadata, model_files, lambda key: store.get_bytes(join_key(model_name, key)), model_name
+    )
     checkpoints = CheckpointStore(store, model_name, keep=len(tf_names) + 4)
     pointer = checkpoints.latest_name()
     written, notes = [], []
@@ -178,12 +172,15 @@ def import_frozen_graphs(
     metadata = parse_model_metadata(
         json.loads(source.read(metadata_key).decode("utf-8-sig")), source=f"{source.describe()}/{metadata_key}"
     )
-    config = _policy_config(metadata)
+    config = imported_policy_config(metadata, files, source.read, source.describe())
     checkpoints = CheckpointStore(store, model_name, keep=len(graph_keys) + 4)
     checkpoints.put_model_metadata(metadata)
     for optional in ("reward_function.py", "training_params.yaml"):
         if optional in files:
             store.put_bytes(join_key(model_name, optional), source.read(optional))
+    network_key = next((key for key in NETWORK_KEYS if key in files), None)
+    if config.network is not None and network_key is not None:  # beside model_metadata.json, as the trainer puts it
+        store.put_bytes(join_key(model_name, model_layout.NETWORK), source.read(network_key))
     written, notes = [], []
     for graph_key in sorted(graph_keys, key=graph_checkpoint_number):
         with tempfile.TemporaryDirectory(prefix="racer-tf-import-") as folder:

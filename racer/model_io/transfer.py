@@ -28,7 +28,7 @@ from racer.model_io.deepracer_export import (
     EXPORT_LAYOUTS,
     droa_plan,
     droa_targets,
-    refuse_custom_network,
+    refuse_for_droa,
     tensorflow_exports,
 )
 from racer.model_io.destinations import ArchiveDestination, Destination, StoreDestination, read_back
@@ -244,12 +244,12 @@ def export_model(
         raise ValueError(f"layout must be one of {', '.join(EXPORT_LAYOUTS)}, got {layout!r}")
     tensorflow = tensorflow or layout == "droa"
     source = StoreSource(store, model_prefix)
-    refuse_custom_network(source, layout)
+    refuse_for_droa(source, layout)
     report = validate_model(source, limits)
     if report.plan is None:
         return TransferResult(destination.describe(), report)
     plan = _exported_plan(report.plan)
-    extra_files = tensorflow_exports(source, plan) if tensorflow else {}
+    extra_files = tensorflow_exports(source, plan, layout) if tensorflow else {}
     metadata_targets, hyperparameters_targets = (
         (METADATA_TARGET, "model_metadata.json"),
         (HYPERPARAMETERS_TARGET, "hyperparameters.json"),

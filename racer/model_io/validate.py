@@ -49,8 +49,11 @@ HYPERPARAMETER_KEYS = (model_layout.HYPERPARAMETERS, "hyperparameters.json")
 REWARD_FUNCTION_KEY = model_layout.REWARD_FUNCTION
 TRAINING_PARAMS_KEY = model_layout.TRAINING_PARAMS
 TF_POINTER_KEY = model_layout.TF_CHECKPOINT_POINTER
-_OPTIONAL = re.compile(r"^(metrics/.+\.json|(Training|Evaluation)Metrics[^/]*\.json|training_params_\d+\.yaml)$")
-"""Metrics the console showed, and the per-worker training_params_<i>.yaml of a multi-world run."""
+_OPTIONAL = re.compile(
+    r"^(metrics/.+\.json|(Training|Evaluation)Metrics[^/]*\.json|training_params_\d+\.yaml|model/network\.json)$"
+)
+"""Metrics the console showed, the per-worker training_params_<i>.yaml of a multi-world run, and your own network
+(model/network.json): its frozen graph imports back only with it."""
 _WORKER_PARAMS = re.compile(r"^training_params_\d+\.yaml$")
 
 T = TypeVar("T")

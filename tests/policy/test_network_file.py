@@ -204,5 +204,6 @@ def test_a_custom_network_round_trips_through_a_checkpoint_and_refuses_the_froze
     assert worker.act(one, greedy=True)[0] == network.act(one, greedy=True)[0]
     manifest = json.loads((tmp_path / "runs/own/model" / f"{name}.json").read_text())
     assert manifest["policy_config"]["network"]["name"] == "EXTRA_CONV_BATCHNORM"
-    with pytest.raises(ValueError, match="your own network .* cannot write its TensorFlow frozen graph"):
-        tower_layers(config)
+    layers = tower_layers(config)[0]["layers"]  # the TensorFlow export knows it: RL Coach's names, batch-norm too
+    assert [layer["scope"] for layer in layers] == ["Conv2d_0", "Conv2d_2", "Conv2d_4", "Dense_6"]
+    assert layers[0]["batchnorm"]["scope"] == "BatchnormActivationDropout_1_batchnorm"

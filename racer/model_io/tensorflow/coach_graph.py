@@ -17,6 +17,40 @@ def _variable(name: str, shape: list[int], created: dict):
     return variable
 
 
+def _layer(x, scope: str, layer: dict, created: dict):
+    """One conv or dense layer and what RL Coach puts after it, at inference: batch-norm with the running statistics,
+    the activation; dropout is the identity (no node)."""
+    prefix = f"{scope}/{layer['scope']}"
+    kernel = _variable(f"{prefix}/kernel", layer["kernel"], created)
+    bias = _variable(f"{prefix}/bias", [layer["kernel"][-1]], created)
+    if layer["type"] == "conv":
+        stride = int(layer["stride"])
+        x = tf.nn.conv2d(x, kernel, strides=[1, stride, stride, 1], padding="VALID", name=f"{prefix}/Conv2D")
+    else:
+        if len(x.shape) > 2:
+            x = tf.reshape(x, [-1, int(np.prod(x.shape[1:]))], name=f"{scope}/Flatten/flatten/Reshape")
+        x = tf.linalg.matmul(x, kernel, name=f"{prefix}/MatMul")
+    x = tf.nn.bias_add(x, bias, name=f"{prefix}/BiasAdd")
+    batchnorm = layer.get("batchnorm")
+    if batchnorm:
+        where = f"{scope}/{batchnorm['scope']}"
+        units = [int(batchnorm["units"])]
+        gamma, beta, mean, variance = (
+            _variable(f"{where}/{name}", units, created) for name in ("gamma", "beta", "moving_mean", "moving_variance")
+        )
+        x = tf.nn.batch_normalization(
+            x, mean, variance, beta, gamma, float(batchnorm["epsilon"]), name=f"{where}/batchnorm"
+        )
+    activation = layer.get("activation", "relu")
+    if activation == "relu":
+        x = tf.nn.relu(x, name=f"{scope}/{layer['after']}_activation")
+    elif activation == "tanh":
+        x = tf.math.tanh(x, name=f"{scope}/{layer['after']}_activation")
+    elif activation != "none":
+        raise ValueError(f"{prefix}: unknown activation {activation!r}")
+    return x
+
+
 def _tower(spec: dict, network: str, placeholders: dict, created: dict, middleware_layers: list | None = None):
     features = []
     for embedder in spec["embedders"]:
@@ -26,33 +60,14 @@ def _tower(spec: dict, network: str, placeholders: dict, created: dict, middlewa
         x = tf.math.truediv(placeholders[sensor], rescale, name=f"{scope}/truediv")
         x = tf.math.subtract(x, tf.constant(0.0, name=f"{scope}/sub/y"), name=f"{scope}/sub")  # input_offset
         for layer in embedder["layers"]:
-            prefix = f"{scope}/{layer['scope']}"
-            kernel = _variable(f"{prefix}/kernel", layer["kernel"], created)
-            bias = _variable(f"{prefix}/bias", [layer["kernel"][-1]], created)
-            if layer["type"] == "conv":
-                stride = int(layer["stride"])
-                x = tf.nn.conv2d(x, kernel, strides=[1, stride, stride, 1], padding="VALID", name=f"{prefix}/Conv2D")
-            else:
-                if len(x.shape) > 2:
-                    x = tf.reshape(x, [-1, int(np.prod(x.shape[1:]))], name=f"{scope}/Flatten/flatten/Reshape")
-                x = tf.linalg.matmul(x, kernel, name=f"{prefix}/MatMul")
-            x = tf.nn.bias_add(x, bias, name=f"{prefix}/BiasAdd")
-            x = tf.nn.relu(
-                x, name=f"{scope}/BatchnormActivationDropout_{int(layer['scope'].rsplit('_', 1)[1]) + 1}_activation"
-            )
+            x = _layer(x, scope, layer, created)
         if len(x.shape) > 2:
             x = tf.reshape(x, [-1, int(np.prod(x.shape[1:]))], name=f"{scope}/Flatten/flatten/Reshape")
         features.append(x)
     x = features[0] if len(features) == 1 else tf.concat(features, axis=-1, name=f"{network}/merger")
     middleware = f"{network}/{spec['middleware_scope']}"
     for layer in spec["middleware"] if middleware_layers is None else middleware_layers:
-        prefix = f"{middleware}/{layer['scope']}"
-        kernel = _variable(f"{prefix}/kernel", layer["kernel"], created)
-        bias = _variable(f"{prefix}/bias", [layer["kernel"][-1]], created)
-        x = tf.nn.bias_add(tf.linalg.matmul(x, kernel, name=f"{prefix}/MatMul"), bias, name=f"{prefix}/BiasAdd")
-        x = tf.nn.relu(
-            x, name=f"{middleware}/BatchnormActivationDropout_{int(layer['scope'].rsplit('_', 1)[1]) + 1}_activation"
-        )
+        x = _layer(x, middleware, layer, created)
     rescaler = tf.compat.v1.Variable(tf.constant(1.0), name=f"{network}/{spec['rescaler']}", dtype=tf.float32)
     created[f"{network}/{spec['rescaler']}"] = rescaler
     # RL Coach's head input: (1 - r) * stop_gradient(x) + r * x, which is x for every r.

@@ -20,18 +20,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from racer.shared.policy.networks import (
-    LIDAR_EMBEDDER_DENSE,
-    LOG_STD_MAX,
-    LOG_STD_MIN,
-    NETWORK_ARCHITECTURES,
-    PIXEL_SCALE,
-    PolicyConfig,
-)
+from racer.model_io.tensorflow.coach_layers import BATCHNORM_VARIABLES, coach_layers
+from racer.shared.policy.networks import LOG_STD_MAX, LOG_STD_MIN, PIXEL_SCALE, PolicyConfig
 
 __all__ = [
     "AGENT_SCOPE",
-    "CUSTOM_NETWORK_EXPORT_REFUSAL",
     "CoachVariable",
     "INPUT_NODE_FORMAT",
     "POLICY_OUTPUT_NODE",
@@ -76,75 +69,36 @@ class CoachVariable:
     `same`, `row` ((n,) -> (1, n)) or `scalar` (the rescaler, value 1.0)."""
 
 
-CUSTOM_NETWORK_EXPORT_REFUSAL = (
-    "network {name!r} is your own network (network.json): racer cannot write its TensorFlow frozen graph yet (the "
-    "graph writer knows DeepRacer's three networks only: ReLU layers without batch-norm or dropout); train, evaluate "
-    "and race it in racer, or use one of DeepRacer's networks to reach the car"
-)
-
-
 def tower_layers(config: PolicyConfig) -> list[dict]:
-    """Per tower: the embedders (sorted sensor names) with their layers, then the middleware. Scope names as RL Coach."""
-    if config.network is not None:
-        raise ValueError(CUSTOM_NETWORK_EXPORT_REFUSAL.format(name=config.neural_network))
-    architecture = NETWORK_ARCHITECTURES[config.neural_network]
+    """Per tower: the embedders (sorted sensor names) with their layers, then the middleware. Scope names as RL Coach
+    (coach_layers.py). Any network racer builds: DeepRacer's three or your own, single or stacked frames.
+
+    Which layers an input gets is racer's own choice (`PolicyConfig.embedder_layers`: STEREO_CAMERAS by its sensor
+    name, never by its channel count, which a two-frame stack of one camera shares); the first convolution reads the
+    input's channels as they are (C * stack_size)."""
     embedders = []
     for spec in config.inputs:
-        layers = []
+        convs, dense = config.embedder_layers(spec)
         if spec.kind == "camera":
-            stereo = spec.shape[2] == 2
-            convs = architecture.stereo_convs if stereo else architecture.camera_convs
-            dense = architecture.stereo_dense if stereo else architecture.camera_dense
-            channels = spec.shape[2]
-            for index, conv in enumerate(convs):
-                layers.append(
-                    {
-                        "type": "conv",
-                        "scope": f"Conv2d_{2 * index}",
-                        "racer": f"convs.{2 * index}",
-                        "kernel": [conv.kernel_px, conv.kernel_px, channels, conv.filters],
-                        "stride": conv.stride_px,
-                    }
-                )
-                channels = conv.filters
-            height, width = spec.shape[0], spec.shape[1]
-            for conv in convs:
-                height = (height - conv.kernel_px) // conv.stride_px + 1
-                width = (width - conv.kernel_px) // conv.stride_px + 1
-            features = height * width * channels
-            first_dense = 2 * len(convs)
+            layers, shape = coach_layers(convs, "convs", spec.shape)
+            more, shape = coach_layers(dense, "dense", shape, first_index=len(convs))
+            layers += more
             rescale = PIXEL_SCALE
         else:
-            dense = LIDAR_EMBEDDER_DENSE
-            features = spec.shape[0]
-            first_dense = 0
+            layers, shape = coach_layers(dense, "dense", spec.shape)
             rescale = 1.0
-        for index, units in enumerate(layer.units for layer in dense):
-            layers.append(
-                {
-                    "type": "dense",
-                    "scope": f"Dense_{first_dense + 2 * index}",
-                    "racer": f"dense.{2 * index}",
-                    "kernel": [features, units],
-                }
-            )
-            features = units
         embedders.append(
-            {"sensor": spec.name, "shape": list(spec.shape), "rescale": rescale, "layers": layers, "features": features}
-        )
-    merged = sum(embedder["features"] for embedder in embedders)
-    middleware = []
-    for index, units in enumerate(layer.units for layer in architecture.middleware_dense):
-        middleware.append(
             {
-                "type": "dense",
-                "scope": f"Dense_{2 * index}",
-                "racer": f"middleware.{2 * index}",
-                "kernel": [merged, units],
+                "sensor": spec.name,
+                "shape": list(spec.shape),
+                "rescale": rescale,
+                "layers": layers,
+                "features": int(np.prod(shape)),
             }
         )
-        merged = units
-    return [*embedders, {"middleware": middleware, "features": merged}]
+    merged = sum(embedder["features"] for embedder in embedders)
+    middleware, shape = coach_layers(config.middleware_layers, "middleware", (merged,))
+    return [*embedders, {"middleware": middleware, "features": int(shape[0])}]
 
 
 def coach_variables(config: PolicyConfig, include_value: bool = True) -> list[CoachVariable]:
@@ -180,16 +134,34 @@ def tower_variables(tower: str, scope: str, embedders: list[dict], middleware: l
     variables = []
     for embedder in embedders:
         for layer in embedder["layers"]:
-            prefix = f"{scope}/{embedder['sensor']}/{layer['scope']}"
-            key = f"{tower}.embedders.{embedder['sensor']}.{layer['racer']}"
-            variables.append(CoachVariable(f"{prefix}/kernel", tuple(layer["kernel"]), f"{key}.weight", layer["type"]))
-            variables.append(CoachVariable(f"{prefix}/bias", (layer["kernel"][-1],), f"{key}.bias", "same"))
+            variables += _layer_variables(
+                layer, f"{scope}/{embedder['sensor']}", f"{tower}.embedders.{embedder['sensor']}"
+            )
     for layer in middleware:
-        prefix = f"{scope}/{MIDDLEWARE_SCOPE}/{layer['scope']}"
-        key = f"{tower}.{layer['racer']}"
-        variables.append(CoachVariable(f"{prefix}/kernel", tuple(layer["kernel"]), f"{key}.weight", "dense"))
-        variables.append(CoachVariable(f"{prefix}/bias", (layer["kernel"][-1],), f"{key}.bias", "same"))
+        variables += _layer_variables(layer, f"{scope}/{MIDDLEWARE_SCOPE}", tower)
     variables.append(CoachVariable(f"{scope}/{RESCALER}", (), None, "scalar"))
+    return variables
+
+
+def _layer_variables(layer: dict, scope: str, racer_prefix: str) -> list[CoachVariable]:
+    """A conv or dense layer's kernel and bias, and its batch-norm's four vectors when it has one."""
+    prefix = f"{scope}/{layer['scope']}"
+    key = f"{racer_prefix}.{layer['racer']}"
+    variables = [
+        CoachVariable(f"{prefix}/kernel", tuple(layer["kernel"]), f"{key}.weight", layer["type"]),
+        CoachVariable(f"{prefix}/bias", (layer["kernel"][-1],), f"{key}.bias", "same"),
+    ]
+    batchnorm = layer.get("batchnorm")
+    if batchnorm:
+        for coach, racer in BATCHNORM_VARIABLES:
+            variables.append(
+                CoachVariable(
+                    f"{scope}/{batchnorm['scope']}/{coach}",
+                    (batchnorm["units"],),
+                    f"{racer_prefix}.{batchnorm['racer']}.{racer}",
+                    "same",
+                )
+            )
     return variables
 
 

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from racer.model_io.tensorflow.coach_layers import BATCHNORM_EPSILON
 from racer.model_io.tensorflow.coach_layout import (
     POLICY_NETWORK,
     POLICY_OUTPUT_NODE,
@@ -45,6 +46,8 @@ __all__ = [
 ]
 
 TF_CHECKPOINT_SUFFIXES = (".index", ".data-00000-of-00001", ".meta")
+FROZEN_WEIGHT_SUFFIXES = ("/kernel", "/bias", "policy_log_std", "/gamma", "/beta", "/moving_mean", "/moving_variance")
+"""A frozen graph's constants that are racer weights (batch-norm's four vectors too, for your own network)."""
 
 
 @dataclass(frozen=True)
@@ -246,9 +249,14 @@ def network_from_frozen_graph(frozen_path: Path, config: PolicyConfig) -> Import
         )
     for name, shape in result["placeholders"].items():
         if shape and shape[1:] != wanted_inputs[name][1:]:
-            raise UnsupportedGraphError(
-                f"{frozen_path}: input {name} has shape {shape}, racer needs {wanted_inputs[name]}"
+            wanted = wanted_inputs[name]
+            hint = (
+                f" (stack_size {config.stack_size}); a graph of stacked frames imports with the model's "
+                "hyperparameters.json, which says its stack_size"
+                if len(shape) == 4 and shape[1:3] == wanted[1:3] and shape[3] != wanted[3]
+                else ""
             )
+            raise UnsupportedGraphError(f"{frozen_path}: input {name} has shape {shape}, racer needs {wanted}{hint}")
     scalars = result.get("scalars", {})
     for spec in config.inputs:  # RL Coach divides camera pixels by 255 inside the graph, lidar values by 1
         wanted_scale = PIXEL_SCALE if spec.kind == "camera" else 1.0
@@ -258,7 +266,8 @@ def network_from_frozen_graph(frozen_path: Path, config: PolicyConfig) -> Import
                 f"{frozen_path}: input {spec.name} is divided by {scale} inside the graph; "
                 f"racer's network divides it by {wanted_scale}"
             )
-    weights = {name: value for name, value in tensors.items() if name.endswith(("/kernel", "/bias", "policy_log_std"))}
+    _check_batchnorm_epsilon(frozen_path, scalars)
+    weights = {name: value for name, value in tensors.items() if name.endswith(FROZEN_WEIGHT_SUFFIXES)}
     if sac:
         return _sac_from_frozen(frozen_path, config, weights)
     if config.is_continuous:
@@ -278,6 +287,17 @@ def network_from_frozen_graph(frozen_path: Path, config: PolicyConfig) -> Import
     if config.is_continuous:
         notes.append("a frozen graph has no policy log-std: racer starts it at 0 (std 1.0), RL Coach's initial value")
     return ImportedNetwork(_network_with(config, state), False, tuple(notes))
+
+
+def _check_batchnorm_epsilon(frozen_path: Path, scalars: dict[str, float]) -> None:
+    """racer's batch-norm adds torch's epsilon to the variance; a graph with another one (RL Coach's own 1e-3)
+    computes another function, which racer's network cannot take."""
+    for name, value in sorted(scalars.items()):
+        if name.endswith("_batchnorm/batchnorm/add/y") and not np.isclose(value, BATCHNORM_EPSILON, rtol=1e-3):
+            raise UnsupportedGraphError(
+                f"{frozen_path}: batch-norm {name.removesuffix('/batchnorm/add/y')} adds {value:g} to the variance; "
+                f"racer's batch-norm adds {BATCHNORM_EPSILON:g}"
+            )
 
 
 def _sac_from_frozen(frozen_path: Path, config: PolicyConfig, weights: dict) -> ImportedNetwork:

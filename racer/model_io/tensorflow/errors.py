@@ -6,32 +6,23 @@ class UnsupportedGraphError(ValueError):
 
 
 class CustomNetworkExportError(ValueError):
-    """A model with your own network (network.json): DeepRacer's TensorFlow files cannot be written for it yet, and
-    DeepRacer on AWS imports only its three built-in networks."""
+    """A model DeepRacer on AWS cannot import: your own network (network.json), or stacked frames."""
 
 
-def custom_network_export_refusal(neural_network: str, layout: str) -> str:
-    if layout == "droa":
-        return (
-            f"cannot export for DeepRacer on AWS: the model's network {neural_network!r} is your own (network.json), "
-            "and DeepRacer on AWS imports only its three built-in networks (DEEP_CONVOLUTIONAL_NETWORK_SHALLOW, "
-            "DEEP_CONVOLUTIONAL_NETWORK, DEEP_CONVOLUTIONAL_NETWORK_DEEP)"
-        )
+def custom_network_export_refusal(neural_network: str) -> str:
     return (
-        f"cannot export: the model's network {neural_network!r} is your own (network.json), and racer cannot write "
-        "its TensorFlow frozen graph for the car yet (the graph writer knows DeepRacer's three networks only); "
-        "train, evaluate and race it in racer, or train one of DeepRacer's networks to reach the car"
+        f"cannot export for DeepRacer on AWS: the model's network {neural_network!r} is your own (network.json), "
+        "and DeepRacer on AWS imports only its three built-in networks (DEEP_CONVOLUTIONAL_NETWORK_SHALLOW, "
+        "DEEP_CONVOLUTIONAL_NETWORK, DEEP_CONVOLUTIONAL_NETWORK_DEEP); `racer model export` without --for droa "
+        "writes its frozen graph for the car"
     )
 
 
-def stacked_frames_export_refusal(stack_size: int, layout: str) -> str:
-    if layout == "droa":
-        return (
-            f"cannot export for DeepRacer on AWS: the model sees {stack_size} stacked frames (hyperparameters.json "
-            "stack_size), and DeepRacer on AWS trains and imports single-frame models only"
-        )
+def stacked_frames_export_refusal(stack_size: int) -> str:
     return (
-        f"cannot export: the model sees {stack_size} stacked camera frames (hyperparameters.json stack_size), and "
-        "racer's TensorFlow frozen graph for a stacked input is not yet proven against the car's runtimes; train, "
-        "evaluate and race it in racer, or train with stack_size 1 to reach the car"
+        f"cannot export for DeepRacer on AWS: the model sees {stack_size} stacked camera frames (hyperparameters.json "
+        f"stack_size), so its camera input takes {stack_size} times the channels; DeepRacer on AWS's import restores "
+        "the checkpoint and feeds it single frames (its validation builds each sensor's input from "
+        "model_metadata.json alone, and its training config has no stack_size), which such a graph cannot take; "
+        "`racer model export` without --for droa writes its frozen graph for the car"
     )

@@ -49,6 +49,8 @@ INFERENCE_OPS = frozenset(
         "Conv2D",
         "BiasAdd",
         "Relu",
+        "Tanh",
+        "Rsqrt",
         "Shape",
         "StridedSlice",
         "Pack",
@@ -62,7 +64,19 @@ INFERENCE_OPS = frozenset(
         "Softmax",
     }
 )
-"""Op types of RL Coach's PPO and SAC inference paths; any other op is a layer racer's networks do not have."""
+"""Op types of RL Coach's PPO and SAC inference paths (with your own network's tanh and inference-mode batch-norm);
+any other op is a layer racer's networks do not have."""
+WEIGHT_SUFFIXES = (
+    "/kernel",
+    "/bias",
+    "_rescalers",
+    "policy_log_std",
+    "/gamma",
+    "/beta",
+    "/moving_mean",
+    "/moving_variance",
+)
+"""Constants read back as weights whatever their size (a one-unit layer's are single numbers)."""
 
 
 # --------------------------------------------------------------------------------------------------------------------
@@ -151,7 +165,7 @@ def command_read_frozen(request: dict, arrays: dict) -> tuple[dict, dict]:
             result["placeholders"][name] = [int(dim.size) for dim in dims]
         if node.op == "Const" and node.attr["dtype"].type == tf.float32.as_datatype_enum:
             value = tf.make_ndarray(node.attr["value"].tensor)
-            if name.endswith(("/kernel", "/bias", "_rescalers", "policy_log_std")) or value.size > 1:
+            if name.endswith(WEIGHT_SUFFIXES) or value.size > 1:
                 tensors[name] = np.ascontiguousarray(value, dtype=np.float32)
             elif value.size == 1:
                 result.setdefault("scalars", {})[name] = float(value.reshape(-1)[0])
