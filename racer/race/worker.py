@@ -22,7 +22,7 @@ from racer.race.guard import PolicyGuard, PolicyReturnedNaN, RaceTimeLimit
 from racer.race.lap_trace import best_lap_trace
 from racer.race.race_file import parse_race
 from racer.race.rules import evaluation_config
-from racer.race.videos import move_videos
+from racer.race.videos import ALL_CARS_TOP_VIEW, move_videos
 from racer.shared.store import LocalStore, ObjectNotFoundError, ObjectStore
 
 IMPORT_TIMEOUT_S = 1800
@@ -251,6 +251,7 @@ def race_multi_car(task: dict[str, Any], store: ObjectStore, log) -> list[dict[s
                 policies=policies,
                 out_dir=out_dir,
                 log=log,
+                top_view=Path(task["videos_dir"]) / ALL_CARS_TOP_VIEW if task["video"] else None,
             )
         except _CarPolicyFailed as failure:
             entrant = loaded.pop(failure.index)[0]
