@@ -16,7 +16,7 @@ import cv2
 import numpy as np
 
 from racer.evaluation_worker.config import VideoOptions
-from racer.evaluation_worker.video import Projection, _car_outline, _Encoder, top_view_camera
+from racer.evaluation_worker.video import Mp4Encoder, Projection, car_outline, top_view_camera
 from racer.shared.sim._mujoco import mujoco
 from racer.shared.sim.env import DeepRacerEnv
 from racer.shared.sim.object_bodies import OBJECT_GEOM_GROUP
@@ -52,7 +52,7 @@ class AllCarsTopView:
         self._background: np.ndarray | None = None
         self._projection: Projection | None = None
         path.unlink(missing_ok=True)  # a file of an earlier run must not pass for this one
-        self._encoder = _Encoder(path)
+        self._encoder = Mp4Encoder(path)
 
     @property
     def frames(self) -> int:
@@ -76,7 +76,7 @@ class AllCarsTopView:
         for car in snapshot:
             if not car.on_track:
                 continue
-            outline = np.round(self._projection.to_pixels(_car_outline(car.x_m, car.y_m, car.yaw_rad)))
+            outline = np.round(self._projection.to_pixels(car_outline(car.x_m, car.y_m, car.yaw_rad)))
             corners = outline.astype(np.int32)
             if car.collidable:
                 cv2.fillPoly(frame, [corners], car_colour(car.index), cv2.LINE_AA)
