@@ -4,7 +4,8 @@ A time trial on re:Invent 2018 under DeepRacer's default race rules (the race fi
 3 laps, 2 s off-track and 5 s collision penalties, 20 minutes), videos on. The field: the two real Gazebo checkpoints
 of the shared sample model (each frozen graph in a folder of its own, as `racer model import` takes it), the racer
 models given with `--entrant`, one broken folder the bench makes, re-entered under distinct names until there are
-`--entrants`. Every model is imported once with `racer model import` before the clock starts, and each entrant gets a
+`--entrants` (every model given races, so the field may be larger). Every model is imported once with `racer model
+import` (a racer model folder: its `model/` copied) before the clock starts, and each entrant gets a
 store prefix of its own, so both timed runs do the same work: evaluations from the store (and the broken folder's
 import, which fails). The race is `racer race ... --workers N` as a user runs it; the baseline is `racer evaluate` for
 each entrant, one after another, with the same seed and the race's rules. The board must be full: a row per entrant,
@@ -43,7 +44,9 @@ DEFAULT_RULES: dict[str, Any] = {
 }
 """DeepRacer's default race rules (docs/evaluation.md, "Races"); maxResets absent: the console's 10000."""
 QUICK_LIMITS = {"minimumLaps": 1, "maximumLaps": 1, "maxTimeInMinutes": 1}
-"""`--quick`: one lap in at most a simulated minute (a Gazebo checkpoint laps re:Invent 2018 in about 10 s)."""
+"""`--quick`: one lap in at most a simulated minute (a Gazebo checkpoint laps re:Invent 2018 in about 10 s), and
+maxResets 0: the first exit ends an entrant's lap, so an untrained `--entrant` costs seconds, in the race and in
+`racer evaluate` alike (which has no time limit)."""
 
 
 def say(message: str) -> None:
@@ -85,12 +88,24 @@ def run_logged(command: list[str], log_path: Path, env: dict[str, str]) -> int:
     return done.returncode
 
 
+def is_racer_model_folder(path: Path) -> bool:
+    """A racer model in a local store's layout (racer-data/MODEL): its `model/` is all an evaluation reads."""
+    return (path / "model" / "model_metadata.json").is_file() and any((path / "model").glob("*.ckpt.json"))
+
+
 def import_models(sources: list[Path], store: Path, logs: Path, workers: int, env: dict[str, str]) -> list[str]:
-    """`racer model import` of every source, `workers` at a time (untimed); returns the model names."""
+    """Every source into the bench's store (untimed), `workers` at a time: a racer model folder's `model/` is copied,
+    anything else goes through `racer model import`; returns the model names."""
     names = [source.name.replace("_", "-")[:48] for source in sources]
-    if len(set(names)) != len(names):
-        raise click.ClickException(f"two --entrant folders have one name: {', '.join(names)}")
-    pending = list(zip(sources, names, strict=True))
+    if len(set(names)) != len(names) or BROKEN_NAME in names:
+        raise click.ClickException(f"--entrant folders need names of their own, not {BROKEN_NAME}: {', '.join(names)}")
+    pending = []
+    for source, name in zip(sources, names, strict=True):
+        if is_racer_model_folder(source):
+            shutil.rmtree(store / name, ignore_errors=True)
+            shutil.copytree(source / "model", store / name / "model")
+        else:
+            pending.append((source, name))
     running: list[tuple[subprocess.Popen, str]] = []
     failed = []
     while pending or running:
@@ -170,7 +185,14 @@ def per_minute(count: int, wall_s: float) -> float:
 
 
 @click.command(name="race")
-@click.option("--entrants", "entrant_count", type=click.IntRange(min=2), default=12, show_default=True)
+@click.option(
+    "--entrants",
+    "entrant_count",
+    type=click.IntRange(min=2),
+    default=12,
+    show_default=True,
+    help="Field size, the broken folder included; at least every model given and the broken folder.",
+)
 @click.option(
     "--entrant",
     "extra",
@@ -180,7 +202,11 @@ def per_minute(count: int, wall_s: float) -> float:
 )
 @click.option("--workers", type=click.IntRange(min=1), default=None, help="The race's --workers. Default: the cores.")
 @click.option("--seed", type=int, default=0, show_default=True)
-@click.option("--quick", is_flag=True, help="One lap each (a test's size); with --entrants 3, under a minute of work.")
+@click.option(
+    "--quick",
+    is_flag=True,
+    help="One lap each, the first exit ends it (a test's size: with --entrants 3, about a minute of work).",
+)
 @click.option("--multi-car", is_flag=True, help="Also a head-to-model and an F1 race, each twice with one seed.")
 def race_bench_command(
     entrant_count: int, extra: tuple[Path, ...], workers: int | None, seed: int, quick: bool, multi_car: bool
@@ -196,12 +222,13 @@ def race_bench_command(
         env["RACER_STORE"] = str(store)
         sources = [*gazebo_folders(work), *(path.resolve() for path in extra)]
         models = import_models(sources, store, logs, workers, env)
-        names = field_of(models, entrant_count)
+        names = field_of(models, max(entrant_count, len(models) + 1))  # every model given races
         copy_entrants(store, models, names)
         broken = broken_folder(work)
         race: dict[str, Any] = {"name": "bench-race", "trackConfig": {"trackId": str(REINVENT_2018)}, **DEFAULT_RULES}
         if quick:
             race["submissionTerminationConditions"] = dict(QUICK_LIMITS)
+            race["maxResets"] = 0
         race_file = work / "bench-race.yaml"
         race_file.write_text(yaml.safe_dump(race))
         field = [*names, f"{BROKEN_NAME}={broken}"]
