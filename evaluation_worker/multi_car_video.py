@@ -22,6 +22,8 @@ from racer.shared.sim.env import DeepRacerEnv
 from racer.shared.sim.object_bodies import OBJECT_GEOM_GROUP
 from racer.shared.sim.peer_cars import PeerState
 
+ALL_CARS_VIEW = "camera-allcars"
+"""`racer evaluate --opponent`: the view's folder beside the first car's videos (`<run>/camera-allcars/0-video.mp4`)."""
 CAR_RGB = (
     (230, 30, 30),
     (30, 90, 230),
