@@ -278,6 +278,7 @@ def race_bench_command(
             "board": board_check(board, names),
             "same_laps_as_racer_evaluate": same_laps,
             "cpu": cpu_description(),
+            "load_average_1min": round(os.getloadavg()[0], 2),  # other work on the machine slows both sides
         }
         if multi_car:
             from racer.benches.race_multi_car import multi_car_races
