@@ -75,3 +75,5 @@ def race_command(race_file: Path, entrants: tuple[str, ...], workers, seed, out_
     click.echo("")
     click.echo(format_board(standings, "FINISH_TIME" if definition.race_type == "F1" else definition.timing_method))
     click.echo(f"{len(field)} entrants in {run.wall_s:.1f} s; {paths['json']}, {paths['csv']}, {page}")
+    for file_name in videos.values():
+        click.echo(f"every car from above: {out / 'videos' / file_name}")
