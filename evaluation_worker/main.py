@@ -6,6 +6,8 @@ process. Output layout: see `racer.evaluation_worker.outputs`.
 
 from __future__ import annotations
 
+import shutil
+import tempfile
 from pathlib import Path
 
 import click
@@ -246,6 +248,8 @@ def _evaluate_multi_car(store, config, opponents, multi_car_type, out_dir) -> No
 
     from racer.evaluation_worker.multi_car import MultiCarError, MultiCarRules
     from racer.evaluation_worker.multi_car_session import run_multi_car_evaluation
+    from racer.evaluation_worker.multi_car_video import ALL_CARS_VIEW
+    from racer.evaluation_worker.video import VIDEO_FILE
 
     if config.mode != "deepracer":
         raise MultiCarError("--opponent races in --mode deepracer (the SimApp's multi-car evaluation)")
@@ -256,7 +260,19 @@ def _evaluate_multi_car(store, config, opponents, multi_car_type, out_dir) -> No
     if len(set(names)) != len(names):
         raise MultiCarError(f"--opponent: each car needs its own model, got {names}")
     rules = MultiCarRules("F1" if multi_car_type == "f1" else "HEAD_TO_MODEL", laps=config.deepracer.number_of_trials)
-    reports, _result = run_multi_car_evaluation(store, configs, rules, out_dir=out_dir, log=click.echo)
-    click.echo(f"files in {store.describe()}:")
-    for name, report in zip(names, reports, strict=True):
-        click.echo(f"  {name}: {report.keys['summary']}")
+    with tempfile.TemporaryDirectory(prefix="racer-all-cars-") as scratch:
+        top_view = Path(scratch) / VIDEO_FILE if config.video.enabled else None
+        reports, _result = run_multi_car_evaluation(
+            store, configs, rules, out_dir=out_dir, log=click.echo, top_view=top_view
+        )
+        click.echo(f"files in {store.describe()}:")
+        for name, report in zip(names, reports, strict=True):
+            click.echo(f"  {name}: {report.keys['summary']}")
+        if top_view is not None and top_view.is_file():  # beside the first car's videos, as a view of its own
+            layout = reports[0].layout
+            relative = layout.video(ALL_CARS_VIEW)
+            store.put_bytes(layout.key(relative), top_view.read_bytes())
+            if out_dir is not None:
+                (out_dir / "car-0" / relative).parent.mkdir(parents=True, exist_ok=True)
+                shutil.copyfile(top_view, out_dir / "car-0" / relative)
+            click.echo(f"  all cars from above: {layout.key(relative)}")

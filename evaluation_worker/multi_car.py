@@ -25,7 +25,7 @@ The SimApp's rules (deepracer-simapp v6.0.5 `bundle/markov/`):
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 from racer.evaluation_worker.driver import PENALTY_STATUSES, EvaluationDriver
@@ -172,8 +172,10 @@ def run_multi_car(
     peer_cars: Sequence[PeerCars],
     rules: MultiCarRules,
     on_lap: Sequence[LapCallback] | None = None,
+    on_tick: Callable[[Sequence[PeerState], float], None] | None = None,
 ) -> MultiCarResult:
-    """Race the cars (driver i drives car i, its env built with `peer_cars[i]`) and return each car's laps."""
+    """Race the cars (driver i drives car i, its env built with `peer_cars[i]`) and return each car's laps.
+    `on_tick(snapshot, sim_time_s)` sees every car where each tick starts (the all-cars top view draws it)."""
     if len(drivers) < 2 or len(drivers) != len(peer_cars):
         raise MultiCarError(f"{rules.race_type} needs two or more cars, each with its env's PeerCars")
     cars = [_Car(i, d, p) for i, (d, p) in enumerate(zip(drivers, peer_cars, strict=True))]
@@ -182,6 +184,8 @@ def run_multi_car(
     race_over = False
     while not race_over:
         snapshot = [car.snapshot() for car in cars]
+        if on_tick is not None:
+            on_tick(snapshot, max(car.driver.sim_time_s for car in cars))
         racing = [car for car in cars if car.state == "racing"]
         for car in racing:
             car.peers.update(snapshot)

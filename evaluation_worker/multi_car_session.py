@@ -17,6 +17,7 @@ from racer.evaluation_worker.config import EvaluationConfig
 from racer.evaluation_worker.driver import EvaluationDriver, Policy, ProgressLog, no_log
 from racer.evaluation_worker.laps import LapResult, describe_lap
 from racer.evaluation_worker.multi_car import MultiCarResult, MultiCarRules, run_multi_car
+from racer.evaluation_worker.multi_car_video import AllCarsTopView
 from racer.evaluation_worker.runner import EvaluationReport, EvaluationSession
 from racer.shared.deepracer.model_metadata import ModelMetadata
 from racer.shared.policy.torch_threads import one_torch_thread_if_loaded
@@ -33,9 +34,11 @@ def run_multi_car_evaluation(
     out_dir: Path | None = None,
     log: ProgressLog = no_log,
     attach: Callable[[int, EvaluationDriver], None] | None = None,
+    top_view: Path | None = None,
 ) -> tuple[list[EvaluationReport], MultiCarResult]:
     """Race the configs' models (deepracer mode: the reset budget and penalties of `config.deepracer`; laps from
-    `rules`). `policies` replaces the stored networks (tests; `attach(i, driver)` hands a scripted one its driver). `out_dir` keeps a local copy per car (`car-<i>/`)."""
+    `rules`). `policies` replaces the stored networks (tests; `attach(i, driver)` hands a scripted one its driver). `out_dir` keeps a local copy per car (`car-<i>/`). `top_view`: the
+    all-cars top-view MP4 written there (`multi_car_video`; with the first config's video options)."""
     if len(configs) < 2:
         raise ValueError(f"{rules.race_type} needs two or more models")
     peers = [PeerCars(i, len(configs)) for i in range(len(configs))]
@@ -70,12 +73,22 @@ def run_multi_car_evaluation(
 
         return on_lap
 
+    field_view = None
+    if top_view is not None:
+        names = [config.model_prefix.rsplit("/", 1)[-1] for config in configs]
+        field_view = AllCarsTopView(sessions[0].env, top_view, names, configs[0].video)
     started = time.perf_counter()
     try:
         result = run_multi_car(
-            [s.driver for s in sessions], peers, rules, [lap_logger(i) for i in range(len(sessions))]
+            [s.driver for s in sessions],
+            peers,
+            rules,
+            [lap_logger(i) for i in range(len(sessions))],
+            on_tick=None if field_view is None else field_view.add,
         )
     finally:
+        if field_view is not None:
+            field_view.close()
         for session in sessions:
             session.driver.close()
             session.env.close()

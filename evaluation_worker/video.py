@@ -119,7 +119,8 @@ def _object_outline(obj: RaceObject) -> np.ndarray:
     return np.array([(obj.x_m + c * dx - s * dy, obj.y_m + s * dx + c * dy, 0.0) for dx, dy in corners])
 
 
-def _car_outline(x_m: float, y_m: float, yaw_rad: float) -> np.ndarray:
+def car_outline(x_m: float, y_m: float, yaw_rad: float) -> np.ndarray:
+    """The car's top-view outline (a pointed rectangle: its nose shows the heading) on the ground, in metres."""
     c, s = math.cos(yaw_rad), math.sin(yaw_rad)
     corners = [
         (-CAR_LENGTH_M / 2, -CAR_WIDTH_M / 2),
@@ -143,7 +144,9 @@ def _hud(image: np.ndarray, record: StepRecord, scale: float) -> None:
     cv2.putText(image, text, origin, _HUD_FONT, 0.4 * scale, (255, 255, 255), thickness, cv2.LINE_AA)
 
 
-class _Encoder:
+class Mp4Encoder:
+    """One H.264 MP4 at FPS, frame by frame (shared with the all-cars top view of multi-car races)."""
+
     def __init__(self, path: Path) -> None:
         path.parent.mkdir(parents=True, exist_ok=True)
         self.path = path
@@ -197,7 +200,7 @@ class VideoRecorder:
         self._trail: list[tuple[float, float]] = []
         self._pending: dict[str, np.ndarray] | None = None
         self._pending_pose: tuple[float, float, float] | None = None
-        self._encoders = {view: _Encoder(path) for view, path in self.paths.items()}
+        self._encoders = {view: Mp4Encoder(path) for view, path in self.paths.items()}
 
     @property
     def frame_counts(self) -> dict[str, int]:
@@ -249,7 +252,7 @@ class VideoRecorder:
             corners = np.round(self._top_projection.to_pixels(_object_outline(obj))).astype(np.int32)
             cv2.fillPoly(frame, [corners], OBJECT_RGB[obj.kind], cv2.LINE_AA)
             cv2.polylines(frame, [corners], True, (235, 235, 235), 1, cv2.LINE_AA)
-        outline = self._top_projection.to_pixels(_car_outline(x_m, y_m, yaw_rad))
+        outline = self._top_projection.to_pixels(car_outline(x_m, y_m, yaw_rad))
         color = (230, 30, 30) if record.row["episode_status"] not in ("pause", "off_track") else (255, 140, 0)
         cv2.fillPoly(frame, [np.round(outline).astype(np.int32)], color, cv2.LINE_AA)
         return frame

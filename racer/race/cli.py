@@ -42,6 +42,7 @@ def race_command(race_file: Path, entrants: tuple[str, ...], workers, seed, out_
     from racer.race.race_file import RaceFileError, read_race_file
     from racer.race.rules import resolve_route
     from racer.race.runner import default_workers, run_multi_car_race, run_race
+    from racer.race.videos import race_videos
     from racer.shared.config import settings_from_env
     from racer.shared.store import open_store
 
@@ -67,8 +68,12 @@ def race_command(race_file: Path, entrants: tuple[str, ...], workers, seed, out_
             definition, field, route=route, out_dir=out, seed=seed, workers=count, video=video, log=click.echo
         )
     standings = standings_from_results(definition, run.results)
-    paths = write_board(out, definition, route, seed, standings, run.results)
-    page = write_html(out, definition, board_json(definition, route, seed, standings, run.results), run.results)
+    videos = race_videos(out, definition.multi_car)
+    paths = write_board(out, definition, route, seed, standings, run.results, videos)
+    board = board_json(definition, route, seed, standings, run.results, videos)
+    page = write_html(out, definition, board, run.results)
     click.echo("")
     click.echo(format_board(standings, "FINISH_TIME" if definition.race_type == "F1" else definition.timing_method))
     click.echo(f"{len(field)} entrants in {run.wall_s:.1f} s; {paths['json']}, {paths['csv']}, {page}")
+    for file_name in videos.values():
+        click.echo(f"every car from above: {out / 'videos' / file_name}")

@@ -95,6 +95,14 @@ def render_html(definition: RaceDefinition, board: dict[str, Any], map_png: byte
             "<h2>Sector times of the best laps (s)</h2><p>The lap in three equal parts of progress; the fastest "
             f"in each sector is marked.</p><table><tr><th></th>{head}</tr>{''.join(body)}</table>"
         )
+    field_html = ""
+    top_view = (board.get("raceVideos") or {}).get("allCarsTopView")
+    if top_view:
+        field_html = (
+            "<h2>The race from above</h2><p>Every car on one top view, numbered by grid place "
+            f'(<a href="videos/{esc(top_view)}">{esc(top_view)}</a>).</p>'
+            f'<video controls preload="metadata" src="videos/{esc(top_view)}"></video>'
+        )
     map_html = ""
     if map_png is not None:
         encoded = base64.b64encode(map_png).decode()
@@ -117,6 +125,7 @@ ranked by {esc(race.timing_method)} (lower wins); {esc(limits)}; seed {board["se
 <table><tr><th>rank</th><th>entrant</th><th>{esc("finish time" if race.race_type == "F1" else race.timing_method)} (s)</th><th>laps</th><th>best lap (s)</th>
 <th>avg lap (s)</th><th>resets</th><th>off track</th><th>crashes</th><th>videos</th><th>DNF reason</th></tr>
 {"".join(rows)}</table>
+{field_html}
 {map_html}
 {sector_html}
 </body></html>

@@ -94,8 +94,14 @@ def board_rows(standings: Sequence[Standing]) -> list[dict[str, Any]]:
 
 
 def board_json(
-    definition: RaceDefinition, route: str, seed: int, standings: Sequence[Standing], results: Sequence[dict]
+    definition: RaceDefinition,
+    route: str,
+    seed: int,
+    standings: Sequence[Standing],
+    results: Sequence[dict],
+    race_videos: dict[str, str] | None = None,
 ) -> dict[str, Any]:
+    """`race_videos`: the race's own videos (videos/ file names), such as the all-cars top view of a multi-car race."""
     by_name = {result["entrant"]: result for result in results}
     entries = []
     for row in board_rows(standings):
@@ -111,7 +117,8 @@ def board_json(
                 **({"multiCar": result["multi_car"]} if result.get("multi_car") else {}),
             }
         )
-    return {"race": definition.to_dict(), "route": route, "seed": seed, "leaderboard": entries}
+    board = {"race": definition.to_dict(), "route": route, "seed": seed, "leaderboard": entries}
+    return {**board, "raceVideos": race_videos} if race_videos else board
 
 
 def board_csv(standings: Sequence[Standing]) -> str:
@@ -124,11 +131,18 @@ def board_csv(standings: Sequence[Standing]) -> str:
 
 
 def write_board(
-    out_dir: Path, definition: RaceDefinition, route: str, seed: int, standings: Sequence[Standing], results
+    out_dir: Path,
+    definition: RaceDefinition,
+    route: str,
+    seed: int,
+    standings: Sequence[Standing],
+    results,
+    race_videos: dict[str, str] | None = None,
 ) -> dict[str, Path]:
     out_dir.mkdir(parents=True, exist_ok=True)
     paths = {"json": out_dir / "leaderboard.json", "csv": out_dir / "leaderboard.csv"}
-    paths["json"].write_text(json.dumps(board_json(definition, route, seed, standings, results), indent=2) + "\n")
+    board = board_json(definition, route, seed, standings, results, race_videos)
+    paths["json"].write_text(json.dumps(board, indent=2) + "\n")
     paths["csv"].write_text(board_csv(standings))
     return paths
 

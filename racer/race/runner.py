@@ -19,6 +19,7 @@ from typing import Any
 
 from racer.race.entrants import Entrant
 from racer.race.race_file import RaceDefinition
+from racer.race.videos import ALL_CARS_TOP_VIEW
 
 
 @dataclass(frozen=True)
@@ -74,6 +75,7 @@ def run_multi_car_race(
     work = out_dir / "multi-car"
     shutil.rmtree(work, ignore_errors=True)
     work.mkdir(parents=True)
+    (out_dir / "videos" / ALL_CARS_TOP_VIEW).unlink(missing_ok=True)  # an earlier run's must not be linked
     task = {
         "multi_car": True,
         "entrants": [

@@ -22,6 +22,7 @@ from racer.race.guard import PolicyGuard, PolicyReturnedNaN, RaceTimeLimit
 from racer.race.lap_trace import best_lap_trace
 from racer.race.race_file import parse_race
 from racer.race.rules import evaluation_config
+from racer.race.videos import ALL_CARS_TOP_VIEW, move_videos
 from racer.shared.store import LocalStore, ObjectNotFoundError, ObjectStore
 
 IMPORT_TIMEOUT_S = 1800
@@ -141,7 +142,7 @@ def race_entrant(task: dict[str, Any], store: ObjectStore, log) -> dict[str, Any
     result["metrics"] = report.metrics.to_dict()["metrics"]
     result["ended_by"] = "maximumLaps" if len(report.laps) == definition.maximum_laps else "reset rule"
     local = report.local_dir or out_dir
-    result["videos"] = _move_videos(local, session.layout, task, task["name"]) if task["video"] else {}
+    result["videos"] = move_videos(local, session.layout, task, task["name"]) if task["video"] else {}
     result["best_lap"] = best_lap_trace(local / session.layout.relative("simtrace"), report.laps)
     return result
 
@@ -186,7 +187,7 @@ def _multi_car_row(report, car, result, rules, task: dict[str, Any], name: str) 
         },
     }
     local = report.local_dir
-    row["videos"] = _move_videos(local, report.layout, task, name) if task["video"] and local is not None else {}
+    row["videos"] = move_videos(local, report.layout, task, name) if task["video"] and local is not None else {}
     if local is not None:
         row["best_lap"] = best_lap_trace(local / report.layout.relative("simtrace"), report.laps)
     return row
@@ -250,6 +251,7 @@ def race_multi_car(task: dict[str, Any], store: ObjectStore, log) -> list[dict[s
                 policies=policies,
                 out_dir=out_dir,
                 log=log,
+                top_view=Path(task["videos_dir"]) / ALL_CARS_TOP_VIEW if task["video"] else None,
             )
         except _CarPolicyFailed as failure:
             entrant = loaded.pop(failure.index)[0]
@@ -338,19 +340,3 @@ def _run_multi_car_task(task: dict[str, Any], log) -> None:
 
 if __name__ == "__main__":
     run_task(Path(sys.argv[1]))
-
-
-def _move_videos(local: Path, layout: Any, task: dict[str, Any], name: str) -> dict[str, str]:
-    """The evaluation's videos moved into the race's videos folder as `<name>-<view>.mp4`: {view: file name}."""
-    from racer.evaluation_worker.video import VIEWS
-
-    videos_dir = Path(task["videos_dir"])
-    videos_dir.mkdir(parents=True, exist_ok=True)
-    videos = {}
-    for view in VIEWS:
-        path = local / layout.video(view)
-        if path.is_file():
-            target = videos_dir / f"{name}-{view}.mp4"
-            shutil.move(path, target)
-            videos[view] = target.name
-    return videos

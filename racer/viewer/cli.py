@@ -34,15 +34,27 @@ def serve(app, host: str, port: int) -> None:
 )
 @click.option("--port", type=click.IntRange(1, 65535), default=DEFAULT_PORT, show_default=True)
 def view_command(target: str, live: bool, host: str, port: int) -> None:
-    """Open a run in the browser: TARGET is a model folder (racer-data/MODEL), s3://bucket/MODEL or a model prefix.
+    """Open a run in the browser: TARGET is a model folder (racer-data/MODEL), s3://bucket/MODEL or a model prefix,
+    or a finished race's folder (`racer race --out`, default races/<race>): its leaderboard with playable videos.
 
     Without --live it reads only the store: curves, evaluations, the best lap, `racer evaluate` laps and videos.
     """
+    from pathlib import Path
+
     from racer.viewer.app import create_app
     from racer.viewer.live import LiveRun
+    from racer.viewer.race_app import create_race_app, is_race_folder
     from racer.viewer.run_files import RunFiles, RunLocation, RunNotFoundError, resolve_run
 
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s viewer: %(message)s")
+    race_folder = Path(target).expanduser()
+    if is_race_folder(race_folder):
+        if live:
+            raise click.ClickException(f"{target} is a finished race: --live is for a running training")
+        shown_host = "localhost" if host in {"127.0.0.1", "::1", "localhost"} else host
+        click.echo(f"racer view: race {race_folder.resolve()} at http://{shown_host}:{port}/", err=True)
+        serve(create_race_app(race_folder), host, port)
+        return
     settings = settings_from_env()
     if live:
         from racer.shared.store import open_store

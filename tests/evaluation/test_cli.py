@@ -210,3 +210,20 @@ def test_opponent_runs_a_head_to_model_evaluation_of_stored_models(tmp_path):
     assert places == [1, 2]
     same = invoke(str(tmp_path / "store"), "--opponent", PREFIX, "--no-video", "--no-mcap")
     assert same.exit_code != 0 and "its own model" in same.output
+
+
+def test_opponent_with_videos_writes_the_top_view_of_all_cars(tmp_path):
+    store = LocalStore(tmp_path / "store")
+    save_model(store)
+    opponent = CheckpointStore(store, "opponent-model")
+    opponent.put_model_metadata(DEFAULT_MODEL_METADATA)
+    torch.manual_seed(5)
+    opponent.save(0, 0, build_actor_critic(DEFAULT_MODEL_METADATA), model_metadata=DEFAULT_MODEL_METADATA)
+    out = tmp_path / "local"
+    args = ["--opponent", "opponent-model", "--trials", "1", "--resets", "0", "--no-mcap", "--out", str(out)]
+    result = invoke(str(tmp_path / "store"), *args)
+    assert result.exit_code == 0, result.output
+    (key,) = [line.split()[-1] for line in result.output.splitlines() if "all cars from above:" in line]
+    assert key.startswith(f"{PREFIX}/evaluation-") and key.endswith("/camera-allcars/0-video.mp4")
+    local = out / "car-0" / key.removeprefix(f"{PREFIX}/")
+    assert local.read_bytes() == store.get_bytes(key) and local.stat().st_size > 1000

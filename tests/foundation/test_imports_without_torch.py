@@ -1,4 +1,5 @@
-"""The worker image's contract: the rollout worker, the evaluation worker and the live viewer import no torch.
+"""The worker image's contract: the rollout worker, the evaluation worker, the live viewer and
+`racer race` (the compose `race` profile) import no torch.
 
 Their docker image (docker/Dockerfile, target `worker`) has no torch; the trainer's has. Each entry module is imported
 in a fresh interpreter, with the module the command then runs (`racer rollout` builds a `RolloutWorker`, `racer
@@ -19,6 +20,7 @@ WORKER_PATHS = {
     "evaluation": ["racer.cli", "racer.evaluation_worker.main", "racer.evaluation_worker.runner"],
     "viewer": ["racer.cli", "racer.viewer.cli", "racer.viewer.app", "racer.viewer.live"],
     "minio-setup": ["racer.shared.store"],
+    "race": ["racer.cli", "racer.race.cli", "racer.race.runner", "racer.race.worker", "racer.race.html_report"],
 }
 TORCH_MODULES = ("torch", "safetensors.torch")
 

@@ -1,0 +1,81 @@
+"""`racer bench race` at its smallest: the two Gazebo checkpoints, a racer model given with --entrant and the bench's
+broken folder, one lap each, timed as a race with two workers and as `racer evaluate` one after another; the board
+must be full."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+import yaml
+from click.testing import CliRunner
+
+from racer.benches.race import race_bench_command
+from racer.shared.store import LocalStore
+from tests.race.test_real_race import save_model
+
+
+@pytest.mark.slow
+def test_smallest_race_bench_prints_both_rates_and_a_full_board(tmp_path):
+    store = LocalStore(tmp_path / "racer-data")
+    save_model(store, "fresh_model", 0)  # untrained: off the track within seconds (--quick: maxResets 0)
+    args = ["--quick", "--entrants", "3", "--workers", "2", "--entrant", str(tmp_path / "racer-data" / "fresh_model")]
+    result = CliRunner().invoke(race_bench_command, args, catch_exceptions=False)
+    assert result.exit_code == 0, result.output
+    report = json.loads([line for line in result.stdout.splitlines() if line.startswith("{")][-1])
+    # every model given races: 2 Gazebo checkpoints + fresh-model + the broken folder, though --entrants 3
+    assert report["benchmark"] == "race" and report["entrants"] == 4 and report["workers"] == 2
+    assert report["track"] == "reinvent_base" and report["laps"] == 1
+    assert report["race_s"] > 0 and report["sequential_s"] > 0
+    assert report["race_entrants_per_min"] == pytest.approx(4 * 60 / report["race_s"], rel=0.02)
+    assert report["ratio"] == pytest.approx(report["sequential_s"] / report["race_s"], rel=0.02)
+    board = report["board"]
+    assert board["full"] and board["rows"] == 4
+    assert board["broken_row"]["dnfReason"] and board["broken_row"]["errorCode"]
+    assert board["entrants_with_three_videos"] == 3  # videos on: in-car, top and follow of every car that raced
+    assert board["ranked"] == 2  # each Gazebo checkpoint laps re:Invent 2018 in about 10 s; the fresh model does not
+    assert report["same_laps_as_racer_evaluate"]  # one seed: the race's laps are racer evaluate's
+
+
+def test_multi_car_part_runs_each_race_twice_and_compares_the_boards(tmp_path, monkeypatch):
+    """`--multi-car` without the simulator: each `racer race` call writes the board a race of its field would."""
+    from racer.benches import race_multi_car
+
+    store = tmp_path / "store"
+    for model in ("alpha", "beta"):
+        (store / model / "model").mkdir(parents=True)
+    (tmp_path / "logs").mkdir()
+    calls = []
+
+    def fake_race(command, log_path, env):
+        race_file, *rest = command[command.index("race") + 1 :]
+        names = rest[: rest.index("--seed")]
+        out = Path(rest[rest.index("--out") + 1])
+        (out / "videos").mkdir(parents=True)
+        (out / "videos" / "all-cars-topview.mp4").write_bytes(b"mp4")
+        rows = [
+            {"entrant": name, "collisionCount": index, "multiCar": {"finishingPlace": len(names) - index}}
+            for index, name in enumerate(names)
+        ]
+        (out / "leaderboard.json").write_text(json.dumps({"leaderboard": rows}))
+        (out / "leaderboard.csv").write_text("".join(f"{name}\n" for name in names))
+        calls.append((Path(race_file).stem, names))
+        return 0
+
+    monkeypatch.setattr(race_multi_car, "run_logged", fake_race)
+    report = race_multi_car.multi_car_races(
+        tmp_path, ["alpha", "beta"], seed=0, quick=False, env={"RACER_STORE": str(store)}
+    )
+    assert report["laps"] == 3
+    assert [stem for stem, _ in calls] == ["bench-h2m", "bench-h2m", "bench-f1", "bench-f1"]
+    h2m, f1 = report["head_to_model"], report["f1"]
+    assert h2m["entrants"] == ["alpha", "beta"] and f1["entrants"] == ["alpha", "beta", "alpha-2", "beta-2"]
+    assert (store / "beta-2" / "model").is_dir()  # re-entries race from prefixes of their own
+    for race in (h2m, f1):
+        assert race["complete"] and race["identical_boards"] and race["top_view_video"]
+        assert len(race["wall_s"]) == 2
+    assert f1["crashes"] == {"alpha": 0, "beta": 1, "alpha-2": 2, "beta-2": 3}
+    assert f1["finishing_order"] == ["beta-2", "alpha-2", "beta", "alpha"]
+    race_file = yaml.safe_load((tmp_path / "bench-f1.yaml").read_text())
+    assert race_file["raceType"] == "F1" and race_file["submissionTerminationConditions"]["maximumLaps"] == 3
