@@ -110,7 +110,9 @@ def render_html(definition: RaceDefinition, board: dict[str, Any], map_png: byte
     race = definition
     limits = (
         f"minimumLaps {race.minimum_laps}, maximumLaps {race.maximum_laps}, maxTimeInMinutes "
-        f"{race.max_time_minutes:g}, continuousLap {str(race.continuous_lap).lower()}, off-track penalty "
+        f"{race.max_time_minutes:g}, continuousLap {str(race.continuous_lap or race.multi_car).lower()}"
+        f"{' (every multi-car race drives its laps on)' if race.multi_car and not race.continuous_lap else ''}"
+        ", off-track penalty "
         f"{race.off_track_penalty_s:g} s, collision penalty {race.collision_penalty_s:g} s"
     )
     return f"""<!doctype html>

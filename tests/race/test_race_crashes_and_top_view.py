@@ -95,5 +95,6 @@ def test_a_multi_car_race_writes_one_top_view_of_all_cars_and_links_it(tmp_path)
     assert frames > 0 and ok and frame.shape[:2] == (360, 480)
     page = (out / "leaderboard.html").read_text()
     assert f'href="videos/{ALL_CARS_TOP_VIEW}"' in page and "<video" in page
+    assert "continuousLap true (every multi-car race drives its laps on)" in page  # the file leaves it false
     for name in ("creeper", "rammer"):  # each car's own videos are still there
         assert (out / "videos" / f"{name}-camera-topview.mp4").is_file()
