@@ -55,6 +55,7 @@ from torch import nn
 from racer.shared.deepracer.hyperparameters import Hyperparameters
 from racer.shared.episode import Episode
 from racer.shared.policy.networks import ActionDistribution, ActorCritic
+from racer.trainer.clip_schedule import CONSTANT_ONE, ClipSchedule
 from racer.trainer.gae import GAE_LAMBDA, compute_gae
 from racer.trainer.learner import ADAM_BETAS, ADAM_EPSILON, UpdateAbandoned, adam, seed_or_fresh
 from racer.trainer.log_lines import format_policy_training_line
@@ -119,6 +120,9 @@ class PPOSettings:
     """Clip the gradient to this global norm before each step (a preset's `clip_gradients`; DeepRacer: none)."""
     kl_cutoff: float | None = None
     """Stop the update's remaining epochs once an epoch's mean KL exceeds this (a preset's; DeepRacer: none)."""
+    clip_schedule: ClipSchedule = CONSTANT_ONE
+    """Multiplies clip_epsilon by environment steps trained on (a preset's `clipping_decay_schedule`; DeepRacer:
+    constant 1; racer.trainer.clip_schedule)."""
 
 
 @dataclass(frozen=True)
@@ -136,6 +140,8 @@ class EpochStats:
     learning_rate: float
     minibatches: int
     gradient_norm: float
+    clip_range: float = CLIP_EPSILON
+    """The surrogate's clip range in this epoch (clip_epsilon times the clip schedule's value)."""
 
 
 # --------------------------------------------------------------------------------------------------------------------
@@ -154,11 +160,18 @@ class PPOTrainer:
         self.nan_guard = NanGuard(network, self.optimizer, settings.max_nan_retries)
         self.tower_dtype: torch.dtype | None = Precision(settings.precision).tower_dtype
         """Autocast dtype of the towers during updates (None: fp32)."""
+        self.env_steps = 0
+        """Environment steps trained on so far, this update's included: the clip schedule's clock."""
 
     @property
     def nan_rollbacks(self) -> int:
         """How many times an update was rolled back because of a non-finite number (for logs and tests)."""
         return self.nan_guard.rollbacks
+
+    @property
+    def clip_range(self) -> float:
+        """The clip range the surrogate uses at the current step count (constant within an update)."""
+        return self.settings.clip_epsilon * self.settings.clip_schedule.value_at(self.env_steps)
 
     @property
     def learning_rate(self) -> float:
@@ -171,15 +184,19 @@ class PPOTrainer:
 
     # -- public entry point ------------------------------------------------------------------------------------------
 
-    def update(self, episodes: Sequence[Episode], abandon: Callable[[], bool] | None = None) -> list[EpochStats]:
+    def update(
+        self, episodes: Sequence[Episode], abandon: Callable[[], bool] | None = None, env_steps: int | None = None
+    ) -> list[EpochStats]:
         """One PPO iteration on these episodes. Returns per-epoch stats ([] when nothing was trained).
 
         `abandon()` is asked before every minibatch; True raises `UpdateAbandoned` (a stopping trainer that cannot
-        wait for a long update)."""
+        wait for a long update). `env_steps`: the run's environment steps trained on, these episodes' included (the
+        trainer's count, which survives a resume); None adds these transitions to the trainer's own count."""
         episodes = finite_episodes(episodes)
         if not episodes:
             return []
         batch = make_training_batch(episodes, self.network.input_names, self.network.config)
+        self.env_steps = env_steps if env_steps is not None else self.env_steps + batch.size
         stats = self.nan_guard.run(lambda: self._train(batch, abandon), skipped=f"{batch.size} transitions")
         return stats if stats is not None else []
 
@@ -237,7 +254,7 @@ class PPOTrainer:
         self, batch: TrainingBatch, towers: ThreadPoolExecutor, abandon: Callable[[], bool] | None = None
     ) -> list[EpochStats]:
         hp = self.hyperparameters
-        clip = self.settings.clip_epsilon
+        clip = self.clip_range
 
         # Old policy and values, frozen before the first step.
         old_policy, values = self._evaluate_old_policy(batch, towers)
@@ -320,6 +337,7 @@ class PPOTrainer:
                     learning_rate=self.learning_rate,
                     minibatches=len(minibatches),
                     gradient_norm=sums["grad_norm"] / count,
+                    clip_range=clip,
                 )
             )
             if self.settings.kl_cutoff is not None and stats[-1].kl_divergence > self.settings.kl_cutoff:

@@ -249,7 +249,9 @@ class Trainer:
         self.episodes_consumed += len(capped.dropped)  # played, so they count towards the episode limit
         update_started = time.monotonic()
         try:
-            all_stats = self.learner.update(episodes, abandon=update_abandoner(self.stop_event))
+            all_stats = self.learner.update(
+                episodes, abandon=update_abandoner(self.stop_event), env_steps=self.env_steps
+            )
         except UpdateAbandoned:
             log.warning(
                 "stopping: abandoned the update of iteration %d after %.0f s; the final checkpoint is %s",
