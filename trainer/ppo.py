@@ -26,7 +26,8 @@ One update, as DeepRacer's `ClippedPPOAgent.train()` does it:
        value     = mean((V(s) - target)^2)  or Huber(delta=1), per `loss_type`
        loss      = value + surrogate - beta_entropy * mean(entropy)
    then one Adam step (lr = `lr`, betas 0.9/0.999, eps 1e-5) on both towers. No gradient clipping, no KL penalty,
-   no value clipping.
+   no value clipping. A preset (racer.trainer.preset) may change these; its `clipping_decay_schedule` scales the
+   0.2 by the run's environment steps (racer.trainer.clip_schedule).
 
 Speed (see `racer bench ppo`): the value tower's forward and backward run on a second thread while the policy
 tower runs on the calling one (the towers share no weight, so the gradients are exactly those of the summed loss),
