@@ -17,9 +17,10 @@ clipped PPO:
 SAC:
 - `rate_for_copying_weights_to_target` (1.0, tau): V_target <- tau V + (1 - tau) V_target at each copy.
 - `updates_per_transition` (unset: `--sac-updates-per-transition`, default 1 = DeepRacer; racer's name): gradient
-  steps per transition received. RL Coach counts an absolute `num_consecutive_training_steps` per training phase,
-  which DeepRacer's training_worker.py (deepracer-simapp v5.3.3) sets to the iteration's rollout steps; this key is
-  that count divided by the iteration's transitions. Given with a different `--sac-updates-per-transition`, the run
+  steps per transition received. RL Coach runs an absolute `num_consecutive_training_steps` per training phase
+  (IntelLabs/coach v1.0.0 `rl_coach/agents/agent.py`, `Agent.train`), which DeepRacer sets to the iteration's
+  rollout steps (aws-deepracer-community/deepracer-simapp v5.3.3, commit 608b024b,
+  `bundle/markov/training_worker.py`); this key is that count divided by the iteration's transitions. Given with a different `--sac-updates-per-transition`, the run
   is refused (neither silently wins).
 
 The entropy weight is hyperparameters.json's `beta_entropy` (RL Coach's clipped PPO has one, the same) and SAC's
