@@ -14,7 +14,7 @@ from racer.shared.policy.network_file import NetworkFile
 from racer.trainer.learner import Learner
 from racer.trainer.ppo import PPOSettings, PPOTrainer
 from racer.trainer.precision import DEFAULT_PRECISION, Precision
-from racer.trainer.preset import Preset
+from racer.trainer.preset import Preset, sac_updates_per_transition
 from racer.trainer.sac import SACSettings, SACTrainer
 
 __all__ = ["LEARNERS", "LearnerOptions", "build_learner"]
@@ -30,8 +30,9 @@ class LearnerOptions:
     precision: Precision = DEFAULT_PRECISION
     sac_replay_memory_mb: float = 1024.0
     """SAC: memory budget of the replay ring (its capacity in transitions follows from it)."""
-    sac_updates_per_transition: float = 1.0
-    """SAC: gradient steps per transition received (DeepRacer: 1)."""
+    sac_updates_per_transition: float | None = None
+    """SAC: gradient steps per transition received, from the command line; None: the preset's
+    `updates_per_transition`, else DeepRacer's 1 (both given and different is refused)."""
     network: NetworkFile | None = None
     """The custom files' network.json when model_metadata.json names it (racer.shared.policy.network_file)."""
     preset: Preset | None = None
@@ -49,7 +50,7 @@ def _clipped_ppo(metadata: ModelMetadata, hyperparameters: Hyperparameters, opti
 def _sac(metadata: ModelMetadata, hyperparameters: Hyperparameters, options: LearnerOptions) -> Learner:
     settings = SACSettings(
         replay_memory_bytes=int(options.sac_replay_memory_mb * 2**20),
-        updates_per_transition=options.sac_updates_per_transition,
+        updates_per_transition=sac_updates_per_transition(options.sac_updates_per_transition, options.preset),
         seed=options.seed,
         precision=options.precision,
     )

@@ -54,9 +54,12 @@ class Learner(Protocol):
         """How many times an update was rolled back because of a non-finite number."""
         ...
 
-    def update(self, episodes: Sequence[Episode], abandon: Callable[[], bool] | None = None) -> Sequence[object]:
+    def update(
+        self, episodes: Sequence[Episode], abandon: Callable[[], bool] | None = None, env_steps: int | None = None
+    ) -> Sequence[object]:
         """Learn from one iteration's episodes; returns the update's statistics ([] when nothing was trained).
-        `abandon()` is asked between steps; True raises `UpdateAbandoned`."""
+        `abandon()` is asked between steps; True raises `UpdateAbandoned`. `env_steps`: the run's environment steps
+        trained on, these episodes' included (the clock of a schedule, e.g. PPO's clip range)."""
         ...
 
     def training_lines(self, stats: Sequence[object]) -> list[str]:

@@ -70,9 +70,9 @@ from racer.trainer.run_options import trainer_run_options
 @click.option(
     "--sac-updates-per-transition",
     type=click.FloatRange(0.0, min_open=True),
-    default=1.0,
-    show_default=True,
-    help="SAC: gradient steps per transition received (DeepRacer: 1).",
+    default=None,
+    help="SAC: gradient steps per transition received [default: preset.json's updates_per_transition, else 1 as "
+    "DeepRacer; both given and different is refused].",
 )
 @click.option(
     "--preflight-passed",
@@ -130,6 +130,7 @@ def trainer_command(
         raise click.ClickException(str(error)) from error
     try:  # before anything connects; the trainer logs the warnings
         report = checked_custom_files(custom_files, run, preflight_passed)
+        sac_updates_per_transition_or_conflict(sac_updates_per_transition, report.preset, custom_files)
     except user_error_types() as error:
         raise click.ClickException(str(error)) from error
     options = TrainerOptions(
@@ -157,6 +158,17 @@ def trainer_command(
     try:
         run_trainer(settings_from_env(), options)
     except user_error_types() as error:
+        raise click.ClickException(str(error)) from error
+
+
+def sac_updates_per_transition_or_conflict(option: float | None, preset, custom_files: Path) -> None:
+    """Refuse `--sac-updates-per-transition` against a different preset.json `updates_per_transition` before
+    anything connects (the learner factory checks it again)."""
+    from racer.trainer.preset import PRESET_FILE, PresetError, sac_updates_per_transition
+
+    try:
+        sac_updates_per_transition(option, preset, str(Path(custom_files) / PRESET_FILE))
+    except PresetError as error:
         raise click.ClickException(str(error)) from error
 
 

@@ -26,7 +26,8 @@ One update, as DeepRacer's `ClippedPPOAgent.train()` does it:
        value     = mean((V(s) - target)^2)  or Huber(delta=1), per `loss_type`
        loss      = value + surrogate - beta_entropy * mean(entropy)
    then one Adam step (lr = `lr`, betas 0.9/0.999, eps 1e-5) on both towers. No gradient clipping, no KL penalty,
-   no value clipping.
+   no value clipping. A preset (racer.trainer.preset) may change these; its `clipping_decay_schedule` scales the
+   0.2 by the run's environment steps (racer.trainer.clip_schedule).
 
 Speed (see `racer bench ppo`): the value tower's forward and backward run on a second thread while the policy
 tower runs on the calling one (the towers share no weight, so the gradients are exactly those of the summed loss),
@@ -43,7 +44,6 @@ retries the update (up to `PPOSettings.max_nan_retries` times, then the iteratio
 
 from __future__ import annotations
 
-import math
 import os
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
@@ -55,10 +55,9 @@ from torch import nn
 
 from racer.shared.deepracer.hyperparameters import Hyperparameters
 from racer.shared.episode import Episode
-from racer.shared.policy.frame_stack import stack_episode_observations
-from racer.shared.policy.networks import ActionDistribution, ActorCritic, CategoricalPolicy, GaussianPolicy
-from racer.shared.policy.policy_config import PolicyConfig
-from racer.trainer.gae import GAE_LAMBDA, compute_gae, episode_ends_from_lengths
+from racer.shared.policy.networks import ActionDistribution, ActorCritic
+from racer.trainer.clip_schedule import CONSTANT_ONE, ClipSchedule
+from racer.trainer.gae import GAE_LAMBDA, compute_gae
 from racer.trainer.learner import ADAM_BETAS, ADAM_EPSILON, UpdateAbandoned, adam, seed_or_fresh
 from racer.trainer.log_lines import format_policy_training_line
 from racer.trainer.nan_guard import (
@@ -68,6 +67,14 @@ from racer.trainer.nan_guard import (
     finite_episodes,
     first_non_finite_parameter,
     gradient_norm,
+)
+from racer.trainer.ppo_batch import (
+    TrainingBatch,
+    cat_distributions,
+    make_training_batch,
+    minibatch_size_for,
+    shuffled_minibatches,
+    slice_distribution,
 )
 from racer.trainer.precision import DEFAULT_PRECISION, Precision
 
@@ -114,6 +121,9 @@ class PPOSettings:
     """Clip the gradient to this global norm before each step (a preset's `clip_gradients`; DeepRacer: none)."""
     kl_cutoff: float | None = None
     """Stop the update's remaining epochs once an epoch's mean KL exceeds this (a preset's; DeepRacer: none)."""
+    clip_schedule: ClipSchedule = CONSTANT_ONE
+    """Multiplies clip_epsilon by environment steps trained on (a preset's `clipping_decay_schedule`; DeepRacer:
+    constant 1; racer.trainer.clip_schedule)."""
 
 
 @dataclass(frozen=True)
@@ -131,83 +141,8 @@ class EpochStats:
     learning_rate: float
     minibatches: int
     gradient_norm: float
-
-
-# --------------------------------------------------------------------------------------------------------------------
-# Data
-
-
-@dataclass(frozen=True)
-class TrainingBatch:
-    """One iteration's transitions, end to end, as tensors (observations keep the episodes' dtypes and layout)."""
-
-    observations: dict[str, torch.Tensor]
-    actions: torch.Tensor
-    rewards: torch.Tensor
-    episode_ends: torch.Tensor
-
-    @property
-    def size(self) -> int:
-        return int(self.rewards.shape[0])
-
-    def select(self, indices: torch.Tensor) -> dict[str, torch.Tensor]:
-        return {name: array[indices] for name, array in self.observations.items()}
-
-
-def make_training_batch(
-    episodes: Sequence[Episode], input_names: Sequence[str], config: PolicyConfig | None = None
-) -> TrainingBatch:
-    """Concatenate episodes (in the order given) into one batch with the sensors the network reads. With a `config`
-    whose stack_size > 1 each episode's camera frames are stacked first (racer.shared.policy.frame_stack), as the
-    workers stacked them for the policy."""
-    for episode in episodes:
-        missing = [name for name in input_names if name not in episode.observations]
-        if missing:
-            raise ValueError(
-                f"episode {episode.episode_index} of worker {episode.worker_id} lacks observations {missing}"
-            )
-    if config is not None and config.stack_size > 1:
-        per_episode = [stack_episode_observations(episode.observations, config, input_names) for episode in episodes]
-    else:
-        per_episode = [episode.observations for episode in episodes]
-    observations = {
-        name: torch.from_numpy(np.concatenate([episode_observations[name] for episode_observations in per_episode]))
-        for name in input_names
-    }
-    return TrainingBatch(
-        observations=observations,
-        actions=torch.from_numpy(np.concatenate([episode.actions for episode in episodes])),
-        rewards=torch.from_numpy(np.concatenate([episode.rewards for episode in episodes]).astype(np.float32)),
-        episode_ends=torch.from_numpy(episode_ends_from_lengths([episode.steps for episode in episodes])),
-    )
-
-
-def minibatch_size_for(transitions: int, batch_size: int) -> int:
-    """DeepRacer's training_worker: a rollout with <= batch_size steps trains on 2^floor(log2(steps))."""
-    if transitions <= 0:
-        return 0
-    if transitions <= batch_size:
-        return 2 ** int(math.floor(math.log2(transitions)))
-    return batch_size
-
-
-def shuffled_minibatches(transitions: int, minibatch_size: int, generator: torch.Generator) -> list[torch.Tensor]:
-    """One epoch: a random permutation cut into floor(N / size) minibatches, the remainder dropped."""
-    permutation = torch.randperm(transitions, generator=generator)
-    count = transitions // minibatch_size
-    return [permutation[i * minibatch_size : (i + 1) * minibatch_size] for i in range(count)]
-
-
-def _slice_distribution(distribution: ActionDistribution, indices: torch.Tensor) -> ActionDistribution:
-    if isinstance(distribution, CategoricalPolicy):
-        return CategoricalPolicy(distribution.probs[indices])
-    return GaussianPolicy(distribution.mean[indices], distribution.log_std)
-
-
-def _cat_distributions(parts: list[ActionDistribution]) -> ActionDistribution:
-    if isinstance(parts[0], CategoricalPolicy):
-        return CategoricalPolicy(torch.cat([part.probs for part in parts]))
-    return GaussianPolicy(torch.cat([part.mean for part in parts]), parts[0].log_std)
+    clip_range: float = CLIP_EPSILON
+    """The surrogate's clip range in this epoch (clip_epsilon times the clip schedule's value)."""
 
 
 # --------------------------------------------------------------------------------------------------------------------
@@ -226,11 +161,18 @@ class PPOTrainer:
         self.nan_guard = NanGuard(network, self.optimizer, settings.max_nan_retries)
         self.tower_dtype: torch.dtype | None = Precision(settings.precision).tower_dtype
         """Autocast dtype of the towers during updates (None: fp32)."""
+        self.env_steps = 0
+        """Environment steps trained on so far, this update's included: the clip schedule's clock."""
 
     @property
     def nan_rollbacks(self) -> int:
         """How many times an update was rolled back because of a non-finite number (for logs and tests)."""
         return self.nan_guard.rollbacks
+
+    @property
+    def clip_range(self) -> float:
+        """The clip range the surrogate uses at the current step count (constant within an update)."""
+        return self.settings.clip_epsilon * self.settings.clip_schedule.value_at(self.env_steps)
 
     @property
     def learning_rate(self) -> float:
@@ -243,15 +185,19 @@ class PPOTrainer:
 
     # -- public entry point ------------------------------------------------------------------------------------------
 
-    def update(self, episodes: Sequence[Episode], abandon: Callable[[], bool] | None = None) -> list[EpochStats]:
+    def update(
+        self, episodes: Sequence[Episode], abandon: Callable[[], bool] | None = None, env_steps: int | None = None
+    ) -> list[EpochStats]:
         """One PPO iteration on these episodes. Returns per-epoch stats ([] when nothing was trained).
 
         `abandon()` is asked before every minibatch; True raises `UpdateAbandoned` (a stopping trainer that cannot
-        wait for a long update)."""
+        wait for a long update). `env_steps`: the run's environment steps trained on, these episodes' included (the
+        trainer's count, which survives a resume); None adds these transitions to the trainer's own count."""
         episodes = finite_episodes(episodes)
         if not episodes:
             return []
         batch = make_training_batch(episodes, self.network.input_names, self.network.config)
+        self.env_steps = env_steps if env_steps is not None else self.env_steps + batch.size
         stats = self.nan_guard.run(lambda: self._train(batch, abandon), skipped=f"{batch.size} transitions")
         return stats if stats is not None else []
 
@@ -276,7 +222,7 @@ class PPOTrainer:
         ]
         values = towers.submit(self._values, batch, chunks)  # grad mode is per thread: _values has its own no_grad
         distributions = [self.network.distribution(batch.select(chunk), self.tower_dtype) for chunk in chunks]
-        return _cat_distributions(distributions), values.result()
+        return cat_distributions(distributions), values.result()
 
     @torch.no_grad()
     def _values(self, batch: TrainingBatch, chunks: list[torch.Tensor]) -> torch.Tensor:
@@ -309,7 +255,7 @@ class PPOTrainer:
         self, batch: TrainingBatch, towers: ThreadPoolExecutor, abandon: Callable[[], bool] | None = None
     ) -> list[EpochStats]:
         hp = self.hyperparameters
-        clip = self.settings.clip_epsilon
+        clip = self.clip_range
 
         # Old policy and values, frozen before the first step.
         old_policy, values = self._evaluate_old_policy(batch, towers)
@@ -343,7 +289,7 @@ class PPOTrainer:
                 value_loss_job = towers.submit(self._value_loss_backward, observations, value_targets[indices])
 
                 # Clipped surrogate objective, against the frozen old policy.
-                old = _slice_distribution(old_policy, indices)
+                old = slice_distribution(old_policy, indices)
                 new = self.network.distribution(observations, self.tower_dtype)
                 actions = batch.actions[indices]
                 ratio = torch.exp(new.log_prob(actions) - old.log_prob(actions))
@@ -392,6 +338,7 @@ class PPOTrainer:
                     learning_rate=self.learning_rate,
                     minibatches=len(minibatches),
                     gradient_norm=sums["grad_norm"] / count,
+                    clip_range=clip,
                 )
             )
             if self.settings.kl_cutoff is not None and stats[-1].kl_divergence > self.settings.kl_cutoff:

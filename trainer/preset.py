@@ -12,8 +12,16 @@ clipped PPO:
   ClipByGlobalNorm); null, as DeepRacer, does not clip.
 - `kl_cutoff` (null, racer's name: RL Coach's clipped PPO has none): stop an update's remaining epochs once an
   epoch's mean KL(old || new) exceeds it.
+- `clipping_decay_schedule` ({"type": "constant", "value": 1}): multiplies the clip range by environment steps
+  trained on; or {"type": "linear", "initial_value", "final_value", "decay_steps"} (racer.trainer.clip_schedule).
 SAC:
 - `rate_for_copying_weights_to_target` (1.0, tau): V_target <- tau V + (1 - tau) V_target at each copy.
+- `updates_per_transition` (unset: `--sac-updates-per-transition`, default 1 = DeepRacer; racer's name): gradient
+  steps per transition received. RL Coach runs an absolute `num_consecutive_training_steps` per training phase
+  (IntelLabs/coach v1.0.0 `rl_coach/agents/agent.py`, `Agent.train`), which DeepRacer sets to the iteration's
+  rollout steps (aws-deepracer-community/deepracer-simapp v5.3.3, commit 608b024b,
+  `bundle/markov/training_worker.py`); this key is that count divided by the iteration's transitions. Given with a different `--sac-updates-per-transition`, the run
+  is refused (neither silently wins).
 
 The entropy weight is hyperparameters.json's `beta_entropy` (RL Coach's clipped PPO has one, the same) and SAC's
 alpha is its `sac_alpha`: a preset refuses them, as it refuses every key it does not know, naming them. Every default
@@ -28,12 +36,13 @@ from dataclasses import dataclass, fields, replace
 from pathlib import Path
 
 from racer.shared.deepracer.hyperparameters import Hyperparameters
+from racer.trainer.clip_schedule import CONSTANT_ONE, ClipSchedule, ClipScheduleError, parse_clip_schedule
 from racer.trainer.gae import GAE_LAMBDA
 from racer.trainer.learner import ADAM_BETAS, ADAM_EPSILON
 from racer.trainer.ppo import CLIP_EPSILON, PPOSettings
 from racer.trainer.sac import SACSettings
 
-__all__ = ["PRESET_FILE", "Preset", "PresetError", "load_preset", "parse_preset"]
+__all__ = ["PRESET_FILE", "Preset", "PresetError", "load_preset", "parse_preset", "sac_updates_per_transition"]
 
 PRESET_FILE = "preset.json"
 
@@ -53,9 +62,14 @@ class Preset:
     clip_gradients: float | None = None
     kl_cutoff: float | None = None
     rate_for_copying_weights_to_target: float = 1.0
+    clipping_decay_schedule: ClipSchedule = CONSTANT_ONE
+    updates_per_transition: float | None = None
+    """None: the preset does not set it (the command line's, default 1)."""
 
     def to_dict(self) -> dict:
-        return {field.name: getattr(self, field.name) for field in fields(self)}
+        """Plain JSON values, as a checkpoint manifest's `extra.preset` stores them."""
+        values = {field.name: getattr(self, field.name) for field in fields(self)}
+        return values | {"clipping_decay_schedule": self.clipping_decay_schedule.to_dict()}
 
     def ppo_settings(self, base: PPOSettings) -> PPOSettings:
         return replace(
@@ -67,10 +81,15 @@ class Preset:
             value_loss_weight=self.value_loss_weight,
             max_gradient_norm=self.clip_gradients,
             kl_cutoff=self.kl_cutoff,
+            clip_schedule=self.clipping_decay_schedule,
         )
 
     def sac_settings(self, base: SACSettings) -> SACSettings:
-        return replace(base, target_copy_rate=self.rate_for_copying_weights_to_target)
+        """`base` with the preset's SAC keys (check a command line's ratio with `sac_updates_per_transition` first)."""
+        settings = replace(base, target_copy_rate=self.rate_for_copying_weights_to_target)
+        if self.updates_per_transition is None:
+            return settings
+        return replace(settings, updates_per_transition=self.updates_per_transition)
 
 
 PPO_KEYS = (
@@ -82,8 +101,9 @@ PPO_KEYS = (
     "adam_optimizer_beta2",
     "clip_gradients",
     "kl_cutoff",
+    "clipping_decay_schedule",
 )
-SAC_KEYS = ("rate_for_copying_weights_to_target",)
+SAC_KEYS = ("rate_for_copying_weights_to_target", "updates_per_transition")
 _RANGES: dict[str, tuple[float, float, bool]] = {
     # key: (low, high, low end included)
     "clip_likelihood_ratio_using_epsilon": (0.0, 1.0, False),
@@ -95,6 +115,7 @@ _RANGES: dict[str, tuple[float, float, bool]] = {
     "clip_gradients": (0.0, math.inf, False),
     "kl_cutoff": (0.0, math.inf, False),
     "rate_for_copying_weights_to_target": (0.0, 1.0, False),
+    "updates_per_transition": (0.0, math.inf, False),
 }
 _NULLABLE = ("clip_gradients", "kl_cutoff")
 
@@ -119,8 +140,10 @@ def parse_preset(data: object, training_algorithm: str, source: str = PRESET_FIL
     unknown = sorted(key for key in data if key not in own)
     if unknown:
         raise PresetError(f"{source}: {', '.join(unknown)}: unknown preset key(s); allowed: {', '.join(own)}")
-    values = {}
+    values: dict[str, object] = {}
     for key, value in data.items():
+        if key == "clipping_decay_schedule":
+            continue  # after the clip range it multiplies
         if value is None and key in _NULLABLE:
             values[key] = None
             continue
@@ -131,7 +154,28 @@ def parse_preset(data: object, training_algorithm: str, source: str = PRESET_FIL
             bracket = "[" if low_included else "("
             raise PresetError(f"{source}: {key}: {value} is outside {bracket}{low}, {high}]")
         values[key] = float(value)
+    if "clipping_decay_schedule" in data:
+        clip_epsilon = values.get("clip_likelihood_ratio_using_epsilon", CLIP_EPSILON)
+        try:
+            values["clipping_decay_schedule"] = parse_clip_schedule(data["clipping_decay_schedule"], clip_epsilon)
+        except ClipScheduleError as error:
+            raise PresetError(f"{source}: clipping_decay_schedule: {error}") from error
     return Preset(**values)
+
+
+def sac_updates_per_transition(option: float | None, preset: Preset | None, source: str = PRESET_FILE) -> float:
+    """SAC's gradient steps per transition: the preset's or `--sac-updates-per-transition` (`option`, None when not
+    given), else DeepRacer's 1. Both given and different is refused: neither may silently override the other."""
+    from_preset = preset.updates_per_transition if preset is not None else None
+    if option is not None and from_preset is not None and option != from_preset:
+        raise PresetError(
+            f"{source}: updates_per_transition: {from_preset:g} conflicts with --sac-updates-per-transition "
+            f"{option:g}; fix: give it in one place"
+        )
+    for value in (option, from_preset):
+        if value is not None:
+            return value
+    return 1.0
 
 
 def load_preset(folder: str | Path, training_algorithm: str) -> Preset | None:

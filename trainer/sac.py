@@ -144,9 +144,12 @@ class SACTrainer:
             self.replay.add_episode(episode)
         return sum(episode.steps for episode in kept)
 
-    def update(self, episodes: Sequence[Episode], abandon: Callable[[], bool] | None = None) -> list[SACStats]:
+    def update(
+        self, episodes: Sequence[Episode], abandon: Callable[[], bool] | None = None, env_steps: int | None = None
+    ) -> list[SACStats]:
         """Store the episodes, then train; `abandon()` is asked before every gradient step (True raises
-        `UpdateAbandoned`: a stopping trainer that cannot wait for a long update)."""
+        `UpdateAbandoned`: a stopping trainer that cannot wait for a long update). `env_steps` is unused: SAC has no
+        schedule over the run's steps."""
         transitions = self.add_experience(episodes)
         if transitions == 0:
             return []

@@ -86,8 +86,9 @@ class TrainerOptions:
     Redis may have lost the newest writes); a lost one is announced again."""
     sac_replay_memory_mb: float = 1024.0
     """SAC: memory budget of the replay ring on the trainer (its capacity in transitions follows from it)."""
-    sac_updates_per_transition: float = 1.0
-    """SAC: gradient steps per transition received (DeepRacer: 1)."""
+    sac_updates_per_transition: float | None = None
+    """SAC: gradient steps per transition received (`--sac-updates-per-transition`); None: the preset's
+    `updates_per_transition`, else DeepRacer's 1."""
     precision: Precision = DEFAULT_PRECISION
     """What the towers compute in during updates (racer.trainer.precision); written into every checkpoint."""
     preflight: PreflightReport | None = None
@@ -249,7 +250,9 @@ class Trainer:
         self.episodes_consumed += len(capped.dropped)  # played, so they count towards the episode limit
         update_started = time.monotonic()
         try:
-            all_stats = self.learner.update(episodes, abandon=update_abandoner(self.stop_event))
+            all_stats = self.learner.update(
+                episodes, abandon=update_abandoner(self.stop_event), env_steps=self.env_steps
+            )
         except UpdateAbandoned:
             log.warning(
                 "stopping: abandoned the update of iteration %d after %.0f s; the final checkpoint is %s",

@@ -58,10 +58,10 @@ from racer.trainer.run_options import trainer_run_options
 @click.option(
     "--sac-updates-per-transition",
     type=float,
-    default=0.15,
-    show_default=True,
-    help="SAC: gradient steps per transition. DeepRacer takes 1, which on two CPU cores leaves the trainer "
-    "far behind the workers (see `racer bench sac` and the README's benchmark section).",
+    default=None,
+    help="SAC: gradient steps per transition [default: the --preset's updates_per_transition, else 0.15]. DeepRacer "
+    "takes 1, which on two CPU cores leaves the trainer far behind the workers (see `racer bench sac` and the "
+    "README's benchmark section).",
 )
 @click.option(
     "--race-type",
@@ -158,6 +158,14 @@ def time_to_lap_command(
             (custom / "network.json").write_bytes(network_file.read_bytes())
         if preset_file is not None:
             (custom / "preset.json").write_bytes(preset_file.read_bytes())
+        ratio_options: tuple[str, ...] = ()  # the trainer refuses a ratio given here and differently in the preset
+        preset_data = json.loads(preset_file.read_text()) if preset_file is not None else None
+        preset_ratio = preset_data.get("updates_per_transition") if isinstance(preset_data, dict) else None
+        if sac_updates_per_transition is not None or preset_ratio is None:
+            sac_updates_per_transition = sac_updates_per_transition or 0.15
+            ratio_options = ("--sac-updates-per-transition", str(sac_updates_per_transition))
+        else:
+            sac_updates_per_transition = preset_ratio
         (custom / "model_metadata.json").write_text(
             json.dumps(
                 {
@@ -187,12 +195,7 @@ def time_to_lap_command(
             use_minio=False,
             log_dir=workdir / "logs",
             seed=seed,
-            trainer_options=(
-                "--sac-updates-per-transition",
-                str(sac_updates_per_transition),
-                "--precision",
-                precision,
-            ),
+            trainer_options=(*ratio_options, "--precision", precision),
             car_profile=car_profile,
             dynamics_randomization=dynamics_randomization,
             race_params=race.race_params,

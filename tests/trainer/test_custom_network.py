@@ -48,7 +48,9 @@ def test_preflight_refuses_a_missing_or_bad_network_file_naming_the_files(tmp_pa
 
 def test_a_custom_network_trains_an_iteration_and_is_stored_with_the_model(tmp_path, redis_settings):
     folder = custom_network_files(tmp_path)
-    (folder / "preset.json").write_text(json.dumps({"clip_gradients": 5.0, "value_loss_weight": 0.5}))
+    schedule = {"type": "linear", "initial_value": 1.0, "final_value": 0.5, "decay_steps": 1000}
+    preset = {"clip_gradients": 5.0, "value_loss_weight": 0.5, "clipping_decay_schedule": schedule}
+    (folder / "preset.json").write_text(json.dumps(preset))
     report = preflight(folder, 1, "racer_oval", ("base",))
     assert report.network is not None and report.network.name == "EXTRA_CONV_BATCHNORM"
     train_one_iteration(folder, report, tmp_path, redis_settings)  # set-up, one episode, update, checkpoint 1
@@ -57,7 +59,8 @@ def test_a_custom_network_trains_an_iteration_and_is_stored_with_the_model(tmp_p
     assert store.get_bytes(ModelLayout("pair").preset) == (folder / "preset.json").read_bytes()
     checkpoints = CheckpointStore(store, "pair")
     assert checkpoints.load_policy().config.network == report.network  # what `racer evaluate` rebuilds
-    assert checkpoints.read_info(checkpoints.latest_name()).extra["preset"]["clip_gradients"] == 5.0
+    stored = checkpoints.read_info(checkpoints.latest_name()).extra["preset"]
+    assert stored["clip_gradients"] == 5.0 and stored["clipping_decay_schedule"] == schedule
 
 
 def test_a_clone_with_a_different_network_is_refused_naming_the_difference(tmp_path):

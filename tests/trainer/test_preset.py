@@ -30,6 +30,7 @@ DEFAULTS_SPELLED_OUT = {
     "adam_optimizer_beta2": 0.999,
     "clip_gradients": None,
     "kl_cutoff": None,
+    "clipping_decay_schedule": {"type": "constant", "value": 1},
 }
 
 
@@ -77,6 +78,37 @@ def test_the_kl_cutoff_stops_the_remaining_epochs():
         ({"clip_likelihood_ratio_using_epsilon": 0}, r"clip_likelihood_ratio_using_epsilon: 0 is outside \(0.0"),
         ({"optimizer_epsilon": "small"}, r"optimizer_epsilon: 'small' is not a number"),
         ({"gae_lambda": None}, r"gae_lambda: None is not a number"),
+        ({"updates_per_transition": 0.5}, r"updates_per_transition: not a clipped_ppo parameter"),
+        ({"clipping_decay_schedule": {"type": "cosine"}}, r"clipping_decay_schedule: type: 'cosine' is not one of"),
+        ({"clipping_decay_schedule": 1}, r"clipping_decay_schedule: expected an object with a type"),
+        (
+            {"clipping_decay_schedule": {"type": "linear", "initial_value": 1, "final_value": 0.1}},
+            r"clipping_decay_schedule: decay_steps: missing; a linear schedule takes type, initial_value",
+        ),
+        (
+            {"clipping_decay_schedule": {"type": "constant", "value": 1, "final_value": 1}},
+            r"clipping_decay_schedule: final_value: unknown field\(s\); a constant schedule takes type, value",
+        ),
+        (
+            {"clipping_decay_schedule": {"type": "linear", "initial_value": 1, "final_value": 0.1, "decay_steps": 0}},
+            r"clipping_decay_schedule: decay_steps: 0 is not a positive whole number",
+        ),
+        (
+            {"clipping_decay_schedule": {"type": "linear", "initial_value": 1, "final_value": 0.1, "decay_steps": 2.5}},
+            r"clipping_decay_schedule: decay_steps: 2.5 is not a positive whole number",
+        ),
+        (
+            {"clipping_decay_schedule": {"type": "linear", "initial_value": 1, "final_value": 0, "decay_steps": 9}},
+            r"clipping_decay_schedule: final_value: 0 is outside \(0, 5\]",
+        ),
+        (  # the clip range 0.5 x 3 would pass 1
+            {"clip_likelihood_ratio_using_epsilon": 0.5, "clipping_decay_schedule": {"type": "constant", "value": 3}},
+            r"clipping_decay_schedule: value: 3 is outside \(0, 2\]: the clip range, clip_likelihood_ratio_using_epsilon \(0.5\)",
+        ),
+        (
+            {"clipping_decay_schedule": {"type": "constant", "value": "one"}},
+            r"clipping_decay_schedule: value: 'one' is not a number",
+        ),
         ([], r"expected a JSON object"),
     ],
 )
@@ -88,6 +120,8 @@ def test_a_bad_preset_is_refused_naming_the_keys(data, message):
 def test_sac_presets_set_the_target_copy_rate():
     with pytest.raises(PresetError, match="gae_lambda: not a sac parameter"):
         parse_preset({"gae_lambda": 0.9}, "sac")
+    with pytest.raises(PresetError, match="clipping_decay_schedule: not a sac parameter"):
+        parse_preset({"clipping_decay_schedule": {"type": "constant", "value": 1}}, "sac")
     preset = parse_preset({"rate_for_copying_weights_to_target": 0.005}, "sac")
     assert preset.sac_settings(SACSettings()).target_copy_rate == 0.005
     assert Preset().sac_settings(SACSettings()) == SACSettings()
