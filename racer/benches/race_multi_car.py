@@ -11,7 +11,7 @@ from typing import Any
 
 import yaml
 
-from racer.benches.race import (
+from racer.benches.race_field import (
     REINVENT_2018,
     copy_entrants,
     field_of,

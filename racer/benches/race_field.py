@@ -1,0 +1,114 @@
+"""What the race bench's two halves share (`race.py`, `race_multi_car.py`): the field of entrants (the shared Gazebo
+checkpoints, a broken folder, `--entrant` models imported once, re-entries under names of their own) and how the bench
+runs racer's own commands."""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import click
+
+from racer.local.services import PROJECT_ROOT
+
+SHARED_DATA = PROJECT_ROOT.parent / "shared" / "deepracer-data"
+GAZEBO_SAMPLE = SHARED_DATA / "models" / "gazebo-sample-reinvent2018"
+REINVENT_2018 = SHARED_DATA / "routes" / "reinvent_base.npy"
+BROKEN_NAME = "broken"
+
+
+def say(message: str) -> None:
+    print(f"race bench: {message}", file=sys.stderr, flush=True)
+
+
+def gazebo_folders(work: Path) -> list[Path]:
+    """One folder per frozen graph of the shared sample (`model_15.pb`, `model_30.pb`), beside its metadata: two
+    entrants, since `racer model import` of the sample folder would give one model with both checkpoints."""
+    folders = []
+    for graph in sorted(GAZEBO_SAMPLE.glob("model_*.pb")):
+        folder = work / "sources" / f"gazebo-{graph.stem.removeprefix('model_')}"
+        folder.mkdir(parents=True, exist_ok=True)
+        for file in (graph, GAZEBO_SAMPLE / "model_metadata.json"):
+            (folder / file.name).unlink(missing_ok=True)
+            (folder / file.name).symlink_to(file)
+        folders.append(folder)
+    return folders
+
+
+def broken_folder(work: Path) -> Path:
+    """A folder `racer model import` refuses (no model_metadata.json, no checkpoint): the race must still finish."""
+    folder = work / "sources" / BROKEN_NAME
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "notes.txt").write_text("not a model: the race bench's broken entrant\n")
+    return folder
+
+
+def racer_command(*args: str) -> list[str]:
+    return [sys.executable, "-m", "racer.cli", *args]
+
+
+def run_logged(command: list[str], log_path: Path, env: dict[str, str]) -> int:
+    """In the log's folder's parent (the bench's folder), so no entrant name is taken for a folder of the caller's."""
+    with log_path.open("a") as log:
+        done = subprocess.run(
+            command, stdout=log, stderr=subprocess.STDOUT, env=env, cwd=log_path.parent.parent, check=False
+        )
+    return done.returncode
+
+
+def is_racer_model_folder(path: Path) -> bool:
+    """A racer model in a local store's layout (racer-data/MODEL): its `model/` is all an evaluation reads."""
+    return (path / "model" / "model_metadata.json").is_file() and any((path / "model").glob("*.ckpt.json"))
+
+
+def import_models(sources: list[Path], store: Path, logs: Path, workers: int, env: dict[str, str]) -> list[str]:
+    """Every source into the bench's store (untimed), `workers` at a time: a racer model folder's `model/` is copied,
+    anything else goes through `racer model import`; returns the model names."""
+    names = [source.name.replace("_", "-")[:48] for source in sources]
+    if len(set(names)) != len(names) or BROKEN_NAME in names:
+        raise click.ClickException(f"--entrant folders need names of their own, not {BROKEN_NAME}: {', '.join(names)}")
+    pending = []
+    for source, name in zip(sources, names, strict=True):
+        if is_racer_model_folder(source):
+            shutil.rmtree(store / name, ignore_errors=True)
+            shutil.copytree(source / "model", store / name / "model")
+        else:
+            pending.append((source, name))
+    running: list[tuple[subprocess.Popen, str]] = []
+    failed = []
+    while pending or running:
+        while pending and len(running) < workers:
+            source, name = pending.pop(0)
+            say(f"importing {source} as {name}")
+            log = (logs / f"import-{name}.log").open("w")
+            command = racer_command("model", "import", str(source), name, "--store", str(store), "--overwrite")
+            running.append((subprocess.Popen(command, stdout=log, stderr=subprocess.STDOUT, env=env), name))
+            log.close()
+        process, name = running.pop(0)
+        if process.wait() != 0:
+            failed.append(name)
+    if failed:
+        raise click.ClickException(f"racer model import failed for {', '.join(failed)} (logs in {logs})")
+    return names
+
+
+def field_of(models: list[str], count: int) -> list[str]:
+    """`count - 1` entrant names cycling over the models (re-entries: `<model>-2`, `<model>-3`, ...)."""
+    names = []
+    for index in range(count - 1):
+        model = models[index % len(models)]
+        entry = index // len(models) + 1
+        names.append(model if entry == 1 else f"{model}-{entry}")
+    return names
+
+
+def copy_entrants(store: Path, models: list[str], names: list[str]) -> None:
+    """Each entrant's own store prefix (a copy of its model's `model/`): two evaluations of one prefix in the same
+    second would write the same evaluation folder."""
+    for index, name in enumerate(names):
+        model = models[index % len(models)]
+        if name != model:
+            shutil.rmtree(store / name, ignore_errors=True)
+            shutil.copytree(store / model / "model", store / name / "model")
