@@ -2,8 +2,8 @@
 # Compose smoke test: builds every image without a container registry (racer's two: the worker image
 # without torch and the trainer image with it, whose sizes it prints), runs `docker compose up`
 # for two training iterations with two workers in two worlds (base, carpet) on the short
-# racer_oval track, checks what the run left in MinIO and the trainer's log, runs the evaluation and
-# analysis services, loads the viewer service's page and script over HTTP, then `down -v`.
+# racer_oval track, checks what the run left in MinIO and the trainer's log, runs the evaluation,
+# analysis and race services, loads the viewer service's page and script over HTTP, then `down -v`.
 # Then the same run with the same file on a single-node swarm (`docker stack deploy`), same checks.
 #
 #   scripts/compose-smoke-test.sh          # exit 0: passed; non-zero: failed (the reason is printed last)
@@ -399,6 +399,36 @@ step "checking the evaluation's files in the store"
 check_store "$network" "$WORK/smoke.env" evaluation
 done_step
 
+step "docker compose --profile race run --rm race (the trained model and a missing one, 1 lap of racer_oval)"
+mkdir -p "$WORK/races"
+cat >"$WORK/races/race.yaml" <<'EOF'
+name: smoke-cup
+trackConfig: {trackId: racer_oval}
+raceType: TIME_TRIAL
+timingMethod: BEST_LAP_TIME
+submissionTerminationConditions: {minimumLaps: 1, maximumLaps: 1, maxTimeInMinutes: 1}
+maxResets: 0
+EOF
+echo "RACER_RACES=$WORK/races" >>"$WORK/smoke.env"
+COMPOSE_LIMIT_S="$RUN_TIMEOUT_S" compose --profile race run -T --rm race \
+  race races/race.yaml "$PREFIX" no-such-model --no-video --workers 1 >"$WORK/race.log" 2>&1 \
+  || { tail -30 "$WORK/race.log" >&2; fail "the race service failed (log: $WORK/race.log)"; }
+BOARD="$WORK/races/smoke-cup/leaderboard.json" PREFIX="$PREFIX" python3 - <<'PY' \
+  || fail "the race's leaderboard is not what the race file and the entrants ask for (log: $WORK/race.log)"
+import json, os, sys
+board = json.load(open(os.environ["BOARD"]))
+rows = {row["entrant"]: row for row in board["leaderboard"]}
+if set(rows) != {os.environ["PREFIX"], "no-such-model"}:
+    sys.exit(f"entrants on the board: {sorted(rows)}")
+trained, missing = rows[os.environ["PREFIX"]], rows["no-such-model"]
+if trained["checkpoint"] is None or trained["lapCount"] != 1:
+    sys.exit(f"the trained model's row: {json.dumps(trained)[:600]}")
+if missing["errorCode"] != "FILE_DOES_NOT_EXIST":
+    sys.exit(f"the missing entrant's row: {missing}")
+PY
+[ -s "$WORK/races/smoke-cup/leaderboard.html" ] || fail "the race service wrote no leaderboard.html"
+done_step "a board of 2 rows (the missing entrant with FILE_DOES_NOT_EXIST)"
+
 step "docker compose up -d viewer: the page, its script from the image and the run over HTTP (127.0.0.1:$VIEWER_PORT)"
 compose up -d --no-build viewer >"$WORK/viewer-up.log" 2>&1 || { cat "$WORK/viewer-up.log" >&2; fail "docker compose up viewer failed"; }
 viewer_url="http://127.0.0.1:$VIEWER_PORT"
@@ -475,4 +505,4 @@ else
   done_step
 fi
 
-say "PASSED in $((SECONDS - T0)) s (compose part: ${COMPOSE_SECONDS} s): docker compose trained 2 iterations with workers in worlds base and carpet; checkpoints, pointer and simtraces are in MinIO; evaluation and analysis ran; the viewer served its page${SWARM_PASSED:+; the same on a single-node swarm with docker stack deploy}"
+say "PASSED in $((SECONDS - T0)) s (compose part: ${COMPOSE_SECONDS} s): docker compose trained 2 iterations with workers in worlds base and carpet; checkpoints, pointer and simtraces are in MinIO; evaluation, analysis and a race ran; the viewer served its page${SWARM_PASSED:+; the same on a single-node swarm with docker stack deploy}"
