@@ -3,8 +3,8 @@ OpenVINO IR and LiteRT (TFLite) models the cars make from it, fp32 and fp16, on 
 
 `racer bench tf-proof` runs the whole matrix (every network, every sensor set DRoA's validation accepts, PPO
 discrete, PPO continuous and SAC: 72 models) and prints one JSON line; the test suite runs a subset (tests/model_io). Frames are rendered
-in this process; every TensorFlow, OpenVINO and LiteRT step runs in one TensorFlow process (`tool.py prove`) that
-takes the models one at a time (a stereo DEEP policy network is 230 MB).
+in this process; every TensorFlow, OpenVINO and LiteRT step runs in a TensorFlow process (`tool.py prove`) that
+takes its models one at a time (a stereo DEEP policy network is 230 MB); `--processes` runs several side by side.
 """
 
 from __future__ import annotations
@@ -13,6 +13,7 @@ import json
 import sys
 import tempfile
 import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -144,11 +145,18 @@ def render_frames(count: int) -> dict[str, np.ndarray]:
 
 
 def run_proof(
-    specs: list[ModelSpec], frames: dict[str, np.ndarray], runtimes: tuple[str, ...] = RUNTIMES, first_seed: int = 0
+    specs: list[ModelSpec],
+    frames: dict[str, np.ndarray],
+    runtimes: tuple[str, ...] = RUNTIMES,
+    first_seed: int = 0,
+    processes: int = 1,
 ) -> dict:
     """racer's policy outputs and every runtime's, per model key; `cpu_s`: TensorFlow-process CPU seconds per
-    model and runtime (conversion included). All models in one TensorFlow process."""
-    expected, requests = {}, []
+    model and runtime (conversion included). `processes` TensorFlow processes side by side take the models in turn
+    (model i goes to process i mod `processes`), one model in memory at a time each: most conversion steps use one
+    core, so 2 processes on 2 cores take about half the wall time. Model i's weights come from seed `first_seed` + i
+    whatever the number of processes."""
+    expected, groups = {}, [[] for _ in range(max(1, min(processes, len(specs))))]
     with tempfile.TemporaryDirectory(prefix="racer-proof-") as folder:
         for index, spec in enumerate(specs):
             model = make_model(spec, first_seed + index)
@@ -159,15 +167,22 @@ def run_proof(
             path = Path(folder) / f"{index}.safetensors"
             scope = policy_scope(model.config) + "/"
             save_file({name: value for name, value in weights.items() if name.startswith(scope)}, str(path))
-            requests.append({"key": spec.key, "graph": coach_graph_spec(model.config), "weights_path": str(path)})
+            request = {"key": spec.key, "graph": coach_graph_spec(model.config), "weights_path": str(path)}
+            groups[index % len(groups)].append(request)
             del model, weights
-        result, outputs = run_tool(
-            "prove",
-            {"models": requests, "runtimes": list(runtimes)},
-            frames,
-            timeout_s=PROVE_TIMEOUT_S_PER_MODEL * max(1, len(specs)),
-        )
-    return {"expected": expected, "outputs": outputs, "cpu_s": result["cpu_s"], "runtimes": list(runtimes)}
+
+        def prove(group: list[dict]) -> tuple[dict, dict[str, np.ndarray]]:
+            request = {"models": group, "runtimes": list(runtimes)}
+            return run_tool("prove", request, frames, timeout_s=PROVE_TIMEOUT_S_PER_MODEL * max(1, len(group)))
+
+        with ThreadPoolExecutor(max_workers=len(groups)) as pool:
+            answers = list(pool.map(prove, groups))
+    outputs: dict[str, np.ndarray] = {}
+    cpu_s: dict[str, dict[str, float]] = {}
+    for result, produced in answers:
+        outputs.update(produced)
+        cpu_s.update(result["cpu_s"])
+    return {"expected": expected, "outputs": outputs, "cpu_s": cpu_s, "runtimes": list(runtimes)}
 
 
 def merge_proofs(proofs: list[dict]) -> dict:
@@ -231,9 +246,19 @@ def summarize(proof: dict) -> dict:
     type=click.IntRange(min=1),
     default=4,
     show_default=True,
-    help="Models per TensorFlow process; each process's figures are printed (stderr) when it ends.",
+    help="Models per group of TensorFlow processes; each group's figures are printed (stderr) when it ends.",
 )
-def tf_proof_command(frame_count: int, algorithm: str, matches: tuple[str, ...], models_per_process: int) -> None:
+@click.option(
+    "--processes",
+    type=click.IntRange(min=1),
+    default=1,
+    show_default=True,
+    help="TensorFlow processes side by side within a group (most conversion steps use one core; each process "
+    "holds one model at a time).",
+)
+def tf_proof_command(
+    frame_count: int, algorithm: str, matches: tuple[str, ...], models_per_process: int, processes: int
+) -> None:
     """All 72 models (PPO discrete and continuous, SAC) through TensorFlow, OpenVINO and LiteRT (fp32, fp16) vs
     racer; one JSON line (and one per group of models on stderr as they finish)."""
     started = time.monotonic()
@@ -256,7 +281,7 @@ def tf_proof_command(frame_count: int, algorithm: str, matches: tuple[str, ...],
     proofs = []
     for start in range(0, len(specs), models_per_process):
         group = specs[start : start + models_per_process]
-        proofs.append(run_proof(group, frames, first_seed=start))
+        proofs.append(run_proof(group, frames, first_seed=start, processes=processes))
         done = {"done": start + len(group), "of": len(specs), "keys": [spec.key for spec in group]}
         print(json.dumps({**done, **summarize(proofs[-1])}), file=sys.stderr, flush=True)
     figures = summarize(merge_proofs(proofs))
