@@ -40,7 +40,8 @@ def evaluate_checkpoint(
     stop: threading.Event,
 ) -> list | None:
     """The run's MIN_EVAL_TRIALS greedy episodes of checkpoint `iteration` (spread over the lap when
-    RACER_EVAL_SPREAD_STARTS); None when `stop` is set before they are all played."""
+    RACER_EVAL_SPREAD_STARTS, each at most RACER_EVAL_MAX_STEPS steps when set); None when `stop` is set before
+    they are all played."""
     trials = run.worker.min_eval_trials
     epsilon = evaluation_epsilon(run.hyperparameters, run.model_metadata)
     results = []
@@ -63,6 +64,7 @@ def evaluate_checkpoint(
                 start_ndist=start,
                 clear_start=start is not None,
                 on_step=on_step,
+                max_steps=run.worker.eval_max_steps or None,
             )
         )
         log.info(

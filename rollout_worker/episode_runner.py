@@ -124,6 +124,7 @@ def play_episode(
     start_ndist: float | None = None,
     clear_start: bool = False,
     on_step: Callable[[dict, float, dict], None] | None = None,
+    max_steps: int | None = None,
 ) -> PlayedEpisode:
     """One episode from reset to termination. Evaluation episodes (`greedy=True`) do not advance the start line.
 
@@ -131,12 +132,15 @@ def play_episode(
     `start_ndist` starts an evaluation episode at that normalised distance along the route; `clear_start` moves it
     off an object as training starts are (the env's `clear_start` reset option).
     `on_step(observation, reward, info)` sees every step (the live viewer's frame tap).
+    `max_steps` truncates the episode after that many steps (the env's reset option; None: the env's own cap).
     """
     options = {"evaluation": greedy}
     if start_ndist is not None:
         options["start_ndist"] = start_ndist
     if clear_start:
         options["clear_start"] = True
+    if max_steps is not None:
+        options["max_steps"] = max_steps
     recorder = EpisodeRecorder(*env.reset(options=options), stacker=frame_stacker_for(policy))
     while True:
         action, log_prob = policy.act(recorder.policy_observation, greedy=greedy, generator=generator, epsilon=epsilon)

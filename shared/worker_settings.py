@@ -118,6 +118,11 @@ class WorkerSettings:
     further on. DeepRacer starts them all at one place; in a deterministic simulator they would all be the same
     drive, so spread starts make "3 of 3 laps" mean three different laps. A spread start within 1 m of an object
     takes the lane away from it, as a training start does (the SimApp's start line never has a box on it)."""
+    eval_max_steps: int = setting(0, "RACER_EVAL_MAX_STEPS", WHOLE, env=None)
+    """racer's option (training_params key RACER_EVAL_MAX_STEPS): an in-training evaluation episode ends after this
+    many steps (0: no cap but DeepRacer's 100,000). A barely trained greedy policy may circle without leaving the
+    track, and worker 0 plays such an episode to the end before it reads the trainer's next announcement; a cap of a
+    few laps' steps keeps short runs (tests, quick trials) from waiting minutes for it."""
     domain_randomization: bool = setting(False, "ENABLE_DOMAIN_RANDOMIZATION", FLAG)
     """ENABLE_DOMAIN_RANDOMIZATION: random light colours and attenuation at every episode, as the SimApp."""
     car_randomization: bool = setting(False, "RACER_CAR_RANDOMIZATION", FLAG)
@@ -146,6 +151,8 @@ class WorkerSettings:
                 f"NUMBER_OF_RESETS must be >= 0 and NUMBER_OF_REVERSE_COUNTS >= 1, got "
                 f"{self.number_of_resets} and {self.number_of_reverse_counts}"
             )
+        if self.eval_max_steps < 0:
+            raise ValueError(f"RACER_EVAL_MAX_STEPS must be >= 0 (0: no cap), got {self.eval_max_steps}")
         if self.off_track_penalty_s < 0 or self.collision_penalty_s < 0:
             raise ValueError("OFF_TRACK_PENALTY and COLLISION_PENALTY must be >= 0 seconds")
         car_profile(self.car_profile)  # an unknown name: ValueError naming RACER_CAR_PROFILE and the valid names

@@ -126,9 +126,12 @@ def write_custom_files(
     steering_deg: tuple[float, ...] = (-30, 0, 30),
     reward_source: str = CONSTANT_REWARD,
     min_eval_trials: int | None = 1,
+    eval_max_steps: int = 300,
 ) -> Path:
     """A small custom_files folder, as users bring it, for tests that train: shallow camera network, one speed,
-    2 episodes per iteration; `min_eval_trials` None writes no workers.json."""
+    2 episodes per iteration; `min_eval_trials` None writes no workers.json. `eval_max_steps` (RACER_EVAL_MAX_STEPS)
+    caps worker 0's evaluation episodes at about 1.5 laps of the oval: a barely trained greedy policy may circle
+    without leaving the track, and the run would wait for it (up to DeepRacer's 100,000 steps)."""
     folder.mkdir(parents=True)
     (folder / "reward_function.py").write_text(reward_source)
     actions = [{"steering_angle": angle, "speed": 1.0} for angle in steering_deg]
@@ -147,5 +150,6 @@ def write_custom_files(
         json.dumps({"num_episodes_between_training": 2, "batch_size": 32, "num_epochs": 3})
     )
     if min_eval_trials is not None:
-        (folder / "workers.json").write_text(json.dumps({"MIN_EVAL_TRIALS": min_eval_trials}))
+        workers = {"MIN_EVAL_TRIALS": min_eval_trials, "RACER_EVAL_MAX_STEPS": eval_max_steps}
+        (folder / "workers.json").write_text(json.dumps(workers))
     return folder

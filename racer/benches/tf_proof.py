@@ -4,8 +4,9 @@ OpenVINO IR and LiteRT (TFLite) models the cars make from it, fp32 and fp16, on 
 `racer bench tf-proof` runs the whole matrix (every network, every sensor set DRoA's validation accepts, PPO
 discrete, PPO continuous and SAC: 72 models) and prints one JSON line; `--examples` runs docs/custom-networks.md's
 examples instead (tf_proof_examples.py: your own networks, batch-norm, a two-frame stack, on DeepRacer's Gazebo
-frames); the test suite runs a subset (tests/model_io). Frames are rendered in this process; every TensorFlow, OpenVINO and LiteRT step runs in one TensorFlow process (`tool.py prove`) that
-takes the models one at a time (a stereo DEEP policy network is 230 MB).
+frames); the test suite runs a subset (tests/model_io). Frames are rendered in this process; every TensorFlow,
+OpenVINO and LiteRT step runs in a TensorFlow process (`tool.py prove`) that takes its models one at a time (a stereo
+DEEP policy network is 230 MB); `--processes` runs several side by side.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ import sys
 import tempfile
 import time
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -156,11 +158,15 @@ def run_proof(
     runtimes: tuple[str, ...] = RUNTIMES,
     first_seed: int = 0,
     make: Callable[[Any, int], PolicyNetwork] = make_model,
+    processes: int = 1,
 ) -> dict:
     """racer's policy outputs and every runtime's, per model key; `cpu_s`: TensorFlow-process CPU seconds per
-    model and runtime (conversion included). All models in one TensorFlow process. `specs`: ModelSpec, or any spec
-    with a `key` that `make` builds a network from (tf_proof_examples)."""
-    expected, requests = {}, []
+    model and runtime (conversion included). `specs`: ModelSpec, or any spec with a `key` that `make` builds a
+    network from (tf_proof_examples). `processes` TensorFlow processes side by side take the models in turn (model i
+    goes to process i mod `processes`), one model in memory at a time each: most conversion steps use one core, so 2
+    processes on 2 cores take about half the wall time. Model i's weights come from seed `first_seed` + i whatever
+    the number of processes."""
+    expected, groups = {}, [[] for _ in range(max(1, min(processes, len(specs))))]
     with tempfile.TemporaryDirectory(prefix="racer-proof-") as folder:
         for index, spec in enumerate(specs):
             model = make(spec, first_seed + index)
@@ -171,15 +177,22 @@ def run_proof(
             path = Path(folder) / f"{index}.safetensors"
             scope = policy_scope(model.config) + "/"
             save_file({name: value for name, value in weights.items() if name.startswith(scope)}, str(path))
-            requests.append({"key": spec.key, "graph": coach_graph_spec(model.config), "weights_path": str(path)})
+            request = {"key": spec.key, "graph": coach_graph_spec(model.config), "weights_path": str(path)}
+            groups[index % len(groups)].append(request)
             del model, weights
-        result, outputs = run_tool(
-            "prove",
-            {"models": requests, "runtimes": list(runtimes)},
-            frames,
-            timeout_s=PROVE_TIMEOUT_S_PER_MODEL * max(1, len(specs)),
-        )
-    return {"expected": expected, "outputs": outputs, "cpu_s": result["cpu_s"], "runtimes": list(runtimes)}
+
+        def prove(group: list[dict]) -> tuple[dict, dict[str, np.ndarray]]:
+            request = {"models": group, "runtimes": list(runtimes)}
+            return run_tool("prove", request, frames, timeout_s=PROVE_TIMEOUT_S_PER_MODEL * max(1, len(group)))
+
+        with ThreadPoolExecutor(max_workers=len(groups)) as pool:
+            answers = list(pool.map(prove, groups))
+    outputs: dict[str, np.ndarray] = {}
+    cpu_s: dict[str, dict[str, float]] = {}
+    for result, produced in answers:
+        outputs.update(produced)
+        cpu_s.update(result["cpu_s"])
+    return {"expected": expected, "outputs": outputs, "cpu_s": cpu_s, "runtimes": list(runtimes)}
 
 
 def merge_proofs(proofs: list[dict]) -> dict:
@@ -252,7 +265,15 @@ def summarize(proof: dict) -> dict:
     type=click.IntRange(min=1),
     default=4,
     show_default=True,
-    help="Models per TensorFlow process; each process's figures are printed (stderr) when it ends.",
+    help="Models per group of TensorFlow processes; each group's figures are printed (stderr) when it ends.",
+)
+@click.option(
+    "--processes",
+    type=click.IntRange(min=1),
+    default=1,
+    show_default=True,
+    help="TensorFlow processes side by side within a group (most conversion steps use one core; each process "
+    "holds one model at a time).",
 )
 @click.option(
     "--examples",
@@ -261,13 +282,18 @@ def summarize(proof: dict) -> dict:
     "the shallow network; 6 models) on DeepRacer's Gazebo frames.",
 )
 def tf_proof_command(
-    frame_count: int, algorithm: str, matches: tuple[str, ...], models_per_process: int, examples: bool
+    frame_count: int,
+    algorithm: str,
+    matches: tuple[str, ...],
+    models_per_process: int,
+    processes: int,
+    examples: bool,
 ) -> None:
     """All 72 models (PPO discrete and continuous, SAC) through TensorFlow, OpenVINO and LiteRT (fp32, fp16) vs
     racer; one JSON line (and one per group of models on stderr as they finish)."""
     started = time.monotonic()
     if examples:
-        figures = prove_examples(matches)
+        figures = prove_examples(matches, processes)
         figures["wall_s"] = round(time.monotonic() - started, 1)
         print(json.dumps(figures))
         return
@@ -290,7 +316,7 @@ def tf_proof_command(
     proofs = []
     for start in range(0, len(specs), models_per_process):
         group = specs[start : start + models_per_process]
-        proofs.append(run_proof(group, frames, first_seed=start))
+        proofs.append(run_proof(group, frames, first_seed=start, processes=processes))
         done = {"done": start + len(group), "of": len(specs), "keys": [spec.key for spec in group]}
         print(json.dumps({**done, **summarize(proofs[-1])}), file=sys.stderr, flush=True)
     figures = summarize(merge_proofs(proofs))
@@ -300,7 +326,7 @@ def tf_proof_command(
     print(json.dumps(figures))
 
 
-def prove_examples(matches: tuple[str, ...]) -> dict:
+def prove_examples(matches: tuple[str, ...], processes: int = 1) -> dict:
     """docs/custom-networks.md's examples, one TensorFlow process per stack size (a process feeds one set of
     frames to all its models); the figures of all of them."""
     from racer.benches.tf_proof_examples import example_frames, example_specs, make_example
@@ -313,7 +339,7 @@ def prove_examples(matches: tuple[str, ...]) -> dict:
         group = [spec for spec in specs if spec.stack_size == stack_size]
         frames = example_frames(stack_size)
         print(f"{len(group)} examples on {len(next(iter(frames.values())))} Gazebo frames ...", file=sys.stderr)
-        proofs.append(run_proof(group, frames, make=make_example))
+        proofs.append(run_proof(group, frames, make=make_example, processes=processes))
         print(json.dumps({"keys": [spec.key for spec in group], **summarize(proofs[-1])}), file=sys.stderr, flush=True)
     figures = summarize(merge_proofs(proofs))
     figures["examples"] = [spec.key for spec in specs]

@@ -17,7 +17,7 @@ from racer.shared.sim.config import STEPS_PER_SECOND, EnvConfig
 from racer.shared.sim.domain_randomization import SceneRandomizer
 from racer.shared.sim.dynamics_randomization import draw_dynamics
 from racer.shared.sim.episode_phase import PhaseMachine, StepVerdict
-from racer.shared.sim.episode_start import StartRotation, read_reset_options
+from racer.shared.sim.episode_start import StartRotation, episode_max_steps, read_reset_options
 from racer.shared.sim.judged_pose import PoseJudge, judged_reward_params
 from racer.shared.sim.object_bodies import ObjectBodies
 from racer.shared.sim.observation import Observer, scene_cameras
@@ -72,7 +72,8 @@ class DeepRacerEnv(gym.Env):
     ## Episode end
     terminated on `lap_complete` (progress ≥ 100) and on `off_track` (no wheel centre on the road), `immobilized`
     (≤ 0.3 mm of movement for 15 steps), `reversed` (progress decreasing for `number_of_reverse_counts` steps) or
-    `crashed` once the `number_of_resets` pause-and-resets are used up; truncated after `max_steps` (100000) steps.
+    `crashed` once the `number_of_resets` pause-and-resets are used up; truncated after `max_steps` (100000) steps,
+    or after `reset(options={"max_steps": n})`'s n for that episode (racer's evaluation step cap).
     With resets left, the car is put back and held for the penalty: `pause` rows, at least one even for a 0 s
     penalty, `pause_duration` counting down to what is left (negative on the last row when the penalty is not a
     whole number of steps). The SimApp's spot (`reset_position="deepracer"`): the previous progress as a share of the
@@ -240,6 +241,7 @@ class DeepRacerEnv(gym.Env):
             self._scene_rng = np.random.default_rng((seed, _SCENE_RNG_STREAM))
             self._dynamics_rng = np.random.default_rng((seed, _DYNAMICS_RNG_STREAM))
         evaluation, start_ndist = read_reset_options(options, self._starts.start_ndist)
+        self._max_steps = episode_max_steps(options, self.config.max_steps)
         self._init_episode_state(evaluation, start_ndist)
         if self._randomizer.enabled:
             self._randomizer.randomize(self._model, self._scene_rng)
@@ -331,7 +333,7 @@ class DeepRacerEnv(gym.Env):
         if verdict.run_step:
             reward = self._reward(params) if self._reward is not None else default_evaluation_reward(params)
         terminated = verdict.terminated
-        truncated = not terminated and self._steps >= self.config.max_steps
+        truncated = not terminated and self._steps >= self._max_steps
         info = step_info(
             params,
             verdict,

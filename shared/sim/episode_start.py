@@ -7,7 +7,7 @@ from typing import Any
 
 from racer.shared.sim.config import EnvConfig
 
-RESET_OPTIONS = ("evaluation", "start_ndist", "clear_start")
+RESET_OPTIONS = ("evaluation", "start_ndist", "clear_start", "max_steps")
 
 
 class StartRotation:
@@ -43,7 +43,7 @@ def read_reset_options(options: dict[str, Any] | None, next_start_ndist: float) 
     unknown = set(options) - set(RESET_OPTIONS)
     if unknown:
         raise ValueError(
-            f"unknown reset option(s) {sorted(unknown)}; supported: 'evaluation', 'start_ndist', 'clear_start'"
+            f"unknown reset option(s) {sorted(unknown)}; supported: {', '.join(repr(name) for name in RESET_OPTIONS)}"
         )
     evaluation = bool(options.get("evaluation", False))
     if options.get("start_ndist") is None:
@@ -53,3 +53,14 @@ def read_reset_options(options: dict[str, Any] | None, next_start_ndist: float) 
             "reset option 'start_ndist' is for evaluation episodes; training episodes start at the round-robin position"
         )
     return evaluation, float(options["start_ndist"]) % 1.0
+
+
+def episode_max_steps(options: dict[str, Any] | None, config_max_steps: int) -> int:
+    """The step after which this episode is truncated: `options["max_steps"]` (racer's evaluation step cap,
+    RACER_EVAL_MAX_STEPS), never beyond the env's own `max_steps`; the env's when the option is absent or None."""
+    wanted = (options or {}).get("max_steps")
+    if wanted is None:
+        return config_max_steps
+    if isinstance(wanted, bool) or not isinstance(wanted, int) or wanted < 1:
+        raise ValueError(f"reset option 'max_steps' must be a whole number >= 1, got {wanted!r}")
+    return min(wanted, config_max_steps)

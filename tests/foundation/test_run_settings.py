@@ -40,6 +40,7 @@ NOT_DEFAULT: dict[str, object] = {
     "collision_penalty_s": 3.0,
     "number_of_reverse_counts": 20,
     "eval_spread_starts": True,
+    "eval_max_steps": 300,
     "domain_randomization": True,
     "car_randomization": True,
     "dynamics_randomization": True,

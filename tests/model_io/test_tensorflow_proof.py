@@ -25,6 +25,7 @@ from racer.benches.tf_proof import (
     FP16_SAME_ACTION,
     FP16_TOLERANCE,
     FP32_TOLERANCE,
+    RUNTIMES,
     SENSOR_SETS,
     ModelSpec,
     all_specs,
@@ -79,7 +80,8 @@ def frames() -> dict[str, np.ndarray]:
 
 @pytest.fixture(scope="module")
 def proof(frames) -> dict:
-    return run_proof(SUITE_SPECS, frames)
+    """Two TensorFlow processes side by side: the conversions mostly use one core each (same models, same seeds)."""
+    return run_proof(SUITE_SPECS, frames, processes=2)
 
 
 def test_every_network_sensor_set_and_action_space_is_covered(proof):
@@ -170,3 +172,67 @@ def test_model_specs_name_each_model_once():
     assert ModelSpec(NEURAL_NETWORKS[0], ("STEREO_CAMERAS", "LIDAR"), True).key.endswith(
         "STEREO_CAMERAS+LIDAR:continuous"
     )
+
+
+def test_processes_share_the_models_in_turn_and_keep_each_models_seed(monkeypatch):
+    """`run_proof(processes=2)` (`racer bench tf-proof --processes 2`): model i goes to TensorFlow process i mod 2,
+    both run side by side, and racer's side (weights from seed first_seed + i, expected outputs) is what one process
+    gets; the answers are merged."""
+    import threading
+
+    from racer.benches import tf_proof
+
+    specs = [spec for spec in all_specs() if spec.neural_network == NEURAL_NETWORKS[0]][:5]
+    rng = np.random.default_rng(0)
+    frames = {
+        "FRONT_FACING_CAMERA": rng.uniform(0, 255, (3, 120, 160, 1)).astype(np.float32),
+        "STEREO_CAMERAS": rng.uniform(0, 255, (3, 120, 160, 2)).astype(np.float32),
+        "LIDAR": rng.uniform(0.15, 1, (3, 64)).astype(np.float32),
+        "SECTOR_LIDAR": rng.integers(0, 2, (3, 8)).astype(np.float32),
+        "DISCRETIZED_SECTOR_LIDAR": rng.integers(0, 2, (3, 32)).astype(np.float32),
+    }
+    calls: list[list[str]] = []
+    both_running = threading.Barrier(2, timeout=30)
+
+    def fake_tool(command, request, arrays, timeout_s):
+        keys = [model["key"] for model in request["models"]]
+        calls.append(keys)
+        if len(keys) < len(specs):
+            both_running.wait()  # each process starts while the other still runs
+        outputs = {f"{key}|tensorflow": np.full(3, index, np.float32) for index, key in enumerate(keys)}
+        return {"cpu_s": {key: {"tensorflow": 0.5} for key in keys}}, outputs
+
+    monkeypatch.setattr(tf_proof, "run_tool", fake_tool)
+    together = run_proof(specs, frames, runtimes=("tensorflow",), first_seed=7, processes=2)
+    assert sorted(calls) == sorted([[spec.key for spec in specs[0::2]], [spec.key for spec in specs[1::2]]])
+    assert set(together["outputs"]) == {f"{spec.key}|tensorflow" for spec in specs}
+    assert set(together["cpu_s"]) == {spec.key for spec in specs}
+    alone = run_proof(specs, frames, runtimes=("tensorflow",), first_seed=7)
+    assert calls[-1] == [spec.key for spec in specs]
+    for spec in specs:
+        np.testing.assert_array_equal(together["expected"][spec.key], alone["expected"][spec.key])
+
+
+def test_the_bench_command_hands_processes_to_each_group(monkeypatch):
+    from click.testing import CliRunner
+
+    from racer.benches import tf_proof
+
+    seen = []
+
+    def fake_proof(specs, frames, first_seed=0, processes=1):
+        seen.append((len(specs), first_seed, processes))
+        keys = [spec.key for spec in specs]
+        return {
+            "expected": {key: np.zeros((1, 2), np.float32) for key in keys},
+            "outputs": {f"{key}|{runtime}": np.zeros((1, 2), np.float32) for key in keys for runtime in RUNTIMES},
+            "cpu_s": {key: {} for key in keys},
+            "runtimes": list(RUNTIMES),
+        }
+
+    monkeypatch.setattr(tf_proof, "render_frames", lambda count: {})
+    monkeypatch.setattr(tf_proof, "run_proof", fake_proof)
+    arguments = ["--algorithm", "sac", "--match", "SHALLOW", "--models-per-process", "5", "--processes", "2"]
+    result = CliRunner().invoke(tf_proof.tf_proof_command, arguments)
+    assert result.exit_code == 0, result.output
+    assert seen == [(5, 0, 2), (3, 5, 2)]
