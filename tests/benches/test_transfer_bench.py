@@ -82,17 +82,17 @@ def test_each_car_profile_given_is_driven(monkeypatch):
 
 
 def test_matrix_trains_each_cell_and_drives_its_last_checkpoint():
-    """`--matrix` with a tiny budget: one profile, with and without dynamics randomisation, 0.3 minutes, one start
-    (about 2.5 minutes on 2 shared cores, hence slow)."""
-    args = ["--matrix", "--train-profile", "simapp6-ros2", "--car-profile", "simapp6-ros2"]
+    """`--matrix` with a tiny budget: one profile, with dynamics randomisation only (which cells `--randomization`
+    picks is tested without training, test_transfer_matrix_cells.py), 0.3 minutes, one start."""
+    args = ["--matrix", "--train-profile", "simapp6-ros2", "--car-profile", "simapp6-ros2", "--randomization", "on"]
     args += ["--minutes", "0.3", "--starts", "1", "--workers", "1"]
     result = CliRunner().invoke(transfer_bench_command, args, catch_exceptions=False)
     assert result.exit_code == 0, result.output
     report = json.loads([line for line in result.stdout.splitlines() if line.startswith("{")][-1])
     assert report["benchmark"] == "transfer-matrix" and report["minutes_per_model"] == 0.3
     runs = {run["model"]: run for run in report["runs"]}
-    assert sorted(runs) == ["matrix-simapp6-ros2-dr", "matrix-simapp6-ros2-fixed"]
-    assert [runs[name]["dynamics_randomization"] for name in sorted(runs)] == [True, False]
+    assert sorted(runs) == ["matrix-simapp6-ros2-dr"]
+    assert runs["matrix-simapp6-ros2-dr"]["dynamics_randomization"] is True
     for name, run in runs.items():
         assert run["car_profile"] == "simapp6-ros2"
         if run["checkpoint"] is not None:  # a checkpoint within 18 s is likely, not certain on a loaded machine
