@@ -26,6 +26,7 @@ import numpy as np
 import torch
 from safetensors.numpy import save_file
 
+from racer.benches.tf_proof_examples import proof_action_space
 from racer.model_io.tensorflow.convert import ExportJob, coach_graph_spec, coach_tensors, policy_scope
 from racer.model_io.tensorflow.runner import run_tool
 from racer.shared.deepracer.model_metadata import NEURAL_NETWORKS, parse_model_metadata
@@ -78,12 +79,8 @@ class ModelSpec:
         return f"{self.neural_network}:{'+'.join(self.sensors)}:{kind}"
 
     def metadata(self) -> dict:
-        if self.continuous:
-            space: object = {"steering_angle": {"low": -30, "high": 30}, "speed": {"low": 0.5, "high": 3}}
-        else:
-            space = [{"steering_angle": angle, "speed": speed} for angle in (-30, -15, 0, 15, 30) for speed in (1, 2)]
         return {
-            "action_space": space,
+            "action_space": proof_action_space(self.continuous),
             "sensor": list(self.sensors),
             "neural_network": self.neural_network,
             "action_space_type": "continuous" if self.continuous else "discrete",

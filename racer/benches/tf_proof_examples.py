@@ -53,6 +53,13 @@ GAZEBO_FRAMES = (
 SENSOR = "FRONT_FACING_CAMERA"
 
 
+def proof_action_space(continuous: bool) -> object:
+    """The proof models' action space: steering ±30° and 0.5-3 m/s, or 5 angles at 1 and 2 m/s (10 actions)."""
+    if continuous:
+        return {"steering_angle": {"low": -30, "high": 30}, "speed": {"low": 0.5, "high": 3}}
+    return [{"steering_angle": angle, "speed": speed} for angle in (-30, -15, 0, 15, 30) for speed in (1, 2)]
+
+
 @dataclass(frozen=True)
 class ExampleSpec:
     neural_network: str
@@ -66,12 +73,8 @@ class ExampleSpec:
         return f"{self.neural_network}:{SENSOR}{frames}:{'continuous' if self.continuous else 'discrete'}"
 
     def metadata(self) -> dict:
-        if self.continuous:
-            space: object = {"steering_angle": {"low": -30, "high": 30}, "speed": {"low": 0.5, "high": 3}}
-        else:
-            space = [{"steering_angle": angle, "speed": speed} for angle in (-30, -15, 0, 15, 30) for speed in (1, 2)]
         return {
-            "action_space": space,
+            "action_space": proof_action_space(self.continuous),
             "sensor": [SENSOR],
             "neural_network": self.neural_network,
             "action_space_type": "continuous" if self.continuous else "discrete",
