@@ -63,6 +63,31 @@ def is_racer_model_folder(path: Path) -> bool:
     return (path / "model" / "model_metadata.json").is_file() and any((path / "model").glob("*.ckpt.json"))
 
 
+def copy_raced_checkpoint(model_dir: Path, target: Path) -> None:
+    """The files an evaluation of `model_dir`'s best checkpoint reads (metadata, pointers, that checkpoint's weights
+    and ONNX), not its other checkpoints nor any optimiser state: a 20-checkpoint model is 0.6 GB, its raced
+    checkpoint a few MB."""
+    from racer.shared.model_layout import CheckpointName, inference_model
+    from racer.shared.policy.checkpoints import CheckpointStore
+    from racer.shared.store import LocalStore
+
+    store = LocalStore(model_dir.parent.parent)
+    best = CheckpointName.parse(CheckpointStore(store, model_dir.parent.name).select("best"))
+    best_onnx = inference_model(best.number, "onnx").rsplit("/", 1)[-1]
+    shutil.rmtree(target, ignore_errors=True)
+    target.mkdir(parents=True)
+    for file in model_dir.iterdir():
+        owner = CheckpointName.of_file(file.name)
+        if owner is not None:
+            wanted = owner == best and ".optimizer." not in file.name
+        elif file.name.startswith("model_") and file.suffix == ".onnx":
+            wanted = file.name == best_onnx
+        else:
+            wanted = file.is_file()
+        if wanted:
+            shutil.copy2(file, target / file.name)
+
+
 def import_models(sources: list[Path], store: Path, logs: Path, workers: int, env: dict[str, str]) -> list[str]:
     """Every source into the bench's store (untimed), `workers` at a time: a racer model folder's `model/` is copied,
     anything else goes through `racer model import`; returns the model names."""
@@ -73,7 +98,7 @@ def import_models(sources: list[Path], store: Path, logs: Path, workers: int, en
     for source, name in zip(sources, names, strict=True):
         if is_racer_model_folder(source):
             shutil.rmtree(store / name, ignore_errors=True)
-            shutil.copytree(source / "model", store / name / "model")
+            copy_raced_checkpoint(source / "model", store / name / "model")
         else:
             pending.append((source, name))
     running: list[tuple[subprocess.Popen, str]] = []
@@ -111,4 +136,4 @@ def copy_entrants(store: Path, models: list[str], names: list[str]) -> None:
         model = models[index % len(models)]
         if name != model:
             shutil.rmtree(store / name, ignore_errors=True)
-            shutil.copytree(store / model / "model", store / name / "model")
+            copy_raced_checkpoint(store / model / "model", store / name / "model")

@@ -1,6 +1,6 @@
-"""Run every entrant, `workers` at a time, each in its own process (`python -m racer.race.worker`).
+"""Run every entrant, `workers` at a time, on long-lived race workers (racer.race.worker_pool).
 
-A process that dies without writing its result becomes that entrant's row ("the evaluation died"), so the others
+A worker that dies without writing its result makes that entrant's row ("the evaluation died"), so the others
 race on. Every entrant gets the race's seed, so the same file, entrants and seed give the same board.
 """
 
@@ -20,6 +20,7 @@ from typing import Any
 from racer.race.entrants import Entrant
 from racer.race.race_file import RaceDefinition
 from racer.race.videos import ALL_CARS_TOP_VIEW
+from racer.race.worker_pool import WorkerPool
 
 
 @dataclass(frozen=True)
@@ -125,48 +126,42 @@ def run_race(
     log: Callable[[str], None] = print,
 ) -> RaceRun:
     started = time.perf_counter()
-    pending = list(entrants)
-    running: dict[str, tuple[subprocess.Popen, Path, float]] = {}
     results: dict[str, dict[str, Any]] = {}
-    env = {**os.environ, "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
-    while pending or running:
-        while pending and len(running) < workers:
-            entrant = pending.pop(0)
-            if entrant.kind == "missing":  # nothing to start a process for
-                results[entrant.name] = missing_result(entrant)
-                log(f"skipped {entrant.name}: {results[entrant.name]['reason']}")
-                continue
-            task = _task(entrant, definition, route, seed, video, out_dir)
-            work = Path(task["work_dir"])
-            shutil.rmtree(work, ignore_errors=True)
-            work.mkdir(parents=True)
-            task_path = work / "task.json"
-            task_path.write_text(json.dumps(task, indent=1) + "\n")
-            stderr = (work / "stderr.log").open("w")
-            process = subprocess.Popen(
-                [sys.executable, "-m", "racer.race.worker", str(task_path)],
-                stdout=stderr,
-                stderr=subprocess.STDOUT,
-                env=env,
-            )
-            stderr.close()
-            running[entrant.name] = (process, Path(task["result_path"]), time.perf_counter())
-            log(f"started {entrant.name} ({entrant.kind}: {entrant.source})")
-        time.sleep(0.2)
-        for name, (process, result_path, began) in list(running.items()):
-            if process.poll() is None:
-                continue
-            del running[name]
-            if result_path.is_file():
-                result = json.loads(result_path.read_text())
-            else:
-                result = {
-                    "entrant": name,
-                    "reason": f"the evaluation died (exit status {process.returncode}; see "
-                    f"{result_path.parent / 'stderr.log'})",
-                    "code": None,
-                }
-            results[name] = result
-            outcome = result.get("reason") or f"{len(result.get('metrics', []))} laps"
-            log(f"finished {name} in {time.perf_counter() - began:.1f} s: {outcome}")
+    tasks: list[tuple[Entrant, Path]] = []
+    for entrant in entrants:
+        if entrant.kind == "missing":  # nothing to start a worker for
+            results[entrant.name] = missing_result(entrant)
+            log(f"skipped {entrant.name}: {results[entrant.name]['reason']}")
+            continue
+        task = _task(entrant, definition, route, seed, video, out_dir)
+        work = Path(task["work_dir"])
+        shutil.rmtree(work, ignore_errors=True)
+        work.mkdir(parents=True)
+        (work / "task.json").write_text(json.dumps(task, indent=1) + "\n")
+        tasks.append((entrant, work / "task.json"))
+    began: dict[str, float] = {}
+    pool = WorkerPool(min(workers, max(1, len(tasks))), {**os.environ, "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"})
+    try:
+        while tasks or pool.busy():
+            while tasks and pool.has_room():
+                entrant, task_path = tasks.pop(0)
+                pool.submit(entrant.name, task_path)
+                began[entrant.name] = time.perf_counter()
+                log(f"started {entrant.name} ({entrant.kind}: {entrant.source})")
+            for done in pool.wait():
+                result_path = done.task_path.parent / "result.json"
+                if done.exit_status is None and result_path.is_file():
+                    result = json.loads(result_path.read_text())
+                else:
+                    result = {
+                        "entrant": done.label,
+                        "reason": f"the evaluation died (exit status {done.exit_status}; see "
+                        f"{done.task_path.parent / 'stderr.log'})",
+                        "code": None,
+                    }
+                results[done.label] = result
+                outcome = result.get("reason") or f"{len(result.get('metrics', []))} laps"
+                log(f"finished {done.label} in {time.perf_counter() - began[done.label]:.1f} s: {outcome}")
+    finally:
+        pool.close()
     return RaceRun(results=tuple(results[entrant.name] for entrant in entrants), wall_s=time.perf_counter() - started)

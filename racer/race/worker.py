@@ -1,7 +1,9 @@
-"""One entrant's race, in its own process: import it if need be, then evaluate it as `racer evaluate` would.
+"""One entrant's race: import it if need be, then evaluate it as `racer evaluate` would.
 
     python -m racer.race.worker TASK.json     # writes the result JSON named in the task; exit 0 even when the
                                               # entrant failed (the result says why); a crash leaves no result
+    python -m racer.race.worker --serve       # a long-lived worker (racer.race.runner): task paths on stdin, one
+                                              # per line, "done PATH" on stdout after each
 
 Whatever goes wrong becomes the result's `code` (the console's import error code, racer.model_io.codes) and
 `reason`, so one broken entrant never stops the race.
@@ -10,6 +12,7 @@ Whatever goes wrong becomes the result's `code` (the console's import error code
 from __future__ import annotations
 
 import json
+import os
 import shutil
 import subprocess
 import sys
@@ -338,5 +341,28 @@ def _run_multi_car_task(task: dict[str, Any], log) -> None:
     Path(task["result_path"]).write_text(json.dumps({"results": results}, indent=1) + "\n")
 
 
+def serve() -> None:
+    """Run the tasks named on stdin one after another in this process, so the imports (torch, MuJoCo, ONNX Runtime:
+    about 4 s of CPU) are paid once per worker, not once per entrant. Each task's output, a native crash's last words
+    included, goes to the stderr.log beside its task (fds 1 and 2 point there); the protocol has its own copy of fd 1.
+    """
+    protocol = os.fdopen(os.dup(1), "w", encoding="utf-8")
+    for line in sys.stdin:
+        task_path = Path(line.strip())
+        sys.stdout.flush()
+        sys.stderr.flush()
+        with (task_path.parent / "stderr.log").open("w") as task_log:
+            os.dup2(task_log.fileno(), 1)
+            os.dup2(task_log.fileno(), 2)
+            run_task(task_path)
+            sys.stdout.flush()
+            sys.stderr.flush()
+        protocol.write(f"done {task_path}\n")
+        protocol.flush()
+
+
 if __name__ == "__main__":
-    run_task(Path(sys.argv[1]))
+    if sys.argv[1:] == ["--serve"]:
+        serve()
+    else:
+        run_task(Path(sys.argv[1]))

@@ -43,8 +43,8 @@ def test_multi_car_part_runs_each_race_twice_and_compares_the_boards(tmp_path, m
     from racer.benches import race_multi_car
 
     store = tmp_path / "store"
-    for model in ("alpha", "beta"):
-        (store / model / "model").mkdir(parents=True)
+    for seed, model in enumerate(("alpha", "beta")):
+        save_model(LocalStore(store), model, seed)
     (tmp_path / "logs").mkdir()
     calls = []
 
@@ -79,3 +79,32 @@ def test_multi_car_part_runs_each_race_twice_and_compares_the_boards(tmp_path, m
     assert f1["finishing_order"] == ["beta-2", "alpha-2", "beta", "alpha"]
     race_file = yaml.safe_load((tmp_path / "bench-f1.yaml").read_text())
     assert race_file["raceType"] == "F1" and race_file["submissionTerminationConditions"]["maximumLaps"] == 3
+
+
+def test_an_entrant_copy_holds_only_the_raced_checkpoint(tmp_path):
+    """Two checkpoints with optimiser state, the first the best: the copy has that one's weights and ONNX only, and
+    an evaluation's loading path finds and loads it."""
+    import torch
+
+    from racer.benches.race_field import copy_raced_checkpoint
+    from racer.shared.policy.checkpoints import CheckpointStore
+    from racer.shared.policy.networks import build_actor_critic
+    from racer.shared.sim.config import DEFAULT_MODEL_METADATA
+
+    store = LocalStore(tmp_path / "store")
+    checkpoints = CheckpointStore(store, "fast")
+    checkpoints.put_model_metadata(DEFAULT_MODEL_METADATA)
+    network = build_actor_critic(DEFAULT_MODEL_METADATA)
+    optimizer = torch.optim.Adam(network.parameters())
+    first = checkpoints.save(0, 100, network, optimizer, model_metadata=DEFAULT_MODEL_METADATA)
+    checkpoints.record_evaluation(first, 100.0, 1.0)
+    second = checkpoints.save(1, 200, network, optimizer, model_metadata=DEFAULT_MODEL_METADATA)
+    checkpoints.record_evaluation(second, 40.0, 2.0)
+
+    copy_raced_checkpoint(tmp_path / "store" / "fast" / "model", tmp_path / "store" / "fast-2" / "model")
+    copied = sorted(path.name for path in (tmp_path / "store" / "fast-2" / "model").iterdir())
+    assert not any(second in name or "optimizer" in name or name == "model_1.onnx" for name in copied), copied
+    assert "model_0.onnx" in copied and f"{first}.json" in copied and "model_metadata.json" in copied
+    copy = CheckpointStore(store, "fast-2")
+    assert copy.select("best") == first
+    copy.load_inference_policy(first)
