@@ -140,7 +140,9 @@ def run_race(
         (work / "task.json").write_text(json.dumps(task, indent=1) + "\n")
         tasks.append((entrant, work / "task.json"))
     began: dict[str, float] = {}
-    pool = WorkerPool(min(workers, max(1, len(tasks))), {**os.environ, "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"})
+    # One thread each for torch and llvmpipe's renderer: the workers already fill the cores.
+    env = {"LP_NUM_THREADS": "1", **os.environ, "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+    pool = WorkerPool(min(workers, max(1, len(tasks))), env)
     try:
         while tasks or pool.busy():
             while tasks and pool.has_room():
