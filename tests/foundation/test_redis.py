@@ -37,6 +37,7 @@ def test_data_survives_restart(redis_server, redis_settings):
     assert client.xlen("racer:stream") == 1
 
 
+@pytest.mark.serial  # asserts a wall-time bound
 def test_unreachable_redis_fails_within_budget():
     settings = RedisSettings(url=f"redis://127.0.0.1:{free_port()}/0", connect_timeout_s=1.5)
     started = time.monotonic()
@@ -45,6 +46,7 @@ def test_unreachable_redis_fails_within_budget():
     assert time.monotonic() - started < 5
 
 
+@pytest.mark.serial  # asserts a wall-time bound
 def test_a_host_that_never_answers_fails_within_budget():
     """A listener that accepts connections (kernel backlog) but never replies: not a hang, the budget holds."""
     import socket
@@ -73,6 +75,7 @@ def test_waits_for_a_server_that_starts_late(redis_server):
         assert connecting.result(timeout=15).ping()
 
 
+@pytest.mark.serial  # asserts a wall-time bound
 def test_a_write_refused_by_a_full_redis_waits_until_there_is_room(redis_server):
     """redis.conf refuses writes at maxmemory rather than evict episodes; the link waits instead of failing."""
     import threading
@@ -128,6 +131,7 @@ def _alive(pid: int) -> bool:
     return "zombie" not in state
 
 
+@pytest.mark.serial  # asserts a wall-time bound
 def test_a_stop_request_ends_the_retries_for_a_dead_server(redis_server):
     """Stopping never waits for Redis: the link's 300 s reconnect budget shrinks to STOPPING_BUDGET_S once its
     stop event is set, and its backoff sleeps wake at once."""
@@ -146,6 +150,7 @@ def test_a_stop_request_ends_the_retries_for_a_dead_server(redis_server):
     assert 1.0 <= time.monotonic() - started < 1.0 + STOPPING_BUDGET_S + 1.0
 
 
+@pytest.mark.serial  # asserts a wall-time bound
 def test_a_dead_server_is_seen_at_once_not_after_silent_client_retries(redis_server):
     """redis-py retries every command itself by default (10 times with backoff); the link's clients do not, so a
     dead server reaches RedisLink's retry loop (and its stop checks) at once."""

@@ -79,6 +79,7 @@ def test_missing_bucket(minio_server):
         store.get_bytes("k")
 
 
+@pytest.mark.serial  # asserts a wall-time bound
 def test_unreachable_minio_fails_fast():
     port = free_port()  # nothing listens here
     store = S3Store(

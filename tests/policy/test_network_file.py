@@ -154,6 +154,7 @@ def test_batchnorm_tanh_and_dropout_train_and_act_deterministically_when_evaluat
     assert network.act(one, greedy=True) == network.act(one, greedy=True)
 
 
+@pytest.mark.serial  # asserts a wall-time bound
 def test_the_size_check_measures_parameters_and_the_forward_pass(monkeypatch):
     config = policy_config_from_metadata(metadata("EXTRA_CONV_BATCHNORM"), parse_network_file(BATCHNORM))
     findings = network_size_findings(config)

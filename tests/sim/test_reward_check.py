@@ -101,6 +101,7 @@ def test_a_broken_reward_is_named_with_file_and_line(name, track, tmp_path):
     assert f"{path}:{line}:" in report.format()
 
 
+@pytest.mark.serial  # asserts a wall-time bound
 def test_slow_and_forbidden_rewards(track, tmp_path):
     slow = tmp_path / "slow.py"
     slow.write_text("import time\n\ndef reward_function(params):\n    time.sleep(0.002)\n    return 1.0\n")
@@ -130,6 +131,7 @@ def test_a_reward_that_cannot_load_is_an_error_with_its_line(track, tmp_path):
     assert not report.ok and f"{path}:" in report.errors[0].message
 
 
+@pytest.mark.serial  # asserts a wall-time bound
 def test_the_command_exits_1_on_errors_plots_and_stays_under_10_s(deepracer_data, track, tmp_path):
     runner = CliRunner()
     plot = tmp_path / "reward.png"

@@ -205,6 +205,7 @@ def _drive(path: Path) -> None:
 
 
 @pytest.mark.usefixtures("deepracer_data")
+@pytest.mark.serial  # asserts a wall-time bound
 def test_every_route_renders_and_steps():
     """Each route racer ships and each shared one (and RACER_TEST_ROUTES' when set) builds a world, renders and steps."""
     start = time.perf_counter()

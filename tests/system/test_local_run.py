@@ -15,7 +15,7 @@ from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.store import LocalStore
 from tests.conftest import write_custom_files
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.serial]  # they time their own processes
 
 
 def processes_mentioning(text: str) -> list[str]:

@@ -12,7 +12,7 @@ from click.testing import CliRunner
 from racer.analysis.cli import analyze_command
 from tests.system.test_local_run import racer_train, small_custom_files  # noqa: F401  (fixture)
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.serial]  # they time their own processes
 
 
 def test_object_avoidance_training_writes_crashes_that_the_analysis_counts(tmp_path, small_custom_files):  # noqa: F811

@@ -41,6 +41,7 @@ def test_batches_are_consumed_once_and_redelivered_if_unacked(redis_settings, ba
     assert channel.read_batches("trainer-0", block_s=0, pending=True) == []
 
 
+@pytest.mark.serial  # asserts a wall-time bound
 def test_blocking_announcement_wait_wakes_on_publish(redis_settings):
     channel = RunChannel(RedisLink(redis_settings), "run-b")
     threading.Timer(0.3, channel.announce_iteration, args=(4, "4_Step-100.ckpt", 20, 4)).start()

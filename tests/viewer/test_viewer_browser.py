@@ -24,7 +24,7 @@ from racer.local.services import _die_with_parent
 from tests.conftest import write_custom_files
 from tests.viewer.conftest import free_port
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.serial]  # they time their own processes
 
 CHROMIUM = "/usr/bin/chromium"
 CHROMEDRIVER = "/usr/bin/chromedriver"

@@ -139,6 +139,7 @@ def test_view_refuses_what_is_not_a_run(tmp_path, monkeypatch):
         resolve_run("no-such-model")
 
 
+@pytest.mark.serial  # asserts a wall-time bound
 def test_live_endpoints_show_workers_frames_and_a_lost_redis(tmp_path, redis_server):
     store = LocalStore(tmp_path / "store")
     for key, world in [("training_params.yaml", "base"), ("training_params_1.yaml", "carpet")]:
