@@ -163,7 +163,8 @@ def run_race(
                     }
                 results[done.label] = result
                 outcome = result.get("reason") or f"{len(result.get('metrics', []))} laps"
-                log(f"finished {done.label} in {time.perf_counter() - began[done.label]:.1f} s: {outcome}")
+                took_s = time.perf_counter() - began[done.label]
+                log(f"finished {done.label} in {took_s:.1f} s (worker {done.pid}): {outcome}")
     finally:
         pool.close()
     return RaceRun(results=tuple(results[entrant.name] for entrant in entrants), wall_s=time.perf_counter() - started)

@@ -40,10 +40,8 @@ def write_task(root, name: str, broken: bool = False):
     return path
 
 
-def test_one_worker_runs_tasks_in_turn_and_a_dead_worker_loses_only_its_entrant(tmp_path):
-    env = {**os.environ, "RACER_STORE": str(tmp_path / "store")}
-    tasks = [write_task(tmp_path, "alpha"), write_task(tmp_path, "boom", broken=True), write_task(tmp_path, "gamma")]
-    pool = WorkerPool(1, env)
+def run_all(pool: WorkerPool, tasks) -> dict:
+    """One task at a time, each to the pool's one worker; the Finished of each, by label."""
     finished = []
     try:
         for index, task in enumerate(tasks):
@@ -54,11 +52,32 @@ def test_one_worker_runs_tasks_in_turn_and_a_dead_worker_loses_only_its_entrant(
             assert len(finished) == index + 1
     finally:
         pool.close()
-    by_label = {done.label: done for done in finished}
-    assert by_label["alpha"].exit_status is None and by_label["gamma"].exit_status is None
-    for name in ("alpha", "gamma"):
-        result = json.loads((tmp_path / "entrants" / name / "result.json").read_text())
+    return {done.label: done for done in finished}
+
+
+def read_result(root, name: str) -> dict:
+    return json.loads((root / "entrants" / name / "result.json").read_text())
+
+
+def test_one_worker_runs_tasks_in_turn_and_retires_after_its_share(tmp_path):
+    env = {**os.environ, "RACER_STORE": str(tmp_path / "store")}
+    tasks = [write_task(tmp_path, name) for name in ("alpha", "beta", "gamma")]
+    done = run_all(WorkerPool(1, env, tasks_per_worker=2), tasks)
+    assert all(done[name].exit_status is None for name in ("alpha", "beta", "gamma"))
+    for name in ("alpha", "beta", "gamma"):
+        result = read_result(tmp_path, name)
         assert result["entrant"] == name and result["code"] == "FILE_DOES_NOT_EXIST", result
-    assert by_label["boom"].exit_status not in (None, 0)
+    assert done["alpha"].pid == done["beta"].pid  # one process, two entrants
+    assert done["gamma"].pid != done["beta"].pid  # the first retired after its two
+
+
+def test_a_dead_worker_loses_only_its_entrant(tmp_path):
+    env = {**os.environ, "RACER_STORE": str(tmp_path / "store")}
+    tasks = [write_task(tmp_path, "alpha"), write_task(tmp_path, "boom", broken=True), write_task(tmp_path, "gamma")]
+    done = run_all(WorkerPool(1, env), tasks)
+    assert done["alpha"].exit_status is None and done["gamma"].exit_status is None
+    assert read_result(tmp_path, "gamma")["code"] == "FILE_DOES_NOT_EXIST"
+    assert done["boom"].exit_status not in (None, 0)
+    assert done["gamma"].pid != done["alpha"].pid  # a new worker took the rest
     assert not (tmp_path / "entrants" / "boom" / "result.json").exists()
     assert "JSONDecodeError" in (tmp_path / "entrants" / "boom" / "stderr.log").read_text()
