@@ -55,7 +55,10 @@ def import_entrant(task: dict[str, Any], store: ObjectStore, log) -> list[str]:
     command += ["--store", str(scratch), "--overwrite"]
     log(f"importing {task['source']}: {' '.join(command[3:])}")
     try:
-        done = subprocess.run(command, capture_output=True, text=True, timeout=IMPORT_TIMEOUT_S, check=False)
+        # stdin: a long-lived worker reads its task list there; the import must never take a line of it
+        done = subprocess.run(
+            command, stdin=subprocess.DEVNULL, capture_output=True, text=True, timeout=IMPORT_TIMEOUT_S, check=False
+        )
     except subprocess.TimeoutExpired:
         raise EntrantFailure(f"racer model import took more than {IMPORT_TIMEOUT_S} s", "SERVICE_ERROR") from None
     output = done.stdout + done.stderr
