@@ -12,9 +12,10 @@ that every registered profile lies inside):
 * the whole car's yaw inertia, from below the URDF's (0.080 kg·m²) to above the fit's (0.475);
 * the steering servo's time constant, from the fitted 0.0166 s to beyond the ROS 1 SimApp's 0.5 s hinge PD;
 * the rolling radius: the car covers from just under the commanded speed to beyond the fit's 1.12×;
-* a command delay of 0 or 1 step: in a delayed episode each step drives the previous step's command.
+* a command delay of 0 or 1 step: in a delayed episode each step drives the previous step's command;
+* the tyres' peak grip, both axles alike, from the source-built profiles' rigid μ 0.5 (1) to beyond `gazebo`'s 1.96.
 
-The peak grip and the drive force stay the profile's. MuJoCo-free: `draw_dynamics` only computes the values; the env
+The drive (stiffness and force cap) stays the profile's. MuJoCo-free: `draw_dynamics` only computes the values; the env
 applies them to its compiled model (`Car.retune`) and delays the command itself (`env.py`).
 """
 
@@ -50,6 +51,10 @@ class DynamicsRandomizationRanges:
     0.036 m wheel mesh, simtrace-fit 1.12)."""
     command_delay_probability: float = 0.5
     """Chance that an episode's commands come one step late."""
+    peak_grip: tuple[float, float] = (0.85, 2.3)
+    """Peak lateral force / (μ × the axle's load), both axles alike, log-uniform (gazebo and simtrace-fit 1.96, the
+    simapp profiles 1.0). Without it a policy trained around `gazebo` never met the ROS 1 car's grip, one of the two
+    source facts that cost real policies their laps there (shared/sim/README.md)."""
 
 
 DYNAMICS_RANDOMIZATION_RANGES = DynamicsRandomizationRanges()
@@ -70,18 +75,22 @@ def _log_uniform(rng: np.random.Generator, bounds: tuple[float, float]) -> float
 def draw_dynamics(
     base: CarDynamics, rng: np.random.Generator, ranges: DynamicsRandomizationRanges = DYNAMICS_RANDOMIZATION_RANGES
 ) -> EpisodeDynamics:
-    """One episode's car drawn from `ranges`; what the ranges leave out (peak grip, drive force) stays `base`'s.
-    The same generator state gives the same car (six draws per episode, in a fixed order)."""
+    """One episode's car drawn from `ranges`; what the ranges leave out (the drive) stays `base`'s. The same generator
+    state gives the same car (seven draws per episode, in a fixed order; the grip came last, so the first six draw
+    what they drew before it)."""
     stiffness = _log_uniform(rng, ranges.cornering_stiffness_n_per_rad)
     balance = _log_uniform(rng, ranges.front_rear_balance)
     yaw_inertia = _log_uniform(rng, ranges.yaw_inertia_kgm2)
     time_constant = _log_uniform(rng, ranges.steering_time_constant_s)
     speed_factor = float(rng.uniform(*ranges.speed_factor))
     delayed = bool(rng.uniform() < ranges.command_delay_probability)
+    peak_grip = _log_uniform(rng, ranges.peak_grip)
     tyres = replace(
         base.tyres,
         front_cornering_stiffness_n_per_rad=stiffness * math.sqrt(balance),
         rear_cornering_stiffness_n_per_rad=stiffness / math.sqrt(balance),
+        front_peak_grip=peak_grip,
+        rear_peak_grip=peak_grip,
         rolling_radius_m=COMMANDED_ROLLING_RADIUS_M * speed_factor,
     )
     car = CarDynamics(tyres, steering_time_constant_s=time_constant, yaw_inertia_kgm2=yaw_inertia)

@@ -33,10 +33,11 @@ def test_draws_are_seeded_within_the_ranges_and_span_both_profiles():
         assert _within(draw.car.steering_time_constant_s, ranges.steering_time_constant_s)
         assert _within(tyres.rolling_radius_m / 0.035, ranges.speed_factor)
         assert draw.command_delay_steps in (0, 1)
+        assert tyres.front_peak_grip == tyres.rear_peak_grip and _within(tyres.front_peak_grip, ranges.peak_grip)
         # what the ranges leave out stays the profile's
-        assert (tyres.front_peak_grip, tyres.drive_stiffness_n_per_mps) == (
-            GAZEBO_DYNAMICS.tyres.front_peak_grip,
+        assert (tyres.drive_stiffness_n_per_mps, tyres.max_drive_force_n) == (
             GAZEBO_DYNAMICS.tyres.drive_stiffness_n_per_mps,
+            GAZEBO_DYNAMICS.tyres.max_drive_force_n,
         )
     assert 0.35 < np.mean([draw.command_delay_steps for draw in draws]) < 0.65
     # the range is between the profiles and around them: every registered profile, the source-built ones included
@@ -54,6 +55,31 @@ def test_draws_are_seeded_within_the_ranges_and_span_both_profiles():
         assert _within(profile.yaw_inertia_kgm2, ranges.yaw_inertia_kgm2)
         assert _within(profile.steering_time_constant_s, ranges.steering_time_constant_s)
         assert _within(tyres.rolling_radius_m / 0.035, ranges.speed_factor)
+        assert _within(tyres.front_peak_grip, ranges.peak_grip) and _within(tyres.rear_peak_grip, ranges.peak_grip)
+    # the grip reaches both the ROS 1 car's and the default's
+    grips = [draw.car.tyres.front_peak_grip for draw in draws]
+    assert min(grips) < 1.1 and max(grips) > 1.9
+
+
+def test_the_grip_draw_comes_last_so_the_other_draws_are_unchanged():
+    """Adding the grip kept a seeded run's other six figures: the same stream, one more draw at the end."""
+    rng = np.random.default_rng(11)
+    draw = draw_dynamics(GAZEBO_DYNAMICS, rng)
+    replay = np.random.default_rng(11)
+    log_u = [
+        replay.uniform(math.log(lo), math.log(hi))
+        for lo, hi in (
+            DYNAMICS_RANDOMIZATION_RANGES.cornering_stiffness_n_per_rad,
+            DYNAMICS_RANDOMIZATION_RANGES.front_rear_balance,
+            DYNAMICS_RANDOMIZATION_RANGES.yaw_inertia_kgm2,
+            DYNAMICS_RANDOMIZATION_RANGES.steering_time_constant_s,
+        )
+    ]
+    stiffness, balance, yaw_inertia, servo = (math.exp(value) for value in log_u)
+    assert draw.car.yaw_inertia_kgm2 == pytest.approx(yaw_inertia)
+    assert draw.car.steering_time_constant_s == pytest.approx(servo)
+    tyres = draw.car.tyres
+    assert tyres.front_cornering_stiffness_n_per_rad == pytest.approx(stiffness * math.sqrt(balance))
 
 
 def test_off_by_default_the_env_drives_the_profiles_car(make_env):
@@ -89,7 +115,8 @@ def test_seeded_resets_give_the_same_cars_and_the_model_drives_them(make_env):
         env.model.actuator_biasprm[env.car.steering_actuators, 2], -steering_kv(car.steering_time_constant_s)
     )
     assert env.car.tyres.params == car.tyres
-    assert car.tyres.front_peak_grip == SIMTRACE_FIT_DYNAMICS.tyres.front_peak_grip  # drawn around this profile
+    # drawn around this profile: its drive stays
+    assert car.tyres.drive_stiffness_n_per_mps == SIMTRACE_FIT_DYNAMICS.tyres.drive_stiffness_n_per_mps
 
 
 def test_a_delayed_episode_drives_each_step_with_the_previous_command(make_env):
