@@ -76,8 +76,7 @@ def draw_dynamics(
     base: CarDynamics, rng: np.random.Generator, ranges: DynamicsRandomizationRanges = DYNAMICS_RANDOMIZATION_RANGES
 ) -> EpisodeDynamics:
     """One episode's car drawn from `ranges`; what the ranges leave out (the drive) stays `base`'s. The same generator
-    state gives the same car (seven draws per episode, in a fixed order; the grip came last, so the first six draw
-    what they drew before it)."""
+    state gives the same car (seven draws per episode, in a fixed order)."""
     stiffness = _log_uniform(rng, ranges.cornering_stiffness_n_per_rad)
     balance = _log_uniform(rng, ranges.front_rear_balance)
     yaw_inertia = _log_uniform(rng, ranges.yaw_inertia_kgm2)

@@ -61,27 +61,6 @@ def test_draws_are_seeded_within_the_ranges_and_span_both_profiles():
     assert min(grips) < 1.1 and max(grips) > 1.9
 
 
-def test_the_grip_draw_comes_last_so_the_other_draws_are_unchanged():
-    """Adding the grip kept a seeded run's other six figures: the same stream, one more draw at the end."""
-    rng = np.random.default_rng(11)
-    draw = draw_dynamics(GAZEBO_DYNAMICS, rng)
-    replay = np.random.default_rng(11)
-    log_u = [
-        replay.uniform(math.log(lo), math.log(hi))
-        for lo, hi in (
-            DYNAMICS_RANDOMIZATION_RANGES.cornering_stiffness_n_per_rad,
-            DYNAMICS_RANDOMIZATION_RANGES.front_rear_balance,
-            DYNAMICS_RANDOMIZATION_RANGES.yaw_inertia_kgm2,
-            DYNAMICS_RANDOMIZATION_RANGES.steering_time_constant_s,
-        )
-    ]
-    stiffness, balance, yaw_inertia, servo = (math.exp(value) for value in log_u)
-    assert draw.car.yaw_inertia_kgm2 == pytest.approx(yaw_inertia)
-    assert draw.car.steering_time_constant_s == pytest.approx(servo)
-    tyres = draw.car.tyres
-    assert tyres.front_cornering_stiffness_n_per_rad == pytest.approx(stiffness * math.sqrt(balance))
-
-
 def test_off_by_default_the_env_drives_the_profiles_car(make_env):
     env = make_env()
     inertia, servo = env.model.body_inertia.copy(), env.model.actuator_biasprm.copy()
