@@ -34,6 +34,10 @@ BENCHMARKS: dict[str, tuple[str, str]] = {
         "racer.benches.transfer:transfer_bench_command",
         "Real DeepRacer checkpoints drive racer closed loop: laps and mean progress from evenly spaced starts.",
     ),
+    "frame-pairs": (
+        "racer.benches.frame_pairs:frame_pairs_command",
+        "Each Gazebo frame's pose fitted from its lines, racer's frame there: do policies read the pairs alike?",
+    ),
     "fidelity": (
         "racer.benches.fidelity.replay:fidelity_bench_command",
         "Open-loop replay of real simtraces: pose error after 1 s and 2 s per speed band.",

@@ -25,8 +25,10 @@ GAZEBO_FRAMES = "frames/gazebo_reinvent_episode"
 ROUTE = "routes/reinvent_base.npy"
 UPPER_ROWS = slice(0, 40)
 LOWER_ROWS = slice(60, 120)
-GAZEBO_EPISODE_SIMAPP_VERSION = 2.0
-"""The Gazebo frames come from a 2019 episode: a model of SimApp version < 3, with the older camera mount."""
+GAZEBO_EPISODE_SIMAPP_VERSION = 3.0
+"""The camera mount of the car that recorded the Gazebo frames: SimApp version >= 3, (0.145, 0, 0.130) m. Their lines
+fit re:Invent 2018 at a median 1.84 cm with it against 3.23 cm with the older (0.2, 0, 0.164) m mount of version < 3
+(`racer bench frame-pairs --camera-height`, 2026-11-27); until then this was 2.0, a guess from the episode's year."""
 
 
 @dataclass(frozen=True)
@@ -68,8 +70,7 @@ def load_gazebo_frames(folder: Path) -> np.ndarray:
 
 
 def gazebo_episode_config(route: Path, world: str, full_resolution: bool, simapp_dir: Path | None = None) -> EnvConfig:
-    """An env with the camera of the car that recorded the Gazebo frames: a 2019 model (SimApp version < 3),
-    whose camera sits at (0.2, 0, 0.164) m instead of (0.145, 0, 0.130)."""
+    """An env with the camera of the car that recorded the Gazebo frames (`GAZEBO_EPISODE_SIMAPP_VERSION`)."""
     metadata = dataclasses.replace(DEFAULT_MODEL_METADATA, version=GAZEBO_EPISODE_SIMAPP_VERSION)
     return EnvConfig(
         track=route, world=world, model_metadata=metadata, render_full_resolution=full_resolution, simapp_dir=simapp_dir
