@@ -1,7 +1,7 @@
 """`racer bench ...`: benchmarks that print one JSON line each (speed goals are measured, not asserted).
 
 This package is every benchmark's home, one module per bench (`sim`, `camera`, `ppo`, `precision`, `transfer`,
-`sac`, `rollout`, `throughput`, `time_to_lap`, `viewer`, `tf_proof`, `race`), the calibration research beside them
+`sac`, `rollout`, `throughput`, `time_to_lap`, `viewer`, `tf_proof`, `race`, `frame_pairs`), the calibration research beside them
 (`fidelity/`: `racer bench fidelity` and its studies) and their helpers (`workdir`: the work folder a bench's training
 run writes to; `sim_loop`, `sim_races`: the simulator bench's step loop and its envs with objects; `camera_frames`:
 DeepRacer's reference camera frames and racer's at the same poses).

@@ -4,7 +4,9 @@ For each world, racer renders the front camera at poses spread evenly around the
 heading along the route) and compares them with the real in-car frames of one Gazebo episode
 (`frames/gazebo_reinvent_episode`, 160x120 RGB): the earth-mover distance between the grayscale histograms (in grey
 levels; RL Coach's grayscale), the mean grey of the lower half (mostly road) and of the upper third (walls and what is
-above them). The direct 160x120 frame is compared with racer's 640x480 + bilinear-resize path at the same poses
+above them). Those poses are not the episode's, so the same figures are also taken on the pairs (`paired`): racer's
+frames at the Gazebo frames' own poses (`gazebo_frame_poses.json`, fitted by `racer bench frame-pairs`), where the
+views match and only the look differs. The direct 160x120 frame is compared with racer's 640x480 + bilinear-resize path at the same poses
 (mean absolute grey difference), and both paths are timed. With `--checkpoint`, a racer policy's greedy
 left / straight / right shares on the Gazebo frames show how it reads DeepRacer's images.
 """
@@ -24,8 +26,10 @@ from racer.benches.camera_frames import (
     ROUTE,
     frame_stats,
     histogram_emd,
+    load_fitted_poses,
     load_gazebo_frames,
     render_lap,
+    render_poses,
 )
 from racer.shared.sim.camera import CENTER_CAMERA, CameraRenderer, rgb_to_y
 from racer.shared.sim.config import EnvConfig
@@ -90,6 +94,32 @@ def policy_shares(model_dir: Path, frames_rgb: np.ndarray) -> dict[str, float]:
     return {side: round(count / len(frames_rgb), 3) for side, count in counts.items()}
 
 
+PAIRED_BANDS = ((0, 40), (40, 80), (80, 120))
+"""Image rows compared on the pairs: above the horizon (walls), the far field and road, the near road."""
+
+
+def paired_stats(
+    gazebo_gray: np.ndarray, route: Path, world: str, poses: list[tuple[float, float, float]], simapp: Path | None
+) -> dict:
+    """racer's frames at the Gazebo frames' own poses against those frames: the same views, so unlike the centre-line
+    figures the content is the same and only the look differs."""
+    ours_rgb, _ = render_poses(route, world, poses, full_resolution=False, simapp_dir=simapp)
+    ours = np.stack([rgb_to_y(frame) for frame in ours_rgb])
+    if len(ours) != len(gazebo_gray):
+        raise click.ClickException(f"{len(poses)} fitted poses for {len(gazebo_gray)} Gazebo frames")
+    return {
+        "histogram_emd": round(histogram_emd(frame_stats(ours).histogram, frame_stats(gazebo_gray).histogram), 2),
+        "mean_abs_grey_difference": round(float(np.abs(ours.astype(int) - gazebo_gray.astype(int)).mean()), 1),
+        "band_means_racer_vs_gazebo": {
+            f"rows {top}-{bottom}": [
+                round(float(ours[:, top:bottom].mean()), 1),
+                round(float(gazebo_gray[:, top:bottom].mean()), 1),
+            ]
+            for top, bottom in PAIRED_BANDS
+        },
+    }
+
+
 def run_camera_benchmark(
     data_dir: Path = DATA_DIR,
     poses: int = 40,
@@ -115,6 +145,8 @@ def run_camera_benchmark(
         "poses": poses,
         "worlds": {},
     }
+    fitted_poses = load_fitted_poses()
+    gazebo_gray = np.stack([rgb_to_y(frame) for frame in gazebo_rgb])
     runs = [(world, None) for world in worlds]
     if simapp_dir is not None:
         runs += [(world, simapp_dir) for world in worlds]
@@ -133,6 +165,7 @@ def run_camera_benchmark(
             "default_vs_full_resolution_mad": round(float(np.abs(direct_gray.astype(int) - full_gray).mean()), 3),
             "default_frame_ms": round(direct_ms, 3),
             "full_resolution_frame_ms": round(full_ms, 3),
+            "paired": paired_stats(gazebo_gray, route, world, fitted_poses, simapp),
         }
     if checkpoint is not None:
         result["policy_shares_on_gazebo_frames"] = policy_shares(checkpoint, gazebo_rgb)

@@ -1,12 +1,14 @@
 """DeepRacer's reference camera frames and racer's frames at the same poses: the Gazebo episode's in-car frames
 (`frames/gazebo_reinvent_episode` in the shared deepracer-data), their grey-level statistics and distance, and
-racer's front camera rendered at evenly spread centre-line poses of the re:Invent 2018 lap. Used by
+racer's front camera rendered at evenly spread centre-line poses of the re:Invent 2018 lap, or at the Gazebo frames'
+own poses (fitted from their lines by `racer bench frame-pairs`, stored in `gazebo_frame_poses.json`). Used by
 `racer bench camera`, `racer bench transfer` and `racer model explain --racer-frames`.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import json
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -81,18 +83,46 @@ def render_lap(
     route: Path, world: str, poses: int, full_resolution: bool, simapp_dir: Path | None = None
 ) -> tuple[np.ndarray, float]:
     """RGB frames at `poses` evenly spread centre-line poses, and the mean milliseconds per frame."""
+    return render_poses(route, world, _centre_line_poses(route, poses), full_resolution, simapp_dir)
+
+
+def _centre_line_poses(route: Path, poses: int) -> list[tuple[float, float, float]]:
+    from racer.shared.sim.track import Track
+
+    track = Track.load(route)
+    return [track.pose_at(float(ndist), "center") for ndist in np.arange(poses) / poses]
+
+
+def render_poses(
+    route: Path,
+    world: str,
+    poses: list[tuple[float, float, float]],
+    full_resolution: bool,
+    simapp_dir: Path | None = None,
+) -> tuple[np.ndarray, float]:
+    """RGB frames with the car (origin) at each pose (x, y, yaw), and the mean milliseconds per frame."""
     env = DeepRacerEnv(gazebo_episode_config(route, world, full_resolution, simapp_dir))
     try:
         env.reset(seed=0)
         renderer: CameraRenderer = env._camera  # the env's own renderer: the path training uses
         frames, elapsed_s = [], 0.0
-        for ndist in np.arange(poses) / poses:
-            env.teleport(*env.track.pose_at(float(ndist), "center"))
+        for pose in poses:
+            env.teleport(*pose)
             start = time.perf_counter()
             renderer.start(env.data, CENTER_CAMERA)
             frame = renderer.finish()
             elapsed_s += time.perf_counter() - start
             frames.append(frame.copy())
-        return np.stack(frames), 1e3 * elapsed_s / poses
+        return np.stack(frames), 1e3 * elapsed_s / max(len(poses), 1)
     finally:
         env.close()
+
+
+FITTED_POSES = Path(__file__).with_name("gazebo_frame_poses.json")
+"""The Gazebo frames' car poses on re:Invent 2018, fitted from their painted lines (`racer bench frame-pairs
+--save-poses`): racer's frames at these poses show what the Gazebo frames show."""
+
+
+def load_fitted_poses(path: Path = FITTED_POSES) -> list[tuple[float, float, float]]:
+    document = json.loads(path.read_text())
+    return [(pose["x_m"], pose["y_m"], pose["yaw_rad"]) for pose in document["poses"]]

@@ -33,7 +33,7 @@ import click
 import cv2
 import numpy as np
 
-from racer.benches.camera_frames import GAZEBO_FRAMES, ROUTE, load_gazebo_frames
+from racer.benches.camera_frames import GAZEBO_FRAMES, ROUTE, load_gazebo_frames, render_poses
 from racer.benches.workdir import cpu_description
 from racer.shared.sim.car import CAMERA_HORIZONTAL_FOV_RAD, CAMERA_PITCH_DOWN_RAD, CAMERA_POS_M
 from racer.shared.sim.world_look import EDGE_LINE_WIDTH_M
@@ -223,23 +223,8 @@ def line_iou(first: np.ndarray, second: np.ndarray) -> float:
 
 
 def render_at(route: Path, poses: list[tuple[float, float, float]]) -> np.ndarray:
-    """racer's RGB camera frames at the car poses (x, y, yaw), base world, the default render and camera."""
-    from racer.shared.sim.camera import CENTER_CAMERA
-    from racer.shared.sim.config import EnvConfig
-    from racer.shared.sim.env import DeepRacerEnv
-
-    env = DeepRacerEnv(EnvConfig(track=route, world="base"))
-    try:
-        env.reset(seed=0)
-        renderer = env._camera  # the env's own renderer: the path training uses
-        frames = []
-        for pose in poses:
-            env.teleport(*pose)
-            renderer.start(env.data, CENTER_CAMERA)
-            frames.append(renderer.finish().copy())
-        return np.stack(frames)
-    finally:
-        env.close()
+    """racer's RGB camera frames at the car poses (x, y, yaw): base world, the default render, racer's camera."""
+    return render_poses(route, "base", poses, full_resolution=False)[0]
 
 
 def _fit_one(args: tuple[np.ndarray, np.ndarray, CameraMount, int]) -> FramePose:
@@ -416,6 +401,12 @@ def racer_policies(model_folder: Path) -> dict[str, tuple]:
 @click.option(
     "--picture", type=click.Path(dir_okay=False, path_type=Path), default=None, help="Write the pairs as a PNG."
 )
+@click.option(
+    "--save-poses",
+    type=click.Path(dir_okay=False, path_type=Path),
+    default=None,
+    help="Write the fitted poses as JSON (racer/benches/gazebo_frame_poses.json is this file, for `racer bench camera`).",
+)
 @click.option("--frames", "limit", type=click.IntRange(1, None), default=None, help="Only the first N frames.")
 @click.option("--jobs", type=click.IntRange(1, None), default=None, help="Processes fitting poses. Default: the cores.")
 @click.option(
@@ -432,6 +423,7 @@ def frame_pairs_command(
     data: Path | None,
     racer_model: Path | None,
     picture: Path | None,
+    save_poses: Path | None,
     limit: int | None,
     jobs: int | None,
     camera_height: float,
@@ -444,4 +436,13 @@ def frame_pairs_command(
     ensure_gl_backend()
     camera = CameraMount(forward_m=camera_forward, height_m=camera_height)
     result = run_frame_pairs(data or SHARED_DATA, camera, jobs or os.cpu_count() or 1, limit, racer_model, picture)
+    if save_poses is not None:
+        document = {
+            "about": "Car poses of the Gazebo frames (frames/gazebo_reinvent_episode, in file order) on re:Invent 2018, "
+            "fitted from their painted lines by `racer bench frame-pairs`",
+            "camera": result["camera"],
+            "fit_cost_cm_median": result["fit_cost_cm"]["median"],
+            "poses": result["poses"],
+        }
+        save_poses.write_text(json.dumps(document, indent=1) + "\n")
     click.echo(json.dumps(result))

@@ -24,6 +24,11 @@ def test_camera_bench_prints_one_json_line(deepracer_data):
     assert 0 <= base["histogram_emd"] < 20
     assert base["default_frame_ms"] > 0 and base["full_resolution_frame_ms"] > 0
     assert abs(base["upper_third_mean"] - report["gazebo_upper_third_mean"]) < 15
+    # on the pairs (racer's frames at the Gazebo frames' fitted poses) the views match, so the look alone differs
+    paired = base["paired"]
+    assert paired["histogram_emd"] < 10
+    for racer_mean, gazebo_mean in paired["band_means_racer_vs_gazebo"].values():
+        assert abs(racer_mean - gazebo_mean) < 10
 
 
 def test_camera_bench_reports_a_policys_steering_shares(deepracer_data, tmp_path):

@@ -63,10 +63,27 @@ def test_a_gazebo_frame_fits_better_with_the_current_camera_mount_than_the_old_o
 
 
 @pytest.mark.slow
+def test_the_stored_poses_are_the_fit_of_their_frames():
+    """`racer bench camera` renders at gazebo_frame_poses.json: the fit of a frame still lands at the same view."""
+    from racer.benches.camera_frames import load_fitted_poses
+
+    stored = load_fitted_poses()
+    assert len(stored) == 92
+    frame = np.asarray(Image.open(GAZEBO_FRAME).convert("RGB"))
+    index = 16  # sim-image-3-00160.png, the 17th frame in file order
+    fitted = fit_pose(frame, RouteLines(np.load(ROUTE)), seed=index)
+    at_stored, at_fit = render_at(ROUTE, [stored[index], (fitted.x_m, fitted.y_m, fitted.yaw_rad)])
+    assert line_iou(at_stored, at_fit) > 0.8
+    assert line_iou(frame, at_stored) > 0.5
+
+
+@pytest.mark.slow
 def test_the_bench_on_two_frames_prints_pairs_per_real_checkpoint(tmp_path):
     picture = tmp_path / "pairs.png"
     result = CliRunner().invoke(
-        frame_pairs_command, ["--frames", "2", "--jobs", "1", "--picture", str(picture)], catch_exceptions=False
+        frame_pairs_command,
+        ["--frames", "2", "--jobs", "1", "--picture", str(picture), "--save-poses", str(tmp_path / "poses.json")],
+        catch_exceptions=False,
     )
     assert result.exit_code == 0, result.output
     report = json.loads([line for line in result.stdout.splitlines() if line.startswith("{")][-1])
@@ -80,4 +97,5 @@ def test_the_bench_on_two_frames_prints_pairs_per_real_checkpoint(tmp_path):
         assert abs(sum(figures["shares_gazebo"].values()) - 1.0) < 0.01
     image = np.asarray(Image.open(picture))
     assert image.shape[0] == 120 and image.shape[1] > 320
+    assert json.loads((tmp_path / "poses.json").read_text())["poses"] == report["poses"]
     assert set(report["grey"]["band_means"]) == {"rows 0-40", "rows 40-80", "rows 80-120"}
