@@ -15,6 +15,12 @@ from collections.abc import Callable, Iterable, Mapping
 from racer.local.services import RedisServer
 from racer.rollout_worker.main import EXIT_RUN_CANNOT_GO_ON
 
+QUICK_EXIT_S = 60.0
+"""A worker that exits sooner than this after (re)starting has not got going: a startup failure."""
+MAX_QUICK_EXITS = 5
+"""Startup failures in a row after which a worker is not restarted again: it fails the same way each time (a
+model folder missing a file, say), and the run stops with its error instead of restarting it for ever."""
+
 STOP_CHILDREN_BUDGET_S = 18.0
 """Ctrl-C / SIGTERM: how long the trainer and workers get to stop (the trainer's final checkpoint included) before
 they are killed; with Redis and MinIO stopped afterwards, everything is gone within 30 s."""
@@ -41,6 +47,8 @@ class RunSupervisor:
         self._redis_retry_s = 1.0
         self._seen_alive: set[int] = set()
         self._down: dict[int, float] = {}
+        self._started_at: dict[int, float] = {}
+        self._quick_exits: dict[int, int] = {}
         self.fatal_worker: int | None = None
         """A worker that exited with EXIT_RUN_CANNOT_GO_ON: the run stops (it is not restarted)."""
 
@@ -52,13 +60,27 @@ class RunSupervisor:
         self._check_redis()
         for worker_id in range(self.num_workers):
             child = self.children.get(f"worker-{worker_id}")
-            if child is None or child.poll() in (None, 0):
+            if child is None:
+                continue
+            self._started_at.setdefault(worker_id, time.monotonic())  # a first worker: from when it was first seen
+            if child.poll() in (None, 0):
                 continue
             if child.returncode == EXIT_RUN_CANNOT_GO_ON:
                 self.fatal_worker = worker_id  # restarting it would fail the same way, again and again
                 continue
+            now = time.monotonic()
+            quick = now - self._started_at.get(worker_id, now) < QUICK_EXIT_S
+            self._quick_exits[worker_id] = self._quick_exits.get(worker_id, 0) + 1 if quick else 0
+            if self._quick_exits[worker_id] >= MAX_QUICK_EXITS:
+                self.say(
+                    f"worker {worker_id} exited {MAX_QUICK_EXITS} times in a row within {QUICK_EXIT_S:.0f} s of "
+                    f"starting (exit status {child.returncode}); not restarting it"
+                )
+                self.fatal_worker = worker_id
+                continue
             self._worker_down(worker_id, f"exit status {child.returncode}; restarting it")
             self.restart_worker(worker_id)
+            self._started_at[worker_id] = time.monotonic()
 
     def check_heartbeats(self, live: Mapping[int, dict]) -> None:
         """Heartbeats (Redis keys with a TTL) tell a stuck or dead worker from a live one."""

@@ -63,3 +63,29 @@ def test_a_worker_whose_failure_no_restart_mends_stops_the_run_instead_of_restar
     supervisor.check_processes()
     supervisor.check_processes()
     assert supervisor.fatal_worker == 0 and restarted == []
+
+
+def test_a_worker_that_keeps_failing_as_it_starts_stops_the_run(redis_server):
+    """Five exits in a row within a minute of starting (e.g. a model folder missing model_metadata.json): restarting
+    it again would loop for ever, so the run stops with its error."""
+    from racer.local.supervisor import MAX_QUICK_EXITS
+
+    def failing() -> subprocess.Popen:
+        child = subprocess.Popen([sys.executable, "-c", "raise SystemExit(1)"])
+        child.wait(30)
+        return child
+
+    children = {"worker-0": failing()}
+    restarted = []
+
+    def restart_worker(worker_id: int) -> None:
+        children[f"worker-{worker_id}"] = failing()
+        restarted.append(worker_id)
+
+    lines: list[str] = []
+    supervisor = RunSupervisor(redis_server, children, restart_worker, say=lines.append, num_workers=1)
+    for _ in range(MAX_QUICK_EXITS + 2):
+        supervisor.check_processes()
+    assert supervisor.fatal_worker == 0
+    assert len(restarted) == MAX_QUICK_EXITS - 1
+    assert "not restarting it" in lines[-1]
