@@ -28,6 +28,7 @@ from racer.benches.camera_frames import (
     histogram_emd,
     load_fitted_poses,
     load_gazebo_frames,
+    paired_grey_stats,
     render_lap,
     render_poses,
 )
@@ -94,30 +95,12 @@ def policy_shares(model_dir: Path, frames_rgb: np.ndarray) -> dict[str, float]:
     return {side: round(count / len(frames_rgb), 3) for side, count in counts.items()}
 
 
-PAIRED_BANDS = ((0, 40), (40, 80), (80, 120))
-"""Image rows compared on the pairs: above the horizon (walls), the far field and road, the near road."""
-
-
 def paired_stats(
     gazebo_gray: np.ndarray, route: Path, world: str, poses: list[tuple[float, float, float]], simapp: Path | None
 ) -> dict:
-    """racer's frames at the Gazebo frames' own poses against those frames: the same views, so unlike the centre-line
-    figures the content is the same and only the look differs."""
+    """racer's frames at the Gazebo frames' own poses against those frames."""
     ours_rgb, _ = render_poses(route, world, poses, full_resolution=False, simapp_dir=simapp)
-    ours = np.stack([rgb_to_y(frame) for frame in ours_rgb])
-    if len(ours) != len(gazebo_gray):
-        raise click.ClickException(f"{len(poses)} fitted poses for {len(gazebo_gray)} Gazebo frames")
-    return {
-        "histogram_emd": round(histogram_emd(frame_stats(ours).histogram, frame_stats(gazebo_gray).histogram), 2),
-        "mean_abs_grey_difference": round(float(np.abs(ours.astype(int) - gazebo_gray.astype(int)).mean()), 1),
-        "band_means_racer_vs_gazebo": {
-            f"rows {top}-{bottom}": [
-                round(float(ours[:, top:bottom].mean()), 1),
-                round(float(gazebo_gray[:, top:bottom].mean()), 1),
-            ]
-            for top, bottom in PAIRED_BANDS
-        },
-    }
+    return paired_grey_stats(np.stack([rgb_to_y(frame) for frame in ours_rgb]), gazebo_gray)
 
 
 def run_camera_benchmark(

@@ -57,6 +57,28 @@ def histogram_emd(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.abs(np.cumsum(a) - np.cumsum(b)).sum())
 
 
+PAIRED_BANDS = ((0, 40), (40, 80), (80, 120))
+"""Image rows compared on the pairs: above the horizon (walls), the far field and road, the near road."""
+
+
+def paired_grey_stats(ours_gray: np.ndarray, gazebo_gray: np.ndarray) -> dict:
+    """racer's grey frames against the Gazebo frames of the same poses (the same views, so only the look differs):
+    histogram distance of the two sets, mean absolute difference per pixel, mean grey per band (racer, Gazebo)."""
+    if ours_gray.shape != gazebo_gray.shape:
+        raise ValueError(f"{len(ours_gray)} racer frames for {len(gazebo_gray)} Gazebo frames")
+    return {
+        "histogram_emd": round(histogram_emd(frame_stats(ours_gray).histogram, frame_stats(gazebo_gray).histogram), 2),
+        "mean_abs_grey_difference": round(float(np.abs(ours_gray.astype(int) - gazebo_gray.astype(int)).mean()), 1),
+        "band_means_racer_vs_gazebo": {
+            f"rows {top}-{bottom}": [
+                round(float(ours_gray[:, top:bottom].mean()), 1),
+                round(float(gazebo_gray[:, top:bottom].mean()), 1),
+            ]
+            for top, bottom in PAIRED_BANDS
+        },
+    }
+
+
 def load_gazebo_frames(folder: Path) -> np.ndarray:
     """(N, 120, 160, 3) uint8 RGB frames of the Gazebo episode, in file order; a clear error when missing."""
     files = sorted(folder.glob("*.png"))

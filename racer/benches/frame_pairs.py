@@ -33,7 +33,7 @@ import click
 import cv2
 import numpy as np
 
-from racer.benches.camera_frames import GAZEBO_FRAMES, ROUTE, load_gazebo_frames, render_poses
+from racer.benches.camera_frames import GAZEBO_FRAMES, ROUTE, load_gazebo_frames, paired_grey_stats, render_poses
 from racer.benches.workdir import cpu_description
 from racer.shared.sim.car import CAMERA_HORIZONTAL_FOV_RAD, CAMERA_PITCH_DOWN_RAD, CAMERA_POS_M
 from racer.shared.sim.world_look import EDGE_LINE_WIDTH_M
@@ -241,6 +241,12 @@ def fit_poses(frames: np.ndarray, route: np.ndarray, camera: CameraMount, jobs: 
         return list(pool.map(_fit_one, work))
 
 
+def grey_of(frames_rgb: np.ndarray) -> np.ndarray:
+    from racer.shared.sim.camera import rgb_to_y
+
+    return np.stack([rgb_to_y(frame) for frame in frames_rgb])
+
+
 def side_agreement(first: np.ndarray, second: np.ndarray, where: np.ndarray | None = None) -> float:
     if where is not None:
         first, second = first[where], second[where]
@@ -269,12 +275,8 @@ def compare_policies(
     and the good pairs), the control (racer's frame against racer's frame at a jittered pose) and the shares; for a
     racer policy also its agreement with each real one, on the Gazebo frames and on racer's frames of the same poses."""
     from racer.benches.transfer import shares, steering_sides
-    from racer.shared.sim.camera import rgb_to_y
 
-    grey = {
-        name: np.stack([rgb_to_y(frame) for frame in frames])
-        for name, frames in (("gazebo", gazebo), ("racer", ours), ("jittered", jittered))
-    }
+    grey = {"gazebo": grey_of(gazebo), "racer": grey_of(ours), "jittered": grey_of(jittered)}
     sides = {
         label: {name: steering_sides(metadata, network, frames) for name, frames in grey.items()}
         for label, (metadata, network) in {**real, **racer}.items()
@@ -298,30 +300,6 @@ def compare_policies(
             }
         result[label] = figures
     return result
-
-
-GREY_BANDS = ((0, 40), (40, 80), (80, 120))
-"""Image rows compared by their mean grey: above the horizon (walls), the far field and road, the near road."""
-
-
-def paired_grey(gazebo: np.ndarray, ours: np.ndarray) -> dict:
-    """The camera bench's grey statistics on the pairs: histogram distance of the two sets and mean grey per band
-    (same poses, so unlike the camera bench's centre-line poses the view's content is the same)."""
-    from racer.benches.camera_frames import frame_stats, histogram_emd
-    from racer.shared.sim.camera import rgb_to_y
-
-    grey_gazebo = np.stack([rgb_to_y(frame) for frame in gazebo])
-    grey_ours = np.stack([rgb_to_y(frame) for frame in ours])
-    return {
-        "histogram_emd": round(histogram_emd(frame_stats(grey_ours).histogram, frame_stats(grey_gazebo).histogram), 2),
-        "band_means": {
-            f"rows {top}-{bottom}": {
-                "gazebo": round(float(grey_gazebo[:, top:bottom].mean()), 1),
-                "racer": round(float(grey_ours[:, top:bottom].mean()), 1),
-            }
-            for top, bottom in GREY_BANDS
-        },
-    }
 
 
 def run_frame_pairs(
@@ -361,7 +339,7 @@ def run_frame_pairs(
         "camera": camera.__dict__,
         "fit_cost_cm": {"median": round(float(np.median([p.cost_m for p in fitted])) * 100, 2)},
         "line_iou": {"median": round(float(np.median(iou)), 3), "good_pairs": int(good.sum())},
-        "grey": paired_grey(frames, ours),
+        "grey": paired_grey_stats(grey_of(ours), grey_of(frames)),
         "policies": by_policy,
         "poses": [{"x_m": round(x, 4), "y_m": round(y, 4), "yaw_rad": round(yaw, 4)} for x, y, yaw in poses],
         "picture": str(picture) if picture is not None else None,

@@ -98,4 +98,4 @@ def test_the_bench_on_two_frames_prints_pairs_per_real_checkpoint(tmp_path):
     image = np.asarray(Image.open(picture))
     assert image.shape[0] == 120 and image.shape[1] > 320
     assert json.loads((tmp_path / "poses.json").read_text())["poses"] == report["poses"]
-    assert set(report["grey"]["band_means"]) == {"rows 0-40", "rows 40-80", "rows 80-120"}
+    assert set(report["grey"]["band_means_racer_vs_gazebo"]) == {"rows 0-40", "rows 40-80", "rows 80-120"}
