@@ -349,17 +349,9 @@ def run_frame_pairs(
 
 def racer_policies(model_folder: Path) -> dict[str, tuple]:
     """The last four checkpoints of a racer model folder (racer's local store layout)."""
-    from racer.shared.deepracer.model_metadata import parse_model_metadata
-    from racer.shared.policy.checkpoints import CheckpointStore
-    from racer.shared.store import LocalStore
+    from racer.benches.transfer import open_racer_model
 
-    metadata_path = model_folder / "model" / "model_metadata.json"
-    if not metadata_path.is_file():
-        raise click.ClickException(f"{metadata_path} is missing: --racer-model takes a racer model folder")
-    metadata = parse_model_metadata(json.loads(metadata_path.read_text()), source=str(metadata_path))
-    if metadata.is_continuous:
-        raise click.ClickException(f"{model_folder}: the comparison needs a discrete action space")
-    checkpoints = CheckpointStore(LocalStore(model_folder.parent), model_folder.name)
+    metadata, checkpoints = open_racer_model(model_folder)
     return {f"racer:{name}": (metadata, checkpoints.load_policy(name)) for name in checkpoints.names()[-4:]}
 
 

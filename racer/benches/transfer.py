@@ -160,18 +160,24 @@ RACER_FRAME_POSES = 60
 """Centre-line poses of re:Invent 2018 rendered in racer for the reverse check's baseline."""
 
 
+def open_racer_model(folder: Path) -> tuple[ModelMetadata, CheckpointStore]:
+    """A racer model folder in racer's local store layout (racer-data/MODEL), with a discrete action space: its
+    model_metadata and its checkpoints; a clear error otherwise."""
+    metadata_path = folder / "model" / "model_metadata.json"
+    if not metadata_path.is_file():
+        raise click.ClickException(f"{metadata_path} is missing: --racer-model takes a racer model folder")
+    metadata = parse_model_metadata(json.loads(metadata_path.read_text()), source=str(metadata_path))
+    if metadata.is_continuous:
+        raise click.ClickException(f"{folder}: steering sides compare discrete action spaces")
+    return metadata, CheckpointStore(LocalStore(folder.parent), folder.name)
+
+
 def reverse_check(racer_model: Path, real: list[RealModel], frames_grey: np.ndarray, racer_grey: np.ndarray) -> dict:
     """A racer model (a folder of racer's local store) on the Gazebo frames, against each real checkpoint; and the
     same comparison on racer's own frames (`racer_frames`), the baseline: how far two policies that both lap differ
     in style whatever the simulator (sign agreement there bounds what a simulator change can reach on the Gazebo
     frames)."""
-    metadata_path = racer_model / "model" / "model_metadata.json"
-    if not metadata_path.is_file():
-        raise click.ClickException(f"{metadata_path} is missing: --racer-model takes a racer model folder")
-    metadata = parse_model_metadata(json.loads(metadata_path.read_text()), source=str(metadata_path))
-    if metadata.is_continuous:
-        raise click.ClickException(f"{racer_model}: the reverse check compares discrete action spaces")
-    checkpoints = CheckpointStore(LocalStore(racer_model.parent), racer_model.name)
+    metadata, checkpoints = open_racer_model(racer_model)
     result: dict = {"model": str(racer_model), "checkpoints": {}}
     real_sides = {model.label: steering_sides(model.metadata, model.network, frames_grey) for model in real}
     real_on_racer = {model.label: steering_sides(model.metadata, model.network, racer_grey) for model in real}
