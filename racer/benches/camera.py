@@ -7,8 +7,8 @@ levels; RL Coach's grayscale), the mean grey of the lower half (mostly road) and
 above them). Those poses are not the episode's, so the same figures are also taken on the pairs (`paired`): racer's
 frames at the Gazebo frames' own poses (`gazebo_frame_poses.json`, fitted by `racer bench frame-pairs`), where the
 views match and only the look differs. The direct 160x120 frame is compared with racer's 640x480 + bilinear-resize
-path at the same poses (mean absolute grey difference), and both paths are timed. With `--checkpoint`, a racer policy's greedy
-left / straight / right shares on the Gazebo frames show how it reads DeepRacer's images.
+path at the same poses (mean absolute grey difference), and both paths are timed. With `--checkpoint`, a racer
+policy's greedy left / straight / right shares on the Gazebo frames show how it reads DeepRacer's images.
 """
 
 from __future__ import annotations

@@ -360,7 +360,8 @@ def racer_policies(model_folder: Path) -> dict[str, tuple]:
     "--data",
     type=click.Path(exists=True, file_okay=False, path_type=Path),
     default=None,
-    help="The shared deepracer-data folder (Gazebo frames, re:Invent 2018 route, models/). Default: ../shared/deepracer-data.",
+    help="The shared deepracer-data folder (Gazebo frames, re:Invent 2018 route, models/). "
+    "Default: ../shared/deepracer-data.",
 )
 @click.option(
     "--racer-model",
@@ -375,7 +376,8 @@ def racer_policies(model_folder: Path) -> dict[str, tuple]:
     "--save-poses",
     type=click.Path(dir_okay=False, path_type=Path),
     default=None,
-    help="Write the fitted poses as JSON (racer/benches/gazebo_frame_poses.json is this file, for `racer bench camera`).",
+    help="Write the fitted poses as JSON (racer/benches/gazebo_frame_poses.json is this file, "
+    "for `racer bench camera`).",
 )
 @click.option("--frames", "limit", type=click.IntRange(1, None), default=None, help="Only the first N frames.")
 @click.option("--jobs", type=click.IntRange(1, None), default=None, help="Processes fitting poses. Default: the cores.")
@@ -408,7 +410,8 @@ def frame_pairs_command(
     result = run_frame_pairs(data or SHARED_DATA, camera, jobs or os.cpu_count() or 1, limit, racer_model, picture)
     if save_poses is not None:
         document = {
-            "about": "Car poses of the Gazebo frames (frames/gazebo_reinvent_episode, in file order) on re:Invent 2018, "
+            "about": "Car poses of the Gazebo frames (frames/gazebo_reinvent_episode, in file order) "
+            "on re:Invent 2018, "
             "fitted from their painted lines by `racer bench frame-pairs`",
             "camera": result["camera"],
             "fit_cost_cm_median": result["fit_cost_cm"]["median"],
