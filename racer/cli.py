@@ -9,13 +9,13 @@ from racer.lazy_group import LazyGroup
 # name -> (module:attribute of a click command, one-line help). Each module owns its command.
 COMMANDS: dict[str, tuple[str, str]] = {
     "train": (
-        "racer.local.command:train_command",
+        "racer.local.cli:train_command",
         "Train a model: Redis, store, trainer and N rollout workers as local processes.",
     ),
-    "trainer": ("racer.trainer.main:trainer_command", "Run the PPO trainer process alone (one per training run)."),
-    "rollout": ("racer.rollout_worker.main:rollout_command", "Run one rollout worker (one world) alone."),
+    "trainer": ("racer.trainer.cli:trainer_command", "Run the PPO trainer process alone (one per training run)."),
+    "rollout": ("racer.rollout_worker.cli:rollout_command", "Run one rollout worker (one world) alone."),
     "evaluate": (
-        "racer.evaluation_worker.main:evaluate_command",
+        "racer.evaluation_worker.cli:evaluate_command",
         "Evaluate a model: DeepRacer trials or the 4-minute race rule.",
     ),
     "race": (

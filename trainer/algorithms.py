@@ -12,10 +12,10 @@ from racer.shared.deepracer.model_metadata import ModelMetadata
 from racer.shared.policy.factory import build_network_for_metadata
 from racer.shared.policy.network_file import NetworkFile
 from racer.trainer.learner import Learner
-from racer.trainer.ppo import PPOSettings, PPOTrainer
+from racer.trainer.ppo import PPOSettings, PPOLearner
 from racer.trainer.precision import DEFAULT_PRECISION, Precision
 from racer.trainer.preset import Preset, sac_updates_per_transition
-from racer.trainer.sac import SACSettings, SACTrainer
+from racer.trainer.sac import SACSettings, SACLearner
 
 __all__ = ["LEARNERS", "LearnerOptions", "build_learner"]
 
@@ -44,7 +44,7 @@ def _clipped_ppo(metadata: ModelMetadata, hyperparameters: Hyperparameters, opti
     settings = PPOSettings(seed=options.seed, precision=options.precision)
     if options.preset is not None:
         settings = options.preset.ppo_settings(settings)
-    return PPOTrainer(network, hyperparameters, settings)
+    return PPOLearner(network, hyperparameters, settings)
 
 
 def _sac(metadata: ModelMetadata, hyperparameters: Hyperparameters, options: LearnerOptions) -> Learner:
@@ -56,7 +56,7 @@ def _sac(metadata: ModelMetadata, hyperparameters: Hyperparameters, options: Lea
     )
     if options.preset is not None:
         settings = options.preset.sac_settings(settings)
-    learner = SACTrainer(
+    learner = SACLearner(
         build_network_for_metadata(metadata, options.network, hyperparameters.stack_size), hyperparameters, settings
     )
     log.info("SAC replay memory: %d transitions in %.0f MB", learner.replay.capacity, options.sac_replay_memory_mb)

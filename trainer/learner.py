@@ -31,7 +31,7 @@ class UpdateAbandoned(Exception):
 
 
 class Learner(Protocol):
-    """One algorithm's update over the trainer's network (PPOTrainer and SACTrainer implement it)."""
+    """One algorithm's update over the trainer's network (PPOLearner and SACLearner implement it)."""
 
     @property
     def network(self) -> nn.Module:

@@ -3,10 +3,10 @@
 
 Public API
 ----------
-    trainer = PPOTrainer(network, hyperparameters)          # one Adam over both towers
-    stats = trainer.update(episodes)                        # list[EpochStats], one per epoch
-    for line in trainer.training_lines(stats): print(line)  # DeepRacer's "Policy training> ..." lines
-    trainer.learning_rate, trainer.optimizer                # for checkpoints and logs
+    learner = PPOLearner(network, hyperparameters)          # one Adam over both towers
+    stats = learner.update(episodes)                        # list[EpochStats], one per epoch
+    for line in learner.training_lines(stats): print(line)  # DeepRacer's "Policy training> ..." lines
+    learner.learning_rate, learner.optimizer                # for checkpoints and logs
 
 `racer.trainer.log_lines` formats DeepRacer's per-episode "Training> Name=main_level/agent, ..." line.
 
@@ -82,7 +82,7 @@ __all__ = [
     "CLIP_EPSILON",
     "EpochStats",
     "PPOSettings",
-    "PPOTrainer",
+    "PPOLearner",
     "TrainingBatch",
     "make_training_batch",
     "minibatch_size_for",
@@ -146,10 +146,10 @@ class EpochStats:
 
 
 # --------------------------------------------------------------------------------------------------------------------
-# The trainer
+# The learner
 
 
-class PPOTrainer:
+class PPOLearner:
     """Owns the optimiser of one ActorCritic and runs DeepRacer's clipped-PPO update on lists of episodes."""
 
     def __init__(self, network: ActorCritic, hyperparameters: Hyperparameters, settings: PPOSettings = PPOSettings()):

@@ -2,10 +2,10 @@
 
 Public API
 ----------
-    trainer = SACTrainer(networks, hyperparameters, SACSettings())   # one Adam over policy, Q and V
-    stats = trainer.update(episodes)            # list[SACStats] (one entry, [] when nothing was trained)
-    for line in trainer.training_lines(stats): print(line)
-    trainer.optimizer, trainer.learning_rate, trainer.replay
+    learner = SACLearner(networks, hyperparameters, SACSettings())   # one Adam over policy, Q and V
+    stats = learner.update(episodes)            # list[SACStats] (one entry, [] when nothing was trained)
+    for line in learner.training_lines(stats): print(line)
+    learner.optimizer, learner.learning_rate, learner.replay
 
 One iteration, as DeepRacer's trainer runs it:
 
@@ -61,7 +61,7 @@ from racer.trainer.ppo import HUBER_DELTA
 from racer.trainer.precision import DEFAULT_PRECISION, Precision
 from racer.trainer.replay import ReplayBatch, ReplayBuffer
 
-__all__ = ["SACSettings", "SACStats", "SACTrainer", "sac_minibatch_size"]
+__all__ = ["SACSettings", "SACStats", "SACLearner", "sac_minibatch_size"]
 
 log = logging.getLogger(__name__)
 
@@ -105,7 +105,7 @@ def sac_minibatch_size(replay_transitions: int, iteration_transitions: int, batc
     return 2 ** int(math.floor(math.log2(max(1, iteration_transitions))))
 
 
-class SACTrainer:
+class SACLearner:
     def __init__(self, networks: SACNetworks, hyperparameters: Hyperparameters, settings: SACSettings | None = None):
         self.networks = networks
         self.hyperparameters = hyperparameters

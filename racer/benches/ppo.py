@@ -2,7 +2,7 @@
 
 Both run in the same process on the same synthetic iteration (shallow network, FRONT_FACING_CAMERA, 5 discrete
 actions; default 4000 transitions, 10 epochs, batch 64), from the same initial weights and the same minibatch
-order. `samples_per_s` = transitions x epochs / wall seconds of `PPOTrainer.update` (GAE, the old-policy pass and
+order. `samples_per_s` = transitions x epochs / wall seconds of `PPOLearner.update` (GAE, the old-policy pass and
 the epochs, everything the trainer does per iteration); `baseline_samples_per_s` is the same for
 `plain_ppo_update`, the textbook implementation: a deep-copied old network evaluated per minibatch, the default
 single-tensor Adam loop, no NaN checks, the towers one after the other with `--threads` intra-op threads. Both get
@@ -47,7 +47,7 @@ from racer.trainer.ppo import (
     CLIP_EPSILON,
     HUBER_DELTA,
     PPOSettings,
-    PPOTrainer,
+    PPOLearner,
     make_training_batch,
     minibatch_size_for,
     shuffled_minibatches,
@@ -103,7 +103,7 @@ def plain_ppo_update(
 ) -> list[dict[str, float]]:
     """The baseline: the same clipped-PPO update written the obvious way, fp32 eager, no speed work.
 
-    Also an independent cross-check of `PPOTrainer` (tests compare their results).
+    Also an independent cross-check of `PPOLearner` (tests compare their results).
     """
     hp = hyperparameters
     old_network = copy.deepcopy(network).requires_grad_(False)  # "sync" the target network
@@ -164,8 +164,8 @@ def _time_trainer(
     threads: int,
     precision: Precision,
 ) -> tuple[float, float]:
-    """(wall s, CPU s) of one PPOTrainer.update; the two towers share the `threads` cores."""
-    trainer = PPOTrainer(
+    """(wall s, CPU s) of one PPOLearner.update; the two towers share the `threads` cores."""
+    trainer = PPOLearner(
         network, hp, PPOSettings(seed=seed, threads_per_tower=max(1, threads // 2), precision=precision)
     )
     start, cpu_start = time.perf_counter(), time.process_time()

@@ -32,7 +32,7 @@ from racer.shared.deepracer.model_metadata import parse_model_metadata
 from racer.shared.policy.networks import ActorCritic, build_actor_critic
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
-from racer.trainer.ppo import PPOSettings, PPOTrainer
+from racer.trainer.ppo import PPOSettings, PPOLearner
 from racer.trainer.precision import PRECISION_NAMES, Precision
 
 SHARED_DATA = PROJECT_ROOT.parent / "shared" / "deepracer-data"
@@ -74,7 +74,7 @@ def learn_to_lap(env: DeepRacerEnv, precision: Precision, seed: int, max_iterati
     torch.manual_seed(seed)
     network = build_actor_critic(env.config.model_metadata)
     hyperparameters = parse_hyperparameters(time_to_lap_hyperparameters("time-trial", "clipped_ppo", None))[0]
-    trainer = PPOTrainer(network, hyperparameters, PPOSettings(seed=seed, threads_per_tower=1, precision=precision))
+    trainer = PPOLearner(network, hyperparameters, PPOSettings(seed=seed, threads_per_tower=1, precision=precision))
     policy, generator = _TorchPolicy(network), np.random.default_rng(seed)
     env_steps, first_agreement = 0, None
     for iteration in range(1, max_iterations + 1):

@@ -17,7 +17,7 @@ import torch
 from racer.shared.deepracer.hyperparameters import Hyperparameters
 from racer.shared.episode import Episode
 from racer.shared.policy.networks import ActorCritic
-from racer.trainer.ppo import PPOSettings, PPOTrainer, make_training_batch
+from racer.trainer.ppo import PPOSettings, PPOLearner, make_training_batch
 from racer.trainer.precision import Precision
 
 __all__ = ["UpdateAgreement", "update_agreement"]
@@ -69,7 +69,7 @@ def _updated(
     initial: ActorCritic, hp: Hyperparameters, episodes: Sequence[Episode], precision: Precision, seed: int
 ) -> ActorCritic:
     network = copy.deepcopy(initial)
-    PPOTrainer(network, hp, PPOSettings(seed=seed, threads_per_tower=1, precision=precision)).update(episodes)
+    PPOLearner(network, hp, PPOSettings(seed=seed, threads_per_tower=1, precision=precision)).update(episodes)
     return network
 
 

@@ -6,7 +6,7 @@ to collect them.
 One synthetic iteration (camera frames with random pixels, continuous actions, rewards) fills the replay memory, an
 untimed warm-up step runs on each path (oneDNN primitive creation), then the two paths alternate `--repeats` times,
 `--steps` timed gradient steps each, from the same weights. `gradient_steps_per_s` counts steps of
-`SACTrainer._train` (sample, three losses, one Adam step); `baseline_gradient_steps_per_s` counts
+`SACLearner._train` (sample, three losses, one Adam step); `baseline_gradient_steps_per_s` counts
 `plain_sac_step`: the same losses computed one network after another on `--threads` intra-op threads (default: all
 of the process's CPUs, torch's own default), the Q head's weight gradient of the policy loss computed and thrown away.
 `transitions_per_s_at_one_update` is the trainer's rate again: the experience rate it keeps up with at DeepRacer's
@@ -36,7 +36,7 @@ from racer.shared.episode import Episode
 from racer.shared.policy.factory import build_network_for_metadata
 from racer.trainer.ppo import HUBER_DELTA
 from racer.trainer.replay import ReplayBatch
-from racer.trainer.sac import SACSettings, SACTrainer
+from racer.trainer.sac import SACSettings, SACLearner
 
 __all__ = ["METADATA", "plain_sac_step", "sac_bench_command", "synthetic_episodes"]
 
@@ -66,7 +66,7 @@ def synthetic_episodes(count: int, steps: int, seed: int) -> list[Episode]:
     ]
 
 
-def plain_sac_step(trainer: SACTrainer, batch: ReplayBatch) -> dict[str, float]:
+def plain_sac_step(trainer: SACLearner, batch: ReplayBatch) -> dict[str, float]:
     """The textbook step, one network after another on the calling thread: the baseline of the bench and the
     reference the trainer's step is tested against (same losses, same Adam). Returns the losses; the gradients stay
     in `.grad` until the next step."""
@@ -100,14 +100,14 @@ def plain_sac_step(trainer: SACTrainer, batch: ReplayBatch) -> dict[str, float]:
     }
 
 
-def _time_trainer(trainer: SACTrainer, steps: int, batch_size: int) -> tuple[float, float, float]:
+def _time_trainer(trainer: SACLearner, steps: int, batch_size: int) -> tuple[float, float, float]:
     """Wall, process CPU and this (the policy) thread's CPU seconds; the critic thread has the rest."""
     started, cpu_started, thread_started = time.perf_counter(), time.process_time(), time.thread_time()
     trainer._train(steps, batch_size)
     return time.perf_counter() - started, time.process_time() - cpu_started, time.thread_time() - thread_started
 
 
-def _time_plain(trainer: SACTrainer, steps: int, batch_size: int, threads: int) -> tuple[float, float]:
+def _time_plain(trainer: SACLearner, steps: int, batch_size: int, threads: int) -> tuple[float, float]:
     previous = torch.get_num_threads()
     torch.set_num_threads(threads)
     try:
@@ -140,8 +140,8 @@ def sac_bench_command(
     threads = threads or len(os.sched_getaffinity(0))
     networks = build_network_for_metadata(parse_model_metadata(METADATA, "bench"))
     settings = SACSettings(replay_memory_bytes=256 << 20, seed=seed, threads_per_tower=threads_per_tower)
-    trainer = SACTrainer(networks, Hyperparameters(batch_size=batch), settings)
-    plain = SACTrainer(copy.deepcopy(networks), Hyperparameters(batch_size=batch), settings)
+    trainer = SACLearner(networks, Hyperparameters(batch_size=batch), settings)
+    plain = SACLearner(copy.deepcopy(networks), Hyperparameters(batch_size=batch), settings)
     episodes = synthetic_episodes(10, 100, seed)
     trainer.add_experience(episodes)
     plain.add_experience(episodes)

@@ -21,7 +21,7 @@ import click
 from racer.local.progress import ProgressDisplay
 from racer.local.services import MinioServer, RedisServer, _die_with_parent
 from racer.local.supervisor import RunSupervisor, stop_children
-from racer.rollout_worker.main import EXIT_RUN_CANNOT_GO_ON
+from racer.rollout_worker.cli import EXIT_RUN_CANNOT_GO_ON
 from racer.shared.config import LocalStoreSettings, RedisSettings, S3Settings, ServiceSettings
 from racer.shared.redis_connection import RedisLink, RedisUnavailableError
 from racer.shared.run_settings import RunOptions

@@ -13,7 +13,7 @@ import time
 from collections.abc import Callable, Iterable, Mapping
 
 from racer.local.services import RedisServer
-from racer.rollout_worker.main import EXIT_RUN_CANNOT_GO_ON
+from racer.rollout_worker.cli import EXIT_RUN_CANNOT_GO_ON
 
 QUICK_EXIT_S = 60.0
 """A worker that exits sooner than this after (re)starting has not got going: a startup failure."""

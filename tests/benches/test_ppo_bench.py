@@ -13,7 +13,7 @@ from click.testing import CliRunner
 from racer.benches.ppo import bench_network, plain_ppo_update, ppo_bench_command, synthetic_episodes
 from racer.benches.precision_agreement import update_agreement
 from racer.shared.deepracer.hyperparameters import Hyperparameters
-from racer.trainer.ppo import PPOSettings, PPOTrainer
+from racer.trainer.ppo import PPOSettings, PPOLearner
 from racer.trainer.precision import Precision
 from tests.trainer.ppo_task import play, task_network
 
@@ -27,7 +27,7 @@ def test_fast_path_gives_the_same_learning_result_as_the_plain_baseline():
     initial = bench_network(num_actions=5, seed=1)
     episodes = synthetic_episodes(200, num_actions=5, seed=1)  # 2 episodes, 6 minibatches per epoch
     fast, plain = copy.deepcopy(initial), copy.deepcopy(initial)
-    fast_stats = PPOTrainer(fast, hp, PPOSettings(seed=3, precision=Precision.FP32)).update(episodes)
+    fast_stats = PPOLearner(fast, hp, PPOSettings(seed=3, precision=Precision.FP32)).update(episodes)
     plain_stats = plain_ppo_update(plain, hp, episodes, seed=3)
 
     for mine, theirs in zip(fast_stats, plain_stats, strict=True):
@@ -59,7 +59,7 @@ def test_bf16_towers_track_the_fp32_baseline():
     initial = bench_network(num_actions=5, seed=1)
     episodes = synthetic_episodes(200, num_actions=5, seed=1)
     fast, plain = copy.deepcopy(initial), copy.deepcopy(initial)
-    trainer = PPOTrainer(fast, hp, PPOSettings(seed=3, precision=Precision.BF16))
+    trainer = PPOLearner(fast, hp, PPOSettings(seed=3, precision=Precision.BF16))
     assert trainer.tower_dtype == torch.bfloat16
     fast_stats = trainer.update(episodes)
     plain_stats = plain_ppo_update(plain, hp, episodes, seed=3)

@@ -9,7 +9,7 @@ import pytest
 import torch
 from click.testing import CliRunner
 
-from racer.evaluation_worker.main import evaluate_command
+from racer.evaluation_worker.cli import evaluate_command
 from racer.shared.deepracer.metrics import read_evaluation_metrics
 from racer.shared.deepracer.simtrace import read_simtrace
 from racer.shared.policy.best_and_last import CheckpointRecord

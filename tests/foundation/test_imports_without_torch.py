@@ -16,8 +16,8 @@ import sys
 import pytest
 
 WORKER_PATHS = {
-    "rollout": ["racer.cli", "racer.rollout_worker.main", "racer.rollout_worker.worker"],
-    "evaluation": ["racer.cli", "racer.evaluation_worker.main", "racer.evaluation_worker.runner"],
+    "rollout": ["racer.cli", "racer.rollout_worker.cli", "racer.rollout_worker.worker"],
+    "evaluation": ["racer.cli", "racer.evaluation_worker.cli", "racer.evaluation_worker.runner"],
     "viewer": ["racer.cli", "racer.viewer.cli", "racer.viewer.app", "racer.viewer.live"],
     "minio-setup": ["racer.shared.store"],
     "race": ["racer.cli", "racer.race.cli", "racer.race.runner", "racer.race.worker", "racer.race.html_report"],

@@ -21,7 +21,7 @@ from racer.shared.policy.networks import ActorCritic, build_actor_critic
 from racer.shared.policy.onnx_export import export_onnx
 from racer.shared.policy.optimizer_files import load_optimizer_state
 from racer.shared.store import LocalStore, S3Store
-from racer.trainer.ppo import PPOSettings, PPOTrainer
+from racer.trainer.ppo import PPOSettings, PPOLearner
 from tests.trainer.ppo_task import random_episodes
 
 PREFIX = "runs/model-a"
@@ -61,19 +61,19 @@ def outputs(network: ActorCritic, batch) -> tuple[torch.Tensor, torch.Tensor]:
         return network.policy_output(batch), network.value(batch)
 
 
-def trained(seed: int = 0, continuous: bool = False) -> tuple[PPOTrainer, list]:
+def trained(seed: int = 0, continuous: bool = False) -> tuple[PPOLearner, list]:
     torch.manual_seed(seed)
     network = build_actor_critic(small_metadata(continuous))
-    trainer = PPOTrainer(network, HP, PPOSettings(seed=seed))
+    learner = PPOLearner(network, HP, PPOSettings(seed=seed))
     episodes = random_episodes(network, [40, 30], np.random.default_rng(seed))
-    trainer.update(episodes)
-    return trainer, episodes
+    learner.update(episodes)
+    return learner, episodes
 
 
 def continue_training(network: ActorCritic, optimizer_state, episodes) -> dict[str, torch.Tensor]:
-    trainer = PPOTrainer(network, HP, PPOSettings(seed=99))
-    load_optimizer_state(trainer.optimizer, network, optimizer_state)
-    trainer.update(episodes)
+    learner = PPOLearner(network, HP, PPOSettings(seed=99))
+    load_optimizer_state(learner.optimizer, network, optimizer_state)
+    learner.update(episodes)
     return {name: value.clone() for name, value in network.state_dict().items()}
 
 
@@ -85,23 +85,23 @@ def store(request, tmp_path):
 
 
 def test_round_trip_gives_identical_outputs_and_training_continues_identically(store):
-    trainer, episodes = trained()
+    learner, episodes = trained()
     checkpoints = CheckpointStore(store, PREFIX)
     md = small_metadata()
-    name = checkpoints.save(0, 70, trainer.network, trainer.optimizer, model_metadata=md, hyperparameters=HP)
+    name = checkpoints.save(0, 70, learner.network, learner.optimizer, model_metadata=md, hyperparameters=HP)
     assert name == "0_Step-70.ckpt"
     assert checkpoints.latest_name() == name and checkpoints.names() == [name]
     assert store.get_bytes(f"{PREFIX}/model/.coach_checkpoint") == b"0_Step-70.ckpt\n"
     assert not store.exists(f"{PREFIX}/model/.lock")
 
-    batch = observation_batch(trainer.network, seed=1)
+    batch = observation_batch(learner.network, seed=1)
     policy = checkpoints.load_policy()
     assert not policy.training
-    for original, restored in zip(outputs(trainer.network, batch), outputs(policy, batch), strict=True):
+    for original, restored in zip(outputs(learner.network, batch), outputs(policy, batch), strict=True):
         assert torch.equal(original, restored)
 
     loaded = checkpoints.load(name)
-    assert loaded.info.env_steps == 70 and loaded.info.policy_config == trainer.network.config
+    assert loaded.info.env_steps == 70 and loaded.info.policy_config == learner.network.config
     assert loaded.info.model_metadata["neural_network"] == "DEEP_CONVOLUTIONAL_NETWORK_DEEP"
     assert loaded.info.hyperparameters["batch_size"] == 32 and loaded.info.versions["torch"] == torch.__version__
 
@@ -109,17 +109,17 @@ def test_round_trip_gives_identical_outputs_and_training_continues_identically(s
     resumed_network = ActorCritic(loaded.info.policy_config)
     resumed_network.load_state_dict(loaded.network_state)
     resumed = continue_training(resumed_network, loaded.optimizer_state, episodes)
-    uninterrupted = continue_training(trainer.network, trainer.optimizer.state_dict(), episodes)
+    uninterrupted = continue_training(learner.network, learner.optimizer.state_dict(), episodes)
     assert all(torch.equal(resumed[key], uninterrupted[key]) for key in uninterrupted)
 
 
 def test_local_store_and_minio_give_identical_outputs(tmp_path, s3_settings):
-    trainer, _ = trained(seed=3)
-    batch = observation_batch(trainer.network, seed=2)
+    learner, _ = trained(seed=3)
+    batch = observation_batch(learner.network, seed=2)
     results = []
     for store in (LocalStore(tmp_path / "local"), S3Store(s3_settings)):
         checkpoints = CheckpointStore(store, PREFIX)
-        checkpoints.save(0, 5, trainer.network, trainer.optimizer)
+        checkpoints.save(0, 5, learner.network, learner.optimizer)
         results.append(outputs(checkpoints.load_policy(), batch))
         results.append(checkpoints.load().optimizer_state)
     (local_out, local_opt, s3_out, s3_opt) = results
@@ -326,10 +326,10 @@ def test_restore_select_and_names(tmp_path):
     checkpoints = CheckpointStore(store, PREFIX)
     with pytest.raises(CheckpointError, match="no checkpoint"):
         checkpoints.select("last")
-    trainer, episodes = trained(seed=6)
-    assert checkpoints.save(0, 0, trainer.network, trainer.optimizer) == "0_Step-0.ckpt"
-    trainer.update(episodes)
-    assert checkpoints.save(1, 519, trainer.network, trainer.optimizer) == "1_Step-519.ckpt"
+    learner, episodes = trained(seed=6)
+    assert checkpoints.save(0, 0, learner.network, learner.optimizer) == "0_Step-0.ckpt"
+    learner.update(episodes)
+    assert checkpoints.save(1, 519, learner.network, learner.optimizer) == "1_Step-519.ckpt"
     assert CheckpointName.parse(checkpoints.latest_name()) == CheckpointName(1, 519)
     assert checkpoints.select("last") == checkpoints.select("best") == "1_Step-519.ckpt"
     checkpoints.record_evaluation("0_Step-0.ckpt", 70.0, 1.0)
@@ -342,12 +342,12 @@ def test_restore_select_and_names(tmp_path):
 
     torch.manual_seed(11)
     fresh = build_actor_critic(small_metadata())
-    fresh_trainer = PPOTrainer(fresh, HP, PPOSettings(seed=0))
-    assert checkpoints.restore("1_Step-519.ckpt", fresh, fresh_trainer.optimizer) == (1, 519)
+    fresh_learner = PPOLearner(fresh, HP, PPOSettings(seed=0))
+    assert checkpoints.restore("1_Step-519.ckpt", fresh, fresh_learner.optimizer) == (1, 519)
     batch = observation_batch(fresh, seed=7)
-    assert all(torch.equal(a, b) for a, b in zip(outputs(fresh, batch), outputs(trainer.network, batch), strict=True))
+    assert all(torch.equal(a, b) for a, b in zip(outputs(fresh, batch), outputs(learner.network, batch), strict=True))
     assert (
-        fresh_trainer.optimizer.state_dict()["state"][0]["step"] == trainer.optimizer.state_dict()["state"][0]["step"]
+        fresh_learner.optimizer.state_dict()["state"][0]["step"] == learner.optimizer.state_dict()["state"][0]["step"]
     )
     weights_only = build_actor_critic(small_metadata())
     assert checkpoints.restore("0_Step-0.ckpt", weights_only) == (0, 0)

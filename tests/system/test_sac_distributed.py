@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
-from racer.evaluation_worker.main import evaluate_command
+from racer.evaluation_worker.cli import evaluate_command
 from racer.shared.config import RedisSettings, ServiceSettings
 from racer.shared.deepracer.simtrace import read_simtrace
 from racer.shared.store import open_store

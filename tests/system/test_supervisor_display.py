@@ -7,7 +7,7 @@ import subprocess
 import sys
 
 from racer.local.supervisor import RunSupervisor
-from racer.rollout_worker.main import EXIT_RUN_CANNOT_GO_ON
+from racer.rollout_worker.cli import EXIT_RUN_CANNOT_GO_ON
 from racer.shared.redis_connection import RedisLink
 from racer.shared.transport.channels import RunChannel
 

@@ -18,7 +18,7 @@ from racer.trainer.nan_guard import first_non_finite_parameter
 from racer.trainer.ppo import (
     EpochStats,
     PPOSettings,
-    PPOTrainer,
+    PPOLearner,
     minibatch_size_for,
     shuffled_minibatches,
 )
@@ -49,8 +49,8 @@ def test_first_minibatch_has_ratio_one_and_nothing_clipped():
     network = task_network(3)
     rng = np.random.default_rng(0)
     episodes = random_episodes(network, [10, 12, 10], rng)  # 32 transitions = exactly one minibatch
-    trainer = PPOTrainer(network, replace(HP, num_epochs=1), PPOSettings(seed=0))
-    (stats,) = trainer.update(episodes)
+    learner = PPOLearner(network, replace(HP, num_epochs=1), PPOSettings(seed=0))
+    (stats,) = learner.update(episodes)
     # The stats of a single-minibatch epoch are measured before its step: new policy == old policy.
     assert stats.minibatches == 1
     assert stats.clip_fraction == 0.0
@@ -61,8 +61,8 @@ def test_first_minibatch_has_ratio_one_and_nothing_clipped():
 def test_one_update_changes_the_weights_and_keeps_losses_finite():
     network = task_network(3)
     before = weights(network)
-    trainer = PPOTrainer(network, HP, PPOSettings(seed=1))
-    stats = trainer.update(random_episodes(network, [30, 20, 50], np.random.default_rng(1)))
+    learner = PPOLearner(network, HP, PPOSettings(seed=1))
+    stats = learner.update(random_episodes(network, [30, 20, 50], np.random.default_rng(1)))
     assert [s.epoch for s in stats] == [0, 1]
     assert all(s.minibatches == 3 for s in stats)  # 100 transitions // 32
     for s in stats:
@@ -72,13 +72,13 @@ def test_one_update_changes_the_weights_and_keeps_losses_finite():
     after = network.state_dict()
     changed = [name for name in before if not torch.equal(before[name], after[name])]
     assert any(name.startswith("policy_") for name in changed) and any(name.startswith("value_") for name in changed)
-    assert stats[1].kl_divergence > 0.0 and trainer.nan_rollbacks == 0
+    assert stats[1].kl_divergence > 0.0 and learner.nan_rollbacks == 0
 
 
 def test_a_stopping_trainer_abandons_the_update_between_minibatches():
     """`abandon()` is asked before each minibatch; the trainer uses it to stop within 30 s of a signal."""
     network = task_network(3)
-    trainer = PPOTrainer(network, HP, PPOSettings(seed=1))
+    learner = PPOLearner(network, HP, PPOSettings(seed=1))
     asked = []
 
     def abandon() -> bool:
@@ -86,10 +86,10 @@ def test_a_stopping_trainer_abandons_the_update_between_minibatches():
         return len(asked) > 4  # after four of the six minibatches (2 epochs x 3)
 
     with pytest.raises(UpdateAbandoned):
-        trainer.update(random_episodes(network, [30, 20, 50], np.random.default_rng(1)), abandon=abandon)
+        learner.update(random_episodes(network, [30, 20, 50], np.random.default_rng(1)), abandon=abandon)
     assert len(asked) == 5
     assert (
-        len(trainer.update(random_episodes(network, [30, 20, 50], np.random.default_rng(1)), abandon=lambda: False))
+        len(learner.update(random_episodes(network, [30, 20, 50], np.random.default_rng(1)), abandon=lambda: False))
         == 2
     )
 
@@ -105,8 +105,8 @@ def test_value_loss_type(loss_type, expected):
     rng = np.random.default_rng(2)
     episodes = random_episodes(network, [1] * 32, rng)  # one-step episodes: value target = reward
     rewards = np.array([e.rewards[0] for e in episodes], dtype=np.float64)
-    trainer = PPOTrainer(network, replace(HP, num_epochs=1, loss_type=loss_type), PPOSettings(seed=0))
-    (stats,) = trainer.update(episodes)
+    learner = PPOLearner(network, replace(HP, num_epochs=1, loss_type=loss_type), PPOSettings(seed=0))
+    (stats,) = learner.update(episodes)
     assert stats.value_loss == pytest.approx(float(np.mean(expected(10.0 - rewards))), rel=1e-4)
 
 
@@ -120,7 +120,7 @@ def test_entropy_bonus_pushes_towards_higher_entropy():
         observations = {k: torch.from_numpy(v) for k, v in episodes[0].observations.items()}
         with torch.no_grad():
             before = network.distribution(observations).entropy().mean().item()
-        PPOTrainer(network, replace(HP, beta_entropy=beta, num_epochs=3), PPOSettings(seed=0)).update(episodes)
+        PPOLearner(network, replace(HP, beta_entropy=beta, num_epochs=3), PPOSettings(seed=0)).update(episodes)
         with torch.no_grad():
             entropies[beta] = network.distribution(observations).entropy().mean().item()
     assert before < 0.5
@@ -130,8 +130,8 @@ def test_entropy_bonus_pushes_towards_higher_entropy():
 
 def test_continuous_policy_update():
     network = task_network(continuous=True)
-    trainer = PPOTrainer(network, HP, PPOSettings(seed=0))
-    stats = trainer.update(random_episodes(network, [40, 30], np.random.default_rng(4)))
+    learner = PPOLearner(network, HP, PPOSettings(seed=0))
+    stats = learner.update(random_episodes(network, [40, 30], np.random.default_rng(4)))
     assert len(stats) == 2 and all(math.isfinite(s.surrogate_loss) and math.isfinite(s.entropy) for s in stats)
     assert not torch.equal(network.log_std.detach(), torch.zeros(2))
 
@@ -140,8 +140,8 @@ def test_same_seed_same_result():
     results = []
     for _ in range(2):
         network = task_network(3, seed=5)
-        trainer = PPOTrainer(network, HP, PPOSettings(seed=7))
-        stats = trainer.update(random_episodes(network, [40, 30], np.random.default_rng(5)))
+        learner = PPOLearner(network, HP, PPOSettings(seed=7))
+        stats = learner.update(random_episodes(network, [40, 30], np.random.default_rng(5)))
         results.append((stats, weights(network)))
     assert results[0][0] == results[1][0]
     assert all(torch.equal(results[0][1][name], results[1][1][name]) for name in results[0][1])
@@ -149,9 +149,9 @@ def test_same_seed_same_result():
 
 def test_nan_gradient_rolls_back_halves_learning_rate_and_keeps_training(caplog):
     network = task_network(3)
-    trainer = PPOTrainer(network, HP, PPOSettings(seed=0))
+    learner = PPOLearner(network, HP, PPOSettings(seed=0))
     episodes = random_episodes(network, [50, 50], np.random.default_rng(6))
-    trainer.update(episodes)  # a good update first: its result is the last good state
+    learner.update(episodes)  # a good update first: its result is the last good state
     good = weights(network)
 
     parameter = network.policy_head.weight
@@ -165,11 +165,11 @@ def test_nan_gradient_rolls_back_halves_learning_rate_and_keeps_training(caplog)
 
     handle = parameter.register_hook(poison_once)
     with caplog.at_level(logging.WARNING, logger="racer.trainer.ppo"):
-        stats = trainer.update(episodes)
+        stats = learner.update(episodes)
     handle.remove()
 
-    assert injected and trainer.nan_rollbacks == 1
-    assert trainer.learning_rate == pytest.approx(1.5e-4)
+    assert injected and learner.nan_rollbacks == 1
+    assert learner.learning_rate == pytest.approx(1.5e-4)
     assert "NaN guard: gradient at epoch 0, minibatch 0 is nan" in caplog.text
     assert "rolled back" in caplog.text and "halved the learning rate 0.0003 -> 0.00015" in caplog.text
     # The retry trained normally from the rolled-back weights, at the new rate.
@@ -180,31 +180,31 @@ def test_nan_gradient_rolls_back_halves_learning_rate_and_keeps_training(caplog)
 
 def test_persistent_nan_skips_the_iteration_and_the_next_one_trains(caplog):
     network = task_network(3)
-    trainer = PPOTrainer(network, HP, PPOSettings(seed=0, max_nan_retries=2))
+    learner = PPOLearner(network, HP, PPOSettings(seed=0, max_nan_retries=2))
     episodes = random_episodes(network, [40, 40], np.random.default_rng(7))
     before = weights(network)
     handle = network.value_head.bias.register_hook(lambda grad: grad * float("inf"))
     with caplog.at_level(logging.WARNING, logger="racer.trainer.ppo"):
-        assert trainer.update(episodes) == []
+        assert learner.update(episodes) == []
     handle.remove()
-    assert trainer.nan_rollbacks == 3 and trainer.learning_rate == pytest.approx(3e-4 / 8)
+    assert learner.nan_rollbacks == 3 and learner.learning_rate == pytest.approx(3e-4 / 8)
     assert "skipped this iteration's 80 transitions" in caplog.text
     assert all(torch.equal(before[name], value) for name, value in network.state_dict().items())
-    stats = trainer.update(episodes)  # training goes on
+    stats = learner.update(episodes)  # training goes on
     assert len(stats) == 2 and all(math.isfinite(s.surrogate_loss) for s in stats)
 
 
 def test_nan_weights_from_outside_are_rolled_back(caplog):
     network = task_network(3)
-    trainer = PPOTrainer(network, HP, PPOSettings(seed=0))
+    learner = PPOLearner(network, HP, PPOSettings(seed=0))
     episodes = random_episodes(network, [40, 40], np.random.default_rng(8))
     before = weights(network)
     with torch.no_grad():
         network.value_tower.middleware[0].weight[0, 0] = float("nan")
     with caplog.at_level(logging.WARNING, logger="racer.trainer.ppo"):
-        stats = trainer.update(episodes)
+        stats = learner.update(episodes)
     assert "weights were not finite at the start of the update" in caplog.text
-    assert len(stats) == 2 and trainer.nan_rollbacks == 1
+    assert len(stats) == 2 and learner.nan_rollbacks == 1
     assert torch.isfinite(network.value_tower.middleware[0].weight).all()
     assert not torch.equal(before["value_head.weight"], network.value_head.weight)
 
@@ -224,14 +224,14 @@ def test_first_non_finite_parameter_names_the_weight_and_is_not_fooled_by_an_ove
 
 def test_episodes_with_non_finite_values_are_dropped(caplog):
     network = task_network(3)
-    trainer = PPOTrainer(network, replace(HP, num_epochs=1), PPOSettings(seed=0))
+    learner = PPOLearner(network, replace(HP, num_epochs=1), PPOSettings(seed=0))
     good, bad = random_episodes(network, [64, 10], np.random.default_rng(9))
     bad.rewards[3] = np.nan
     with caplog.at_level(logging.WARNING, logger="racer.trainer.ppo"):
-        (stats,) = trainer.update([good, bad])
+        (stats,) = learner.update([good, bad])
     assert "dropped episode 1 of worker 0" in caplog.text
     assert stats.minibatches == 2 and math.isfinite(stats.value_loss)  # 64 good transitions only
-    assert trainer.update([bad]) == []
+    assert learner.update([bad]) == []
 
 
 def test_log_lines_match_the_real_console_log(deepracer_data):
@@ -275,12 +275,12 @@ def test_ppo_learns_the_bar_task_within_a_fixed_budget(precision):
     hp = Hyperparameters(
         batch_size=32, num_epochs=3, lr=3e-4, beta_entropy=0.01, discount_factor=0.99, loss_type="huber"
     )
-    trainer = PPOTrainer(network, hp, PPOSettings(seed=0, precision=precision))
+    learner = PPOLearner(network, hp, PPOSettings(seed=0, precision=precision))
     rng = np.random.default_rng(0)
     start_accuracy = greedy_accuracy(network, num_actions, rng)
     accuracies = []
     for _ in range(8):
-        trainer.update(play(network, 96, num_actions, rng))
+        learner.update(play(network, 96, num_actions, rng))
         accuracies.append(greedy_accuracy(network, num_actions, rng))
         if accuracies[-1] > 0.95:
             break

@@ -282,7 +282,7 @@ def test_cloning_sac_from_ppo_is_refused_before_anything_starts(tmp_path):
 
 
 def test_racer_train_refuses_before_starting_redis_or_any_process(tmp_path, monkeypatch):
-    from racer.local.command import train_command
+    from racer.local.cli import train_command
 
     custom = write_custom(tmp_path, PPO_METADATA, {"exploration_type": "additive_noise"})
     monkeypatch.setenv("RACER_STORE", str(tmp_path / "racer-data"))
@@ -294,7 +294,7 @@ def test_racer_train_refuses_before_starting_redis_or_any_process(tmp_path, monk
 
 
 def test_racer_trainer_refuses_before_connecting(tmp_path, monkeypatch):
-    from racer.trainer.main import trainer_command
+    from racer.trainer.cli import trainer_command
 
     custom = write_custom(tmp_path, PPO_METADATA, {}, {"RACE_TYPE": "OBJECT_AVOIDANCE"})
     monkeypatch.setenv("RACER_REDIS_URL", "redis://127.0.0.1:1/0")  # nothing listens there: a connection would fail

@@ -16,7 +16,7 @@ from racer.shared.config import LocalStoreSettings, ServiceSettings
 from racer.shared.deepracer.training_params import parse_training_params
 from racer.shared.model_layout import ModelLayout
 from racer.shared.store import open_store
-from racer.trainer.main import trainer_command
+from racer.trainer.cli import trainer_command
 from tests.conftest import write_custom_files
 
 pytestmark = pytest.mark.slow

@@ -13,7 +13,7 @@ import torch
 
 from racer.shared.deepracer.hyperparameters import Hyperparameters
 from racer.shared.user_errors import RunConfigError
-from racer.trainer.ppo import PPOSettings, PPOTrainer
+from racer.trainer.ppo import PPOSettings, PPOLearner
 from racer.trainer.preflight import preflight
 from racer.trainer.preset import Preset, PresetError, load_preset, parse_preset
 from racer.trainer.sac import SACSettings
@@ -37,7 +37,7 @@ DEFAULTS_SPELLED_OUT = {
 def weights_after_one_update(settings: PPOSettings, hyperparameters: Hyperparameters = HP) -> dict[str, torch.Tensor]:
     network = task_network(3, seed=0)
     episodes = random_episodes(network, [30, 25, 20], np.random.default_rng(0))
-    PPOTrainer(network, hyperparameters, settings).update(episodes)
+    PPOLearner(network, hyperparameters, settings).update(episodes)
     return {name: value.detach().clone() for name, value in network.state_dict().items()}
 
 
@@ -61,7 +61,7 @@ def test_the_kl_cutoff_stops_the_remaining_epochs():
     network = task_network(3, seed=0)
     episodes = random_episodes(network, [30, 25, 20], np.random.default_rng(0))
     settings = parse_preset({"kl_cutoff": 1e-12}, "clipped_ppo").ppo_settings(PPOSettings(seed=0))
-    stats = PPOTrainer(network, replace(HP, num_epochs=5), settings).update(episodes)
+    stats = PPOLearner(network, replace(HP, num_epochs=5), settings).update(episodes)
     assert len(stats) < 5
 
 

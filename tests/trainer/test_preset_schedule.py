@@ -17,10 +17,10 @@ from racer.shared.deepracer.model_metadata import parse_model_metadata
 from racer.shared.policy.sac_networks import SACNetworks
 from racer.trainer.algorithms import LearnerOptions, build_learner
 from racer.trainer.clip_schedule import ClipSchedule
-from racer.trainer.main import trainer_command
-from racer.trainer.ppo import CLIP_EPSILON, PPOSettings, PPOTrainer
+from racer.trainer.cli import trainer_command
+from racer.trainer.ppo import CLIP_EPSILON, PPOSettings, PPOLearner
 from racer.trainer.preset import Preset, PresetError, parse_preset, sac_updates_per_transition
-from racer.trainer.sac import SACSettings, SACTrainer
+from racer.trainer.sac import SACSettings, SACLearner
 from tests.trainer.ppo_task import random_episodes, task_network
 from tests.trainer.test_preflight import custom_files_from
 from tests.trainer.test_preset import HP, weights_after_one_update
@@ -30,12 +30,12 @@ LINEAR = {"type": "linear", "initial_value": 1.0, "final_value": 0.25, "decay_st
 SAC_HP = Hyperparameters(batch_size=16, lr=3e-4, sac_alpha=0.2)
 
 
-def ppo_trainer(schedule: dict | None) -> tuple[PPOTrainer, list]:
+def ppo_trainer(schedule: dict | None) -> tuple[PPOLearner, list]:
     data = {} if schedule is None else {"clipping_decay_schedule": schedule}
     network = task_network(3, seed=0)
     episodes = random_episodes(network, [30, 25, 20], np.random.default_rng(0))
     settings = parse_preset(data, "clipped_ppo").ppo_settings(PPOSettings(seed=0))
-    return PPOTrainer(network, HP, settings), episodes
+    return PPOLearner(network, HP, settings), episodes
 
 
 def test_the_linear_schedule_moves_the_clip_range_by_environment_steps():
@@ -92,7 +92,7 @@ def sac_weights_after_one_update(settings: SACSettings) -> tuple[dict[str, torch
     torch.manual_seed(0)
     networks = SACNetworks(LIDAR_ONLY)
     episodes = bandit_episodes(networks, 40, np.random.default_rng(0))
-    (stats,) = SACTrainer(networks, SAC_HP, settings).update(episodes)
+    (stats,) = SACLearner(networks, SAC_HP, settings).update(episodes)
     return {name: value.detach().clone() for name, value in networks.state_dict().items()}, stats.gradient_steps
 
 
@@ -108,10 +108,10 @@ def test_a_sac_preset_of_deepracers_defaults_reproduces_todays_update_exactly():
         assert torch.equal(tensor, with_preset[name]), name
 
 
-def sac_learner(options: LearnerOptions) -> SACTrainer:
+def sac_learner(options: LearnerOptions) -> SACLearner:
     metadata = parse_model_metadata(SAC_METADATA)
     learner = build_learner(metadata, SAC_HP, options)
-    assert isinstance(learner, SACTrainer)
+    assert isinstance(learner, SACLearner)
     return learner
 
 

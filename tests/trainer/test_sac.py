@@ -24,7 +24,7 @@ from racer.shared.policy.sac_networks import SACNetworks, squashed_gaussian_log_
 from racer.shared.store import open_store
 from racer.trainer.precision import Precision
 from racer.trainer.replay import ReplayBuffer, bytes_per_transition
-from racer.trainer.sac import SACSettings, SACTrainer, sac_minibatch_size
+from racer.trainer.sac import SACSettings, SACLearner, sac_minibatch_size
 
 LIDAR_ONLY = PolicyConfig(
     neural_network="DEEP_CONVOLUTIONAL_NETWORK_SHALLOW",
@@ -139,7 +139,7 @@ def test_minibatch_follows_deepracers_rule():
 def test_sac_learns_a_one_step_task():
     torch.manual_seed(0)
     networks = SACNetworks(LIDAR_ONLY)
-    trainer = SACTrainer(
+    learner = SACLearner(
         networks,
         Hyperparameters(batch_size=64, lr=3e-3, sac_alpha=0.01),
         SACSettings(replay_memory_bytes=8 << 20, seed=0, updates_per_transition=1.0),
@@ -151,7 +151,7 @@ def test_sac_learns_a_one_step_task():
     target_before = [p.clone() for p in networks.target_value_head.parameters()]
     stats = []
     for _ in range(6):
-        stats += trainer.update(bandit_episodes(networks, 80, rng))
+        stats += learner.update(bandit_episodes(networks, 80, rng))
     with torch.no_grad():
         after = float(np.square(networks.policy_output(probe).numpy() - TARGET_ACTION).sum(axis=1).mean())
     assert stats[0].gradient_steps == 80 and stats[0].minibatch_size == 64
@@ -179,11 +179,11 @@ def test_target_v_is_copied_once_per_update_after_its_first_step():
     gradient step of every training call and not again until the next one."""
     torch.manual_seed(5)
     settings = SACSettings(replay_memory_bytes=4 << 20, seed=5, threads_per_tower=1, precision=Precision.FP32)
-    one_step = SACTrainer(SACNetworks(LIDAR_ONLY), Hyperparameters(batch_size=32, lr=1e-3), settings)
-    three_steps = SACTrainer(copy.deepcopy(one_step.networks), one_step.hyperparameters, settings)
+    one_step = SACLearner(SACNetworks(LIDAR_ONLY), Hyperparameters(batch_size=32, lr=1e-3), settings)
+    three_steps = SACLearner(copy.deepcopy(one_step.networks), one_step.hyperparameters, settings)
     episodes = bandit_episodes(one_step.networks, 40, np.random.default_rng(5))
-    for trainer in (one_step, three_steps):
-        trainer.add_experience(episodes)
+    for learner in (one_step, three_steps):
+        learner.add_experience(episodes)
     one_step._train(1, 32)
     three_steps._train(3, 32)
     after_first_step = _value_weights(one_step.networks, target=False)
@@ -203,11 +203,11 @@ def test_two_thread_step_computes_the_plain_sequential_step():
     networks = build_network_for_metadata(parse_model_metadata(SAC_METADATA))
     settings = SACSettings(replay_memory_bytes=4 << 20, seed=3, threads_per_tower=1, precision=Precision.FP32)
     hyperparameters = Hyperparameters(batch_size=8, lr=1e-3, loss_type="huber")
-    fast = SACTrainer(networks, hyperparameters, settings)
-    plain = SACTrainer(copy.deepcopy(networks), hyperparameters, settings)
+    fast = SACLearner(networks, hyperparameters, settings)
+    plain = SACLearner(copy.deepcopy(networks), hyperparameters, settings)
     episodes = synthetic_episodes(2, 12, seed=3)
-    for trainer in (fast, plain):
-        trainer.add_experience(episodes)
+    for learner in (fast, plain):
+        learner.add_experience(episodes)
     before = {name: p.detach().clone() for name, p in networks.named_parameters()}
     fast._train(1, 8)
     plain_sac_step(plain, plain.replay.sample(8, plain.rng))
@@ -228,11 +228,11 @@ def test_step_gradients_and_losses_are_the_textbook_steps(loss_type):
     networks = build_network_for_metadata(parse_model_metadata(SAC_METADATA))
     settings = SACSettings(replay_memory_bytes=4 << 20, seed=4, threads_per_tower=1, precision=Precision.FP32)
     hyperparameters = Hyperparameters(batch_size=16, lr=1e-3, loss_type=loss_type)
-    fast = SACTrainer(networks, hyperparameters, settings)
-    plain = SACTrainer(copy.deepcopy(networks), hyperparameters, settings)
+    fast = SACLearner(networks, hyperparameters, settings)
+    plain = SACLearner(copy.deepcopy(networks), hyperparameters, settings)
     episodes = synthetic_episodes(2, 30, seed=4)
-    for trainer in (fast, plain):
-        trainer.add_experience(episodes)
+    for learner in (fast, plain):
+        learner.add_experience(episodes)
     for step in range(3):
         stats = fast._train(1, 16)
         expected = plain_sac_step(plain, plain.replay.sample(16, plain.rng))
@@ -253,17 +253,17 @@ def test_step_gradients_and_losses_are_the_textbook_steps(loss_type):
 def test_non_finite_weights_roll_back_and_halve_the_learning_rate(caplog):
     torch.manual_seed(1)
     networks = SACNetworks(LIDAR_ONLY)
-    trainer = SACTrainer(networks, Hyperparameters(lr=3e-4), SACSettings(replay_memory_bytes=4 << 20, seed=1))
+    learner = SACLearner(networks, Hyperparameters(lr=3e-4), SACSettings(replay_memory_bytes=4 << 20, seed=1))
     rng = np.random.default_rng(1)
-    trainer.update(bandit_episodes(networks, 40, rng))
+    learner.update(bandit_episodes(networks, 40, rng))
     good = {k: v.clone() for k, v in networks.state_dict().items()}
     with torch.no_grad():
         networks.q_head.q1[0].weight[0, 0] = float("nan")
     with caplog.at_level(logging.WARNING, logger="racer.trainer.sac"):
-        trainer.update(bandit_episodes(networks, 40, rng))
+        learner.update(bandit_episodes(networks, 40, rng))
     assert "weights were not finite" in caplog.text
-    assert trainer.learning_rate == pytest.approx(1.5e-4)
-    assert trainer.nan_rollbacks == 1
+    assert learner.learning_rate == pytest.approx(1.5e-4)
+    assert learner.nan_rollbacks == 1
     assert all(torch.isfinite(v).all() for v in networks.state_dict().values())
     assert any(not torch.equal(good[k], v) for k, v in networks.state_dict().items())  # trained on after the rollback
 
@@ -272,7 +272,7 @@ def test_checkpoint_round_trip_and_the_exported_policy(tmp_path):
     torch.manual_seed(2)
     metadata = parse_model_metadata(SAC_METADATA)
     networks = build_network_for_metadata(metadata)
-    trainer = SACTrainer(networks, Hyperparameters(), SACSettings(replay_memory_bytes=16 << 20, seed=2))
+    learner = SACLearner(networks, Hyperparameters(), SACSettings(replay_memory_bytes=16 << 20, seed=2))
     rng = np.random.default_rng(2)
     frames = rng.integers(0, 255, (6, 120, 160, 1), dtype=np.uint8)
     actions = rng.uniform(-1, 1, (6, 2)).astype(np.float32)
@@ -285,16 +285,16 @@ def test_checkpoint_round_trip_and_the_exported_policy(tmp_path):
         worker_id=0,
         world="base",
     )
-    trainer.update([episode])
+    learner.update([episode])
     store = open_store(LocalStoreSettings(root=tmp_path))
     checkpoints = CheckpointStore(store, "sac-model")
-    name = checkpoints.save(1, 6, networks, trainer.optimizer, metadata, Hyperparameters())
+    name = checkpoints.save(1, 6, networks, learner.optimizer, metadata, Hyperparameters())
 
     manifest = json.loads(store.get_bytes(f"sac-model/model/{name}.json"))
     assert manifest["policy_config"]["training_algorithm"] == "sac"
     assert "sac_alpha" in manifest["hyperparameters"] and "num_epochs" not in manifest["hyperparameters"]
     restored = build_network_for_metadata(metadata)
-    fresh = SACTrainer(restored, Hyperparameters(), SACSettings(replay_memory_bytes=16 << 20))
+    fresh = SACLearner(restored, Hyperparameters(), SACSettings(replay_memory_bytes=16 << 20))
     assert checkpoints.restore(name, restored, fresh.optimizer) == (1, 6)
     for (key, a), b in zip(networks.state_dict().items(), restored.state_dict().values(), strict=True):
         assert torch.equal(a, b), key

@@ -330,8 +330,8 @@ def test_dynamics_randomization_travels_from_train_options_and_workers_json_to_e
 def test_a_bad_car_profile_option_is_refused_before_anything_starts(tmp_path, custom_files):
     from click.testing import CliRunner
 
-    from racer.local.command import train_command
-    from racer.trainer.main import trainer_command
+    from racer.local.cli import train_command
+    from racer.trainer.cli import trainer_command
 
     for command, args in (
         (train_command, ["--custom-files", str(custom_files)]),
