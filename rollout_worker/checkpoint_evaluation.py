@@ -10,7 +10,7 @@ import threading
 import numpy as np
 
 from racer.rollout_worker.episode_runner import play_episode
-from racer.rollout_worker.run_files import RunFiles
+from racer.rollout_worker.worker_files import WorkerFiles
 from racer.shared.deepracer.hyperparameters import Hyperparameters
 from racer.shared.deepracer.model_metadata import ModelMetadata
 from racer.shared.policy.action_selection import E_GREEDY_EVALUATION_EPSILON
@@ -32,7 +32,7 @@ def evaluation_epsilon(hyperparameters: Hyperparameters, metadata: ModelMetadata
 def evaluate_checkpoint(
     env: DeepRacerEnv,
     policy,
-    run: RunFiles,
+    run: WorkerFiles,
     iteration: int,
     worker_id: int,
     generator: np.random.Generator,

@@ -15,7 +15,7 @@ import logging
 import numpy as np
 
 from racer.rollout_worker.episode_runner import PlayedEpisode
-from racer.rollout_worker.run_files import RunFiles
+from racer.rollout_worker.worker_files import WorkerFiles
 from racer.shared.deepracer.episode_status import EpisodeStatus
 from racer.shared.deepracer.metrics import TrainingMetrics, TrainingMetricsEntry, read_training_metrics
 from racer.shared.deepracer.simtrace import SimtraceWriter
@@ -28,7 +28,7 @@ UNFINISHED_LAP_MS = 999_999
 
 
 class WorkerLog:
-    def __init__(self, store: ObjectStore, run: RunFiles, worker_id: int):
+    def __init__(self, store: ObjectStore, run: WorkerFiles, worker_id: int):
         self.store = store
         self.run = run
         self.worker_id = worker_id

@@ -31,7 +31,7 @@ from racer.rollout_worker.checkpoint_evaluation import evaluate_checkpoint, uses
 from racer.rollout_worker.claims import claim_next_episode
 from racer.rollout_worker.envs import env_generator, spread_env_configs
 from racer.rollout_worker.episode_runner import EpisodeRecorder
-from racer.rollout_worker.run_files import RunFiles, load_run_files, training_env_config
+from racer.rollout_worker.worker_files import WorkerFiles, load_worker_files, training_env_config
 from racer.rollout_worker.training_log import WorkerLog
 from racer.shared.config import ServiceSettings
 from racer.shared.policy.action_selection import e_greedy_epsilon
@@ -82,7 +82,7 @@ class RolloutWorker:
         self.checkpoints = CheckpointStore(self.store, options.model_prefix)
         self.state = _WorkerState()
         self._workdir = Path(tempfile.mkdtemp(prefix=f"racer-worker{self.worker_id}-"))
-        self.run: RunFiles | None = None
+        self.run: WorkerFiles | None = None
         self.envs: list[DeepRacerEnv] = []
         self.rollout: BatchedRollout | None = None
         self.policy = None
@@ -193,7 +193,7 @@ class RolloutWorker:
 
     # ---- set-up ----------------------------------------------------------------------------------
     def _prepare(self, announcement: Announcement) -> None:
-        self.run = load_run_files(
+        self.run = load_worker_files(
             self.store,
             self.options.model_prefix,
             self.worker_id,

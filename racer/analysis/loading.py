@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 
 from racer.analysis.robomaker_log import relabel_error, simtrace_csv_from_log
-from racer.analysis.sources import RunFiles, SimtraceFile
+from racer.analysis.sources import SimtraceFiles, SimtraceFile
 from racer.shared.deepracer.simtrace import SimtraceError, read_simtrace
 
 PLACEMENT_COLUMNS = ["phase", "run", "worker", "iteration"]
@@ -45,7 +45,7 @@ def fill_missing_status(frame: pd.DataFrame) -> pd.DataFrame:
     return frame.assign(episode_status=status, pause_duration=0.0)
 
 
-def load_steps(files: RunFiles, *, progress: bool = True) -> pd.DataFrame:
+def load_steps(files: SimtraceFiles, *, progress: bool = True) -> pd.DataFrame:
     """Read every CSV (with a progress bar on stderr: drawn on a terminal, its label once in a log) and derive the
     per-step columns analysis needs."""
     with click.progressbar(

@@ -17,7 +17,7 @@ from racer.analysis.race_layout import race_layout
 from racer.analysis.report_contents import build_report
 from racer.analysis.results import Analysis, for_pictures, on_track
 from racer.analysis.run_track import resolve_track
-from racer.analysis.sources import EVALUATION, TRAINING, RunFiles, open_source
+from racer.analysis.sources import EVALUATION, TRAINING, SimtraceFiles, open_source
 from racer.analysis.track_sections import TrackError, forward_waypoint, reversed_episodes
 from racer.shared.deepracer.metrics import MetricsError
 
@@ -25,7 +25,7 @@ NEEDS_TRACK = "the reward what-if rebuilds params from the track: give --track N
 
 
 def build_tables(
-    files: RunFiles,
+    files: SimtraceFiles,
     track_arg: str | None = None,
     tracks_dir: Path | None = None,
     *,
@@ -74,7 +74,7 @@ def build_tables(
     )
 
 
-def read_metrics(files: RunFiles, notes: list[str]) -> pd.DataFrame | None:
+def read_metrics(files: SimtraceFiles, notes: list[str]) -> pd.DataFrame | None:
     """The TrainingMetrics iteration tables of the source (one `source` per file); unreadable files become notes,
     since the simtrace analysis stands without them."""
     tables = []

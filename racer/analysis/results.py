@@ -9,13 +9,13 @@ from pathlib import Path
 import pandas as pd
 
 from racer.analysis.race_layout import RaceLayout
-from racer.analysis.sources import TRAINING, RunFiles
+from racer.analysis.sources import TRAINING, SimtraceFiles
 from racer.analysis.track_sections import Track
 
 
 @dataclass
 class Analysis:
-    files: RunFiles
+    files: SimtraceFiles
     steps: pd.DataFrame
     episodes: pd.DataFrame
     iterations: pd.DataFrame

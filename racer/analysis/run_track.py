@@ -9,11 +9,11 @@ from pathlib import Path
 
 import yaml
 
-from racer.analysis.sources import EVALUATION, RunFiles
+from racer.analysis.sources import EVALUATION, SimtraceFiles
 from racer.analysis.track_sections import Track, TrackError, load_track
 
 
-def run_tracks(files: RunFiles) -> dict[int | str, str]:
+def run_tracks(files: SimtraceFiles) -> dict[int | str, str]:
     """WORLD_NAME by who used it: worker i (training_params.yaml = worker 0, training_params_<i>.yaml = worker i)
     or "evaluation" (eval_params*.yaml, evaluation_params*.yaml)."""
     tracks: dict[int | str, str] = {}
@@ -34,7 +34,7 @@ def run_tracks(files: RunFiles) -> dict[int | str, str]:
 
 
 def resolve_track(
-    files: RunFiles, track_arg: str | None, tracks_dir: Path | None, notes: list[str]
+    files: SimtraceFiles, track_arg: str | None, tracks_dir: Path | None, notes: list[str]
 ) -> tuple[Track | None, set[int] | None]:
     """(track, training workers that drove it; None = all).
 

@@ -64,7 +64,9 @@ class SimtraceFile:
 
 
 @dataclass(frozen=True)
-class RunFiles:
+class SimtraceFiles:
+    """A run's simtrace CSVs and the files found beside them, from any source `open_source` accepts."""
+
     description: str
     simtraces: list[SimtraceFile]
     params_yaml: dict[str, bytes]
@@ -103,7 +105,7 @@ def classify_loose_csv(path: Path) -> tuple[str, str, int, int]:
     return phase, path.stem, 0, int(match.group(1)) if match else 0
 
 
-def _from_keys(keys: list[str], name_of: Callable[[str], str], read: Callable[[str], bytes]) -> RunFiles:
+def _from_keys(keys: list[str], name_of: Callable[[str], str], read: Callable[[str], bytes]) -> SimtraceFiles:
     simtraces: list[SimtraceFile] = []
     params: dict[str, bytes] = {}
     metrics: dict[str, bytes] = {}
@@ -119,28 +121,28 @@ def _from_keys(keys: list[str], name_of: Callable[[str], str], read: Callable[[s
         elif is_training_metrics(key):
             metrics[name_of(key)] = read(key)
     simtraces.sort(key=lambda f: (f.phase, f.run, f.worker, f.iteration))
-    return RunFiles("", simtraces, params, metrics)
+    return SimtraceFiles("", simtraces, params, metrics)
 
 
-def from_folder(folder: Path) -> RunFiles:
+def from_folder(folder: Path) -> SimtraceFiles:
     keys = sorted(p.relative_to(folder).as_posix() for p in folder.rglob("*") if p.is_file())
     found = _from_keys(keys, lambda k: str(folder / k), lambda k: (folder / k).read_bytes())
     return replace(found, description=str(folder))
 
 
-def from_csv(path: Path) -> RunFiles:
+def from_csv(path: Path) -> SimtraceFiles:
     phase, run, worker, iteration = classify("/".join(path.parts[-4:])) or classify_loose_csv(path)
-    return RunFiles(str(path), [SimtraceFile(str(path), phase, run, worker, iteration, path.read_bytes)], {})
+    return SimtraceFiles(str(path), [SimtraceFile(str(path), phase, run, worker, iteration, path.read_bytes)], {})
 
 
-def from_log(path: Path) -> RunFiles:
+def from_log(path: Path) -> SimtraceFiles:
     """A simulation log given on its own; iterations are not in the log, so every episode counts as iteration 0."""
     phase = TRAINING if "training" in path.name.lower() else EVALUATION
     file = SimtraceFile(str(path), phase, path.stem, 0, 0, path.read_bytes, from_log=True)
-    return RunFiles(str(path), [file], {})
+    return SimtraceFiles(str(path), [file], {})
 
 
-def from_tar(path: Path) -> RunFiles:
+def from_tar(path: Path) -> SimtraceFiles:
     """A console "Download logs" archive or any tar.gz of a model folder; read in memory, nothing is extracted."""
     try:
         with tarfile.open(path, "r:*") as archive:
@@ -167,7 +169,7 @@ def store_url(store: ObjectStore, key: str) -> str:
     return str(Path(store.describe()) / key)
 
 
-def from_store(store: ObjectStore, prefix: str) -> RunFiles:
+def from_store(store: ObjectStore, prefix: str) -> SimtraceFiles:
     prefix = prefix.strip("/")
     listed = store.list_keys(f"{prefix}/" if prefix else "")
     relative = [key[len(prefix) + 1 :] if prefix else key for key in listed]
@@ -176,7 +178,7 @@ def from_store(store: ObjectStore, prefix: str) -> RunFiles:
     return replace(found, description=f"{store_url(store, prefix)} ({store.describe()})")
 
 
-def open_source(source: str) -> RunFiles:
+def open_source(source: str) -> SimtraceFiles:
     """Resolve the command-line SOURCE: an existing path, else s3://bucket/prefix, else a model prefix in RACER_STORE."""
     path = Path(source).expanduser()
     if path.is_dir():

@@ -28,7 +28,7 @@ from racer.shared.store import LocalStore, ObjectNotFoundError, S3Store
 from racer.shared.store.base import validate_key
 from racer.viewer.live import LiveRun
 from racer.viewer.object_ranges import s3_object_response
-from racer.viewer.run_files import RunFiles
+from racer.viewer.run_reader import RunReader
 
 STATIC_DIR = Path(__file__).resolve().parent / "static"
 
@@ -64,7 +64,7 @@ def _worker_ids(listed: str | None) -> list[int] | None:
         raise HTTPException(400, f"workers={listed!r}: expected worker ids separated by commas") from None
 
 
-def create_app(files: RunFiles, live: LiveRun | None) -> Starlette:
+def create_app(files: RunReader, live: LiveRun | None) -> Starlette:
     async def index(request: Request) -> Response:
         return _no_store(FileResponse(STATIC_DIR / "index.html", media_type="text/html"))
 

@@ -19,7 +19,7 @@ from racer.shared.store import LocalStore
 from racer.shared.transport.frames import FrameChannel
 from racer.viewer.app import create_app
 from racer.viewer.live import LiveRun
-from racer.viewer.run_files import RunFiles, RunLocation
+from racer.viewer.run_reader import RunReader, RunLocation
 from tests.viewer.conftest import ServedApp
 from tests.viewer.frames import publish_frame
 
@@ -82,7 +82,7 @@ def test_the_polling_load_asks_for_frames_and_reads_them(tmp_path, redis_setting
     store.put_bytes("bench-load/training_params.yaml", b"WORLD_NAME: racer_oval\nNUM_WORKERS: '1'\n")
     frames = FrameChannel(RedisLink(redis_settings), "bench-load")
     publish_frame(frames, 0, seq=1, shade=90)
-    app = create_app(RunFiles(RunLocation(store, "bench-load")), LiveRun(redis_settings, "bench-load"))
+    app = create_app(RunReader(RunLocation(store, "bench-load")), LiveRun(redis_settings, "bench-load"))
     with ServedApp(app) as served:
         load = PagePolls(served.url + "/")
         try:

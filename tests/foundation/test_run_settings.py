@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from racer.evaluation_worker.config import DeepRacerRules, EvaluationConfig, RaceRules
-from racer.rollout_worker.run_files import load_run_files, training_env_config
+from racer.rollout_worker.worker_files import load_worker_files, training_env_config
 from racer.shared.config import LocalStoreSettings
 from racer.shared.deepracer.training_params import training_params_to_yaml
 from racer.shared.model_layout import ModelLayout
@@ -143,7 +143,7 @@ def test_rollout_and_evaluation_build_the_same_env_from_the_same_settings(tmp_pa
         race=OBSTACLES,
     )
     store = open_store(LocalStoreSettings(root=upload_run(tmp_path, worker)))
-    run = load_run_files(store, "model", 0, tmp_path / "worker")
+    run = load_worker_files(store, "model", 0, tmp_path / "worker")
     rollout = training_env_config(run)
     settings, job = evaluation.run_settings(run.model_metadata)
     assert settings == run.worker

@@ -11,7 +11,7 @@ import pytest
 
 from racer.rollout_worker.checkpoint_evaluation import evaluate_checkpoint
 from racer.rollout_worker.episode_runner import play_episode
-from racer.rollout_worker.run_files import RunFiles
+from racer.rollout_worker.worker_files import WorkerFiles
 from racer.shared.deepracer.hyperparameters import Hyperparameters
 from racer.shared.deepracer.model_metadata import parse_model_metadata
 from racer.shared.model_layout import ModelLayout
@@ -45,7 +45,7 @@ def env():
 
 
 def evaluate(env: DeepRacerEnv, settings: WorkerSettings) -> list:
-    run = RunFiles(ModelLayout("m"), METADATA, Hyperparameters(), env.config.reward_function_path, settings)
+    run = WorkerFiles(ModelLayout("m"), METADATA, Hyperparameters(), env.config.reward_function_path, settings)
     return evaluate_checkpoint(
         env, Straight(), run, 3, 0, np.random.default_rng(0), lambda *step: None, threading.Event()
     )

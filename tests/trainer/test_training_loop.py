@@ -107,7 +107,7 @@ def test_a_stop_request_finishes_the_run(redis_settings, tmp_path, custom_files)
 def test_per_worker_settings_travel_from_workers_json_to_each_worker(redis_settings, tmp_path, custom_files):
     """workers.json (like DeepRacer-for-Cloud's worker-N.env) -> training_params_<i>.yaml in the store -> the
     settings each rollout worker reads back."""
-    from racer.rollout_worker.run_files import read_training_params
+    from racer.rollout_worker.worker_files import read_training_params
     from racer.shared.worker_settings import WorkerSettings
 
     (custom_files / "workers.json").write_text(
@@ -205,7 +205,7 @@ def test_workers_json_names_deepracer_tracks_found_on_the_route_search_path(
     redis_settings, tmp_path, custom_files, deepracer_data, monkeypatch
 ):
     """WORLD_NAME as in training_params.yaml, TRACK_DIRECTION_CLOCKWISE as DeepRacer-on-AWS sends it."""
-    from racer.rollout_worker.run_files import read_training_params
+    from racer.rollout_worker.worker_files import read_training_params
     from racer.shared.user_errors import RunConfigError
 
     monkeypatch.setenv("RACER_ROUTES_PATH", str(deepracer_data / "routes"))
@@ -228,7 +228,7 @@ def test_race_settings_travel_from_train_options_and_workers_json_to_each_worker
 ):
     """`--race-type` / `--race-param` for every worker, workers.json over them per worker; the store's yaml keeps
     OBJECT_POSITIONS as DeepRacer's list of "ndist,lane"; each worker's env gets its RaceConfig."""
-    from racer.rollout_worker.run_files import load_run_files, training_env_config
+    from racer.rollout_worker.worker_files import load_worker_files, training_env_config
     from racer.shared.deepracer.training_params import parse_training_params
     from racer.shared.sim.race_config import ObjectPosition, RaceConfig
 
@@ -255,7 +255,7 @@ def test_race_settings_travel_from_train_options_and_workers_json_to_each_worker
     yaml_text = store.get_bytes(layout.training_params(0)).decode()
     assert list(parse_training_params(yaml_text).values["OBJECT_POSITIONS"]) == ["0.25,1", "0.5,-1"]
     assert '"OBJECT_POSITIONS":\n- "0.25,1"\n- "0.5,-1"' in yaml_text  # a YAML list, as in DeepRacer's yaml
-    configs = [training_env_config(load_run_files(store, PREFIX, i, tmp_path / f"worker-{i}")) for i in (0, 1)]
+    configs = [training_env_config(load_worker_files(store, PREFIX, i, tmp_path / f"worker-{i}")) for i in (0, 1)]
     assert configs[0].race == RaceConfig(
         race_type="OBJECT_AVOIDANCE",
         object_positions=(ObjectPosition(0.25, 1), ObjectPosition(0.5, -1)),
@@ -272,14 +272,14 @@ def test_the_car_profile_travels_from_train_options_and_workers_json_to_each_wor
 ):
     """`--car-profile` for every worker, workers.json's RACER_CAR_PROFILE over it per worker; the model's
     training_params record each worker's car and each worker's env drives it. A bad name is refused by name."""
-    from racer.rollout_worker.run_files import load_run_files, training_env_config
+    from racer.rollout_worker.worker_files import load_worker_files, training_env_config
     from racer.shared.deepracer.training_params import parse_training_params
     from racer.shared.sim.car_dynamics import GAZEBO_DYNAMICS, SIMTRACE_FIT_DYNAMICS
     from racer.shared.user_errors import RunConfigError
 
     make_trainer(redis_settings, tmp_path / "default", custom_files).setup()
     store = open_store(LocalStoreSettings(root=tmp_path / "default" / "store"))
-    assert training_env_config(load_run_files(store, PREFIX, 0, tmp_path / "w")).car_dynamics == GAZEBO_DYNAMICS
+    assert training_env_config(load_worker_files(store, PREFIX, 0, tmp_path / "w")).car_dynamics == GAZEBO_DYNAMICS
 
     (custom_files / "workers.json").write_text(json.dumps({"workers": [{}, {"RACER_CAR_PROFILE": "gazebo"}]}))
     make_trainer(redis_settings, tmp_path, custom_files, car_profile="simtrace-fit").setup()
@@ -290,7 +290,7 @@ def test_the_car_profile_travels_from_train_options_and_workers_json_to_each_wor
         for i in (0, 1)
     ]
     assert recorded == ["simtrace-fit", "gazebo"]
-    configs = [training_env_config(load_run_files(store, PREFIX, i, tmp_path / f"worker-{i}")) for i in (0, 1)]
+    configs = [training_env_config(load_worker_files(store, PREFIX, i, tmp_path / f"worker-{i}")) for i in (0, 1)]
     assert [config.car_dynamics for config in configs] == [SIMTRACE_FIT_DYNAMICS, GAZEBO_DYNAMICS]
 
     valid = r"unknown car profile 'f1'; choose one of gazebo, simtrace-fit"
@@ -305,12 +305,12 @@ def test_the_car_profile_travels_from_train_options_and_workers_json_to_each_wor
 def test_dynamics_randomization_travels_from_train_options_and_workers_json_to_each_workers_env(
     redis_settings, tmp_path, custom_files
 ):
-    from racer.rollout_worker.run_files import load_run_files, training_env_config
+    from racer.rollout_worker.worker_files import load_worker_files, training_env_config
     from racer.shared.deepracer.training_params import parse_training_params
 
     make_trainer(redis_settings, tmp_path / "default", custom_files).setup()
     store = open_store(LocalStoreSettings(root=tmp_path / "default" / "store"))
-    assert not training_env_config(load_run_files(store, PREFIX, 0, tmp_path / "w")).dynamics_randomization
+    assert not training_env_config(load_worker_files(store, PREFIX, 0, tmp_path / "w")).dynamics_randomization
 
     (custom_files / "workers.json").write_text(json.dumps({"workers": [{}, {"RACER_DYNAMICS_RANDOMIZATION": False}]}))
     make_trainer(redis_settings, tmp_path, custom_files, dynamics_randomization=True).setup()
@@ -323,7 +323,7 @@ def test_dynamics_randomization_travels_from_train_options_and_workers_json_to_e
         for i in (0, 1)
     ]
     assert recorded == ["True", "False"]
-    configs = [training_env_config(load_run_files(store, PREFIX, i, tmp_path / f"worker-{i}")) for i in (0, 1)]
+    configs = [training_env_config(load_worker_files(store, PREFIX, i, tmp_path / f"worker-{i}")) for i in (0, 1)]
     assert [config.dynamics_randomization for config in configs] == [True, False]
 
 
@@ -348,7 +348,7 @@ def test_training_params_keys_work_or_are_refused_by_name(redis_settings, tmp_pa
     """NUMBER_OF_RESETS, OFF_TRACK_PENALTY and NUMBER_OF_REVERSE_COUNTS reach the training env as the SimApp reads
     them; bad race keys (an unknown RACE_TYPE, a count that is no number, objects in a time trial) are a clear error
     naming the key."""
-    from racer.rollout_worker.run_files import load_run_files, training_env_config
+    from racer.rollout_worker.worker_files import load_worker_files, training_env_config
     from racer.shared.sim.env import DeepRacerEnv
     from racer.shared.user_errors import RunConfigError
     from tests.sim.conftest import place_front_at
@@ -379,7 +379,7 @@ def test_training_params_keys_work_or_are_refused_by_name(redis_settings, tmp_pa
     )
     make_trainer(redis_settings, tmp_path, custom_files).setup()
     store = open_store(LocalStoreSettings(root=tmp_path / "store"))
-    run = load_run_files(store, PREFIX, 1, tmp_path / "worker-1")
+    run = load_worker_files(store, PREFIX, 1, tmp_path / "worker-1")
     config = training_env_config(run)
     assert (config.number_of_resets, config.off_track_penalty_s, config.number_of_reverse_counts) == (2, 1.0, 5)
     env = DeepRacerEnv(config)

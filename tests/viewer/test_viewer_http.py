@@ -27,7 +27,7 @@ from racer.shared.transport.channels import RunChannel
 from racer.shared.transport.frames import FrameChannel
 from racer.viewer.app import create_app
 from racer.viewer.live import LiveRun
-from racer.viewer.run_files import RunFiles, RunLocation, RunNotFoundError, resolve_run
+from racer.viewer.run_reader import RunReader, RunLocation, RunNotFoundError, resolve_run
 from tests.viewer.conftest import DRFC_MODEL, EVALUATION_RUN, ServedApp, free_port
 from tests.viewer.frames import publish_frame
 
@@ -53,7 +53,7 @@ def raw_get(port: int, path: str) -> int:
 
 @pytest.fixture
 def store_viewer(drfc_store):
-    files = RunFiles(resolve_run(str(drfc_store / DRFC_MODEL)))
+    files = RunReader(resolve_run(str(drfc_store / DRFC_MODEL)))
     with ServedApp(create_app(files, live=None)) as served:
         yield served
 
@@ -148,7 +148,7 @@ def test_live_endpoints_show_workers_frames_and_a_lost_redis(tmp_path, redis_ser
     settings = RedisSettings(url=redis_server.url, connect_timeout_s=5)
     link = RedisLink(settings)
     run, frames = RunChannel(link, "live-model"), FrameChannel(link, "live-model")
-    app = create_app(RunFiles(RunLocation(store, "live-model")), LiveRun(settings, "live-model"))
+    app = create_app(RunReader(RunLocation(store, "live-model")), LiveRun(settings, "live-model"))
     with ServedApp(app) as served:
         info = json.loads(get(served.url + "/api/run")[2])
         assert info["live"] and [w["world"] for w in info["workers"]] == ["base", "carpet"]
@@ -241,7 +241,7 @@ def test_progress_is_sent_again_only_when_it_changed(tmp_path):
     store = LocalStore(tmp_path / "store")
     record = {"iteration": 0, "mean_reward": 1.0, "mean_progress": 5.0, "completion_rate": 0.0, "worlds": {}}
     store.put_bytes("etag-model/metrics/iterations.jsonl", (json.dumps(record) + "\n").encode())
-    with ServedApp(create_app(RunFiles(RunLocation(store, "etag-model")), None)) as served:
+    with ServedApp(create_app(RunReader(RunLocation(store, "etag-model")), None)) as served:
         with urllib.request.urlopen(served.url + "/api/progress", timeout=30) as response:
             etag = response.headers["ETag"]
             assert response.status == 200 and len(json.loads(response.read())["iterations"]) == 1 and etag

@@ -11,7 +11,7 @@ import pytest
 from racer.shared.store import LocalStore, S3Store
 from racer.viewer.app import create_app
 from racer.viewer.object_ranges import UnsatisfiableRange, requested_range
-from racer.viewer.run_files import RunFiles, RunLocation
+from racer.viewer.run_reader import RunReader, RunLocation
 from tests.viewer.conftest import ServedApp
 
 VIDEO_KEY = "range-model/evaluation/run-1/top.mp4"
@@ -36,7 +36,7 @@ def served(request, tmp_path):
         store = LocalStore(tmp_path / "store")
     store.put_bytes(VIDEO_KEY, VIDEO)
     store.put_bytes("range-model/metrics/empty.json", b"")
-    with ServedApp(create_app(RunFiles(RunLocation(store, "range-model")), None)) as app:
+    with ServedApp(create_app(RunReader(RunLocation(store, "range-model")), None)) as app:
         yield app
 
 

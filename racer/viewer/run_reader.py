@@ -108,7 +108,7 @@ def _iterations_from_training_metrics(data: bytes, name: str) -> list[dict]:
     ]
 
 
-class RunFiles:
+class RunReader:
     """Cached reads of one run's files; each is read again only when its size changed (thread-safe)."""
 
     def __init__(self, location: RunLocation):

@@ -22,7 +22,9 @@ from racer.shared.worker_settings import WorkerSettings
 
 
 @dataclass(frozen=True)
-class RunFiles:
+class WorkerFiles:
+    """The run's files as one rollout worker uses them: the trainer's uploads and this worker's settings."""
+
     layout: ModelLayout
     model_metadata: ModelMetadata
     hyperparameters: Hyperparameters
@@ -43,14 +45,14 @@ def read_training_params(store: ObjectStore, layout: ModelLayout, worker_id: int
     raise ObjectNotFoundError(store.describe(), layout.training_params(0))
 
 
-def load_run_files(
+def load_worker_files(
     store: ObjectStore,
     model_prefix: str,
     worker_id: int,
     workdir: Path,
     world_override: str | None = None,
     track_override: str | None = None,
-) -> RunFiles:
+) -> WorkerFiles:
     layout = ModelLayout(model_prefix)
     metadata_source = f"{store.describe()}/{layout.model_metadata}"
     try:
@@ -70,7 +72,7 @@ def load_run_files(
     params, params_key = read_training_params(store, layout, worker_id)
     worker = WorkerSettings.from_training_params(params, source=f"{store.describe()}/{params_key}")
     worker = worker.replace(world=world_override, track=track_override)
-    return RunFiles(
+    return WorkerFiles(
         layout=layout,
         model_metadata=metadata,
         hyperparameters=hyperparameters,
@@ -79,7 +81,7 @@ def load_run_files(
     )
 
 
-def training_env_config(run: RunFiles) -> EnvConfig:
+def training_env_config(run: WorkerFiles) -> EnvConfig:
     """The env of a training worker: its training_params (DeepRacer's keys) applied to DeepRacer's defaults, through
     the run-settings builder the evaluation worker uses too (racer.shared.run_settings.env_config)."""
     return env_config(
