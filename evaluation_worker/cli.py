@@ -178,7 +178,7 @@ def evaluate_command(
         DeepRacerRules,
         EvaluationConfig,
         EvaluationConfigError,
-        RaceRules,
+        SummitRules,
         VideoOptions,
     )
     from racer.evaluation_worker.multi_car import MultiCarError
@@ -207,7 +207,7 @@ def evaluate_command(
                 off_track_penalty_s=off_track_penalty,
                 collision_penalty_s=collision_penalty,
             ),
-            race=RaceRules(
+            summit=SummitRules(
                 race_duration_s=race_minutes * 60.0,
                 resets_per_lap=race_resets_per_lap,
                 reset_penalty_s=race_reset_penalty,

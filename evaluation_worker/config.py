@@ -55,7 +55,7 @@ class DeepRacerRules:
 
 
 @dataclass(frozen=True)
-class RaceRules:
+class SummitRules:
     """The AWS Summit physical-track rule: race for a fixed time, up to 3 put-backs per lap."""
 
     race_duration_s: float = 240.0
@@ -118,7 +118,7 @@ class EvaluationConfig:
     world: str = "base"
     reverse_dir: bool = False
     deepracer: DeepRacerRules = field(default_factory=DeepRacerRules)
-    race: RaceRules = field(default_factory=RaceRules)
+    summit: SummitRules = field(default_factory=SummitRules)
     race_setup: RaceConfig = RaceConfig()
     """RACE_TYPE and the obstacles / bot cars on the track (both modes); crashes cost COLLISION_PENALTY (deepracer
     mode) or the put-back penalty (race mode) and count as a reset."""
@@ -147,9 +147,9 @@ class EvaluationConfig:
         from them, as for a rollout worker): DeepRacer's default evaluation reward, the start on the line, the mode's
         reset budget and penalties."""
         if self.mode == "race":
-            penalty = self.race.reset_penalty_s
-            resets, off_track, collision = self.race.resets_per_lap, penalty, penalty
-            job = JobSettings(model_metadata, None, penalty, penalty, self.race.put_back)
+            penalty = self.summit.reset_penalty_s
+            resets, off_track, collision = self.summit.resets_per_lap, penalty, penalty
+            job = JobSettings(model_metadata, None, penalty, penalty, self.summit.put_back)
         else:
             rules = self.deepracer
             resets, off_track, collision = rules.number_of_resets, rules.off_track_penalty_s, rules.collision_penalty_s

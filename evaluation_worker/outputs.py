@@ -25,7 +25,7 @@ from typing import Any
 from racer.evaluation_worker.config import EvaluationConfig
 from racer.evaluation_worker.driver import StepRecord
 from racer.evaluation_worker.laps import LapResult
-from racer.evaluation_worker.race_rule import RaceResult
+from racer.evaluation_worker.summit_rule import SummitResult
 from racer.shared import model_layout
 from racer.shared.deepracer.episode_status import EpisodeStatus
 from racer.shared.deepracer.metrics import EvaluationMetrics, EvaluationMetricsEntry
@@ -101,14 +101,14 @@ def evaluation_params(config: EvaluationConfig, layout: EvaluationLayout, checkp
     if config.race_setup.has_objects:
         params.update(config.race_setup.to_training_params())  # OBJECT_POSITIONS stays a YAML list
     if config.mode == "race":
-        race = config.race
+        summit = config.summit
         params.update(
             {
-                "RACE_DURATION": str(race.race_duration_s),
-                "NUMBER_OF_RESETS": str(race.resets_per_lap),
-                "OFF_TRACK_PENALTY": str(race.reset_penalty_s),
-                "RACER_PUT_BACK": race.put_back,
-                "IS_CONTINUOUS": str(race.continuous).lower(),
+                "RACE_DURATION": str(summit.race_duration_s),
+                "NUMBER_OF_RESETS": str(summit.resets_per_lap),
+                "OFF_TRACK_PENALTY": str(summit.reset_penalty_s),
+                "RACER_PUT_BACK": summit.put_back,
+                "IS_CONTINUOUS": str(summit.continuous).lower(),
             }
         )
     else:
@@ -173,19 +173,19 @@ def summary_dict(
     header: dict[str, Any],
     rules: Any,
     laps: list[LapResult] | tuple[LapResult, ...],
-    race: RaceResult | None,
+    summit: SummitResult | None,
     track_length_m: float,
     timings: dict[str, Any],
     files: dict[str, Any],
 ) -> dict[str, Any]:
     summary: dict[str, Any] = {"mode": mode, **header, "rules": asdict(rules)}
     summary.update(lap_statistics(laps, track_length_m))
-    if race is not None:
+    if summit is not None:
         summary["race"] = {
-            "race_start_s": _round(race.race_start_s),
-            "race_end_s": _round(race.race_end_s),
+            "race_start_s": _round(summit.race_start_s),
+            "race_end_s": _round(summit.race_end_s),
             "ended_by": "time_up"
-            if race.laps and race.laps[-1].status == "time_up"
+            if summit.laps and summit.laps[-1].status == "time_up"
             else "no time left for another attempt",
         }
     summary["laps"] = [lap_dict(lap) for lap in laps]

@@ -32,7 +32,7 @@ from racer.evaluation_worker.outputs import (
     format_table,
     summary_dict,
 )
-from racer.evaluation_worker.race_rule import RaceResult, run_race
+from racer.evaluation_worker.summit_rule import SummitResult, run_summit
 from racer.evaluation_worker.video import VIEWS, VideoRecorder
 from racer.shared.deepracer.metrics import EvaluationMetrics
 from racer.shared.deepracer.model_metadata import ModelMetadata, ModelMetadataError, parse_model_metadata
@@ -54,7 +54,7 @@ class EvaluationReport:
     checkpoint: str | None
     """The checkpoint evaluated (None when a policy object was given)."""
     laps: tuple[LapResult, ...]
-    race: RaceResult | None
+    summit: SummitResult | None
     metrics: EvaluationMetrics
     summary: dict[str, Any]
     table: str
@@ -187,7 +187,7 @@ class EvaluationSession:
             f"world {config.world} -> {self.layout.key(self.layout.run_name)}"
         )
         started = time.perf_counter()
-        race: RaceResult | None = None
+        summit: SummitResult | None = None
         finished: list[LapResult] = []
         metrics_key = self.layout.key(self.layout.relative("metrics"))
 
@@ -199,28 +199,28 @@ class EvaluationSession:
 
         try:
             if config.mode == "race":
-                race = run_race(self.driver, config.race, on_lap)
-                laps = race.laps
+                summit = run_summit(self.driver, config.summit, on_lap)
+                laps = summit.laps
             else:
                 laps = tuple(run_deepracer_evaluation(self.driver, config.deepracer, on_lap))
         finally:
             self.driver.close()
             self.env.close()
-        return self.finish(laps, race, time.perf_counter() - started)
+        return self.finish(laps, summit, time.perf_counter() - started)
 
     def finish(
-        self, laps: tuple[LapResult, ...], race: RaceResult | None, wall_s: float, extra: dict[str, Any] | None = None
+        self, laps: tuple[LapResult, ...], summit: SummitResult | None, wall_s: float, extra: dict[str, Any] | None = None
     ) -> EvaluationReport:
         """Write the files of a run whose steps the driver has taken (and closed), and drop the work folder.
         `extra`: more summary keys (a multi-car race's)."""
         try:
-            return self._write(laps, race, wall_s, extra or {})
+            return self._write(laps, summit, wall_s, extra or {})
         finally:
             if not self._keep_dir:
                 shutil.rmtree(self.workdir, ignore_errors=True)
 
     def _write(
-        self, laps: tuple[LapResult, ...], race: RaceResult | None, wall_s: float, extra: dict[str, Any]
+        self, laps: tuple[LapResult, ...], summit: SummitResult | None, wall_s: float, extra: dict[str, Any]
     ) -> EvaluationReport:
         config, layout = self.config, self.layout
         steps = self.driver.steps_total
@@ -249,14 +249,14 @@ class EvaluationSession:
             else None,
             "video_frames": video_frames,
         }
-        rules = config.race if config.mode == "race" else config.deepracer
+        rules = config.summit if config.mode == "race" else config.deepracer
         metrics = evaluation_metrics(laps)
         summary = summary_dict(
             mode=config.mode,
             header=self._header(),
             rules=rules,
             laps=laps,
-            race=race,
+            summit=summit,
             track_length_m=self.env.base_track.length_m,
             timings=timings,
             files={name: layout.key(relative) for name, relative in files.items()},
@@ -278,7 +278,7 @@ class EvaluationSession:
             layout=layout,
             checkpoint=self.checkpoint,
             laps=laps,
-            race=race,
+            summit=summit,
             metrics=metrics,
             summary=summary,
             table=format_table(laps, self.env.base_track.length_m),

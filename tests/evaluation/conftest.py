@@ -5,7 +5,7 @@ from __future__ import annotations
 import datetime as dt
 from pathlib import Path
 
-from racer.evaluation_worker.config import DeepRacerRules, EvaluationConfig, RaceRules, VideoOptions
+from racer.evaluation_worker.config import DeepRacerRules, EvaluationConfig, SummitRules, VideoOptions
 from racer.evaluation_worker.runner import EvaluationReport, EvaluationSession
 from racer.shared.deepracer.model_metadata import ModelMetadata
 from racer.shared.deepracer.simtrace import read_simtrace
@@ -24,7 +24,7 @@ def run_scripted(
     exits: dict[int, list[float]] | None = None,
     speed_mps: float = 2.0,
     deepracer: DeepRacerRules | None = None,
-    race: RaceRules | None = None,
+    summit: SummitRules | None = None,
     video: VideoOptions = NO_VIDEO,
     mcap: bool = False,
     track: str = "racer_oval",
@@ -46,7 +46,7 @@ def run_scripted(
         world=world,
         reverse_dir=reverse_dir,
         deepracer=deepracer or DeepRacerRules(),
-        race=race or RaceRules(),
+        summit=summit or SummitRules(),
         video=video,
         mcap=mcap,
         race_setup=race_setup or RaceConfig(),

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from racer.evaluation_worker.config import DeepRacerRules, RaceRules
+from racer.evaluation_worker.config import DeepRacerRules, SummitRules
 from racer.shared.sim.race_config import ObjectPosition, RaceConfig
 
 from .conftest import run_scripted, simtrace_of
@@ -29,9 +29,9 @@ def test_deepracer_mode_crash_pauses_for_the_collision_penalty_and_counts(tmp_pa
     assert '"RACE_TYPE": "OBJECT_AVOIDANCE"' in params and '- "0.3,1"' in params
 
 
-def test_race_rule_counts_a_crash_as_a_put_back(tmp_path):
-    rules = RaceRules(race_duration_s=20.0, reset_penalty_s=0.5, put_back="deepracer")
-    report, _ = run_scripted(tmp_path, mode="race", speed_mps=1.5, race=rules, race_setup=BOX_ON_THE_INNER_LANE)
+def test_summit_rule_counts_a_crash_as_a_put_back(tmp_path):
+    rules = SummitRules(race_duration_s=20.0, reset_penalty_s=0.5, put_back="deepracer")
+    report, _ = run_scripted(tmp_path, mode="race", speed_mps=1.5, summit=rules, race_setup=BOX_ON_THE_INNER_LANE)
     first = report.laps[0]
     assert first.crash_count >= 1 and first.put_backs >= 1
     rows = simtrace_of(tmp_path, report)

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from racer.evaluation_worker.config import DeepRacerRules, EvaluationConfig, RaceRules
+from racer.evaluation_worker.config import DeepRacerRules, EvaluationConfig, SummitRules
 from racer.rollout_worker.worker_files import load_worker_files, training_env_config
 from racer.shared.config import LocalStoreSettings
 from racer.shared.deepracer.training_params import training_params_to_yaml
@@ -127,7 +127,7 @@ def test_rollout_and_evaluation_build_the_same_env_from_the_same_settings(tmp_pa
         world="wood",
         reverse_dir=True,
         deepracer=DeepRacerRules(number_of_resets=3, off_track_penalty_s=1.5, collision_penalty_s=3.0),
-        race=RaceRules(resets_per_lap=3, reset_penalty_s=1.5, put_back="where_it_left"),
+        summit=SummitRules(resets_per_lap=3, reset_penalty_s=1.5, put_back="where_it_left"),
         race_setup=OBSTACLES,
         car_profile="simtrace-fit",
     )

@@ -6,7 +6,7 @@ import json
 
 import pytest
 
-from racer.evaluation_worker.config import EvaluationConfigError, RaceRules
+from racer.evaluation_worker.config import EvaluationConfigError, SummitRules
 from tests.evaluation.conftest import run_scripted, simtrace_of
 
 STEP_S = 1.0 / 15.0
@@ -14,8 +14,8 @@ STEP_S = 1.0 / 15.0
 
 def test_three_put_backs_per_lap_and_the_fourth_exit_ends_the_attempt(tmp_path):
     exits = {0: [20.0, 45.0, 70.0], 1: [15.0, 30.0, 50.0, 80.0]}
-    rules = RaceRules(race_duration_s=26.0, reset_penalty_s=0.0, put_back="deepracer")
-    report, policy = run_scripted(tmp_path, mode="race", exits=exits, race=rules)
+    rules = SummitRules(race_duration_s=26.0, reset_penalty_s=0.0, put_back="deepracer")
+    report, policy = run_scripted(tmp_path, mode="race", exits=exits, summit=rules)
     laps = report.laps
     assert policy.done >= {(0, p) for p in exits[0]} | {(1, p) for p in exits[1]}
 
@@ -51,9 +51,9 @@ def test_three_put_backs_per_lap_and_the_fourth_exit_ends_the_attempt(tmp_path):
 
 def test_the_time_limit_ends_the_race_mid_lap(tmp_path):
     duration_s = 11.0
-    report, _ = run_scripted(tmp_path, mode="race", race=RaceRules(race_duration_s=duration_s))
+    report, _ = run_scripted(tmp_path, mode="race", summit=SummitRules(race_duration_s=duration_s))
     rows = simtrace_of(tmp_path, report)
-    start_s = report.race.race_start_s
+    start_s = report.summit.race_start_s
     assert rows.tstamp.iloc[0] == pytest.approx(start_s + STEP_S)  # the prepare row is stamped after its physics
     assert rows.episode_status.iloc[-1] == "time_up" and bool(rows.done.iloc[-1])
     assert rows.tstamp.iloc[-1] - start_s > duration_s
@@ -79,10 +79,10 @@ def test_the_time_limit_ends_the_race_mid_lap(tmp_path):
 def test_put_back_penalty_holds_the_car_while_the_race_clock_runs(tmp_path):
     exits = {0: [30.0]}
     fast, _ = run_scripted(
-        tmp_path / "a", mode="race", exits=exits, race=RaceRules(race_duration_s=9.0, reset_penalty_s=0.0)
+        tmp_path / "a", mode="race", exits=exits, summit=SummitRules(race_duration_s=9.0, reset_penalty_s=0.0)
     )
     held, _ = run_scripted(
-        tmp_path / "b", mode="race", exits=exits, race=RaceRules(race_duration_s=9.0, reset_penalty_s=1.0)
+        tmp_path / "b", mode="race", exits=exits, summit=SummitRules(race_duration_s=9.0, reset_penalty_s=1.0)
     )
     rows = simtrace_of(tmp_path / "b", held)
     assert (simtrace_of(tmp_path / "a", fast).episode_status == "pause").sum() == 1  # a put-back takes one step
@@ -96,13 +96,13 @@ def test_put_back_penalty_holds_the_car_while_the_race_clock_runs(tmp_path):
 
 def test_race_settings_are_checked():
     with pytest.raises(EvaluationConfigError, match="race-resets-per-lap"):
-        RaceRules(resets_per_lap=-1)
+        SummitRules(resets_per_lap=-1)
     with pytest.raises(EvaluationConfigError, match="race-minutes"):
-        RaceRules(race_duration_s=0.0)
+        SummitRules(race_duration_s=0.0)
 
 
 def test_race_without_continuous_laps_restarts_every_lap_at_the_line(tmp_path):
-    report, _ = run_scripted(tmp_path, mode="race", race=RaceRules(race_duration_s=17.0, continuous=False))
+    report, _ = run_scripted(tmp_path, mode="race", summit=SummitRules(race_duration_s=17.0, continuous=False))
     rows = simtrace_of(tmp_path, report)
     assert report.laps[0].completed and report.laps[1].completed
     firsts = rows.groupby("episode").head(1)
@@ -120,15 +120,15 @@ def test_an_off_track_shortcut_never_shortens_a_lap(tmp_path):
     """A put-back must not beat driving the lap: the car cuts across the infield (a chord to the centre line 1.5-5 m
     further on), is put back where it left the road (the seed's rule) after the marshal's 2 s, and is slower than
     driving clean. (The env-level test in tests/sim/test_env_rules.py shows the spot gives back what a cut gained.)"""
-    rules = RaceRules(race_duration_s=25.0)
+    rules = SummitRules(race_duration_s=25.0)
     assert (rules.reset_penalty_s, rules.put_back) == (2.0, "where_it_left")
-    clean, _ = run_scripted(tmp_path / "clean", mode="race", race=rules)
+    clean, _ = run_scripted(tmp_path / "clean", mode="race", summit=rules)
     clean_best = min(_lap_times(clean))
     cut_laps = []
     for shortcut_m, start_pct in ((1.5, 10.0), (3.0, 35.0), (5.0, 60.0)):
         exits = {0: [start_pct], 1: [start_pct]}
         cut, _ = run_scripted(
-            tmp_path / f"cut-{shortcut_m}", mode="race", race=rules, exits=exits, shortcut_m=shortcut_m
+            tmp_path / f"cut-{shortcut_m}", mode="race", summit=rules, exits=exits, shortcut_m=shortcut_m
         )
         cut_laps += [lap.lap_time_s for lap in cut.laps if lap.completed and lap.put_backs > 0]
     assert len(cut_laps) >= 3
@@ -136,7 +136,7 @@ def test_an_off_track_shortcut_never_shortens_a_lap(tmp_path):
 
 
 def test_the_put_back_spot_is_where_the_car_left_half_a_step_back(tmp_path):
-    report, _ = run_scripted(tmp_path, mode="race", exits={0: [40.0]}, race=RaceRules(race_duration_s=9.0))
+    report, _ = run_scripted(tmp_path, mode="race", exits={0: [40.0]}, summit=SummitRules(race_duration_s=9.0))
     rows = simtrace_of(tmp_path, report)
     exit_index = rows.index[rows.episode_status == "off_track"][0]
     before = rows.loc[:exit_index]

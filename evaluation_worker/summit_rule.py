@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from racer.evaluation_worker.config import RaceRules
+from racer.evaluation_worker.config import SummitRules
 from racer.evaluation_worker.driver import EvaluationDriver
 from racer.evaluation_worker.laps import LapCallback, LapResult, LapTally, ignore_lap
 from racer.shared.deepracer.episode_status import EpisodeStatus
@@ -22,8 +22,8 @@ _CLOCK_TOLERANCE_S = 1e-6
 
 
 @dataclass(frozen=True)
-class RaceResult:
-    rules: RaceRules
+class SummitResult:
+    rules: SummitRules
     laps: tuple[LapResult, ...]
     race_start_s: float
     race_end_s: float
@@ -44,7 +44,7 @@ class RaceResult:
         return float(sum(min(lap.progress_pct, 100.0) for lap in self.laps))
 
 
-def run_race(driver: EvaluationDriver, rules: RaceRules, on_lap: LapCallback = ignore_lap) -> RaceResult:
+def run_summit(driver: EvaluationDriver, rules: SummitRules, on_lap: LapCallback = ignore_lap) -> SummitResult:
     race_start_s = driver.start_lap(0)
     laps: list[LapResult] = []
     lap_index = 0
@@ -81,4 +81,4 @@ def run_race(driver: EvaluationDriver, rules: RaceRules, on_lap: LapCallback = i
         if past_limit(driver.sim_time_s):
             break
         tally = LapTally(lap_index, driver.start_lap(lap_index))
-    return RaceResult(rules=rules, laps=tuple(laps), race_start_s=race_start_s, race_end_s=laps[-1].end_time_s)
+    return SummitResult(rules=rules, laps=tuple(laps), race_start_s=race_start_s, race_end_s=laps[-1].end_time_s)
