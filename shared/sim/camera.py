@@ -2,8 +2,8 @@
 `bundle/markov/sensors/sensors_rollout.py`).
 
 DeepRacer renders 640×480 and bilinear-resizes to 160×120. Here the camera renders 160×120 directly: with
-software OpenGL the 640×480 frame costs several times more (the simulator README gives the measured figures), and
-the picture differs only in anti-aliasing of thin lines.
+software OpenGL the 640×480 frame costs several times more, and the picture differs only in anti-aliasing of thin
+lines, which the direct frame imitates (shared/sim/README.md, "The camera").
 """
 
 from __future__ import annotations
@@ -87,7 +87,8 @@ def rgb_to_l(rgb: np.ndarray) -> np.ndarray:
 TEXTURE_LOD_BIAS = -1.0
 """Mip level offset for the direct frame. GL picks a texture's mip level from the longer side of a pixel's
 footprint, which on a road seen at a grazing angle blurs it across; one level finer keeps lines and dashes as sharp
-as DeepRacer's 640x480 + resize. (Anisotropic filtering would do it properly but costs llvmpipe ~8x the frame.)"""
+as DeepRacer's 640x480 + resize. (Anisotropic filtering would do it properly but costs llvmpipe several times the
+frame.)"""
 RESIZE_KERNEL = np.array([0.125, 0.75, 0.125], dtype=np.float32)
 """Separable filter applied to the direct frame: the part of DeepRacer's 4x bilinear downscale (a triangle one
 output pixel wide) that a point-sampled pixel misses; it softens geometric edges such as the walls' foot."""

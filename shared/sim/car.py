@@ -38,7 +38,7 @@ WHEEL_MASS_KG = 0.34055
 HINGE_MASS_KG = 0.1
 URDF_CHASSIS_MASS_KG = 5.0
 TOTAL_MASS_KG = URDF_CHASSIS_MASS_KG + 4 * WHEEL_MASS_KG + 2 * HINGE_MASS_KG
-"""6.5622 kg, the SimApp URDF's chassis, wheels and hinges (was 5.7 kg before the dynamics replay)."""
+"""6.5622 kg, the SimApp URDF's chassis, wheels and hinges."""
 CHASSIS_MASS_KG = TOTAL_MASS_KG - 4 * WHEEL_MASS_KG - 2 * HINGE_MASS_KG
 STEERING_LIMIT_RAD = 1.0
 """Joint limit of the steering hinges (URDF)."""

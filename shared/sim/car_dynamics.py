@@ -2,8 +2,8 @@
 MuJoCo-free, so the config can name them without importing the simulator.
 
 * `GAZEBO_DYNAMICS` (the default): what policies trained in DeepRacer's Gazebo lap with in racer's simulator, judged
-  closed loop with real policies (shared/sim/README.md, "Closed loop: what real DeepRacer policies respond to").
-* `SIMTRACE_FIT_DYNAMICS`: the constants fitted open loop on the real simtraces (`racer bench fidelity --fit`).
+  closed loop with real policies (`racer bench transfer`; docs/car-and-camera.md).
+* `SIMTRACE_FIT_DYNAMICS`: the constants fitted open loop on the real simtraces (research/tyre_fit/).
 * `SIMAPP5_ROS1_DYNAMICS`, `SIMAPP6_ROS2_DYNAMICS`: DeepRacer's car per SimApp generation, built from the SimApp's
   URDF, contact and controller files (`simapp_car_profiles`).
 """
@@ -16,8 +16,8 @@ from racer.shared.sim import simapp_car_profiles as simapp
 from racer.shared.sim.tyres import GAZEBO_TYRES, TyreParams
 
 STEERING_TIME_CONSTANT_S = 0.0166
-"""How fast the hinges follow a new angle, fitted with the tyre model on real simtraces (`racer bench fidelity`);
-both presets use it (closed loop a slower servo loses laps: 0.066 s 7/10, 0.135 s 5/10 for model_30)."""
+"""How fast the hinges follow a new angle, fitted with the tyre model on real simtraces (research/tyre_fit/);
+both `gazebo` and `simtrace-fit` use it (closed loop, real policies lose laps with a slower servo)."""
 YAW_INERTIA_KGM2 = 0.475
 """The whole car's inertia about the vertical, fitted with the tyre model on real simtraces: the real cars' yaw rate
 carries on between steps as if the car were ≈ 6× as hard to turn as the URDF's (URDF_YAW_INERTIA_KGM2)."""
@@ -37,15 +37,14 @@ class CarDynamics:
 
 
 SIMTRACE_FIT_DYNAMICS = CarDynamics(TyreParams(), STEERING_TIME_CONSTANT_S, YAW_INERTIA_KGM2)
-"""The constants fitted on the real simtraces (console 2022 / DRfC runs, `racer bench fidelity --fit`): the open-loop
+"""The constants fitted on the real simtraces (console 2022 / DRfC runs, research/tyre_fit/): the open-loop
 replay's best car, but real DeepRacer policies do not lap with it (soft front axle, 6× the URDF's yaw inertia)."""
 GAZEBO_DYNAMICS = CarDynamics(GAZEBO_TYRES, STEERING_TIME_CONSTANT_S, URDF_YAW_INERTIA_KGM2)
 """The env's default: stiff equal-axle tyres rolling at the commanded speed, the URDF's yaw inertia and the fast
-servo. Policies trained in DeepRacer's Gazebo drive racer's simulator with it (model_30 of the re:Invent 2018 sample
-10/10 laps, model_15 10/10; with the simtrace fit 0/10 and 0/10; shared/sim/README.md, "Closed loop"). It stays the
-default over the profiles built from DeepRacer's source (`simapp5-ros1` 0/10 and 0/10, `simapp6-ros2` 4/10 and 3/10):
-its servo is ≈ 30× faster than the ROS 1 hinge PD's 0.5 s and its peak grip ≈ 2× a Coulomb μ 0.5, the two source
-facts that cost those laps (README, "Car profiles from DeepRacer's source")."""
+servo. Policies trained in DeepRacer's Gazebo lap racer's tracks with it, and not with the simtrace fit or the
+profiles built from DeepRacer's source (`racer bench transfer`). Against the source it keeps two constants: a servo
+≈ 30× faster than the ROS 1 hinge PD's 0.5 s and a peak grip ≈ 2× a Coulomb μ 0.5, the two source facts that cost
+real policies their laps (docs/car-and-camera.md)."""
 SIMAPP5_ROS1_DYNAMICS = CarDynamics(
     simapp.source_tyres(), simapp.ROS1_STEERING_TIME_CONSTANT_S, simapp.ROS1_YAW_INERTIA_KGM2
 )

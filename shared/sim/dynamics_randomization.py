@@ -1,6 +1,6 @@
 """racer's dynamics randomisation (`RACER_DYNAMICS_RANDOMIZATION`, off by default): a new car every training episode.
 
-DeepRacer's car is not one car (shared/sim/README.md, "Closed loop"): the Gazebo classic SimApp, the gz-sim SimApp
+DeepRacer's car is not one car (docs/car-and-camera.md): the Gazebo classic SimApp, the gz-sim SimApp
 and the physical car differ in grip, servo, inertia, speed and latency. The car profiles in `car_dynamics` (the
 hand-chosen `gazebo`, the open-loop `simtrace-fit`, and `simapp5-ros1` / `simapp6-ros2` built from the SimApps'
 source) bracket what racer knows of them, and a policy meant to drive in all of them trains on a car drawn at every
@@ -54,7 +54,7 @@ class DynamicsRandomizationRanges:
     peak_grip: tuple[float, float] = (0.85, 2.3)
     """Peak lateral force / (μ × the axle's load), both axles alike, log-uniform (gazebo and simtrace-fit 1.96, the
     simapp profiles 1.0). Without it a policy trained around `gazebo` never met the ROS 1 car's grip, one of the two
-    source facts that cost real policies their laps there (shared/sim/README.md)."""
+    source facts that cost real policies their laps there (docs/car-and-camera.md)."""
 
 
 DYNAMICS_RANDOMIZATION_RANGES = DynamicsRandomizationRanges()

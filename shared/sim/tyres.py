@@ -11,8 +11,9 @@ computed here from the chassis velocity, the steering hinges' angle and the whee
 
 The forces act at the centre of mass (no load transfer, no roll): yaw comes from the axles' lever arms, and the
 chassis' yaw inertia makes the yaw rate carry on between steps, as the real DeepRacer simtraces show. A Coulomb
-contact (the sphere tyres before) cannot: it understeers at small steering angles, oversteers at full lock and resets
-the yaw rate within a step. The constants are fitted on real simtraces (`racer bench fidelity`, shared/sim/README.md).
+contact (a sphere tyre) cannot: it understeers at small steering angles, oversteers at full lock and resets the yaw
+rate within a step. The default constants are fitted on real simtraces (research/tyre_fit/ in the repository;
+docs/car-and-camera.md).
 """
 
 from __future__ import annotations
@@ -29,8 +30,8 @@ GRAVITY_MPS2 = 9.81
 
 @dataclass(frozen=True)
 class TyreParams:
-    """The tyre model's constants; the defaults are fitted on the real simtraces (shared/sim/README.md). The env's
-    default car uses `GAZEBO_TYRES` instead (what policies trained in DeepRacer's Gazebo drive with)."""
+    """The tyre model's constants; the defaults are fitted on the real simtraces (research/tyre_fit/). The
+    env's default car uses `GAZEBO_TYRES` instead (what policies trained in DeepRacer's Gazebo drive with)."""
 
     front_cornering_stiffness_n_per_rad: float = 50.93
     rear_cornering_stiffness_n_per_rad: float = 104.94
@@ -61,8 +62,8 @@ GAZEBO_TYRES = TyreParams(
 """The tyres of the env's default car (`car.GAZEBO_DYNAMICS`): stiff and equal on both axles (the car follows its
 wheels almost kinematically, neutral steer, until the axles saturate at the fitted peak grip × μ × load), rolling at
 the commanded speed. Closed loop, real policies trained in DeepRacer's Gazebo lap with them and not with the
-simtrace fit's soft, understeering front axle (front 50.9 vs rear 104.9 N/rad) and 1.12× speed (shared/sim/README.md,
-"Closed loop"). Anywhere from 150 to 1000 N/rad on both axles gives 8-10 of 10 laps for both sample policies."""
+simtrace fit's soft, understeering front axle (front 50.9 vs rear 104.9 N/rad) and 1.12× speed
+(docs/car-and-camera.md); the exact stiffness matters little as long as both axles are equal and stiff."""
 
 
 class Tyres:
