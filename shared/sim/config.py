@@ -95,11 +95,11 @@ class EnvConfig:
     balance, yaw inertia, steering servo, rolling radius, a 0-1 step command delay; see dynamics_randomization.py)."""
     render_full_resolution: bool = False
     """True = DeepRacer's path: render 640×480, bilinear-resize to the image size (PIL, as the SimApp).
-    False (default) = render the image size directly, about 5-8x cheaper with software GL."""
+    False (default) = render the image size directly, several times cheaper with software GL."""
     car_dynamics: CarDynamics = GAZEBO_DYNAMICS
     """The car's tyres, steering servo and yaw inertia. The default is what policies trained in DeepRacer's Gazebo
     lap with (stiff equal-axle tyres at the commanded speed, the URDF's yaw inertia); `car_dynamics.SIMTRACE_FIT_DYNAMICS`
-    is the open-loop fit to real simtraces (shared/sim/README.md, "Closed loop")."""
+    is the open-loop fit to real simtraces (docs/car-and-camera.md)."""
     race: RaceConfig = RaceConfig()
     """RACE_TYPE and the obstacle / bot-car keys; the default is a time trial (nothing on the track)."""
 
