@@ -1,10 +1,9 @@
 """Closed loop with real DeepRacer policies: the sample model trained in DeepRacer's Gazebo on re:Invent 2018
 (`models/gazebo-sample-reinvent2018`, frozen graphs, 12 actions, front camera) drives racer's default car greedily.
 
-The yardstick `../shared/tools/drive_real_model.py` uses (10 spread starts) gives 10/10 laps for model_30 and
-model_15 with the default car and 0/10 with the car fitted on the simtraces (shared/sim/README.md, "Closed loop");
-here three starts each keep the test at a few seconds. The graphs' weights are read from the GraphDef's Const nodes
-in numpy (no TensorFlow), the network is DeepRacer's shallow one.
+`racer bench transfer` drives them from 10 spread starts: both lap with the default car and not with the car fitted on
+the simtraces (docs/transfer.md); here three starts each keep the test at a few seconds. The graphs' weights are read
+from the GraphDef's Const nodes in numpy (no TensorFlow), the network is DeepRacer's shallow one.
 """
 
 from __future__ import annotations
