@@ -58,10 +58,10 @@ class CheckpointInfo:
         continuous = data.get("policy_config", {}).get("action_space_type") == "continuous"
         if continuous and data.get("continuous_mean") != CONTINUOUS_MEAN:
             raise CheckpointError(
-                f"checkpoint {data.get('name')} is a continuous model from racer before its head became DeepRacer's "
-                "(its mean was tanh of the layer's output, DeepRacer's is the output itself): the same weights would "
-                "drive differently, so racer refuses it. Train it again, or evaluate it with the racer version that "
-                "trained it"
+                f"checkpoint {data.get('name')} is a continuous model whose manifest lacks continuous_mean "
+                f"{CONTINUOUS_MEAN!r} (its mean is tanh of the layer's output, DeepRacer's is the output itself): the "
+                "same weights would drive differently, so racer refuses it. Train it again, or evaluate it with the "
+                "racer version that trained it"
             )
         return cls(
             name=str(data["name"]),

@@ -34,7 +34,8 @@ Heads: discrete = Dense(num_actions) -> softmax -> max(p, 1e-8) (not renormalise
 DeepRacer's: the mean is the linear Dense(2) output (RL Coach's `tf.identity` named `policy`, not squashed), plus a
 state-independent log-std parameter (init 0, clipped to [-20, 3] where it is used). The same weights therefore act the
 same in racer, in RL Coach and on the car; the environment clips the action to [-1, 1] when it scales it, as the
-SimApp's does. (racer's checkpoints before `CONTINUOUS_MEAN` = "linear" squashed the mean with tanh; they are refused.)
+SimApp's does. (A checkpoint whose manifest lacks `continuous_mean` = "linear" squashed the mean with tanh; it is
+refused.)
 """
 
 from __future__ import annotations
