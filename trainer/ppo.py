@@ -34,8 +34,8 @@ tower runs on the calling one (the towers share no weight, so the gradients are 
 each with `threads_per_tower` intra-op threads for the duration of the update; Adam runs as one fused kernel
 (`fused=True`, same arithmetic as the textbook loop); the network is channels-last; step 2 replaces the
 per-minibatch old-policy pass. The towers compute in fp32 on every CPU; `PPOSettings.precision` = bf16 runs them
-under bf16 autocast (about twice as fast where the CPU has native bf16, ~20x slower where it is emulated), which
-changes what a run learns (`racer.trainer.precision`). torch.compile was measured ~20 % slower than eager.
+under bf16 autocast (faster where the CPU has native bf16, far slower where it is emulated; docs/benchmarks.md),
+which changes what a run learns (`racer.trainer.precision`). torch.compile is not used: it is slower than eager here.
 
 Non-finite numbers never abort training (`racer.trainer.nan_guard`): a NaN/inf loss, gradient or weight rolls the
 network and optimiser back to their state before the update, halves the learning rate, logs one plain warning and

@@ -25,7 +25,7 @@ SAC:
 
 The entropy weight is hyperparameters.json's `beta_entropy` (RL Coach's clipped PPO has one, the same) and SAC's
 alpha is its `sac_alpha`: a preset refuses them, as it refuses every key it does not know, naming them. Every default
-is DeepRacer's, so a run without a preset (or with one that sets the defaults) is today's run bit for bit.
+is DeepRacer's, so a run with a preset that sets the defaults is the run without a preset, bit for bit.
 """
 
 from __future__ import annotations

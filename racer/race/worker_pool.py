@@ -1,10 +1,10 @@
 """Long-lived race workers (`python -m racer.race.worker --serve`), one per core, taking entrants in turn.
 
-A fresh process per entrant paid about 4 s of CPU for imports before its first step: on 2 cores, a quarter of a
-time-trial entrant's cost. A worker that dies (a native crash, the OOM killer) takes only its current entrant with
-it: the pool notes which one and starts a new worker for the rest. A worker retires after TASKS_PER_WORKER entrants,
-because with videos on the process grows by some 40 MB per evaluation (630 MB after 2 entrants, 915 MB after 9;
-without videos it levels off near 770 MB), which a long race would otherwise pile up.
+A fresh process per entrant would pay seconds of CPU for imports before its first step, a large share of a
+time-trial entrant's cost on 2 cores. A worker that dies (a native crash, the OOM killer) takes only its current
+entrant with it: the pool notes which one and starts a new worker for the rest. A worker retires after
+TASKS_PER_WORKER entrants, because with videos on the process grows with every evaluation, which a long race would
+otherwise pile up.
 """
 
 from __future__ import annotations

@@ -16,9 +16,9 @@ Done flags are not sent: every episode is complete, so its last transition is th
 says how it ended (lap_complete, off_track, ...). T is the episode's step count, the same for every array.
 
 Camera frames are most of the bytes. Workers compress them with zstd level 1: on rendered grayscale frames it
-shrinks them as much as zlib level 1 did (about 2.8 times) in a fifth of the CPU time, and compressing runs in the
-worker's step loop, once per finished episode (`racer bench rollout` measures both). That keeps a 20-episode
-iteration to a few MB in Redis. Batches written with zlib (racer before zstd) still decode.
+shrinks them about as much as zlib level 1 at a fraction of the CPU time, and compressing runs in the worker's step
+loop, once per finished episode (`racer bench rollout` measures it). That keeps a 20-episode iteration to a few MB
+in Redis. Arrays with codec "zlib" still decode.
 """
 
 from __future__ import annotations
