@@ -1,6 +1,6 @@
-"""The workers' numpy action selection (racer.shared.policy.action_selection) chooses what the torch path chose before
-the workers dropped torch: the same actions bit for bit from the same seeded generator, and log-probabilities equal to
-the trainer's torch formulas to ~1e-6, over many draws; and it runs in a process where torch cannot be imported."""
+"""The workers' numpy action selection (racer.shared.policy.action_selection) chooses what the torch path chooses:
+the same actions bit for bit from the same seeded generator, and log-probabilities equal to the trainer's torch
+formulas to ~1e-6, over many draws; and it runs in a process where torch cannot be imported."""
 
 from __future__ import annotations
 
@@ -29,17 +29,17 @@ from racer.shared.store import LocalStore
 DRAWS = 2000
 
 
-def _todays_gaussian(mean32: np.ndarray, log_std: torch.Tensor, greedy: bool, rng: np.random.Generator):
-    """The continuous PPO choice as OnnxPolicy made it before: a torch GaussianPolicy through `select_action`, with
-    the log-probability the trainer computes (GaussianPolicy.log_prob, torch)."""
+def _torch_gaussian(mean32: np.ndarray, log_std: torch.Tensor, greedy: bool, rng: np.random.Generator):
+    """The continuous PPO choice through torch: a GaussianPolicy through `select_action`, with the log-probability
+    the trainer computes (GaussianPolicy.log_prob, torch)."""
     distribution = GaussianPolicy(mean=torch.from_numpy(mean32[None]), log_std=log_std)
     action, _ = select_action(distribution, greedy, rng)
     mean64 = GaussianPolicy(mean=distribution.mean.double(), log_std=log_std.double())
     return action, float(mean64.log_prob(torch.from_numpy(action.astype(np.float64))[None])[0])
 
 
-def _todays_squashed(deterministic, mean, log_std, greedy: bool, rng: np.random.Generator):
-    """SacOnnxPolicy's choice before: numpy sampling, the log-probability by sac_networks' torch formula."""
+def _reference_squashed(deterministic, mean, log_std, greedy: bool, rng: np.random.Generator):
+    """The SAC choice by reference: numpy sampling, the log-probability by sac_networks' torch formula."""
     if greedy:
         return deterministic.astype(np.float32), 0.0
     raw = mean + np.exp(log_std) * rng.standard_normal(mean.shape)
@@ -69,7 +69,7 @@ def test_continuous_ppo_actions_equal_the_torch_path_bit_for_bit_over_many_draws
         log_std = torch.from_numpy(source.uniform(-2.0, 0.5, 2).astype(np.float32))
         greedy = draw % 4 == 0
         seed = int(source.integers(1 << 31))
-        expected = _todays_gaussian(mean32, log_std, greedy, np.random.default_rng(seed))
+        expected = _torch_gaussian(mean32, log_std, greedy, np.random.default_rng(seed))
         actual = select_gaussian_action(
             mean32.astype(np.float64), log_std.numpy().astype(np.float64), greedy, np.random.default_rng(seed)
         )
@@ -85,7 +85,7 @@ def test_sac_actions_equal_the_torch_path_bit_for_bit_over_many_draws():
         deterministic = np.tanh(mean)
         greedy = draw % 4 == 0
         seed = int(source.integers(1 << 31))
-        expected = _todays_squashed(deterministic, mean, log_std, greedy, np.random.default_rng(seed))
+        expected = _reference_squashed(deterministic, mean, log_std, greedy, np.random.default_rng(seed))
         actual = select_squashed_gaussian_action(deterministic, mean, log_std, greedy, np.random.default_rng(seed))
         assert actual[0].tobytes() == expected[0].tobytes()
         assert actual[1] == pytest.approx(expected[1], abs=1e-6)
@@ -176,10 +176,10 @@ def test_checkpoints_act_in_a_process_without_torch_as_they_do_with_it(tmp_path)
             elif name == "continuous-ppo":
                 mean32 = policy.policy_outputs([{"LIDAR": lidar[i]}])[0]
                 log_std = torch.tensor([-0.7, -1.1])
-                expected = _todays_gaussian(mean32, log_std, greedy, rng)
+                expected = _torch_gaussian(mean32, log_std, greedy, rng)
             else:
                 deterministic, mean, log_std = (output[0].astype(np.float64) for output in output_rows)
-                expected = _todays_squashed(deterministic, mean, log_std, greedy, rng)
+                expected = _reference_squashed(deterministic, mean, log_std, greedy, rng)
             action, log_prob = without_torch[name][i]
             assert np.array_equal(np.asarray(action, np.float32), np.asarray(expected[0], np.float32)), (name, i)
             assert log_prob == pytest.approx(expected[1], abs=1e-6), (name, i)

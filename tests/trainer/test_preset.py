@@ -1,6 +1,6 @@
 """Training presets (preset.json): parsing and refusal naming the keys, a preset of DeepRacer's defaults reproduces
-today's PPO update bit for bit, the parameters change the update, SAC's target copy rate, and the learner factory
-and preflight carry the preset."""
+the PPO update without a preset bit for bit, the parameters change the update, SAC's target copy rate, and the
+learner factory and preflight carry the preset."""
 
 from __future__ import annotations
 
@@ -41,20 +41,20 @@ def weights_after_one_update(settings: PPOSettings, hyperparameters: Hyperparame
     return {name: value.detach().clone() for name, value in network.state_dict().items()}
 
 
-def test_a_preset_of_deepracers_defaults_reproduces_todays_update_exactly():
+def test_a_preset_of_deepracers_defaults_reproduces_the_update_without_a_preset():
     preset = parse_preset(DEFAULTS_SPELLED_OUT, "clipped_ppo")
     assert preset == Preset()
-    today = weights_after_one_update(PPOSettings(seed=0))
+    plain = weights_after_one_update(PPOSettings(seed=0))
     with_preset = weights_after_one_update(preset.ppo_settings(PPOSettings(seed=0)))
-    for name, tensor in today.items():
+    for name, tensor in plain.items():
         assert torch.equal(tensor, with_preset[name]), name
 
 
 def test_the_preset_parameters_change_the_update():
-    today = weights_after_one_update(PPOSettings(seed=0))
+    plain = weights_after_one_update(PPOSettings(seed=0))
     for change in ({"value_loss_weight": 0.5}, {"clip_gradients": 0.01}, {"gae_lambda": 0.5}):
         changed = weights_after_one_update(parse_preset(change, "clipped_ppo").ppo_settings(PPOSettings(seed=0)))
-        assert any(not torch.equal(today[name], changed[name]) for name in today), change
+        assert any(not torch.equal(plain[name], changed[name]) for name in plain), change
 
 
 def test_the_kl_cutoff_stops_the_remaining_epochs():

@@ -1,6 +1,7 @@
 """The two preset keys that move the update over a run: PPO's `clipping_decay_schedule` (the clip range the loss
 uses follows the run's environment steps) and SAC's `updates_per_transition` (gradient steps per transition, which
-a different `--sac-updates-per-transition` may not silently override); both default to today's update exactly."""
+a different `--sac-updates-per-transition` may not silently override); both default to the update without a
+preset, exactly."""
 
 from __future__ import annotations
 
@@ -66,19 +67,19 @@ def test_the_schedules_clip_range_is_the_one_the_surrogate_clips_with():
     trainer.update(episodes, env_steps=1000)
     scheduled = {name: value.detach().clone() for name, value in trainer.network.state_dict().items()}
     narrow = weights_after_one_update(PPOSettings(seed=0, clip_epsilon=CLIP_EPSILON * 0.25))
-    today = weights_after_one_update(PPOSettings(seed=0))
+    plain = weights_after_one_update(PPOSettings(seed=0))
     for name, tensor in narrow.items():
         assert torch.equal(tensor, scheduled[name]), name
-    assert any(not torch.equal(today[name], scheduled[name]) for name in today)
+    assert any(not torch.equal(plain[name], scheduled[name]) for name in plain)
 
 
 @pytest.mark.parametrize("schedule", [None, {"type": "constant", "value": 1}, {"type": "constant", "value": 1.0}])
-def test_the_default_schedule_is_todays_update_at_any_step(schedule):
-    today = weights_after_one_update(PPOSettings(seed=0))
+def test_the_default_schedule_is_the_unscheduled_update_at_any_step(schedule):
+    plain = weights_after_one_update(PPOSettings(seed=0))
     trainer, episodes = ppo_trainer(schedule)
     stats = trainer.update(episodes, env_steps=10**7)
     assert {epoch.clip_range for epoch in stats} == {CLIP_EPSILON}
-    for name, tensor in today.items():
+    for name, tensor in plain.items():
         assert torch.equal(tensor, trainer.network.state_dict()[name]), name
 
 
@@ -96,15 +97,15 @@ def sac_weights_after_one_update(settings: SACSettings) -> tuple[dict[str, torch
     return {name: value.detach().clone() for name, value in networks.state_dict().items()}, stats.gradient_steps
 
 
-def test_a_sac_preset_of_deepracers_defaults_reproduces_todays_update_exactly():
+def test_a_sac_preset_of_deepracers_defaults_reproduces_the_update_without_a_preset():
     base = SACSettings(replay_memory_bytes=8 << 20, seed=0)
     preset = parse_preset({"rate_for_copying_weights_to_target": 1, "updates_per_transition": 1}, "sac")
     settings = preset.sac_settings(replace(base, updates_per_transition=sac_updates_per_transition(None, preset)))
     assert settings == base
-    today, today_steps = sac_weights_after_one_update(base)
+    plain, plain_steps = sac_weights_after_one_update(base)
     with_preset, steps = sac_weights_after_one_update(settings)
-    assert steps == today_steps == 40
-    for name, tensor in today.items():
+    assert steps == plain_steps == 40
+    for name, tensor in plain.items():
         assert torch.equal(tensor, with_preset[name]), name
 
 
