@@ -44,9 +44,8 @@ from racer.shared.deepracer.model_metadata import NEURAL_NETWORKS, parse_model_m
 from racer.shared.policy.networks import build_actor_critic
 from tests.model_io.model_io_builders import CONFIG
 
-# The module's fixture converts 28 models four ways (24 of them measured 855 s on this project's 2 cores while ~6
-# other agents loaded them, load average ~10, before OpenVINO converted each graph once instead of twice); pytest's
-# default 900 s per test would be too tight on such a machine.
+# The module's fixture converts 28 models four ways, which on 2 busy cores can take longer than pytest's default
+# 900 s per test.
 pytestmark = [pytest.mark.slow, pytest.mark.timeout(2400)]
 
 REAL_CHECKPOINT = CONFIG / "checkpoints" / "reInvent2019-TestModel" / "model"
