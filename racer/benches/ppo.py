@@ -10,8 +10,8 @@ the same cores and use the same network module (channels-last), so the speedup c
 differently: policy and value towers on one core each (`PPOSettings.threads_per_tower`), the fused Adam kernel, and
 one old-policy pass per update instead of one per minibatch. The trainer is timed in both precisions it offers
 (`PPOSettings.precision`: fp32, the default, and bf16 towers), and `agreement` says how far the bf16 update lands from
-the fp32 one on the same batch (racer.benches.precision_agreement). Neither path is compiled (torch.compile measured
-~20 % slower, so there is no compile time to amortise).
+the fp32 one on the same batch (racer.benches.precision_agreement). Neither path is compiled (torch.compile is slower
+here, so there is no compile time to amortise).
 A small untimed warm-up update runs first on each path (oneDNN primitive creation). With `--repeats` > 1 the two
 paths alternate and medians are reported; `*_cpu_s` are process CPU seconds (OpenMP spin-waits included), less
 sensitive than wall time to other processes on the same cores. `update_share_of_iteration`: the update's share of

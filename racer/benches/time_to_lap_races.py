@@ -20,9 +20,9 @@ OBJECT_AVOIDANCE_REWARD = "dpr401_object_avoidance_head_to_head.py"
 PPO_RECIPE: tuple[tuple[str, int | float], ...] = (("num_epochs", 3), ("discount_factor", 0.99))
 """Clipped PPO on two CPU cores (README, "Benchmarks"): the update is most of the CPU, so 3 epochs (the console's
 lowest) instead of 10; a 100-step horizon (discount 0.99), since both the centre-line and the object-avoidance rewards
-pay for every step on the road; DeepRacer's learning rate (0.0003). In the time trial on AVX2 the SimApp's defaults
-had no lap in 6.8 minutes (best 83.5 %) where this recipe lapped 3 of 3 in 2.3; against boxes 0.001 reached 2 of 3
-laps in 6 minutes and never 3 of 3 in 30."""
+pay for every step on the road; DeepRacer's learning rate (0.0003). In the time trial on a 2-core AVX2 machine
+(2026-11-24) the SimApp's defaults had no lap in 6.8 minutes (best 83.5 %) where this recipe lapped 3 of 3 in 2.3;
+against boxes 0.001 reached 2 of 3 laps in 6 minutes and never 3 of 3 in 30."""
 HEAD_TO_BOT_RECIPE: tuple[tuple[str, int | float], ...] = (*PPO_RECIPE, ("lr", 0.001))
 """The same at the console's highest learning rate, with which the head-to-bot benchmark was measured."""
 
