@@ -6,7 +6,7 @@ trained in DeepRacer's simulator) goes through `racer model import`'s own path (
 checkpoints) and each checkpoint drives re:Invent 2018 greedily from `--starts` evenly spaced starts under evaluation
 rules without resets, in each world, render path and car profile asked for (`--car-profile`, repeatable; default
 the default car); the bench prints laps and mean progress per checkpoint. A change to the car, the camera or the look
-that costs a lap or more than 3 points of mean progress on a shared checkpoint does not land (shared/sim/README.md).
+that costs a lap or more than 3 points of mean progress on a shared checkpoint does not land (docs/transfer.md).
 
 `--racer-model` adds the reverse check: a racer model's greedy steering side on DeepRacer's 92 Gazebo frames (left /
 straight / right shares) and how often its side agrees with each real checkpoint's. `--proxies` prints the two

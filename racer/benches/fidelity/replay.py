@@ -364,7 +364,7 @@ def run_fidelity(
     default="simtrace-fit",
     show_default=True,
     help="The car to replay: the constants fitted on these logs, or the env's default (gazebo: what real "
-    'DeepRacer policies lap with; shared/sim/README.md, "Closed loop").',
+    'DeepRacer policies lap with; docs/car-and-camera.md).',
 )
 def fidelity_bench_command(simtraces: Path, route: Path, fit_mode: str, hypotheses: bool, car: str) -> None:
     """Open-loop replay of real simtraces: median and p90 position/heading error after 1 s and 2 s per speed band."""
