@@ -8,7 +8,7 @@ finished episode as it would be sent) with 1, 4 and 8 envs, in alternating block
 all alike; process CPU ms per env step (llvmpipe's render thread included) is the figure to compare on a busy
 machine, wall steps/s is printed beside it.
 encoding: the CPU ms per frame and the size ratio of compressing the played frames with zstd level 1 (what the codec
-sends) and with zlib level 1 (what it sent before).
+sends) and with zlib level 1 (the other codec it decodes).
 """
 
 from __future__ import annotations
