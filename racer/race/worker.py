@@ -346,7 +346,7 @@ def _run_multi_car_task(task: dict[str, Any], log) -> None:
 
 def serve() -> None:
     """Run the tasks named on stdin one after another in this process, so the imports (torch, MuJoCo, ONNX Runtime:
-    about 4 s of CPU) are paid once per worker, not once per entrant. Each task's output, a native crash's last words
+    seconds of CPU) are paid once per worker, not once per entrant. Each task's output, a native crash's last words
     included, goes to the stderr.log beside its task (fds 1 and 2 point there); the protocol has its own copy of fd 1.
     """
     protocol = os.fdopen(os.dup(1), "w", encoding="utf-8")

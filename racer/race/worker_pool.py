@@ -16,8 +16,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 TASKS_PER_WORKER = 8
-"""Entrants a worker races before a fresh one replaces it: the imports (about 4 s of CPU) are paid once per eight
-entrants, and a worker stays under about 1 GB."""
+"""Entrants a worker races before a fresh one replaces it: the imports are paid once per eight entrants, and the
+memory the videos leave behind does not pile up."""
 
 
 @dataclass
