@@ -215,8 +215,9 @@ def test_without_tensorflow_export_and_import_say_how_to_get_it(trained, tmp_pat
     assert result.exit_code == 1 and "pip install -e '.[tensorflow]'" in result.output
 
 
-def test_an_old_racer_continuous_checkpoint_is_refused_clearly():
-    """racer's continuous head used tanh before it became DeepRacer's linear mean: such checkpoints are refused."""
+def test_a_continuous_checkpoint_with_a_tanh_mean_is_refused_clearly():
+    """A continuous checkpoint whose manifest lacks `continuous_mean` "linear" squashed its mean with tanh, unlike
+    DeepRacer's linear mean: it is refused."""
     manifest = {
         "format": "racer-checkpoint-1",
         "name": "3_Step-9.ckpt",
