@@ -194,8 +194,7 @@ def test_discrete_head_is_softmax_floored_at_1e8():
 
 def test_continuous_head_mean_is_deepracers_linear_output_and_log_std_clipped():
     """DeepRacer's continuous head: the mean is the dense layer's output itself (RL Coach's tf.identity `policy`),
-    not squashed; the environment clips to [-1, 1] when it scales the action. The log-std is clipped to [-20, 3].
-    (racer squashed the mean with tanh before issue 21 made the head DeepRacer's.)"""
+    not squashed; the environment clips to [-1, 1] when it scales the action. The log-std is clipped to [-20, 3]."""
     model_metadata = metadata(["FRONT_FACING_CAMERA"], action_space=CONTINUOUS)
     network = build_actor_critic(model_metadata)
     assert torch.equal(network.log_std.detach(), torch.zeros(2))

@@ -20,7 +20,7 @@ from racer.shared.sim.env import DeepRacerEnv
 def frame(obs):
     return obs["FRONT_FACING_CAMERA"][..., 0].copy()
 
-# The reproduction: the first env is dropped without close() while the second exists.
+# The first env is dropped without close() while the second exists.
 env = DeepRacerEnv(EnvConfig()); env.reset(seed=1); env.step(0)
 env = DeepRacerEnv(EnvConfig()); first, _ = env.reset(seed=1); env.step(1)
 
