@@ -15,7 +15,8 @@ packages = []
 for package, folder in PACKAGE_DIRS.items():
     packages.append(package)
     packages += [f"{package}.{sub}" for sub in find_packages(folder)]
-# The viewer's page (HTML, JS, CSS): a folder of data files, listed so setuptools ships it as a package of its own.
-packages.append("racer.viewer.static")
+# Folders of data files, listed so setuptools ships them as packages of their own: the viewer's page (HTML, JS, CSS)
+# and the example custom files (racer.defaults: `racer train`'s default --custom-files).
+packages += ["racer.viewer.static", "racer.defaults.custom_files"]
 
 setup(packages=packages, package_dir=PACKAGE_DIRS)

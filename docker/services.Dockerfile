@@ -6,7 +6,7 @@
 #   docker build -f docker/services.Dockerfile --target minio --build-arg BASE_IMAGE=racer-base:bookworm -t racer-minio:local DIR_WITH_MINIO_BINARY
 #
 # The MinIO target copies a `minio` server binary from its build context (the context holds only that
-# file; scripts/compose-smoke-test.sh uses the one scripts/setup.sh builds with
+# file; scripts/compose-smoke-test.sh uses the one scripts/install-minio.sh builds with
 # `go install github.com/minio/minio@...`). No binary is kept in the repository.
 
 ARG BASE_IMAGE=debian:bookworm-slim

@@ -37,7 +37,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
 @click.group(
     cls=LazyGroup, commands=COMMANDS, context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 120}
 )
-@click.version_option(package_name="racer")
+@click.version_option(package_name="racer-deepracer")
 def main() -> None:
     """Train, evaluate and analyse DeepRacer-style models locally (MuJoCo, PyTorch PPO, Redis, S3/MinIO)."""
 

@@ -18,8 +18,8 @@
 #   SMOKE_BASE_IMAGE     base image for every build (default racer-base:bookworm, built here when missing)
 #   SMOKE_PIP_CERT       CA bundle inside the build for pip (default /etc/ssl/certs/host-ca-bundle.crt,
 #                        which build-base-image.sh puts in the local base image; empty with an official base)
-#   MINIO_BINARY         MinIO server binary for the local MinIO image (default: `minio` on PATH,
-#                        ~/go/bin/minio or .venv/bin/minio; built with `go install` when none is found)
+#   MINIO_BINARY         MinIO server binary for the local MinIO image (default: the one scripts/install-minio.sh
+#                        finds, or builds when there is none)
 #   SMOKE_MINIO_PORT     host port (loopback) the test publishes MinIO's API on, the console on the next one
 #                        (default: the first free pair from 19000)
 #   SMOKE_COMPOSE        compose command (default `docker compose` when the v2 plugin is there, else `docker-compose`)
@@ -204,16 +204,8 @@ done_step "worker $(gigabytes "$worker_bytes"), trainer $(gigabytes "$trainer_by
 step "redis and minio images from docker/services.Dockerfile"
 minio_bin="${MINIO_BINARY:-}"
 if [ -z "$minio_bin" ]; then
-  for candidate in "$(command -v minio 2>/dev/null || true)" "$HOME/go/bin/minio" "$ROOT/.venv/bin/minio"; do
-    if [ -n "$candidate" ] && [ -x "$candidate" ]; then minio_bin="$(readlink -f "$candidate")"; break; fi
-  done
-fi
-if [ -z "$minio_bin" ]; then
-  command -v go >/dev/null 2>&1 || fail "no MinIO binary (set MINIO_BINARY) and no Go to build one"
-  module="$(grep -o 'github.com/minio/minio@[^"]*' scripts/setup.sh | head -1)"
-  say "building MinIO with go install $module (about 3 minutes, once)"
-  (cd /tmp && go install "$module") || fail "go install $module failed"
-  minio_bin="$(go env GOPATH)/bin/minio"
+  minio_bin="$(readlink -f "$(PATH="$ROOT/.venv/bin:$PATH" scripts/install-minio.sh)")" \
+    || fail "no MinIO binary: scripts/install-minio.sh failed (or set MINIO_BINARY)"
 fi
 mkdir -p "$WORK/minio-context" "$WORK/empty-context"
 cp "$minio_bin" "$WORK/minio-context/minio"
@@ -227,7 +219,7 @@ done_step
 # The user's folder: the project's defaults, with a tiny iteration (2 episodes: one per worker) and
 # one evaluation trial per checkpoint, so that two iterations take about a minute.
 mkdir -p "$WORK/custom_files"
-cp custom_files/reward_function.py custom_files/model_metadata.json "$WORK/custom_files/"
+cp racer/defaults/custom_files/reward_function.py racer/defaults/custom_files/model_metadata.json "$WORK/custom_files/"
 cat >"$WORK/custom_files/hyperparameters.json" <<'EOF'
 {"num_episodes_between_training": 2, "batch_size": 32, "num_epochs": 3}
 EOF

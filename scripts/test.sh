@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Sets everything up (idempotent) and runs the whole test suite:
+# Sets everything up (idempotent; with MinIO, which the S3 tests run against) and runs the whole test suite:
 #   1. the linter and the formatter check (ruff, configured in pyproject.toml), first because they take a second,
 #      then the documentation build (mkdocs build --strict: a broken link or a page missing from the nav fails);
 #   2. the docker compose smoke test (scripts/compose-smoke-test.sh: builds the images without a registry,
@@ -12,7 +12,7 @@
 # e.g. `-m "not slow"` for the fast loop (docs/getting-started.md).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-./scripts/setup.sh
+./scripts/setup.sh --with-minio
 export PATH="$PWD/.venv/bin:$PATH"
 export MUJOCO_GL="${MUJOCO_GL:-egl}"
 echo "[test] ruff check, ruff format --check"

@@ -19,8 +19,11 @@ import urllib.error
 import urllib.request
 from pathlib import Path
 
+from racer.defaults import REDIS_CONF
+
 PROJECT_ROOT = Path(__file__).resolve().parents[2]
-"""The repository (or image) folder holding redis.conf, tracks/ and the code folders."""
+"""The source checkout around this file: only the benches, which run from a checkout, use it (an installed racer
+finds its files through the package: racer.defaults)."""
 
 _PR_SET_PDEATHSIG = 1
 
@@ -47,8 +50,8 @@ def find_executable(name: str) -> str:
         if candidate.is_file() and os.access(candidate, os.X_OK):
             return str(candidate)
     raise FileNotFoundError(
-        f"`{name}` was not found on PATH or in ~/go/bin. Run ./scripts/setup.sh "
-        "(it installs redis-server from Debian and builds MinIO with `go install`)."
+        f"`{name}` was not found on PATH or in ~/go/bin. Run ./scripts/setup.sh, which installs redis-server "
+        "from Debian (`scripts/setup.sh --with-minio` also builds MinIO, needed only for S3 runs and the tests)."
     )
 
 
@@ -139,13 +142,13 @@ class _ServerProcess:
 
 
 class RedisServer(_ServerProcess):
-    """redis-server with the project's redis.conf, overridden to bind loopback on a chosen port."""
+    """redis-server with racer's redis.conf (racer/defaults), overridden to bind loopback on a chosen port."""
 
     name = "redis-server"
 
     def __init__(self, data_dir: Path, port: int | None = None, conf_path: Path | None = None, **kwargs):
         super().__init__(data_dir, port, **kwargs)
-        self.conf_path = conf_path or PROJECT_ROOT / "redis.conf"
+        self.conf_path = conf_path or REDIS_CONF
 
     @property
     def url(self) -> str:

@@ -87,9 +87,10 @@ def package_versions() -> dict[str, str]:
     import torch
 
     versions = {"python": platform.python_version(), "torch": torch.__version__}
-    for package in ("racer", "safetensors", "onnx"):
+    # key: distribution (racer's distribution is racer-deepracer: PyPI's `racer` is another project)
+    for key, distribution in (("racer", "racer-deepracer"), ("safetensors", "safetensors"), ("onnx", "onnx")):
         try:
-            versions[package] = package_metadata.version(package)
+            versions[key] = package_metadata.version(distribution)
         except package_metadata.PackageNotFoundError:
-            versions[package] = "unknown"
+            versions[key] = "unknown"
     return versions
