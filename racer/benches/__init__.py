@@ -1,10 +1,11 @@
 """`racer bench ...`: benchmarks that print one JSON line each (speed goals are measured, not asserted).
 
-This package is every benchmark's home, one module per bench (`sim`, `camera`, `ppo`, `precision`, `transfer`,
-`sac`, `rollout`, `throughput`, `time_to_lap`, `viewer`, `tf_proof`, `race`, `frame_pairs`), the calibration research beside them
-(`fidelity/`: `racer bench fidelity` and its studies) and their helpers (`workdir`: the work folder a bench's training
-run writes to; `sim_loop`, `sim_races`: the simulator bench's step loop and its envs with objects; `camera_frames`:
-DeepRacer's reference camera frames and racer's at the same poses).
+A bench here is one a user runs to judge their own model, machine or simulator: one module per bench (`sim`, `ppo`,
+`transfer`, `fidelity`, `sac`, `rollout`, `throughput`, `time_to_lap`, `viewer`, `race`) and their helpers (`workdir`:
+the work folder a bench's training run writes to; `sim_loop`, `sim_races`: the simulator bench's step loop and its
+envs with objects; `gazebo_frames`: DeepRacer's reference camera frames and racer's at the same poses;
+`precision_agreement`: how far a bf16 update lands from fp32's). Studies that answered a question once live in the
+repository's `research/`, which the wheel does not install and nothing here imports.
 """
 
 from __future__ import annotations
@@ -18,34 +19,17 @@ BENCHMARKS: dict[str, tuple[str, str]] = {
         "racer.benches.sim:sim_bench_command",
         "Environment steps/s with the front camera vs the raw MuJoCo bound.",
     ),
-    "camera": (
-        "racer.benches.camera:camera_bench_command",
-        "racer's camera frames vs DeepRacer's Gazebo frames, per world; frame cost.",
-    ),
     "ppo": (
         "racer.benches.ppo:ppo_bench_command",
         "One PPO update: samples/s of the trainer vs a plain fp32 baseline.",
-    ),
-    "precision": (
-        "racer.benches.precision:precision_bench_command",
-        "Env steps to 3 of 3 greedy laps per trainer precision and seed, in one deterministic process.",
     ),
     "transfer": (
         "racer.benches.transfer:transfer_bench_command",
         "Real DeepRacer checkpoints drive racer closed loop: laps and mean progress from evenly spaced starts.",
     ),
-    "frame-pairs": (
-        "racer.benches.frame_pairs:frame_pairs_command",
-        "Each Gazebo frame's pose fitted from its lines, racer's frame there: do policies read the pairs alike?",
-    ),
     "fidelity": (
         "racer.benches.fidelity.replay:fidelity_bench_command",
         "Open-loop replay of real simtraces: pose error after 1 s and 2 s per speed band.",
-    ),
-    "tf-proof": (
-        "racer.benches.tf_proof:tf_proof_command",
-        "72 models (PPO and SAC; --examples: your own networks and a frame stack): racer vs TensorFlow, OpenVINO "
-        "and LiteRT (fp32, fp16) outputs.",
     ),
     "sac": (
         "racer.benches.sac:sac_bench_command",

@@ -9,9 +9,7 @@ the default car); the bench prints laps and mean progress per checkpoint. A chan
 that costs a lap or more than 3 points of mean progress on a shared checkpoint does not land (docs/transfer.md).
 
 `--racer-model` adds the reverse check: a racer model's greedy steering side on DeepRacer's 92 Gazebo frames (left /
-straight / right shares) and how often its side agrees with each real checkpoint's. `--proxies` prints the two
-diagnostics beside the closed-loop figure: the grey-histogram distance of racer's frames to the Gazebo frames and
-the open-loop replay error of real simtraces after 1 s. They are diagnostics; the closed loop wins when they disagree.
+straight / right shares) and how often its side agrees with each real checkpoint's.
 
 `--matrix` trains a model per car profile, with and without dynamics randomisation, and drives each in every profile
 (`transfer_matrix.py`).
@@ -30,13 +28,13 @@ import click
 import numpy as np
 import torch
 
-from racer.benches.camera import GAZEBO_FRAMES, load_gazebo_frames, rgb_to_y
-from racer.benches.camera_frames import render_lap
+from racer.benches.gazebo_frames import GAZEBO_FRAMES, load_gazebo_frames, render_lap
 from racer.benches.transfer_matrix import DEFAULT_MINUTES, DEFAULT_WORKERS, SOURCE_PROFILES, run_matrix
 from racer.benches.workdir import cpu_description
 from racer.local.services import PROJECT_ROOT
 from racer.shared.deepracer.model_metadata import ModelMetadata, parse_model_metadata
 from racer.shared.policy.checkpoints import CheckpointStore
+from racer.shared.sim.camera import rgb_to_y
 from racer.shared.sim.car_dynamics import CAR_PROFILE_NAMES, DEFAULT_CAR_PROFILE, car_profile
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
@@ -210,22 +208,6 @@ def reverse_check(racer_model: Path, real: list[RealModel], frames_grey: np.ndar
     return result
 
 
-def proxies(track: Path, world: str, frames_rgb: np.ndarray) -> dict:
-    """The camera distance and the open-loop replay error, as `racer bench camera` / `fidelity` compute them."""
-    from racer.benches.camera import frame_stats, histogram_emd, render_lap
-    from racer.benches.fidelity.replay import run_fidelity
-
-    gazebo = frame_stats(np.stack([rgb_to_y(frame) for frame in frames_rgb]))
-    rendered, _ = render_lap(track, world, 40, full_resolution=False)
-    ours = frame_stats(np.stack([rgb_to_y(frame) for frame in rendered]))
-    simtraces = sorted((SHARED_DATA / "simtrace").rglob("*.csv"))
-    replay = run_fidelity(simtraces, track) if simtraces else {}
-    return {
-        "camera_histogram_emd": round(histogram_emd(ours.histogram, gazebo.histogram), 2),
-        "open_loop_replay": replay.get("bands", replay),
-    }
-
-
 @click.command(name="transfer")
 @click.option(
     "--models",
@@ -254,7 +236,6 @@ def proxies(track: Path, world: str, frames_rgb: np.ndarray) -> dict:
     default=None,
     help="A racer model folder (racer-data/MODEL): its steering shares and sign agreement on the Gazebo frames.",
 )
-@click.option("--proxies", "with_proxies", is_flag=True, help="Also print the camera distance and open-loop replay.")
 @click.option(
     "--matrix",
     is_flag=True,
@@ -304,7 +285,6 @@ def transfer_bench_command(
     car_profile_names,
     starts,
     racer_model,
-    with_proxies,
     matrix,
     train_profile_names,
     minutes,
@@ -361,13 +341,11 @@ def transfer_bench_command(
                         {"model": model.label, "world": world_name, "render": render_mode, "car_profile": profile,
                          **figures}
                     )  # fmt: skip
-    frames_rgb = load_gazebo_frames(SHARED_DATA / GAZEBO_FRAMES)
     if racer_model is not None:
+        frames_rgb = load_gazebo_frames(SHARED_DATA / GAZEBO_FRAMES)
         frames_grey = np.stack([rgb_to_y(frame) for frame in frames_rgb])
         rendered, _ = render_lap(track, world[0], RACER_FRAME_POSES, full_resolution=False)
         racer_grey = np.stack([rgb_to_y(frame) for frame in rendered])
         result["reverse_check"] = reverse_check(racer_model, real, frames_grey, racer_grey)
-    if with_proxies:
-        result["proxies"] = proxies(track, world[0], frames_rgb)
     result["wall_s"] = round(time.monotonic() - started, 1)
     click.echo(json.dumps(result))

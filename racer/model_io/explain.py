@@ -28,6 +28,7 @@ from racer.model_io.explain_inputs import (
     open_model,
     racer_frames_of,
 )
+from racer.shared.sim.config import DEFAULT_TRACK
 
 PANEL_SCALE = 4
 """Per-frame PNGs are the frame at 4x (640x480) under a title bar."""
@@ -162,7 +163,7 @@ def attention_shares(heat: np.ndarray) -> dict[str, float] | None:
         return None
     third = FRAME_WIDTH // 3
     return {
-        "upper_third": float(heat[: FRAME_HEIGHT // 3].sum()) / total,  # walls and beyond (`racer bench camera`)
+        "upper_third": float(heat[: FRAME_HEIGHT // 3].sum()) / total,  # walls and what is above them
         "upper_half": float(heat[: FRAME_HEIGHT // 2].sum()) / total,
         "lower_half": float(heat[FRAME_HEIGHT // 2 :].sum()) / total,
         "left_third": float(heat[:, :third].sum()) / total,
@@ -312,9 +313,9 @@ def summarise(model: LoadedModel, result: Explanation, records: list[dict], meth
 @click.option("--world", default="base", show_default=True, help="The world of --racer-frames.")
 @click.option(
     "--track",
-    type=click.Path(exists=True, dir_okay=False, path_type=Path),
-    default=None,
-    help="The route .npy of --racer-frames. Default: re:Invent 2018 from the shared data.",
+    default=DEFAULT_TRACK,
+    show_default=True,
+    help="The track of --racer-frames: a name on the route search path or a route .npy file.",
 )
 def explain_command(
     model: str,
@@ -326,7 +327,7 @@ def explain_command(
     all_actions: bool,
     racer_frames: int,
     world: str,
-    track: Path | None,
+    track: str,
 ) -> None:
     """Draw what MODEL's policy looks at in FRAMES (PNG/JPEG files or folders of them) for its greedy action.
 
@@ -338,12 +339,11 @@ def explain_command(
         raise click.UsageError("give FRAMES (image files or folders) or --racer-frames N")
     names, grey = load_frames(frames) if frames else ([], np.zeros((0, FRAME_HEIGHT, FRAME_WIDTH), np.uint8))
     if racer_frames:
-        from racer.benches.camera_frames import DATA_DIR, ROUTE
         from racer.shared.sim.worlds import WORLD_NAMES
 
         if world not in WORLD_NAMES:
             raise click.BadParameter(f"{world!r}: choose from {', '.join(WORLD_NAMES)}", param_hint="--world")
-        rendered_names, rendered = racer_frames_of(racer_frames, world, track or DATA_DIR / ROUTE)
+        rendered_names, rendered = racer_frames_of(racer_frames, world, track)
         names, grey = names + rendered_names, np.concatenate([grey, rendered])
     with open_model(model, store_location, checkpoint) as loaded:
         click.echo(json.dumps(run_explain(loaded, names, grey, out, method, all_actions)))

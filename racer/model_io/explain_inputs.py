@@ -160,10 +160,15 @@ def load_frames(paths: tuple[Path, ...]) -> tuple[list[str], np.ndarray]:
     return [path.stem for path in files], np.stack(frames)
 
 
-def racer_frames_of(count: int, world: str, track: Path) -> tuple[list[str], np.ndarray]:
-    """racer's front camera at `count` centre-line poses around the lap (`racer bench camera`'s poses)."""
-    from racer.benches.camera_frames import render_lap
+def racer_frames_of(count: int, world: str, track: str | Path) -> tuple[list[str], np.ndarray]:
+    """racer's front camera at `count` evenly spread centre-line poses around the lap of `track` (a name on the
+    route search path or a route file); a track that cannot be loaded is a usage error naming it."""
+    from racer.benches.gazebo_frames import render_lap
     from racer.shared.sim.camera import rgb_to_y
+    from racer.shared.sim.track import TrackError
 
-    rendered, _ = render_lap(track, world, count, full_resolution=False)
+    try:
+        rendered, _ = render_lap(track, world, count, full_resolution=False)
+    except TrackError as error:
+        raise click.BadParameter(str(error), param_hint="--track") from None
     return [f"racer-{world}-{k:03d}" for k in range(count)], np.stack([rgb_to_y(frame) for frame in rendered])

@@ -13,7 +13,6 @@ import numpy as np
 import pytest
 import torch
 
-from racer.benches.tf_proof_examples import EXAMPLE_NETWORKS
 from racer.model_io.deepracer_import import import_frozen_graphs
 from racer.model_io.destinations import FolderDestination
 from racer.model_io.sources import FolderSource
@@ -29,6 +28,7 @@ from racer.shared.policy.network_file import parse_network_file
 from racer.shared.policy.networks import ActorCritic, policy_config_from_metadata
 from racer.shared.store import LocalStore
 from tests.model_io.model_io_builders import real_files
+from tests.model_io.tf_proof_examples import EXAMPLE_NETWORKS
 from tests.policy.test_network_file import ACTIONS, BATCHNORM
 
 
@@ -163,7 +163,7 @@ def test_a_custom_stacked_model_exports_and_imports_back_computing_the_same(tmp_
 
 
 def test_the_proof_examples_are_the_documented_network_files():
-    """`racer bench tf-proof --examples` proves the network files docs/custom-networks.md shows, not others."""
+    """The examples' proof (tf_proof_examples.py) proves the network files docs/custom-networks.md shows, not others."""
     text = (Path(__file__).resolve().parents[2] / "docs" / "custom-networks.md").read_text()
     documented = {}
     for block in re.findall(r"```json\n(.*?)```", text, flags=re.S):
@@ -171,3 +171,20 @@ def test_the_proof_examples_are_the_documented_network_files():
         if isinstance(data, dict) and "input_embedders" in data:
             documented[data["name"]] = data
     assert documented == EXAMPLE_NETWORKS
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(2400)
+@pytest.mark.skipif(not tensorflow_available(), reason="needs the TensorFlow extra")
+def test_the_examples_compute_the_same_function_in_every_runtime(deepracer_data):
+    """The documented networks and a two-frame stack (6 models) on DeepRacer's 92 Gazebo frames: TensorFlow, OpenVINO
+    and LiteRT at fp32 within 1e-5 of racer; at fp16 the same greedy action on 99 % of the frames and within 1e-3 or
+    two fp16 steps at the output's size. Batch-norm carries the frames' own running statistics, so a dropped or
+    misplaced one shows."""
+    from tests.model_io.tf_proof import RUNTIMES, prove_examples
+
+    figures = prove_examples(())
+    assert figures["models"] == 6
+    for runtime in RUNTIMES:
+        assert figures[runtime]["min_same_greedy_action"] >= 0.99, figures
+    assert figures["goals_met"], figures

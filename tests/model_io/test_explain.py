@@ -104,6 +104,13 @@ def test_frames_of_other_sizes_and_grey_images_become_the_camera_input(tmp_path)
     assert grey[1].min() == grey[1].max() == 77  # a grey image is taken as it is
 
 
+def test_racer_frames_of_a_missing_track_are_a_usage_error_naming_it(tmp_path):
+    """The frames need no data beside the checkout: the default is a shipped track, and a missing one is named."""
+    arguments = ["model", "explain", "fresh", "--racer-frames", "1", "--track", str(tmp_path / "nowhere.npy")]
+    result = CliRunner().invoke(main, arguments + ["--store", str(tmp_path)])
+    assert result.exit_code == 2 and "nowhere.npy" in result.output and "route file not found" in result.output
+
+
 def test_nothing_to_explain_is_a_usage_error(tmp_path):
     result = CliRunner().invoke(main, ["model", "explain", "fresh", "--store", str(tmp_path)])
     assert result.exit_code == 2 and "--racer-frames" in result.output

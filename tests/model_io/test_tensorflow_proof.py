@@ -5,7 +5,7 @@ Every network (shallow, deep, deeper), every sensor set DRoA's model validation 
 continuous and SAC. The full product is 72 models and the stereo DEEP networks are 230 MB each, which takes long on
 2 cores: the suite runs 28 of them (PPO: every sensor set with the shallow network, the deep and deeper networks with
 the front camera alone and with LIDAR; SAC: every network with the front camera and LIDAR, and the shallow one with
-stereo cameras and SECTOR_LIDAR), and `racer bench tf-proof` runs all 72 with the same code. SAC's graph output is
+stereo cameras and SECTOR_LIDAR), and `python -m tests.model_io.tf_proof` runs all 72 with the same code. SAC's graph output is
 its mean before tanh, compared with racer's mean before tanh. TensorFlow, OpenVINO and LiteRT
 run in one TensorFlow process, never in this process, which has rendered with Mesa.
 
@@ -21,7 +21,17 @@ import numpy as np
 import pytest
 import torch
 
-from racer.benches.tf_proof import (
+from racer.model_io.tensorflow.coach_layout import (
+    POLICY_OUTPUT_NODE,
+    coach_variables,
+    input_node,
+)
+from racer.model_io.tensorflow.convert import ExportJob, tensorflow_files
+from racer.model_io.tensorflow.runner import run_tool
+from racer.shared.deepracer.model_metadata import NEURAL_NETWORKS, parse_model_metadata
+from racer.shared.policy.networks import build_actor_critic
+from tests.model_io.model_io_builders import CONFIG
+from tests.model_io.tf_proof import (
     FP16_SAME_ACTION,
     FP16_TOLERANCE,
     FP32_TOLERANCE,
@@ -33,16 +43,6 @@ from racer.benches.tf_proof import (
     run_proof,
     summarize,
 )
-from racer.model_io.tensorflow.coach_layout import (
-    POLICY_OUTPUT_NODE,
-    coach_variables,
-    input_node,
-)
-from racer.model_io.tensorflow.convert import ExportJob, tensorflow_files
-from racer.model_io.tensorflow.runner import run_tool
-from racer.shared.deepracer.model_metadata import NEURAL_NETWORKS, parse_model_metadata
-from racer.shared.policy.networks import build_actor_critic
-from tests.model_io.model_io_builders import CONFIG
 
 # The module's fixture converts 28 models four ways, which on 2 busy cores can take longer than pytest's default
 # 900 s per test.
@@ -174,12 +174,12 @@ def test_model_specs_name_each_model_once():
 
 
 def test_processes_share_the_models_in_turn_and_keep_each_models_seed(monkeypatch):
-    """`run_proof(processes=2)` (`racer bench tf-proof --processes 2`): model i goes to TensorFlow process i mod 2,
+    """`run_proof(processes=2)` (`python -m tests.model_io.tf_proof --processes 2`): model i goes to TensorFlow process i mod 2,
     both run side by side, and racer's side (weights from seed first_seed + i, expected outputs) is what one process
     gets; the answers are merged."""
     import threading
 
-    from racer.benches import tf_proof
+    from tests.model_io import tf_proof
 
     specs = [spec for spec in all_specs() if spec.neural_network == NEURAL_NETWORKS[0]][:5]
     rng = np.random.default_rng(0)
@@ -215,7 +215,7 @@ def test_processes_share_the_models_in_turn_and_keep_each_models_seed(monkeypatc
 def test_the_bench_command_hands_processes_to_each_group(monkeypatch):
     from click.testing import CliRunner
 
-    from racer.benches import tf_proof
+    from tests.model_io import tf_proof
 
     seen = []
 

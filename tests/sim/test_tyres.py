@@ -1,16 +1,15 @@
-"""The tyre model (tyres.py) and its planar twin used for fitting (racer/benches/fidelity/tyre_fit.py)."""
+"""The tyre model (tyres.py) and retuning a compiled car to other dynamics constants."""
 
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from racer.benches.fidelity.replay import CarReplay, load_segments
-from racer.benches.fidelity.tyre_fit import CarConstants, SegmentBatch, fit, loss, simulate
 from racer.shared.sim.car import REAR_AXLE_X_M, STEERING_JOINTS, WHEELBASE_M
+from racer.shared.sim.car_dynamics import SIMTRACE_FIT_DYNAMICS
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
 from racer.shared.sim.tyres import GRAVITY_MPS2, TyreParams
@@ -64,48 +63,16 @@ def test_front_force_acts_across_the_steered_wheels():
     assert steered[1] > straight[1]  # and the front's push to the right is smaller: its slip angle is 20° less
 
 
-@pytest.fixture(scope="module")
-def segments(deepracer_data):
-    return load_segments([deepracer_data / "simtrace" / "drfc1_evaluation_0-iteration.csv"])[:6]
-
-
-def test_the_planar_twin_follows_the_mujoco_car(deepracer_data, segments):
-    """The fit's twin and the MuJoCo car with the same constants end up within a few cm of each other."""
-    batch = SegmentBatch.of(segments)
-    xs, ys, yaws = simulate(batch, CarConstants())
+def test_retune_changes_the_compiled_car_in_place(deepracer_data):
+    segment = load_segments([deepracer_data / "simtrace" / "drfc1_evaluation_0-iteration.csv"])[0]
     replay = CarReplay(deepracer_data / "routes" / "reinvent_base.npy")
+    fit = SIMTRACE_FIT_DYNAMICS
     try:
-        gaps, yaw_gaps = [], []
-        for index, segment in enumerate(segments):
-            points, yaw = replay.run(segment)
-            k = int(np.argmin(np.abs(segment.times_s[2:] - segment.times_s[2] - 1.0)))
-            gaps.append(math.hypot(points[k, 0] - xs[index, k], points[k, 1] - ys[index, k]))
-            yaw_gaps.append(abs(math.remainder(yaw[k] - yaws[index, k], 2 * math.pi)))
-            # Both move: the gap is small against the distance driven.
-            assert math.dist(points[k], points[0]) > 0.5
-    finally:
-        replay.close()
-    assert max(gaps) < 0.04, gaps
-    assert math.degrees(max(yaw_gaps)) < 3.0, yaw_gaps
-
-
-def test_fit_recovers_from_wrong_constants(segments):
-    batch = SegmentBatch.of(segments)
-    wrong = replace(CarConstants(), yaw_inertia_kgm2=0.08, steering_time_constant_s=0.2)
-    fitted = fit(batch, start=wrong, evaluations=80)
-    assert loss(batch, fitted) < 0.8 * loss(batch, wrong)
-    assert fitted.tyres.min_slip_speed_mps == wrong.tyres.min_slip_speed_mps  # a numerical guard, never fitted
-
-
-def test_retune_changes_the_compiled_car_in_place(deepracer_data, segments):
-    replay = CarReplay(deepracer_data / "routes" / "reinvent_base.npy")
-    try:
-        shipped, _ = replay.run(segments[0])
-        defaults = CarConstants()
-        replay.car.retune(replay.model, defaults.tyres, defaults.steering_time_constant_s, defaults.yaw_inertia_kgm2)
-        again, _ = replay.run(segments[0])
-        replay.car.retune(replay.model, defaults.tyres, 0.1, 0.078)  # slow servo, the URDF's yaw inertia
-        other, _ = replay.run(segments[0])
+        shipped, _ = replay.run(segment)
+        replay.car.retune(replay.model, fit.tyres, 0.1, 0.078)  # slow servo, the URDF's yaw inertia
+        other, _ = replay.run(segment)
+        replay.car.retune(replay.model, fit.tyres, fit.steering_time_constant_s, fit.yaw_inertia_kgm2)
+        again, _ = replay.run(segment)
     finally:
         replay.close()
     np.testing.assert_allclose(again, shipped, atol=1e-4)

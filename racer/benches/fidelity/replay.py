@@ -7,8 +7,8 @@ its pose after 1 s and 2 s is compared with the log. No closed loop: the errors 
 Timing in a simtrace (SimApp v4+): row k's pose is read before step k's action acts; the row's `tstamp` is taken
 after that step's physics. So pose k holds at `tstamp[k-1]`, and action k acts from pose k to pose k+1. Every row
 is replayed for DeepRacer's nominal 1/15 s (16 substeps of 1/240 s), not for its logged tstamp difference: at a
-held speed the logged step lengths explain only ≈ 11 % of the spread of the distance per row (noise.py),
-and held out the nominal step replays better in every band (shared/sim/README.md). The logged tstamps still pick
+held speed the logged step lengths explain only ≈ 11 % of the spread of the distance per row, and held out the
+nominal step replays better in every band (research/replay_limits and research/tyre_fit). The logged tstamps still pick
 the poses compared after 1 s and 2 s. The starting velocity and yaw rate are central differences of the logged
 car-origin track around the start pose (poses 1/15 s apart); the steering hinges start at the previous row's
 command. Segments contain only `in_progress` rows (no resets).
@@ -26,10 +26,6 @@ from pathlib import Path
 import click
 import numpy as np
 
-from racer.benches.fidelity.floor import heading_floor_deg
-from racer.benches.fidelity.hypotheses import screen
-from racer.benches.fidelity.noise import in_progress_rows, oracle_start_errors_m, replay_floor_m, row_timing
-from racer.benches.fidelity.tyre_fit import CarConstants, SegmentBatch, fit, leave_one_file_out
 from racer.shared.deepracer.simtrace import read_simtrace
 from racer.shared.sim._mujoco import mujoco
 from racer.shared.sim.car import STEERING_JOINTS, WHEEL_NAMES, WHEEL_RADIUS_M, Car, clip_command
@@ -129,8 +125,8 @@ class CarReplay:
     """Racer's car (the base world: DeepRacer's tyre μ 0.5) driven by logged commands, outside the env's rules."""
 
     def __init__(self, route: Path, dynamics: CarDynamics = SIMTRACE_FIT_DYNAMICS) -> None:
-        """`dynamics`: the car to replay; by default the simtrace fit (the constants this bench fits), not the env's
-        default car (`car_dynamics.GAZEBO_DYNAMICS`, chosen closed loop with real policies)."""
+        """`dynamics`: the car to replay; by default the simtrace fit (the constants fitted to these logs), not the
+        env's default car (`car_dynamics.GAZEBO_DYNAMICS`, chosen closed loop with real policies)."""
         self.env = DeepRacerEnv(EnvConfig(track=route, world="base", car_dynamics=dynamics))
         self.model, self.data, self.car = self.env.model, self.env.data, self.env.car
         self.timestep_s = float(self.model.opt.timestep)
@@ -233,98 +229,52 @@ def summarise(errors: Sequence[SegmentError]) -> dict[str, dict]:
     return table
 
 
-def add_heading_floor(bands: dict[str, dict], segments: Sequence[Segment], errors: Sequence[SegmentError]) -> None:
-    """Per band, the median 1 s heading error of a linear predictor fitted on the other files (floor.py)."""
-    floor = heading_floor_deg(segments, 1.0)
-    for low, high in SPEED_BANDS_MPS:
-        members = [f for f, e in zip(floor, errors, strict=True) if f is not None and low <= e.start_speed_mps < high]
-        if members:
-            bands[band_label(low, high)]["heading_floor_deg_1s_median"] = round(float(np.median(members)), 2)
+def goal_met(bands: dict[str, dict]) -> bool:
+    """Whether every populated band's median position error after 1 s is at most 5 cm."""
+    return all(entry.get("position_m_1s_median", math.inf) <= 0.05 for entry in bands.values() if entry["segments"])
 
 
-def add_log_limits(bands: dict[str, dict], segments: Sequence[Segment], simtraces: Sequence[Path]) -> dict:
-    """Per band, two medians of the 1 s error (noise.py, with the fit's twin and the default constants):
-    an exact twin replayed on its own pseudo-log with the files' row-timing jitter (what the logs' noise and the
-    replay's protocol cost any car model), and the twin from a start state fitted to the next logged poses (what
-    a better estimate of the unlogged start state could gain at most)."""
-    speeds = np.array([segment.start_speed_mps for segment in segments])
-
-    def by_band(key: str, errors: np.ndarray) -> None:
-        for low, high in SPEED_BANDS_MPS:
-            members = (speeds >= low) & (speeds < high)
-            if members.any():
-                bands[band_label(low, high)][key] = round(float(np.median(errors[members])), 4)
-
-    by_band("oracle_start_m_1s_median", oracle_start_errors_m(segments, CarConstants()))
-    try:
-        timing = row_timing(in_progress_rows(simtraces))
-    except ValueError as exc:
-        return {"row_timing": str(exc)}
-    by_band("replay_floor_m_1s_median", replay_floor_m(segments, CarConstants(), timing.unexplained_jitter_s))
-    return {
-        "row_timing": {
-            "rows": timing.rows,
-            "step_s": round(timing.step_s, 4),
-            "tstamp_share": round(timing.tstamp_share, 3),
-            "unexplained_jitter_s": round(timing.unexplained_jitter_s, 4),
-        }
-    }
+def replay_errors(replay: CarReplay, segments: Sequence[Segment], progress: bool = False) -> list[SegmentError]:
+    """Each segment replayed with the replay's car as it stands, in order."""
+    errors = []
+    for index, segment in enumerate(segments):
+        errors.append(segment_errors(segment, *replay.run(segment)))
+        if progress and (index + 1) % 200 == 0:
+            print(f"replayed {index + 1}/{len(segments)} segments", file=sys.stderr, flush=True)
+    return errors
 
 
-def run_fidelity(
-    simtraces: Sequence[Path],
-    route: Path,
-    progress: bool = False,
-    fit_mode: str = "none",
-    car: str = "simtrace-fit",
-) -> dict:
-    """The replay's error table. `car` names the preset replayed (`car_dynamics.CAR_DYNAMICS`). `fit_mode` "none"
-    replays that car as it is; "all" first fits the dynamics
-    constants on all segments (tyre_fit.py) and replays with them; "leave-one-file-out" replays each file with the
-    constants fitted on the other files (errors on data the fit did not see)."""
+def load_replayable(simtraces: Sequence[Path]) -> list[Segment]:
+    """The segments of the files; a usage error naming them when none is long enough."""
     segments = load_segments(simtraces)
     if not segments:
         raise click.ClickException(
             f"no replayable segments ({max(HORIZONS_S):g} s of in_progress rows) in "
             f"{', '.join(str(p) for p in simtraces)}"
         )
-    constants: dict[str, CarConstants] = {}
-    if fit_mode == "all":
-        fitted = fit(SegmentBatch.of(segments), progress=progress)
-        constants = {segment.source: fitted for segment in segments}
-    elif fit_mode == "leave-one-file-out":
-        try:
-            constants = leave_one_file_out(SegmentBatch.of(segments), progress=progress)
-        except ValueError as exc:
-            raise click.ClickException(str(exc)) from None
+    return segments
+
+
+def simtrace_files(simtraces: Path) -> list[Path]:
+    """A simtrace CSV, or the CSVs of a folder, in name order."""
+    return sorted(simtraces.glob("*.csv")) if simtraces.is_dir() else [simtraces]
+
+
+def run_fidelity(simtraces: Sequence[Path], route: Path, progress: bool = False, car: str = "simtrace-fit") -> dict:
+    """The replay's error table for the car preset `car` (`car_dynamics.CAR_DYNAMICS`)."""
+    segments = load_replayable(simtraces)
     replay = CarReplay(route, CAR_DYNAMICS[car])
-    errors = []
     try:
-        tuned_for = None
-        for index, segment in enumerate(segments):
-            if constants and constants[segment.source] is not tuned_for:
-                tuned_for = constants[segment.source]
-                replay.car.retune(
-                    replay.model, tuned_for.tyres, tuned_for.steering_time_constant_s, tuned_for.yaw_inertia_kgm2
-                )
-            errors.append(segment_errors(segment, *replay.run(segment)))
-            if progress and (index + 1) % 200 == 0:
-                print(f"replayed {index + 1}/{len(segments)} segments", file=sys.stderr, flush=True)
+        errors = replay_errors(replay, segments, progress)
     finally:
         replay.close()
     bands = summarise(errors)
-    add_heading_floor(bands, segments, errors)
-    noise = add_log_limits(bands, segments, simtraces)
-    goal_met = all(entry.get("position_m_1s_median", math.inf) <= 0.05 for entry in bands.values() if entry["segments"])
     return {
         "segments": len(segments),
         "files": len(simtraces),
         "bands": bands,
-        "goal_median_position_1s_le_0_05_m": goal_met,
-        "fit": fit_mode,
+        "goal_median_position_1s_le_0_05_m": goal_met(bands),
         "car": car,
-        **noise,
-        **({"constants": {source: c.as_dict() for source, c in sorted(constants.items())}} if constants else {}),
     }
 
 
@@ -344,36 +294,13 @@ def run_fidelity(
     help="The route the simtraces were driven on (the floor the car replays on).",
 )
 @click.option(
-    "--fit",
-    "fit_mode",
-    type=click.Choice(["none", "all", "leave-one-file-out"]),
-    default="none",
-    show_default=True,
-    help="Refit the car's dynamics constants first: on all files (prints them), or per file on the other files "
-    "(the honest, held-out error; takes minutes per file).",
-)
-@click.option(
-    "--hypotheses",
-    is_flag=True,
-    help="Instead of the replay, vary how the logs are read (command delay, time base, start state) with the "
-    "fit's twin and print the errors per variant (hypotheses.py; seconds).",
-)
-@click.option(
     "--car",
     type=click.Choice(sorted(CAR_DYNAMICS)),
     default="simtrace-fit",
     show_default=True,
     help="The car to replay: the constants fitted on these logs, or the env's default (gazebo: what real "
-    'DeepRacer policies lap with; docs/car-and-camera.md).',
+    "DeepRacer policies lap with; docs/car-and-camera.md).",
 )
-def fidelity_bench_command(simtraces: Path, route: Path, fit_mode: str, hypotheses: bool, car: str) -> None:
+def fidelity_bench_command(simtraces: Path, route: Path, car: str) -> None:
     """Open-loop replay of real simtraces: median and p90 position/heading error after 1 s and 2 s per speed band."""
-    paths = sorted(simtraces.glob("*.csv")) if simtraces.is_dir() else [simtraces]
-    if hypotheses:
-        segments = load_segments(paths)
-        if not segments:
-            raise click.ClickException(f"no replayable segments in {', '.join(str(p) for p in paths)}")
-        table = screen(segments, SPEED_BANDS_MPS, band_label)
-        click.echo(json.dumps({"segments": len(segments), "files": len(paths), "hypotheses": table}))
-        return
-    click.echo(json.dumps(run_fidelity(paths, route, progress=True, fit_mode=fit_mode, car=car)))
+    click.echo(json.dumps(run_fidelity(simtrace_files(simtraces), route, progress=True, car=car)))

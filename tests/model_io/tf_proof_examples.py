@@ -20,6 +20,7 @@ from racer.shared.deepracer.model_metadata import parse_model_metadata
 from racer.shared.policy.frame_stack import stack_episode_frames
 from racer.shared.policy.network_file import parse_network_file
 from racer.shared.policy.networks import ActorCritic, policy_config_from_metadata
+from tests.shared_data import SHARED_DATA
 
 __all__ = ["EXAMPLE_NETWORKS", "GAZEBO_FRAMES", "ExampleSpec", "example_frames", "example_specs", "make_example"]
 
@@ -46,9 +47,7 @@ EXAMPLE_NETWORKS: dict[str, dict] = {
     },
 }
 """docs/custom-networks.md's two network files, as written there (a test keeps them equal)."""
-GAZEBO_FRAMES = (
-    Path(__file__).resolve().parents[2].parent / "shared" / "deepracer-data" / "frames" / "gazebo_reinvent_episode"
-)
+GAZEBO_FRAMES = SHARED_DATA / "frames" / "gazebo_reinvent_episode"
 """DeepRacer's Gazebo front camera over one re:Invent 2018 episode, beside the racer checkout."""
 SENSOR = "FRONT_FACING_CAMERA"
 

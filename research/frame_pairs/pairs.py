@@ -1,4 +1,4 @@
-"""`racer bench frame-pairs`: each Gazebo frame beside racer's frame at the same pose; do policies read them alike?
+"""Frame pairs: each Gazebo frame beside racer's frame at the same pose; do policies read them alike?
 
 The 92 Gazebo frames (`frames/gazebo_reinvent_episode`) carry no pose, but their painted lines do. The yellow centre
 dashes and the white edge lines, projected onto the ground through the camera, fit re:Invent 2018's lines at one
@@ -33,10 +33,15 @@ import click
 import cv2
 import numpy as np
 
-from racer.benches.camera_frames import GAZEBO_FRAMES, ROUTE, load_gazebo_frames, paired_grey_stats, render_poses
+from racer.benches.gazebo_frames import GAZEBO_FRAMES, load_gazebo_frames, render_poses
 from racer.benches.workdir import cpu_description
 from racer.shared.sim.car import CAMERA_HORIZONTAL_FOV_RAD, CAMERA_PITCH_DOWN_RAD, CAMERA_POS_M
 from racer.shared.sim.world_look import EDGE_LINE_WIDTH_M
+from research import DEEPRACER_DATA
+from research.camera_proxies.grey_stats import paired_grey_stats
+from research.frame_pairs.poses import FITTED_POSES
+
+ROUTE = "routes/reinvent_base.npy"
 
 RASTER_M = 0.01
 """Metres per cell of the line-distance rasters."""
@@ -305,7 +310,7 @@ def compare_policies(
 def run_frame_pairs(
     data: Path, camera: CameraMount, jobs: int, limit: int | None, racer_model: Path | None, picture: Path | None
 ) -> dict:
-    from racer.benches.transfer import DEFAULT_MODELS, import_real_models, model_folders
+    from racer.benches.transfer import import_real_models, model_folders
 
     started = time.perf_counter()
     route_path = data / ROUTE
@@ -326,14 +331,14 @@ def run_frame_pairs(
     with tempfile.TemporaryDirectory(prefix="racer-frame-pairs-") as store_root:
         real = {
             model.label: (model.metadata, model.network)
-            for model in import_real_models(model_folders(data / DEFAULT_MODELS.name), Path(store_root))
+            for model in import_real_models(model_folders(data / "models"), Path(store_root))
         }
     racer = racer_policies(racer_model) if racer_model is not None else {}
     by_policy = compare_policies(frames, ours, jittered, good, real, racer)
     if picture is not None:
         pairs_picture(frames, ours, iou, picture)
     return {
-        "benchmark": "frame-pairs",
+        "study": "frame-pairs",
         "cpu": cpu_description(),
         "frames": len(frames),
         "camera": camera.__dict__,
@@ -359,9 +364,9 @@ def racer_policies(model_folder: Path) -> dict[str, tuple]:
 @click.option(
     "--data",
     type=click.Path(exists=True, file_okay=False, path_type=Path),
-    default=None,
-    help="The shared deepracer-data folder (Gazebo frames, re:Invent 2018 route, models/). "
-    "Default: ../shared/deepracer-data.",
+    default=DEEPRACER_DATA,
+    show_default=True,
+    help="The DeepRacer test data (Gazebo frames, re:Invent 2018 route, models/).",
 )
 @click.option(
     "--racer-model",
@@ -376,8 +381,8 @@ def racer_policies(model_folder: Path) -> dict[str, tuple]:
     "--save-poses",
     type=click.Path(dir_okay=False, path_type=Path),
     default=None,
-    help="Write the fitted poses as JSON (racer/benches/gazebo_frame_poses.json is this file, "
-    "for `racer bench camera`).",
+    help=f"Write the fitted poses as JSON ({FITTED_POSES.name} beside this study is this file, read by "
+    "research/camera_proxies).",
 )
 @click.option("--frames", "limit", type=click.IntRange(1, None), default=None, help="Only the first N frames.")
 @click.option("--jobs", type=click.IntRange(1, None), default=None, help="Processes fitting poses. Default: the cores.")
@@ -392,7 +397,7 @@ def racer_policies(model_folder: Path) -> dict[str, tuple]:
     "--camera-forward", type=float, default=CameraMount.forward_m, show_default=True, help="Metres, as above."
 )
 def frame_pairs_command(
-    data: Path | None,
+    data: Path,
     racer_model: Path | None,
     picture: Path | None,
     save_poses: Path | None,
@@ -402,17 +407,16 @@ def frame_pairs_command(
     camera_forward: float,
 ) -> None:
     """Fit each Gazebo frame's pose from its lines, render racer's frame there, and compare policies on the pairs."""
-    from racer.benches.transfer import SHARED_DATA
     from racer.shared.sim.gl import ensure_gl_backend
 
     ensure_gl_backend()
     camera = CameraMount(forward_m=camera_forward, height_m=camera_height)
-    result = run_frame_pairs(data or SHARED_DATA, camera, jobs or os.cpu_count() or 1, limit, racer_model, picture)
+    result = run_frame_pairs(data, camera, jobs or os.cpu_count() or 1, limit, racer_model, picture)
     if save_poses is not None:
         document = {
             "about": "Car poses of the Gazebo frames (frames/gazebo_reinvent_episode, in file order) "
             "on re:Invent 2018, "
-            "fitted from their painted lines by `racer bench frame-pairs`",
+            "fitted from their painted lines by `python -m research.frame_pairs`",
             "camera": result["camera"],
             "fit_cost_cm_median": result["fit_cost_cm"]["median"],
             "poses": result["poses"],

@@ -1,10 +1,10 @@
-"""`racer bench tf-proof`'s verdict: fp32 within 1e-5, fp16 within 1e-3 or two fp16 steps at the output's size."""
+"""The TensorFlow proof's verdict (tf_proof.summarize): fp32 within 1e-5, fp16 within 1e-3 or two fp16 steps at the output's size."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from racer.benches.tf_proof import RUNTIMES, summarize
+from tests.model_io.tf_proof import RUNTIMES, summarize
 
 
 def _proof(expected: np.ndarray, fp16_error: float) -> dict:

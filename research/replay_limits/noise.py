@@ -7,7 +7,7 @@ These measures bound what any car model can reach on these logs:
 * `row_timing`: at a held speed command, how much of the per-row distance's spread the logged step lengths
   explain (`tstamp_share`: 1 = the tstamps are the true step lengths, 0 = pure noise), and the step-length jitter
   the tstamps miss (upper bound: all unexplained spread of the distance counted as timing);
-* `replay_floor_m`: the planar twin (`tyre_fit.py`) with fixed constants plays the real car. Its trajectory from
+* `replay_floor_m`: the planar twin (research/tyre_fit/twin.py) with fixed constants plays the real car. Its trajectory from
   one row before each segment's start, with the logged commands and the replay's 1/15 s steps plus that jitter,
   becomes a pseudo-log; the replay's own protocol (central-difference start state from the pseudo-log's poses,
   hinges at the previous command, 1/15 s steps) then runs the same twin on it. The error left is the protocol's
@@ -26,9 +26,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from racer.benches.fidelity.tyre_fit import CarConstants, SegmentBatch, position_errors_m, simulate
 from racer.shared.deepracer.simtrace import read_simtrace
 from racer.shared.sim.car import Car
+from research.tyre_fit.twin import CarConstants, SegmentBatch, position_errors_m, simulate
 
 if TYPE_CHECKING:
     from racer.benches.fidelity.replay import Segment

@@ -2,11 +2,12 @@
 
 The twin integrates the same equations as the MuJoCo car (tyre forces of `Tyres.apply`, a first-order steering
 servo, the chassis' mass and yaw inertia) for all replay segments at once, so a Nelder-Mead fit of the nine
-constants takes a minute where the MuJoCo replay would take hours. `racer bench fidelity --fit` prints the constants
-fitted on all files (the defaults in `tyres.py`/`car.py` come from it); `--leave-one-file-out` fits on all files but
-one and replays that one in MuJoCo with the fold's constants, so the reported error is on data the fit never saw.
+constants takes a minute where the MuJoCo replay would take hours. `python -m research.tyre_fit --fit all` prints the
+constants fitted on all files (`car_dynamics.SIMTRACE_FIT_DYNAMICS` comes from it); `--fit leave-one-file-out` fits
+on all files but one and replays that one in MuJoCo with the fold's constants, so the reported error is on data the
+fit never saw.
 The twin leaves out what MuJoCo adds (second-order hinge, the wheels' spin-up, the chassis' small roll and pitch):
-the README gives the twin's and MuJoCo's errors with the same constants.
+README.md gives the twin's and MuJoCo's errors with the same constants.
 """
 
 from __future__ import annotations
@@ -89,7 +90,7 @@ class SegmentBatch:
     step_s: np.ndarray
     """(n, rows - 1): how long each row is replayed (fidelity.REPLAY_STEP_S; 0 in the padding)."""
     logged_step_s: np.ndarray
-    """(n, rows - 1): the logged tstamp differences (for `racer bench fidelity --hypotheses`)."""
+    """(n, rows - 1): the logged tstamp differences (for hypotheses.py)."""
     elapsed_s: np.ndarray
     """(n, poses): time of each compared pose after the start pose."""
     model_xy: np.ndarray

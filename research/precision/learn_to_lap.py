@@ -1,7 +1,7 @@
-"""`racer bench precision`: does a tower precision change what PPO learns? Env steps to a lap, fp32 against bf16.
+"""Does a tower precision change what PPO learns? Env steps to a lap, fp32 against bf16, in one process.
 
 `racer bench time-to-lap` runs the whole system (four worker processes, four worlds), so which worker plays which
-episode depends on timing and no two runs see the same data. This bench takes timing out: one process, one env
+episode depends on timing and no two runs see the same data. This study takes timing out: one process, one env
 (re:Invent 2018, base world, the time-to-lap bench's five actions at 1 m/s and its recipe: 20 episodes, 3 epochs,
 discount 0.99, the AWS centre-line reward), episodes played one after another with a seeded generator, then one PPO
 update, then three greedy evaluation laps from 0, 1/3 and 2/3 of the lap. With one seed, fp32 and bf16 start from the
@@ -25,17 +25,16 @@ import torch
 from racer.benches.precision_agreement import update_agreement
 from racer.benches.time_to_lap_races import time_to_lap_hyperparameters
 from racer.benches.workdir import cpu_description
-from racer.local.services import PROJECT_ROOT
 from racer.rollout_worker.episode_runner import play_episode
 from racer.shared.deepracer.hyperparameters import parse_hyperparameters
 from racer.shared.deepracer.model_metadata import parse_model_metadata
 from racer.shared.policy.networks import ActorCritic, build_actor_critic
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
-from racer.trainer.ppo import PPOSettings, PPOLearner
+from racer.trainer.ppo import PPOLearner, PPOSettings
 from racer.trainer.precision import PRECISION_NAMES, Precision
+from research import DEEPRACER_DATA
 
-SHARED_DATA = PROJECT_ROOT.parent / "shared" / "deepracer-data"
 EVALUATION_STARTS = (0.0, 1 / 3, 2 / 3)
 
 
@@ -98,7 +97,7 @@ def learn_to_lap(env: DeepRacerEnv, precision: Precision, seed: int, max_iterati
         ]  # fmt: skip
         completed = sum(lap.lap_completed for lap in laps)
         progress = float(np.mean([lap.progress for lap in laps]))
-        print(f"precision bench: {precision.value} seed {seed} iteration {iteration}: {env_steps} env steps, "
+        print(f"precision: {precision.value} seed {seed} iteration {iteration}: {env_steps} env steps, "
               f"{completed}/3 laps, mean progress {progress:.1f} %", file=sys.stderr, flush=True)  # fmt: skip
         if completed == len(EVALUATION_STARTS):
             return {"env_steps": env_steps, "iterations": iteration, "first_update_agreement": first_agreement}
@@ -106,18 +105,25 @@ def learn_to_lap(env: DeepRacerEnv, precision: Precision, seed: int, max_iterati
 
 
 @click.command(name="precision")
+@click.option(
+    "--data",
+    type=click.Path(exists=True, file_okay=False, path_type=Path),
+    default=DEEPRACER_DATA,
+    show_default=True,
+    help="The DeepRacer test data (routes/reinvent_base.npy, reward_functions/awsdoc_example_1.py).",
+)
 @click.option("--precision", "precisions", multiple=True, type=click.Choice(PRECISION_NAMES), default=PRECISION_NAMES)
 @click.option("--seed", "seeds", multiple=True, type=int, default=(0, 1, 2), show_default=True)
 @click.option("--max-iterations", default=20, show_default=True, help="Give up on a seed after this many updates.")
-def precision_bench_command(precisions: tuple[str, ...], seeds: tuple[int, ...], max_iterations: int) -> None:
+def precision_command(data: Path, precisions: tuple[str, ...], seeds: tuple[int, ...], max_iterations: int) -> None:
     """Env steps until 3 of 3 greedy laps, per precision and seed, in one deterministic process; one JSON line."""
     torch.set_num_threads(1)
     env = DeepRacerEnv(
         EnvConfig(
-            track=SHARED_DATA / "routes" / "reinvent_base.npy",
+            track=data / "routes" / "reinvent_base.npy",
             world="base",
             model_metadata=_metadata(),
-            reward_function_path=Path(SHARED_DATA / "reward_functions" / "awsdoc_example_1.py"),
+            reward_function_path=data / "reward_functions" / "awsdoc_example_1.py",
         )
     )
     started = time.monotonic()
@@ -134,7 +140,7 @@ def precision_bench_command(precisions: tuple[str, ...], seeds: tuple[int, ...],
     click.echo(
         json.dumps(
             {
-                "benchmark": "precision",
+                "study": "precision",
                 "cpu": cpu_description(),
                 "median_env_steps_to_lap": {k: (None if v == float("inf") else v) for k, v in medians.items()},
                 "runs": results,

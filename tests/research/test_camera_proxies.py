@@ -1,4 +1,4 @@
-"""`racer bench camera`: racer's frames against DeepRacer's Gazebo frames, and a policy's steering on them."""
+"""The camera proxy (research/camera_proxies): racer's frames against DeepRacer's Gazebo frames, and a policy's steering on them."""
 
 from __future__ import annotations
 
@@ -10,13 +10,13 @@ from racer.shared.sim.camera import rgb_to_y
 
 
 @pytest.mark.slow
-def test_camera_bench_prints_one_json_line(deepracer_data):
+def test_camera_proxy_prints_one_json_line(deepracer_data):
     from click.testing import CliRunner
 
-    from racer.benches.camera import camera_bench_command
+    from research.camera_proxies.camera import camera_command
 
     arguments = ["--data", str(deepracer_data), "--poses", "8", "--worlds", "base"]
-    result = CliRunner().invoke(camera_bench_command, arguments)
+    result = CliRunner().invoke(camera_command, arguments)
     assert result.exit_code == 0, result.output
     report = json.loads(result.output.strip().splitlines()[-1])
     base = report["worlds"]["base"]
@@ -31,16 +31,17 @@ def test_camera_bench_prints_one_json_line(deepracer_data):
         assert abs(racer_mean - gazebo_mean) < 10
 
 
-def test_camera_bench_reports_a_policys_steering_shares(deepracer_data, tmp_path):
+def test_camera_proxy_reports_a_policys_steering_shares(deepracer_data, tmp_path):
     """--checkpoint: a model folder in racer's store layout; its newest checkpoint steers on the 92 Gazebo frames."""
     import torch
 
-    from racer.benches.camera import GAZEBO_FRAMES, load_gazebo_frames, policy_shares
+    from racer.benches.gazebo_frames import GAZEBO_FRAMES, load_gazebo_frames
     from racer.shared.config import LocalStoreSettings
     from racer.shared.policy.checkpoints import CheckpointStore
     from racer.shared.policy.networks import build_actor_critic
     from racer.shared.sim.config import DEFAULT_MODEL_METADATA
     from racer.shared.store import open_store
+    from research.camera_proxies.camera import policy_shares
 
     torch.manual_seed(0)
     checkpoints = CheckpointStore(open_store(LocalStoreSettings(root=tmp_path)), "m")

@@ -1,14 +1,14 @@
-"""`racer bench camera`: how close racer's camera frames are to DeepRacer's, and what each render path costs.
+"""The camera proxy: how close racer's camera frames are to DeepRacer's, and what each render path costs.
 
 For each world, racer renders the front camera at poses spread evenly around the re:Invent 2018 lap (centre line,
 heading along the route) and compares them with the real in-car frames of one Gazebo episode
 (`frames/gazebo_reinvent_episode`, 160x120 RGB): the earth-mover distance between the grayscale histograms (in grey
 levels; RL Coach's grayscale), the mean grey of the lower half (mostly road) and of the upper third (walls and what is
 above them). Those poses are not the episode's, so the same figures are also taken on the pairs (`paired`): racer's
-frames at the Gazebo frames' own poses (`gazebo_frame_poses.json`, fitted by `racer bench frame-pairs`), where the
-views match and only the look differs. The direct 160x120 frame is compared with racer's 640x480 + bilinear-resize
-path at the same poses (mean absolute grey difference), and both paths are timed. With `--checkpoint`, a racer
-policy's greedy left / straight / right shares on the Gazebo frames show how it reads DeepRacer's images.
+frames at the Gazebo frames' own poses (research/frame_pairs/gazebo_frame_poses.json), where the views match and
+only the look differs. The direct 160x120 frame is compared with racer's 640x480 + bilinear-resize path at the same
+poses (mean absolute grey difference), and both paths are timed. With `--checkpoint`, a racer policy's greedy left /
+straight / right shares on the Gazebo frames show how it reads DeepRacer's images.
 """
 
 from __future__ import annotations
@@ -20,22 +20,16 @@ from pathlib import Path
 import click
 import numpy as np
 
-from racer.benches.camera_frames import (
-    DATA_DIR,
-    GAZEBO_FRAMES,
-    ROUTE,
-    frame_stats,
-    histogram_emd,
-    load_fitted_poses,
-    load_gazebo_frames,
-    paired_grey_stats,
-    render_lap,
-    render_poses,
-)
+from racer.benches.gazebo_frames import GAZEBO_FRAMES, load_gazebo_frames, render_lap, render_poses
 from racer.shared.sim.camera import CENTER_CAMERA, CameraRenderer, rgb_to_y
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
 from racer.shared.sim.worlds import WORLD_NAMES
+from research import DEEPRACER_DATA
+from research.camera_proxies.grey_stats import frame_stats, histogram_emd, paired_grey_stats
+from research.frame_pairs.poses import load_fitted_poses
+
+ROUTE = "routes/reinvent_base.npy"
 
 
 def frame_cost_ms(
@@ -103,8 +97,8 @@ def paired_stats(
     return paired_grey_stats(np.stack([rgb_to_y(frame) for frame in ours_rgb]), gazebo_gray)
 
 
-def run_camera_benchmark(
-    data_dir: Path = DATA_DIR,
+def run_camera_proxy(
+    data_dir: Path = DEEPRACER_DATA,
     poses: int = 40,
     worlds: tuple[str, ...] = WORLD_NAMES,
     checkpoint: Path | None = None,
@@ -114,7 +108,7 @@ def run_camera_benchmark(
     (key `<world>+simapp`)."""
     route = data_dir / ROUTE
     if not route.is_file():
-        raise click.ClickException(f"route file missing: {route}; pass --data DIR (the shared deepracer-data)")
+        raise click.ClickException(f"route file missing: {route}; pass --data DIR (the DeepRacer test data)")
     gazebo_rgb = load_gazebo_frames(data_dir / GAZEBO_FRAMES)
     gazebo = frame_stats(np.stack([rgb_to_y(frame) for frame in gazebo_rgb]))
     half = len(gazebo_rgb) // 2
@@ -160,9 +154,9 @@ def run_camera_benchmark(
     "--data",
     "data_dir",
     type=click.Path(file_okay=False, path_type=Path),
-    default=DATA_DIR,
+    default=DEEPRACER_DATA,
     show_default=True,
-    help="The shared deepracer-data folder (route and Gazebo frames).",
+    help="The DeepRacer test data (route and Gazebo frames).",
 )
 @click.option("--poses", default=40, show_default=True, help="Poses around the re:Invent 2018 lap.")
 @click.option("--worlds", default=",".join(WORLD_NAMES), show_default=True, help="Comma-separated worlds.")
@@ -179,9 +173,7 @@ def run_camera_benchmark(
     default=None,
     help="Also measure each world drawn from DeepRacer's own meshes in this SimApp bundle/ folder.",
 )
-def camera_bench_command(
-    data_dir: Path, poses: int, worlds: str, checkpoint: Path | None, simapp_dir: Path | None
-) -> None:
+def camera_command(data_dir: Path, poses: int, worlds: str, checkpoint: Path | None, simapp_dir: Path | None) -> None:
     """Compare racer's camera frames with DeepRacer's Gazebo frames; prints one JSON line."""
     names = tuple(name.strip() for name in worlds.split(",") if name.strip())
     unknown = [name for name in names if name not in WORLD_NAMES]
@@ -189,4 +181,4 @@ def camera_bench_command(
         raise click.BadParameter(
             f"unknown world(s) {unknown}; choose from {', '.join(WORLD_NAMES)}", param_hint="--worlds"
         )
-    click.echo(json.dumps(run_camera_benchmark(data_dir, poses, names, checkpoint, simapp_dir)))
+    click.echo(json.dumps(run_camera_proxy(data_dir, poses, names, checkpoint, simapp_dir)))

@@ -1,4 +1,4 @@
-"""`racer bench frame-pairs` fits a frame's pose from its painted lines, renders racer's frame there and compares
+"""research/frame_pairs fits a frame's pose from its painted lines, renders racer's frame there and compares
 policies on the pairs. The fit is checked on racer's own frames (the pose is known) and on a real Gazebo frame."""
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ import pytest
 from click.testing import CliRunner
 from PIL import Image
 
-from racer.benches.frame_pairs import (
+from research.frame_pairs.pairs import (
     CameraMount,
     RouteLines,
     fit_pose,
@@ -64,8 +64,8 @@ def test_a_gazebo_frame_fits_better_with_the_current_camera_mount_than_the_old_o
 
 @pytest.mark.slow
 def test_the_stored_poses_are_the_fit_of_their_frames():
-    """`racer bench camera` renders at gazebo_frame_poses.json: the fit of a frame still lands at the same view."""
-    from racer.benches.camera_frames import load_fitted_poses
+    """The camera proxy renders at gazebo_frame_poses.json: the fit of a frame still lands at the same view."""
+    from research.frame_pairs.poses import load_fitted_poses
 
     stored = load_fitted_poses()
     assert len(stored) == 92
@@ -78,11 +78,22 @@ def test_the_stored_poses_are_the_fit_of_their_frames():
 
 
 @pytest.mark.slow
-def test_the_bench_on_two_frames_prints_pairs_per_real_checkpoint(tmp_path):
+def test_the_study_on_two_frames_prints_pairs_per_real_checkpoint(tmp_path):
     picture = tmp_path / "pairs.png"
     result = CliRunner().invoke(
         frame_pairs_command,
-        ["--frames", "2", "--jobs", "1", "--picture", str(picture), "--save-poses", str(tmp_path / "poses.json")],
+        [
+            "--data",
+            str(SHARED_DATA),
+            "--frames",
+            "2",
+            "--jobs",
+            "1",
+            "--picture",
+            str(picture),
+            "--save-poses",
+            str(tmp_path / "poses.json"),
+        ],
         catch_exceptions=False,
     )
     assert result.exit_code == 0, result.output

@@ -1,10 +1,11 @@
 """The proof that one policy is one function everywhere: racer, the exported frozen graph run by TensorFlow, and the
 OpenVINO IR and LiteRT (TFLite) models the cars make from it, fp32 and fp16, on frames racer's simulator renders.
 
-`racer bench tf-proof` runs the whole matrix (every network, every sensor set DRoA's validation accepts, PPO
-discrete, PPO continuous and SAC: 72 models) and prints one JSON line; `--examples` runs docs/custom-networks.md's
-examples instead (tf_proof_examples.py: your own networks, batch-norm, a two-frame stack, on DeepRacer's Gazebo
-frames); the test suite runs a subset (tests/model_io). Frames are rendered in this process; every TensorFlow,
+The test suite runs a subset of the matrix (test_tensorflow_proof.py) and the examples of docs/custom-networks.md
+(test_custom_graph_export.py). `python -m tests.model_io.tf_proof`, from the repository root, runs the whole matrix
+(every network, every sensor set DRoA's validation accepts, PPO discrete, PPO continuous and SAC: 72 models) and
+prints one JSON line; `--examples` runs the examples instead (tf_proof_examples.py: your own networks, batch-norm, a
+two-frame stack, on DeepRacer's Gazebo frames). Frames are rendered in this process; every TensorFlow,
 OpenVINO and LiteRT step runs in a TensorFlow process (`tool.py prove`) that takes its models one at a time (a stereo
 DEEP policy network is 230 MB); `--processes` runs several side by side.
 """
@@ -26,12 +27,12 @@ import numpy as np
 import torch
 from safetensors.numpy import save_file
 
-from racer.benches.tf_proof_examples import proof_action_space
 from racer.model_io.tensorflow.convert import ExportJob, coach_graph_spec, coach_tensors, policy_scope
 from racer.model_io.tensorflow.runner import run_tool
 from racer.shared.deepracer.model_metadata import NEURAL_NETWORKS, parse_model_metadata
 from racer.shared.policy.factory import PolicyNetwork, build_network_for_metadata
 from racer.shared.policy.networks import ActorCritic
+from tests.model_io.tf_proof_examples import proof_action_space
 
 __all__ = [
     "FP16_TOLERANCE",
@@ -326,7 +327,7 @@ def tf_proof_command(
 def prove_examples(matches: tuple[str, ...], processes: int = 1) -> dict:
     """docs/custom-networks.md's examples, one TensorFlow process per stack size (a process feeds one set of
     frames to all its models); the figures of all of them."""
-    from racer.benches.tf_proof_examples import example_frames, example_specs, make_example
+    from tests.model_io.tf_proof_examples import example_frames, example_specs, make_example
 
     specs = [spec for spec in example_specs() if not matches or any(text in spec.key for text in matches)]
     if not specs:
@@ -342,3 +343,7 @@ def prove_examples(matches: tuple[str, ...], processes: int = 1) -> dict:
     figures["examples"] = [spec.key for spec in specs]
     figures["frames"] = "gazebo_reinvent_episode"
     return figures
+
+
+if __name__ == "__main__":
+    tf_proof_command()

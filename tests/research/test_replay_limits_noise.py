@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from racer.benches.fidelity.noise import in_progress_rows, oracle_start_errors_m, replay_floor_m, row_timing
 from racer.benches.fidelity.replay import load_segments
-from racer.benches.fidelity.tyre_fit import CarConstants, SegmentBatch, position_errors_m, simulate
+from research.replay_limits.noise import in_progress_rows, oracle_start_errors_m, replay_floor_m, row_timing
+from research.tyre_fit.twin import CarConstants, SegmentBatch, position_errors_m, simulate
 
 
 def _synthetic_episode(tstamp_noise_s: float, seed: int) -> tuple[np.ndarray, ...]:
@@ -69,3 +69,23 @@ def test_an_oracle_start_state_gains_little(deepracer_data):
     assert np.median(near) < 0.03
     # ... and helps after 1 s, but the car still misses by centimetres: the error grows after the start.
     assert np.median(oracle) < plain and np.median(oracle) > 0.04
+
+
+def test_the_study_prints_each_limit_per_band_below_the_replays_error(deepracer_data):
+    """The limits of a car model on these logs lie under what racer's fitted car reaches in `racer bench fidelity`."""
+    from racer.benches.fidelity.replay import run_fidelity
+    from research.replay_limits.study import run_limits
+
+    paths = [deepracer_data / "simtrace" / "drfc1_evaluation_0-iteration.csv"]
+    limits = run_limits(paths)
+    replayed = run_fidelity(paths, deepracer_data / "routes" / "reinvent_base.npy")["bands"]
+    assert limits["files"] == 1 and limits["segments"] >= 5
+    assert limits["row_timing"]["rows"] > 20 and 0 < limits["row_timing"]["unexplained_jitter_s"] < 0.01
+    assert limits["heading_floor_deg_1s_median"] == {}  # one file: nothing to fit the predictor on
+    assert limits["replay_floor_m_1s_median"] and set(limits["replay_floor_m_1s_median"]) == set(
+        limits["oracle_start_m_1s_median"]
+    )
+    for band, floor in limits["replay_floor_m_1s_median"].items():
+        # An exact twin on its own pseudo-log (the logs' timing noise, the replay's protocol) misses by less.
+        assert 0 < floor < replayed[band]["position_m_1s_median"]
+        assert 0 < limits["oracle_start_m_1s_median"][band]

@@ -1,10 +1,11 @@
-"""`racer bench fidelity --hypotheses`: the replay's protocol varied, one assumption at a time, with the fit's twin.
+"""The replay's protocol varied, one assumption at a time, with the fit's twin (`python -m research.tyre_fit
+--hypotheses`).
 
 Each variant changes how the logs are read, not the car: when a row's command starts to act (a late or early
 action), which step lengths drive the replay (DeepRacer's nominal 1/15 s, the logged `tstamp`s, their median),
 and which start state it begins from (central differences around the start pose, backward differences from the
 rows before it only, or an oracle fitted to the next 0.5 s of the log). The twin keeps the shipped constants;
-the README gives these figures and, for the variants that could help, the same after refitting the constants.
+README.md gives these figures and, for the variants that could help, the same after refitting the constants.
 """
 
 from __future__ import annotations
@@ -15,8 +16,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from racer.benches.fidelity.noise import oracle_start_errors_m
-from racer.benches.fidelity.tyre_fit import FIT_HORIZONS_S, CarConstants, SegmentBatch, position_errors_m, simulate
+from research.replay_limits.noise import oracle_start_errors_m
+from research.tyre_fit.twin import FIT_HORIZONS_S, CarConstants, SegmentBatch, position_errors_m, simulate
 
 if TYPE_CHECKING:
     from racer.benches.fidelity.replay import Segment

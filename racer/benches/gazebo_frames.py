@@ -1,0 +1,94 @@
+"""DeepRacer's reference camera frames and racer's frames at chosen poses.
+
+The Gazebo episode's in-car frames (`frames/gazebo_reinvent_episode` in the DeepRacer test data) are the only real
+camera frames racer has; `racer bench transfer --racer-model` reads a racer policy's steering on them, and
+`racer model explain --racer-frames` draws racer's own frames around a lap. Both render with the camera of the car
+that recorded the Gazebo frames, so the two sets show the same view.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from pathlib import Path
+
+import click
+import numpy as np
+from PIL import Image
+
+from racer.shared.sim.camera import CENTER_CAMERA, CameraRenderer
+from racer.shared.sim.config import DEFAULT_MODEL_METADATA, EnvConfig
+from racer.shared.sim.env import DeepRacerEnv
+
+GAZEBO_FRAMES = "frames/gazebo_reinvent_episode"
+"""Where the Gazebo frames lie inside the DeepRacer test data folder."""
+GAZEBO_EPISODE_SIMAPP_VERSION = 3.0
+"""The camera mount of the car that recorded the Gazebo frames: SimApp version >= 3, (0.145, 0, 0.130) m. Their lines
+fit re:Invent 2018 at a median 1.84 cm with it against 3.23 cm with the older (0.2, 0, 0.164) m mount of version < 3
+(research/frame_pairs/README.md)."""
+
+
+def load_gazebo_frames(folder: Path) -> np.ndarray:
+    """(N, 120, 160, 3) uint8 RGB frames of the Gazebo episode, in file order; a clear error when missing."""
+    files = sorted(folder.glob("*.png"))
+    if not files:
+        raise click.ClickException(
+            f"no Gazebo frames (*.png) in {folder}: expected the folder {GAZEBO_FRAMES} of the DeepRacer test data"
+        )
+    frames = []
+    for path in files:
+        image = np.asarray(Image.open(path).convert("RGB"))
+        if image.shape != (120, 160, 3):
+            raise click.ClickException(f"{path}: expected a 160x120 frame, got {image.shape[1]}x{image.shape[0]}")
+        frames.append(image)
+    return np.stack(frames)
+
+
+def gazebo_episode_config(
+    route: str | Path, world: str, full_resolution: bool, simapp_dir: Path | None = None
+) -> EnvConfig:
+    """An env with the camera of the car that recorded the Gazebo frames (`GAZEBO_EPISODE_SIMAPP_VERSION`)."""
+    metadata = dataclasses.replace(DEFAULT_MODEL_METADATA, version=GAZEBO_EPISODE_SIMAPP_VERSION)
+    return EnvConfig(
+        track=route, world=world, model_metadata=metadata, render_full_resolution=full_resolution, simapp_dir=simapp_dir
+    )
+
+
+def render_lap(
+    route: str | Path, world: str, poses: int, full_resolution: bool, simapp_dir: Path | None = None
+) -> tuple[np.ndarray, float]:
+    """RGB frames at `poses` evenly spread centre-line poses of `route` (a track name or route file), and the mean
+    milliseconds per frame."""
+    return render_poses(route, world, _centre_line_poses(route, poses), full_resolution, simapp_dir)
+
+
+def _centre_line_poses(route: str | Path, poses: int) -> list[tuple[float, float, float]]:
+    from racer.shared.sim.track import Track
+
+    track = Track.load(route)
+    return [track.pose_at(float(ndist), "center") for ndist in np.arange(poses) / poses]
+
+
+def render_poses(
+    route: str | Path,
+    world: str,
+    poses: list[tuple[float, float, float]],
+    full_resolution: bool,
+    simapp_dir: Path | None = None,
+) -> tuple[np.ndarray, float]:
+    """RGB frames with the car (origin) at each pose (x, y, yaw), and the mean milliseconds per frame."""
+    env = DeepRacerEnv(gazebo_episode_config(route, world, full_resolution, simapp_dir))
+    try:
+        env.reset(seed=0)
+        renderer: CameraRenderer = env._camera  # the env's own renderer: the path training uses
+        frames, elapsed_s = [], 0.0
+        for pose in poses:
+            env.teleport(*pose)
+            start = time.perf_counter()
+            renderer.start(env.data, CENTER_CAMERA)
+            frame = renderer.finish()
+            elapsed_s += time.perf_counter() - start
+            frames.append(frame.copy())
+        return np.stack(frames), 1e3 * elapsed_s / max(len(poses), 1)
+    finally:
+        env.close()

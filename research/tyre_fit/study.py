@@ -1,0 +1,110 @@
+"""The tyre fit's command: fit the car's constants to real simtraces and replay them in MuJoCo, or screen the
+replay's hypotheses with the fit's twin."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from pathlib import Path
+
+import click
+
+from racer.benches.fidelity.replay import (
+    SPEED_BANDS_MPS,
+    CarReplay,
+    Segment,
+    band_label,
+    goal_met,
+    load_replayable,
+    replay_errors,
+    simtrace_files,
+    summarise,
+)
+from research import DEEPRACER_DATA
+from research.tyre_fit.hypotheses import screen
+from research.tyre_fit.twin import CarConstants, SegmentBatch, fit, leave_one_file_out
+
+FIT_MODES = ("all", "leave-one-file-out")
+
+
+def fitted_constants(segments: Sequence[Segment], mode: str, progress: bool = False) -> dict[str, CarConstants]:
+    """Per simtrace file, the constants its segments replay with: fitted on all files (`all`, in sample) or on the
+    other files (`leave-one-file-out`, held out)."""
+    batch = SegmentBatch.of(segments)
+    if mode == "all":
+        fitted = fit(batch, progress=progress)
+        return {segment.source: fitted for segment in segments}
+    if mode == "leave-one-file-out":
+        return leave_one_file_out(batch, progress=progress)
+    raise ValueError(f"unknown fit mode {mode!r}: {' or '.join(FIT_MODES)}")
+
+
+def run_fit(simtraces: Sequence[Path], route: Path, mode: str, progress: bool = False) -> dict:
+    """The replay's error table with the fitted constants, each file replayed in MuJoCo with its own."""
+    segments = load_replayable(simtraces)
+    try:
+        constants = fitted_constants(segments, mode, progress)
+    except ValueError as exc:
+        raise click.ClickException(str(exc)) from None
+    replay = CarReplay(route)
+    errors = []
+    try:
+        for source, fold in sorted(constants.items()):
+            replay.car.retune(replay.model, fold.tyres, fold.steering_time_constant_s, fold.yaw_inertia_kgm2)
+            errors += replay_errors(replay, [segment for segment in segments if segment.source == source], progress)
+    finally:
+        replay.close()
+    bands = summarise(errors)
+    return {
+        "segments": len(segments),
+        "files": len(simtraces),
+        "fit": mode,
+        "bands": bands,
+        "goal_median_position_1s_le_0_05_m": goal_met(bands),
+        "constants": {source: c.as_dict() for source, c in sorted(constants.items())},
+    }
+
+
+def run_hypotheses(simtraces: Sequence[Path]) -> dict:
+    """The replay's reading of the logs varied one assumption at a time (hypotheses.py), with the shipped constants."""
+    segments = load_replayable(simtraces)
+    return {
+        "segments": len(segments),
+        "files": len(simtraces),
+        "hypotheses": screen(segments, SPEED_BANDS_MPS, band_label),
+    }
+
+
+@click.command(name="tyre-fit")
+@click.option(
+    "--simtraces",
+    type=click.Path(exists=True, path_type=Path),
+    default=DEEPRACER_DATA / "simtrace",
+    show_default=True,
+    help="A real simtrace CSV or a folder of them (DeepRacer runs on re:Invent 2018).",
+)
+@click.option(
+    "--route",
+    type=click.Path(exists=True, dir_okay=False, path_type=Path),
+    default=DEEPRACER_DATA / "routes" / "reinvent_base.npy",
+    show_default=True,
+    help="The route the simtraces were driven on.",
+)
+@click.option(
+    "--fit",
+    "mode",
+    type=click.Choice(FIT_MODES),
+    default="all",
+    show_default=True,
+    help="Fit on all files and print the constants, or per file on the other files (held out; minutes per file).",
+)
+@click.option(
+    "--hypotheses",
+    is_flag=True,
+    help="Instead: vary how the logs are read (command delay, time base, start state) with the twin (seconds).",
+)
+def tyre_fit_command(simtraces: Path, route: Path, mode: str, hypotheses: bool) -> None:
+    """Fit the car's dynamics constants to real simtraces and replay them; one JSON line."""
+    paths = simtrace_files(simtraces)
+    result = run_hypotheses(paths) if hypotheses else run_fit(paths, route, mode, progress=True)
+    click.echo(json.dumps(result))
