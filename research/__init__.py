@@ -8,8 +8,34 @@ racer. README.md lists the studies.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
+
+import click
 
 DEEPRACER_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "deepracer-data"
 """The DeepRacer test data beside the checkout (real simtraces, routes, the Gazebo frames, real models): every
 study's default `--data`."""
+
+
+def data_option(reads: str) -> Callable:
+    """`--data`, the DeepRacer test data folder (default: the one beside the checkout); `reads` names what the
+    study takes from it."""
+    return click.option(
+        "--data",
+        type=click.Path(exists=True, file_okay=False, path_type=Path),
+        default=DEEPRACER_DATA,
+        show_default=True,
+        help=f"The DeepRacer test data ({reads}).",
+    )
+
+
+def simtraces_option(command: Callable) -> Callable:
+    """`--simtraces`: a real simtrace CSV or a folder of them (default: the test data's `simtrace/`)."""
+    return click.option(
+        "--simtraces",
+        type=click.Path(exists=True, path_type=Path),
+        default=DEEPRACER_DATA / "simtrace",
+        show_default=True,
+        help="A real simtrace CSV or a folder of them (DeepRacer runs on re:Invent 2018).",
+    )(command)

@@ -25,7 +25,7 @@ from racer.shared.sim.camera import CENTER_CAMERA, CameraRenderer, rgb_to_y
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
 from racer.shared.sim.worlds import WORLD_NAMES
-from research import DEEPRACER_DATA
+from research import DEEPRACER_DATA, data_option
 from research.camera_proxies.grey_stats import frame_stats, histogram_emd, paired_grey_stats
 from research.frame_pairs.poses import load_fitted_poses
 
@@ -150,14 +150,7 @@ def run_camera_proxy(
 
 
 @click.command("camera")
-@click.option(
-    "--data",
-    "data_dir",
-    type=click.Path(file_okay=False, path_type=Path),
-    default=DEEPRACER_DATA,
-    show_default=True,
-    help="The DeepRacer test data (route and Gazebo frames).",
-)
+@data_option("the re:Invent 2018 route and the Gazebo frames")
 @click.option("--poses", default=40, show_default=True, help="Poses around the re:Invent 2018 lap.")
 @click.option("--worlds", default=",".join(WORLD_NAMES), show_default=True, help="Comma-separated worlds.")
 @click.option(
@@ -173,7 +166,7 @@ def run_camera_proxy(
     default=None,
     help="Also measure each world drawn from DeepRacer's own meshes in this SimApp bundle/ folder.",
 )
-def camera_command(data_dir: Path, poses: int, worlds: str, checkpoint: Path | None, simapp_dir: Path | None) -> None:
+def camera_command(data: Path, poses: int, worlds: str, checkpoint: Path | None, simapp_dir: Path | None) -> None:
     """Compare racer's camera frames with DeepRacer's Gazebo frames; prints one JSON line."""
     names = tuple(name.strip() for name in worlds.split(",") if name.strip())
     unknown = [name for name in names if name not in WORLD_NAMES]
@@ -181,4 +174,4 @@ def camera_command(data_dir: Path, poses: int, worlds: str, checkpoint: Path | N
         raise click.BadParameter(
             f"unknown world(s) {unknown}; choose from {', '.join(WORLD_NAMES)}", param_hint="--worlds"
         )
-    click.echo(json.dumps(run_camera_proxy(data_dir, poses, names, checkpoint, simapp_dir)))
+    click.echo(json.dumps(run_camera_proxy(data, poses, names, checkpoint, simapp_dir)))

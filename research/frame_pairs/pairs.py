@@ -37,7 +37,7 @@ from racer.benches.gazebo_frames import GAZEBO_FRAMES, load_gazebo_frames, rende
 from racer.benches.workdir import cpu_description
 from racer.shared.sim.car import CAMERA_HORIZONTAL_FOV_RAD, CAMERA_PITCH_DOWN_RAD, CAMERA_POS_M
 from racer.shared.sim.world_look import EDGE_LINE_WIDTH_M
-from research import DEEPRACER_DATA
+from research import data_option
 from research.camera_proxies.grey_stats import paired_grey_stats
 from research.frame_pairs.poses import FITTED_POSES
 
@@ -361,13 +361,7 @@ def racer_policies(model_folder: Path) -> dict[str, tuple]:
 
 
 @click.command(name="frame-pairs")
-@click.option(
-    "--data",
-    type=click.Path(exists=True, file_okay=False, path_type=Path),
-    default=DEEPRACER_DATA,
-    show_default=True,
-    help="The DeepRacer test data (Gazebo frames, re:Invent 2018 route, models/).",
-)
+@data_option("Gazebo frames, re:Invent 2018 route, models/")
 @click.option(
     "--racer-model",
     type=click.Path(exists=True, file_okay=False, path_type=Path),

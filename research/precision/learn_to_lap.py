@@ -33,7 +33,7 @@ from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
 from racer.trainer.ppo import PPOLearner, PPOSettings
 from racer.trainer.precision import PRECISION_NAMES, Precision
-from research import DEEPRACER_DATA
+from research import data_option
 
 EVALUATION_STARTS = (0.0, 1 / 3, 2 / 3)
 
@@ -105,13 +105,7 @@ def learn_to_lap(env: DeepRacerEnv, precision: Precision, seed: int, max_iterati
 
 
 @click.command(name="precision")
-@click.option(
-    "--data",
-    type=click.Path(exists=True, file_okay=False, path_type=Path),
-    default=DEEPRACER_DATA,
-    show_default=True,
-    help="The DeepRacer test data (routes/reinvent_base.npy, reward_functions/awsdoc_example_1.py).",
-)
+@data_option("routes/reinvent_base.npy, reward_functions/awsdoc_example_1.py")
 @click.option("--precision", "precisions", multiple=True, type=click.Choice(PRECISION_NAMES), default=PRECISION_NAMES)
 @click.option("--seed", "seeds", multiple=True, type=int, default=(0, 1, 2), show_default=True)
 @click.option("--max-iterations", default=20, show_default=True, help="Give up on a seed after this many updates.")

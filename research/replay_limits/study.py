@@ -10,7 +10,7 @@ import click
 import numpy as np
 
 from racer.benches.fidelity.replay import SPEED_BANDS_MPS, Segment, band_label, load_replayable, simtrace_files
-from research import DEEPRACER_DATA
+from research import simtraces_option
 from research.replay_limits.heading_floor import heading_floor_deg
 from research.replay_limits.noise import in_progress_rows, oracle_start_errors_m, replay_floor_m, row_timing
 from research.tyre_fit.twin import CarConstants
@@ -58,13 +58,7 @@ def run_limits(simtraces: Sequence[Path]) -> dict:
 
 
 @click.command(name="replay-limits")
-@click.option(
-    "--simtraces",
-    type=click.Path(exists=True, path_type=Path),
-    default=DEEPRACER_DATA / "simtrace",
-    show_default=True,
-    help="A real simtrace CSV or a folder of them (DeepRacer runs on re:Invent 2018).",
-)
+@simtraces_option
 def replay_limits_command(simtraces: Path) -> None:
     """What the real logs allow the open-loop replay, per speed band; one JSON line."""
     click.echo(json.dumps(run_limits(simtrace_files(simtraces))))

@@ -14,13 +14,12 @@ from racer.benches.fidelity.replay import (
     CarReplay,
     Segment,
     band_label,
-    goal_met,
+    error_table,
     load_replayable,
     replay_errors,
     simtrace_files,
-    summarise,
 )
-from research import DEEPRACER_DATA
+from research import DEEPRACER_DATA, simtraces_option
 from research.tyre_fit.hypotheses import screen
 from research.tyre_fit.twin import CarConstants, SegmentBatch, fit, leave_one_file_out
 
@@ -54,13 +53,9 @@ def run_fit(simtraces: Sequence[Path], route: Path, mode: str, progress: bool = 
             errors += replay_errors(replay, [segment for segment in segments if segment.source == source], progress)
     finally:
         replay.close()
-    bands = summarise(errors)
     return {
-        "segments": len(segments),
-        "files": len(simtraces),
+        **error_table(segments, len(simtraces), errors),
         "fit": mode,
-        "bands": bands,
-        "goal_median_position_1s_le_0_05_m": goal_met(bands),
         "constants": {source: c.as_dict() for source, c in sorted(constants.items())},
     }
 
@@ -76,13 +71,7 @@ def run_hypotheses(simtraces: Sequence[Path]) -> dict:
 
 
 @click.command(name="tyre-fit")
-@click.option(
-    "--simtraces",
-    type=click.Path(exists=True, path_type=Path),
-    default=DEEPRACER_DATA / "simtrace",
-    show_default=True,
-    help="A real simtrace CSV or a folder of them (DeepRacer runs on re:Invent 2018).",
-)
+@simtraces_option
 @click.option(
     "--route",
     type=click.Path(exists=True, dir_okay=False, path_type=Path),

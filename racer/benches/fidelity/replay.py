@@ -234,6 +234,18 @@ def goal_met(bands: dict[str, dict]) -> bool:
     return all(entry.get("position_m_1s_median", math.inf) <= 0.05 for entry in bands.values() if entry["segments"])
 
 
+def error_table(segments: Sequence[Segment], files: int, errors: Sequence[SegmentError]) -> dict:
+    """The bench's figures for the errors of `segments` from `files` simtrace files: per band (`summarise`) and
+    whether every band meets the 5 cm goal."""
+    bands = summarise(errors)
+    return {
+        "segments": len(segments),
+        "files": files,
+        "bands": bands,
+        "goal_median_position_1s_le_0_05_m": goal_met(bands),
+    }
+
+
 def replay_errors(replay: CarReplay, segments: Sequence[Segment], progress: bool = False) -> list[SegmentError]:
     """Each segment replayed with the replay's car as it stands, in order."""
     errors = []
@@ -268,14 +280,7 @@ def run_fidelity(simtraces: Sequence[Path], route: Path, progress: bool = False,
         errors = replay_errors(replay, segments, progress)
     finally:
         replay.close()
-    bands = summarise(errors)
-    return {
-        "segments": len(segments),
-        "files": len(simtraces),
-        "bands": bands,
-        "goal_median_position_1s_le_0_05_m": goal_met(bands),
-        "car": car,
-    }
+    return {**error_table(segments, len(simtraces), errors), "car": car}
 
 
 @click.command(name="fidelity")
