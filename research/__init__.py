@@ -39,3 +39,15 @@ def simtraces_option(command: Callable) -> Callable:
         show_default=True,
         help="A real simtrace CSV or a folder of them (DeepRacer runs on re:Invent 2018).",
     )(command)
+
+
+def route_option(command: Callable) -> Callable:
+    """`--route`: the route the simtraces were driven on (default: re:Invent 2018); files of other tracks are left
+    out (`racer.benches.fidelity.replay.replay_files`)."""
+    return click.option(
+        "--route",
+        type=click.Path(exists=True, dir_okay=False, path_type=Path),
+        default=DEEPRACER_DATA / "routes" / "reinvent_base.npy",
+        show_default=True,
+        help="The route the simtraces were driven on; files logged on another track are left out.",
+    )(command)

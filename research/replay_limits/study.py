@@ -9,8 +9,8 @@ from pathlib import Path
 import click
 import numpy as np
 
-from racer.benches.fidelity.replay import SPEED_BANDS_MPS, Segment, band_label, load_replayable, simtrace_files
-from research import simtraces_option
+from racer.benches.fidelity.replay import SPEED_BANDS_MPS, Segment, band_label, load_replayable, replay_files
+from research import route_option, simtraces_option
 from research.replay_limits.heading_floor import heading_floor_deg
 from research.replay_limits.noise import in_progress_rows, oracle_start_errors_m, replay_floor_m, row_timing
 from research.tyre_fit.twin import CarConstants
@@ -59,6 +59,7 @@ def run_limits(simtraces: Sequence[Path]) -> dict:
 
 @click.command(name="replay-limits")
 @simtraces_option
-def replay_limits_command(simtraces: Path) -> None:
+@route_option
+def replay_limits_command(simtraces: Path, route: Path) -> None:
     """What the real logs allow the open-loop replay, per speed band; one JSON line."""
-    click.echo(json.dumps(run_limits(simtrace_files(simtraces))))
+    click.echo(json.dumps(run_limits(replay_files(simtraces, route))))

@@ -17,9 +17,9 @@ from racer.benches.fidelity.replay import (
     error_table,
     load_replayable,
     replay_errors,
-    simtrace_files,
+    replay_files,
 )
-from research import DEEPRACER_DATA, simtraces_option
+from research import route_option, simtraces_option
 from research.tyre_fit.hypotheses import screen
 from research.tyre_fit.twin import CarConstants, SegmentBatch, fit, leave_one_file_out
 
@@ -72,13 +72,7 @@ def run_hypotheses(simtraces: Sequence[Path]) -> dict:
 
 @click.command(name="tyre-fit")
 @simtraces_option
-@click.option(
-    "--route",
-    type=click.Path(exists=True, dir_okay=False, path_type=Path),
-    default=DEEPRACER_DATA / "routes" / "reinvent_base.npy",
-    show_default=True,
-    help="The route the simtraces were driven on.",
-)
+@route_option
 @click.option(
     "--fit",
     "mode",
@@ -94,6 +88,6 @@ def run_hypotheses(simtraces: Sequence[Path]) -> dict:
 )
 def tyre_fit_command(simtraces: Path, route: Path, mode: str, hypotheses: bool) -> None:
     """Fit the car's dynamics constants to real simtraces and replay them; one JSON line."""
-    paths = simtrace_files(simtraces)
+    paths = replay_files(simtraces, route)
     result = run_hypotheses(paths) if hypotheses else run_fit(paths, route, mode, progress=True)
     click.echo(json.dumps(result))

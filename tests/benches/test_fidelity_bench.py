@@ -5,11 +5,20 @@ from __future__ import annotations
 import json
 import math
 
+import click
 import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from racer.benches.fidelity.replay import HORIZONS_S, CarReplay, fidelity_bench_command, load_segments, segment_errors
+from racer.benches.fidelity.replay import (
+    HORIZONS_S,
+    CarReplay,
+    fidelity_bench_command,
+    files_on_route,
+    load_segments,
+    replay_files,
+    segment_errors,
+)
 
 
 def test_segments_follow_the_simapps_timing(deepracer_data):
@@ -105,3 +114,16 @@ def test_bench_prints_one_json_line_with_every_band(deepracer_data):
         assert math.isfinite(band["turn_deg_2s_median"])
     assert isinstance(numbers["goal_median_position_1s_le_0_05_m"], bool)
     assert numbers["car"] == "simtrace-fit"
+
+
+def test_files_of_another_track_are_left_out_and_named(deepracer_data, capsys):
+    """The test data's simtraces include DeepRacer on AWS runs on Spain_track: replayed on re:Invent 2018's floor they
+    would compare nothing, so the bench keeps only the files whose logged track length is the route's."""
+    folder, route = deepracer_data / "simtrace", deepracer_data / "routes" / "reinvent_base.npy"
+    kept = replay_files(folder, route)
+    assert kept and all(path.name.startswith(("console2022_", "drfc")) for path in kept)
+    assert "droa2026_spain_evaluation_0-iteration.csv" in capsys.readouterr().err
+    spain = folder / "droa2026_spain_evaluation_0-iteration.csv"
+    assert files_on_route([spain, kept[0]], route) == ([kept[0]], [spain])
+    with pytest.raises(click.ClickException, match="was driven on"):
+        replay_files(spain, route)

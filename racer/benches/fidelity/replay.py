@@ -32,6 +32,7 @@ from racer.shared.sim.car import STEERING_JOINTS, WHEEL_NAMES, WHEEL_RADIUS_M, C
 from racer.shared.sim.car_dynamics import CAR_DYNAMICS, SIMTRACE_FIT_DYNAMICS, CarDynamics
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
+from racer.shared.sim.track import Track
 
 HORIZONS_S: tuple[float, ...] = (1.0, 2.0)
 SPEED_BANDS_MPS: tuple[tuple[float, float], ...] = ((0.0, 0.75), (0.75, 1.25), (1.25, 1.75), (1.75, 10.0))
@@ -267,9 +268,33 @@ def load_replayable(simtraces: Sequence[Path]) -> list[Segment]:
     return segments
 
 
-def simtrace_files(simtraces: Path) -> list[Path]:
-    """A simtrace CSV, or the CSVs of a folder, in name order."""
-    return sorted(simtraces.glob("*.csv")) if simtraces.is_dir() else [simtraces]
+TRACK_LENGTH_TOLERANCE_M = 0.01
+"""A file counts as driven on the route when its logged `track_len` is the route's length within 1 cm."""
+
+
+def files_on_route(paths: Sequence[Path], route: Path) -> tuple[list[Path], list[Path]]:
+    """(the files driven on `route`, the others): a simtrace's `track_len` is the length of the track it was logged
+    on, and replaying a log on another track's floor compares nothing."""
+    length_m = Track.load(route).length_m
+    on_route, elsewhere = [], []
+    for path in paths:
+        logged = read_simtrace(Path(path).read_bytes(), source=str(path)).track_len
+        matches = len(logged) > 0 and abs(float(logged.iloc[0]) - length_m) <= TRACK_LENGTH_TOLERANCE_M
+        (on_route if matches else elsewhere).append(Path(path))
+    return on_route, elsewhere
+
+
+def replay_files(simtraces: Path, route: Path) -> list[Path]:
+    """The simtrace CSV, or a folder's CSVs in name order, driven on `route`; files of other tracks are left out and
+    named on stderr, and none left is a usage error."""
+    paths = sorted(simtraces.glob("*.csv")) if simtraces.is_dir() else [simtraces]
+    on_route, elsewhere = files_on_route(paths, route)
+    if elsewhere:
+        names = ", ".join(path.name for path in elsewhere)
+        print(f"fidelity: left out (driven on another track than {route.name}): {names}", file=sys.stderr, flush=True)
+    if not on_route:
+        raise click.ClickException(f"no simtrace in {simtraces} was driven on {route} (their track_len differs)")
+    return on_route
 
 
 def run_fidelity(simtraces: Sequence[Path], route: Path, progress: bool = False, car: str = "simtrace-fit") -> dict:
@@ -296,7 +321,8 @@ def run_fidelity(simtraces: Sequence[Path], route: Path, progress: bool = False,
     type=click.Path(exists=True, dir_okay=False, path_type=Path),
     default=DEFAULT_ROUTE,
     show_default=True,
-    help="The route the simtraces were driven on (the floor the car replays on).",
+    help="The route the simtraces were driven on (the floor the car replays on); files logged on another track "
+    "are left out.",
 )
 @click.option(
     "--car",
@@ -308,4 +334,4 @@ def run_fidelity(simtraces: Sequence[Path], route: Path, progress: bool = False,
 )
 def fidelity_bench_command(simtraces: Path, route: Path, car: str) -> None:
     """Open-loop replay of real simtraces: median and p90 position/heading error after 1 s and 2 s per speed band."""
-    click.echo(json.dumps(run_fidelity(simtrace_files(simtraces), route, progress=True, car=car)))
+    click.echo(json.dumps(run_fidelity(replay_files(simtraces, route), route, progress=True, car=car)))
