@@ -14,8 +14,8 @@ import click
 
 from racer.evaluation_worker.config import CONSOLE_NUMBER_OF_RESETS, MODES
 from racer.shared.sim.car_dynamics import CAR_PROFILE_NAMES, DEFAULT_CAR_PROFILE
+from racer.shared.sim.challenge_cli import challenge_options, challenge_params_from_options
 from racer.shared.sim.config import DEFAULT_TRACK, RESET_POSITIONS
-from racer.shared.sim.race_cli import race_options, race_params_from_options
 from racer.shared.sim.track_option import direction_option
 from racer.shared.sim.worlds import WORLD_NAMES
 
@@ -144,7 +144,7 @@ def _video_size(text: str) -> tuple[int, int]:
     help="With --opponent: head-to-model (the race ends when the first car is done) or f1 (finished cars park, "
     "the race runs until every car is done; places by finishing order).",
 )
-@race_options
+@challenge_options
 @direction_option
 def evaluate_command(
     model_prefix,
@@ -186,12 +186,12 @@ def evaluate_command(
     from racer.evaluation_worker.video import VideoError
     from racer.shared.config import settings_from_env
     from racer.shared.policy.manifest import CheckpointError
-    from racer.shared.sim.race_config import RaceConfig
+    from racer.shared.sim.challenge_config import ChallengeConfig
     from racer.shared.store import open_store
     from racer.shared.user_errors import user_error_types
 
     width_px, height_px = _video_size(video_size)
-    race_setup = RaceConfig.from_training_params(dict(race_params_from_options(race_type, race_param)))
+    challenge = ChallengeConfig.from_training_params(dict(challenge_params_from_options(race_type, race_param)))
     try:
         config = EvaluationConfig(
             model_prefix=model_prefix,
@@ -217,7 +217,7 @@ def evaluate_command(
             video=VideoOptions(enabled=video, width_px=width_px, height_px=height_px),
             mcap=mcap,
             seed=seed,
-            race_setup=race_setup,
+            challenge=challenge,
             car_profile=car_profile,
         )
         store = open_store(settings_from_env().store)
@@ -253,7 +253,7 @@ def _evaluate_multi_car(store, config, opponents, multi_car_type, out_dir) -> No
 
     if config.mode != "deepracer":
         raise MultiCarError("--opponent races in --mode deepracer (the SimApp's multi-car evaluation)")
-    if config.race_setup.has_objects:
+    if config.challenge.has_objects:
         raise MultiCarError("--opponent: a multi-car race has no obstacles or bot cars (leave --race-type unset)")
     configs = [config] + [dataclasses.replace(config, model_prefix=name) for name in opponents]
     names = [c.model_prefix.strip("/") for c in configs]

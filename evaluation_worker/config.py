@@ -8,8 +8,8 @@ from pathlib import Path
 from racer.shared.deepracer.model_metadata import ModelMetadata
 from racer.shared.run_settings import JobSettings
 from racer.shared.sim.car_dynamics import CAR_PROFILE_NAMES, DEFAULT_CAR_PROFILE
+from racer.shared.sim.challenge_config import ChallengeConfig
 from racer.shared.sim.config import DEFAULT_TRACK, RESET_POSITIONS
-from racer.shared.sim.race_config import RaceConfig
 from racer.shared.sim.worlds import WORLD_NAMES
 from racer.shared.worker_settings import WorkerSettings
 
@@ -119,7 +119,7 @@ class EvaluationConfig:
     reverse_dir: bool = False
     deepracer: DeepRacerRules = field(default_factory=DeepRacerRules)
     summit: SummitRules = field(default_factory=SummitRules)
-    race_setup: RaceConfig = RaceConfig()
+    challenge: ChallengeConfig = ChallengeConfig()
     """RACE_TYPE and the obstacles / bot cars on the track (both modes); crashes cost COLLISION_PENALTY (deepracer
     mode) or the put-back penalty (race mode) and count as a reset."""
     video: VideoOptions = field(default_factory=VideoOptions)
@@ -162,6 +162,6 @@ class EvaluationConfig:
             off_track_penalty_s=off_track,
             collision_penalty_s=collision,
             car_profile=self.car_profile,
-            race=self.race_setup,
+            challenge=self.challenge,
         )
         return settings, job

@@ -53,7 +53,7 @@ from racer.evaluation_worker.driver import StepRecord
 from racer.shared.sim.env import DeepRacerEnv
 from racer.shared.sim.lidar import MAX_ANGLE_RAD, MIN_ANGLE_RAD
 from racer.shared.sim.object_bodies import drawn_size
-from racer.shared.sim.race_objects import ObjectKind, RaceObject
+from racer.shared.sim.object_poses import ObjectKind, ObjectPose
 
 FRAME_ID = "track"
 JPEG_QUALITY = 85
@@ -149,7 +149,7 @@ class McapRecorder:
         self.message_counts: Counter[str] = Counter()
         self._env = env
         self._rgb: np.ndarray | None = None
-        self._objects: tuple[RaceObject, ...] = ()
+        self._objects: tuple[ObjectPose, ...] = ()
         self._track_written = False
         if metadata:
             self._writer.add_metadata("evaluation", {key: str(value) for key, value in metadata.items()})
@@ -196,7 +196,7 @@ class McapRecorder:
 
     def before_step(self, env: DeepRacerEnv) -> None:
         self._rgb = env.render() if env.render_mode == "rgb_array" else None
-        self._objects = tuple(env.race_objects)
+        self._objects = tuple(env.object_poses)
 
     def on_step(self, record: StepRecord) -> None:
         row = record.row
@@ -273,7 +273,7 @@ class McapRecorder:
         if self._objects:
             self.write_objects(self._objects, lap, time_ns)
 
-    def write_objects(self, objects: Sequence[RaceObject], lap: int, time_ns: int) -> None:
+    def write_objects(self, objects: Sequence[ObjectPose], lap: int, time_ns: int) -> None:
         """The objects of one step: cubes for Foxglove's 3D panel and their poses as numbers."""
         stamp = _timestamp(time_ns)
         entities = []

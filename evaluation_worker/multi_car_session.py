@@ -53,7 +53,7 @@ def run_multi_car_evaluation(
                     policy=policy,
                     model_metadata=metadata,
                     out_dir=None if out_dir is None else out_dir / f"car-{i}",
-                    race_objects=peers[i],
+                    track_objects=peers[i],
                 )
             )
     except BaseException:

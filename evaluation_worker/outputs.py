@@ -86,7 +86,7 @@ def evaluation_params(config: EvaluationConfig, layout: EvaluationLayout, checkp
     """
     params = {
         "JOB_TYPE": "EVALUATION",
-        "RACE_TYPE": config.race_setup.race_type,
+        "RACE_TYPE": config.challenge.race_type,
         "WORLD_NAME": str(config.track),
         "RACER_WORLD": config.world,
         "REVERSE_DIR": str(config.reverse_dir).lower(),
@@ -98,8 +98,8 @@ def evaluation_params(config: EvaluationConfig, layout: EvaluationLayout, checkp
         "RACER_EVALUATION_MODE": config.mode,
         "RACER_CAR_PROFILE": config.car_profile,
     }
-    if config.race_setup.has_objects:
-        params.update(config.race_setup.to_training_params())  # OBJECT_POSITIONS stays a YAML list
+    if config.challenge.has_objects:
+        params.update(config.challenge.to_training_params())  # OBJECT_POSITIONS stays a YAML list
     if config.mode == "race":
         summit = config.summit
         params.update(

@@ -44,7 +44,7 @@ from racer.shared.policy.torch_threads import one_torch_thread_if_loaded
 from racer.shared.run_settings import env_config
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
-from racer.shared.sim.race import RaceObjects
+from racer.shared.sim.track_objects import TrackObjects
 from racer.shared.store import ObjectNotFoundError, ObjectStore
 
 
@@ -107,9 +107,9 @@ class EvaluationSession:
         model_metadata: ModelMetadata | None = None,
         out_dir: Path | None = None,
         now: dt.datetime | None = None,
-        race_objects: RaceObjects | None = None,
+        track_objects: TrackObjects | None = None,
     ) -> None:
-        """`race_objects`: the other cars of a multi-car race (`multi_car_session`), in place of `race_setup`'s."""
+        """`track_objects`: the other cars of a multi-car race (`multi_car_session`), in place of `challenge`'s."""
         self.store = store
         self.config = config
         prefix = config.model_prefix.strip("/")
@@ -129,7 +129,7 @@ class EvaluationSession:
         self.env = DeepRacerEnv(
             self._env_config(),
             render_mode="rgb_array" if (config.video.enabled or config.mcap) else None,
-            race_objects=race_objects,
+            track_objects=track_objects,
         )
         self._keep_dir = out_dir is not None
         self.simtrace = SimtraceRecorder()
@@ -209,7 +209,11 @@ class EvaluationSession:
         return self.finish(laps, summit, time.perf_counter() - started)
 
     def finish(
-        self, laps: tuple[LapResult, ...], summit: SummitResult | None, wall_s: float, extra: dict[str, Any] | None = None
+        self,
+        laps: tuple[LapResult, ...],
+        summit: SummitResult | None,
+        wall_s: float,
+        extra: dict[str, Any] | None = None,
     ) -> EvaluationReport:
         """Write the files of a run whose steps the driver has taken (and closed), and drop the work folder.
         `extra`: more summary keys (a multi-car race's)."""

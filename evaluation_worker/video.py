@@ -27,7 +27,7 @@ from racer.shared.sim._mujoco import mujoco
 from racer.shared.sim.car import CAR_GEOM_GROUP
 from racer.shared.sim.env import DeepRacerEnv
 from racer.shared.sim.object_bodies import OBJECT_GEOM_GROUP, drawn_size
-from racer.shared.sim.race_objects import ObjectKind, RaceObject
+from racer.shared.sim.object_poses import ObjectKind, ObjectPose
 
 FPS = 15
 VIEWS: tuple[str, ...] = ("camera-incar", "camera-topview", "camera-45degree")
@@ -111,7 +111,7 @@ def top_view_camera(env: DeepRacerEnv, width_px: int, height_px: int) -> mujoco.
     return camera
 
 
-def _object_outline(obj: RaceObject) -> np.ndarray:
+def _object_outline(obj: ObjectPose) -> np.ndarray:
     length_m, width_m, _height_m = drawn_size(obj.kind)
     c, s = math.cos(obj.yaw_rad), math.sin(obj.yaw_rad)
     corners = [(length_m / 2, width_m / 2), (length_m / 2, -width_m / 2), (-length_m / 2, -width_m / 2)]
@@ -189,7 +189,7 @@ class VideoRecorder:
         self._car_visible.geomgroup[CAR_GEOM_GROUP] = 1
         self._static_only = mujoco.MjvOption()
         self._static_only.geomgroup[OBJECT_GEOM_GROUP] = 0  # objects move: drawn onto each top frame instead
-        self._objects: tuple[RaceObject, ...] = ()
+        self._objects: tuple[ObjectPose, ...] = ()
         self._follow = mujoco.MjvCamera()
         self._follow.type = mujoco.mjtCamera.mjCAMERA_FREE
         self._follow.distance = options.follow_distance_m
@@ -225,7 +225,7 @@ class VideoRecorder:
         incar = cv2.resize(env.render(), None, fx=INCAR_SCALE, fy=INCAR_SCALE, interpolation=cv2.INTER_NEAREST)
         self._pending = {"camera-incar": incar, "camera-45degree": follow}
         self._pending_pose = (pose.origin_x_m, pose.origin_y_m, pose.yaw_rad)
-        self._objects = tuple(env.race_objects)
+        self._objects = tuple(env.object_poses)
 
     def on_step(self, record: StepRecord) -> None:
         if self._pending is None or self._pending_pose is None:

@@ -22,9 +22,9 @@ from pathlib import Path
 
 from racer.shared.deepracer.model_metadata import ModelMetadata
 from racer.shared.sim.car_dynamics import DEFAULT_CAR_PROFILE
+from racer.shared.sim.challenge_cli import challenge_option_args
+from racer.shared.sim.challenge_config import param_text
 from racer.shared.sim.config import DEFAULT_MODEL_METADATA, DEFAULT_TRACK, EnvConfig
-from racer.shared.sim.race_cli import race_option_args
-from racer.shared.sim.race_config import param_text
 from racer.shared.sim.worlds import WORLD_NAMES
 from racer.shared.user_errors import RunConfigError
 from racer.shared.worker_settings import SETTING, WorkerSettings, default_worker_settings
@@ -103,7 +103,7 @@ class RunOptions:
     car_randomization: bool = False
     car_profile: str = DEFAULT_CAR_PROFILE
     dynamics_randomization: bool = False
-    race_params: tuple[tuple[str, str], ...] = ()
+    challenge_params: tuple[tuple[str, str], ...] = ()
     """RACE_TYPE and the obstacle / bot-car training_params keys (`--race-type`, `--race-param`)."""
 
     def trainer_args(self) -> list[str]:
@@ -123,7 +123,7 @@ class RunOptions:
             self.car_profile,
             "--dynamics-randomization",
             str(self.dynamics_randomization),
-            *race_option_args(self.race_params),
+            *challenge_option_args(self.challenge_params),
         ]
 
 
@@ -146,12 +146,12 @@ def load_worker_settings(custom_files: Path, options: RunOptions) -> list[Worker
         )
     except ValueError as error:
         raise RunConfigError(f"racer train options (--car-profile): {error}") from error
-    if options.race_params:
+    if options.challenge_params:
         source = "racer train options (--race-type / --race-param)"
         try:
             settings = [
                 WorkerSettings.from_training_params(
-                    {**w.to_training_params("", options.num_workers), **dict(options.race_params)}, source
+                    {**w.to_training_params("", options.num_workers), **dict(options.challenge_params)}, source
                 )
                 for w in settings
             ]

@@ -11,8 +11,8 @@ from pathlib import Path
 from typing import Any
 
 from racer.shared.sim.car_dynamics import DEFAULT_CAR_PROFILE, CarDynamics, car_profile
+from racer.shared.sim.challenge_config import ChallengeConfig
 from racer.shared.sim.config import DEFAULT_TRACK
-from racer.shared.sim.race_config import RaceConfig
 from racer.shared.sim.track_catalog import world_name_for_direction
 from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
 
@@ -48,8 +48,8 @@ TEXT: Reader = lambda params, name, default, source: str(params.get(name, defaul
 LOWER: Reader = lambda params, name, default, source: str(params.get(name, default)).lower()  # noqa: E731
 TEXT_OR_DEFAULT: Reader = lambda params, name, default, source: str(params.get(name) or default).strip()  # noqa: E731
 """Text where an empty value means the default."""
-RACE: Reader = lambda params, name, default, source: RaceConfig.from_training_params(params)  # noqa: E731
-"""RACE_TYPE and the obstacle / bot-car keys (shared/sim/race_config.py)."""
+CHALLENGE: Reader = lambda params, name, default, source: ChallengeConfig.from_training_params(params)  # noqa: E731
+"""RACE_TYPE and the obstacle / bot-car keys (shared/sim/challenge_config.py)."""
 
 _SAME = "<same name>"
 
@@ -136,8 +136,8 @@ class WorkerSettings:
     simapp_dir: str = setting("", "RACER_SIMAPP_DIR", TEXT_OR_DEFAULT, to_env=lambda text: Path(text) if text else None)
     """racer's RACER_SIMAPP_DIR: a SimApp bundle/ folder on the worker's machine whose world meshes and textures
     the camera draws instead of racer's look ("" = racer's look)."""
-    race: RaceConfig = setting(RaceConfig(), "RACE_TYPE", RACE)
-    """RACE_TYPE and the obstacle / bot-car keys (shared/sim/race_config.py)."""
+    challenge: ChallengeConfig = setting(ChallengeConfig(), "RACE_TYPE", CHALLENGE)
+    """RACE_TYPE and the obstacle / bot-car keys (shared/sim/challenge_config.py)."""
 
     def __post_init__(self) -> None:
         if self.world not in WORLDS:
@@ -165,20 +165,20 @@ class WorkerSettings:
     def to_training_params(self, model_prefix: str, num_workers: int) -> dict[str, object]:
         """DeepRacer's training_params.yaml keys, values strings as DeepRacer-for-Cloud writes them (OBJECT_POSITIONS,
         when set, a list of "ndist,lane" strings as in DeepRacer's yaml)."""
-        race = self.race.to_training_params()
+        challenge = self.challenge.to_training_params()
         params: dict[str, object] = {
             "JOB_TYPE": "TRAINING",
             "WORLD_NAME": self.track,
             "RACER_WORLD": self.world,
-            "RACE_TYPE": race.pop("RACE_TYPE"),
+            "RACE_TYPE": challenge.pop("RACE_TYPE"),
             "SAGEMAKER_SHARED_S3_PREFIX": model_prefix,
             "NUM_WORKERS": str(num_workers),
         }
         for item in fields(self):
-            if item.name not in {"world", "track", "race"}:
+            if item.name not in {"world", "track", "challenge"}:
                 value = getattr(self, item.name)
                 params[item.metadata[SETTING].key] = value if isinstance(value, str) else str(value)
-        return {**params, **race}
+        return {**params, **challenge}
 
     @classmethod
     def from_training_params(cls, params: Mapping[str, object], source: str) -> WorkerSettings:

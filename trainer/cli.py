@@ -8,8 +8,8 @@ from pathlib import Path
 import click
 
 from racer.shared.config import settings_from_env
+from racer.shared.sim.challenge_cli import challenge_options, challenge_params_from_options
 from racer.shared.sim.config import DEFAULT_TRACK
-from racer.shared.sim.race_cli import race_options, race_params_from_options
 from racer.shared.sim.track_option import direction_option
 from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
 from racer.shared.user_errors import user_error_types
@@ -81,7 +81,7 @@ from racer.trainer.run_options import trainer_run_options
     help="The launcher (racer train) has run the preflight on these custom files: read them without checking again.",
 )
 @trainer_run_options
-@race_options
+@challenge_options
 @direction_option
 def trainer_command(
     model_prefix,
@@ -122,7 +122,7 @@ def trainer_command(
         car_randomization=car_randomization,
         car_profile=car_profile,
         dynamics_randomization=dynamics_randomization,
-        race_params=race_params_from_options(race_type, race_param),
+        challenge_params=challenge_params_from_options(race_type, race_param),
     )
     try:
         memory_cap = max_memory_steps if max_memory_steps is not None else max_memory_steps_from_env()
@@ -152,7 +152,7 @@ def trainer_command(
         sac_replay_memory_mb=sac_replay_memory_mb,
         sac_updates_per_transition=sac_updates_per_transition,
         precision=Precision(precision),
-        race_params=run.race_params,
+        challenge_params=run.challenge_params,
         preflight=report,
     )
     try:
@@ -187,7 +187,7 @@ def checked_custom_files(custom_files: Path, run, preflight_passed: bool):
         run.worlds,
         domain_randomization=run.domain_randomization,
         car_randomization=run.car_randomization,
-        race_params=run.race_params,
+        challenge_params=run.challenge_params,
         car_profile=run.car_profile,
         dynamics_randomization=run.dynamics_randomization,
     )

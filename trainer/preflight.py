@@ -142,19 +142,19 @@ def _check_reward_over_track(path: Path, workers: list[WorkerSettings], metadata
     warnings: list[str] = []
     seen: set[tuple[str, str]] = set()
     for worker in workers:
-        key = (worker.track, worker.race.race_type)
+        key = (worker.track, worker.challenge.race_type)
         if key in seen:
             continue
         seen.add(key)
-        report = check_reward_file(path, Track.load(worker.track), worker.race.race_type, metadata, quick=True,
+        report = check_reward_file(path, Track.load(worker.track), worker.challenge.race_type, metadata, quick=True,
                                    time_budget_s=2.0)  # fmt: skip
         refused = [f for f in report.errors if f.params is not None or "raised" in f.message or "syntax" in f.message]
         if refused:
             details = "\n".join(f.format() for f in refused)
             raise RunConfigError(
                 f"{path}: the reward function fails on params DeepRacer produces on {worker.track} "
-                f"({worker.race.race_type}):\n{details}\nfix: handle these cases (see `racer reward test {path} "
-                f"--track {worker.track} --race-type {worker.race.race_type}`)"
+                f"({worker.challenge.race_type}):\n{details}\nfix: handle these cases (see `racer reward test {path} "
+                f"--track {worker.track} --race-type {worker.challenge.race_type}`)"
             )
         warnings += [f.format() for f in report.findings if f not in refused]
     return warnings
@@ -278,7 +278,7 @@ def preflight(
     store: ObjectStore | None = None,
     domain_randomization: bool = False,
     car_randomization: bool = False,
-    race_params: tuple[tuple[str, str], ...] = (),
+    challenge_params: tuple[tuple[str, str], ...] = (),
     car_profile: str = DEFAULT_CAR_PROFILE,
     dynamics_randomization: bool = False,
 ) -> PreflightReport:
@@ -307,7 +307,7 @@ def preflight(
         car_randomization,
         car_profile,
         dynamics_randomization,
-        tuple(race_params),
+        tuple(challenge_params),
     )
     workers = load_worker_settings(folder, options)
     for worker_id, worker in enumerate(workers):

@@ -51,7 +51,7 @@ def read_run_files(
     *,
     domain_randomization: bool,
     car_randomization: bool,
-    race_params: tuple[tuple[str, str], ...],
+    challenge_params: tuple[tuple[str, str], ...],
     car_profile: str,
     dynamics_randomization: bool,
     report: PreflightReport | None = None,
@@ -65,7 +65,7 @@ def read_run_files(
         worlds,
         domain_randomization=domain_randomization,
         car_randomization=car_randomization,
-        race_params=race_params,
+        challenge_params=challenge_params,
         car_profile=car_profile,
         dynamics_randomization=dynamics_randomization,
     )

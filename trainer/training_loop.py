@@ -72,7 +72,7 @@ class TrainerOptions:
     """Default RACER_DYNAMICS_RANDOMIZATION of every worker."""
     car_profile: str = DEFAULT_CAR_PROFILE
     """Default RACER_CAR_PROFILE of every worker (`car_dynamics.CAR_DYNAMICS`; workers.json may override it)."""
-    race_params: tuple[tuple[str, str], ...] = ()
+    challenge_params: tuple[tuple[str, str], ...] = ()
     """RACE_TYPE and obstacle / bot-car training_params keys for every worker (workers.json may override them)."""
     share_timeout_s: float = 3600.0
     """Longest wait for the episodes of one iteration before giving up with an error."""
@@ -127,7 +127,7 @@ class Trainer:
             options.worlds,
             domain_randomization=options.domain_randomization,
             car_randomization=options.car_randomization,
-            race_params=options.race_params,
+            challenge_params=options.challenge_params,
             car_profile=options.car_profile,
             dynamics_randomization=options.dynamics_randomization,
             report=options.preflight,

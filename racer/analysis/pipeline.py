@@ -13,7 +13,7 @@ import pandas as pd
 
 from racer.analysis import action_distributions, aggregate, plots, training_metrics, whatif
 from racer.analysis.loading import load_steps
-from racer.analysis.race_layout import race_layout
+from racer.analysis.obstacle_layout import obstacle_layout
 from racer.analysis.report_contents import build_report
 from racer.analysis.results import Analysis, for_pictures, on_track
 from racer.analysis.run_track import resolve_track
@@ -54,7 +54,7 @@ def build_tables(
                 f"{int(reversed_by_episode.sum())} of {len(reversed_by_episode)} episodes were driven in the "
                 "reverse direction of the route (told by their closest_waypoint)."
             )
-    layout = race_layout(files.params_yaml, track)
+    layout = obstacle_layout(files.params_yaml, track)
     notes.extend(layout.notes)
     return Analysis(
         files=files,

@@ -16,7 +16,7 @@ from matplotlib.ticker import MaxNLocator
 
 from racer.analysis.loading import EPISODE_KEY
 from racer.analysis.track_sections import Track, section_of_waypoint
-from racer.shared.sim.race_objects import ObjectKind, RaceObject
+from racer.shared.sim.object_poses import ObjectKind, ObjectPose
 
 DPI = 110
 INCIDENT_STATUSES = ("off_track", "crashed", "immobilized", "reversed")
@@ -32,7 +32,7 @@ OBSTACLE_COLORS = {ObjectKind.BOX_OBSTACLE: "#7b614f", ObjectKind.BOT_CAR: "#282
 """The SimApp's box brown and DeepRacer's dark grey shell."""
 
 
-def object_outline(obj: RaceObject) -> np.ndarray:
+def object_outline(obj: ObjectPose) -> np.ndarray:
     """The object's collision rectangle on the floor (the SimApp's crash test uses it), 4 corners (x, y)."""
     half_length, half_width = obj.size.length_m / 2, obj.size.width_m / 2
     c, s = math.cos(obj.yaw_rad), math.sin(obj.yaw_rad)
@@ -42,7 +42,7 @@ def object_outline(obj: RaceObject) -> np.ndarray:
     return np.array([obj.x_m, obj.y_m]) + local @ np.array([[c, s], [-s, c]])
 
 
-def _draw_track(ax, track: Track, *, centre: bool = True, obstacles: Sequence[RaceObject] = ()) -> None:
+def _draw_track(ax, track: Track, *, centre: bool = True, obstacles: Sequence[ObjectPose] = ()) -> None:
     ax.fill(*np.vstack([track.outer_border, track.inner_border[::-1]]).T, color="0.93", zorder=0)
     for border in (track.inner_border, track.outer_border):
         ax.plot(*border.T, color="0.35", linewidth=1.0, zorder=1)
@@ -129,7 +129,7 @@ def laps_by_speed(
     track: Track,
     path: Path,
     title: str,
-    obstacles: Sequence[RaceObject] = (),
+    obstacles: Sequence[ObjectPose] = (),
 ) -> Path:
     """One small map per lap with the driven path coloured by speed: where the car is slow or wide."""
     count = len(laps)
@@ -174,7 +174,7 @@ def laps_by_speed(
     return _save(figure, path)
 
 
-def reward_heatmap(steps: pd.DataFrame, track: Track, path: Path, obstacles: Sequence[RaceObject] = ()) -> Path:
+def reward_heatmap(steps: pd.DataFrame, track: Track, path: Path, obstacles: Sequence[ObjectPose] = ()) -> Path:
     """Mean step reward where the car was: shows what the reward function pays for on each part of the track."""
     figure = Figure(figsize=(10, 7))
     ax = figure.subplots()
@@ -198,7 +198,7 @@ def reward_heatmap(steps: pd.DataFrame, track: Track, path: Path, obstacles: Seq
 
 
 def crashes_on_track(
-    steps: pd.DataFrame, crash_table: pd.DataFrame, track: Track, path: Path, obstacles: Sequence[RaceObject] = ()
+    steps: pd.DataFrame, crash_table: pd.DataFrame, track: Track, path: Path, obstacles: Sequence[ObjectPose] = ()
 ) -> Path:
     """Where the car crashed (every `crashed` row, coloured by iteration; evaluations as black crosses) beside the
     number of crashes per iteration: which obstacle catches the car, and whether that gets rarer."""

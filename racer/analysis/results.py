@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from racer.analysis.race_layout import RaceLayout
+from racer.analysis.obstacle_layout import ObstacleLayout
 from racer.analysis.sources import TRAINING, SimtraceFiles
 from racer.analysis.track_sections import Track
 
@@ -37,7 +37,7 @@ class Analysis:
     """Per iteration from TrainingMetrics JSON (training and in-training evaluation), when the source has it."""
     picture_iterations: tuple[int, int | None] | None = None
     """(first, last or None = to the end): training iterations the track pictures and the what-if use."""
-    layout: RaceLayout = field(default_factory=RaceLayout)
+    layout: ObstacleLayout = field(default_factory=ObstacleLayout)
     """Race type and fixed obstacles from the run's params yaml (drawn on the track maps)."""
 
     @property

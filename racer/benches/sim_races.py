@@ -17,21 +17,21 @@ from pathlib import Path
 import numpy as np
 
 from racer.benches.sim_loop import BENCH_REWARD, env_block
+from racer.shared.sim.challenge_config import ChallengeConfig
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
-from racer.shared.sim.race_config import RaceConfig
 
 GOAL_RATIO = 0.85
 """Issue 13: an env with objects keeps at least 85 % of the time trial's steps/s."""
 
 
-def race_setups(obstacles: int, bot_cars: int) -> dict[str, RaceConfig]:
+def race_setups(obstacles: int, bot_cars: int) -> dict[str, ChallengeConfig]:
     """The envs to compare, by the name their figures carry."""
-    setups = {"time_trial": RaceConfig()}
+    setups = {"time_trial": ChallengeConfig()}
     if obstacles:
-        setups[f"obstacles_{obstacles}"] = RaceConfig(race_type="OBJECT_AVOIDANCE", number_of_obstacles=obstacles)
+        setups[f"obstacles_{obstacles}"] = ChallengeConfig(race_type="OBJECT_AVOIDANCE", number_of_obstacles=obstacles)
     if bot_cars:
-        setups[f"bot_cars_{bot_cars}"] = RaceConfig(
+        setups[f"bot_cars_{bot_cars}"] = ChallengeConfig(
             race_type="HEAD_TO_BOT", number_of_bot_cars=bot_cars, bot_car_speed_mps=0.5, is_lane_change=True
         )
     return setups
@@ -49,7 +49,8 @@ def run_race_benchmark(
         reward_path = Path(folder) / "reward.py"
         reward_path.write_text(BENCH_REWARD)
         envs = {
-            name: DeepRacerEnv(EnvConfig(reward_function_path=reward_path, race=race)) for name, race in setups.items()
+            name: DeepRacerEnv(EnvConfig(reward_function_path=reward_path, challenge=challenge))
+            for name, challenge in setups.items()
         }
         try:
             rngs = {name: np.random.default_rng(seed) for name in envs}

@@ -198,7 +198,7 @@ def time_to_lap_command(
             trainer_options=(*ratio_options, "--precision", precision),
             car_profile=car_profile,
             dynamics_randomization=dynamics_randomization,
-            race_params=race.race_params,
+            challenge_params=race.challenge_params,
         )
         result = {
             "race_type": race_type,

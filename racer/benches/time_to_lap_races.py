@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 @dataclass(frozen=True)
 class TimeToLapRace:
-    race_params: tuple[tuple[str, str], ...] = ()
+    challenge_params: tuple[tuple[str, str], ...] = ()
     """RACE_TYPE and the obstacle / bot-car training_params keys for every worker."""
     reward_function: str = "awsdoc_example_1.py"
     """File name in ../shared/deepracer-data/reward_functions (used when --reward-function is not given)."""
@@ -29,12 +29,12 @@ HEAD_TO_BOT_RECIPE: tuple[tuple[str, int | float], ...] = (*PPO_RECIPE, ("lr", 0
 TIME_TO_LAP_RACES: dict[str, TimeToLapRace] = {
     "time-trial": TimeToLapRace(hyperparameters=PPO_RECIPE),
     "object-avoidance": TimeToLapRace(
-        race_params=(("RACE_TYPE", "OBJECT_AVOIDANCE"), ("OBJECT_POSITIONS", "0.23,-1;0.46,1;0.67,-1")),
+        challenge_params=(("RACE_TYPE", "OBJECT_AVOIDANCE"), ("OBJECT_POSITIONS", "0.23,-1;0.46,1;0.67,-1")),
         reward_function=OBJECT_AVOIDANCE_REWARD,
         hyperparameters=PPO_RECIPE,
     ),
     "head-to-bot": TimeToLapRace(
-        race_params=(
+        challenge_params=(
             ("RACE_TYPE", "HEAD_TO_BOT"),
             ("NUMBER_OF_BOT_CARS", "2"),
             ("BOT_CAR_SPEED", "0.5"),

@@ -12,8 +12,8 @@ from racer.local.run import LocalRunPlan, run_local_training
 from racer.local.services import PROJECT_ROOT
 from racer.rollout_worker.batched_rollout import DEFAULT_ENVS_PER_WORKER, DEFAULT_WORKERS
 from racer.shared.config import LocalStoreSettings, settings_from_env
+from racer.shared.sim.challenge_cli import challenge_options, challenge_params_from_options
 from racer.shared.sim.config import DEFAULT_TRACK
-from racer.shared.sim.race_cli import race_options, race_params_from_options
 from racer.shared.sim.track_option import direction_option
 from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
 from racer.trainer.run_options import trainer_run_options
@@ -73,7 +73,7 @@ from racer.trainer.run_options import trainer_run_options
     help="Address the page listens on; the default is reachable from this machine only.",
 )
 @trainer_run_options
-@race_options
+@challenge_options
 @direction_option
 def train_command(
     model_prefix,
@@ -115,7 +115,7 @@ def train_command(
         pretrained_checkpoint=pretrained_checkpoint,
         viewer_host=viewer_host,
         viewer_port=viewer_port or None,
-        race_params=race_params_from_options(race_type, race_param),
+        challenge_params=challenge_params_from_options(race_type, race_param),
         envs_per_worker=envs_per_worker,
         car_profile=car_profile,
         dynamics_randomization=dynamics_randomization,

@@ -52,7 +52,7 @@ class LocalRunPlan:
     """None: the rollout command's default."""
     trainer_options: tuple[str, ...] = ()
     """Further `racer trainer` options, e.g. ("--sac-updates-per-transition", "0.5")."""
-    race_params: tuple[tuple[str, str], ...] = ()
+    challenge_params: tuple[tuple[str, str], ...] = ()
     """RACE_TYPE and obstacle / bot-car training_params keys for every worker (`--race-type`, `--race-param`)."""
     car_profile: str = DEFAULT_CAR_PROFILE
     """RACER_CAR_PROFILE for every worker (`--car-profile`)."""
@@ -68,7 +68,7 @@ class LocalRunPlan:
             worlds=self.worlds,
             car_profile=self.car_profile,
             dynamics_randomization=self.dynamics_randomization,
-            race_params=self.race_params,
+            challenge_params=self.challenge_params,
         )
 
 
@@ -231,7 +231,7 @@ def check_before_start(plan: LocalRunPlan, base_settings: ServiceSettings) -> No
             store=open_store(base_settings.store) if local_store else None,
             domain_randomization=options.domain_randomization,
             car_randomization=options.car_randomization,
-            race_params=options.race_params,
+            challenge_params=options.challenge_params,
             car_profile=options.car_profile,
             dynamics_randomization=options.dynamics_randomization,
         )

@@ -26,7 +26,7 @@ from typing import Any
 
 import yaml
 
-from racer.shared.sim.race_config import RaceConfig
+from racer.shared.sim.challenge_config import ChallengeConfig
 
 MULTI_CAR_RACE_TYPES = ("HEAD_TO_MODEL", "F1")
 """Every entrant on the track at once, in one multi-car evaluation (evaluation_worker/multi_car.py)."""
@@ -40,10 +40,10 @@ IGNORED_KEYS = ("description", "openTime", "closeTime", "maxSubmissionsPerUser",
 """DRoA keys that schedule or describe an online race; accepted and not used by a local race."""
 _SIMAPP_KEYS = tuple(
     key
-    for key in RaceConfig(race_type="HEAD_TO_BOT", number_of_bot_cars=1).to_training_params()
+    for key in ChallengeConfig(race_type="HEAD_TO_BOT", number_of_bot_cars=1).to_training_params()
     if key not in ("RACE_TYPE", "NUMBER_OF_OBSTACLES", "OBJECT_POSITIONS")
 )
-"""racer's additions: the SimApp's training_params names RaceConfig reads (bot cars, obstacle details)."""
+"""racer's additions: the SimApp's training_params names ChallengeConfig reads (bot cars, obstacle details)."""
 _MULTI_CAR_KEYS = ("DONE_CONDITION", "START_POS_OFFSET")
 """racer's additions for HEAD_TO_MODEL / F1: the SimApp's training_params names (`evaluation_worker.py`)."""
 
@@ -81,16 +81,16 @@ class RaceDefinition:
     simapp_params: tuple[tuple[str, str], ...] = ()
     description: str = ""
 
-    def race_config(self) -> RaceConfig:
+    def challenge_config(self) -> ChallengeConfig:
         """RACE_TYPE and the objects as `racer evaluate --race-type/--race-param` would build them."""
-        if self.multi_car:  # the other cars are the entrants, not one env's race objects
-            return RaceConfig()
+        if self.multi_car:  # the other cars are the entrants, not one env's track objects
+            return ChallengeConfig()
         params: dict[str, object] = {"RACE_TYPE": self.race_type, **dict(self.simapp_params)}
         if self.race_type == "OBJECT_AVOIDANCE":
             params["NUMBER_OF_OBSTACLES"] = str(self.number_of_objects)
             if self.object_positions:
                 params["OBJECT_POSITIONS"] = [f"{p.track_percentage},{p.lane_number}" for p in self.object_positions]
-        return RaceConfig.from_training_params(params)
+        return ChallengeConfig.from_training_params(params)
 
     @property
     def multi_car(self) -> bool:
@@ -319,7 +319,7 @@ def parse_race(data: object, source: str, default_name: str) -> RaceDefinition:
         description=str(top.data.get("description") or ""),
     )
     try:
-        definition.race_config()
+        definition.challenge_config()
         if definition.multi_car:
             definition.multi_car_rules()
     except ValueError as error:

@@ -66,7 +66,7 @@ def evaluation_config(
         world="base",
         reverse_dir=False,
         deepracer=deepracer_rules(definition),
-        race_setup=definition.race_config(),
+        challenge=definition.challenge_config(),
         video=VideoOptions(enabled=video),
         mcap=mcap,
         seed=seed,

@@ -272,7 +272,11 @@ def race_multi_car(task: dict[str, Any], store: ObjectStore, log) -> list[dict[s
                     from racer.evaluation_worker.runner import EvaluationSession
 
                     probe = EvaluationSession(
-                        store, configs[i], policy=policy, model_metadata=metadata, race_objects=PeerCars(i, len(loaded))
+                        store,
+                        configs[i],
+                        policy=policy,
+                        model_metadata=metadata,
+                        track_objects=PeerCars(i, len(loaded)),
                     )
                     probe.driver.close()
                     probe.env.close()

@@ -207,9 +207,6 @@ class SACNetworks(nn.Module):
         """Everything but the target copy (which only `sync_target` changes)."""
         return [parameter for parameter in self.parameters() if parameter.requires_grad]
 
-    def q_parameters(self) -> list[nn.Parameter]:
-        return [*self.q_tower.parameters(), *self.q_head.parameters()]
-
     # -- policy -------------------------------------------------------------------------------------------------------
 
     def policy_distribution(

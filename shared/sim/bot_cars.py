@@ -21,9 +21,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import CubicSpline
 
+from racer.shared.sim.challenge_config import ChallengeConfig
+from racer.shared.sim.object_poses import ObjectKind, ObjectPose
 from racer.shared.sim.obstacles import END_GAP_M, spread_along_lap
-from racer.shared.sim.race_config import RaceConfig
-from racer.shared.sim.race_objects import ObjectKind, RaceObject
 from racer.shared.sim.track import Track
 
 BOT_CAR_NAME_PREFIX = "bot_car"
@@ -104,38 +104,40 @@ class _Bot:
 class BotCars:
     """The bot cars of one env: `restart()` at each episode, `advance()` on each running step."""
 
-    def __init__(self, race: RaceConfig) -> None:
-        self.race = race
+    def __init__(self, challenge: ChallengeConfig) -> None:
+        self.challenge = challenge
         self._lanes: dict[int, dict[str, LaneSpline]] = {}
         self._bots: list[_Bot] = []
         self._track: Track | None = None
         self._crash_count = 0
         self._paused_until_s = 0.0
-        self._objects: list[RaceObject] = []
-        self._lane_change_duration_s = race.lane_change_distance_m / race.bot_car_speed_mps
+        self._objects: list[ObjectPose] = []
+        self._lane_change_duration_s = challenge.lane_change_distance_m / challenge.bot_car_speed_mps
 
     @property
-    def objects(self) -> list[RaceObject]:
+    def objects(self) -> list[ObjectPose]:
         """Where the bots are now (unchanged while they pause)."""
         return self._objects
 
-    def restart(self, track: Track, rng: np.random.Generator) -> list[RaceObject]:
+    def restart(self, track: Track, rng: np.random.Generator) -> list[ObjectPose]:
         """New start positions and lanes; the episode clock starts at 0."""
-        race = self.race
+        challenge = self.challenge
         self._track = track
         if id(track) not in self._lanes:
             self._lanes[id(track)] = {
                 "inner": LaneSpline(track, track.inner_border),
                 "outer": LaneSpline(track, track.outer_border),
             }
-        count = race.number_of_bot_cars
-        spacing_m = race.min_distance_between_bot_cars_m
-        dists = spread_along_lap(count, spacing_m, track.length_m - END_GAP_M, race.randomize_bot_car_locations, rng)
-        if race.randomize_bot_car_locations:
+        count = challenge.number_of_bot_cars
+        spacing_m = challenge.min_distance_between_bot_cars_m
+        dists = spread_along_lap(
+            count, spacing_m, track.length_m - END_GAP_M, challenge.randomize_bot_car_locations, rng
+        )
+        if challenge.randomize_bot_car_locations:
             lanes = ["outer" if rng.integers(2) else "inner" for _ in range(count)]
         else:
             lanes = ["inner" if i % 2 == 0 else "outer" for i in range(count)]
-        first_end = 0.0 if race.is_lane_change else math.inf
+        first_end = 0.0 if challenge.is_lane_change else math.inf
         self._bots = [
             _Bot(d, lane, "outer" if lane == "inner" else "inner", first_end)
             for d, lane in zip(dists, lanes, strict=True)
@@ -145,7 +147,7 @@ class BotCars:
         self._objects = [self._pose(i, bot, 0.0) for i, bot in enumerate(self._bots)]
         return self._objects
 
-    def advance(self, episode_time_s: float, rng: np.random.Generator) -> list[RaceObject]:
+    def advance(self, episode_time_s: float, rng: np.random.Generator) -> list[ObjectPose]:
         """Move the bots to their place at `episode_time_s` (seconds since the episode start)."""
         if episode_time_s < self._paused_until_s:
             return self._objects
@@ -160,13 +162,13 @@ class BotCars:
         While they stand, further contact changes nothing (the SimApp judges bot crashes only while they run)."""
         if episode_time_s < self._paused_until_s:
             return
-        penalty_s = self.race.penalty_seconds
+        penalty_s = self.challenge.penalty_seconds
         self._crash_count += 1
         self._paused_until_s = episode_time_s + penalty_s
         for bot in self._bots:
             bot.change_end_s += penalty_s
 
-    def progress(self, bot_object: RaceObject) -> float:
+    def progress(self, bot_object: ObjectPose) -> float:
         """The bot's progress as the SimApp judges a crash: its front point's share of the lap, in percent."""
         assert self._track is not None
         front_x = bot_object.x_m + 0.14 * math.cos(bot_object.yaw_rad)
@@ -175,20 +177,20 @@ class BotCars:
 
     def _dist_m(self, bot: _Bot, episode_time_s: float) -> float:
         assert self._track is not None
-        driving_s = max(episode_time_s - self._crash_count * self.race.penalty_seconds, 0.0)
-        return (bot.initial_dist_m + driving_s * self.race.bot_car_speed_mps) % self._track.length_m
+        driving_s = max(episode_time_s - self._crash_count * self.challenge.penalty_seconds, 0.0)
+        return (bot.initial_dist_m + driving_s * self.challenge.bot_car_speed_mps) % self._track.length_m
 
     def _schedule_lane_change(self, bot: _Bot, now_s: float, rng: np.random.Generator) -> None:
         if bot.change is not None:
             bot.lane, bot.other_lane = bot.other_lane, bot.lane
             bot.change = None
-        race = self.race
-        end_s = now_s + rng.uniform(race.lower_lane_change_time_s, race.upper_lane_change_time_s)
+        challenge = self.challenge
+        end_s = now_s + rng.uniform(challenge.lower_lane_change_time_s, challenge.upper_lane_change_time_s)
         end_s += self._lane_change_duration_s
         bot.change_end_s = end_s
         bot.change = (self._dist_m(bot, end_s - self._lane_change_duration_s), self._dist_m(bot, end_s))
 
-    def _pose(self, index: int, bot: _Bot, episode_time_s: float) -> RaceObject:
+    def _pose(self, index: int, bot: _Bot, episode_time_s: float) -> ObjectPose:
         assert self._track is not None
         lanes = self._lanes[id(self._track)]
         dist_m = self._dist_m(bot, episode_time_s)
@@ -208,11 +210,11 @@ class BotCars:
                 ty = (1 - s) * ty + s * end_ty + slope * (end_y - y)
                 x = (1 - s) * x + s * end_x
                 y = (1 - s) * y + s * end_y
-        return RaceObject(
+        return ObjectPose(
             f"{BOT_CAR_NAME_PREFIX}_{index}",
             ObjectKind.BOT_CAR,
             x,
             y,
             math.atan2(ty, tx),
-            self.race.bot_car_speed_mps,
+            self.challenge.bot_car_speed_mps,
         )

@@ -15,8 +15,8 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from racer.shared.sim.object_poses import BOT_CAR_SIZE, SIZES, ObjectPose, ObjectSize
 from racer.shared.sim.obstacles import OBSTACLE_NAME_PREFIX
-from racer.shared.sim.race_objects import BOT_CAR_SIZE, SIZES, ObjectSize, RaceObject
 
 
 def rectangle_corners(x_m: float, y_m: float, yaw_rad: float, size: ObjectSize) -> list[tuple[float, float]]:
@@ -29,7 +29,7 @@ def rectangle_corners(x_m: float, y_m: float, yaw_rad: float, size: ObjectSize) 
     ]
 
 
-def _inside(obj: RaceObject, px: float, py: float) -> bool:
+def _inside(obj: ObjectPose, px: float, py: float) -> bool:
     c, s = math.cos(obj.yaw_rad), math.sin(obj.yaw_rad)
     dx, dy = px - obj.x_m, py - obj.y_m
     size = obj.size
@@ -44,8 +44,8 @@ _REACH_M = {
 
 
 def collided_object(
-    car_x_m: float, car_y_m: float, car_yaw_rad: float, objects: Sequence[RaceObject]
-) -> RaceObject | None:
+    car_x_m: float, car_y_m: float, car_yaw_rad: float, objects: Sequence[ObjectPose]
+) -> ObjectPose | None:
     """The first object with a corner of the car's rectangle strictly inside its own, or None."""
     corners: list[tuple[float, float]] | None = None
     for obj in objects:
@@ -59,7 +59,7 @@ def collided_object(
     return None
 
 
-def is_static(obj: RaceObject) -> bool:
+def is_static(obj: ObjectPose) -> bool:
     """Static obstacles (boxes or parked bot cars) carry the SimApp's obstacle name prefix."""
     return obj.name.startswith(OBSTACLE_NAME_PREFIX)
 
@@ -71,7 +71,7 @@ def start_line_progress(progress: float, start_ndist: float) -> float:
 
 @dataclass(frozen=True)
 class CrashVerdict:
-    obj: RaceObject
+    obj: ObjectPose
     counts: bool
     """True: `crashed` (pause or end); False: the bot hit the agent from behind and the agent goes on."""
 
@@ -80,7 +80,7 @@ class CrashVerdict:
         return is_static(self.obj)
 
 
-def judge_crash(obj: RaceObject, agent_progress: float, agent_start_ndist: float, bot_progress: float) -> CrashVerdict:
+def judge_crash(obj: ObjectPose, agent_progress: float, agent_start_ndist: float, bot_progress: float) -> CrashVerdict:
     """Whether a collision with `obj` ends or pauses the agent's run (`bot_progress` unused for static obstacles)."""
     if is_static(obj):
         return CrashVerdict(obj, True)

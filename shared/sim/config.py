@@ -7,7 +7,7 @@ from pathlib import Path
 
 from racer.shared.deepracer.model_metadata import ModelMetadata, parse_model_metadata
 from racer.shared.sim.car_dynamics import GAZEBO_DYNAMICS, CarDynamics
-from racer.shared.sim.race_config import RaceConfig
+from racer.shared.sim.challenge_config import ChallengeConfig
 from racer.shared.sim.worlds import WORLD_NAMES
 
 DEFAULT_TRACK = "racer_oval"
@@ -100,7 +100,7 @@ class EnvConfig:
     """The car's tyres, steering servo and yaw inertia. The default is what policies trained in DeepRacer's Gazebo
     lap with (stiff equal-axle tyres at the commanded speed, the URDF's yaw inertia); `car_dynamics.SIMTRACE_FIT_DYNAMICS`
     is the open-loop fit to real simtraces (docs/car-and-camera.md)."""
-    race: RaceConfig = RaceConfig()
+    challenge: ChallengeConfig = ChallengeConfig()
     """RACE_TYPE and the obstacle / bot-car keys; the default is a time trial (nothing on the track)."""
 
     def __post_init__(self) -> None:

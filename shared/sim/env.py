@@ -20,15 +20,15 @@ from racer.shared.sim.episode_phase import PhaseMachine, StepVerdict
 from racer.shared.sim.episode_start import StartRotation, episode_max_steps, read_reset_options
 from racer.shared.sim.judged_pose import PoseJudge, judged_reward_params
 from racer.shared.sim.object_bodies import ObjectBodies
+from racer.shared.sim.object_poses import ObjectPose
 from racer.shared.sim.observation import Observer, scene_cameras
-from racer.shared.sim.race import RaceObjects, object_slots
-from racer.shared.sim.race_objects import RaceObject
 from racer.shared.sim.reward import RewardFunction, default_evaluation_reward, load_reward_function
 from racer.shared.sim.scene import SceneSpec, build_model
 from racer.shared.sim.simapp_world import load_simapp_world
 from racer.shared.sim.spaces import ChosenAction, action_space, decode_action, observation_space
 from racer.shared.sim.step_info import step_info
 from racer.shared.sim.track import Track
+from racer.shared.sim.track_objects import TrackObjects, object_slots
 from racer.shared.sim.worlds import get_world
 
 _SCENE_RNG_STREAM = 22
@@ -109,7 +109,7 @@ class DeepRacerEnv(gym.Env):
         config: EnvConfig | None = None,
         render_mode: str | None = None,
         wall_clock: Callable[[], float] = time.time,
-        race_objects: RaceObjects | None = None,
+        track_objects: TrackObjects | None = None,
     ) -> None:
         self.config = config or EnvConfig()
         self._wall_clock = wall_clock
@@ -124,8 +124,8 @@ class DeepRacerEnv(gym.Env):
             load_reward_function(cfg.reward_function_path) if cfg.reward_function_path is not None else None
         )
 
-        # `race_objects` replaces what config.race describes (a multi-car race's other cars: peer_cars.PeerCars).
-        slots = race_objects.slots if race_objects is not None else object_slots(cfg.race)
+        # `track_objects` replaces what config.challenge describes (a multi-car race's other cars: peer_cars.PeerCars).
+        slots = track_objects.slots if track_objects is not None else object_slots(cfg.challenge)
         cameras, rendered_cameras = scene_cameras(self._metadata.camera_sensor, render_mode == "rgb_array")
         self._substeps = cfg.physics_substeps
         self._model = build_model(
@@ -161,9 +161,9 @@ class DeepRacerEnv(gym.Env):
         self._dynamics_rng = np.random.default_rng()
         self._judge = PoseJudge(self._car, self._data)
         # Obstacles and bot cars; None in a time trial, so nothing of theirs runs per step.
-        self._race = race_objects or (RaceObjects(cfg.race) if cfg.race.has_objects else None)
-        self._race_start_time_s = 0.0
-        self._object_bodies = ObjectBodies(self._model, slots) if self._race is not None else None
+        self._track_objects = track_objects or (TrackObjects(cfg.challenge) if cfg.challenge.has_objects else None)
+        self._objects_start_time_s = 0.0
+        self._object_bodies = ObjectBodies(self._model, slots) if self._track_objects is not None else None
 
         self.action_space = action_space(self._metadata)
         self.observation_space = observation_space(self._metadata, cfg.image_height_px, cfg.image_width_px)
@@ -171,7 +171,9 @@ class DeepRacerEnv(gym.Env):
         # Round-robin state carried across episodes (per env = per rollout worker, as in the SimApp).
         self._starts = StartRotation(cfg)
         self._episode_open = False
-        self._phases = PhaseMachine(cfg, self._race, self._tracks[self._starts.reverse_dir], self._starts.start_ndist)
+        self._phases = PhaseMachine(
+            cfg, self._track_objects, self._tracks[self._starts.reverse_dir], self._starts.start_ndist
+        )
         self._init_episode_state(False, self._starts.start_ndist)
 
     # ----- public properties ---------------------------------------------------------------------------------
@@ -214,9 +216,9 @@ class DeepRacerEnv(gym.Env):
         return self._starts.start_ndist
 
     @property
-    def race_objects(self) -> list[RaceObject]:
+    def object_poses(self) -> list[ObjectPose]:
         """The obstacles and bot cars where they stand now (empty in a time trial)."""
-        return self._race.objects if self._race is not None else []
+        return self._track_objects.objects if self._track_objects is not None else []
 
     @property
     def sim_time_s(self) -> float:
@@ -249,11 +251,11 @@ class DeepRacerEnv(gym.Env):
             self._draw_episode_dynamics(evaluation)
         self._delayed_command = (0.0, 0.0)
         x, y, yaw = self._track.pose_at(start_ndist, "center")
-        if self._race is not None:
-            self._race_start_time_s = float(self._data.time)
-            self._race.restart(self._track, self._scene_rng)
+        if self._track_objects is not None:
+            self._objects_start_time_s = float(self._data.time)
+            self._track_objects.restart(self._track, self._scene_rng)
             if not evaluation or (options or {}).get("clear_start"):  # the SimApp moves only training starts
-                x, y, yaw = self._race.start_pose(self._track, start_ndist) or (x, y, yaw)
+                x, y, yaw = self._track_objects.start_pose(self._track, start_ndist) or (x, y, yaw)
             self._place_objects()
         self._car.teleport(self._model, self._data, x, y, yaw)
         if self._observer.lidar is not None:
@@ -314,9 +316,9 @@ class DeepRacerEnv(gym.Env):
         pose, geometry, on_track = self._judge.judge(track)
         all_on, any_on = bool(on_track.all()), bool(on_track.any())
         now_s = float(self._data.time)
-        bot_poses = self._race.bot_poses() if self._race is not None else []
-        race_time_s = now_s - self._race_start_time_s
-        verdict = self._phases.judge(pose, geometry, all_on=all_on, any_on=any_on, race_time_s=race_time_s)
+        bot_poses = self._track_objects.bot_poses() if self._track_objects is not None else []
+        objects_time_s = now_s - self._objects_start_time_s
+        verdict = self._phases.judge(pose, geometry, all_on=all_on, any_on=any_on, objects_time_s=objects_time_s)
 
         # The SimApp stamps a row when the step's physics has run (judge_action after unpausing), so the prepare
         # row is one step after the episode start and the last row's time is the lap's end.
@@ -327,7 +329,7 @@ class DeepRacerEnv(gym.Env):
         # then the reward and the simtrace row of the pose judged above.
         self._judge.judge(track)
         params = judged_reward_params(
-            track, pose, geometry, chosen, verdict, all_on, any_on, self._steps, now_s, self._race, bot_poses
+            track, pose, geometry, chosen, verdict, all_on, any_on, self._steps, now_s, self._track_objects, bot_poses
         )
         reward = 0.0
         if verdict.run_step:
@@ -343,7 +345,7 @@ class DeepRacerEnv(gym.Env):
             done=terminated or truncated,
             closest_waypoint=geometry.closest_waypoint_for_simtrace,
             tstamp_s=tstamp_s,
-            obstacle_crash_counter=self._race.obstacle_crash_count if self._race is not None else 0,
+            obstacle_crash_counter=self._track_objects.obstacle_crash_count if self._track_objects is not None else 0,
             wall_clock_s=self._wall_clock(),
             evaluation=self._evaluation,
             lap_time_s=tstamp_s - self._episode_start_time_s if verdict.status == EpisodeStatus.LAP_COMPLETE else None,
@@ -365,15 +367,15 @@ class DeepRacerEnv(gym.Env):
             command, self._delayed_command = self._delayed_command, command
         self._car.command(self._data, command[0], command[1])
         self._car.step(self._model, self._data, self._substeps)
-        if self._race is not None:
-            self._race.advance(float(self._data.time) - self._race_start_time_s, self._scene_rng)
+        if self._track_objects is not None:
+            self._track_objects.advance(float(self._data.time) - self._objects_start_time_s, self._scene_rng)
             self._place_objects()
         return float(self._data.time)
 
     def _place_objects(self) -> None:
         """Hand the objects' poses to the scene (bodies the cameras and LIDAR see)."""
-        if self._object_bodies is not None and self._race is not None:
-            self._object_bodies.place(self._data, self._race.objects)
+        if self._object_bodies is not None and self._track_objects is not None:
+            self._object_bodies.place(self._data, self._track_objects.objects)
 
     # ----- observations --------------------------------------------------------------------------------------
 

@@ -17,8 +17,8 @@ from racer.shared.sim import rules
 from racer.shared.sim.car import MAX_SPEED_MPS, Car, CarPose
 from racer.shared.sim.collisions import CrashVerdict
 from racer.shared.sim.config import EnvConfig
-from racer.shared.sim.race import RaceObjects
 from racer.shared.sim.track import PointGeometry, Track, compute_progress
+from racer.shared.sim.track_objects import TrackObjects
 
 PENALTY_STATUSES = (EpisodeStatus.CRASHED, EpisodeStatus.OFF_TRACK, EpisodeStatus.IMMOBILIZED, EpisodeStatus.REVERSED)
 """The rules that pause and reset the car while resets are left, and end the episode otherwise."""
@@ -63,9 +63,9 @@ class PhaseMachine:
     _last_on_road_ndist: float | None
     """For `reset_position="where_it_left"`: the last judged point with all four wheels on the road."""
 
-    def __init__(self, config: EnvConfig, race: RaceObjects | None, track: Track, start_ndist: float) -> None:
+    def __init__(self, config: EnvConfig, track_objects: TrackObjects | None, track: Track, start_ndist: float) -> None:
         self._config = config
-        self._race = race
+        self._track_objects = track_objects
         self._counters = rules.RuleCounters(
             rules.RuleLimits(config.immobilized_steps, config.immobilized_distance_m, config.number_of_reverse_counts)
         )
@@ -98,11 +98,11 @@ class PhaseMachine:
         *,
         all_on: bool,
         any_on: bool,
-        race_time_s: float,
+        objects_time_s: float,
     ) -> StepVerdict:
         """Judge the pose a step starts from (where its observation was taken) and move the phases on.
 
-        `all_on` / `any_on`: all four / any wheel centres on the road; `race_time_s`: the race objects' clock.
+        `all_on` / `any_on`: all four / any wheel centres on the road; `objects_time_s`: the track objects' clock.
         """
         progress = compute_progress(geometry.ndist, self.start_ndist, self._prev_progress)
         origin = (pose.origin_x_m, pose.origin_y_m)
@@ -115,7 +115,7 @@ class PhaseMachine:
         elif phase == EpisodeStatus.PAUSE:
             self._count_down_pause(origin)
         else:
-            status, is_crashed, terminated = self._judge_run(pose, progress, any_on, race_time_s)
+            status, is_crashed, terminated = self._judge_run(pose, progress, any_on, objects_time_s)
         self._prev_progress = 0.0 if progress == 100 else progress
         if phase == EpisodeStatus.IN_PROGRESS:
             self._prev_run_origin = origin
@@ -143,13 +143,13 @@ class PhaseMachine:
             self._counters.clear(origin)
 
     def _judge_run(
-        self, pose: CarPose, progress: float, any_wheel_on_track: bool, race_time_s: float
+        self, pose: CarPose, progress: float, any_wheel_on_track: bool, objects_time_s: float
     ) -> tuple[str, bool, bool]:
         """(status, is_crashed, terminated) of a RUN step; a rule broken with resets left starts a pause."""
         self._pause_remaining_s = 0.0  # the SimApp clears it on every RUN step; a pause below sets the penalty
         crash = None
-        if self._race is not None:
-            crash = self._race.judge_crash(pose, progress, self.start_ndist, race_time_s)
+        if self._track_objects is not None:
+            crash = self._track_objects.judge_crash(pose, progress, self.start_ndist, objects_time_s)
         status = self._counters.judge(
             progress=progress,
             prev_progress=self._prev_progress,
@@ -197,11 +197,11 @@ class PhaseMachine:
         if crash is not None and not crash.static:
             # A crash into a bot car ahead: the car waits where it is.
             return (pose.origin_x_m, pose.origin_y_m, pose.yaw_rad)
-        if self._race is not None:
+        if self._track_objects is not None:
             # Near a static obstacle the SimApp resets behind it on the other lane (or ahead: mercy rule); a crash
             # measures from the progress of this step, the other rules from the previous step's.
             spawn_progress = progress if status == EpisodeStatus.CRASHED else self._prev_progress
-            spot = self._race.reset_pose(track, spawn_progress / 100.0 * track.length_m)
+            spot = self._track_objects.reset_pose(track, spawn_progress / 100.0 * track.length_m)
             if spot is not None:
                 return spot
         if self._config.reset_position == "where_it_left" and self._last_on_road_ndist is not None:

@@ -14,10 +14,10 @@ if TYPE_CHECKING:
     from racer.shared.sim._mujoco import mujoco
     from racer.shared.sim.car import Car, CarPose
     from racer.shared.sim.episode_phase import StepVerdict
-    from racer.shared.sim.race import RaceObjects
-    from racer.shared.sim.race_objects import RaceObject
+    from racer.shared.sim.object_poses import ObjectPose
     from racer.shared.sim.spaces import ChosenAction
     from racer.shared.sim.track import PointGeometry, Track
+    from racer.shared.sim.track_objects import TrackObjects
 
 
 class PoseJudge:
@@ -53,11 +53,11 @@ def judged_reward_params(
     any_on: bool,
     steps: float,
     now_s: float,
-    race: RaceObjects | None,
-    bot_poses: list[RaceObject],
+    track_objects: TrackObjects | None,
+    bot_poses: list[ObjectPose],
 ) -> dict[str, Any]:
     """The reward params of the judged pose, with the objects where they stood then."""
-    objects, objects_track = race.reward_view(bot_poses) if race is not None else ((), None)
+    objects, objects_track = track_objects.reward_view(bot_poses) if track_objects is not None else ((), None)
     mx, my = pose.model_point
     return make_reward_params(
         track,

@@ -1,11 +1,11 @@
-"""Obstacles and bot cars as MuJoCo bodies: what the cameras draw and the LIDAR hits (the race logic moves them).
+"""Obstacles and bot cars as MuJoCo bodies: what the cameras draw and the LIDAR hits (the track-object logic moves them).
 
 One mocap body per `ObjectSlot`, compiled into the scene (`SceneSpec.object_slots`). Its geoms are in group 2,
 which the cameras draw and the LIDAR's rays see, and collide with nothing (contype/conaffinity 0): crashes are the
-race logic's rectangle test, as in the SimApp. Looks, from the SimApp's models (`bundle/models/*/model.sdf`):
+track-object logic's rectangle test, as in the SimApp. Looks, from the SimApp's models (`bundle/models/*/model.sdf`):
 
 * box_obstacle: a plain brown box (#7b614f) 0.4 m along its heading, 0.3 m across, 0.25 m high. Its collision
-  rectangle (`race_objects.BOX_OBSTACLE_SIZE`, 0.5 x 0.4 m) is the box plus the SimApp's 0.1 m buffer.
+  rectangle (`object_poses.BOX_OBSTACLE_SIZE`, 0.5 x 0.4 m) is the box plus the SimApp's 0.1 m buffer.
 * bot_car: DeepRacer's car (the `car_body_link_v3` shell, dark grey 0x28, and four wheels), drawn as boxes and
   12-sided wheels that follow the shell mesh's outline: a low body over the full length and width, a narrower upper
   body and the sensor tower at the front, which is what a LIDAR 0.16 m above the floor hits. They are two meshes
@@ -22,7 +22,7 @@ import numpy as np
 
 from racer.shared.sim._mujoco import mujoco
 from racer.shared.sim.object_meshes import MeshBuilder
-from racer.shared.sim.race_objects import BOT_CAR_SIZE, BOX_OBSTACLE_SIZE, ObjectKind, RaceObject
+from racer.shared.sim.object_poses import BOT_CAR_SIZE, BOX_OBSTACLE_SIZE, ObjectKind, ObjectPose
 
 OBJECT_GEOM_GROUP = 2
 """A group the cameras draw and the LIDAR sees (with the walls' group 0); nothing else in the scene uses it, so a
@@ -76,7 +76,7 @@ def drawn_size(kind: ObjectKind) -> tuple[float, float, float]:
 
 @dataclass(frozen=True)
 class ObjectSlot:
-    """A place in the compiled scene for one race object, matched to `RaceObject.name` at every `place()`."""
+    """A place in the compiled scene for one track object, matched to `ObjectPose.name` at every `place()`."""
 
     name: str
     kind: ObjectKind
@@ -183,7 +183,7 @@ def object_bodies_mjcf(slots: Sequence[ObjectSlot]) -> str:
 
 
 class ObjectBodies:
-    """Moves the slots' mocap bodies to the race objects' poses; cheap enough for every env step.
+    """Moves the slots' mocap bodies to the track objects' poses; cheap enough for every env step.
 
     `place()` also writes the bodies' and geoms' world poses, so the camera and the LIDAR see the objects at once,
     whether it runs before or after `mj_step` (whose kinematics come first). It takes them from `mj_kinematics` on a
@@ -212,7 +212,7 @@ class ObjectBodies:
         self._geoms = _as_range(geom_ids)
         self._scratch = mujoco.MjData(model)
         self._park = self._scratch.mocap_pos[self._mocaps].copy()
-        self._placed: tuple[int, tuple[RaceObject, ...]] | None = None
+        self._placed: tuple[int, tuple[ObjectPose, ...]] | None = None
         self._scratch_views = self._slot_views(self._scratch)
         self._data_views: tuple[mujoco.MjData, list[np.ndarray]] | None = None
 
@@ -236,7 +236,7 @@ class ObjectBodies:
             self._data_views = (data, self._slot_views(data))
         return self._data_views[1]
 
-    def place(self, data: mujoco.MjData, objects: Sequence[RaceObject]) -> None:
+    def place(self, data: mujoco.MjData, objects: Sequence[ObjectPose]) -> None:
         """Put each slot's body at its object's pose (standing on the floor); slots without an object are parked."""
         objects = tuple(objects)
         views, scratch_views = self._views_of(data), self._scratch_views
@@ -257,10 +257,10 @@ class ObjectBodies:
         for obj in objects:
             i = self._index.get(obj.name)
             if i is None:
-                raise ValueError(f"race object {obj.name!r} has no slot in the scene; slots: {sorted(self._index)}")
+                raise ValueError(f"track object {obj.name!r} has no slot in the scene; slots: {sorted(self._index)}")
             if obj.kind is not self.slots[i].kind:
                 raise ValueError(
-                    f"race object {obj.name!r} is a {obj.kind.value}, its slot was built for a {self.slots[i].kind.value}"
+                    f"track object {obj.name!r} is a {obj.kind.value}, its slot was built for a {self.slots[i].kind.value}"
                 )
             pos[i] = (obj.x_m, obj.y_m, 0.0)
             quat[i] = (math.cos(0.5 * obj.yaw_rad), 0.0, 0.0, math.sin(0.5 * obj.yaw_rad))
@@ -270,8 +270,8 @@ class ObjectBodies:
         self._placed = (id(data), objects)
 
 
-def _same_objects(placed: tuple[RaceObject, ...], objects: tuple[RaceObject, ...]) -> bool:
-    """Equal poses; the race logic hands the same objects again while they stand, which compares fastest."""
+def _same_objects(placed: tuple[ObjectPose, ...], objects: tuple[ObjectPose, ...]) -> bool:
+    """Equal poses; the track-object logic hands the same objects again while they stand, which compares fastest."""
     return len(placed) == len(objects) and all(a is b or a == b for a, b in zip(placed, objects, strict=True))
 
 
@@ -281,7 +281,7 @@ def _as_range(ids: list[int]) -> slice:
     return slice(ids[0], ids[0] + len(ids)) if ids else slice(0, 0)
 
 
-def slot_for(obj: RaceObject) -> ObjectSlot:
+def slot_for(obj: ObjectPose) -> ObjectSlot:
     """The slot an object needs (same name and kind)."""
     return ObjectSlot(obj.name, obj.kind)
 

@@ -58,7 +58,7 @@ class Observer:
             config.image_width_px,
             config.image_height_px,
             config.render_full_resolution,
-            front_groups=(OBJECT_GEOM_GROUP,) if config.race.has_objects else (),
+            front_groups=(OBJECT_GEOM_GROUP,) if config.challenge.has_objects else (),
         )
         self._gray = GrayConverter((config.image_height_px, config.image_width_px))
         self.lidar = lidar_sensor.Lidar(model, car_body_id) if self._lidar_key else None

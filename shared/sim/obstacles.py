@@ -15,8 +15,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from racer.shared.sim.race_config import INNER_LANE, RaceConfig
-from racer.shared.sim.race_objects import ObjectKind, RaceObject
+from racer.shared.sim.challenge_config import INNER_LANE, ChallengeConfig
+from racer.shared.sim.object_poses import ObjectKind, ObjectPose
 from racer.shared.sim.track import Track
 
 OBSTACLE_NAME_PREFIX = "obstacle"
@@ -25,17 +25,19 @@ END_GAP_M = 1.0
 """Generated obstacles (and bot cars) end this far before the lap's end."""
 
 
-def obstacle_dists_and_lanes(track: Track, race: RaceConfig, rng: np.random.Generator) -> list[tuple[float, str]]:
+def obstacle_dists_and_lanes(
+    track: Track, challenge: ChallengeConfig, rng: np.random.Generator
+) -> list[tuple[float, str]]:
     """(distance along the centre line in metres, "inner"|"outer") of every obstacle."""
     length_m = track.length_m
-    if race.object_positions:
-        return [(p.ndist * length_m, "inner" if p.lane == INNER_LANE else "outer") for p in race.object_positions]
-    count = race.number_of_obstacles
+    if challenge.object_positions:
+        return [(p.ndist * length_m, "inner" if p.lane == INNER_LANE else "outer") for p in challenge.object_positions]
+    count = challenge.number_of_obstacles
     if count == 0:
         return []
-    spacing_m = race.min_distance_between_obstacles / 100.0 * length_m
-    dists = spread_along_lap(count, spacing_m, length_m - END_GAP_M, race.randomize_obstacle_locations, rng)
-    if race.randomize_obstacle_locations:
+    spacing_m = challenge.min_distance_between_obstacles / 100.0 * length_m
+    dists = spread_along_lap(count, spacing_m, length_m - END_GAP_M, challenge.randomize_obstacle_locations, rng)
+    if challenge.randomize_obstacle_locations:
         lanes = ["outer" if rng.integers(2) else "inner" for _ in range(count)]
     else:
         lanes = ["inner" if i % 2 == 0 else "outer" for i in range(count)]
@@ -57,11 +59,11 @@ def spread_along_lap(
     return [float(d) for d in dists]
 
 
-def place_obstacles(track: Track, race: RaceConfig, rng: np.random.Generator) -> list[RaceObject]:
+def place_obstacles(track: Track, challenge: ChallengeConfig, rng: np.random.Generator) -> list[ObjectPose]:
     """This episode's obstacles, named obstacle_0, obstacle_1, ... (boxes, or parked bot cars)."""
-    kind = ObjectKind.BOT_CAR if race.is_obstacle_bot_car else ObjectKind.BOX_OBSTACLE
+    kind = ObjectKind.BOT_CAR if challenge.is_obstacle_bot_car else ObjectKind.BOX_OBSTACLE
     objects = []
-    for i, (dist_m, lane) in enumerate(obstacle_dists_and_lanes(track, race, rng)):
+    for i, (dist_m, lane) in enumerate(obstacle_dists_and_lanes(track, challenge, rng)):
         x, y, yaw = track.pose_at(dist_m / track.length_m, lane)
-        objects.append(RaceObject(f"{OBSTACLE_NAME_PREFIX}_{i}", kind, x, y, yaw))
+        objects.append(ObjectPose(f"{OBSTACLE_NAME_PREFIX}_{i}", kind, x, y, yaw))
     return objects

@@ -1,7 +1,7 @@
 """`PeerCars`: the other cars of a multi-car race (HEAD_TO_MODEL, F1) as one car's env sees them.
 
 Each car of a multi-car race drives its own `DeepRacerEnv`; the env is given a `PeerCars` in place of the
-`RaceObjects` its `RaceConfig` would make (`DeepRacerEnv(race_objects=...)`). The other cars are drawn as DeepRacer
+`TrackObjects` its `ChallengeConfig` would make (`DeepRacerEnv(track_objects=...)`). The other cars are drawn as DeepRacer
 cars (mocap bodies the cameras and LIDAR see, one slot per other car, named as the SimApp names its agents:
 `racecar_<i>`) at the poses the multi-car loop hands over before each step (`update`).
 
@@ -23,13 +23,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from racer.shared.sim.car import CarPose
+from racer.shared.sim.challenge_config import ChallengeConfig
 from racer.shared.sim.collisions import CrashVerdict, collided_object
 from racer.shared.sim.object_bodies import ObjectSlot
-from racer.shared.sim.race import RaceObjects
-from racer.shared.sim.race_config import RaceConfig
-from racer.shared.sim.race_objects import ObjectKind, RaceObject
-from racer.shared.sim.reward_params import NO_OBJECTS_ON_TRACK, ObjectsOnTrack, TrackObject, objects_on_track
+from racer.shared.sim.object_poses import ObjectKind, ObjectPose
+from racer.shared.sim.reward_params import NO_OBJECTS_ON_TRACK, ObjectsOnTrack, RewardObject, objects_on_track
 from racer.shared.sim.track import Track
+from racer.shared.sim.track_objects import TrackObjects
 
 
 def car_name(index: int) -> str:
@@ -54,18 +54,18 @@ class PeerState:
     """False once the car is parked off the track (F1): it is neither drawn nor hit."""
 
 
-class PeerCars(RaceObjects):
+class PeerCars(TrackObjects):
     """What one car's env asks of the objects, answered with the other cars of the race."""
 
-    def __init__(self, own_index: int, car_count: int, race: RaceConfig | None = None) -> None:
-        super().__init__(race or RaceConfig())
+    def __init__(self, own_index: int, car_count: int, challenge: ChallengeConfig | None = None) -> None:
+        super().__init__(challenge or ChallengeConfig())
         self.own_index = own_index
         self._slots = tuple(ObjectSlot(car_name(i), ObjectKind.BOT_CAR) for i in range(car_count) if i != own_index)
         self._peers: tuple[PeerState, ...] = ()
-        self._objects: list[RaceObject] = []
-        self._collidable: list[RaceObject] = []
+        self._objects: list[ObjectPose] = []
+        self._collidable: list[ObjectPose] = []
         self._raced_by_name: dict[str, float] = {}
-        self._view: tuple[list[RaceObject], list[TrackObject], ObjectsOnTrack] | None = None
+        self._view: tuple[list[ObjectPose], list[RewardObject], ObjectsOnTrack] | None = None
         self.own_laps_done = 0
         """Completed laps of this env's car: with a step's progress, its distance raced for the fault rule."""
 
@@ -74,7 +74,7 @@ class PeerCars(RaceObjects):
         return self._slots
 
     @property
-    def objects(self) -> list[RaceObject]:
+    def objects(self) -> list[ObjectPose]:
         return self._objects
 
     def update(self, peers: Sequence[PeerState]) -> None:
@@ -82,12 +82,12 @@ class PeerCars(RaceObjects):
         self._peers = tuple(p for p in peers if p.index != self.own_index)
         on_track = [p for p in self._peers if p.on_track]
         self._objects = [
-            RaceObject(car_name(p.index), ObjectKind.BOT_CAR, p.x_m, p.y_m, p.yaw_rad, p.speed_mps) for p in on_track
+            ObjectPose(car_name(p.index), ObjectKind.BOT_CAR, p.x_m, p.y_m, p.yaw_rad, p.speed_mps) for p in on_track
         ]
         self._collidable = [o for o, p in zip(self._objects, on_track, strict=True) if p.collidable]
         self._raced_by_name = {car_name(p.index): p.raced_pct for p in self._peers}
 
-    def restart(self, track: Track, rng: np.random.Generator) -> list[RaceObject]:
+    def restart(self, track: Track, rng: np.random.Generator) -> list[ObjectPose]:
         self._track = track
         self._view = None
         self.obstacle_crash_count = 0
@@ -105,16 +105,16 @@ class PeerCars(RaceObjects):
         own_raced = 100.0 * self.own_laps_done + progress
         return CrashVerdict(hit, own_raced < self._raced_by_name[hit.name])
 
-    def bot_poses(self) -> list[RaceObject]:
+    def bot_poses(self) -> list[ObjectPose]:
         return self._objects
 
-    def reward_view(self, bot_poses: list[RaceObject]) -> tuple[list[TrackObject], ObjectsOnTrack]:
+    def reward_view(self, bot_poses: list[ObjectPose]) -> tuple[list[RewardObject], ObjectsOnTrack]:
         """The other cars in the reward params' `objects_*` keys, as the SimApp lists the other agents."""
         if not bot_poses or self._track is None:
             return [], NO_OBJECTS_ON_TRACK
         if self._view is None or self._view[0] is not bot_poses:
             cars = [
-                TrackObject(o.x_m, o.y_m, o.yaw_rad, o.speed_mps, True, o.size.length_m, o.size.width_m)
+                RewardObject(o.x_m, o.y_m, o.yaw_rad, o.speed_mps, True, o.size.length_m, o.size.width_m)
                 for o in bot_poses
             ]
             self._view = (bot_poses, cars, objects_on_track(self._track, cars))

@@ -23,10 +23,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from racer.shared.deepracer.model_metadata import ModelMetadata
-from racer.shared.sim.race_config import RACE_TYPES
+from racer.shared.sim.challenge_config import RACE_TYPES
 from racer.shared.sim.reward import REWARD_LIMIT, RewardFunctionError, load_reward_function
 from racer.shared.sim.reward_params import copy_params
-from racer.shared.sim.reward_probes import Pose, model_actions, params_at, poses, race_objects
+from racer.shared.sim.reward_probes import Pose, model_actions, params_at, poses, probe_objects
 from racer.shared.sim.track import Track
 
 ALLOWED_MODULES = ("math", "random", "numpy", "scipy", "shapely")
@@ -211,7 +211,7 @@ def check_reward_file(
     except RewardFunctionError as error:
         report.findings.append(Finding("error", str(error), str(path)))
         return report
-    objects = race_objects(track, race_type)
+    objects = probe_objects(track, race_type)
     objects_at = [track.project_normalized(o.x, o.y) for o in objects]
     errors: dict[tuple, Finding] = {}
     spent = 0.0
@@ -325,7 +325,7 @@ def reward_map(
     actions = model_actions(metadata)
     speeds = sorted({a[1] for a in actions})
     cases = [(speeds[0], 0.0), (speeds[-1], 0.0), (speeds[0], 30.0), (speeds[-1], 30.0)]
-    objects = race_objects(track, race_type)
+    objects = probe_objects(track, race_type)
     fig, axes = plt.subplots(2, 2, figsize=(12, 9), dpi=90)
     deadline = time.perf_counter() + time_budget_s
     stations = max(40, min(120, int(track.length_m * 3)))

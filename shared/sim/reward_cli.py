@@ -8,8 +8,8 @@ from pathlib import Path
 
 import click
 
+from racer.shared.sim.challenge_config import RACE_TYPES
 from racer.shared.sim.config import DEFAULT_TRACK
-from racer.shared.sim.race_config import RACE_TYPES
 
 
 @click.group("reward")

@@ -58,8 +58,8 @@ PARAM_KEYS: tuple[str, ...] = (
 
 
 @dataclass(frozen=True)
-class TrackObject:
-    """A non-agent model on the track (obstacle box or bot car)."""
+class RewardObject:
+    """An obstacle or bot car as the reward params describe it."""
 
     x: float
     y: float
@@ -74,7 +74,7 @@ class TrackObject:
 @dataclass(frozen=True)
 class ObjectsOnTrack:
     """Where each object lies relative to the centre line, in object order: the track's part of the `objects_*`
-    params. A static obstacle's stays the same for a whole episode, so the race logic computes it once per
+    params. A static obstacle's stays the same for a whole episode, so the track-object logic computes it once per
     episode instead of per step."""
 
     distances_m: tuple[float, ...]
@@ -94,7 +94,7 @@ NO_OBJECTS_ON_TRACK = ObjectsOnTrack((), (), ())
 
 
 def objects_on_track(
-    track: Track, objects: Sequence[TrackObject], projection: MovingProjection | None = None
+    track: Track, objects: Sequence[RewardObject], projection: MovingProjection | None = None
 ) -> ObjectsOnTrack:
     """The centre-line facts of every object (the same values as the one-point `Track` methods: `project_m`,
     `distance_from_center`, the left-of-centre test below): all objects in one vectorised projection, or through
@@ -117,11 +117,6 @@ def objects_on_track(
     )
 
 
-def front_of_car(x_m: float, y_m: float, yaw_rad: float) -> tuple[float, float]:
-    """The model point DeepRacer reports as x, y: car origin + R(yaw)·[0.14, 0]."""
-    return x_m + FRONT_OF_CAR_M * math.cos(yaw_rad), y_m + FRONT_OF_CAR_M * math.sin(yaw_rad)
-
-
 def make_reward_params(
     track: Track,
     *,
@@ -137,7 +132,7 @@ def make_reward_params(
     is_crashed: bool = False,
     is_reversed: bool | None = None,
     sim_time_s: float = 0.0,
-    objects: Sequence[TrackObject] = (),
+    objects: Sequence[RewardObject] = (),
     geometry: PointGeometry | None = None,
     objects_track: ObjectsOnTrack | None = None,
 ) -> dict:
@@ -181,7 +176,7 @@ def make_reward_params(
 
 def object_params(
     track: Track,
-    objects: Sequence[TrackObject],
+    objects: Sequence[RewardObject],
     *,
     x: float,
     y: float,
@@ -228,7 +223,7 @@ def object_params(
     }
 
 
-def _in_camera(obj: TrackObject, x: float, y: float, heading_deg: float) -> bool:
+def _in_camera(obj: RewardObject, x: float, y: float, heading_deg: float) -> bool:
     """Whether the object's centre or a corner of its floor rectangle lies in the camera's horizontal field of view
     beyond the near plane (the SimApp tests the same points against its frustum; a 2-D simplification)."""
     yaw = math.radians(heading_deg)

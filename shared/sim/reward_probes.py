@@ -10,7 +10,7 @@ from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 
 from racer.shared.deepracer.model_metadata import ModelMetadata
-from racer.shared.sim.reward_params import TrackObject, make_reward_params
+from racer.shared.sim.reward_params import RewardObject, make_reward_params
 from racer.shared.sim.track import Track
 
 CAR_HALF_WIDTH_M = 0.1
@@ -36,7 +36,7 @@ def model_actions(metadata: ModelMetadata | None) -> list[tuple[float, float]]:
     return [(s, v) for s in steerings for v in speeds]
 
 
-def race_objects(track: Track, race_type: str) -> list[TrackObject]:
+def probe_objects(track: Track, race_type: str) -> list[RewardObject]:
     """Obstacles (object avoidance) or bot cars (head to bot) spread over the lap, in alternate lanes."""
     if race_type == "OBJECT_AVOIDANCE":
         places, size, bot, speed = (0.2, 0.5, 0.8), BOX_SIZE_M, False, 0.0
@@ -47,7 +47,7 @@ def race_objects(track: Track, race_type: str) -> list[TrackObject]:
     objects = []
     for i, ndist in enumerate(places):
         x, y, yaw = track.pose_at(ndist, "inner" if i % 2 == 0 else "outer")
-        objects.append(TrackObject(x, y, yaw, speed, bot, size[0], size[1]))
+        objects.append(RewardObject(x, y, yaw, speed, bot, size[0], size[1]))
     return objects
 
 
@@ -87,7 +87,7 @@ def poses(actions: Sequence[tuple[float, float]], objects_at: Sequence[float], q
                 yield Pose((ndist - gap) % 1.0, lateral, 0.0, actions[-1])
 
 
-def params_at(track: Track, pose: Pose, objects: Sequence[TrackObject]) -> dict:
+def params_at(track: Track, pose: Pose, objects: Sequence[RewardObject]) -> dict:
     """The params dict for a pose, with the geometry-derived flags as the env would set them."""
     driven = track.reversed() if pose.reversed else track
     ndist = (1.0 - pose.ndist) % 1.0 if pose.reversed else pose.ndist

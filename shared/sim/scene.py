@@ -56,11 +56,6 @@ def _floats(values: np.ndarray) -> str:
     return " ".join(f"{v:.6f}" for v in np.asarray(values, dtype=np.float64).ravel())
 
 
-def _ring_rows(track: Track) -> np.ndarray:
-    """Rows without the closing duplicate for a loop (the strip wraps around instead)."""
-    return track.waypoints[:-1] if track.is_loop else track.waypoints
-
-
 def _mesh_xml(name: str, vertices: np.ndarray, faces: np.ndarray, texcoord: np.ndarray) -> str:
     return (
         f'    <mesh name="{name}" inertia="shell" vertex="{_floats(vertices)}" '

@@ -256,19 +256,6 @@ def resolve_track(
     return ResolvedTrack(text, None, wanted)
 
 
-def offered_directions(track_id: str, folders: Sequence[Path] | None = None) -> tuple[str, ...]:
-    """The directions a route name can be driven from the route files: `_cw`/`_ccw` files, else the bare one's."""
-    found = tuple(
-        d
-        for d, suffix in ((CLOCKWISE, CLOCKWISE_SUFFIX), (COUNTER_CLOCKWISE, COUNTER_CLOCKWISE_SUFFIX))
-        if _exists(track_id + suffix, folders)
-    )
-    if found:
-        return found
-    runs = _route_direction(track_id, folders)
-    return (runs,) if runs else ()
-
-
 def world_name_for_direction(world_name: str, clockwise: bool | None, folders: Sequence[Path] | None = None) -> str:
     """The route name for WORLD_NAME driven in a direction (TRACK_DIRECTION_CLOCKWISE; None: the name as given).
 

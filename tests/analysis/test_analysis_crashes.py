@@ -13,9 +13,9 @@ from click.testing import CliRunner
 from PIL import Image
 
 from racer.analysis.cli import analyze_command
-from racer.analysis.race_layout import race_layout
+from racer.analysis.obstacle_layout import obstacle_layout
 from racer.shared.deepracer.simtrace import SIMTRACE_COLUMNS
-from racer.shared.sim.race_objects import ObjectKind
+from racer.shared.sim.object_poses import ObjectKind
 from racer.shared.sim.track import Track
 
 OA_PARAMS = """WORLD_NAME: "reinvent_base"
@@ -122,7 +122,7 @@ def test_a_time_trial_report_has_no_crash_section(tmp_path, deepracer_data):
 
 def test_layout_places_fixed_positions_on_their_lanes(deepracer_data):
     track = Track.load(deepracer_data / "routes/reinvent_base.npy")
-    layout = race_layout({"training_params.yaml": OA_PARAMS.encode()}, track)
+    layout = obstacle_layout({"training_params.yaml": OA_PARAMS.encode()}, track)
     assert layout.race_type == "OBJECT_AVOIDANCE" and layout.notes == (
         "OBJECT_AVOIDANCE: 3 fixed obstacles from training_params.yaml drawn on the track maps.",
     )
@@ -133,15 +133,15 @@ def test_layout_places_fixed_positions_on_their_lanes(deepracer_data):
 
 def test_layout_notes_what_it_cannot_draw(deepracer_data):
     track = Track.load(deepracer_data / "routes/reinvent_base.npy")
-    randomised = race_layout(
+    randomised = obstacle_layout(
         {
             "training_params.yaml": b'RACE_TYPE: OBJECT_AVOIDANCE\nNUMBER_OF_OBSTACLES: "4"\nRANDOMIZE_OBSTACLE_LOCATIONS: "true"\n'
         },
         track,
     )
     assert randomised.obstacles == () and "RANDOMIZE_OBSTACLE_LOCATIONS" in randomised.notes[0]
-    bad = race_layout({"training_params_1.yaml": b'NUMBER_OF_OBSTACLES: "three"\n'}, track)
+    bad = obstacle_layout({"training_params_1.yaml": b'NUMBER_OF_OBSTACLES: "three"\n'}, track)
     assert bad.obstacles == () and "training_params_1.yaml" in bad.notes[0] and "NUMBER_OF_OBSTACLES" in bad.notes[0]
-    assert race_layout({}, track).obstacles == ()
-    bots = race_layout({"training_params.yaml": b'RACE_TYPE: HEAD_TO_BOT\nNUMBER_OF_BOT_CARS: "2"\n'}, track)
+    assert obstacle_layout({}, track).obstacles == ()
+    bots = obstacle_layout({"training_params.yaml": b'RACE_TYPE: HEAD_TO_BOT\nNUMBER_OF_BOT_CARS: "2"\n'}, track)
     assert bots.race_type == "HEAD_TO_BOT" and bots.obstacles == () and "2 bot cars" in bots.notes[0]

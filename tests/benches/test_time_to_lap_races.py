@@ -6,7 +6,7 @@ import pytest
 
 from racer.benches.time_to_lap_races import TIME_TO_LAP_RACES, time_to_lap_hyperparameters
 from racer.shared.deepracer.hyperparameters import parse_hyperparameters
-from racer.shared.sim.race_cli import race_params_from_options
+from racer.shared.sim.challenge_cli import challenge_params_from_options
 
 
 @pytest.mark.parametrize("race_type", sorted(TIME_TO_LAP_RACES))
@@ -34,8 +34,8 @@ def test_every_race_uses_the_three_epoch_recipe_and_head_to_bot_the_highest_rate
 
 
 @pytest.mark.parametrize("race_type", ["object-avoidance", "head-to-bot"])
-def test_the_race_params_parse_as_the_trainer_reads_them(race_type):
-    params = TIME_TO_LAP_RACES[race_type].race_params
+def test_the_challenge_params_parse_as_the_trainer_reads_them(race_type):
+    params = TIME_TO_LAP_RACES[race_type].challenge_params
     race_type_key = dict(params)["RACE_TYPE"]
     others = tuple(f"{key}={value}" for key, value in params if key != "RACE_TYPE")
-    assert dict(race_params_from_options(race_type_key, others)) == dict(params)
+    assert dict(challenge_params_from_options(race_type_key, others)) == dict(params)

@@ -9,7 +9,7 @@ from racer.evaluation_worker.config import DeepRacerRules, EvaluationConfig, Sum
 from racer.evaluation_worker.runner import EvaluationReport, EvaluationSession
 from racer.shared.deepracer.model_metadata import ModelMetadata
 from racer.shared.deepracer.simtrace import read_simtrace
-from racer.shared.sim.race_config import RaceConfig
+from racer.shared.sim.challenge_config import ChallengeConfig
 from racer.shared.store import LocalStore, ObjectStore
 from tests.evaluation.scripted import CONTINUOUS_METADATA, ScriptedPolicy
 from tests.torch_threads import one_torch_thread  # noqa: F401 (an autouse fixture for this folder)
@@ -36,7 +36,7 @@ def run_scripted(
     model_metadata: ModelMetadata = CONTINUOUS_METADATA,
     store: ObjectStore | None = None,
     shortcut_m: float | None = None,
-    race_setup: RaceConfig | None = None,
+    challenge: ChallengeConfig | None = None,
 ) -> tuple[EvaluationReport, ScriptedPolicy]:
     policy = ScriptedPolicy(speed_mps, exits, shortcut_m=shortcut_m)
     config = EvaluationConfig(
@@ -49,7 +49,7 @@ def run_scripted(
         summit=summit or SummitRules(),
         video=video,
         mcap=mcap,
-        race_setup=race_setup or RaceConfig(),
+        challenge=challenge or ChallengeConfig(),
     )
     session = EvaluationSession(
         store or LocalStore(store_root), config, policy=policy, model_metadata=model_metadata, out_dir=out_dir, now=now

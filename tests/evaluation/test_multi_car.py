@@ -43,7 +43,7 @@ def _race(speeds: list[float], rules: MultiCarRules, seed: int = 0):
     for index, speed in enumerate(speeds):
         peer_cars = PeerCars(index, len(speeds))
         policy = ScriptedPolicy(speed)
-        driver = EvaluationDriver(DeepRacerEnv(config, race_objects=peer_cars), policy, [_Rows()], seed=seed)
+        driver = EvaluationDriver(DeepRacerEnv(config, track_objects=peer_cars), policy, [_Rows()], seed=seed)
         policy.attach(driver)
         drivers.append(driver)
         peers.append(peer_cars)

@@ -18,12 +18,12 @@ from racer.shared.deepracer.training_params import training_params_to_yaml
 from racer.shared.model_layout import ModelLayout
 from racer.shared.run_settings import NOT_FROM_SETTINGS, JobSettings, env_config, settings_fields
 from racer.shared.sim.car_dynamics import SIMTRACE_FIT_DYNAMICS, car_profile
+from racer.shared.sim.challenge_config import ChallengeConfig
 from racer.shared.sim.config import DEFAULT_MODEL_METADATA, EnvConfig
-from racer.shared.sim.race_config import RaceConfig
 from racer.shared.store import open_store
 from racer.shared.worker_settings import SETTING, WorkerSettings
 
-OBSTACLES = RaceConfig.from_training_params({"RACE_TYPE": "OBJECT_AVOIDANCE", "NUMBER_OF_OBSTACLES": "3"})
+OBSTACLES = ChallengeConfig.from_training_params({"RACE_TYPE": "OBJECT_AVOIDANCE", "NUMBER_OF_OBSTACLES": "3"})
 
 NOT_DEFAULT: dict[str, object] = {
     "world": "wood",
@@ -46,7 +46,7 @@ NOT_DEFAULT: dict[str, object] = {
     "dynamics_randomization": True,
     "car_profile": "simtrace-fit",
     "simapp_dir": "/opt/simapp/bundle",
-    "race": OBSTACLES,
+    "challenge": OBSTACLES,
 }
 """A value unlike the default (of WorkerSettings and of EnvConfig) for every WorkerSettings field."""
 
@@ -74,7 +74,7 @@ def test_every_worker_setting_has_its_own_training_params_key_and_a_test_value()
 def test_every_setting_travels_through_training_params_yaml_into_the_env():
     """WorkerSettings -> training_params.yaml text -> WorkerSettings -> EnvConfig, each field off its default."""
     from racer.shared.deepracer.training_params import parse_training_params
-    from racer.shared.sim.race_config import param_text
+    from racer.shared.sim.challenge_config import param_text
 
     settings = WorkerSettings(**NOT_DEFAULT)
     text = training_params_to_yaml(settings.to_training_params("model", 2))
@@ -128,7 +128,7 @@ def test_rollout_and_evaluation_build_the_same_env_from_the_same_settings(tmp_pa
         reverse_dir=True,
         deepracer=DeepRacerRules(number_of_resets=3, off_track_penalty_s=1.5, collision_penalty_s=3.0),
         summit=SummitRules(resets_per_lap=3, reset_penalty_s=1.5, put_back="where_it_left"),
-        race_setup=OBSTACLES,
+        challenge=OBSTACLES,
         car_profile="simtrace-fit",
     )
     penalty = {"deepracer": (1.5, 3.0), "race": (1.5, 1.5)}[mode]
@@ -140,7 +140,7 @@ def test_rollout_and_evaluation_build_the_same_env_from_the_same_settings(tmp_pa
         off_track_penalty_s=penalty[0],
         collision_penalty_s=penalty[1],
         car_profile="simtrace-fit",
-        race=OBSTACLES,
+        challenge=OBSTACLES,
     )
     store = open_store(LocalStoreSettings(root=upload_run(tmp_path, worker)))
     run = load_worker_files(store, "model", 0, tmp_path / "worker")
@@ -148,7 +148,7 @@ def test_rollout_and_evaluation_build_the_same_env_from_the_same_settings(tmp_pa
     settings, job = evaluation.run_settings(run.model_metadata)
     assert settings == run.worker
     evaluated = env_config(settings, job)
-    assert evaluated.car_dynamics == car_profile("simtrace-fit") and evaluated.race == OBSTACLES
+    assert evaluated.car_dynamics == car_profile("simtrace-fit") and evaluated.challenge == OBSTACLES
     job_fields = {item.name for item in dataclasses.fields(JobSettings)}
     assert dataclasses.replace(rollout, **{name: getattr(evaluated, name) for name in job_fields}) == evaluated
     assert rollout.reward_function_path == run.reward_function_path and evaluated.reward_function_path is None

@@ -36,7 +36,7 @@ def test_a_full_definition_maps_onto_the_evaluation_job(tmp_path):
     rules = deepracer_rules(race)
     assert rules.number_of_trials == 4 and rules.is_continuous and rules.number_of_resets == 0
     assert (rules.off_track_penalty_s, rules.collision_penalty_s) == (3.0, 6.0)
-    setup = race.race_config()
+    setup = race.challenge_config()
     assert setup.race_type == "OBJECT_AVOIDANCE" and setup.num_obstacles == 2
     assert [(p.ndist, p.lane) for p in setup.object_positions] == [(0.3, 1), (0.6, -1)]
     assert resolve_route(race) == "racer_oval"
@@ -53,7 +53,7 @@ def test_defaults_and_a_bot_car_race_under_the_simapp_names(tmp_path):
     race = read_race_file(write(tmp_path, data, "My Race.yml"))
     assert race.name == "My-Race" and race.max_time_minutes == 20.0 and race.max_resets is None
     assert deepracer_rules(race).number_of_resets == 10000
-    assert race.race_config().number_of_bot_cars == 2
+    assert race.challenge_config().number_of_bot_cars == 2
 
 
 @pytest.mark.parametrize(

@@ -5,6 +5,8 @@ from __future__ import annotations
 import itertools
 import math
 
+import mujoco
+import numpy as np
 import pytest
 
 from racer.shared.deepracer.model_metadata import parse_model_metadata
@@ -114,6 +116,25 @@ def test_steering_turns_left_for_positive_angles(envs):
     assert right == pytest.approx(-yaw_rate, rel=0.02)
 
 
+def _compiled_yaw_inertia_kgm2(env: DeepRacerEnv) -> float:
+    """The whole car's inertia about the vertical through its origin, summed over the compiled MuJoCo bodies: what the
+    profile's `yaw_inertia_kgm2` must become once the chassis, wheels and hinges are built."""
+    model = env.model
+    data = mujoco.MjData(model)
+    mujoco.mj_kinematics(model, data)
+    car_id = model.body("car").id
+    origin_xy = data.xpos[car_id][:2]
+    total = 0.0
+    for body in range(model.nbody):
+        if model.body_rootid[body] != model.body_rootid[car_id]:
+            continue
+        rotation = data.ximat[body].reshape(3, 3)
+        about_com = rotation @ np.diag(model.body_inertia[body]) @ rotation.T
+        dx, dy = data.xipos[body][:2] - origin_xy
+        total += about_com[2, 2] + model.body_mass[body] * (dx * dx + dy * dy)
+    return total
+
+
 def test_default_car_has_the_urdf_yaw_inertia_and_turns_near_kinematically(envs, fitted_env):
     """GAZEBO_DYNAMICS: the URDF's inertia about the vertical, and stiff equal axles, so a moderate turn follows the
     wheels (the simtrace fit's soft front axle understeers: a wider circle)."""
@@ -122,7 +143,8 @@ def test_default_car_has_the_urdf_yaw_inertia_and_turns_near_kinematically(envs,
 
     assert URDF_YAW_INERTIA_KGM2 == pytest.approx(urdf_yaw_inertia_kgm2(), abs=1e-6)
     env = envs["base"]
-    assert GAZEBO_DYNAMICS.yaw_inertia_kgm2 == URDF_YAW_INERTIA_KGM2
+    assert _compiled_yaw_inertia_kgm2(env) == pytest.approx(URDF_YAW_INERTIA_KGM2, rel=1e-3)
+    assert _compiled_yaw_inertia_kgm2(fitted_env) == pytest.approx(SIMTRACE_FIT_DYNAMICS.yaw_inertia_kgm2, rel=1e-3)
     car_id = env.model.body("car").id
     chassis_izz = env.model.body_inertia[car_id][2]
     assert chassis_izz == pytest.approx(0.05865, rel=0.05)  # the URDF chassis' izz (MuJoCo may rotate axes)

@@ -19,9 +19,9 @@ import pytest
 
 from racer.shared.deepracer.model_metadata import parse_model_metadata
 from racer.shared.deepracer.simtrace import SIMTRACE_COLUMNS
+from racer.shared.sim.challenge_config import ChallengeConfig, ObjectPosition
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
-from racer.shared.sim.race_config import ObjectPosition, RaceConfig
 from tests.sim.conftest import place_far_off_track, place_front_at
 
 STRAIGHT = 2  # default metadata: steering 0°, 1 m/s
@@ -66,7 +66,7 @@ class Player:
         return self.steps[-1]
 
     def _objects(self) -> tuple[tuple[str, float, float, float], ...]:
-        return tuple((o.name, o.x_m, o.y_m, o.yaw_rad) for o in self.env.race_objects)
+        return tuple((o.name, o.x_m, o.y_m, o.yaw_rad) for o in self.env.object_poses)
 
     def until(self, action: Callable[[], Any], stop: Callable[[Step], bool], limit: int = 200) -> Step:
         """Step until `stop` holds for a row (or the episode ends); the limit guards against a scenario gone wrong."""
@@ -177,7 +177,7 @@ def continuous(p: Player) -> None:
     p.until(lambda: rng.uniform(-1.2, 1.2, size=2).astype(np.float32), lambda s: False)
 
 
-BOXES = RaceConfig(
+BOXES = ChallengeConfig(
     race_type="OBJECT_AVOIDANCE",
     object_positions=(ObjectPosition(0.0, -1), ObjectPosition(0.1, 1), ObjectPosition(0.5, -1)),
     enable_mercy_reset=True,
@@ -192,7 +192,7 @@ def boxes(p: Player) -> None:
     p.until(lambda: STRAIGHT, lambda s: s.status == "in_progress")
     p.until(lambda: STRAIGHT, lambda s: s.status == "crashed", limit=40)  # driven into box 2
     p.until(lambda: STRAIGHT, lambda s: s.status == "in_progress")
-    box = p.env.race_objects[2]
+    box = p.env.object_poses[2]
     for _ in range(2):
         place_front_at(p.env, 0.45)
         p.step(STRAIGHT)
@@ -206,7 +206,7 @@ def boxes(p: Player) -> None:
     for ndist in (0.7, 0.8, 0.9, 0.97):
         place_front_at(p.env, ndist)
         p.step(STRAIGHT)
-    first = p.env.race_objects[0]
+    first = p.env.object_poses[0]
     c, s = math.cos(first.yaw_rad), math.sin(first.yaw_rad)
     p.env.teleport(first.x_m + 0.05 * c, first.y_m + 0.05 * s, first.yaw_rad)  # across the line, inside box 1
     p.step(STRAIGHT)
@@ -218,13 +218,13 @@ def bot_cars(p: Player) -> None:
     drive = _random_discrete(9, 3)
     for _ in range(8):
         p.step(drive())
-    bot = p.env.race_objects[0]
+    bot = p.env.object_poses[0]
     c, s = math.cos(bot.yaw_rad), math.sin(bot.yaw_rad)
     p.env.teleport(bot.x_m + 0.3 * c, bot.y_m + 0.3 * s, bot.yaw_rad)
     p.step(0)
     p.step(0)
     for _ in range(3):
-        bot = p.env.race_objects[1]
+        bot = p.env.object_poses[1]
         c, s = math.cos(bot.yaw_rad), math.sin(bot.yaw_rad)
         p.env.teleport(bot.x_m - 0.3 * c, bot.y_m - 0.3 * s, bot.yaw_rad)
         if p.until(drive, lambda s: s.status == "in_progress", limit=30).terminated:
@@ -233,7 +233,7 @@ def bot_cars(p: Player) -> None:
             p.step(drive())
 
 
-BOTS = RaceConfig(
+BOTS = ChallengeConfig(
     race_type="HEAD_TO_BOT",
     number_of_bot_cars=2,
     bot_car_speed_mps=0.5,
@@ -265,11 +265,11 @@ SCENARIOS: dict[str, tuple[Callable[[Player], None], dict[str, Any]]] = {
     "continuous": (continuous, {"model_metadata": CONTINUOUS, "max_steps": 40, "number_of_resets": 5}),
     "boxes": (
         boxes,
-        {"race": BOXES, "number_of_resets": 6, "collision_penalty_s": 0.3, "change_start_position": False},
+        {"challenge": BOXES, "number_of_resets": 6, "collision_penalty_s": 0.3, "change_start_position": False},
     ),
     "bot_cars": (
         bot_cars,
-        {"race": BOTS, "model_metadata": LIDAR_METADATA, "number_of_resets": 2, "collision_penalty_s": 0.2},
+        {"challenge": BOTS, "model_metadata": LIDAR_METADATA, "number_of_resets": 2, "collision_penalty_s": 0.2},
     ),
 }
 

@@ -32,7 +32,7 @@ def _pose_at(track: Track, ndist: float, off_road: bool = False) -> CarPose:
 def _judge(machine: PhaseMachine, track: Track, ndist: float, off_road: bool = False) -> StepVerdict:
     pose = _pose_at(track, ndist, off_road)
     geometry = track.point_geometry(*pose.model_point)
-    return machine.judge(pose, geometry, all_on=not off_road, any_on=not off_road, race_time_s=0.0)
+    return machine.judge(pose, geometry, all_on=not off_road, any_on=not off_road, objects_time_s=0.0)
 
 
 def test_prepare_then_run_then_a_lap(track):

@@ -20,7 +20,7 @@ from racer.shared.sim.object_bodies import (
     ObjectBodies,
     ObjectSlot,
 )
-from racer.shared.sim.race_objects import ObjectKind, RaceObject
+from racer.shared.sim.object_poses import ObjectKind, ObjectPose
 from racer.shared.sim.scene import SceneSpec, build_model
 from racer.shared.sim.track import Track
 from racer.shared.sim.worlds import get_world
@@ -120,7 +120,7 @@ def test_parked_slots_are_out_of_sight_and_the_walls_are_seen(scene, walls_only)
 def test_lidar_measures_a_box_where_the_geometry_puts_it(scene, walls_only, distance_m, left_m, turn_rad):
     bx, by = scene.ahead(distance_m, left_m)
     box_yaw = scene.car_pose[2] + turn_rad
-    scene.bodies.place(scene.data, [RaceObject("obstacle_0", ObjectKind.BOX_OBSTACLE, bx, by, box_yaw)])
+    scene.bodies.place(scene.data, [ObjectPose("obstacle_0", ObjectKind.BOX_OBSTACLE, bx, by, box_yaw)])
     measured = scene.raw_scan()
     origin, directions = _lidar_rays(scene)
     expected = _ray_hits_rectangle(origin, directions, (bx, by), box_yaw, BOX_LENGTH_M, BOX_WIDTH_M)
@@ -133,7 +133,7 @@ def test_lidar_measures_a_box_where_the_geometry_puts_it(scene, walls_only, dist
 def test_lidar_sees_a_bot_cars_upper_body_and_the_observations_follow(scene):
     """A bot car 0.5 m ahead: at the LIDAR's height (0.16 m) the rays meet its upper body, 0.06 m behind its origin."""
     bx, by = scene.ahead(0.5)
-    scene.bodies.place(scene.data, [RaceObject("bot_car_0", ObjectKind.BOT_CAR, bx, by, scene.car_pose[2])])
+    scene.bodies.place(scene.data, [ObjectPose("bot_car_0", ObjectKind.BOT_CAR, bx, by, scene.car_pose[2])])
     measured = scene.raw_scan()
     front = measured[lidar_sensor.NUM_RAYS // 2 - 1 : lidar_sensor.NUM_RAYS // 2 + 1]
     half_step = (lidar_sensor.MAX_ANGLE_RAD - lidar_sensor.MIN_ANGLE_RAD) / (lidar_sensor.NUM_RAYS - 1) / 2
@@ -154,7 +154,7 @@ def _project(scene: Scene, camera: str, points: np.ndarray) -> np.ndarray:
     return np.stack([80.0 + focal_px * local[:, 0] / -local[:, 2], 60.0 - focal_px * local[:, 1] / -local[:, 2]], 1)
 
 
-def _box_mask(scene: Scene, camera: str, obj: RaceObject) -> np.ndarray:
+def _box_mask(scene: Scene, camera: str, obj: ObjectPose) -> np.ndarray:
     c, s = math.cos(obj.yaw_rad), math.sin(obj.yaw_rad)
     corners = [
         (obj.x_m + c * dx - s * dy, obj.y_m + s * dx + c * dy, z)
@@ -171,7 +171,7 @@ def _box_mask(scene: Scene, camera: str, obj: RaceObject) -> np.ndarray:
 def test_a_box_in_front_of_the_camera_fills_its_projection_and_is_gone_when_parked(scene):
     scene.bodies.place(scene.data, [])
     empty = scene.frame()
-    box = RaceObject("obstacle_1", ObjectKind.BOX_OBSTACLE, *scene.ahead(1.2, 0.1), scene.car_pose[2] + 0.3)
+    box = ObjectPose("obstacle_1", ObjectKind.BOX_OBSTACLE, *scene.ahead(1.2, 0.1), scene.car_pose[2] + 0.3)
     scene.bodies.place(scene.data, [box])
     with_box = scene.frame()
     changed = np.abs(with_box.astype(int) - empty.astype(int)).max(axis=2) > 12
@@ -190,7 +190,7 @@ def test_a_box_in_front_of_the_camera_fills_its_projection_and_is_gone_when_park
 def test_stereo_eyes_both_see_the_box_with_the_disparity_of_its_distance(scene):
     scene.bodies.place(scene.data, [])
     empty = {eye: scene.frame(eye) for eye in (LEFT_CAMERA, RIGHT_CAMERA)}
-    box = RaceObject("obstacle_0", ObjectKind.BOX_OBSTACLE, *scene.ahead(0.9), scene.car_pose[2])
+    box = ObjectPose("obstacle_0", ObjectKind.BOX_OBSTACLE, *scene.ahead(0.9), scene.car_pose[2])
     scene.bodies.place(scene.data, [box])
     columns = {}
     for eye in (LEFT_CAMERA, RIGHT_CAMERA):
@@ -209,7 +209,7 @@ def test_a_bot_car_is_drawn(scene):
     scene.bodies.place(scene.data, [])
     empty = scene.frame()
     scene.bodies.place(
-        scene.data, [RaceObject("bot_car_0", ObjectKind.BOT_CAR, *scene.ahead(0.8), scene.car_pose[2] + 0.5)]
+        scene.data, [ObjectPose("bot_car_0", ObjectKind.BOT_CAR, *scene.ahead(0.8), scene.car_pose[2] + 0.5)]
     )
     frame = scene.frame()
     changed = np.abs(frame.astype(int) - empty.astype(int)).max(axis=2) > 12
@@ -219,8 +219,8 @@ def test_a_bot_car_is_drawn(scene):
 
 def test_place_writes_the_poses_mj_kinematics_would(scene):
     objects = [
-        RaceObject("obstacle_0", ObjectKind.BOX_OBSTACLE, 1.0, 2.0, 0.4),
-        RaceObject("bot_car_0", ObjectKind.BOT_CAR, -1.5, 0.5, -2.9, 0.5),
+        ObjectPose("obstacle_0", ObjectKind.BOX_OBSTACLE, 1.0, 2.0, 0.4),
+        ObjectPose("bot_car_0", ObjectKind.BOT_CAR, -1.5, 0.5, -2.9, 0.5),
     ]
     scene.bodies.place(scene.data, objects)
     placed = [scene.data.geom_xpos.copy(), scene.data.geom_xmat.copy(), scene.data.xpos.copy()]
@@ -233,9 +233,9 @@ def test_place_writes_the_poses_mj_kinematics_would(scene):
 
 def test_place_refuses_unknown_or_mismatched_objects(scene):
     with pytest.raises(ValueError, match="'bot_car_7' has no slot"):
-        scene.bodies.place(scene.data, [RaceObject("bot_car_7", ObjectKind.BOT_CAR, 0.0, 0.0, 0.0)])
+        scene.bodies.place(scene.data, [ObjectPose("bot_car_7", ObjectKind.BOT_CAR, 0.0, 0.0, 0.0)])
     with pytest.raises(ValueError, match="'obstacle_0' is a bot_car"):
-        scene.bodies.place(scene.data, [RaceObject("obstacle_0", ObjectKind.BOT_CAR, 0.0, 0.0, 0.0)])
+        scene.bodies.place(scene.data, [ObjectPose("obstacle_0", ObjectKind.BOT_CAR, 0.0, 0.0, 0.0)])
     with pytest.raises(ValueError, match="distinct names"):
         ObjectBodies(scene.model, (SLOTS[0], SLOTS[0]))
 

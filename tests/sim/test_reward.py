@@ -8,7 +8,7 @@ import math
 import pytest
 
 from racer.shared.sim.reward import RewardFunctionError, default_evaluation_reward, load_reward_function
-from racer.shared.sim.reward_params import PARAM_KEYS, TrackObject, make_reward_params
+from racer.shared.sim.reward_params import PARAM_KEYS, RewardObject, make_reward_params
 from racer.shared.sim.track import Track
 
 TEMPLATE_RETURNING_ELLIPSIS = "awsdoc_input_example_1.py"
@@ -96,8 +96,8 @@ def test_params_have_every_key_with_deepracer_types(track, deepracer_data):
 
 
 def test_object_params(track):
-    ahead = TrackObject(x=track.center_line[10, 0], y=track.center_line[10, 1])
-    behind = TrackObject(
+    ahead = RewardObject(x=track.center_line[10, 0], y=track.center_line[10, 1])
+    behind = RewardObject(
         x=track.inner_border[60, 0] * 0.8 + track.center_line[60, 0] * 0.2,
         y=track.inner_border[60, 1] * 0.8 + track.center_line[60, 1] * 0.2,
     )
@@ -127,7 +127,7 @@ def test_every_real_reward_function_runs_unmodified(track, deepracer_data):
     assert len(files) >= 15
     plain = _real_params(track, deepracer_data)
     x, y = track.center_line[12]
-    with_objects = _real_params(track, deepracer_data, objects=[TrackObject(x=x, y=y)])
+    with_objects = _real_params(track, deepracer_data, objects=[RewardObject(x=x, y=y)])
     ran = 0
     for path in files:
         function = load_reward_function(path)

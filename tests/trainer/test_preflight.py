@@ -253,7 +253,9 @@ def test_object_avoidance_and_head_to_bot_pass_the_preflight(tmp_path):
         },
     )
     report = preflight(custom, 2, "racer_oval", ("base",))
-    assert [(w.race.race_type, w.race.num_obstacles, w.race.number_of_bot_cars) for w in report.workers] == [
+    assert [
+        (w.challenge.race_type, w.challenge.num_obstacles, w.challenge.number_of_bot_cars) for w in report.workers
+    ] == [
         ("OBJECT_AVOIDANCE", 6, 0),
         ("HEAD_TO_BOT", 0, 3),
     ]

@@ -57,7 +57,7 @@ def plan_for(tmp_path: Path, custom_files: Path) -> LocalRunPlan:
         use_minio=False,
         log_dir=tmp_path / "logs",
         car_profile="simtrace-fit",
-        race_params=(("RACE_TYPE", "OBJECT_AVOIDANCE"), ("NUMBER_OF_OBSTACLES", "2")),
+        challenge_params=(("RACE_TYPE", "OBJECT_AVOIDANCE"), ("NUMBER_OF_OBSTACLES", "2")),
     )
 
 
@@ -70,7 +70,7 @@ def test_racer_train_checks_the_custom_files_once_and_its_trainer_reads_the_same
     check_before_start(plan, ServiceSettings(redis_settings, LocalStoreSettings(store_root)))
     assert len(counted_preflight) == 1
     _args, launcher = counted_preflight[0]
-    assert launcher["car_profile"] == "simtrace-fit" and launcher["race_params"] == plan.race_params
+    assert launcher["car_profile"] == "simtrace-fit" and launcher["challenge_params"] == plan.challenge_params
 
     argv = trainer_argv(plan)
     assert argv[0] == "trainer" and "--preflight-passed" in argv

@@ -227,10 +227,10 @@ def test_race_settings_travel_from_train_options_and_workers_json_to_each_worker
     redis_settings, tmp_path, custom_files
 ):
     """`--race-type` / `--race-param` for every worker, workers.json over them per worker; the store's yaml keeps
-    OBJECT_POSITIONS as DeepRacer's list of "ndist,lane"; each worker's env gets its RaceConfig."""
+    OBJECT_POSITIONS as DeepRacer's list of "ndist,lane"; each worker's env gets its ChallengeConfig."""
     from racer.rollout_worker.worker_files import load_worker_files, training_env_config
     from racer.shared.deepracer.training_params import parse_training_params
-    from racer.shared.sim.race_config import ObjectPosition, RaceConfig
+    from racer.shared.sim.challenge_config import ChallengeConfig, ObjectPosition
 
     (custom_files / "workers.json").write_text(
         json.dumps(
@@ -248,20 +248,24 @@ def test_race_settings_travel_from_train_options_and_workers_json_to_each_worker
             }
         )
     )
-    race_params = (("RACE_TYPE", "OBJECT_AVOIDANCE"), ("OBJECT_POSITIONS", "0.25,1;0.5,-1"), ("BOT_CAR_SPEED", "0.5"))
-    make_trainer(redis_settings, tmp_path, custom_files, race_params=race_params).setup()
+    challenge_params = (
+        ("RACE_TYPE", "OBJECT_AVOIDANCE"),
+        ("OBJECT_POSITIONS", "0.25,1;0.5,-1"),
+        ("BOT_CAR_SPEED", "0.5"),
+    )
+    make_trainer(redis_settings, tmp_path, custom_files, challenge_params=challenge_params).setup()
     store = open_store(LocalStoreSettings(root=tmp_path / "store"))
     layout = ModelLayout(PREFIX)
     yaml_text = store.get_bytes(layout.training_params(0)).decode()
     assert list(parse_training_params(yaml_text).values["OBJECT_POSITIONS"]) == ["0.25,1", "0.5,-1"]
     assert '"OBJECT_POSITIONS":\n- "0.25,1"\n- "0.5,-1"' in yaml_text  # a YAML list, as in DeepRacer's yaml
     configs = [training_env_config(load_worker_files(store, PREFIX, i, tmp_path / f"worker-{i}")) for i in (0, 1)]
-    assert configs[0].race == RaceConfig(
+    assert configs[0].challenge == ChallengeConfig(
         race_type="OBJECT_AVOIDANCE",
         object_positions=(ObjectPosition(0.25, 1), ObjectPosition(0.5, -1)),
         bot_car_speed_mps=0.5,
     )
-    assert configs[1].race == RaceConfig(
+    assert configs[1].challenge == ChallengeConfig(
         race_type="HEAD_TO_BOT", number_of_bot_cars=2, is_lane_change=True, bot_car_speed_mps=0.5
     )
     assert configs[0].collision_penalty_s == configs[1].collision_penalty_s == 1.5

@@ -1,4 +1,4 @@
-"""The env's observations see the obstacles and bot cars the race logic places: LIDAR variants, camera, stereo."""
+"""The env's observations see the obstacles and bot cars the track-object logic places: LIDAR variants, camera, stereo."""
 
 from __future__ import annotations
 
@@ -10,13 +10,13 @@ import pytest
 from racer.shared.deepracer.model_metadata import parse_model_metadata
 from racer.shared.sim import lidar as lidar_sensor
 from racer.shared.sim.car import LIDAR_POS_M
+from racer.shared.sim.challenge_config import ChallengeConfig, ObjectPosition
 from racer.shared.sim.object_bodies import BOX_LENGTH_M, BOX_WIDTH_M
-from racer.shared.sim.race_config import ObjectPosition, RaceConfig
-from racer.shared.sim.race_objects import ObjectKind
+from racer.shared.sim.object_poses import ObjectKind
 
-BOX_AHEAD = RaceConfig(race_type="OBJECT_AVOIDANCE", object_positions=(ObjectPosition(0.1, 1),))
+BOX_AHEAD = ChallengeConfig(race_type="OBJECT_AVOIDANCE", object_positions=(ObjectPosition(0.1, 1),))
 """racer_oval: 10 % of the lap is on the first straight; the box stands on the inner (left) lane."""
-BOT = RaceConfig(race_type="HEAD_TO_BOT", number_of_bot_cars=1, bot_car_speed_mps=0.3)
+BOT = ChallengeConfig(race_type="HEAD_TO_BOT", number_of_bot_cars=1, bot_car_speed_mps=0.3)
 LIDAR_SLICE = {
     # (centre ahead of the object's origin, length, width) of what a ray 0.16 m above the floor meets
     ObjectKind.BOX_OBSTACLE: (0.0, BOX_LENGTH_M, BOX_WIDTH_M),
@@ -46,7 +46,7 @@ def _expected_ranges(env) -> np.ndarray:
     angles = pose.yaw_rad + np.linspace(lidar_sensor.MIN_ANGLE_RAD, lidar_sensor.MAX_ANGLE_RAD, lidar_sensor.NUM_RAYS)
     directions = np.stack([np.cos(angles), np.sin(angles)], axis=1)
     best = np.full(lidar_sensor.NUM_RAYS, np.inf)
-    for obj in env.race_objects:
+    for obj in env.object_poses:
         ahead_m, length_m, width_m = LIDAR_SLICE[obj.kind]
         c, s = math.cos(obj.yaw_rad), math.sin(obj.yaw_rad)
         centre = np.array([obj.x_m + ahead_m * c, obj.y_m + ahead_m * s])
@@ -84,10 +84,10 @@ def _reliable_sectors(ranges: np.ndarray, sectors: int, values: int, clip_m: flo
 )
 def test_every_sensor_sees_the_obstacle_and_the_time_trial_does_not(make_env, sensors):
     metadata = _metadata(sensors)
-    race_env = make_env(race=BOX_AHEAD, model_metadata=metadata, track="racer_oval")
+    race_env = make_env(challenge=BOX_AHEAD, model_metadata=metadata, track="racer_oval")
     trial_env = make_env(model_metadata=metadata, track="racer_oval")
     race_env.reset(seed=3)
-    (box,) = race_env.race_objects
+    (box,) = race_env.object_poses
     options = {"evaluation": True, "start_ndist": _start_behind(race_env, box, 0.6)}
     seen, _ = race_env.reset(seed=3, options=options)
     empty, _ = trial_env.reset(seed=3, options=options)
@@ -116,14 +116,14 @@ def test_every_sensor_sees_the_obstacle_and_the_time_trial_does_not(make_env, se
 
 def test_the_lidar_measures_a_bot_car_and_its_camera_shows_it(make_env):
     metadata = _metadata(("FRONT_FACING_CAMERA", "LIDAR"))
-    env = make_env(race=BOT, model_metadata=metadata, track="racer_oval")
+    env = make_env(challenge=BOT, model_metadata=metadata, track="racer_oval")
     trial_env = make_env(model_metadata=metadata, track="racer_oval")
     env.reset(seed=1)
-    (bot,) = env.race_objects
+    (bot,) = env.object_poses
     options = {"evaluation": True, "start_ndist": _start_behind(env, bot, 0.45)}
     seen, _ = env.reset(seed=1, options=options)
     empty, _ = trial_env.reset(seed=1, options=options)
-    assert env.race_objects[0].x_m == pytest.approx(bot.x_m)  # the bot starts each episode at its place
+    assert env.object_poses[0].x_m == pytest.approx(bot.x_m)  # the bot starts each episode at its place
     expected = _expected_ranges(env)
     assert np.isfinite(expected).sum() >= 2
     hits = np.isfinite(expected)
@@ -139,8 +139,10 @@ def test_domain_randomization_recolours_each_obstacle_per_episode_but_not_bot_ca
     ModelVisualRandomizer does; bot cars driving their lane keep theirs; seeded resets repeat the colours."""
     from racer.shared.sim.object_bodies import obstacle_materials
 
-    two = RaceConfig(race_type="OBJECT_AVOIDANCE", object_positions=(ObjectPosition(0.1, 1), ObjectPosition(0.5, -1)))
-    env = make_env(race=two, domain_randomization=True, track="racer_oval")
+    two = ChallengeConfig(
+        race_type="OBJECT_AVOIDANCE", object_positions=(ObjectPosition(0.1, 1), ObjectPosition(0.5, -1))
+    )
+    env = make_env(challenge=two, domain_randomization=True, track="racer_oval")
     groups = obstacle_materials(env.model)
     assert [len(group) for group in groups] == [1, 1]
     colours = []
@@ -150,10 +152,12 @@ def test_domain_randomization_recolours_each_obstacle_per_episode_but_not_bot_ca
     assert not np.allclose(colours[0][0], colours[1][0]) and not np.allclose(colours[0][0], colours[0][1])
     np.testing.assert_array_equal(colours[0], colours[2])
 
-    bots = make_env(race=BOT, domain_randomization=True, track="racer_oval")
+    bots = make_env(challenge=BOT, domain_randomization=True, track="racer_oval")
     assert obstacle_materials(bots.model) == []
-    parked_bot_obstacles = RaceConfig(race_type="OBJECT_AVOIDANCE", number_of_obstacles=1, is_obstacle_bot_car=True)
-    parked = make_env(race=parked_bot_obstacles, domain_randomization=True, track="racer_oval")
+    parked_bot_obstacles = ChallengeConfig(
+        race_type="OBJECT_AVOIDANCE", number_of_obstacles=1, is_obstacle_bot_car=True
+    )
+    parked = make_env(challenge=parked_bot_obstacles, domain_randomization=True, track="racer_oval")
     (group,) = obstacle_materials(parked.model)
     parked.reset(seed=4)
     body, wheels = parked.model.mat_rgba[group, :3]

@@ -9,7 +9,7 @@ import shutil
 import numpy as np
 import pytest
 
-from racer.shared.sim.race_config import ObjectPosition, RaceConfig
+from racer.shared.sim.challenge_config import ChallengeConfig, ObjectPosition
 from racer.shared.sim.reward import load_reward_function
 from racer.shared.sim.track import Track
 
@@ -40,8 +40,10 @@ def oa_reward(tmp_path, deepracer_data):
 def test_object_params_and_the_dpr401_reward_match_a_hand_calculation(make_env, oa_reward):
     """racer_oval (counter-clockwise): a box on the inner lane 3 % of the lap from the line, one on the outer lane at
     half the lap; the car's front 0.5 % of the lap from the line, 0.2 m left of the centre line (the inner lane's side)."""
-    race = RaceConfig(race_type="OBJECT_AVOIDANCE", object_positions=(ObjectPosition(0.03, 1), ObjectPosition(0.5, -1)))
-    env = make_env(race=race, reward_function_path=oa_reward)
+    challenge = ChallengeConfig(
+        race_type="OBJECT_AVOIDANCE", object_positions=(ObjectPosition(0.03, 1), ObjectPosition(0.5, -1))
+    )
+    env = make_env(challenge=challenge, reward_function_path=oa_reward)
     env.reset(seed=0)
     env.step(STRAIGHT)
     length_m = env.track.length_m
@@ -79,13 +81,13 @@ def test_object_params_and_the_dpr401_reward_match_a_hand_calculation(make_env, 
 def test_bot_car_params_report_speed_and_heading_in_radians(make_env, oa_reward):
     """A bot 50 % of the lap ahead (racer_oval's far side, driving towards -x): heading about pi radians."""
     length_m = Track.load("racer_oval").length_m
-    race = RaceConfig(
+    challenge = ChallengeConfig(
         race_type="HEAD_TO_BOT",
         number_of_bot_cars=1,
         bot_car_speed_mps=0.5,
         min_distance_between_bot_cars_m=0.5 * length_m,
     )
-    env = make_env(race=race, reward_function_path=oa_reward)
+    env = make_env(challenge=challenge, reward_function_path=oa_reward)
     env.reset(seed=0)
     *_, info = env.step(STRAIGHT)  # prepare: params of the start pose, the bot where it started
     params = info["params"]

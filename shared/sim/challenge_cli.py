@@ -6,7 +6,7 @@ from collections.abc import Callable
 
 import click
 
-from racer.shared.sim.race_config import RACE_KEYS, RaceConfig
+from racer.shared.sim.challenge_config import CHALLENGE_KEYS, ChallengeConfig
 
 RACE_TYPE_NAMES: dict[str, str] = {
     "time-trial": "TIME_TRIAL",
@@ -15,7 +15,7 @@ RACE_TYPE_NAMES: dict[str, str] = {
 }
 
 
-def race_options(command: Callable) -> Callable:
+def challenge_options(command: Callable) -> Callable:
     """Add --race-type and --race-param KEY=VALUE (repeatable) to a click command."""
     command = click.option(
         "--race-param",
@@ -33,7 +33,7 @@ def race_options(command: Callable) -> Callable:
     )(command)
 
 
-def race_params_from_options(race_type: str | None, race_param: tuple[str, ...]) -> tuple[tuple[str, str], ...]:
+def challenge_params_from_options(race_type: str | None, race_param: tuple[str, ...]) -> tuple[tuple[str, str], ...]:
     """The options as training_params pairs, checked: an unknown key or a bad value names the option and key."""
     pairs: dict[str, str] = {}
     if race_type:
@@ -41,21 +41,21 @@ def race_params_from_options(race_type: str | None, race_param: tuple[str, ...])
     for item in race_param:
         key, sep, value = item.partition("=")
         key = key.strip().upper()
-        if not sep or key not in RACE_KEYS or key == "RACE_TYPE":
+        if not sep or key not in CHALLENGE_KEYS or key == "RACE_TYPE":
             raise click.BadParameter(
-                f"{item!r}: expected KEY=VALUE with KEY one of {', '.join(k for k in RACE_KEYS if k != 'RACE_TYPE')}",
+                f"{item!r}: expected KEY=VALUE with KEY one of {', '.join(k for k in CHALLENGE_KEYS if k != 'RACE_TYPE')}",
                 param_hint="--race-param",
             )
         pairs[key] = value.strip()
     if pairs:
         try:
-            RaceConfig.from_training_params(pairs)
+            ChallengeConfig.from_training_params(pairs)
         except ValueError as error:
             raise click.BadParameter(str(error), param_hint="--race-type/--race-param") from error
     return tuple(pairs.items())
 
 
-def race_option_args(pairs: tuple[tuple[str, str], ...]) -> list[str]:
+def challenge_option_args(pairs: tuple[tuple[str, str], ...]) -> list[str]:
     """The same options as command-line arguments for a child process (`racer train` -> `racer trainer`)."""
     args: list[str] = []
     for key, value in pairs:

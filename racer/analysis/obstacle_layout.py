@@ -1,7 +1,7 @@
 """Where a run's static obstacles stood, from its params yaml, for the track maps.
 
 The obstacle keys (`OBJECT_POSITIONS`, `NUMBER_OF_OBSTACLES`, ...) are read as the env reads them
-(`RaceConfig.from_training_params`) and placed by the env's own placement (`obstacles.place_obstacles`), so the map
+(`ChallengeConfig.from_training_params`) and placed by the env's own placement (`obstacles.place_obstacles`), so the map
 shows the boxes where the car met them. Randomised layouts change every episode and are not drawn; bot cars move
 and are not drawn either (their crashes are still on the maps).
 """
@@ -15,18 +15,18 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from racer.shared.sim.challenge_config import ChallengeConfig
+from racer.shared.sim.object_poses import ObjectPose
 from racer.shared.sim.obstacles import place_obstacles
-from racer.shared.sim.race_config import RaceConfig
-from racer.shared.sim.race_objects import RaceObject
 from racer.shared.sim.track import Track
 
 _TRAINING_PARAMS = re.compile(r"training_params(?:_(\d+))?\.ya?ml$")
 
 
 @dataclass(frozen=True)
-class RaceLayout:
+class ObstacleLayout:
     race_type: str = "TIME_TRIAL"
-    obstacles: tuple[RaceObject, ...] = ()
+    obstacles: tuple[ObjectPose, ...] = ()
     """Static obstacles in the route's own direction (empty when there are none or they were randomised)."""
     notes: tuple[str, ...] = field(default=())
 
@@ -50,43 +50,46 @@ def _first_params(params_yaml: dict[str, bytes]) -> tuple[str, dict] | None:
     return name, params
 
 
-def race_layout(params_yaml: dict[str, bytes], track: Track | None) -> RaceLayout:
+def obstacle_layout(params_yaml: dict[str, bytes], track: Track | None) -> ObstacleLayout:
     """The run's race type and fixed obstacles; what cannot be drawn is said in `notes`."""
     found = _first_params(params_yaml)
     if found is None:
-        return RaceLayout()
+        return ObstacleLayout()
     name, params = found
     try:
-        race = RaceConfig.from_training_params(params)
+        challenge = ChallengeConfig.from_training_params(params)
     except ValueError as error:
-        return RaceLayout(notes=(f"{name}: {error}; obstacles not drawn.",))
+        return ObstacleLayout(notes=(f"{name}: {error}; obstacles not drawn.",))
     bots = (
         (
-            f"{race.race_type}: {race.number_of_bot_cars} bot cars drove their lanes; the maps show where the car crashed, "
+            f"{challenge.race_type}: {challenge.number_of_bot_cars} bot cars drove their lanes; the maps show where the car crashed, "
             "not the bots.",
         )
-        if race.number_of_bot_cars
+        if challenge.number_of_bot_cars
         else ()
     )
-    if race.num_obstacles == 0:
-        return RaceLayout(race.race_type, notes=bots)
-    if race.randomize_obstacle_locations and not race.object_positions:
-        return RaceLayout(
-            race.race_type,
+    if challenge.num_obstacles == 0:
+        return ObstacleLayout(challenge.race_type, notes=bots)
+    if challenge.randomize_obstacle_locations and not challenge.object_positions:
+        return ObstacleLayout(
+            challenge.race_type,
             notes=(
-                f"{name}: the {race.num_obstacles} obstacles moved every episode (RANDOMIZE_OBSTACLE_LOCATIONS); "
+                f"{name}: the {challenge.num_obstacles} obstacles moved every episode (RANDOMIZE_OBSTACLE_LOCATIONS); "
                 "the maps do not draw them.",
                 *bots,
             ),
         )
     if track is None:
-        return RaceLayout(race.race_type, notes=bots)
+        return ObstacleLayout(challenge.race_type, notes=bots)
     reverse = str(params.get("REVERSE_DIR", "false")).strip().lower() in ("true", "1")
-    notes = [f"{race.race_type}: {race.num_obstacles} fixed obstacles from {name} drawn on the track maps.", *bots]
+    notes = [
+        f"{challenge.race_type}: {challenge.num_obstacles} fixed obstacles from {name} drawn on the track maps.",
+        *bots,
+    ]
     if str(params.get("ALTERNATE_DRIVING_DIRECTION", "false")).strip().lower() in ("true", "1"):
         notes.append(
             "The driving direction alternated; the maps draw the obstacles of the route's own direction (the "
             "reversed episodes had them at the same share of the lap counted the other way)."
         )
-    placed = place_obstacles(track.reversed() if reverse else track, race, np.random.default_rng(0))
-    return RaceLayout(race.race_type, tuple(placed), tuple(notes))
+    placed = place_obstacles(track.reversed() if reverse else track, challenge, np.random.default_rng(0))
+    return ObstacleLayout(challenge.race_type, tuple(placed), tuple(notes))

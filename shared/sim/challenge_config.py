@@ -1,5 +1,6 @@
-"""`RaceConfig`: the race type and DeepRacer's obstacle / bot-car keys (deepracer-simapp v5.3.3 `bundle/markov/`;
-docs/custom-files.md), with the SimApp's defaults.
+"""`ChallengeConfig`: what the car faces on the track (a time trial, obstacles or bot cars): DeepRacer's RACE_TYPE and
+its obstacle / bot-car keys (deepracer-simapp v5.3.3 `bundle/markov/`; docs/custom-files.md), with the SimApp's
+defaults.
 
 As in the SimApp, the objects on the track come from the counts (`NUMBER_OF_OBSTACLES` or `OBJECT_POSITIONS`,
 `NUMBER_OF_BOT_CARS`), and `RACE_TYPE` names what kind of race it is; racer refuses the combinations DeepRacer's
@@ -41,7 +42,7 @@ class ObjectPosition:
 
 
 @dataclass(frozen=True)
-class RaceConfig:
+class ChallengeConfig:
     """Field names follow the training_params.yaml keys; defaults are the SimApp's."""
 
     race_type: str = "TIME_TRIAL"
@@ -147,7 +148,7 @@ class RaceConfig:
         return params
 
     @classmethod
-    def from_training_params(cls, params: Mapping[str, object]) -> RaceConfig:
+    def from_training_params(cls, params: Mapping[str, object]) -> ChallengeConfig:
         """Read the keys (strings or YAML values); a bad value raises ValueError naming its key."""
         values: dict[str, object] = {}
         kinds = {f.name: f.type for f in fields(cls)}
@@ -217,6 +218,6 @@ _KEYS: dict[str, str] = {
     "RESET_BEHIND_DIST": "reset_behind_dist_m",
     "RESET_AHEAD_DIST": "reset_ahead_dist_m",
 }
-"""training_params.yaml key -> RaceConfig field."""
+"""training_params.yaml key -> ChallengeConfig field."""
 
-RACE_KEYS: tuple[str, ...] = ("RACE_TYPE", *_KEYS)
+CHALLENGE_KEYS: tuple[str, ...] = ("RACE_TYPE", *_KEYS)

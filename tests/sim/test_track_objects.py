@@ -7,12 +7,12 @@ import math
 import numpy as np
 import pytest
 
+from racer.shared.sim.challenge_config import ChallengeConfig, ObjectPosition
 from racer.shared.sim.collisions import rectangle_corners
-from racer.shared.sim.race_config import ObjectPosition, RaceConfig
-from racer.shared.sim.race_objects import BOT_CAR_SIZE, BOX_OBSTACLE_SIZE
+from racer.shared.sim.object_poses import BOT_CAR_SIZE, BOX_OBSTACLE_SIZE
 
 STRAIGHT = 2  # default metadata: index 2 = steering 0°, 1 m/s
-BOX_AHEAD = RaceConfig(race_type="OBJECT_AVOIDANCE", object_positions=(ObjectPosition(0.1, 1),))
+BOX_AHEAD = ChallengeConfig(race_type="OBJECT_AVOIDANCE", object_positions=(ObjectPosition(0.1, 1),))
 """racer_oval: its first straight runs along +x from the origin; 10 % of the lap is 1.35 m down it, inner lane = left."""
 
 
@@ -23,9 +23,9 @@ def _first_run_step(env, seed: int = 0) -> None:
 
 def test_a_car_crashes_exactly_where_its_corner_enters_the_box(make_env):
     """The SimApp's test: a corner of the 0.1961 x 0.32352 m car rectangle strictly inside the 0.4 x 0.5 m box."""
-    env = make_env(race=BOX_AHEAD)
+    env = make_env(challenge=BOX_AHEAD)
     _first_run_step(env)
-    (box,) = env.race_objects
+    (box,) = env.object_poses
     # Drive along the box's own heading on its lane: the car's front corners meet the box's rear face when the car's
     # origin is (box length + car length) / 2 behind the box's centre.
     gap_m = 0.5 * (BOX_OBSTACLE_SIZE.length_m + BOT_CAR_SIZE.length_m)
@@ -43,9 +43,9 @@ def test_a_car_crashes_exactly_where_its_corner_enters_the_box(make_env):
 
 def test_a_car_driven_straight_at_a_box_crashes_at_the_predicted_distance(make_env):
     """Driving at 1 m/s from the start line: the first `crashed` row is the first pose past the geometric limit."""
-    env = make_env(race=BOX_AHEAD)
+    env = make_env(challenge=BOX_AHEAD)
     env.reset(seed=0)
-    (box,) = env.race_objects
+    (box,) = env.object_poses
     limit_x = box.x_m - 0.5 * BOX_OBSTACLE_SIZE.length_m - 0.5 * BOT_CAR_SIZE.length_m
     rows = []
     for _ in range(60):
@@ -63,9 +63,9 @@ def test_a_car_driven_straight_at_a_box_crashes_at_the_predicted_distance(make_e
 
 
 def test_a_crash_with_resets_left_pauses_behind_the_obstacle_on_the_other_lane(make_env):
-    env = make_env(race=BOX_AHEAD, number_of_resets=3, collision_penalty_s=1.0)
+    env = make_env(challenge=BOX_AHEAD, number_of_resets=3, collision_penalty_s=1.0)
     env.reset(seed=0)
-    (box,) = env.race_objects
+    (box,) = env.object_poses
     statuses = []
     for _ in range(60):
         *_, info = env.step(STRAIGHT)
@@ -82,15 +82,15 @@ def test_a_crash_with_resets_left_pauses_behind_the_obstacle_on_the_other_lane(m
 
 
 def test_mercy_reset_puts_the_car_ahead_after_max_resets_behind_the_same_obstacle(make_env):
-    race = RaceConfig(
+    challenge = ChallengeConfig(
         race_type="OBJECT_AVOIDANCE",
         object_positions=(ObjectPosition(0.1, 1),),
         enable_mercy_reset=True,
         max_resets_after_crash=2,
     )
-    env = make_env(race=race, number_of_resets=5, collision_penalty_s=0.0)
+    env = make_env(challenge=challenge, number_of_resets=5, collision_penalty_s=0.0)
     _first_run_step(env)
-    (box,) = env.race_objects
+    (box,) = env.object_poses
     box_dist_m = env.track.project_normalized(box.x_m, box.y_m) * env.track.length_m
     counters, spots = [], []
     for _ in range(2):
@@ -108,8 +108,8 @@ def test_mercy_reset_puts_the_car_ahead_after_max_resets_behind_the_same_obstacl
 
 
 def test_training_starts_on_the_other_lane_when_an_object_is_within_a_metre(make_env):
-    race = RaceConfig(race_type="OBJECT_AVOIDANCE", object_positions=(ObjectPosition(0.03, -1),))
-    env = make_env(race=race, change_start_position=False)
+    challenge = ChallengeConfig(race_type="OBJECT_AVOIDANCE", object_positions=(ObjectPosition(0.03, -1),))
+    env = make_env(challenge=challenge, change_start_position=False)
     env.reset(seed=0)
     pose = env.car.pose(env.data)
     assert env.track.nearer_lane(pose.origin_x_m, pose.origin_y_m) == "inner"
@@ -128,27 +128,29 @@ def test_training_starts_on_the_other_lane_when_an_object_is_within_a_metre(make
 
 
 def test_a_crash_into_a_bot_ahead_counts_and_a_bot_hitting_the_car_from_behind_does_not(make_env):
-    race = RaceConfig(race_type="HEAD_TO_BOT", number_of_bot_cars=1, bot_car_speed_mps=0.2, penalty_seconds=1.0)
-    env = make_env(race=race, number_of_resets=3, collision_penalty_s=0.0)
+    challenge = ChallengeConfig(
+        race_type="HEAD_TO_BOT", number_of_bot_cars=1, bot_car_speed_mps=0.2, penalty_seconds=1.0
+    )
+    env = make_env(challenge=challenge, number_of_resets=3, collision_penalty_s=0.0)
     _first_run_step(env)
-    (bot,) = env.race_objects
+    (bot,) = env.object_poses
     c, s = math.cos(bot.yaw_rad), math.sin(bot.yaw_rad)
     # The car 0.3 m ahead of the bot, overlapping its front: the bot ran into the car; the car goes on.
     env.teleport(bot.x_m + 0.3 * c, bot.y_m + 0.3 * s, bot.yaw_rad)
     *_, info = env.step(STRAIGHT)
     assert info["episode_status"] == "in_progress" and info["params"]["is_crashed"] is False
     env.step(STRAIGHT)  # still touching: no second penalty while the bots stand
-    stopped = env.race_objects[0]
+    stopped = env.object_poses[0]
     for _ in range(10):  # the bots stop for PENALTY_SECONDS (1 s = 15 steps)
         env.teleport(bot.x_m + 2.0 * c, bot.y_m + 2.0 * s, bot.yaw_rad)
         env.step(STRAIGHT)
-        assert (env.race_objects[0].x_m, env.race_objects[0].y_m) == (stopped.x_m, stopped.y_m)
+        assert (env.object_poses[0].x_m, env.object_poses[0].y_m) == (stopped.x_m, stopped.y_m)
     for _ in range(8):
         env.teleport(bot.x_m + 2.0 * c, bot.y_m + 2.0 * s, bot.yaw_rad)
         env.step(STRAIGHT)
-    moved_m = math.dist((env.race_objects[0].x_m, env.race_objects[0].y_m), (stopped.x_m, stopped.y_m))
+    moved_m = math.dist((env.object_poses[0].x_m, env.object_poses[0].y_m), (stopped.x_m, stopped.y_m))
     assert 0.0 < moved_m < 0.2 * 8 / 15 + 0.01  # it drives on after 1 s, from where it stopped
-    bot = env.race_objects[0]
+    bot = env.object_poses[0]
     # The car 0.3 m behind the bot, overlapping its rear: the car ran into it; crashed, held where it is.
     env.teleport(bot.x_m - 0.3 * c, bot.y_m - 0.3 * s, bot.yaw_rad)
     *_, info = env.step(STRAIGHT)
@@ -160,7 +162,7 @@ def test_a_crash_into_a_bot_ahead_counts_and_a_bot_hitting_the_car_from_behind_d
 def test_a_bot_changes_lanes_in_the_configured_time(make_env):
     """IS_LANE_CHANGE with LOWER = UPPER = 1 s and LANE_CHANGE_DISTANCE 0.5 m at 0.5 m/s: the bot leaves its lane
     1 s after the episode start and is on the other lane 1 s (0.5 m / 0.5 m/s) later, smoothly."""
-    race = RaceConfig(
+    challenge = ChallengeConfig(
         race_type="HEAD_TO_BOT",
         number_of_bot_cars=1,
         bot_car_speed_mps=0.5,
@@ -170,13 +172,13 @@ def test_a_bot_changes_lanes_in_the_configured_time(make_env):
         lane_change_distance_m=0.5,
         min_distance_between_bot_cars_m=5.5,  # 5.5 m ahead of the start line, through a bend
     )
-    env = make_env(race=race)
+    env = make_env(challenge=challenge)
     env.reset(seed=0)
     track = env.track
     offsets, times = [], []
     for _ in range(40):
         env.step(STRAIGHT)
-        bot = env.race_objects[0]
+        bot = env.object_poses[0]
         side = 1.0 if track.is_left_of_center(bot.x_m, bot.y_m) else -1.0
         offsets.append(side * track.distance_from_center(bot.x_m, bot.y_m))
         times.append(env.sim_time_s)
@@ -194,7 +196,7 @@ def test_a_bot_changes_lanes_in_the_configured_time(make_env):
 
 
 def test_randomised_placements_differ_per_episode_and_repeat_under_the_same_seed(make_env):
-    race = RaceConfig(
+    challenge = ChallengeConfig(
         race_type="OBJECT_AVOIDANCE",
         number_of_obstacles=3,
         randomize_obstacle_locations=True,
@@ -204,16 +206,16 @@ def test_randomised_placements_differ_per_episode_and_repeat_under_the_same_seed
         seen = []
         for episode in range(episodes):
             env.reset(seed=7 if episode == 0 else None)
-            seen.append([(round(o.x_m, 9), round(o.y_m, 9)) for o in env.race_objects])
+            seen.append([(round(o.x_m, 9), round(o.y_m, 9)) for o in env.object_poses])
         return seen
 
-    first = layouts(make_env(race=race), 3)
-    again = layouts(make_env(race=race), 3)
+    first = layouts(make_env(challenge=challenge), 3)
+    again = layouts(make_env(challenge=challenge), 3)
     assert first == again
     assert len({tuple(layout) for layout in first}) == 3
-    env = make_env(race=race)
+    env = make_env(challenge=challenge)
     env.reset(seed=8)
-    assert [(round(o.x_m, 9), round(o.y_m, 9)) for o in env.race_objects] != first[0]  # another seed
+    assert [(round(o.x_m, 9), round(o.y_m, 9)) for o in env.object_poses] != first[0]  # another seed
     # Spacing: MIN_DISTANCE_BETWEEN_OBSTACLES percent of the lap between neighbours along the centre line.
     track = env.track
     for layout in first:
@@ -222,12 +224,12 @@ def test_randomised_placements_differ_per_episode_and_repeat_under_the_same_seed
 
 
 def test_fixed_layout_alternates_lanes_and_spacing(make_env):
-    race = RaceConfig(race_type="OBJECT_AVOIDANCE", number_of_obstacles=3)
-    env = make_env(race=race)
+    challenge = ChallengeConfig(race_type="OBJECT_AVOIDANCE", number_of_obstacles=3)
+    env = make_env(challenge=challenge)
     env.reset(seed=0)
     track = env.track
-    dists = [track.project_normalized(o.x_m, o.y_m) * track.length_m for o in env.race_objects]
-    lanes = [track.nearer_lane(o.x_m, o.y_m) for o in env.race_objects]
+    dists = [track.project_normalized(o.x_m, o.y_m) * track.length_m for o in env.object_poses]
+    lanes = [track.nearer_lane(o.x_m, o.y_m) for o in env.object_poses]
     spacing = 0.02 * track.length_m
     assert dists == pytest.approx(list(np.linspace(spacing, track.length_m - 1.0, 3)), abs=0.01)
     assert lanes == ["inner", "outer", "inner"]
@@ -236,6 +238,6 @@ def test_fixed_layout_alternates_lanes_and_spacing(make_env):
 def test_a_time_trial_has_no_race_objects(make_env):
     env = make_env()
     env.reset(seed=0)
-    assert env.race_objects == []
+    assert env.object_poses == []
     *_, info = env.step(STRAIGHT)
     assert info["params"]["objects_location"] == [] and info["simtrace"]["obstacle_crash_counter"] == 0

@@ -6,17 +6,17 @@ from __future__ import annotations
 import pytest
 
 from racer.evaluation_worker.config import DeepRacerRules, SummitRules
-from racer.shared.sim.race_config import ObjectPosition, RaceConfig
+from racer.shared.sim.challenge_config import ChallengeConfig, ObjectPosition
 
 from .conftest import run_scripted, simtrace_of
 
-BOX_ON_THE_INNER_LANE = RaceConfig(race_type="OBJECT_AVOIDANCE", object_positions=(ObjectPosition(0.3, 1),))
+BOX_ON_THE_INNER_LANE = ChallengeConfig(race_type="OBJECT_AVOIDANCE", object_positions=(ObjectPosition(0.3, 1),))
 """The scripted car follows the centre line: 0.098 m either side of it, into the box (0.067 m left of the centre)."""
 
 
 def test_deepracer_mode_crash_pauses_for_the_collision_penalty_and_counts(tmp_path):
     rules = DeepRacerRules(number_of_trials=1, number_of_resets=2, collision_penalty_s=1.0)
-    report, _ = run_scripted(tmp_path, speed_mps=1.5, deepracer=rules, race_setup=BOX_ON_THE_INNER_LANE)
+    report, _ = run_scripted(tmp_path, speed_mps=1.5, deepracer=rules, challenge=BOX_ON_THE_INNER_LANE)
     (lap,) = report.laps
     assert lap.crash_count >= 1
     rows = simtrace_of(tmp_path, report)
@@ -31,7 +31,7 @@ def test_deepracer_mode_crash_pauses_for_the_collision_penalty_and_counts(tmp_pa
 
 def test_summit_rule_counts_a_crash_as_a_put_back(tmp_path):
     rules = SummitRules(race_duration_s=20.0, reset_penalty_s=0.5, put_back="deepracer")
-    report, _ = run_scripted(tmp_path, mode="race", speed_mps=1.5, summit=rules, race_setup=BOX_ON_THE_INNER_LANE)
+    report, _ = run_scripted(tmp_path, mode="race", speed_mps=1.5, summit=rules, challenge=BOX_ON_THE_INNER_LANE)
     first = report.laps[0]
     assert first.crash_count >= 1 and first.put_backs >= 1
     rows = simtrace_of(tmp_path, report)

@@ -13,23 +13,23 @@ from mcap_protobuf.decoder import DecoderFactory
 from racer.evaluation_worker.config import DeepRacerRules, EvaluationConfig, VideoOptions
 from racer.evaluation_worker.runner import EvaluationSession
 from racer.evaluation_worker.video import VIEWS
+from racer.shared.sim.challenge_config import ChallengeConfig, ObjectPosition
 from racer.shared.sim.object_bodies import BOX_HEIGHT_M, BOX_LENGTH_M, BOX_WIDTH_M
-from racer.shared.sim.race_config import ObjectPosition, RaceConfig
 from racer.shared.sim.track import Track
 from racer.shared.store import LocalStore
 from tests.evaluation.conftest import simtrace_of
 from tests.evaluation.scripted import CONTINUOUS_METADATA, ScriptedPolicy
 
-BOX = RaceConfig(race_type="OBJECT_AVOIDANCE", object_positions=(ObjectPosition(0.2, 1),))
-BOT = RaceConfig(race_type="HEAD_TO_BOT", number_of_bot_cars=1, bot_car_speed_mps=0.5)
+BOX = ChallengeConfig(race_type="OBJECT_AVOIDANCE", object_positions=(ObjectPosition(0.2, 1),))
+BOT = ChallengeConfig(race_type="HEAD_TO_BOT", number_of_bot_cars=1, bot_car_speed_mps=0.5)
 
 
-def _evaluate(root, race_setup, *, video: bool):
+def _evaluate(root, challenge, *, video: bool):
     config = EvaluationConfig(
         model_prefix="race-model",
         track="racer_oval",
         deepracer=DeepRacerRules(number_of_trials=1, number_of_resets=0),
-        race_setup=race_setup,
+        challenge=challenge,
         video=VideoOptions(width_px=160, height_px=120) if video else VideoOptions(enabled=False),
         mcap=True,
     )

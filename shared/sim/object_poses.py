@@ -1,6 +1,6 @@
 """What stands on the track besides the agent: static obstacles and bot cars, as one pose list per step.
 
-The race logic (placement, bot motion, collisions, reward params) produces `RaceObject`s; the scene, the sensors,
+The track-object logic (placement, bot motion, collisions, reward params) produces `ObjectPose`s; the scene, the sensors,
 the recording and the analysis only read them. Sizes are the SimApp's collision rectangles
 (deepracer-simapp v5.3.3 `bundle/markov/track_geom/track_data.py`: box_obstacle 0.4 x 0.5 m, a DeepRacer car 0.1961 x
 0.32352 m).
@@ -36,7 +36,7 @@ SIZES: dict[ObjectKind, ObjectSize] = {ObjectKind.BOX_OBSTACLE: BOX_OBSTACLE_SIZ
 
 
 @dataclass(frozen=True)
-class RaceObject:
+class ObjectPose:
     """One object's pose at one instant, in the track's world frame (the frame of the route's waypoints)."""
 
     name: str

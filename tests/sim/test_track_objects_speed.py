@@ -13,10 +13,10 @@ from racer.shared.sim import object_bodies, scene
 from racer.shared.sim._mujoco import mujoco
 from racer.shared.sim.camera import CENTER_CAMERA, CameraRenderer
 from racer.shared.sim.car import Car
+from racer.shared.sim.challenge_config import ChallengeConfig
 from racer.shared.sim.moving_projection import MovingProjection
 from racer.shared.sim.object_bodies import OBJECT_GEOM_GROUP, ObjectBodies, ObjectSlot
-from racer.shared.sim.race_config import RaceConfig
-from racer.shared.sim.race_objects import ObjectKind, RaceObject
+from racer.shared.sim.object_poses import ObjectKind, ObjectPose
 from racer.shared.sim.scene import SceneSpec, build_model
 from racer.shared.sim.track import Track
 from racer.shared.sim.worlds import get_world
@@ -26,7 +26,7 @@ def objects_ahead(slots, car_pose, offsets_m, yaw_offset):
     """One object per slot at (ahead, left) metres in the car's frame, turned `yaw_offset` from the car."""
     x, y, yaw = car_pose
     return [
-        RaceObject(
+        ObjectPose(
             slot.name,
             slot.kind,
             x + ahead * math.cos(yaw) - left * math.sin(yaw),
@@ -64,15 +64,15 @@ def _fresh_object_params(track: Track, params: dict) -> tuple[list, list, list]:
 
 
 @pytest.mark.parametrize(
-    "race",
+    "challenge",
     [
-        RaceConfig(race_type="OBJECT_AVOIDANCE", number_of_obstacles=3, randomize_obstacle_locations=True),
-        RaceConfig(race_type="HEAD_TO_BOT", number_of_bot_cars=2, bot_car_speed_mps=0.5, is_lane_change=True),
+        ChallengeConfig(race_type="OBJECT_AVOIDANCE", number_of_obstacles=3, randomize_obstacle_locations=True),
+        ChallengeConfig(race_type="HEAD_TO_BOT", number_of_bot_cars=2, bot_car_speed_mps=0.5, is_lane_change=True),
     ],
     ids=["randomised_obstacles", "bot_cars"],
 )
-def test_cached_object_params_equal_a_fresh_computation_at_every_step(make_env, race):
-    env = make_env(race=race)
+def test_cached_object_params_equal_a_fresh_computation_at_every_step(make_env, challenge):
+    env = make_env(challenge=challenge)
     per_episode = []
     for episode in range(3):
         env.reset(seed=11 if episode == 0 else None)
@@ -88,7 +88,7 @@ def test_cached_object_params_equal_a_fresh_computation_at_every_step(make_env, 
             if terminated or truncated:
                 break
         per_episode.append(seen)
-    if race.number_of_bot_cars:
+    if challenge.number_of_bot_cars:
         assert len(set(per_episode[0])) > 1  # the bots moved, and their params with them
     else:
         assert all(len(set(seen)) == 1 for seen in per_episode)  # static within an episode
