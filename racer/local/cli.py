@@ -8,8 +8,8 @@ from pathlib import Path
 
 import click
 
+from racer.defaults import DEFAULT_CUSTOM_FILES
 from racer.local.run import LocalRunPlan, run_local_training
-from racer.local.services import PROJECT_ROOT
 from racer.rollout_worker.batched_rollout import DEFAULT_ENVS_PER_WORKER, DEFAULT_WORKERS
 from racer.shared.config import LocalStoreSettings, settings_from_env
 from racer.shared.sim.challenge_cli import challenge_options, challenge_params_from_options
@@ -24,8 +24,8 @@ from racer.trainer.run_options import trainer_run_options
 @click.option(
     "--custom-files",
     type=click.Path(exists=True, file_okay=False, path_type=Path),
-    default=PROJECT_ROOT / "custom_files",
-    show_default=True,
+    default=DEFAULT_CUSTOM_FILES,
+    show_default="the example files installed with racer, racer/defaults/custom_files",
     help="Folder with reward_function.py, model_metadata.json, hyperparameters.json.",
 )
 @click.option(
