@@ -31,8 +31,8 @@ from racer.rollout_worker.checkpoint_evaluation import evaluate_checkpoint, uses
 from racer.rollout_worker.claims import claim_next_episode
 from racer.rollout_worker.envs import env_generator, spread_env_configs
 from racer.rollout_worker.episode_runner import EpisodeRecorder
-from racer.rollout_worker.worker_files import WorkerFiles, load_worker_files, training_env_config
 from racer.rollout_worker.training_log import WorkerLog
+from racer.rollout_worker.worker_files import WorkerFiles, load_worker_files, training_env_config
 from racer.shared.config import ServiceSettings
 from racer.shared.policy.action_selection import e_greedy_epsilon
 from racer.shared.policy.checkpoints import CheckpointStore

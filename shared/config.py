@@ -1,7 +1,9 @@
 """Deployment settings: where Redis and the object store are.
 
-This is the only module that reads environment variables. Everything else receives the
-frozen dataclasses built here, so a test or a subprocess can be configured explicitly.
+This is the only module that reads environment variables: everything else receives the values built here, so a
+test or a subprocess can be configured explicitly. The exceptions are `shared/sim/gl.py`, which chooses `MUJOCO_GL`
+before MuJoCo loads, and launchers that copy their environment into a child process's
+(tests/foundation/test_environment_reads.py holds the list).
 
 | variable | meaning | default |
 |---|---|---|
@@ -13,6 +15,7 @@ frozen dataclasses built here, so a test or a subprocess can be configured expli
 | `MAX_MEMORY_STEPS` | trainer: transitions one iteration trains on, as the SimApp's variable (0 = no cap) | DeepRacer's: 10000 shallow network, 3000 others |
 | `RACER_ROUTES_PATH` | folders of DeepRacer route files (`<WORLD_NAME>.npy`), `:`-separated, searched in order before the route library and racer's `tracks/` | unset |
 | `RACER_DATA_HOME` | racer's per-user data folder; its `routes/` is the route library `racer track import` fills | `$XDG_DATA_HOME/racer`, else `~/.local/share/racer` |
+| `RACER_DEEPRACER_DATA` | a folder of DeepRacer's own files (routes, models, reward functions, simtraces) that benchmarks compare against (`racer bench ... --data`) | unset |
 """
 
 from __future__ import annotations
@@ -77,13 +80,24 @@ def parse_store_location(location: str, environ: Mapping[str, str], connect_time
     return LocalStoreSettings(root=Path(location).expanduser().resolve())
 
 
+def _connect_timeout_s(env: Mapping[str, str]) -> float:
+    return float(env.get("RACER_CONNECT_TIMEOUT_S", "10"))
+
+
 def settings_from_env(environ: Mapping[str, str] | None = None) -> ServiceSettings:
     env = os.environ if environ is None else environ
-    timeout_s = float(env.get("RACER_CONNECT_TIMEOUT_S", "10"))
+    timeout_s = _connect_timeout_s(env)
     return ServiceSettings(
         redis=RedisSettings(url=env.get("RACER_REDIS_URL", DEFAULT_REDIS_URL), connect_timeout_s=timeout_s),
         store=parse_store_location(env.get("RACER_STORE", DEFAULT_LOCAL_STORE), env, timeout_s),
     )
+
+
+def store_settings_at(location: str, environ: Mapping[str, str] | None = None) -> StoreSettings:
+    """The store a command names itself (`s3://bucket` or a folder) instead of RACER_STORE; an S3 store's endpoint,
+    keys and connect timeout come from the environment as RACER_STORE's do."""
+    env = os.environ if environ is None else environ
+    return parse_store_location(location, env, _connect_timeout_s(env))
 
 
 def max_memory_steps_from_env(environ: Mapping[str, str] | None = None) -> int | None:
@@ -126,16 +140,11 @@ def route_library(environ: Mapping[str, str] | None = None) -> Path | None:
     return (base.expanduser() / "routes").resolve()
 
 
-def env_flag(name: str, default: bool = False, environ: Mapping[str, str] | None = None) -> bool:
-    """A boolean environment variable, accepting DeepRacer's mixed spellings ('True', 'true', '1')."""
-    env = os.environ if environ is None else environ
-    raw = env.get(name)
-    if raw is None or raw == "":
-        return default
-    return raw.strip().lower() in {"1", "true", "yes", "on"}
+DEEPRACER_DATA_VARIABLE = "RACER_DEEPRACER_DATA"
 
 
-def render_backend(environ: Mapping[str, str] | None = None) -> str | None:
-    """The MuJoCo GL backend the user asked for (`MUJOCO_GL`), if any."""
+def deepracer_data(environ: Mapping[str, str] | None = None) -> Path | None:
+    """The folder of DeepRacer's own files some benchmarks compare against (RACER_DEEPRACER_DATA); None when unset."""
     env = os.environ if environ is None else environ
-    return env.get("MUJOCO_GL") or None
+    raw = env.get(DEEPRACER_DATA_VARIABLE, "").strip()
+    return Path(raw).expanduser().resolve() if raw else None

@@ -12,10 +12,10 @@ from racer.shared.deepracer.model_metadata import ModelMetadata
 from racer.shared.policy.factory import build_network_for_metadata
 from racer.shared.policy.network_file import NetworkFile
 from racer.trainer.learner import Learner
-from racer.trainer.ppo import PPOSettings, PPOLearner
+from racer.trainer.ppo import PPOLearner, PPOSettings
 from racer.trainer.precision import DEFAULT_PRECISION, Precision
 from racer.trainer.preset import Preset, sac_updates_per_transition
-from racer.trainer.sac import SACSettings, SACLearner
+from racer.trainer.sac import SACLearner, SACSettings
 
 __all__ = ["LEARNERS", "LearnerOptions", "build_learner"]
 

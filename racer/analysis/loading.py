@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 
 from racer.analysis.robomaker_log import relabel_error, simtrace_csv_from_log
-from racer.analysis.sources import SimtraceFiles, SimtraceFile
+from racer.analysis.sources import SimtraceFile, SimtraceFiles
 from racer.shared.deepracer.simtrace import SimtraceError, read_simtrace
 
 PLACEMENT_COLUMNS = ["phase", "run", "worker", "iteration"]

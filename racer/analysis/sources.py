@@ -17,7 +17,6 @@ or a simulation log (SIM_TRACE_LOG lines) can also be given on its own.
 
 from __future__ import annotations
 
-import os
 import re
 import tarfile
 from collections.abc import Callable
@@ -25,7 +24,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path, PurePosixPath
 
 from racer.shared import model_layout
-from racer.shared.config import settings_from_env
+from racer.shared.config import settings_from_env, store_settings_at
 from racer.shared.store import ObjectStore, S3Store, open_store
 
 TRAINING = "training"
@@ -193,9 +192,7 @@ def open_source(source: str) -> SimtraceFiles:
         raise SourceError(f"{source}: expected a folder, a .csv, a .log, a .tar.gz or s3://bucket/prefix")
     elif source.startswith("s3://"):
         bucket, _, prefix = source.removeprefix("s3://").partition("/")
-        # Endpoint and credentials come from the environment exactly as for RACER_STORE (S3_ENDPOINT_URL, AWS_*).
-        settings = settings_from_env({**os.environ, "RACER_STORE": f"s3://{bucket}"}).store
-        found = from_store(open_store(settings), prefix)
+        found = from_store(open_store(store_settings_at(f"s3://{bucket}")), prefix)
     else:
         found = from_store(open_store(settings_from_env().store), source)
     if not found.simtraces:

@@ -17,7 +17,7 @@ import torch
 from racer.shared.deepracer.hyperparameters import Hyperparameters
 from racer.shared.episode import Episode
 from racer.shared.policy.networks import ActorCritic
-from racer.trainer.ppo import PPOSettings, PPOLearner, make_training_batch
+from racer.trainer.ppo import PPOLearner, PPOSettings, make_training_batch
 from racer.trainer.precision import Precision
 
 __all__ = ["UpdateAgreement", "update_agreement"]

@@ -2,8 +2,8 @@
 
 A time trial on re:Invent 2018 under DeepRacer's default race rules (the race file of docs/evaluation.md: AVG_LAP_TIME,
 3 laps, 2 s off-track and 5 s collision penalties, 20 minutes), videos on. The field: the two real Gazebo checkpoints
-of the shared sample model (each frozen graph in a folder of its own, as `racer model import` takes it), the racer
-models given with `--entrant`, one broken folder the bench makes, re-entered under distinct names until there are
+of DeepRacer's sample model in `--data` (each frozen graph in a folder of its own, as `racer model import` takes it),
+the racer models given with `--entrant`, one broken folder the bench makes, re-entered under distinct names until there are
 `--entrants` (every model given races, so the field may be larger). Every model is imported once with `racer model
 import` (a racer model folder: its `model/` copied) before the clock starts, and each entrant gets a
 store prefix of its own, so both timed runs do the same work: evaluations from the store (and the broken folder's
@@ -24,9 +24,9 @@ from typing import Any
 import click
 import yaml
 
+from racer.benches.deepracer_data import GAZEBO_SAMPLE, REINVENT_2018_ROUTE, data_folder, data_option
 from racer.benches.race_field import (
     BROKEN_NAME,
-    REINVENT_2018,
     broken_folder,
     copy_entrants,
     field_of,
@@ -117,24 +117,33 @@ def per_minute(count: int, wall_s: float) -> float:
     help="One lap each, the first exit ends it (a test's size: with --entrants 3, about a minute of work).",
 )
 @click.option("--multi-car", is_flag=True, help="Also a head-to-model and an F1 race, each twice with one seed.")
+@data_option
 def race_bench_command(
-    entrant_count: int, extra: tuple[Path, ...], workers: int | None, seed: int, quick: bool, multi_car: bool
+    entrant_count: int,
+    extra: tuple[Path, ...],
+    workers: int | None,
+    seed: int,
+    quick: bool,
+    multi_car: bool,
+    data_dir: Path | None,
 ) -> None:
     """A time trial of --entrants entrants (videos on) with --workers, against `racer evaluate` one after another."""
     from racer.race.runner import default_workers
 
+    data = data_folder(data_dir)
+    route = data / REINVENT_2018_ROUTE
     workers = workers or default_workers()
-    env = {**os.environ, "MUJOCO_GL": os.environ.get("MUJOCO_GL", "egl")}
+    env = {"MUJOCO_GL": "egl", **os.environ}
     with bench_workdir("racer-bench-race-") as work:
         store, logs = work / "store", work / "logs"
         logs.mkdir(parents=True)
         env["RACER_STORE"] = str(store)
-        sources = [*gazebo_folders(work), *(path.resolve() for path in extra)]
+        sources = [*gazebo_folders(work, data / GAZEBO_SAMPLE), *(path.resolve() for path in extra)]
         models = import_models(sources, store, logs, workers, env)
         names = field_of(models, max(entrant_count, len(models) + 1))  # every model given races
         copy_entrants(store, models, names)
         broken = broken_folder(work)
-        race: dict[str, Any] = {"name": "bench-race", "trackConfig": {"trackId": str(REINVENT_2018)}, **DEFAULT_RULES}
+        race: dict[str, Any] = {"name": "bench-race", "trackConfig": {"trackId": str(route)}, **DEFAULT_RULES}
         if quick:
             race["submissionTerminationConditions"] = dict(QUICK_LIMITS)
             race["maxResets"] = 0
@@ -172,7 +181,7 @@ def race_bench_command(
         )
         report: dict[str, Any] = {
             "benchmark": "race",
-            "track": REINVENT_2018.stem,
+            "track": route.stem,
             "rules": race["timingMethod"],
             "laps": race["submissionTerminationConditions"]["maximumLaps"],
             "entrants": len(names),
@@ -192,5 +201,5 @@ def race_bench_command(
         if multi_car:
             from racer.benches.race_multi_car import multi_car_races
 
-            report["multi_car"] = multi_car_races(work, models, seed=seed, quick=quick, env=env)
+            report["multi_car"] = multi_car_races(work, models, route, seed=seed, quick=quick, env=env)
     print(json.dumps(report), flush=True)

@@ -11,11 +11,6 @@ from pathlib import Path
 
 import click
 
-from racer.local.services import PROJECT_ROOT
-
-SHARED_DATA = PROJECT_ROOT.parent / "shared" / "deepracer-data"
-GAZEBO_SAMPLE = SHARED_DATA / "models" / "gazebo-sample-reinvent2018"
-REINVENT_2018 = SHARED_DATA / "routes" / "reinvent_base.npy"
 BROKEN_NAME = "broken"
 
 
@@ -23,14 +18,14 @@ def say(message: str) -> None:
     print(f"race bench: {message}", file=sys.stderr, flush=True)
 
 
-def gazebo_folders(work: Path) -> list[Path]:
-    """One folder per frozen graph of the shared sample (`model_15.pb`, `model_30.pb`), beside its metadata: two
+def gazebo_folders(work: Path, sample: Path) -> list[Path]:
+    """One folder per frozen graph of the Gazebo sample (`model_15.pb`, `model_30.pb`), beside its metadata: two
     entrants, since `racer model import` of the sample folder would give one model with both checkpoints."""
     folders = []
-    for graph in sorted(GAZEBO_SAMPLE.glob("model_*.pb")):
+    for graph in sorted(sample.glob("model_*.pb")):
         folder = work / "sources" / f"gazebo-{graph.stem.removeprefix('model_')}"
         folder.mkdir(parents=True, exist_ok=True)
-        for file in (graph, GAZEBO_SAMPLE / "model_metadata.json"):
+        for file in (graph, sample / "model_metadata.json"):
             (folder / file.name).unlink(missing_ok=True)
             (folder / file.name).symlink_to(file)
         folders.append(folder)

@@ -12,7 +12,6 @@ from typing import Any
 import yaml
 
 from racer.benches.race_field import (
-    REINVENT_2018,
     copy_entrants,
     field_of,
     racer_command,
@@ -24,10 +23,10 @@ MULTI_CAR_LAPS = 3
 QUICK_LAPS = 1
 
 
-def _race_file(work: Path, name: str, race_type: str, laps: int) -> Path:
+def _race_file(work: Path, name: str, race_type: str, laps: int, route: Path) -> Path:
     race = {
         "name": name,
-        "trackConfig": {"trackId": str(REINVENT_2018)},
+        "trackConfig": {"trackId": str(route)},
         "raceType": race_type,
         "timingMethod": "BEST_LAP_TIME",
         "submissionTerminationConditions": {"minimumLaps": 1, "maximumLaps": laps, "maxTimeInMinutes": 2 * laps},
@@ -66,15 +65,17 @@ def _place(row: dict[str, Any]) -> int:
     return int(row.get("multiCar", {}).get("finishingPlace") or 10_000)
 
 
-def multi_car_races(work: Path, models: list[str], *, seed: int, quick: bool, env: dict[str, str]) -> dict[str, Any]:
-    """HEAD_TO_MODEL of the first two models and F1 of four cars (the models re-entered when fewer)."""
+def multi_car_races(
+    work: Path, models: list[str], route: Path, *, seed: int, quick: bool, env: dict[str, str]
+) -> dict[str, Any]:
+    """HEAD_TO_MODEL of the first two models and F1 of four cars (the models re-entered when fewer) on `route`."""
     laps = QUICK_LAPS if quick else MULTI_CAR_LAPS
     store = Path(env["RACER_STORE"])
     pair = field_of(models, 3)
     four = field_of(models, 5)
     copy_entrants(store, models, four)
     say(f"head-to-model of {', '.join(pair)}, {laps} lap(s), twice")
-    head_to_model = _run_twice(work, _race_file(work, "bench-h2m", "HEAD_TO_MODEL", laps), pair, seed, env)
+    head_to_model = _run_twice(work, _race_file(work, "bench-h2m", "HEAD_TO_MODEL", laps, route), pair, seed, env)
     say(f"F1 of {', '.join(four)}, {laps} lap(s), twice")
-    f1 = _run_twice(work, _race_file(work, "bench-f1", "F1", laps), four, seed, env)
+    f1 = _run_twice(work, _race_file(work, "bench-f1", "F1", laps, route), four, seed, env)
     return {"laps": laps, "head_to_model": head_to_model, "f1": f1}

@@ -27,7 +27,7 @@ import onnxruntime
 import torch
 import zstandard
 
-from racer.local.services import PROJECT_ROOT
+from racer.defaults import DEFAULT_CUSTOM_FILES
 from racer.rollout_worker.batched_rollout import BatchedRollout, EpisodeTicket
 from racer.rollout_worker.worker import env_generator, spread_env_configs
 from racer.shared.deepracer.model_metadata import load_model_metadata
@@ -158,7 +158,7 @@ def rollout_bench_command(blocks: int, episodes_per_block: int, repeats: int) ->
     """Per-frame inference cost at batch 1/4/8 (ONNX batched, ONNX per frame, PyTorch) and one worker's CPU per env
     step with 1/4/8 envs; prints one JSON line."""
     torch.set_num_threads(1)
-    custom = PROJECT_ROOT / "custom_files"
+    custom = DEFAULT_CUSTOM_FILES
     metadata = load_model_metadata(custom / "model_metadata.json")
     torch.manual_seed(0)
     network = build_actor_critic(metadata).eval()

@@ -36,7 +36,7 @@ from racer.shared.episode import Episode
 from racer.shared.policy.factory import build_network_for_metadata
 from racer.trainer.ppo import HUBER_DELTA
 from racer.trainer.replay import ReplayBatch
-from racer.trainer.sac import SACSettings, SACLearner
+from racer.trainer.sac import SACLearner, SACSettings
 
 __all__ = ["METADATA", "plain_sac_step", "sac_bench_command", "synthetic_episodes"]
 

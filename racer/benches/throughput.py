@@ -27,8 +27,8 @@ import time
 import click
 
 from racer.benches.workdir import bench_workdir, read_iteration_records
+from racer.defaults import DEFAULT_CUSTOM_FILES
 from racer.local.run import LocalRunPlan, run_local_training, service_environment
-from racer.local.services import PROJECT_ROOT
 from racer.rollout_worker.batched_rollout import DEFAULT_ENVS_PER_WORKER, default_workers
 from racer.shared.config import LocalStoreSettings, RedisSettings, ServiceSettings
 from racer.shared.deepracer.hyperparameters import load_hyperparameters
@@ -75,7 +75,7 @@ def policy_forward_cpu_ms(envs_per_worker: int, frames: int = 400) -> float:
     from racer.shared.policy.onnx_policy import OnnxPolicy
 
     torch.manual_seed(0)
-    network = build_actor_critic(load_model_metadata(PROJECT_ROOT / "custom_files" / "model_metadata.json")).eval()
+    network = build_actor_critic(load_model_metadata(DEFAULT_CUSTOM_FILES / "model_metadata.json")).eval()
     policy = OnnxPolicy(export_onnx(network), network.config)
     rng = np.random.default_rng(0)
     batch = [
@@ -143,7 +143,7 @@ def throughput_bench_command(iterations, num_workers, envs_per_worker, bound_sec
     cores = len(os.sched_getaffinity(0))
     with bench_workdir("racer-throughput-") as workdir:
         base = ServiceSettings(redis=RedisSettings(), store=LocalStoreSettings(root=workdir / "store"))
-        custom = PROJECT_ROOT / "custom_files"
+        custom = DEFAULT_CUSTOM_FILES
         episodes = load_hyperparameters(custom / "hyperparameters.json")[0].num_episodes_between_training
         click.echo("ceilings: raw loop, env step and the policy's forward pass, one after the other ...", err=True)
         costs = per_step_costs(envs_per_worker)

@@ -12,10 +12,10 @@ from pathlib import Path
 
 import click
 
+from racer.benches.deepracer_data import data_folder, data_option
 from racer.benches.time_to_lap_races import TIME_TO_LAP_RACES, time_to_lap_hyperparameters
 from racer.benches.workdir import bench_workdir, cpu_description, read_iteration_records
 from racer.local.run import LocalRunPlan, run_local_training
-from racer.local.services import PROJECT_ROOT
 from racer.shared.config import LocalStoreSettings, RedisSettings, ServiceSettings
 from racer.shared.deepracer.hyperparameters import HyperparametersError, parse_hyperparameters
 from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
@@ -28,7 +28,8 @@ from racer.trainer.run_options import trainer_run_options
     "--reward-function",
     type=click.Path(exists=True, dir_okay=False, path_type=Path),
     default=None,
-    help="Default: the AWS 'follow the centre line' example from ../shared/deepracer-data.",
+    help="Default: the race type's example from reward_functions/ of --data (the time trial's: AWS 'follow the "
+    "centre line').",
 )
 @click.option(
     "--algorithm",
@@ -102,6 +103,7 @@ from racer.trainer.run_options import trainer_run_options
 )
 @trainer_run_options
 @click.option("--seed", type=int, default=0, show_default=True)
+@data_option
 def time_to_lap_command(
     track,
     reward_function,
@@ -123,6 +125,7 @@ def time_to_lap_command(
     car_profile,
     dynamics_randomization,
     seed,
+    data_dir,
 ):
     """Train from scratch until greedy evaluation completes 3 of 3 laps (from three starts a third of a lap
     apart); print one JSON line. Hyperparameters: the race's clipped-PPO recipe (3 epochs, discount 0.99), else
@@ -133,9 +136,7 @@ def time_to_lap_command(
     if algorithm == "sac" and action_space != "continuous":
         raise click.UsageError("--algorithm sac needs --action-space continuous (DeepRacer's SAC is continuous only)")
     race = TIME_TO_LAP_RACES[race_type]
-    reward_function = (
-        reward_function or PROJECT_ROOT.parent / "shared/deepracer-data/reward_functions" / race.reward_function
-    )
+    reward_function = reward_function or data_folder(data_dir) / "reward_functions" / race.reward_function
     if not Path(reward_function).is_file():
         raise click.UsageError(f"reward function not found: {reward_function}; pass --reward-function")
     with bench_workdir("racer-time-to-lap-") as workdir:

@@ -11,7 +11,7 @@ class TimeToLapRace:
     challenge_params: tuple[tuple[str, str], ...] = ()
     """RACE_TYPE and the obstacle / bot-car training_params keys for every worker."""
     reward_function: str = "awsdoc_example_1.py"
-    """File name in ../shared/deepracer-data/reward_functions (used when --reward-function is not given)."""
+    """File name in reward_functions/ of the bench's --data folder (used when --reward-function is not given)."""
     hyperparameters: tuple[tuple[str, int | float], ...] = ()
     """hyperparameters.json keys of the clipped-PPO recipe; the SimApp's defaults for the rest (and for SAC)."""
 

@@ -1,8 +1,8 @@
 """`racer bench transfer`: real DeepRacer policies drive racer's simulator, closed loop (the figure that decides).
 
 A model trained in DeepRacer's Gazebo simulator drives well in racer only if racer's camera, world and car are close
-enough to what it learnt on. So every model folder under `--models` (default: the shared `models/`, a real model
-trained in DeepRacer's simulator) goes through `racer model import`'s own path (its frozen graphs become racer
+enough to what it learnt on. So every model folder under `--models` (default: the `models/` of `--data`, DeepRacer's
+own files: a real model trained in DeepRacer's simulator) goes through `racer model import`'s own path (its frozen graphs become racer
 checkpoints) and each checkpoint drives re:Invent 2018 greedily from `--starts` evenly spaced starts under evaluation
 rules without resets, in each world, render path and car profile asked for (`--car-profile`, repeatable; default
 the default car); the bench prints laps and mean progress per checkpoint. A change to the car, the camera or the look
@@ -28,10 +28,10 @@ import click
 import numpy as np
 import torch
 
+from racer.benches.deepracer_data import REINVENT_2018_ROUTE, data_folder, data_option
 from racer.benches.gazebo_frames import GAZEBO_FRAMES, load_gazebo_frames, render_lap
 from racer.benches.transfer_matrix import DEFAULT_MINUTES, DEFAULT_WORKERS, SOURCE_PROFILES, run_matrix
 from racer.benches.workdir import cpu_description
-from racer.local.services import PROJECT_ROOT
 from racer.shared.deepracer.model_metadata import ModelMetadata, parse_model_metadata
 from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.sim.camera import rgb_to_y
@@ -41,9 +41,6 @@ from racer.shared.sim.env import DeepRacerEnv
 from racer.shared.sim.worlds import WORLD_NAMES
 from racer.shared.store import LocalStore
 
-SHARED_DATA = PROJECT_ROOT.parent / "shared" / "deepracer-data"
-DEFAULT_MODELS = SHARED_DATA / "models"
-DEFAULT_TRACK = SHARED_DATA / "routes" / "reinvent_base.npy"
 MAX_STEPS_PER_START = 2000
 """Far more than a lap of re:Invent 2018 at 1 m/s takes (about 260 steps at 15 Hz)."""
 
@@ -213,11 +210,16 @@ def reverse_check(racer_model: Path, real: list[RealModel], frames_grey: np.ndar
     "--models",
     "models_root",
     type=click.Path(exists=True, file_okay=False, path_type=Path),
-    default=DEFAULT_MODELS,
-    show_default=True,
-    help="A folder of DeepRacer models (model_metadata.json beside model_<N>.pb or model.pb), searched recursively.",
+    default=None,
+    help="A folder of DeepRacer models (model_metadata.json beside model_<N>.pb or model.pb), searched recursively. "
+    "Default: models/ of --data.",
 )
-@click.option("--track", type=click.Path(exists=True, dir_okay=False, path_type=Path), default=DEFAULT_TRACK)
+@click.option(
+    "--track",
+    type=click.Path(exists=True, dir_okay=False, path_type=Path),
+    default=None,
+    help="A route .npy. Default: re:Invent 2018 from --data.",
+)
 @click.option("--world", type=click.Choice(WORLD_NAMES), multiple=True, default=("base",), show_default=True)
 @click.option("--render", type=click.Choice(["default", "full"]), multiple=True, default=("default",))
 @click.option(
@@ -275,6 +277,7 @@ def reverse_check(racer_model: Path, real: list[RealModel], frames_grey: np.ndar
     help="--matrix: copy each trained model folder here (the bench's own folder is removed at the end).",
 )
 @click.option("--seed", type=int, default=0, show_default=True, help="--matrix: the training seed.")
+@data_option
 @click.pass_context
 def transfer_bench_command(
     ctx,
@@ -292,14 +295,18 @@ def transfer_bench_command(
     randomization,
     keep_models,
     seed,
+    data_dir,
 ) -> None:
     """Real DeepRacer checkpoints drive racer, closed loop: laps and mean progress per checkpoint, one JSON line."""
     torch.set_num_threads(1)
     started = time.monotonic()
+    data = data_folder(data_dir)
+    models_root = models_root or data / "models"
+    track = track or data / REINVENT_2018_ROUTE
     if matrix:
         explicit = ctx.get_parameter_source("car_profile_names") != click.core.ParameterSource.DEFAULT
         result = run_matrix(
-            SHARED_DATA,
+            data,
             track,
             drive,
             train_profiles=tuple(train_profile_names),
@@ -342,7 +349,7 @@ def transfer_bench_command(
                          **figures}
                     )  # fmt: skip
     if racer_model is not None:
-        frames_rgb = load_gazebo_frames(SHARED_DATA / GAZEBO_FRAMES)
+        frames_rgb = load_gazebo_frames(data / GAZEBO_FRAMES)
         frames_grey = np.stack([rgb_to_y(frame) for frame in frames_rgb])
         rendered, _ = render_lap(track, world[0], RACER_FRAME_POSES, full_resolution=False)
         racer_grey = np.stack([rgb_to_y(frame) for frame in rendered])

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from racer.benches.workdir import bench_workdir, cpu_description, read_iteration_records
-from racer.local.services import PROJECT_ROOT
+from racer.defaults import DEFAULT_CUSTOM_FILES
 
 SAMPLE_MODEL = "gazebo-sample-reinvent2018"
 REWARD_FUNCTION = "awsdoc_example_1.py"
@@ -50,7 +50,7 @@ def write_custom_files(folder: Path, shared_data: Path) -> Path:
     sources = {
         "model_metadata.json": shared_data / "models" / SAMPLE_MODEL / "model_metadata.json",
         "reward_function.py": shared_data / "reward_functions" / REWARD_FUNCTION,
-        "hyperparameters.json": PROJECT_ROOT / "custom_files" / "hyperparameters.json",
+        "hyperparameters.json": DEFAULT_CUSTOM_FILES / "hyperparameters.json",
     }
     for name, source in sources.items():
         (folder / name).write_bytes(source.read_bytes())

@@ -39,7 +39,7 @@ from racer.benches.viewer_loads import (
     tree_cpu_s,
 )
 from racer.benches.workdir import bench_workdir
-from racer.local.services import PROJECT_ROOT
+from racer.defaults import DEFAULT_CUSTOM_FILES
 from racer.shared.config import LocalStoreSettings, RedisSettings, ServiceSettings
 from racer.shared.deepracer.hyperparameters import HyperparametersError, parse_hyperparameters
 from racer.shared.redis_connection import RedisLink
@@ -49,7 +49,8 @@ from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
 from racer.shared.transport.channels import RunChannel
 from racer.shared.transport.frames import FrameChannel, FrameSettings, FrameTap
 
-CENTRE_LINE_REWARD = PROJECT_ROOT.parent / "shared/deepracer-data/reward_functions/awsdoc_example_1.py"
+REWARD_FUNCTION = DEFAULT_CUSTOM_FILES / "reward_function.py"
+"""racer's example reward: the bench's policy does not learn (lr 1e-8), so any reward serves."""
 
 
 def _free_port() -> int:
@@ -111,7 +112,7 @@ def _bench_hyperparameters(episodes_per_iteration: int, learning_rate: float) ->
 
 def _write_custom_files(folder: Path, hyperparameters: dict) -> None:
     folder.mkdir(parents=True)
-    (folder / "reward_function.py").write_bytes(CENTRE_LINE_REWARD.read_bytes())
+    (folder / "reward_function.py").write_bytes(REWARD_FUNCTION.read_bytes())
     actions = [{"steering_angle": angle, "speed": 1.0, "index": i} for i, angle in enumerate([-30, -15, 0, 15, 30])]
     (folder / "model_metadata.json").write_text(
         json.dumps(
@@ -232,8 +233,6 @@ def viewer_bench_command(
 
     if load_kind == "page" and not (Path(CHROMIUM).is_file() and Path(CHROMEDRIVER).is_file()):
         raise click.ClickException(f"{CHROMIUM} and {CHROMEDRIVER} are needed (scripts/setup.sh installs them)")
-    if not CENTRE_LINE_REWARD.is_file():
-        raise click.ClickException(f"reward function not found: {CENTRE_LINE_REWARD}")
     hyperparameters = _bench_hyperparameters(episodes_per_iteration, learning_rate)  # before the folder is made
     with bench_workdir("racer-bench-viewer-") as workdir:
         custom = workdir / "custom_files"

@@ -6,7 +6,6 @@ DeepRacer console's code and a fix), 2 for usage errors.
 
 from __future__ import annotations
 
-import os
 import sys
 from pathlib import Path
 
@@ -35,7 +34,7 @@ from racer.model_io.tensorflow.runner import (
 )
 from racer.model_io.transfer import MODEL_NAME, ModelExistsError, TransferResult, export_model, import_model
 from racer.model_io.validate import validate_location, validate_model
-from racer.shared.config import S3Settings, parse_store_location, settings_from_env
+from racer.shared.config import S3Settings, store_settings_at
 from racer.shared.model_layout import COACH_CHECKPOINT, DEEPRACER_CHECKPOINTS
 from racer.shared.store import S3Store
 
@@ -257,7 +256,7 @@ def export_command(model: str, dest: str, store_location: str | None, overwrite:
 def _destination(dest: str, overwrite: bool) -> Destination:
     if dest.startswith("s3://"):
         bucket, prefix = split_s3_location(dest)
-        settings = parse_store_location(f"s3://{bucket}", os.environ, settings_from_env().redis.connect_timeout_s)
+        settings = store_settings_at(f"s3://{bucket}")
         assert isinstance(settings, S3Settings)
         store = S3Store(settings)
         if not overwrite and store.list_keys(prefix + "/" if prefix else ""):

@@ -15,7 +15,7 @@ from typing import Protocol
 
 from racer.model_io.source_errors import SourceFormatError, SourceMissingError
 from racer.model_io.zip_source import ZipSource, is_zip
-from racer.shared.config import S3Settings, parse_store_location, settings_from_env
+from racer.shared.config import S3Settings, store_settings_at
 from racer.shared.store import ObjectStore, S3Store, join_key
 
 TAR_SUFFIXES = (".tar.gz", ".tgz", ".tar")
@@ -165,8 +165,7 @@ def open_source(location: str) -> ModelSource:
     """A folder, a tar(.gz) archive, or `s3://bucket/prefix` (endpoint and credentials from the environment)."""
     if location.startswith("s3://"):
         bucket, prefix = split_s3_location(location)
-        timeout_s = settings_from_env().redis.connect_timeout_s  # RACER_CONNECT_TIMEOUT_S, shared by all services
-        settings = parse_store_location(f"s3://{bucket}", os.environ, timeout_s)
+        settings = store_settings_at(f"s3://{bucket}")
         if not isinstance(settings, S3Settings):
             raise ValueError(f"{location!r}: not an S3 location")
         return StoreSource(S3Store(settings), prefix)

@@ -44,7 +44,7 @@ def view_command(target: str, live: bool, host: str, port: int) -> None:
     from racer.viewer.app import create_app
     from racer.viewer.live import LiveRun
     from racer.viewer.race_app import create_race_app, is_race_folder
-    from racer.viewer.run_reader import RunReader, RunLocation, RunNotFoundError, resolve_run
+    from racer.viewer.run_reader import RunLocation, RunNotFoundError, RunReader, resolve_run
 
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s viewer: %(message)s")
     race_folder = Path(target).expanduser()

@@ -11,14 +11,13 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import re
 import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 
-from racer.shared.config import settings_from_env
+from racer.shared.config import settings_from_env, store_settings_at
 from racer.shared.deepracer.episode_status import EpisodeStatus
 from racer.shared.deepracer.metrics import MetricsError, read_training_metrics
 from racer.shared.deepracer.training_params import TrainingParamsError, parse_training_params
@@ -60,8 +59,7 @@ def resolve_run(target: str) -> RunLocation:
         location = RunLocation(LocalStore(path.resolve().parent), path.resolve().name)
     elif target.startswith("s3://"):
         bucket, _, prefix = target.removeprefix("s3://").partition("/")
-        settings = settings_from_env({**os.environ, "RACER_STORE": f"s3://{bucket}"}).store
-        location = RunLocation(open_store(settings), prefix.strip("/"))
+        location = RunLocation(open_store(store_settings_at(f"s3://{bucket}")), prefix.strip("/"))
     else:
         location = RunLocation(open_store(settings_from_env().store), target.strip("/"))
     if not location.prefix or not location.store.list_keys(location.prefix + "/"):

@@ -9,7 +9,6 @@ lines, which the direct frame imitates (shared/sim/README.md, "The camera").
 from __future__ import annotations
 
 import functools
-import os
 import weakref
 
 # mujoco first: for MUJOCO_GL=osmesa it sets PYOPENGL_PLATFORM, which PyOpenGL reads once, at its first import.
@@ -21,7 +20,7 @@ import numpy as np
 from OpenGL import GL
 from PIL import Image
 
-from racer.shared.sim.gl import GLBackendError
+from racer.shared.sim.gl import GLBackendError, chosen_backend
 
 IMAGE_WIDTH_PX = 160
 IMAGE_HEIGHT_PX = 120
@@ -156,7 +155,7 @@ class CameraRenderer:
         except (RuntimeError, ImportError, OSError, AttributeError) as exc:
             _release_gl([self._gl, self._context])
             raise GLBackendError(
-                f"cannot create an offscreen OpenGL context with MUJOCO_GL={os.environ.get('MUJOCO_GL', '')!r}: {exc}. "
+                f"cannot create an offscreen OpenGL context with MUJOCO_GL={chosen_backend()!r}: {exc}. "
                 "Use MUJOCO_GL=egl or MUJOCO_GL=osmesa (set before mujoco is imported)"
             ) from exc
         # Freed with its own context current, whether by close(), garbage collection or interpreter exit.

@@ -11,7 +11,7 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
-from collections.abc import Callable, Collection, MutableMapping
+from collections.abc import Callable, Collection, Mapping, MutableMapping
 
 HEADLESS_BACKENDS = ("egl", "osmesa")
 PROBE_TIMEOUT_S = 60.0
@@ -51,6 +51,11 @@ def probe_backend(backend: str) -> str | None:
     if result.returncode == 0:
         return None
     return (result.stderr.strip().splitlines() or [f"exit code {result.returncode}"])[-1]
+
+
+def chosen_backend(environ: Mapping[str, str] = os.environ) -> str:
+    """The MUJOCO_GL this process renders with ('' when none was chosen), for error messages."""
+    return environ.get("MUJOCO_GL", "")
 
 
 def ensure_gl_backend(

@@ -13,7 +13,7 @@ from click.testing import CliRunner
 from racer.benches.ppo import bench_network, plain_ppo_update, ppo_bench_command, synthetic_episodes
 from racer.benches.precision_agreement import update_agreement
 from racer.shared.deepracer.hyperparameters import Hyperparameters
-from racer.trainer.ppo import PPOSettings, PPOLearner
+from racer.trainer.ppo import PPOLearner, PPOSettings
 from racer.trainer.precision import Precision
 from tests.trainer.ppo_task import play, task_network
 

@@ -17,10 +17,11 @@ from tests.race.test_real_race import save_model
 
 
 @pytest.mark.slow
-def test_smallest_race_bench_prints_both_rates_and_a_full_board(tmp_path):
+def test_smallest_race_bench_prints_both_rates_and_a_full_board(tmp_path, deepracer_data):
     store = LocalStore(tmp_path / "racer-data")
     save_model(store, "fresh_model", 0)  # untrained: off the track within seconds (--quick: maxResets 0)
-    args = ["--quick", "--entrants", "3", "--workers", "2", "--entrant", str(tmp_path / "racer-data" / "fresh_model")]
+    fresh = str(tmp_path / "racer-data" / "fresh_model")
+    args = ["--quick", "--entrants", "3", "--workers", "2", "--entrant", fresh, "--data", str(deepracer_data)]
     result = CliRunner().invoke(race_bench_command, args, catch_exceptions=False)
     assert result.exit_code == 0, result.output
     report = json.loads([line for line in result.stdout.splitlines() if line.startswith("{")][-1])
@@ -64,8 +65,9 @@ def test_multi_car_part_runs_each_race_twice_and_compares_the_boards(tmp_path, m
         return 0
 
     monkeypatch.setattr(race_multi_car, "run_logged", fake_race)
+    route = tmp_path / "routes" / "reinvent_base.npy"  # only named in the race files: the fake race reads none
     report = race_multi_car.multi_car_races(
-        tmp_path, ["alpha", "beta"], seed=0, quick=False, env={"RACER_STORE": str(store)}
+        tmp_path, ["alpha", "beta"], route, seed=0, quick=False, env={"RACER_STORE": str(store)}
     )
     assert report["laps"] == 3
     assert [stem for stem, _ in calls] == ["bench-h2m", "bench-h2m", "bench-f1", "bench-f1"]
@@ -79,6 +81,7 @@ def test_multi_car_part_runs_each_race_twice_and_compares_the_boards(tmp_path, m
     assert f1["finishing_order"] == ["beta-2", "alpha-2", "beta", "alpha"]
     race_file = yaml.safe_load((tmp_path / "bench-f1.yaml").read_text())
     assert race_file["raceType"] == "F1" and race_file["submissionTerminationConditions"]["maximumLaps"] == 3
+    assert race_file["trackConfig"]["trackId"] == str(route)
 
 
 def test_an_entrant_copy_holds_only_the_raced_checkpoint(tmp_path):

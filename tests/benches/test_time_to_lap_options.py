@@ -35,7 +35,7 @@ def test_the_command_refuses_a_bad_pair_before_anything_starts(tmp_path, monkeyp
     assert list(tmp_path.iterdir()) == []  # no run folder was made
 
 
-def test_a_network_file_reaches_the_run_and_a_bad_layer_is_refused_by_name(tmp_path, monkeypatch):
+def test_a_network_file_reaches_the_run_and_a_bad_layer_is_refused_by_name(tmp_path, monkeypatch, deepracer_data):
     """--network copies the file into the run's custom files: the preflight reads it and names the bad layer."""
     network = tmp_path / "network.json"
     network.write_text(
@@ -47,7 +47,8 @@ def test_a_network_file_reaches_the_run_and_a_bad_layer_is_refused_by_name(tmp_p
     monkeypatch.setattr(tempfile, "tempdir", str(runs))
     result = CliRunner().invoke(
         time_to_lap_command,
-        ["--track", "reinvent_base", "--network", str(network), "--time-limit-minutes", "0.1", "--workers", "1"],
+        ["--track", "reinvent_base", "--network", str(network), "--time-limit-minutes", "0.1", "--workers", "1"]
+        + ["--data", str(deepracer_data)],
     )
     assert result.exit_code != 0
     assert "network.json" in result.output and "kernel_size" in result.output, result.output

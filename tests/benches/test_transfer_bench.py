@@ -31,11 +31,10 @@ def _racer_model(store_root):
     return store_root / "fresh"
 
 
-def test_two_starts_of_each_real_checkpoint_and_the_reverse_check(tmp_path):
+def test_two_starts_of_each_real_checkpoint_and_the_reverse_check(tmp_path, deepracer_data):
     racer_model = _racer_model(tmp_path)
-    result = CliRunner().invoke(
-        transfer_bench_command, ["--starts", "2", "--racer-model", str(racer_model)], catch_exceptions=False
-    )
+    args = ["--starts", "2", "--racer-model", str(racer_model), "--data", str(deepracer_data)]
+    result = CliRunner().invoke(transfer_bench_command, args, catch_exceptions=False)
     assert result.exit_code == 0, result.output
     report = json.loads([line for line in result.stdout.splitlines() if line.startswith("{")][-1])
     drives = {drive["model"]: drive for drive in report["drives"]}
@@ -59,7 +58,7 @@ def test_two_starts_of_each_real_checkpoint_and_the_reverse_check(tmp_path):
     assert all(0.0 < value < 1.0 for value in spread[" vs ".join(sorted(drives))].values())
 
 
-def test_each_car_profile_given_is_driven(monkeypatch):
+def test_each_car_profile_given_is_driven(monkeypatch, deepracer_data):
     """`--car-profile` repeats: every checkpoint drives in each profile given, and the line says which."""
     from racer.benches import transfer as transfer_bench
     from racer.shared.sim.car_dynamics import CAR_DYNAMICS
@@ -71,7 +70,7 @@ def test_each_car_profile_given_is_driven(monkeypatch):
         return {"laps": 0, "starts": starts, "mean_progress": 1.0, "progress_per_start": [1.0] * starts}
 
     monkeypatch.setattr(transfer_bench, "drive", drive)
-    args = ["--starts", "1", "--car-profile", "gazebo", "--car-profile", "simtrace-fit"]
+    args = ["--starts", "1", "--car-profile", "gazebo", "--car-profile", "simtrace-fit", "--data", str(deepracer_data)]
     result = CliRunner().invoke(transfer_bench_command, args, catch_exceptions=False)
     assert result.exit_code == 0, result.output
     report = json.loads([line for line in result.stdout.splitlines() if line.startswith("{")][-1])
@@ -81,11 +80,17 @@ def test_each_car_profile_given_is_driven(monkeypatch):
     assert bad.exit_code == 2 and "'gazebo', 'simtrace-fit'" in bad.output
 
 
-def test_matrix_trains_each_cell_and_drives_its_last_checkpoint():
+def test_without_deepracer_data_the_bench_names_the_option_and_the_variable(monkeypatch):
+    monkeypatch.delenv("RACER_DEEPRACER_DATA", raising=False)
+    result = CliRunner().invoke(transfer_bench_command, ["--starts", "1"])
+    assert result.exit_code == 2 and "--data" in result.output and "RACER_DEEPRACER_DATA" in result.output
+
+
+def test_matrix_trains_each_cell_and_drives_its_last_checkpoint(deepracer_data):
     """`--matrix` with a tiny budget: one profile, with dynamics randomisation only (which cells `--randomization`
     picks is tested without training, test_transfer_matrix_cells.py), 0.3 minutes, one start."""
     args = ["--matrix", "--train-profile", "simapp6-ros2", "--car-profile", "simapp6-ros2", "--randomization", "on"]
-    args += ["--minutes", "0.3", "--starts", "1", "--workers", "1"]
+    args += ["--minutes", "0.3", "--starts", "1", "--workers", "1", "--data", str(deepracer_data)]
     result = CliRunner().invoke(transfer_bench_command, args, catch_exceptions=False)
     assert result.exit_code == 0, result.output
     report = json.loads([line for line in result.stdout.splitlines() if line.startswith("{")][-1])

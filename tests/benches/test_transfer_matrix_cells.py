@@ -10,7 +10,7 @@ from racer.benches import transfer_matrix
 from racer.benches.transfer import transfer_bench_command
 
 
-def test_randomization_on_trains_only_the_randomised_cell_and_keeps_its_model(tmp_path, monkeypatch):
+def test_randomization_on_trains_only_the_randomised_cell_and_keeps_its_model(tmp_path, monkeypatch, deepracer_data):
     trained = []
 
     def train_cell(cell, workdir, custom, track, minutes, workers, seed):
@@ -24,6 +24,7 @@ def test_randomization_on_trains_only_the_randomised_cell_and_keeps_its_model(tm
     monkeypatch.setattr(transfer_matrix, "drive_last_checkpoint", lambda *args: (None, {}))
     kept = tmp_path / "kept"
     args = ["--matrix", "--train-profile", "gazebo", "--train-profile", "simapp6-ros2", "--randomization", "on"]
+    args += ["--data", str(deepracer_data)]
     result = CliRunner().invoke(transfer_bench_command, [*args, "--keep-models", str(kept)], catch_exceptions=False)
     assert result.exit_code == 0, result.output
     assert trained == ["matrix-gazebo-dr", "matrix-simapp6-ros2-dr"]
@@ -33,6 +34,7 @@ def test_randomization_on_trains_only_the_randomised_cell_and_keeps_its_model(tm
 
     trained.clear()
     result = CliRunner().invoke(
-        transfer_bench_command, ["--matrix", "--train-profile", "gazebo", "--randomization", "off"]
+        transfer_bench_command,
+        ["--matrix", "--train-profile", "gazebo", "--randomization", "off", "--data", str(deepracer_data)],
     )
     assert result.exit_code == 0 and trained == ["matrix-gazebo-fixed"]

@@ -19,7 +19,7 @@ from racer.shared.store import LocalStore
 from racer.shared.transport.frames import FrameChannel
 from racer.viewer.app import create_app
 from racer.viewer.live import LiveRun
-from racer.viewer.run_reader import RunReader, RunLocation
+from racer.viewer.run_reader import RunLocation, RunReader
 from tests.viewer.conftest import ServedApp
 from tests.viewer.frames import publish_frame
 

@@ -21,7 +21,7 @@ from racer.shared.policy.networks import ActorCritic, build_actor_critic
 from racer.shared.policy.onnx_export import export_onnx
 from racer.shared.policy.optimizer_files import load_optimizer_state
 from racer.shared.store import LocalStore, S3Store
-from racer.trainer.ppo import PPOSettings, PPOLearner
+from racer.trainer.ppo import PPOLearner, PPOSettings
 from tests.trainer.ppo_task import random_episodes
 
 PREFIX = "runs/model-a"

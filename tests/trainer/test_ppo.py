@@ -17,8 +17,8 @@ from racer.trainer.log_lines import format_policy_training_line, format_training
 from racer.trainer.nan_guard import first_non_finite_parameter
 from racer.trainer.ppo import (
     EpochStats,
-    PPOSettings,
     PPOLearner,
+    PPOSettings,
     minibatch_size_for,
     shuffled_minibatches,
 )

@@ -13,7 +13,7 @@ import torch
 
 from racer.shared.deepracer.hyperparameters import Hyperparameters
 from racer.shared.user_errors import RunConfigError
-from racer.trainer.ppo import PPOSettings, PPOLearner
+from racer.trainer.ppo import PPOLearner, PPOSettings
 from racer.trainer.preflight import preflight
 from racer.trainer.preset import Preset, PresetError, load_preset, parse_preset
 from racer.trainer.sac import SACSettings

@@ -17,11 +17,11 @@ from racer.shared.deepracer.hyperparameters import Hyperparameters
 from racer.shared.deepracer.model_metadata import parse_model_metadata
 from racer.shared.policy.sac_networks import SACNetworks
 from racer.trainer.algorithms import LearnerOptions, build_learner
-from racer.trainer.clip_schedule import ClipSchedule
 from racer.trainer.cli import trainer_command
-from racer.trainer.ppo import CLIP_EPSILON, PPOSettings, PPOLearner
+from racer.trainer.clip_schedule import ClipSchedule
+from racer.trainer.ppo import CLIP_EPSILON, PPOLearner, PPOSettings
 from racer.trainer.preset import Preset, PresetError, parse_preset, sac_updates_per_transition
-from racer.trainer.sac import SACSettings, SACLearner
+from racer.trainer.sac import SACLearner, SACSettings
 from tests.trainer.ppo_task import random_episodes, task_network
 from tests.trainer.test_preflight import custom_files_from
 from tests.trainer.test_preset import HP, weights_after_one_update

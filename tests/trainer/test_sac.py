@@ -24,7 +24,7 @@ from racer.shared.policy.sac_networks import SACNetworks, squashed_gaussian_log_
 from racer.shared.store import open_store
 from racer.trainer.precision import Precision
 from racer.trainer.replay import ReplayBuffer, bytes_per_transition
-from racer.trainer.sac import SACSettings, SACLearner, sac_minibatch_size
+from racer.trainer.sac import SACLearner, SACSettings, sac_minibatch_size
 
 LIDAR_ONLY = PolicyConfig(
     neural_network="DEEP_CONVOLUTIONAL_NETWORK_SHALLOW",

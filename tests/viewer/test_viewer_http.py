@@ -27,7 +27,7 @@ from racer.shared.transport.channels import RunChannel
 from racer.shared.transport.frames import FrameChannel
 from racer.viewer.app import create_app
 from racer.viewer.live import LiveRun
-from racer.viewer.run_reader import RunReader, RunLocation, RunNotFoundError, resolve_run
+from racer.viewer.run_reader import RunLocation, RunNotFoundError, RunReader, resolve_run
 from tests.viewer.conftest import DRFC_MODEL, EVALUATION_RUN, ServedApp, free_port
 from tests.viewer.frames import publish_frame
 

@@ -11,7 +11,7 @@ import pytest
 from racer.shared.store import LocalStore, S3Store
 from racer.viewer.app import create_app
 from racer.viewer.object_ranges import UnsatisfiableRange, requested_range
-from racer.viewer.run_reader import RunReader, RunLocation
+from racer.viewer.run_reader import RunLocation, RunReader
 from tests.viewer.conftest import ServedApp
 
 VIDEO_KEY = "range-model/evaluation/run-1/top.mp4"

@@ -26,6 +26,7 @@ from pathlib import Path
 import click
 import numpy as np
 
+from racer.benches.deepracer_data import REINVENT_2018_ROUTE, data_folder, data_option
 from racer.shared.deepracer.simtrace import read_simtrace
 from racer.shared.sim._mujoco import mujoco
 from racer.shared.sim.car import STEERING_JOINTS, WHEEL_NAMES, WHEEL_RADIUS_M, Car, clip_command
@@ -41,8 +42,6 @@ REPLAY_STEP_S = 1.0 / 15.0
 """How long each logged row is replayed: DeepRacer's camera rate (the logged tstamps jitter; see the docstring)."""
 SEGMENT_STRIDE_ROWS = 8
 """A segment starts every 8 rows (~0.5 s) of an episode; segments overlap."""
-DEFAULT_SIMTRACES = Path("../shared/deepracer-data/simtrace")
-DEFAULT_ROUTE = Path("../shared/deepracer-data/routes/reinvent_base.npy")
 
 
 @dataclass(frozen=True)
@@ -312,17 +311,15 @@ def run_fidelity(simtraces: Sequence[Path], route: Path, progress: bool = False,
 @click.option(
     "--simtraces",
     type=click.Path(exists=True, path_type=Path),
-    default=DEFAULT_SIMTRACES,
-    show_default=True,
-    help="A real simtrace CSV or a folder of them (DeepRacer runs on re:Invent 2018).",
+    default=None,
+    help="A real simtrace CSV or a folder of them (DeepRacer runs on re:Invent 2018). Default: simtrace/ of --data.",
 )
 @click.option(
     "--route",
     type=click.Path(exists=True, dir_okay=False, path_type=Path),
-    default=DEFAULT_ROUTE,
-    show_default=True,
+    default=None,
     help="The route the simtraces were driven on (the floor the car replays on); files logged on another track "
-    "are left out.",
+    "are left out. Default: re:Invent 2018 from --data.",
 )
 @click.option(
     "--car",
@@ -332,6 +329,11 @@ def run_fidelity(simtraces: Sequence[Path], route: Path, progress: bool = False,
     help="The car to replay: the constants fitted on these logs, or the env's default (gazebo: what real "
     "DeepRacer policies lap with; docs/car-and-camera.md).",
 )
-def fidelity_bench_command(simtraces: Path, route: Path, car: str) -> None:
+@data_option
+def fidelity_bench_command(simtraces: Path | None, route: Path | None, car: str, data_dir: Path | None) -> None:
     """Open-loop replay of real simtraces: median and p90 position/heading error after 1 s and 2 s per speed band."""
+    if simtraces is None or route is None:
+        data = data_folder(data_dir)
+        simtraces = simtraces or data / "simtrace"
+        route = route or data / REINVENT_2018_ROUTE
     click.echo(json.dumps(run_fidelity(replay_files(simtraces, route), route, progress=True, car=car)))
