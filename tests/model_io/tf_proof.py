@@ -346,4 +346,4 @@ def prove_examples(matches: tuple[str, ...], processes: int = 1) -> dict:
 
 
 if __name__ == "__main__":
-    tf_proof_command()
+    tf_proof_command(prog_name="python -m tests.model_io.tf_proof")
