@@ -30,7 +30,7 @@ go_is_recent() {
 }
 
 if found="$(command -v minio 2>/dev/null)"; then
-  echo "$found"
+  readlink -f "$found"  # the binary itself, not .venv/bin/minio (setup.sh links that to what this prints)
   exit 0
 fi
 if [ -x "$GOBIN_DIR/minio" ]; then
