@@ -13,9 +13,11 @@ from pathlib import Path
 
 import click
 
-DEEPRACER_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "deepracer-data"
-"""The DeepRacer test data beside the checkout (real simtraces, routes, the Gazebo frames, real models): every
-study's default `--data`."""
+from racer.shared.config import deepracer_data
+
+DEEPRACER_DATA = deepracer_data() or Path(__file__).resolve().parents[1].parent / "shared" / "deepracer-data"
+"""The DeepRacer test data (real simtraces, routes, the Gazebo frames, real models), every study's default `--data`:
+RACER_DEEPRACER_DATA as the benches read it, else the folder beside the checkout."""
 
 
 def data_option(reads: str) -> Callable:
