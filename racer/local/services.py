@@ -21,10 +21,6 @@ from pathlib import Path
 
 from racer.defaults import REDIS_CONF
 
-PROJECT_ROOT = Path(__file__).resolve().parents[2]
-"""The source checkout around this file: only the benches, which run from a checkout, use it (an installed racer
-finds its files through the package: racer.defaults)."""
-
 _PR_SET_PDEATHSIG = 1
 
 
