@@ -27,7 +27,7 @@ from racer.shared.sim.challenge_config import param_text
 from racer.shared.sim.config import DEFAULT_MODEL_METADATA, DEFAULT_TRACK, EnvConfig
 from racer.shared.sim.worlds import WORLD_NAMES
 from racer.shared.user_errors import RunConfigError
-from racer.shared.worker_settings import SETTING, WorkerSettings, default_worker_settings
+from racer.shared.worker_settings import SETTING, WorkerSettings
 
 __all__ = [
     "NOT_FROM_SETTINGS",
@@ -93,7 +93,7 @@ def env_config(settings: WorkerSettings, job: JobSettings) -> EnvConfig:
 @dataclass(frozen=True)
 class RunOptions:
     """The command line's settings for every worker of a run (`racer train`, `racer trainer`); workers.json may
-    change them per worker."""
+    change them per worker. The launcher's plan, the trainer's options and the preflight all carry this one value."""
 
     num_workers: int
     track: str = DEFAULT_TRACK
@@ -132,18 +132,21 @@ def load_worker_settings(custom_files: Path, options: RunOptions) -> list[Worker
 
     workers.json holds DeepRacer training_params keys applied to every worker, and optionally
     `"workers": [{...}, {...}]` with per-worker overrides (like DeepRacer-for-Cloud's worker-N.env). The options'
-    race keys, car profile and randomization flags apply to every worker under workers.json.
+    challenge keys (RACE_TYPE, obstacles, bot cars), car profile and randomization flags apply to every worker under
+    workers.json.
     """
     try:
-        settings = default_worker_settings(
-            options.num_workers,
-            options.track,
-            options.worlds,
-            options.domain_randomization,
-            options.car_randomization,
-            car_profile=options.car_profile,
-            dynamics_randomization=options.dynamics_randomization,
-        )
+        settings = [  # worker i gets world i, cycling through the worlds, on the same track
+            WorkerSettings(
+                world=options.worlds[i % len(options.worlds)],
+                track=options.track,
+                domain_randomization=options.domain_randomization,
+                car_randomization=options.car_randomization,
+                car_profile=options.car_profile,
+                dynamics_randomization=options.dynamics_randomization,
+            )
+            for i in range(options.num_workers)
+        ]
     except ValueError as error:
         raise RunConfigError(f"racer train options (--car-profile): {error}") from error
     if options.challenge_params:

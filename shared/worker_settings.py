@@ -16,7 +16,7 @@ from racer.shared.sim.config import DEFAULT_TRACK
 from racer.shared.sim.track_catalog import world_name_for_direction
 from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
 
-__all__ = ["SETTING", "Setting", "WorkerSettings", "default_worker_settings", "setting"]
+__all__ = ["SETTING", "Setting", "WorkerSettings", "setting"]
 
 SETTING = "racer.setting"
 """The key of a WorkerSettings field's metadata that holds its `Setting`."""
@@ -199,26 +199,3 @@ class WorkerSettings:
         values = {f.name: getattr(self, f.name) for f in fields(self)}
         values.update({k: v for k, v in changes.items() if v is not None})
         return WorkerSettings(**values)
-
-
-def default_worker_settings(
-    num_workers: int,
-    track: str = DEFAULT_TRACK,
-    worlds: tuple[str, ...] = WORLDS,
-    domain_randomization: bool = False,
-    car_randomization: bool = False,
-    car_profile: str = DEFAULT_CAR_PROFILE,
-    dynamics_randomization: bool = False,
-) -> list[WorkerSettings]:
-    """Worker i gets world i (cycling through `worlds`) on the same track."""
-    return [
-        WorkerSettings(
-            world=worlds[i % len(worlds)],
-            track=track,
-            domain_randomization=domain_randomization,
-            car_randomization=car_randomization,
-            car_profile=car_profile,
-            dynamics_randomization=dynamics_randomization,
-        )
-        for i in range(num_workers)
-    ]

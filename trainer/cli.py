@@ -136,23 +136,16 @@ def trainer_command(
     options = TrainerOptions(
         model_prefix=model_prefix,
         custom_files=custom_files,
-        num_workers=run.num_workers,
-        track=run.track,
-        worlds=run.worlds,
+        run=run,
         max_episodes=max_episodes,
         max_minutes=max_minutes,
         seed=seed,
         pretrained_prefix=pretrained_prefix,
         pretrained_checkpoint=pretrained_checkpoint,
         max_memory_steps=memory_cap,
-        domain_randomization=run.domain_randomization,
-        car_randomization=run.car_randomization,
-        car_profile=run.car_profile,
-        dynamics_randomization=run.dynamics_randomization,
         sac_replay_memory_mb=sac_replay_memory_mb,
         sac_updates_per_transition=sac_updates_per_transition,
         precision=Precision(precision),
-        challenge_params=run.challenge_params,
         preflight=report,
     )
     try:
@@ -180,14 +173,4 @@ def checked_custom_files(custom_files: Path, run, preflight_passed: bool):
 
     if preflight_passed:
         return read_checked_files(custom_files, run)
-    return preflight(
-        custom_files,
-        run.num_workers,
-        run.track,
-        run.worlds,
-        domain_randomization=run.domain_randomization,
-        car_randomization=run.car_randomization,
-        challenge_params=run.challenge_params,
-        car_profile=run.car_profile,
-        dynamics_randomization=run.dynamics_randomization,
-    )
+    return preflight(custom_files, run)

@@ -46,7 +46,6 @@ from racer.shared.policy.network_file import (
 )
 from racer.shared.policy.network_size import network_size_findings
 from racer.shared.run_settings import RunOptions, load_worker_settings
-from racer.shared.sim.car_dynamics import DEFAULT_CAR_PROFILE
 from racer.shared.sim.reward import load_reward_function
 from racer.shared.sim.track import Track, TrackError
 from racer.shared.store import ObjectNotFoundError, ObjectStore
@@ -271,19 +270,13 @@ def check_clone_source(
 
 def preflight(
     custom_files: Path,
-    num_workers: int,
-    track: str,
-    worlds: tuple[str, ...],
+    run: RunOptions,
     pretrained_prefix: str | None = None,
     store: ObjectStore | None = None,
-    domain_randomization: bool = False,
-    car_randomization: bool = False,
-    challenge_params: tuple[tuple[str, str], ...] = (),
-    car_profile: str = DEFAULT_CAR_PROFILE,
-    dynamics_randomization: bool = False,
 ) -> PreflightReport:
     """Every check that needs no running server. Raises a user error (file, field, fix) or returns the parsed
-    settings and warnings. `store`: where a clone source is looked up (only when it needs no server to read)."""
+    settings and warnings. `run`: the settings every worker gets before workers.json; `store`: where a clone source
+    is looked up (only when it needs no server to read)."""
     folder = Path(custom_files)
     _check_files_present(folder)
     metadata_path, hyperparameters_path = folder / "model_metadata.json", folder / "hyperparameters.json"
@@ -299,28 +292,18 @@ def preflight(
         raise RunConfigError(str(error)) from error
     warnings += network_warnings
     load_reward_function(folder / "reward_function.py")
-    options = RunOptions(
-        num_workers,
-        track,
-        tuple(worlds),
-        domain_randomization,
-        car_randomization,
-        car_profile,
-        dynamics_randomization,
-        tuple(challenge_params),
-    )
-    workers = load_worker_settings(folder, options)
+    workers = load_worker_settings(folder, run)
     for worker_id, worker in enumerate(workers):
         try:  # a track name no worker could find fails here, listing where it looked, not in every worker
             Track.load(worker.track)
         except TrackError as error:
             raise RunConfigError(f"worker {worker_id}: track {worker.track!r}: {error}") from error
     warnings += _check_reward_over_track(folder / "reward_function.py", workers, metadata)
-    if hyperparameters.num_episodes_between_training < num_workers:
-        idle = num_workers - hyperparameters.num_episodes_between_training
+    if hyperparameters.num_episodes_between_training < run.num_workers:
+        idle = run.num_workers - hyperparameters.num_episodes_between_training
         warnings.append(
             f"{hyperparameters_path}: num_episodes_between_training: "
-            f"{hyperparameters.num_episodes_between_training} episodes per iteration for {num_workers} "
+            f"{hyperparameters.num_episodes_between_training} episodes per iteration for {run.num_workers} "
             f"workers: {idle} worker(s) only wait (worker 0 still evaluates)"
         )
     if pretrained_prefix and store is not None:
@@ -328,7 +311,7 @@ def preflight(
     return PreflightReport(metadata, hyperparameters, tuple(workers), tuple(warnings), network, preset)
 
 
-def read_checked_files(custom_files: Path, options: RunOptions) -> PreflightReport:
+def read_checked_files(custom_files: Path, run: RunOptions) -> PreflightReport:
     """What `preflight` returns, read without its checks, for a trainer whose launcher (`racer train`) has run the
     preflight on these files before anything started: a run checks its custom files once."""
     folder = Path(custom_files)
@@ -339,5 +322,5 @@ def read_checked_files(custom_files: Path, options: RunOptions) -> PreflightRepo
         preset = load_preset(folder, metadata.training_algorithm)
     except (NetworkFileError, PresetError) as error:
         raise RunConfigError(str(error)) from error
-    workers = load_worker_settings(folder, options)
+    workers = load_worker_settings(folder, run)
     return PreflightReport(metadata, hyperparameters, tuple(workers), (), network, preset)

@@ -17,6 +17,7 @@ from racer.shared.deepracer.model_metadata import ModelMetadata
 from racer.shared.deepracer.training_params import training_params_to_yaml
 from racer.shared.model_layout import ModelLayout
 from racer.shared.policy.network_file import NETWORK_FILE, NetworkFile
+from racer.shared.run_settings import RunOptions
 from racer.shared.store import ObjectStore
 from racer.shared.worker_settings import WorkerSettings
 from racer.trainer.preflight import PreflightReport, preflight
@@ -43,32 +44,10 @@ class RunFiles:
     """preset.json of the custom files, when there is one."""
 
 
-def read_run_files(
-    folder: Path,
-    num_workers: int,
-    track: str,
-    worlds: tuple[str, ...],
-    *,
-    domain_randomization: bool,
-    car_randomization: bool,
-    challenge_params: tuple[tuple[str, str], ...],
-    car_profile: str,
-    dynamics_randomization: bool,
-    report: PreflightReport | None = None,
-) -> RunFiles:
+def read_run_files(folder: Path, run: RunOptions, report: PreflightReport | None = None) -> RunFiles:
     """Preflight the custom files (a refusal raises) and log its warnings; `report`: the check `racer trainer` or
     `racer train` already ran (preflight runs once per run), so only the files are read."""
-    report = report or preflight(
-        folder,
-        num_workers,
-        track,
-        worlds,
-        domain_randomization=domain_randomization,
-        car_randomization=car_randomization,
-        challenge_params=challenge_params,
-        car_profile=car_profile,
-        dynamics_randomization=dynamics_randomization,
-    )
+    report = report or preflight(folder, run)
     for warning in report.warnings:
         log.warning(warning)
     return RunFiles(

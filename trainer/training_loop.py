@@ -33,7 +33,7 @@ from racer.shared.model_layout import ModelLayout
 from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.policy.network_file import NetworkFile
 from racer.shared.redis_connection import RedisLink, RedisUnavailableError
-from racer.shared.sim.car_dynamics import DEFAULT_CAR_PROFILE
+from racer.shared.run_settings import RunOptions
 from racer.shared.store import open_store
 from racer.shared.transport.channels import ReceivedBatch, RunChannel
 from racer.trainer.algorithms import LearnerOptions, build_learner
@@ -55,25 +55,14 @@ log = logging.getLogger(__name__)
 class TrainerOptions:
     model_prefix: str
     custom_files: Path
-    num_workers: int
-    track: str
-    worlds: tuple[str, ...]
+    run: RunOptions
+    """Every worker's settings before custom_files/workers.json (track, worlds, car, challenge)."""
     max_episodes: int | None = None
     """Training episodes to consume before stopping (default: hyperparameters' term_cond_max_episodes)."""
     max_minutes: float | None = None
     seed: int = 0
     pretrained_prefix: str | None = None
     pretrained_checkpoint: str = "last"
-    domain_randomization: bool = False
-    """Default ENABLE_DOMAIN_RANDOMIZATION of every worker (workers.json may override it per worker)."""
-    car_randomization: bool = False
-    """Default RACER_CAR_RANDOMIZATION of every worker."""
-    dynamics_randomization: bool = False
-    """Default RACER_DYNAMICS_RANDOMIZATION of every worker."""
-    car_profile: str = DEFAULT_CAR_PROFILE
-    """Default RACER_CAR_PROFILE of every worker (`car_dynamics.CAR_DYNAMICS`; workers.json may override it)."""
-    challenge_params: tuple[tuple[str, str], ...] = ()
-    """RACE_TYPE and obstacle / bot-car training_params keys for every worker (workers.json may override them)."""
     share_timeout_s: float = 3600.0
     """Longest wait for the episodes of one iteration before giving up with an error."""
     dead_worker_grace_s: float = 20.0
@@ -120,18 +109,7 @@ class Trainer:
         """Upload the run's files, restore or create the newest checkpoint; returns its number."""
         torch.manual_seed(self.options.seed)
         options = self.options
-        files = read_run_files(
-            options.custom_files,
-            options.num_workers,
-            options.track,
-            options.worlds,
-            domain_randomization=options.domain_randomization,
-            car_randomization=options.car_randomization,
-            challenge_params=options.challenge_params,
-            car_profile=options.car_profile,
-            dynamics_randomization=options.dynamics_randomization,
-            report=options.preflight,
-        )
+        files = read_run_files(options.custom_files, options.run, report=options.preflight)
         self.network_file, self.preset = files.network, files.preset
         metadata, hyperparameters = files.model_metadata, files.hyperparameters
         self.metadata, self.hyperparameters = metadata, hyperparameters
@@ -151,7 +129,7 @@ class Trainer:
         self.collector = Collector(
             self.channel,
             self.consumer,
-            self.options.num_workers,
+            self.options.run.num_workers,
             hyperparameters.num_episodes_between_training,
             self.learner,
             self.checkpoints.latest_name,
@@ -225,7 +203,7 @@ class Trainer:
 
     def train_iteration(self, iteration: int, batches: dict[int, ReceivedBatch], rollout_wall_s: float) -> dict:
         shares = {share: received.batch.episodes for share, received in batches.items()}
-        capped = cap_episodes(global_episode_order(shares, self.options.num_workers), self._memory_cap())
+        capped = cap_episodes(global_episode_order(shares, self.options.run.num_workers), self._memory_cap())
         episodes = list(capped.kept)
         if capped.dropped:
             log.info(
@@ -348,7 +326,7 @@ class Trainer:
         self.iteration = iteration + 1
         record_summary(self.store, self.layout, self.channel, summary)
         self.channel.ack(*[b.stream_id for b in batches.values()])
-        self.channel.forget_iteration(iteration, self.options.num_workers)
+        self.channel.forget_iteration(iteration, self.options.run.num_workers)
 
 
 def run_trainer(settings: ServiceSettings, options: TrainerOptions) -> None:

@@ -32,6 +32,7 @@ from racer.local.run import LocalRunPlan, run_local_training, service_environmen
 from racer.rollout_worker.batched_rollout import DEFAULT_ENVS_PER_WORKER, default_workers
 from racer.shared.config import LocalStoreSettings, RedisSettings, ServiceSettings
 from racer.shared.deepracer.hyperparameters import load_hyperparameters
+from racer.shared.run_settings import RunOptions
 from racer.shared.sim.config import DEFAULT_TRACK
 from racer.shared.sim.worlds import WORLD_NAMES
 
@@ -152,9 +153,7 @@ def throughput_bench_command(iterations, num_workers, envs_per_worker, bound_sec
         plan = LocalRunPlan(
             model_prefix="throughput",
             custom_files=custom,
-            num_workers=num_workers,
-            worlds=WORLD_NAMES,
-            track=DEFAULT_TRACK,
+            run=RunOptions(num_workers=num_workers, track=DEFAULT_TRACK, worlds=WORLD_NAMES),
             max_episodes=iterations * episodes,
             max_minutes=None,
             use_minio=False,

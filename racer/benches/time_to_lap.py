@@ -18,6 +18,7 @@ from racer.benches.workdir import bench_workdir, cpu_description, read_iteration
 from racer.local.run import LocalRunPlan, run_local_training
 from racer.shared.config import LocalStoreSettings, RedisSettings, ServiceSettings
 from racer.shared.deepracer.hyperparameters import HyperparametersError, parse_hyperparameters
+from racer.shared.run_settings import RunOptions
 from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
 from racer.trainer.run_options import trainer_run_options
 
@@ -188,18 +189,20 @@ def time_to_lap_command(
         plan = LocalRunPlan(
             model_prefix="time-to-lap",
             custom_files=custom,
-            num_workers=num_workers,
-            worlds=WORLDS,
-            track=str(track),
+            run=RunOptions(
+                num_workers=num_workers,
+                track=str(track),
+                worlds=WORLDS,
+                car_profile=car_profile,
+                dynamics_randomization=dynamics_randomization,
+                challenge_params=race.challenge_params,
+            ),
             max_episodes=None,
             max_minutes=time_limit_minutes,
             use_minio=False,
             log_dir=workdir / "logs",
             seed=seed,
             trainer_options=(*ratio_options, "--precision", precision),
-            car_profile=car_profile,
-            dynamics_randomization=dynamics_randomization,
-            challenge_params=race.challenge_params,
         )
         result = {
             "race_type": race_type,

@@ -24,6 +24,7 @@ from pathlib import Path
 
 from racer.benches.workdir import bench_workdir, cpu_description, read_iteration_records
 from racer.defaults import DEFAULT_CUSTOM_FILES
+from racer.shared.run_settings import RunOptions
 
 SAMPLE_MODEL = "gazebo-sample-reinvent2018"
 REWARD_FUNCTION = "awsdoc_example_1.py"
@@ -66,17 +67,19 @@ def train_cell(cell: MatrixCell, workdir: Path, custom: Path, track: Path, minut
     plan = LocalRunPlan(
         model_prefix=cell.model_prefix,
         custom_files=custom,
-        num_workers=workers,
-        worlds=("base",) * workers,
-        track=str(track),
+        run=RunOptions(
+            num_workers=workers,
+            track=str(track),
+            worlds=("base",) * workers,
+            car_profile=cell.profile,
+            dynamics_randomization=cell.dynamics_randomization,
+        ),
         max_episodes=None,
         max_minutes=minutes,
         use_minio=False,
         log_dir=workdir / "logs" / cell.model_prefix,
         seed=seed,
         trainer_options=("--precision", "fp32"),
-        car_profile=cell.profile,
-        dynamics_randomization=cell.dynamics_randomization,
     )
     base = ServiceSettings(redis=RedisSettings(), store=LocalStoreSettings(root=store_root))
     with contextlib.redirect_stdout(sys.stderr):  # the training's progress lines; stdout stays the one JSON line

@@ -43,6 +43,7 @@ from racer.defaults import DEFAULT_CUSTOM_FILES
 from racer.shared.config import LocalStoreSettings, RedisSettings, ServiceSettings
 from racer.shared.deepracer.hyperparameters import HyperparametersError, parse_hyperparameters
 from racer.shared.redis_connection import RedisLink
+from racer.shared.run_settings import RunOptions
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
 from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
@@ -241,9 +242,7 @@ def viewer_bench_command(
         plan = LocalRunPlan(
             model_prefix="bench-viewer",
             custom_files=custom,
-            num_workers=num_workers,
-            worlds=WORLDS,
-            track=track,
+            run=RunOptions(num_workers=num_workers, track=track, worlds=WORLDS),
             max_episodes=10**6,
             max_minutes=None,
             use_minio=False,

@@ -12,6 +12,7 @@ from racer.defaults import DEFAULT_CUSTOM_FILES
 from racer.local.run import LocalRunPlan, run_local_training
 from racer.rollout_worker.batched_rollout import DEFAULT_ENVS_PER_WORKER, DEFAULT_WORKERS
 from racer.shared.config import LocalStoreSettings, settings_from_env
+from racer.shared.run_settings import RunOptions
 from racer.shared.sim.challenge_cli import challenge_options, challenge_params_from_options
 from racer.shared.sim.config import DEFAULT_TRACK
 from racer.shared.sim.track_option import direction_option
@@ -100,12 +101,18 @@ def train_command(
     base_settings = settings_from_env()
     model_prefix = model_prefix or datetime.now().strftime("racer-%Y%m%d-%H%M%S")
     store_root = base_settings.store.root if isinstance(base_settings.store, LocalStoreSettings) else Path("racer-data")
+    run = RunOptions(
+        num_workers=num_workers,
+        track=track,
+        worlds=tuple(w.strip() for w in worlds.split(",") if w.strip()),
+        car_profile=car_profile,
+        dynamics_randomization=dynamics_randomization,
+        challenge_params=challenge_params_from_options(race_type, race_param),
+    )
     plan = LocalRunPlan(
         model_prefix=model_prefix,
         custom_files=custom_files.resolve(),
-        num_workers=num_workers,
-        worlds=tuple(w.strip() for w in worlds.split(",") if w.strip()),
-        track=track,
+        run=run,
         max_episodes=max_episodes,
         max_minutes=max_minutes,
         use_minio=use_minio,
@@ -115,10 +122,7 @@ def train_command(
         pretrained_checkpoint=pretrained_checkpoint,
         viewer_host=viewer_host,
         viewer_port=viewer_port or None,
-        challenge_params=challenge_params_from_options(race_type, race_param),
         envs_per_worker=envs_per_worker,
-        car_profile=car_profile,
-        dynamics_randomization=dynamics_randomization,
         trainer_options=("--precision", precision),
     )
     sys.exit(run_local_training(plan, base_settings))

@@ -25,7 +25,6 @@ from racer.rollout_worker.cli import EXIT_RUN_CANNOT_GO_ON
 from racer.shared.config import LocalStoreSettings, RedisSettings, S3Settings, ServiceSettings
 from racer.shared.redis_connection import RedisLink, RedisUnavailableError
 from racer.shared.run_settings import RunOptions
-from racer.shared.sim.car_dynamics import DEFAULT_CAR_PROFILE
 from racer.shared.sim.gl import ensure_gl_backend
 from racer.shared.store import S3Store, open_store
 from racer.shared.transport.channels import RunChannel
@@ -35,9 +34,9 @@ from racer.shared.transport.channels import RunChannel
 class LocalRunPlan:
     model_prefix: str
     custom_files: Path
-    num_workers: int
-    worlds: tuple[str, ...]
-    track: str
+    run: RunOptions
+    """The settings every worker gets (`racer train`'s options): what the launcher's preflight checks and the
+    trainer is given."""
     max_episodes: int | None
     max_minutes: float | None
     use_minio: bool
@@ -52,24 +51,6 @@ class LocalRunPlan:
     """None: the rollout command's default."""
     trainer_options: tuple[str, ...] = ()
     """Further `racer trainer` options, e.g. ("--sac-updates-per-transition", "0.5")."""
-    challenge_params: tuple[tuple[str, str], ...] = ()
-    """RACE_TYPE and obstacle / bot-car training_params keys for every worker (`--race-type`, `--race-param`)."""
-    car_profile: str = DEFAULT_CAR_PROFILE
-    """RACER_CAR_PROFILE for every worker (`--car-profile`)."""
-    dynamics_randomization: bool = False
-    """RACER_DYNAMICS_RANDOMIZATION for every worker (`--dynamics-randomization`)."""
-
-    @property
-    def run_options(self) -> RunOptions:
-        """The settings every worker gets: what the launcher's preflight checks and the trainer is given."""
-        return RunOptions(
-            num_workers=self.num_workers,
-            track=self.track,
-            worlds=self.worlds,
-            car_profile=self.car_profile,
-            dynamics_randomization=self.dynamics_randomization,
-            challenge_params=self.challenge_params,
-        )
 
 
 def service_environment(settings: ServiceSettings) -> dict[str, str]:
@@ -98,7 +79,7 @@ def trainer_argv(plan: LocalRunPlan) -> list[str]:
     """The `racer trainer` command line of a local run. `--preflight-passed`: the launcher has run the preflight
     (`check_before_start`), so the trainer reads the custom files without checking them a second time."""
     args = ["trainer", "--model-prefix", plan.model_prefix, "--custom-files", str(plan.custom_files)]
-    args += [*plan.run_options.trainer_args(), "--seed", str(plan.seed), "--preflight-passed"]
+    args += [*plan.run.trainer_args(), "--seed", str(plan.seed), "--preflight-passed"]
     if plan.max_episodes is not None:
         args += ["--max-episodes", str(plan.max_episodes)]
     if plan.max_minutes is not None:
@@ -162,7 +143,7 @@ class LocalRun:
         plan = self.plan
         trainer_args = trainer_argv(plan)
         self._spawn("trainer", trainer_args)
-        for worker_id in range(plan.num_workers):
+        for worker_id in range(plan.run.num_workers):
             self._spawn(
                 f"worker-{worker_id}",
                 [
@@ -221,19 +202,11 @@ def check_before_start(plan: LocalRunPlan, base_settings: ServiceSettings) -> No
 
     local_store = isinstance(base_settings.store, LocalStoreSettings) and not plan.use_minio
     try:
-        options = plan.run_options
         report = preflight(
             plan.custom_files,
-            options.num_workers,
-            options.track,
-            options.worlds,
+            plan.run,
             pretrained_prefix=plan.pretrained_prefix,
             store=open_store(base_settings.store) if local_store else None,
-            domain_randomization=options.domain_randomization,
-            car_randomization=options.car_randomization,
-            challenge_params=options.challenge_params,
-            car_profile=options.car_profile,
-            dynamics_randomization=options.dynamics_randomization,
         )
     except user_error_types() as error:
         raise click.ClickException(str(error)) from error
@@ -260,7 +233,8 @@ def run_local_training(plan: LocalRunPlan, base_settings: ServiceSettings, on_ev
         settings = run.start_services()
         click.echo(
             f"racer train: model {plan.model_prefix!r} in {open_store(settings.store).describe()}, "
-            f"{plan.num_workers} workers ({', '.join(plan.worlds[: plan.num_workers])}) on track {plan.track}; "
+            f"{plan.run.num_workers} workers ({', '.join(plan.run.worlds[: plan.run.num_workers])}) on track "
+            f"{plan.run.track}; "
             f"logs in {plan.log_dir}"
         )
         run.start_processes()
@@ -271,12 +245,12 @@ def run_local_training(plan: LocalRunPlan, base_settings: ServiceSettings, on_ev
         channel = RunChannel(
             RedisLink(settings.redis, reconnect_budget_s=2.0, stop=stopping, operation_timeout_s=2.0), plan.model_prefix
         )
-        display = ProgressDisplay(channel, plan.num_workers, started)
+        display = ProgressDisplay(channel, plan.run.num_workers, started)
         supervisor = RunSupervisor(
             run.redis,
             run.children,
             run.restart_worker,
-            num_workers=plan.num_workers,
+            num_workers=plan.run.num_workers,
             say=lambda text: click.echo(f"[{display._elapsed()}] {text}", err=True),
         )
         trainer = run.children["trainer"]

@@ -18,6 +18,7 @@ from racer.shared.deepracer.model_metadata import parse_model_metadata
 from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.policy.factory import build_network_for_metadata
 from racer.shared.policy.sac_networks import SACNetworks
+from racer.shared.run_settings import RunOptions
 from racer.shared.store import LocalStore
 from racer.shared.user_errors import CloneError
 from racer.trainer.training_loop import Trainer, TrainerOptions
@@ -108,9 +109,7 @@ def test_cloning_across_algorithms_is_refused(sac_store, tmp_path, ours, redis_s
         TrainerOptions(
             model_prefix="clone",
             custom_files=custom,
-            num_workers=1,
-            track="racer_oval",
-            worlds=("base",),
+            run=RunOptions(num_workers=1, track="racer_oval", worlds=("base",)),
             pretrained_prefix=source,
         ),
     )
@@ -129,9 +128,7 @@ def test_sac_clones_sac(sac_store, tmp_path, redis_settings):
         TrainerOptions(
             model_prefix="clone",
             custom_files=custom,
-            num_workers=1,
-            track="racer_oval",
-            worlds=("base",),
+            run=RunOptions(num_workers=1, track="racer_oval", worlds=("base",)),
             pretrained_prefix="sac",
             sac_replay_memory_mb=16,
         ),

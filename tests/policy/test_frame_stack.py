@@ -13,6 +13,7 @@ from racer.shared.deepracer.model_metadata import parse_model_metadata
 from racer.shared.policy.factory import build_network_for_metadata
 from racer.shared.policy.frame_stack import FrameStacker, frame_stacker_for, stack_episode_frames
 from racer.shared.policy.policy_config import PolicyConfig, policy_config_from_metadata
+from racer.shared.run_settings import RunOptions
 
 METADATA = {
     "action_space": [{"steering_angle": angle, "speed": 1.0} for angle in (-30, 0, 30)],
@@ -121,7 +122,7 @@ def test_a_stack_size_2_model_trains_an_iteration_and_evaluates(tmp_path, redis_
     folder = custom_files_from(tmp_path, DEFAULT_METADATA, DEFAULT_HYPERPARAMETERS)
     hyperparameters = json.loads((folder / "hyperparameters.json").read_text())
     (folder / "hyperparameters.json").write_text(json.dumps({**hyperparameters, "stack_size": 2}))
-    report = preflight(folder, 1, "racer_oval", ("base",))
+    report = preflight(folder, RunOptions(1, "racer_oval", ("base",)))
     assert report.hyperparameters.stack_size == 2
     train_one_iteration(folder, report, tmp_path, redis_settings)
     store = open_store(LocalStoreSettings(root=tmp_path / "store"))

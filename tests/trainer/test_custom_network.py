@@ -12,6 +12,7 @@ import pytest
 from racer.shared.config import LocalStoreSettings
 from racer.shared.model_layout import ModelLayout
 from racer.shared.policy.checkpoints import CheckpointStore
+from racer.shared.run_settings import RunOptions
 from racer.shared.store import open_store
 from racer.shared.user_errors import CloneError, RunConfigError, user_error_types
 from racer.trainer.preflight import check_clone_source, preflight
@@ -38,12 +39,12 @@ def test_preflight_refuses_a_missing_or_bad_network_file_naming_the_files(tmp_pa
     with pytest.raises(
         user_error_types(), match=r"model_metadata.json: neural_network: 'EXTRA_CONV_BATCHNORM' .*network"
     ):
-        preflight(folder, 1, "racer_oval", ("base",))
+        preflight(folder, RunOptions(1, "racer_oval", ("base",)))
     bad = json.loads(json.dumps(BATCHNORM))
     bad["middleware"][0]["units"] = 0
     (folder / "network.json").write_text(json.dumps(bad))
     with pytest.raises(RunConfigError, match=rf"^{folder / 'network.json'}: middleware\[0\]: units: 0"):
-        preflight(folder, 1, "racer_oval", ("base",))
+        preflight(folder, RunOptions(1, "racer_oval", ("base",)))
 
 
 def test_a_custom_network_trains_an_iteration_and_is_stored_with_the_model(tmp_path, redis_settings):
@@ -51,7 +52,7 @@ def test_a_custom_network_trains_an_iteration_and_is_stored_with_the_model(tmp_p
     schedule = {"type": "linear", "initial_value": 1.0, "final_value": 0.5, "decay_steps": 1000}
     preset = {"clip_gradients": 5.0, "value_loss_weight": 0.5, "clipping_decay_schedule": schedule}
     (folder / "preset.json").write_text(json.dumps(preset))
-    report = preflight(folder, 1, "racer_oval", ("base",))
+    report = preflight(folder, RunOptions(1, "racer_oval", ("base",)))
     assert report.network is not None and report.network.name == "EXTRA_CONV_BATCHNORM"
     train_one_iteration(folder, report, tmp_path, redis_settings)  # set-up, one episode, update, checkpoint 1
     store = open_store(LocalStoreSettings(root=tmp_path / "store"))
@@ -65,7 +66,7 @@ def test_a_custom_network_trains_an_iteration_and_is_stored_with_the_model(tmp_p
 
 def test_a_clone_with_a_different_network_is_refused_naming_the_difference(tmp_path):
     folder = custom_network_files(tmp_path)
-    report = preflight(folder, 1, "racer_oval", ("base",))
+    report = preflight(folder, RunOptions(1, "racer_oval", ("base",)))
     store = open_store(LocalStoreSettings(root=tmp_path / "store"))
     source = ModelLayout("source")
     store.put_bytes(source.model_metadata, (folder / "model_metadata.json").read_bytes())

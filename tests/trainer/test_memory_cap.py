@@ -11,6 +11,7 @@ import pytest
 from racer.shared.config import LocalStoreSettings, ServiceSettings, max_memory_steps_from_env
 from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.redis_connection import RedisLink
+from racer.shared.run_settings import RunOptions
 from racer.shared.store import open_store
 from racer.shared.transport.channels import RunChannel
 from racer.shared.transport.codec import EpisodeBatch
@@ -60,9 +61,7 @@ def test_the_trainer_drops_episodes_beyond_the_cap_and_counts_only_trained_steps
         TrainerOptions(
             model_prefix=PREFIX,
             custom_files=custom_files,
-            num_workers=2,
-            track="racer_oval",
-            worlds=("base",),
+            run=RunOptions(num_workers=2, track="racer_oval", worlds=("base",)),
             max_memory_steps=70,
         ),
     )

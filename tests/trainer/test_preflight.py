@@ -24,6 +24,7 @@ from racer.shared.episode import Episode
 from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.policy.frame_stack import frame_stacker_for
 from racer.shared.redis_connection import RedisLink
+from racer.shared.run_settings import RunOptions
 from racer.shared.sim.env import DeepRacerEnv, EnvConfig
 from racer.shared.store import open_store
 from racer.shared.transport.channels import RunChannel, share_sizes
@@ -96,7 +97,7 @@ def test_every_users_pair_trains_an_iteration_or_is_refused_before_anything_star
 ):
     custom = custom_files_from(tmp_path, metadata, hyperparameters)
     try:
-        report = preflight(custom, 1, "racer_oval", ("base",))
+        report = preflight(custom, RunOptions(1, "racer_oval", ("base",)))
     except user_error_types() as error:  # refused: the message says which file, which field, and what to do
         assert str(custom) in str(error) and "fix:" in str(error)
         return
@@ -112,9 +113,7 @@ def train_one_iteration(custom: Path, report, tmp_path: Path, redis_settings) ->
     options = TrainerOptions(
         model_prefix="pair",
         custom_files=custom,
-        num_workers=episodes,
-        track="racer_oval",
-        worlds=("base",),
+        run=RunOptions(num_workers=episodes, track="racer_oval", worlds=("base",)),
         sac_replay_memory_mb=64,
         sac_updates_per_transition=0.05,
     )
@@ -197,7 +196,7 @@ PPO_METADATA = {**SAC_METADATA, "training_algorithm": "clipped_ppo"}
 def test_ppo_with_sacs_exploration_type_is_refused_with_the_fix(tmp_path):
     custom = write_custom(tmp_path, PPO_METADATA, {"exploration_type": "additive_noise"})
     with pytest.raises(UnsupportedConfigurationError) as refused:
-        preflight(custom, 1, "racer_oval", ("base",))
+        preflight(custom, RunOptions(1, "racer_oval", ("base",)))
     message = str(refused.value)
     assert f"{custom / 'hyperparameters.json'}: exploration_type:" in message
     assert "fix: set exploration_type to 'categorical'" in message
@@ -211,12 +210,12 @@ def test_sac_on_a_discrete_action_space_is_refused(tmp_path):
     }
     custom = write_custom(tmp_path, discrete, {})
     with pytest.raises(user_error_types(), match=r"model_metadata.json: training_algorithm: 'sac' requires"):
-        preflight(custom, 1, "racer_oval", ("base",))
+        preflight(custom, RunOptions(1, "racer_oval", ("base",)))
 
 
 def test_sac_settings_it_ignores_are_noted_not_refused(tmp_path):
     custom = write_custom(tmp_path, SAC_METADATA, json.loads((CONFIG / DEFAULT_HYPERPARAMETERS).read_text()))
-    report = preflight(custom, 2, "racer_oval", ("base",))
+    report = preflight(custom, RunOptions(2, "racer_oval", ("base",)))
     assert report.model_metadata.training_algorithm == "sac"
     assert any(
         "beta_entropy, e_greedy_value, epsilon_steps, exploration_type, num_epochs: not used by SAC" in w
@@ -237,7 +236,7 @@ def test_sac_settings_it_ignores_are_noted_not_refused(tmp_path):
 def test_race_settings_that_cannot_run_are_refused_naming_the_key(tmp_path, workers, field):
     custom = write_custom(tmp_path, PPO_METADATA, {}, workers)
     with pytest.raises(user_error_types()) as refused:
-        preflight(custom, 2, "racer_oval", ("base",))
+        preflight(custom, RunOptions(2, "racer_oval", ("base",)))
     assert str(custom / "workers.json") in str(refused.value) and f"{field}:" in str(refused.value)
 
 
@@ -252,7 +251,7 @@ def test_object_avoidance_and_head_to_bot_pass_the_preflight(tmp_path):
             "workers": [{}, {"RACE_TYPE": "HEAD_TO_BOT", "NUMBER_OF_OBSTACLES": 0, "NUMBER_OF_BOT_CARS": 3}],
         },
     )
-    report = preflight(custom, 2, "racer_oval", ("base",))
+    report = preflight(custom, RunOptions(2, "racer_oval", ("base",)))
     assert [
         (w.challenge.race_type, w.challenge.num_obstacles, w.challenge.number_of_bot_cars) for w in report.workers
     ] == [
@@ -264,10 +263,10 @@ def test_object_avoidance_and_head_to_bot_pass_the_preflight(tmp_path):
 def test_a_missing_file_and_a_missing_track_are_named(tmp_path):
     custom = write_custom(tmp_path, PPO_METADATA, {})
     with pytest.raises(user_error_types(), match="no track named 'nowhere'"):
-        preflight(custom, 1, "nowhere", ("base",))
+        preflight(custom, RunOptions(1, "nowhere", ("base",)))
     (custom / "hyperparameters.json").unlink()
     with pytest.raises(user_error_types(), match="missing hyperparameters.json"):
-        preflight(custom, 1, "racer_oval", ("base",))
+        preflight(custom, RunOptions(1, "racer_oval", ("base",)))
 
 
 def test_cloning_sac_from_ppo_is_refused_before_anything_starts(tmp_path):
@@ -280,7 +279,7 @@ def test_cloning_sac_from_ppo_is_refused_before_anything_starts(tmp_path):
         match=r"training_algorithm: cannot clone 'ppo-model': it was trained with "
         r"clipped_ppo, this model asks for sac.*fix: clone a sac model",
     ):
-        preflight(custom, 1, "racer_oval", ("base",), pretrained_prefix="ppo-model", store=store)
+        preflight(custom, RunOptions(1, "racer_oval", ("base",)), pretrained_prefix="ppo-model", store=store)
 
 
 def test_racer_train_refuses_before_starting_redis_or_any_process(tmp_path, monkeypatch):

@@ -15,6 +15,7 @@ from racer.local.run import LocalRunPlan, check_before_start, trainer_argv
 from racer.shared.config import LocalStoreSettings, ServiceSettings
 from racer.shared.deepracer.training_params import parse_training_params
 from racer.shared.model_layout import ModelLayout
+from racer.shared.run_settings import RunOptions
 from racer.shared.store import open_store
 from racer.trainer.cli import trainer_command
 from tests.conftest import write_custom_files
@@ -49,15 +50,17 @@ def plan_for(tmp_path: Path, custom_files: Path) -> LocalRunPlan:
     return LocalRunPlan(
         model_prefix="once",
         custom_files=custom_files,
-        num_workers=2,
-        worlds=("base", "wood"),
-        track="racer_oval",
+        run=RunOptions(
+            num_workers=2,
+            track="racer_oval",
+            worlds=("base", "wood"),
+            car_profile="simtrace-fit",
+            challenge_params=(("RACE_TYPE", "OBJECT_AVOIDANCE"), ("NUMBER_OF_OBSTACLES", "2")),
+        ),
         max_episodes=None,
         max_minutes=0.0001,  # the trainer sets the run up (uploads, checkpoint 0), then stops
         use_minio=False,
         log_dir=tmp_path / "logs",
-        car_profile="simtrace-fit",
-        challenge_params=(("RACE_TYPE", "OBJECT_AVOIDANCE"), ("NUMBER_OF_OBSTACLES", "2")),
     )
 
 
@@ -69,8 +72,8 @@ def test_racer_train_checks_the_custom_files_once_and_its_trainer_reads_the_same
     store_root = tmp_path / "store"
     check_before_start(plan, ServiceSettings(redis_settings, LocalStoreSettings(store_root)))
     assert len(counted_preflight) == 1
-    _args, launcher = counted_preflight[0]
-    assert launcher["car_profile"] == "simtrace-fit" and launcher["challenge_params"] == plan.challenge_params
+    (_folder, run), _ = counted_preflight[0]
+    assert run == plan.run and run.car_profile == "simtrace-fit"
 
     argv = trainer_argv(plan)
     assert argv[0] == "trainer" and "--preflight-passed" in argv

@@ -12,6 +12,7 @@ import pytest
 import torch
 
 from racer.shared.deepracer.hyperparameters import Hyperparameters
+from racer.shared.run_settings import RunOptions
 from racer.shared.user_errors import RunConfigError
 from racer.trainer.ppo import PPOLearner, PPOSettings
 from racer.trainer.preflight import preflight
@@ -147,10 +148,13 @@ def test_sac_soft_target_update_moves_the_target_part_of_the_way():
 
 def test_preflight_reads_the_preset_and_refuses_a_bad_one(tmp_path):
     folder = custom_files_from(tmp_path, DEFAULT_METADATA, DEFAULT_HYPERPARAMETERS)
-    assert preflight(folder, 1, "racer_oval", ("base",)).preset is None and load_preset(folder, "clipped_ppo") is None
+    assert (
+        preflight(folder, RunOptions(1, "racer_oval", ("base",))).preset is None
+        and load_preset(folder, "clipped_ppo") is None
+    )
     (folder / "preset.json").write_text(json.dumps({"clip_likelihood_ratio_using_epsilon": 0.1}))
-    report = preflight(folder, 1, "racer_oval", ("base",))
+    report = preflight(folder, RunOptions(1, "racer_oval", ("base",)))
     assert report.preset == Preset(clip_likelihood_ratio_using_epsilon=0.1)
     (folder / "preset.json").write_text(json.dumps({"clip_range": 0.1}))
     with pytest.raises(RunConfigError, match=rf"^{folder / 'preset.json'}: clip_range: unknown preset key"):
-        preflight(folder, 1, "racer_oval", ("base",))
+        preflight(folder, RunOptions(1, "racer_oval", ("base",)))

@@ -10,6 +10,7 @@ import pytest
 from racer.shared.config import LocalStoreSettings
 from racer.shared.model_layout import ModelLayout
 from racer.shared.policy.network_size import SizeFindings
+from racer.shared.run_settings import RunOptions
 from racer.shared.store import open_store
 from racer.shared.user_errors import CloneError
 from racer.trainer import preflight as preflight_module
@@ -33,9 +34,11 @@ def test_a_clone_with_another_stack_size_is_refused_naming_both_values_and_files
     with pytest.raises(
         CloneError, match=rf"stack_size 2 in {ours} vs 1 in source/ip/hyperparameters.json \(ours vs theirs\)"
     ):
-        preflight(folder, 1, "racer_oval", ("base",), pretrained_prefix="source", store=store)
+        preflight(folder, RunOptions(1, "racer_oval", ("base",)), pretrained_prefix="source", store=store)
     store.put_bytes(source.hyperparameters, json.dumps({"batch_size": 64, "stack_size": 2}).encode())
-    preflight(folder, 1, "racer_oval", ("base",), pretrained_prefix="source", store=store)  # the same stack: fine
+    preflight(
+        folder, RunOptions(1, "racer_oval", ("base",)), pretrained_prefix="source", store=store
+    )  # the same stack: fine
 
 
 def test_the_size_check_builds_the_network_with_the_stacked_channels(tmp_path, monkeypatch):

@@ -6,6 +6,7 @@ one by one: which batch trains, which is dropped, and what a failure leaves behi
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import time
 from pathlib import Path
@@ -16,6 +17,7 @@ from racer.shared.config import LocalStoreSettings, ServiceSettings
 from racer.shared.model_layout import ModelLayout
 from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.redis_connection import RedisLink
+from racer.shared.run_settings import RunOptions
 from racer.shared.store import open_store
 from racer.shared.transport.channels import RunChannel
 from racer.shared.transport.codec import EpisodeBatch
@@ -32,18 +34,17 @@ def custom_files(tmp_path: Path) -> Path:
 
 
 def make_trainer(redis_settings, tmp_path: Path, custom_files: Path, **options) -> Trainer:
+    """Two workers on racer_oval, base and carpet; `options` are TrainerOptions or RunOptions fields."""
     settings = ServiceSettings(redis=redis_settings, store=LocalStoreSettings(root=tmp_path / "store"))
-    return Trainer(
-        settings,
-        TrainerOptions(
-            model_prefix=PREFIX,
-            custom_files=custom_files,
-            num_workers=2,
-            track="racer_oval",
-            worlds=("base", "carpet"),
-            **options,
-        ),
+    run_fields = {item.name for item in dataclasses.fields(RunOptions)}
+    run = RunOptions(
+        num_workers=2,
+        track="racer_oval",
+        worlds=("base", "carpet"),
+        **{name: value for name, value in options.items() if name in run_fields},
     )
+    trainer_options = {name: value for name, value in options.items() if name not in run_fields}
+    return Trainer(settings, TrainerOptions(model_prefix=PREFIX, custom_files=custom_files, run=run, **trainer_options))
 
 
 def batch(iteration: int, share: int, worker_id: int, policy_version: int, seed: int) -> EpisodeBatch:
