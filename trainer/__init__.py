@@ -6,5 +6,10 @@ DeepRacer's log lines), `racer.trainer.sac` (SACLearner.update) with `racer.trai
 with the run's files (`racer.trainer.run_files`), the iteration summary (`racer.trainer.iteration_summary`) and the
 stop signals and time limit (`racer.trainer.stopping`) beside it.
 Networks and checkpoints live in `racer.shared.policy`, because the rollout and evaluation workers load them too.
+
+The trainer saves every checkpoint but does not choose the best one: choosing needs greedy laps in an env, and the
+trainer has none. Rollout worker 0 evaluates each new checkpoint (racer.rollout_worker.checkpoint_evaluation) and
+records the best and the last in `model/deepracer_checkpoints.json` (racer.rollout_worker.training_log with
+racer.shared.policy.best_and_last, DeepRacer's rule), as the SimApp's rollout worker does.
 The trainer's benches (`racer bench ppo`, `racer bench sac`) live in `racer.benches`.
 """

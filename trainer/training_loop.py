@@ -14,7 +14,9 @@ One iteration k, top to bottom:
 A trainer killed at any point restarts from the newest checkpoint: unacknowledged batches are read again.
 
 Before the first iteration the run's custom files are checked and published (racer.trainer.run_files); a signal
-or the wall-time limit stops the loop (racer.trainer.stopping).
+or the wall-time limit stops the loop (racer.trainer.stopping). Which checkpoint is the best is not decided here:
+rollout worker 0 evaluates each one it is announced and writes deepracer_checkpoints.json
+(racer.rollout_worker.checkpoint_evaluation), since the evaluation drives an env.
 """
 
 from __future__ import annotations
