@@ -2,7 +2,8 @@
 
 A bench here is one a user runs to judge their own model, machine or simulator: one module per bench (`sim`, `ppo`,
 `transfer`, `fidelity`, `sac`, `rollout`, `throughput`, `time_to_lap`, `viewer`, `race`) and their helpers (`workdir`:
-the work folder a bench's training run writes to; `sim_loop`, `sim_races`: the simulator bench's step loop and its
+the work folder a bench's training run writes to; `deepracer_data`: where a bench finds DeepRacer's own files, `--data`
+or RACER_DEEPRACER_DATA; `sim_loop`, `sim_races`: the simulator bench's step loop and its
 envs with objects; `gazebo_frames`: DeepRacer's reference camera frames and racer's at the same poses;
 `precision_agreement`: how far a bf16 update lands from fp32's). Studies that answered a question once live in the
 repository's `research/`, which the wheel does not install and nothing here imports.
