@@ -129,6 +129,23 @@ def test_settings_from_environment_read_s3_and_session_token():
         settings_from_env({"RACER_STORE": "s3://bucket/with/prefix"})
 
 
+def test_a_store_named_on_the_command_line_takes_endpoint_keys_and_timeout_from_the_environment(tmp_path):
+    from racer.shared.config import LocalStoreSettings, store_settings_at
+
+    env = {"RACER_STORE": "s3://other", "S3_ENDPOINT_URL": "http://minio:9000", "RACER_CONNECT_TIMEOUT_S": "3"}
+    assert store_settings_at("s3://models", env) == S3Settings(
+        bucket="models", endpoint_url="http://minio:9000", connect_timeout_s=3.0
+    )
+    assert store_settings_at(str(tmp_path / "store"), env) == LocalStoreSettings(root=tmp_path / "store")
+
+
+def test_deepracer_data_is_unset_unless_the_variable_names_a_folder(tmp_path):
+    from racer.shared.config import deepracer_data
+
+    assert deepracer_data({}) is None and deepracer_data({"RACER_DEEPRACER_DATA": " "}) is None
+    assert deepracer_data({"RACER_DEEPRACER_DATA": str(tmp_path / "data")}) == tmp_path / "data"
+
+
 def test_a_restarted_minio_keeps_the_objects_and_the_store_reconnects(tmp_path):
     """Tests (and users) can restart MinIO: data stays on disk, and the same S3Store goes on working."""
     from racer.local.services import MinioServer
