@@ -16,7 +16,7 @@ from racer.evaluation_worker.config import CONSOLE_NUMBER_OF_RESETS, MODES
 from racer.shared.sim.car_dynamics import CAR_PROFILE_NAMES, DEFAULT_CAR_PROFILE
 from racer.shared.sim.challenge_cli import challenge_options, challenge_params_from_options
 from racer.shared.sim.config import DEFAULT_TRACK, RESET_POSITIONS
-from racer.shared.sim.track_option import direction_option
+from racer.shared.sim.track_option import TRACK_HELP, direction_option
 from racer.shared.sim.worlds import WORLD_NAMES
 
 
@@ -45,7 +45,7 @@ def _video_size(text: str) -> tuple[int, int]:
     show_default=True,
     help="deepracer: NUMBER_OF_TRIALS laps with DeepRacer's rules; race: the 4-minute, 3-resets-per-lap rule.",
 )
-@click.option("--track", default=DEFAULT_TRACK, show_default=True, help="Track name in tracks/ or a route .npy path.")
+@click.option("--track", default=DEFAULT_TRACK, show_default=True, help=TRACK_HELP)
 @click.option("--world", type=click.Choice(WORLD_NAMES), default="base", show_default=True)
 @click.option(
     "--reverse/--no-reverse", default=False, show_default=True, help="Drive the route the other way (REVERSE_DIR)."

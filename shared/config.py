@@ -16,6 +16,8 @@ before MuJoCo loads, and launchers that copy their environment into a child proc
 | `RACER_ROUTES_PATH` | folders of DeepRacer route files (`<WORLD_NAME>.npy`), `:`-separated, searched in order before the route library and racer's `tracks/` | unset |
 | `RACER_DATA_HOME` | racer's per-user data folder; its `routes/` is the route library `racer track import` fills | `$XDG_DATA_HOME/racer`, else `~/.local/share/racer` |
 | `RACER_DEEPRACER_DATA` | a folder of DeepRacer's own files (routes, models, reward functions, simtraces) that benchmarks compare against (`racer bench ... --data`) | unset |
+| `RACER_TRACKS_URL` | where SimApp route files are fetched from on first use (http(s)://, file://, a folder, a SimApp checkout) | the SimApp's repository at the catalogue's commit |
+| `RACER_CACHE_HOME` | racer's per-user cache; fetched route files are kept in its `routes/` | `$XDG_CACHE_HOME/racer`, else `~/.cache/racer` |
 """
 
 from __future__ import annotations
@@ -135,6 +137,32 @@ def route_library(environ: Mapping[str, str] | None = None) -> Path | None:
         base = Path(env["XDG_DATA_HOME"]) / "racer"
     elif env.get("HOME", "").strip():
         base = Path(env["HOME"]) / ".local" / "share" / "racer"
+    else:
+        return None
+    return (base.expanduser() / "routes").resolve()
+
+
+TRACKS_URL_VARIABLE = "RACER_TRACKS_URL"
+CACHE_HOME_VARIABLE = "RACER_CACHE_HOME"
+
+
+def tracks_url(environ: Mapping[str, str] | None = None) -> str | None:
+    """Where SimApp route files are fetched from (RACER_TRACKS_URL: http(s)://, file://, a folder or a SimApp
+    checkout); None: the SimApp's repository at the commit racer's catalogue names."""
+    env = os.environ if environ is None else environ
+    return env.get(TRACKS_URL_VARIABLE, "").strip() or None
+
+
+def route_cache(environ: Mapping[str, str] | None = None) -> Path | None:
+    """The folder fetched route files are kept in: `$RACER_CACHE_HOME/routes`, else `$XDG_CACHE_HOME/racer/routes`,
+    else `$HOME/.cache/racer/routes`; None when the environment names no home at all."""
+    env = os.environ if environ is None else environ
+    if env.get(CACHE_HOME_VARIABLE, "").strip():
+        base = Path(env[CACHE_HOME_VARIABLE])
+    elif env.get("XDG_CACHE_HOME", "").strip():
+        base = Path(env["XDG_CACHE_HOME"]) / "racer"
+    elif env.get("HOME", "").strip():
+        base = Path(env["HOME"]) / ".cache" / "racer"
     else:
         return None
     return (base.expanduser() / "routes").resolve()

@@ -33,6 +33,16 @@ def pytest_collection_modifyitems(config, items):
         raise pytest.UsageError(_missing_data_message(len(needing)))
 
 
+@pytest.fixture(scope="session", autouse=True)
+def simapp_tracks_offline(tmp_path_factory) -> Iterator[None]:
+    """Tracks named by their SimApp name come from the shared route files into a cache of the session's own, never
+    from the network (child processes inherit both settings)."""
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv("RACER_TRACKS_URL", str(SHARED_DATA / "simapp-routes"))
+        patch.setenv("RACER_CACHE_HOME", str(tmp_path_factory.mktemp("racer-cache")))
+        yield
+
+
 @pytest.fixture(scope="session")
 def deepracer_data() -> Path:
     """The real DeepRacer files; tests (and test modules, with `usefixtures`) that read them ask for this."""

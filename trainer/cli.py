@@ -10,7 +10,7 @@ import click
 from racer.shared.config import settings_from_env
 from racer.shared.sim.challenge_cli import challenge_options, challenge_params_from_options
 from racer.shared.sim.config import DEFAULT_TRACK
-from racer.shared.sim.track_option import direction_option
+from racer.shared.sim.track_option import TRACK_HELP, direction_option
 from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
 from racer.shared.user_errors import user_error_types
 from racer.trainer.run_options import trainer_run_options
@@ -32,7 +32,7 @@ from racer.trainer.run_options import trainer_run_options
     show_default=True,
     help="Number of rollout workers that share each iteration's episodes.",
 )
-@click.option("--track", default=DEFAULT_TRACK, show_default=True)
+@click.option("--track", default=DEFAULT_TRACK, show_default=True, help=TRACK_HELP)
 @click.option("--worlds", default=",".join(WORLDS), show_default=True)
 @click.option("--max-episodes", type=int, default=None, help="Default: term_cond_max_episodes.")
 @click.option("--max-minutes", type=float, default=None)

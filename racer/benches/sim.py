@@ -1,6 +1,6 @@
 """`racer bench sim`: environment steps per second against the raw MuJoCo bound, measured in the same run.
 
-env: `DeepRacerEnv` with the front camera at 160×120 on the default track, a real reward function (the DeepRacer
+env: `DeepRacerEnv` with the front camera at 160×120 on the default track (or `--track`), a real reward function (the DeepRacer
 centre-line example, written to a temporary file) and uniformly random discrete actions.
 raw bound: the same compiled scene, the same physics substeps (with the car's tyre model, `Car.step`: it is physics,
 not env code) and one 160×120 render per step, no env code, through
@@ -24,8 +24,9 @@ from racer.benches.sim_loop import BENCH_REWARD, env_block
 from racer.benches.sim_races import run_race_benchmark
 from racer.shared.sim._mujoco import mujoco
 from racer.shared.sim.camera import CENTER_CAMERA, FULL_HEIGHT_PX, FULL_WIDTH_PX, CameraRenderer
-from racer.shared.sim.config import EnvConfig
+from racer.shared.sim.config import DEFAULT_TRACK, EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
+from racer.shared.sim.track_option import direction_option
 
 
 def _raw_block(
@@ -50,11 +51,15 @@ def _raw_block(
     return time.perf_counter() - start, time.process_time() - cpu_start
 
 
-def run_benchmark(steps: int = 3000, blocks: int = 6, seed: int = 0, full_resolution: bool = False) -> dict[str, float]:
+def run_benchmark(
+    steps: int = 3000, blocks: int = 6, seed: int = 0, full_resolution: bool = False, track: str = DEFAULT_TRACK
+) -> dict[str, float | str]:
     with tempfile.TemporaryDirectory() as folder:
         reward_path = Path(folder) / "reward.py"
         reward_path.write_text(BENCH_REWARD)
-        env = DeepRacerEnv(EnvConfig(reward_function_path=reward_path, render_full_resolution=full_resolution))
+        env = DeepRacerEnv(
+            EnvConfig(track=track, reward_function_path=reward_path, render_full_resolution=full_resolution)
+        )
         try:
             env.reset(seed=seed)
             rng = np.random.default_rng(seed)
@@ -92,6 +97,7 @@ def run_benchmark(steps: int = 3000, blocks: int = 6, seed: int = 0, full_resolu
         "env_cpu_ms_per_step": round(1e3 * env_cpu_s / total, 3),
         "raw_cpu_ms_per_step": round(1e3 * raw_cpu_s / total, 3),
         "steps": total,
+        "track": str(track),
     }
 
 
@@ -125,6 +131,14 @@ def raw_rate_child(start_at_epoch_s: float, duration_s: float, seed: int = 0) ->
 @click.option("--steps", default=3000, show_default=True, help="Steps measured for each of env and raw bound.")
 @click.option("--seed", default=0, show_default=True)
 @click.option(
+    "--track",
+    default=DEFAULT_TRACK,
+    show_default=True,
+    help="Track for the time-trial figure: a route name (any SimApp track, fetched on first use), a DeepRacer-on-AWS "
+    "name or a .npy path.",
+)
+@direction_option
+@click.option(
     "--full-resolution", is_flag=True, help="Render 640x480 and resize, as DeepRacer (default: 160x120 directly)."
 )
 @click.option(
@@ -141,11 +155,13 @@ def raw_rate_child(start_at_epoch_s: float, duration_s: float, seed: int = 0) ->
     type=click.IntRange(min=0),
     help="Also measure a HEAD_TO_BOT env with this many bot cars (0.5 m/s, changing lanes), beside the time trial.",
 )
-def sim_bench_command(steps: int, seed: int, full_resolution: bool, obstacles: int, bot_cars: int) -> None:
+def sim_bench_command(steps: int, seed: int, track: str, full_resolution: bool, obstacles: int, bot_cars: int) -> None:
     """Measure simulator throughput; prints one JSON line."""
     if obstacles or bot_cars:
         if full_resolution:
             raise click.UsageError("--full-resolution measures the time trial against the raw bound only")
+        if track != DEFAULT_TRACK:
+            raise click.UsageError("--track applies to the time-trial figure; the object figures use the default track")
         click.echo(json.dumps(run_race_benchmark(obstacles, bot_cars, steps=steps, seed=seed)))
         return
-    click.echo(json.dumps(run_benchmark(steps=steps, seed=seed, full_resolution=full_resolution)))
+    click.echo(json.dumps(run_benchmark(steps=steps, seed=seed, full_resolution=full_resolution, track=track)))

@@ -19,12 +19,19 @@ from racer.local.run import LocalRunPlan, run_local_training
 from racer.shared.config import LocalStoreSettings, RedisSettings, ServiceSettings
 from racer.shared.deepracer.hyperparameters import HyperparametersError, parse_hyperparameters
 from racer.shared.run_settings import RunOptions
+from racer.shared.sim.track_option import direction_option
 from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
 from racer.trainer.run_options import trainer_run_options
 
 
 @click.command(name="time-to-lap")
-@click.option("--track", required=True, help="Route name or .npy path (reference: reinvent_base.npy).")
+@click.option(
+    "--track",
+    required=True,
+    help="A SimApp track name (fetched on first use: reinvent_base is re:Invent 2018), a DeepRacer-on-AWS name, a "
+    "route on the search path or a .npy path.",
+)
+@direction_option
 @click.option(
     "--reward-function",
     type=click.Path(exists=True, dir_okay=False, path_type=Path),

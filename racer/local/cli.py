@@ -15,7 +15,7 @@ from racer.shared.config import LocalStoreSettings, settings_from_env
 from racer.shared.run_settings import RunOptions
 from racer.shared.sim.challenge_cli import challenge_options, challenge_params_from_options
 from racer.shared.sim.config import DEFAULT_TRACK
-from racer.shared.sim.track_option import direction_option
+from racer.shared.sim.track_option import TRACK_HELP, direction_option
 from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
 from racer.trainer.run_options import trainer_run_options
 
@@ -48,7 +48,7 @@ from racer.trainer.run_options import trainer_run_options
     help="Envs each worker steps at once, all actions from one batched forward pass.",
 )
 @click.option("--worlds", default=",".join(WORLDS), show_default=True, help="Worlds given to workers in turn.")
-@click.option("--track", default=DEFAULT_TRACK, show_default=True, help="Track name in tracks/ or a .npy route path.")
+@click.option("--track", default=DEFAULT_TRACK, show_default=True, help=TRACK_HELP)
 @click.option(
     "--max-episodes",
     type=int,

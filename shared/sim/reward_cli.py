@@ -10,6 +10,7 @@ import click
 
 from racer.shared.sim.challenge_config import RACE_TYPES
 from racer.shared.sim.config import DEFAULT_TRACK
+from racer.shared.sim.track_option import TRACK_HELP
 
 
 @click.group("reward")
@@ -19,7 +20,7 @@ def reward_group() -> None:
 
 @reward_group.command("test")
 @click.argument("reward_file", type=click.Path(exists=True, dir_okay=False, path_type=Path))
-@click.option("--track", default=DEFAULT_TRACK, show_default=True, help="Track name, DeepRacer-on-AWS name or .npy.")
+@click.option("--track", default=DEFAULT_TRACK, show_default=True, help=TRACK_HELP)
 @click.option("--direction", default=None, help="clockwise or counter-clockwise (see racer track list).")
 @click.option(
     "--race-type",

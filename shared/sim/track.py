@@ -307,6 +307,19 @@ def read_route_file(path: str | Path) -> np.ndarray:
     return waypoints
 
 
+def route_facts(path: Path) -> tuple[float, float, str, int]:
+    """(centre-line length m, mean width m, direction, waypoint rows) straight from a route file's rows."""
+    rows = read_route_file(path)
+    center = rows[:, 0:2]
+    length_m = float(np.hypot(*np.diff(center, axis=0).T).sum())
+    width_m = float(np.hypot(*(rows[:, 2:4] - rows[:, 4:6]).T).mean())
+    if not np.array_equal(rows[0], rows[-1]):
+        return length_m, width_m, "counter-clockwise", len(rows)  # an open route is driven forward as ccw
+    x, y = center[:, 0], center[:, 1]
+    area = float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
+    return length_m, width_m, "counter-clockwise" if area > 0 else "clockwise", len(rows)
+
+
 def compute_progress(current_ndist: float, start_ndist: float, prev_progress: float) -> float:
     """Progress in % with DeepRacer's finish-line wrap rules (deepracer-simapp v5.3.3
     `bundle/markov/agent_ctrl/utils.py`); capped at 100."""

@@ -1,143 +1,45 @@
-"""Track names as DeepRacer on AWS shows them ("Forever Raceway", clockwise) and the route name the SimApp loads.
+"""From a track name and a direction to the route name the SimApp loads: route names, DeepRacer on AWS's trackIds and
+display names ("Forever Raceway", clockwise), `_cw` / `_ccw` routes.
 
-DeepRacer on AWS (DRoA) lists its tracks in `source/libs/config/src/data/tracks.json`: a display name, the
-`trackId` (the SimApp's WORLD_NAME), the enabled directions and the default one. For a track with two directions it
-sends `WORLD_NAME=<trackId>` and `TRACK_DIRECTION_CLOCKWISE`, and the SimApp loads `<trackId>_cw` or `<trackId>_ccw`;
-for a single-direction track it sends the bare trackId and no direction.
-
-racer does not ship that list: `racer track import --droa tracks.json` stores a compact copy (`droa_tracks.json`) in
-the route library, and a `droa_tracks.json` in any folder of the route search path is read (the first folder naming a
-trackId wins). Without it, names are route names and directions are checked against the route files themselves.
+DeepRacer on AWS's track list (`racer.shared.sim.droa_tracks`) comes from racer's route catalogue; a `droa_tracks.json`
+in a folder of the route search path (`racer track import --droa tracks.json` writes one into the route library) comes
+first (the first folder naming a trackId wins). With folders given explicitly, only their lists and route files count.
 """
 
 from __future__ import annotations
 
-import json
 import re
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from racer.shared.sim.route_search import (
+from racer.shared.sim.droa_tracks import (
+    CATALOGUE_FILE,
+    CLOCKWISE,
     CLOCKWISE_SUFFIX,
+    COUNTER_CLOCKWISE,
     COUNTER_CLOCKWISE_SUFFIX,
+    DroaTrack,
+    TrackDirectionError,
+    direction_label,
+    parse_direction,
+    read_catalogue,
+)
+from racer.shared.sim.route_search import (
     ROUTE_SUFFIX,
     RouteNotFoundError,
     find_route,
     is_route_name,
     search_folders,
 )
-
-CLOCKWISE = "CLOCKWISE"
-COUNTER_CLOCKWISE = "COUNTER_CLOCKWISE"
-DIRECTIONS = (CLOCKWISE, COUNTER_CLOCKWISE)
-CATALOGUE_FILE = "droa_tracks.json"
-"""The compact DRoA track list, looked for in every folder of the route search path."""
-
-_DIRECTION_WORDS = {
-    "clockwise": CLOCKWISE,
-    "cw": CLOCKWISE,
-    "counterclockwise": COUNTER_CLOCKWISE,
-    "counter_clockwise": COUNTER_CLOCKWISE,
-    "counter-clockwise": COUNTER_CLOCKWISE,
-    "anticlockwise": COUNTER_CLOCKWISE,
-    "anti-clockwise": COUNTER_CLOCKWISE,
-    "ccw": COUNTER_CLOCKWISE,
-}
-
-
-class TrackDirectionError(ValueError):
-    """The track is not driven in the direction asked for; the message names the direction(s) it offers."""
-
-
-def parse_direction(text: str) -> str:
-    """`clockwise`/`cw`/`CLOCKWISE` -> CLOCKWISE; `counter-clockwise`/`counterclockwise`/`ccw` -> COUNTER_CLOCKWISE."""
-    key = text.strip().lower()
-    if key not in _DIRECTION_WORDS:
-        raise ValueError(f"direction {text!r}: expected clockwise (cw) or counter-clockwise (ccw)")
-    return _DIRECTION_WORDS[key]
-
-
-def direction_label(direction: str) -> str:
-    return "clockwise" if direction == CLOCKWISE else "counter-clockwise"
-
-
-@dataclass(frozen=True)
-class DroaTrack:
-    """One DeepRacer-on-AWS track: display name, trackId (WORLD_NAME), enabled directions, default direction."""
-
-    name: str
-    track_id: str
-    directions: tuple[str, ...]
-    default_direction: str
-    length_m: float | None = None
-
-    def world_name(self, direction: str) -> str:
-        """The route the SimApp loads for this direction: the bare trackId when the track has one direction."""
-        if direction not in self.directions:
-            offered = " and ".join(direction_label(d) for d in self.directions)
-            raise TrackDirectionError(
-                f"{self.name} ({self.track_id}) is not driven {direction_label(direction)}; it offers {offered}"
-            )
-        if len(self.directions) == 1:
-            return self.track_id
-        return self.track_id + (CLOCKWISE_SUFFIX if direction == CLOCKWISE else COUNTER_CLOCKWISE_SUFFIX)
-
-    def to_compact(self) -> dict[str, object]:
-        return {
-            "name": self.name,
-            "trackId": self.track_id,
-            "directions": list(self.directions),
-            "defaultDirection": self.default_direction,
-            "length": self.length_m,
-        }
-
-
-def parse_catalogue(data: object, source: str = CATALOGUE_FILE) -> tuple[DroaTrack, ...]:
-    """DRoA's own tracks.json (`{"tracks": [{name, trackId, enabledDirections, defaultDirection, length, disabled}]}`)
-    or racer's compact list (`[{name, trackId, directions, defaultDirection, length}]`); disabled tracks are left out."""
-    rows = data.get("tracks") if isinstance(data, dict) else data
-    if not isinstance(rows, list):
-        raise ValueError(f"{source}: expected a list of tracks (or DeepRacer on AWS's {{'tracks': [...]}})")
-    tracks = []
-    for index, row in enumerate(rows):
-        if not isinstance(row, dict) or not {"name", "trackId"} <= set(row):
-            raise ValueError(f"{source}: track {index}: expected an object with name and trackId")
-        if row.get("disabled"):
-            continue
-        raw_directions = row.get("directions", row.get("enabledDirections")) or [COUNTER_CLOCKWISE]
-        try:
-            directions = tuple(d for d in DIRECTIONS if d in {parse_direction(str(x)) for x in raw_directions})
-            default = parse_direction(str(row.get("defaultDirection", directions[0])))
-        except ValueError as error:
-            raise ValueError(f"{source}: track {row['name']!r}: {error}") from None
-        length = row.get("length")
-        tracks.append(
-            DroaTrack(
-                name=str(row["name"]),
-                track_id=str(row["trackId"]),
-                directions=directions,
-                default_direction=default if default in directions else directions[0],
-                length_m=float(length) if isinstance(length, (int, float)) else None,
-            )
-        )
-    return tuple(tracks)
-
-
-def read_catalogue(path: str | Path) -> tuple[DroaTrack, ...]:
-    path = Path(path)
-    try:
-        data = json.loads(path.read_text(encoding="utf-8-sig"))
-    except json.JSONDecodeError as error:
-        raise ValueError(f"{path}: line {error.lineno} column {error.colno}: {error.msg}") from None
-    return parse_catalogue(data, str(path))
-
+from racer.shared.sim.simapp_routes import shipped_catalogue
 
 _CACHE: dict[tuple[str, float], tuple[DroaTrack, ...]] = {}
 
 
 def load_catalogue(folders: Sequence[Path] | None = None) -> tuple[DroaTrack, ...]:
-    """Every `droa_tracks.json` on the search path, merged in order (the first folder naming a trackId wins)."""
+    """Every `droa_tracks.json` on the search path, merged in order (the first folder naming a trackId wins); with the
+    default search path, the list in racer's route catalogue comes last."""
     merged: dict[str, DroaTrack] = {}
     for folder in search_folders() if folders is None else folders:
         path = Path(folder) / CATALOGUE_FILE
@@ -147,6 +49,9 @@ def load_catalogue(folders: Sequence[Path] | None = None) -> tuple[DroaTrack, ..
         if key not in _CACHE:
             _CACHE[key] = read_catalogue(path)
         for track in _CACHE[key]:
+            merged.setdefault(track.track_id, track)
+    if folders is None:
+        for track in shipped_catalogue().droa_tracks:
             merged.setdefault(track.track_id, track)
     return tuple(merged.values())
 
@@ -182,6 +87,11 @@ def _route_direction(name: str, folders: Sequence[Path] | None) -> str | None:
     """CLOCKWISE or COUNTER_CLOCKWISE for a route that exists, None when there is no such route."""
     from racer.shared.sim.track import Track  # shapely and numpy, only when a direction is asked
 
+    if is_route_name(name) and folders is None and not _on_search_path(name):
+        route = shipped_catalogue().route(name)  # its facts, with no fetch
+        if route is None:
+            return None
+        return COUNTER_CLOCKWISE if route.direction == "counter-clockwise" else CLOCKWISE
     try:
         path = find_route(name, folders) if is_route_name(name) else Path(name)
     except RouteNotFoundError:
@@ -191,7 +101,14 @@ def _route_direction(name: str, folders: Sequence[Path] | None) -> str | None:
     return COUNTER_CLOCKWISE if Track.load(path).is_ccw else CLOCKWISE
 
 
+def _on_search_path(name: str) -> bool:
+    return any((Path(folder) / f"{name}{ROUTE_SUFFIX}").is_file() for folder in search_folders())
+
+
 def _exists(name: str, folders: Sequence[Path] | None) -> bool:
+    """On the search path, or (with the default one) in racer's route catalogue: fetched only when loaded."""
+    if folders is None:
+        return _on_search_path(name) or shipped_catalogue().route(name) is not None
     try:
         find_route(name, folders)
     except RouteNotFoundError:

@@ -9,25 +9,32 @@ from pathlib import Path
 import click
 import numpy as np
 
-from racer.shared.config import route_library
-from racer.shared.sim.route_search import (
+from racer.shared.config import CACHE_HOME_VARIABLE, route_cache, route_library
+from racer.shared.sim.droa_tracks import (
+    CATALOGUE_FILE,
+    CLOCKWISE,
     CLOCKWISE_SUFFIX,
     COUNTER_CLOCKWISE_SUFFIX,
+    DroaTrack,
+    read_catalogue,
+)
+from racer.shared.sim.route_fetch import (
+    RouteFetchError,
+    cached_route_path,
+    catalogue_route_source,
+    fetch_route,
+    is_cached,
+)
+from racer.shared.sim.route_search import (
     ROUTE_SUFFIX,
     RouteNotFoundError,
     available_routes,
     find_route,
     search_folders,
 )
-from racer.shared.sim.track import Track, TrackError, read_route_file
-from racer.shared.sim.track_catalog import (
-    CATALOGUE_FILE,
-    CLOCKWISE,
-    DroaTrack,
-    load_catalogue,
-    read_catalogue,
-    resolve_track,
-)
+from racer.shared.sim.simapp_routes import file_sha256, shipped_catalogue
+from racer.shared.sim.track import Track, TrackError, read_route_file, route_facts
+from racer.shared.sim.track_catalog import load_catalogue, resolve_track
 from racer.shared.sim.worlds import WORLD_NAMES
 
 
@@ -52,17 +59,8 @@ def track_group() -> None:
     name, or any DeepRacer route file."""
 
 
-def _route_facts(path: Path) -> tuple[float, float, str]:
-    """(centre-line length m, mean width m, running direction) straight from the route file."""
-    rows = read_route_file(path)
-    center = rows[:, 0:2]
-    length = float(np.hypot(*np.diff(center, axis=0).T).sum())
-    width = float(np.hypot(*(rows[:, 2:4] - rows[:, 4:6]).T).mean())
-    if not np.array_equal(rows[0], rows[-1]):
-        return length, width, "ccw"  # an open route is driven forward as counter-clockwise (SimApp track_data.py)
-    x, y = center[:, 0], center[:, 1]
-    area = float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
-    return length, width, "ccw" if area > 0 else "cw"
+def _short_direction(direction: str) -> str:
+    return "ccw" if direction == "counter-clockwise" else "cw"
 
 
 def _short(directions: tuple[str, ...]) -> str:
@@ -78,6 +76,21 @@ def _droa_of(name: str, by_id: dict[str, DroaTrack]) -> DroaTrack | None:
     return None
 
 
+def _local_route(name: str, folders: list[Path]) -> Path | None:
+    """The route file on the search path (never fetched), or None."""
+    try:
+        return find_route(name, folders)
+    except RouteNotFoundError:
+        return None
+
+
+def _route_cache_dir() -> Path:
+    cache_dir = route_cache()
+    if cache_dir is None:
+        raise click.ClickException(f"no home folder to keep fetched tracks in; set {CACHE_HOME_VARIABLE}")
+    return cache_dir
+
+
 @track_group.command("list")
 @click.option(
     "--tracks-dir", type=click.Path(file_okay=False, path_type=Path), default=None, help="Folder of .npy routes."
@@ -87,41 +100,105 @@ def _droa_of(name: str, by_id: dict[str, DroaTrack]) -> DroaTrack | None:
 )
 @click.option("--search", "text", default=None, help="Only tracks whose name or DeepRacer-on-AWS name contains TEXT.")
 def list_command(tracks_dir: Path | None, droa_only: bool, text: str | None) -> None:
-    """Routes on the route search path (RACER_ROUTES_PATH, the route library, tracks/): name, DeepRacer-on-AWS
-    name, length, width and directions (cw, ccw), tab-separated."""
+    """Every track racer can drive: the routes on the search path (RACER_ROUTES_PATH, the route library, tracks/) and
+    every SimApp route (fetched on first use). Tab-separated: name, DeepRacer-on-AWS name, length, width, directions
+    (cw, ccw) and where the file is (a folder, `cached`, or `not fetched`)."""
     folders = [tracks_dir] if tracks_dir is not None else list(search_folders())
-    catalogue = load_catalogue(folders)
+    catalogue = load_catalogue(folders if tracks_dir is not None else None)
     by_id = {t.track_id: t for t in catalogue}
+    simapp = shipped_catalogue() if tracks_dir is None else None
+    cache_dir = route_cache() if simapp is not None else None
     needle = text.lower() if text else None
 
     def wanted(*names: str) -> bool:
         return needle is None or any(needle in n.lower() for n in names if n)
 
     if droa_only:
-        if not catalogue:
-            raise click.ClickException(
-                f"no DeepRacer-on-AWS track list ({CATALOGUE_FILE}) on the route search path; add one with "
-                "`racer track import --droa tracks.json` (DeepRacer on AWS's source/libs/config/src/data/tracks.json)"
-            )
         for entry in sorted(catalogue, key=lambda t: t.track_id.lower()):
             if not wanted(entry.track_id, entry.name):
                 continue
-            try:
-                facts = _route_facts(find_route(entry.world_name(entry.default_direction), folders))
-                length, width = f"{facts[0]:.2f} m", f"{facts[1]:.2f} m wide"
-            except RouteNotFoundError:
+            world = entry.world_name(entry.default_direction)
+            local = _local_route(world, folders)
+            known = simapp.route(world) if simapp is not None else None
+            if local is not None:
+                length_m, width_m, _, _ = route_facts(local)
+                length, width = f"{length_m:.2f} m", f"{width_m:.2f} m wide"
+            elif known is not None:
+                length, width = f"{known.length_m:.2f} m", f"{known.width_m:.2f} m wide"
+            else:
                 length = f"{entry.length_m:.2f} m" if entry.length_m else "-"
                 width = "no route installed"
             click.echo(f"{entry.track_id}\t{entry.name}\t{length}\t{width}\t{_short(entry.directions)}")
         return
-    for name in available_routes(folders):
+    local_names = available_routes(folders)
+    names = sorted(set(local_names) | ({route.name for route in simapp.routes} if simapp is not None else set()))
+    for name in names:
         entry = _droa_of(name, by_id)
         if not wanted(name, entry.name if entry else ""):
             continue
-        length, width, runs = _route_facts(find_route(name, folders))
-        directions = _short(entry.directions) if entry is not None and entry.track_id == name else runs
+        local = _local_route(name, folders) if name in local_names else None
+        if local is not None:
+            length, width, runs, _ = route_facts(local)
+            where = str(local.parent)
+        else:
+            route = simapp.route(name)
+            length, width, runs = route.length_m, route.width_m, route.direction
+            where = "cached" if cache_dir is not None and is_cached(route, cache_dir) else "not fetched"
+        directions = (
+            _short(entry.directions) if entry is not None and entry.track_id == name else _short_direction(runs)
+        )
         droa_name = entry.name if entry is not None else "-"
-        click.echo(f"{name}\t{droa_name}\t{length:.2f} m\t{width:.2f} m wide\t{directions}")
+        click.echo(f"{name}\t{droa_name}\t{length:.2f} m\t{width:.2f} m wide\t{directions}\t{where}")
+
+
+@track_group.command("fetch")
+@click.argument("names", nargs=-1)
+@click.option("--all", "fetch_all", is_flag=True, help="Every SimApp route (127 files, about 1.2 MB).")
+@click.option("--verify", is_flag=True, help="Check every cached file against its SHA-256 instead of fetching.")
+@direction_option
+def fetch_command(names: tuple[str, ...], fetch_all: bool, verify: bool, direction: str | None) -> None:
+    """Fetch SimApp routes into the cache ahead of time (for a machine that will train offline), from RACER_TRACKS_URL
+    or the SimApp's repository; `--verify` re-checks what the cache holds. Names may be DeepRacer-on-AWS names."""
+    catalogue = shipped_catalogue()
+    cache_dir = _route_cache_dir()
+    if verify:
+        if names or fetch_all:
+            raise click.UsageError("--verify checks the whole cache; give no names and no --all")
+        bad = []
+        checked = 0
+        for route in catalogue.routes:
+            path = cached_route_path(route, cache_dir)
+            if path.is_file():
+                checked += 1
+                if not is_cached(route, cache_dir):
+                    bad.append(route.name)
+        for name in bad:
+            click.echo(f"{name}: {cached_route_path(catalogue.route(name), cache_dir)} does not match its SHA-256")
+        click.echo(f"{checked} cached route(s) in {cache_dir}, {len(bad)} bad")
+        if bad:
+            raise click.ClickException(f"remove the bad file(s) and fetch again: racer track fetch {' '.join(bad)}")
+        return
+    if fetch_all == bool(names):
+        raise click.UsageError("give track names or --all")
+    wanted = []
+    for name in names:
+        try:
+            world = resolve_track(name, direction).world_name
+        except ValueError as error:
+            raise click.BadParameter(str(error), param_hint="NAMES") from error
+        route = catalogue.route(world)
+        if route is None:
+            raise click.BadParameter(
+                f"{name!r} is not a SimApp track (`racer track list` names them)", param_hint="NAMES"
+            )
+        wanted.append(route)
+    source = catalogue_route_source()
+    for index, route in enumerate(catalogue.routes if fetch_all else wanted, start=1):
+        try:
+            path = fetch_route(route, source)
+        except RouteFetchError as error:
+            raise click.ClickException(str(error)) from error
+        click.echo(f"[{index}/{len(catalogue.routes) if fetch_all else len(wanted)}] {route.name}: {path}")
 
 
 @track_group.command("import")
@@ -185,6 +262,23 @@ def show_command(name: str, tracks_dir: Path | None, direction: str | None) -> N
     click.echo(f"loop: {track.is_loop}")
     click.echo(f"direction: {'counter-clockwise' if track.is_ccw else 'clockwise'}")
     click.echo(f"extent_m: x {lo[0]:.2f}..{hi[0]:.2f}, y {lo[1]:.2f}..{hi[1]:.2f}")
+    simapp_route = shipped_catalogue().route(track.name)
+    if simapp_route is not None and track.source:
+        same = file_sha256(Path(track.source)) == simapp_route.sha256
+        click.echo(
+            f"file: {'the SimApp' if same else 'not the SimApp'}'s file (catalogue SHA-256 {simapp_route.sha256[:12]}...)"
+        )
+    droa = load_catalogue([tracks_dir] if tracks_dir is not None else None)
+    entry = _droa_of(track.name, {t.track_id: t for t in droa})
+    if entry is not None:
+        click.echo(f"deepracer_on_aws: {entry.name} ({entry.track_id}, directions {_short(entry.directions)})")
+        if entry.difficulty is not None:
+            click.echo(f"difficulty: {entry.difficulty}")
+        if entry.description:
+            click.echo(f"description: {entry.description}")
+    cache_dir = route_cache()
+    if cache_dir is not None:
+        click.echo(f"cache: {cache_dir}")
 
 
 @track_group.command("plot")

@@ -12,7 +12,14 @@ from typing import Any
 
 import click
 
-from racer.shared.sim.track_catalog import TrackDirectionError, resolve_track
+from racer.shared.sim.droa_tracks import TrackDirectionError
+from racer.shared.sim.track_catalog import resolve_track
+
+TRACK_HELP = (
+    "A track: any SimApp track by name (fetched on first use; reinvent_base is re:Invent 2018), a DeepRacer-on-AWS "
+    'name ("Forever Raceway"), a route on the search path (racer\'s own, RACER_ROUTES_PATH, the route library) or a '
+    ".npy path. `racer track list` names them."
+)
 
 DIRECTION_HELP = (
     "clockwise or counter-clockwise: picks the route of --track for that direction (<trackId>_cw/_ccw, or the bare "

@@ -84,9 +84,13 @@ def test_track_by_name_from_the_runs_params_yaml(drfc_single, deepracer_data, tm
     result = run(drfc_single, "--tracks-dir", deepracer_data / "routes", "--out", out, "--top", 2)
     assert "Track 'reinvent_base' taken from the run's params yaml" in result.output
     assert TRACK_PICTURES <= {p.name for p in out.glob("*.png")}
-    # Without the route installed, the same run falls back to tables with a note naming the track.
-    result = run(drfc_single, "--out", tmp_path / "r2", "--no-pictures")
-    assert "'reinvent_base', which is not in the tracks folder" in result.output
+    # With no tracks folder, the SimApp's reinvent_base comes by name (fetched into the cache on first use).
+    result = run(drfc_single, "--out", tmp_path / "r2", "--top", 2)
+    assert TRACK_PICTURES <= {p.name for p in (tmp_path / "r2").glob("*.png")}
+    # A track racer cannot find anywhere: the run falls back to tables with a note naming it.
+    (drfc_single / "training_params.yaml").write_text("WORLD_NAME: my_own_track\nNUMBER_OF_TRIALS: '3'\n")
+    result = run(drfc_single, "--out", tmp_path / "r3", "--no-pictures")
+    assert "'my_own_track', which is not in the tracks folder" in result.output
 
 
 def test_unknown_track_is_an_error_naming_it(drfc_single, tmp_path):

@@ -64,9 +64,9 @@ def test_track_direction_clockwise_appends_cw_or_ccw_as_deepracer_on_aws(routes_
     track = Track.load(clockwise.track)
     assert not track.is_ccw and track.source.endswith("reInvent2019_track_cw.npy")
     counter = WorkerSettings.from_training_params({**params, "TRACK_DIRECTION_CLOCKWISE": "False"}, source="t.yaml")
-    # The test folder has no reInvent2019_track_ccw (the SimApp's bundle/routes has one): the bare route runs
-    # counter-clockwise, so it is the one (racer.shared.sim.track_catalog.resolve_track).
-    assert counter.track == "reInvent2019_track"
+    # The test folder has no reInvent2019_track_ccw; the SimApp has one, and racer fetches it by name.
+    assert counter.track == "reInvent2019_track_ccw"
+    assert Track.load(counter.track).is_ccw
     assert (
         WorkerSettings.from_training_params({"WORLD_NAME": "reInvent2019_track"}, source="t").track
         == "reInvent2019_track"

@@ -1,38 +1,26 @@
 """Track names and directions: route names, DeepRacer-on-AWS display names and trackIds, `racer track list/import`.
 
-The real route files are read in place from ../shared/deepracer-data/routes (9 of the SimApp's 127). Two variables
-widen the tests to data racer does not ship: RACER_TEST_ROUTES (a folder of route files, e.g. a checkout's
-`bundle/routes` of aws-deepracer-community/deepracer-simapp) and RACER_TEST_DROA_TRACKS (DeepRacer on AWS's
-`source/libs/config/src/data/tracks.json`); tests that need them are skipped without them.
+The real route files are read in place from ../shared/deepracer-data/routes (9 of the SimApp's 127); every SimApp
+route comes by name from ../shared/deepracer-data/simapp-routes (the suite's RACER_TRACKS_URL, tests/conftest.py).
 """
 
 from __future__ import annotations
 
 import json
 import os
-import time
 from pathlib import Path
 
 import click
 import pytest
 from click.testing import CliRunner
 
+from racer.shared.sim.droa_tracks import CATALOGUE_FILE, TrackDirectionError, parse_catalogue, read_catalogue
 from racer.shared.sim.route_search import default_tracks_dir, search_folders
 from racer.shared.sim.track import Track, available_tracks
-from racer.shared.sim.track_catalog import (
-    CATALOGUE_FILE,
-    TrackDirectionError,
-    parse_catalogue,
-    read_catalogue,
-    resolve_track,
-    world_name_for_direction,
-)
+from racer.shared.sim.track_catalog import resolve_track, world_name_for_direction
 from racer.shared.sim.track_cli import track_group
 from racer.shared.sim.track_option import resolved_track_name
 from tests.shared_data import SHARED_DATA
-
-EXTRA_ROUTES = os.environ.get("RACER_TEST_ROUTES")
-DROA_TRACKS = os.environ.get("RACER_TEST_DROA_TRACKS")
 
 # Made-up display names over the shared routes (racer ships no DeepRacer-on-AWS list): one two-direction track,
 # one single-direction track, one disabled.
@@ -66,6 +54,7 @@ def routes(deepracer_data, tmp_path, monkeypatch):
     (extra / CATALOGUE_FILE).write_text(json.dumps(CATALOGUE))
     monkeypatch.setenv("RACER_ROUTES_PATH", f"{deepracer_data / 'routes'}{os.pathsep}{extra}")
     monkeypatch.setenv("RACER_DATA_HOME", str(tmp_path / "home"))
+    monkeypatch.setenv("RACER_CACHE_HOME", str(tmp_path / "cache"))
     return deepracer_data / "routes"
 
 
@@ -90,8 +79,10 @@ def test_both_catalogue_formats_parse_and_disabled_tracks_are_left_out(tmp_path)
 def test_display_names_and_directions_resolve_to_the_simapps_route_names(routes):
     assert resolve_track("Test Smile Way", "clockwise").world_name == "reInvent2019_track_cw"
     assert resolve_track("test smile way", "CW").world_name == "reInvent2019_track_cw"
-    # No reInvent2019_track_ccw in the shared folder: the bare route runs counter-clockwise, so it is the one.
-    assert resolve_track("Test Smile Way", "counter-clockwise").world_name == "reInvent2019_track"
+    # The SimApp's reInvent2019_track_ccw is in racer's catalogue (fetched when loaded); among folders without it,
+    # the bare route runs counter-clockwise, so it is the one.
+    assert resolve_track("Test Smile Way", "counter-clockwise").world_name == "reInvent2019_track_ccw"
+    assert resolve_track("Test Smile Way", "counter-clockwise", search_folders()).world_name == "reInvent2019_track"
     assert resolve_track("Test Smile Way").direction == "COUNTER_CLOCKWISE"  # its default
     assert resolve_track("reInvent2019_track").world_name == "reInvent2019_track"  # a route name stays as given
     # A single-direction track is its bare trackId, as DeepRacer on AWS sends it; the other direction is refused.
@@ -113,13 +104,14 @@ def test_world_name_for_direction_keeps_single_direction_tracks_bare(routes):
 
 
 def test_without_a_catalogue_the_route_files_tell_the_directions(deepracer_data, monkeypatch, tmp_path):
-    monkeypatch.setenv("RACER_ROUTES_PATH", str(deepracer_data / "routes"))
-    monkeypatch.setenv("RACER_DATA_HOME", str(tmp_path))
-    assert world_name_for_direction("Vegas_track", False) == "Vegas_track"
+    """Folders given explicitly (as `--tracks-dir` does) leave racer's catalogue out: the files alone decide."""
+    folders = [deepracer_data / "routes"]
+    assert world_name_for_direction("Vegas_track", False, folders) == "Vegas_track"
     with pytest.raises(TrackDirectionError, match="Vegas_track.npy runs counter-clockwise"):
-        world_name_for_direction("Vegas_track", True)
-    assert world_name_for_direction("Nowhere", True) == "Nowhere_cw"  # as the SimApp; loading it says where it looked
-    with pytest.raises(click.BadParameter, match="offers counter-clockwise only"):
+        world_name_for_direction("Vegas_track", True, folders)
+    assert world_name_for_direction("Nowhere", True, folders) == "Nowhere_cw"  # as the SimApp: loading it says where
+    monkeypatch.setenv("RACER_DATA_HOME", str(tmp_path))
+    with pytest.raises(click.BadParameter, match="offers counter-clockwise"):
         resolved_track_name("Vegas_track", "clockwise")
 
 
@@ -131,19 +123,12 @@ def test_every_available_route_loads(routes):
         assert track.length_m > 1.0 and track.num_waypoints >= 4, name
 
 
-@pytest.mark.skipif(not EXTRA_ROUTES, reason="RACER_TEST_ROUTES (a folder such as the SimApp's bundle/routes) unset")
-def test_every_route_of_an_extra_folder_loads():
-    paths = sorted(Path(EXTRA_ROUTES).glob("*.npy"))
-    assert paths
-    for path in paths:
-        assert Track.load(path).length_m > 1.0, path
-
-
-@pytest.mark.skipif(not (EXTRA_ROUTES and DROA_TRACKS), reason="RACER_TEST_ROUTES / RACER_TEST_DROA_TRACKS unset")
 def test_every_deepracer_on_aws_name_and_enabled_direction_resolves(tmp_path, monkeypatch):
-    catalogue = read_catalogue(DROA_TRACKS)
-    monkeypatch.setenv("RACER_ROUTES_PATH", f"{EXTRA_ROUTES}{os.pathsep}{tmp_path}")
-    (tmp_path / CATALOGUE_FILE).write_text(json.dumps([t.to_compact() for t in catalogue]))
+    """DeepRacer on AWS's own list (shipped in racer's route catalogue) against the SimApp's route files, fetched from
+    the shared folder on first use."""
+    monkeypatch.delenv("RACER_ROUTES_PATH", raising=False)
+    monkeypatch.setenv("RACER_DATA_HOME", str(tmp_path / "home"))
+    catalogue = read_catalogue(SHARED_DATA / "droa" / "tracks.json")
     assert len(catalogue) >= 60
     for entry in catalogue:
         for direction in entry.directions:
@@ -165,9 +150,10 @@ def test_racer_track_import_list_and_show(routes, tmp_path):
     listed = runner.invoke(track_group, ["list", "--search", "smile"])
     assert listed.exit_code == 0, listed.output
     rows = [line.split("\t") for line in listed.output.splitlines()]
-    assert rows[0] == ["reInvent2019_track", "Test Smile Way", "23.12 m", "1.07 m wide", "cw,ccw"]
-    assert rows[1][0] == "reInvent2019_track_cw" and rows[1][-1] == "cw"
-    droa = runner.invoke(track_group, ["list", "--droa"])
+    assert rows[0] == ["reInvent2019_track", "Test Smile Way", "23.12 m", "1.07 m wide", "cw,ccw", str(routes)]
+    assert rows[1][0] == "reInvent2019_track_ccw" and rows[1][-2:] == ["ccw", "not fetched"]  # the SimApp's, by name
+    assert rows[2][0] == "reInvent2019_track_cw" and rows[2][-2:] == ["cw", str(routes)]
+    droa = runner.invoke(track_group, ["list", "--droa", "--search", "test"])
     assert droa.exit_code == 0, droa.output
     assert [line.split("\t")[1] for line in droa.output.splitlines()] == ["Test Bow Loop", "Test Smile Way"]
     shown = runner.invoke(track_group, ["show", "Test Smile Way", "--direction", "clockwise"])
@@ -183,10 +169,13 @@ def _write(folder: Path, data: object) -> Path:
 
 
 def _route_paths() -> list[Path]:
-    paths = sorted(default_tracks_dir().glob("*.npy")) + sorted((SHARED_DATA / "routes").glob("*.npy"))
-    if EXTRA_ROUTES:
-        paths += sorted(Path(EXTRA_ROUTES).glob("*.npy"))
-    return paths
+    """racer's own routes and every SimApp route, fetched by name into the test session's cache."""
+    from racer.shared.sim.route_fetch import fetch_catalogue_route
+    from racer.shared.sim.simapp_routes import shipped_catalogue
+
+    return sorted(default_tracks_dir().glob("*.npy")) + [
+        fetch_catalogue_route(route.name) for route in shipped_catalogue().routes
+    ]
 
 
 def _drive(path: Path) -> None:
@@ -205,12 +194,10 @@ def _drive(path: Path) -> None:
 
 
 @pytest.mark.usefixtures("deepracer_data")
-@pytest.mark.serial  # asserts a wall-time bound
+@pytest.mark.slow
 def test_every_route_renders_and_steps():
-    """Each route racer ships and each shared one (and RACER_TEST_ROUTES' when set) builds a world, renders and steps."""
-    start = time.perf_counter()
+    """Each route racer ships and each of the SimApp's 127 builds a world, renders and steps."""
     paths = _route_paths()
+    assert len(paths) >= 127 + 3
     for path in paths:
         _drive(path)
-    elapsed = time.perf_counter() - start
-    assert elapsed < 60 * max(1, len(paths) / 12), f"{len(paths)} routes took {elapsed:.1f} s"
