@@ -81,7 +81,8 @@ def test_every_real_simtrace_reads_with_exact_rows_and_types(deepracer_data):
             assert frame["episode_status"].iloc[position] == fields[15]
         assert int(frame["done"].sum()) == sum(line.split(",")[9] == "True" for line in lines)
         assert set(frame["episode_status"]) <= {status.value for status in EpisodeStatus}
-    assert widths == {17, 18}
+    # 17 columns (to pause_duration), 18 (+ obstacle_crash_counter) and DeepRacer on AWS's 19 (+ wall_clock)
+    assert widths == {17, 18, 19}
 
 
 def assert_same_frame(fast: pd.DataFrame, lines: pd.DataFrame, name: str) -> None:
