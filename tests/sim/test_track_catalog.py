@@ -150,9 +150,16 @@ def test_racer_track_import_list_and_show(routes, tmp_path):
     listed = runner.invoke(track_group, ["list", "--search", "smile"])
     assert listed.exit_code == 0, listed.output
     rows = [line.split("\t") for line in listed.output.splitlines()]
-    assert rows[0] == ["reInvent2019_track", "Test Smile Way", "23.12 m", "1.07 m wide", "cw,ccw", str(routes)]
+    assert rows[0] == [
+        "reInvent2019_track",
+        "Test Smile Way",
+        "23.12 m",
+        "1.07 m wide",
+        "cw,ccw",
+        str(routes.resolve()),
+    ]
     assert rows[1][0] == "reInvent2019_track_ccw" and rows[1][-2:] == ["ccw", "not fetched"]  # the SimApp's, by name
-    assert rows[2][0] == "reInvent2019_track_cw" and rows[2][-2:] == ["cw", str(routes)]
+    assert rows[2][0] == "reInvent2019_track_cw" and rows[2][-2:] == ["cw", str(routes.resolve())]
     droa = runner.invoke(track_group, ["list", "--droa", "--search", "test"])
     assert droa.exit_code == 0, droa.output
     assert [line.split("\t")[1] for line in droa.output.splitlines()] == ["Test Bow Loop", "Test Smile Way"]
