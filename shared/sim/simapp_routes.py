@@ -17,7 +17,7 @@ import json
 from dataclasses import dataclass
 from pathlib import Path
 
-from racer.shared.sim.droa_tracks import DroaTrack, direction_label, parse_catalogue
+from racer.shared.sim.droa_tracks import DroaTrack, parse_catalogue
 
 CATALOGUE_NAME = "simapp_routes.json"
 SIMAPP_REPOSITORY = "aws-deepracer-community/deepracer-simapp"
@@ -56,13 +56,6 @@ class RouteCatalogue:
 
     def route(self, name: str) -> SimAppRoute | None:
         return next((route for route in self.routes if route.name == name), None)
-
-    def droa_track_of(self, route_name: str) -> DroaTrack | None:
-        """The DeepRacer-on-AWS track a route belongs to: its trackId, or the trackId plus `_cw` / `_ccw`."""
-        for track in self.droa_tracks:
-            if route_name in (track.track_id, f"{track.track_id}_cw", f"{track.track_id}_ccw"):
-                return track
-        return None
 
 
 def file_sha256(path: Path) -> str:
@@ -108,9 +101,3 @@ def shipped_catalogue() -> RouteCatalogue:
     """The catalogue racer ships (read once per process: it is package data and never changes while racer runs)."""
     path = shipped_catalogue_path()
     return parse_route_catalogue(path.read_text(encoding="utf-8"), str(path))
-
-
-def route_summary(route: SimAppRoute, droa: DroaTrack | None) -> str:
-    """`name, length, width, direction` and the DeepRacer-on-AWS name when the route belongs to one of its tracks."""
-    named = f" ({droa.name}, {direction_label(droa.default_direction)} by default)" if droa else ""
-    return f"{route.name}{named}: {route.length_m:.2f} m, {route.width_m:.2f} m wide, runs {route.direction}"
