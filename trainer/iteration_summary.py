@@ -1,6 +1,7 @@
 """The summary of one training iteration: what its episodes scored, overall and per world, and how fast experience
 came in; recorded as one JSON line of the run's iterations log in the store and published on the `iterations`
-stream (the viewer and the analysis read them)."""
+stream (the viewer and the analysis read them). The trainer adds `progress`, how far the run is and how long it has
+left (racer.shared.run_progress), which `racer train` prints and the viewer shows."""
 
 from __future__ import annotations
 

@@ -35,6 +35,7 @@ from racer.shared.model_layout import ModelLayout
 from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.policy.network_file import NetworkFile
 from racer.shared.redis_connection import RedisLink, RedisUnavailableError
+from racer.shared.run_progress import RunPace, StopCondition
 from racer.shared.run_settings import RunOptions
 from racer.shared.store import open_store
 from racer.shared.transport.channels import ReceivedBatch, RunChannel
@@ -115,6 +116,9 @@ class Trainer:
         self.network_file, self.preset = files.network, files.preset
         metadata, hyperparameters = files.model_metadata, files.hyperparameters
         self.metadata, self.hyperparameters = metadata, hyperparameters
+        self.pace = RunPace(
+            StopCondition(self._max_episodes(), options.max_minutes, hyperparameters.num_episodes_between_training)
+        )
         self.learner = build_learner(
             metadata,
             hyperparameters,
@@ -255,8 +259,11 @@ class Trainer:
         )
         return summary
 
+    def _max_episodes(self) -> int:
+        return self.options.max_episodes or self.hyperparameters.term_cond_max_episodes
+
     def _should_stop(self) -> bool:
-        max_episodes = self.options.max_episodes or self.hyperparameters.term_cond_max_episodes
+        max_episodes = self._max_episodes()
         if self.episodes_consumed >= max_episodes:
             log.info("stopping: %d training episodes reached (limit %d)", self.episodes_consumed, max_episodes)
             return True
@@ -326,6 +333,9 @@ class Trainer:
         summary = self.train_iteration(iteration, batches, time.monotonic() - announced)
         self._save(iteration + 1)
         self.iteration = iteration + 1
+        summary["progress"] = self.pace.after_iteration(
+            iteration, time.monotonic() - self.started, self.episodes_consumed
+        ).to_dict()
         record_summary(self.store, self.layout, self.channel, summary)
         self.channel.ack(*[b.stream_id for b in batches.values()])
         self.channel.forget_iteration(iteration, self.options.run.num_workers)

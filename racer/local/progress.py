@@ -1,4 +1,9 @@
-"""What `racer train` prints while it runs: a line per iteration and per evaluation, and the workers' states."""
+"""What `racer train` prints while it runs: a line per iteration and per evaluation, and the workers' states.
+
+Each iteration line ends with how far the run is (iteration, time used of `--max-minutes` or episodes of the episode
+limit, an estimate of the time left): the trainer's figures from the iteration's summary (racer.shared.run_progress),
+the same the viewer shows. The status line every 30 s counts them on to the moment it is printed.
+"""
 
 from __future__ import annotations
 
@@ -6,6 +11,7 @@ import time
 
 import click
 
+from racer.shared.run_progress import RunProgress
 from racer.shared.transport.channels import RunChannel
 
 
@@ -21,11 +27,14 @@ class ProgressDisplay:
         self.evaluation_id = "0"
         self.last_status = 0.0
         self.seen_workers: set[int] = set()
+        self.progress: RunProgress | None = None
+        """The newest iteration's progress figures (None before the first iteration, or from an older trainer)."""
 
     def poll(self) -> list[dict]:
         """Print what is new; return the new evaluation records (benchmarks watch them)."""
         for stream_id, record in self.channel.read_records("iterations", self.iteration_id):
             self.iteration_id = stream_id
+            self.progress = progress_of(record)
             worlds = "  ".join(
                 f"{world}: R={stats['mean_reward']:.1f} P={stats['mean_progress']:.0f}%"
                 for world, stats in sorted(record["worlds"].items())
@@ -35,6 +44,7 @@ class ProgressDisplay:
                 f"steps {record['env_steps_total']:>8}  reward {record['mean_reward']:7.2f}  "
                 f"progress {record['mean_progress']:5.1f}%  complete {record['completion_rate']:4.0%}  "
                 f"{record['experience_steps_per_s']:6.0f} steps/s  | {worlds}"
+                + (f"  | {self.progress.describe()}" if self.progress is not None else "")
             )
         evaluations = []
         for stream_id, record in self.channel.read_records("evaluations", self.evaluation_id):
@@ -50,7 +60,8 @@ class ProgressDisplay:
             live = self.channel.live_workers()
             self.seen_workers.update(live)
             states = ", ".join(f"w{i}:{self._worker_state(i, live)}" for i in range(self.num_workers))
-            self.echo(f"[{self._elapsed()}] workers {states}", err=True)
+            now = "" if self.progress is None else f"  | {self.progress.at(time.time()).describe()}"
+            self.echo(f"[{self._elapsed()}] workers {states}{now}", err=True)
         return evaluations
 
     def _worker_state(self, worker_id: int, live: dict[int, dict]) -> str:
@@ -62,3 +73,14 @@ class ProgressDisplay:
     def _elapsed(self) -> str:
         seconds = int(time.monotonic() - self.started)
         return f"{seconds // 60:02d}:{seconds % 60:02d}"
+
+
+def progress_of(record: dict) -> RunProgress | None:
+    """The `progress` of an iteration summary; None when it has none (a trainer of an older racer)."""
+    raw = record.get("progress")
+    if not isinstance(raw, dict):
+        return None
+    try:
+        return RunProgress.from_dict(raw)
+    except (KeyError, TypeError, ValueError):
+        return None
