@@ -28,6 +28,8 @@ class LearnerOptions:
 
     seed: int | None = None
     precision: Precision = DEFAULT_PRECISION
+    device: str = "cpu"
+    """The torch device the learner trains on (racer.trainer.device)."""
     sac_replay_memory_mb: float = 1024.0
     """SAC: memory budget of the replay ring (its capacity in transitions follows from it)."""
     sac_updates_per_transition: float | None = None
@@ -41,7 +43,7 @@ class LearnerOptions:
 
 def _clipped_ppo(metadata: ModelMetadata, hyperparameters: Hyperparameters, options: LearnerOptions) -> Learner:
     network = build_network_for_metadata(metadata, options.network, hyperparameters.stack_size)
-    settings = PPOSettings(seed=options.seed, precision=options.precision)
+    settings = PPOSettings(seed=options.seed, precision=options.precision, device=options.device)
     if options.preset is not None:
         settings = options.preset.ppo_settings(settings)
     return PPOLearner(network, hyperparameters, settings)
@@ -53,6 +55,7 @@ def _sac(metadata: ModelMetadata, hyperparameters: Hyperparameters, options: Lea
         updates_per_transition=sac_updates_per_transition(options.sac_updates_per_transition, options.preset),
         seed=options.seed,
         precision=options.precision,
+        device=options.device,
     )
     if options.preset is not None:
         settings = options.preset.sac_settings(settings)

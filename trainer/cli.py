@@ -101,6 +101,7 @@ def trainer_command(
     car_profile,
     sac_replay_memory_mb,
     sac_updates_per_transition,
+    device,
     precision,
     race_type,
     race_param,
@@ -110,9 +111,14 @@ def trainer_command(
     RACER_REDIS_URL / RACER_STORE. The custom files are checked before anything connects."""
     from racer.shared.config import max_memory_steps_from_env
     from racer.shared.run_settings import RunOptions
+    from racer.trainer.device import DeviceError, resolve_device
     from racer.trainer.precision import Precision
     from racer.trainer.training_loop import TrainerOptions, run_trainer
 
+    try:  # before anything connects
+        torch_device = resolve_device(device)
+    except DeviceError as error:
+        raise click.UsageError(str(error)) from error
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
     run = RunOptions(
         num_workers=num_workers,
@@ -146,6 +152,7 @@ def trainer_command(
         sac_replay_memory_mb=sac_replay_memory_mb,
         sac_updates_per_transition=sac_updates_per_transition,
         precision=Precision(precision),
+        device=torch_device,
         preflight=report,
     )
     try:

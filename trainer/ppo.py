@@ -115,6 +115,9 @@ class PPOSettings:
     precision: Precision = DEFAULT_PRECISION
     """What the towers' convs and dense layers compute in (heads, probabilities, losses, GAE and Adam stay fp32):
     fp32 on every CPU unless the user asks for bf16 (see racer.trainer.precision)."""
+    device: str = "cpu"
+    """The torch device of the network and the update (racer.trainer.device). The GAE and the minibatch shuffle stay
+    on the CPU, so a seed shuffles the same on every device."""
     value_loss_weight: float = 1.0
     """The value loss's weight in the loss (a preset's `value_loss_weight`; DeepRacer: 1)."""
     max_gradient_norm: float | None = None
@@ -153,7 +156,8 @@ class PPOLearner:
     """Owns the optimiser of one ActorCritic and runs DeepRacer's clipped-PPO update on lists of episodes."""
 
     def __init__(self, network: ActorCritic, hyperparameters: Hyperparameters, settings: PPOSettings = PPOSettings()):
-        self.network = network
+        self.device = torch.device(settings.device)
+        self.network = network.to(self.device)
         self.hyperparameters = hyperparameters
         self.settings = settings
         self.optimizer = adam(network.parameters(), hyperparameters.lr, settings.adam_betas, settings.adam_epsilon)
@@ -196,7 +200,7 @@ class PPOLearner:
         episodes = finite_episodes(episodes)
         if not episodes:
             return []
-        batch = make_training_batch(episodes, self.network.input_names, self.network.config)
+        batch = make_training_batch(episodes, self.network.input_names, self.network.config).to(self.device)
         self.env_steps = env_steps if env_steps is not None else self.env_steps + batch.size
         stats = self.nan_guard.run(lambda: self._train(batch, abandon), skipped=f"{batch.size} transitions")
         return stats if stats is not None else []
@@ -264,14 +268,14 @@ class PPOLearner:
         # GAE with zero bootstrap after every episode, then advantages standardised over the iteration.
         advantages, value_targets = compute_gae(
             batch.rewards.numpy(),
-            values.numpy(),
+            values.cpu().numpy(),
             batch.episode_ends.numpy(),
             hp.discount_factor,
             self.settings.gae_lambda,
         )
         advantages = (advantages - advantages.mean()) / (advantages.std() + ADVANTAGE_STD_EPSILON)
-        advantages = torch.from_numpy(advantages.astype(np.float32))
-        value_targets = torch.from_numpy(value_targets.astype(np.float32))
+        advantages = torch.from_numpy(advantages.astype(np.float32)).to(self.device)
+        value_targets = torch.from_numpy(value_targets.astype(np.float32)).to(self.device)
 
         minibatch_size = minibatch_size_for(batch.size, hp.batch_size)
         stats = []

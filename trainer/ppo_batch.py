@@ -39,6 +39,16 @@ class TrainingBatch:
     def size(self) -> int:
         return int(self.rewards.shape[0])
 
+    def to(self, device: torch.device) -> TrainingBatch:
+        """Observations and actions on the learner's device; rewards and episode ends stay on the CPU, where the GAE
+        runs (a no-op on the CPU)."""
+        return TrainingBatch(
+            observations={name: array.to(device) for name, array in self.observations.items()},
+            actions=self.actions.to(device),
+            rewards=self.rewards,
+            episode_ends=self.episode_ends,
+        )
+
     def select(self, indices: torch.Tensor) -> dict[str, torch.Tensor]:
         return {name: array[indices] for name, array in self.observations.items()}
 

@@ -45,6 +45,16 @@ class ReplayBatch:
     """1.0 where the transition ended its episode (no bootstrap from the next state)."""
     next_observations: dict[str, torch.Tensor]
 
+    def to(self, device: torch.device) -> ReplayBatch:
+        """The same minibatch on the learner's device (a no-op on the CPU)."""
+        return ReplayBatch(
+            observations={name: array.to(device) for name, array in self.observations.items()},
+            actions=self.actions.to(device),
+            rewards=self.rewards.to(device),
+            dones=self.dones.to(device),
+            next_observations={name: array.to(device) for name, array in self.next_observations.items()},
+        )
+
 
 class ReplayBuffer:
     def __init__(self, inputs: Sequence[InputSpec], memory_budget_bytes: int, stack_size: int = 1):

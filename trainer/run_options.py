@@ -7,12 +7,24 @@ from collections.abc import Callable
 import click
 
 from racer.shared.sim.car_dynamics import CAR_PROFILE_NAMES, DEFAULT_CAR_PROFILE
+from racer.trainer.device import DEFAULT_DEVICE, DEVICE_NAMES
 from racer.trainer.precision import DEFAULT_PRECISION, PRECISION_NAMES
+
+device_option = click.option(
+    "--device",
+    type=click.Choice(DEVICE_NAMES),
+    default=DEFAULT_DEVICE,
+    show_default=True,
+    help="Where the trainer's networks and updates run: auto is the GPU when torch finds one (CUDA), else the CPU; "
+    "cuda without one is refused before anything starts. The workers always act on the CPU.",
+)
+"""`--device`: racer train, racer trainer and the benches that train (racer.trainer.device resolves it)."""
 
 
 def trainer_run_options(command: Callable) -> Callable:
-    """--precision, --car-profile and --dynamics-randomization."""
+    """--device, --precision, --car-profile and --dynamics-randomization."""
     options = (
+        device_option,
         click.option(
             "--precision",
             type=click.Choice(PRECISION_NAMES),

@@ -79,6 +79,9 @@ class SACSettings:
     process may use, at least 1 (as PPOSettings.threads_per_tower)."""
     precision: Precision = DEFAULT_PRECISION
     """What the towers compute in (as PPOSettings.precision): fp32 unless the user asks for bf16."""
+    device: str = "cpu"
+    """The torch device of the networks and gradient steps (racer.trainer.device); the replay memory stays in host
+    memory and each minibatch is copied over."""
     target_copy_rate: float = 1.0
     """tau of V_target <- tau V + (1 - tau) V_target (a preset's `rate_for_copying_weights_to_target`; DeepRacer: 1)."""
 
@@ -107,9 +110,10 @@ def sac_minibatch_size(replay_transitions: int, iteration_transitions: int, batc
 
 class SACLearner:
     def __init__(self, networks: SACNetworks, hyperparameters: Hyperparameters, settings: SACSettings | None = None):
-        self.networks = networks
-        self.hyperparameters = hyperparameters
         settings = settings or SACSettings()
+        self.device = torch.device(settings.device)
+        self.networks = networks.to(self.device)
+        self.hyperparameters = hyperparameters
         self.settings = settings
         self.optimizer = adam(networks.trainable_parameters(), hyperparameters.lr)
         seed = seed_or_fresh(settings.seed)
@@ -225,7 +229,7 @@ class SACLearner:
 
     def _step(self, minibatch: int, step: int, critic: ThreadPoolExecutor) -> dict[str, float]:
         hp, nets, dtype = self.hyperparameters, self.networks, self.tower_dtype
-        batch = self.replay.sample(minibatch, self.rng)
+        batch = self.replay.sample(minibatch, self.rng).to(self.device)
         self.optimizer.zero_grad(set_to_none=True)
 
         # The critic thread, in this order: Q at the minibatch's actions (which the policy loss reads first), V(s),

@@ -41,6 +41,7 @@ from racer.shared.store import open_store
 from racer.shared.transport.channels import ReceivedBatch, RunChannel
 from racer.trainer.algorithms import LearnerOptions, build_learner
 from racer.trainer.collector import Collector, CollectTimes, StopRequested
+from racer.trainer.device import describe_device
 from racer.trainer.iteration_summary import iteration_summary, record_summary
 from racer.trainer.learner import UpdateAbandoned
 from racer.trainer.log_lines import format_training_episode_line
@@ -83,6 +84,8 @@ class TrainerOptions:
     `updates_per_transition`, else DeepRacer's 1."""
     precision: Precision = DEFAULT_PRECISION
     """What the towers compute in during updates (racer.trainer.precision); written into every checkpoint."""
+    device: str = "cpu"
+    """The torch device of the networks and updates (racer.trainer.device resolves `--device`)."""
     preflight: PreflightReport | None = None
     """The custom files as `racer trainer` checked them; None: the trainer runs the preflight itself."""
 
@@ -125,6 +128,7 @@ class Trainer:
             LearnerOptions(
                 seed=self.options.seed,
                 precision=self.options.precision,
+                device=str(self.options.device),
                 sac_replay_memory_mb=self.options.sac_replay_memory_mb,
                 sac_updates_per_transition=self.options.sac_updates_per_transition,
                 network=self.network_file,
@@ -132,6 +136,7 @@ class Trainer:
             ),
         )
         self.network = self.learner.network
+        log.info("Training on %s", describe_device(torch.device(self.options.device)))
         self.collector = Collector(
             self.channel,
             self.consumer,

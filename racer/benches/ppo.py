@@ -39,6 +39,7 @@ from racer.shared.deepracer.hyperparameters import Hyperparameters
 from racer.shared.deepracer.model_metadata import parse_model_metadata
 from racer.shared.episode import Episode
 from racer.shared.policy.networks import ActorCritic, build_actor_critic
+from racer.trainer.device import DeviceError, describe_device, resolve_device
 from racer.trainer.gae import GAE_LAMBDA, compute_gae
 from racer.trainer.ppo import (
     ADAM_BETAS,
@@ -53,6 +54,7 @@ from racer.trainer.ppo import (
     shuffled_minibatches,
 )
 from racer.trainer.precision import Precision
+from racer.trainer.run_options import device_option
 
 __all__ = ["bench_network", "plain_ppo_update", "ppo_bench_command", "synthetic_episodes"]
 
@@ -163,10 +165,13 @@ def _time_trainer(
     seed: int,
     threads: int,
     precision: Precision,
+    device: str = "cpu",
 ) -> tuple[float, float]:
-    """(wall s, CPU s) of one PPOLearner.update; the two towers share the `threads` cores."""
+    """(wall s, CPU s) of one PPOLearner.update on `device`; on the CPU the two towers share the `threads` cores."""
     trainer = PPOLearner(
-        network, hp, PPOSettings(seed=seed, threads_per_tower=max(1, threads // 2), precision=precision)
+        network,
+        hp,
+        PPOSettings(seed=seed, threads_per_tower=max(1, threads // 2), precision=precision, device=device),
     )
     start, cpu_start = time.perf_counter(), time.process_time()
     trainer.update(episodes)
@@ -207,6 +212,7 @@ def _time_baseline(
     show_default=True,
     help="The system's experience rate (`racer bench throughput`), for the update's share of an iteration.",
 )
+@device_option
 def ppo_bench_command(
     transitions: int,
     epochs: int,
@@ -217,9 +223,14 @@ def ppo_bench_command(
     seed: int,
     agreement_transitions: int,
     experience_steps_per_s: float,
+    device: str,
 ) -> None:
     """One PPO update: samples/s of the project trainer in fp32 and in bf16 vs a plain fp32 eager baseline, and
     how far the bf16 update lands from the fp32 one, as one JSON line."""
+    try:
+        trainer_device = str(resolve_device(device))
+    except DeviceError as error:
+        raise click.UsageError(str(error)) from error
     hp = Hyperparameters(
         batch_size=batch_size, num_epochs=epochs, lr=3e-4, beta_entropy=0.01, discount_factor=0.999, loss_type="huber"
     )
@@ -229,14 +240,16 @@ def ppo_bench_command(
     warm_hp = Hyperparameters(batch_size=batch_size, num_epochs=1, lr=3e-4, loss_type="huber")
     print("ppo bench: warming up both paths", file=sys.stderr)
     for precision in Precision:
-        _time_trainer(copy.deepcopy(initial), warm_hp, warm_up, seed, threads, precision)
+        _time_trainer(copy.deepcopy(initial), warm_hp, warm_up, seed, threads, precision, trainer_device)
     _time_baseline(copy.deepcopy(initial), warm_hp, warm_up, seed, threads)
 
     runs: dict[str, list[tuple[float, float]]] = {"baseline": [], **{p.value: [] for p in Precision}}
     for repeat in range(repeats):
         runs["baseline"].append(_time_baseline(copy.deepcopy(initial), hp, episodes, seed, threads))
         for precision in Precision:
-            runs[precision.value].append(_time_trainer(copy.deepcopy(initial), hp, episodes, seed, threads, precision))
+            runs[precision.value].append(
+                _time_trainer(copy.deepcopy(initial), hp, episodes, seed, threads, precision, trainer_device)
+            )
         timings = ", ".join(f"{name} {timed[-1][0]:.1f} s" for name, timed in runs.items())
         print(f"ppo bench: run {repeat + 1}/{repeats}: {timings}", file=sys.stderr)
     samples = transitions * epochs
@@ -278,6 +291,8 @@ def ppo_bench_command(
                 "bf16_s": [round(s, 2) for s in bf16_s],
                 "bf16_cpu_s": [round(s, 2) for s in bf16_cpu_s],
                 "baseline_cpu_s": [round(s, 2) for s in baseline_cpu_s],
+                "device": describe_device(torch.device(trainer_device)),
+                "baseline_device": "cpu",
                 "cpu_capability": torch.backends.cpu.get_cpu_capability(),
                 "machine": platform.machine(),
                 "torch": torch.__version__,

@@ -24,6 +24,7 @@ import platform
 import statistics
 import sys
 import time
+from dataclasses import replace
 
 import click
 import numpy as np
@@ -34,8 +35,10 @@ from racer.shared.deepracer.hyperparameters import Hyperparameters
 from racer.shared.deepracer.model_metadata import parse_model_metadata
 from racer.shared.episode import Episode
 from racer.shared.policy.factory import build_network_for_metadata
+from racer.trainer.device import DeviceError, describe_device, resolve_device
 from racer.trainer.ppo import HUBER_DELTA
 from racer.trainer.replay import ReplayBatch
+from racer.trainer.run_options import device_option
 from racer.trainer.sac import SACLearner, SACSettings
 
 __all__ = ["METADATA", "plain_sac_step", "sac_bench_command", "synthetic_episodes"]
@@ -131,17 +134,29 @@ def _time_plain(trainer: SACLearner, steps: int, batch_size: int, threads: int) 
 @click.option("--threads-per-tower", type=click.IntRange(1), default=None, help="The trainer's (default: half).")
 @click.option("--repeats", type=click.IntRange(1), default=3, show_default=True, help="Alternating runs per path.")
 @click.option("--seed", type=int, default=0, show_default=True)
+@device_option
 def sac_bench_command(
-    steps: int, batch_size: str, threads: int | None, threads_per_tower: int | None, repeats: int, seed: int
+    steps: int,
+    batch_size: str,
+    threads: int | None,
+    threads_per_tower: int | None,
+    repeats: int,
+    seed: int,
+    device: str,
 ) -> None:
-    """One SAC iteration's gradient steps: steps/s on the shallow camera network, trainer vs plain step."""
+    """One SAC iteration's gradient steps: steps/s on the shallow camera network, the trainer (on `--device`) vs a
+    plain step on the CPU."""
+    try:
+        trainer_device = str(resolve_device(device))
+    except DeviceError as error:
+        raise click.UsageError(str(error)) from error
     torch.manual_seed(seed)
     batch = int(batch_size)
     threads = threads or len(os.sched_getaffinity(0))
     networks = build_network_for_metadata(parse_model_metadata(METADATA, "bench"))
     settings = SACSettings(replay_memory_bytes=256 << 20, seed=seed, threads_per_tower=threads_per_tower)
-    trainer = SACLearner(networks, Hyperparameters(batch_size=batch), settings)
     plain = SACLearner(copy.deepcopy(networks), Hyperparameters(batch_size=batch), settings)
+    trainer = SACLearner(networks, Hyperparameters(batch_size=batch), replace(settings, device=trainer_device))
     episodes = synthetic_episodes(10, 100, seed)
     trainer.add_experience(episodes)
     plain.add_experience(episodes)
@@ -175,6 +190,8 @@ def sac_bench_command(
                 "critic_thread_cpu_s_per_step": round((trainer_cpu_s - policy_thread_cpu_s) / steps, 4),
                 "baseline_cpu_s_per_step": round(statistics.median(cpu for _, cpu in plain_runs) / steps, 4),
                 "precision": trainer.settings.precision.value,
+                "device": describe_device(trainer.device),
+                "baseline_device": "cpu",
                 "threads_per_tower": settings.threads_per_tower or max(1, len(os.sched_getaffinity(0)) // 2),
                 "baseline_threads": threads,
                 "load_average_1min": round(os.getloadavg()[0], 2),

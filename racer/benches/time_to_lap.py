@@ -21,6 +21,7 @@ from racer.shared.deepracer.hyperparameters import HyperparametersError, parse_h
 from racer.shared.run_settings import RunOptions
 from racer.shared.sim.track_option import direction_option
 from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
+from racer.trainer.device import DeviceError, describe_device, resolve_device
 from racer.trainer.run_options import trainer_run_options
 
 
@@ -129,6 +130,7 @@ def time_to_lap_command(
     hyperparameter_pairs,
     network_file,
     preset_file,
+    device,
     precision,
     car_profile,
     dynamics_randomization,
@@ -139,6 +141,10 @@ def time_to_lap_command(
     apart); print one JSON line. Hyperparameters: the race's clipped-PPO recipe (3 epochs, discount 0.99), else
     the SimApp's defaults."""
 
+    try:  # a GPU asked for and absent is refused before anything starts
+        trainer_device = describe_device(resolve_device(device))
+    except DeviceError as error:
+        raise click.UsageError(str(error)) from error
     overrides = hyperparameter_overrides(hyperparameter_pairs)
     action_space = action_space or ("continuous" if algorithm == "sac" else "discrete")
     if algorithm == "sac" and action_space != "continuous":
@@ -209,7 +215,7 @@ def time_to_lap_command(
             use_minio=False,
             log_dir=workdir / "logs",
             seed=seed,
-            trainer_options=(*ratio_options, "--precision", precision),
+            trainer_options=(*ratio_options, "--precision", precision, "--device", device),
         )
         result = {
             "race_type": race_type,
@@ -217,6 +223,7 @@ def time_to_lap_command(
             "algorithm": algorithm,
             "action_space": action_space,
             "precision": precision,
+            "device": trainer_device,
             "network": network_name,
             "preset": json.loads(preset_file.read_text()) if preset_file is not None else None,
             "car_profile": car_profile,

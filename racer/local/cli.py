@@ -17,6 +17,7 @@ from racer.shared.sim.challenge_cli import challenge_options, challenge_params_f
 from racer.shared.sim.config import DEFAULT_TRACK
 from racer.shared.sim.track_option import TRACK_HELP, direction_option
 from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
+from racer.trainer.device import DeviceError, resolve_device
 from racer.trainer.run_options import trainer_run_options
 
 
@@ -91,6 +92,7 @@ def train_command(
     seed,
     viewer_port,
     viewer_host,
+    device,
     precision,
     car_profile,
     dynamics_randomization,
@@ -98,6 +100,10 @@ def train_command(
     race_param,
 ) -> None:
     """Train with the embedded default: Redis, store, trainer and rollout workers as local processes."""
+    try:  # a GPU asked for and absent is refused before anything starts
+        resolve_device(device)
+    except DeviceError as error:
+        raise click.UsageError(str(error)) from error
     base_settings = settings_from_env()
     model_prefix = model_prefix or datetime.now().strftime("racer-%Y%m%d-%H%M%S")
     store_root = base_settings.store.root if isinstance(base_settings.store, LocalStoreSettings) else Path("racer-data")
@@ -123,6 +129,6 @@ def train_command(
         viewer_host=viewer_host,
         viewer_port=viewer_port or None,
         envs_per_worker=envs_per_worker,
-        trainer_options=("--precision", precision),
+        trainer_options=("--precision", precision, "--device", device),
     )
     sys.exit(run_local_training(plan, base_settings))

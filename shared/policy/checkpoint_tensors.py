@@ -35,8 +35,8 @@ __all__ = [
 
 
 def tensors_to_bytes(tensors: Mapping[str, torch.Tensor]) -> bytes:
-    """safetensors bytes of a state dict (no pickle anywhere)."""
-    return save_safetensors({name: tensor.detach().contiguous() for name, tensor in tensors.items()})
+    """safetensors bytes of a state dict (no pickle anywhere), from host copies when the trainer runs on a GPU."""
+    return save_safetensors({name: tensor.detach().cpu().contiguous() for name, tensor in tensors.items()})
 
 
 def tensors_from_bytes(data: bytes) -> dict[str, torch.Tensor]:

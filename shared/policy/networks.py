@@ -235,10 +235,10 @@ def _tower_features(
     tower: Tower, observations: Mapping[str, torch.Tensor], tower_dtype: torch.dtype | None
 ) -> torch.Tensor:
     """A tower's output in fp32. With `tower_dtype` (the trainer's bf16 option) the convs and dense layers run under
-    CPU autocast; the heads, softmax and log-probabilities after it stay fp32."""
+    autocast on the observations' device; the heads, softmax and log-probabilities after it stay fp32."""
     if tower_dtype is None:
         return tower(observations)
-    with torch.autocast("cpu", dtype=tower_dtype):
+    with torch.autocast(next(iter(observations.values())).device.type, dtype=tower_dtype):
         features = tower(observations)
     return features.float()
 

@@ -7,6 +7,7 @@ which rollout workers sample from. Policy network only; critics stay out.
 
 from __future__ import annotations
 
+import copy
 import io
 import warnings
 
@@ -46,6 +47,8 @@ class _SacInferenceModel(nn.Module):
 def export_onnx(network: ActorCritic | SACNetworks) -> bytes:
     """The inference model of a network: inputs named by sensor (raw 0-255 grayscale float [1, 120, 160, C],
     lidar [1, n]), outputs as the module docstring says. Policy tower only."""
+    if next(network.parameters()).device.type != "cpu":  # a GPU trainer's network: export a host copy
+        network = copy.deepcopy(network).cpu()
     sac = isinstance(network, SACNetworks)
     examples = tuple(torch.zeros(1, *spec.shape) for spec in network.config.inputs)
     buffer = io.BytesIO()

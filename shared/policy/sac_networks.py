@@ -164,7 +164,7 @@ def _features(tower: nn.Module, observations: Mapping[str, torch.Tensor], dtype:
     """A tower's output in fp32; with `dtype` (bf16 when the user asks for it) its layers run under autocast."""
     if dtype is None:
         return tower(observations)
-    with torch.autocast("cpu", dtype=dtype):
+    with torch.autocast(next(iter(observations.values())).device.type, dtype=dtype):
         features = tower(observations)
     return features.float()
 
@@ -222,7 +222,8 @@ class SACNetworks(nn.Module):
         dtype: torch.dtype | None = None,
     ) -> SquashedSample:
         mean, log_std = self.policy_distribution(observations, dtype)
-        noise = torch.randn(mean.shape, generator=generator, dtype=mean.dtype)
+        # drawn on the CPU (the learner's generator), so a seed gives the same noise on every device
+        noise = torch.randn(mean.shape, generator=generator, dtype=mean.dtype).to(mean.device)
         raw = mean + torch.exp(log_std) * noise
         action = torch.tanh(raw)
         return SquashedSample(action, squashed_gaussian_log_prob(raw, action, mean, log_std), mean, log_std)
