@@ -21,6 +21,7 @@ __all__ = [
     "DeviceError",
     "cuda_absence_reason",
     "describe_device",
+    "exact_fp32",
     "resolve_device",
 ]
 
@@ -61,6 +62,20 @@ def resolve_device(name: str, absence_reason: Callable[[], str | None] = cuda_ab
     if name == "cuda":
         raise DeviceError(f"--device cuda: {reason}. Train on the CPU with --device cpu (or auto).")
     return torch.device("cpu")
+
+
+def exact_fp32(device: torch.device) -> None:
+    """On a CUDA device, fp32 convolutions and products in fp32, not TF32.
+
+    cuDNN computes fp32 convolutions in TF32 (a 10-bit mantissa) by default on Ampere and newer GPUs, which would make
+    `--precision fp32` mean something else on a GPU than on a CPU; bf16 is the trainer's reduced precision and is
+    asked for by name. These are torch's process-wide switches, set once by the learner that owns the process's
+    training."""
+    import torch
+
+    if device.type == "cuda":
+        torch.backends.cudnn.allow_tf32 = False
+        torch.backends.cuda.matmul.allow_tf32 = False
 
 
 def describe_device(device: torch.device) -> str:

@@ -57,6 +57,7 @@ from racer.shared.deepracer.hyperparameters import Hyperparameters
 from racer.shared.episode import Episode
 from racer.shared.policy.networks import ActionDistribution, ActorCritic
 from racer.trainer.clip_schedule import CONSTANT_ONE, ClipSchedule
+from racer.trainer.device import exact_fp32
 from racer.trainer.gae import GAE_LAMBDA, compute_gae
 from racer.trainer.learner import ADAM_BETAS, ADAM_EPSILON, UpdateAbandoned, adam, seed_or_fresh
 from racer.trainer.log_lines import format_policy_training_line
@@ -157,6 +158,7 @@ class PPOLearner:
 
     def __init__(self, network: ActorCritic, hyperparameters: Hyperparameters, settings: PPOSettings = PPOSettings()):
         self.device = torch.device(settings.device)
+        exact_fp32(self.device)
         self.network = network.to(self.device)
         self.hyperparameters = hyperparameters
         self.settings = settings

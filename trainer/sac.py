@@ -47,6 +47,7 @@ from torch import nn
 from racer.shared.deepracer.hyperparameters import Hyperparameters
 from racer.shared.episode import Episode
 from racer.shared.policy.sac_networks import QAtStoredActions, SACNetworks
+from racer.trainer.device import exact_fp32
 from racer.trainer.learner import UpdateAbandoned, adam, seed_or_fresh
 from racer.trainer.log_lines import format_sac_training_line
 from racer.trainer.nan_guard import (
@@ -112,6 +113,7 @@ class SACLearner:
     def __init__(self, networks: SACNetworks, hyperparameters: Hyperparameters, settings: SACSettings | None = None):
         settings = settings or SACSettings()
         self.device = torch.device(settings.device)
+        exact_fp32(self.device)
         self.networks = networks.to(self.device)
         self.hyperparameters = hyperparameters
         self.settings = settings

@@ -20,7 +20,7 @@ from racer.shared.policy.checkpoint_tensors import tensors_from_bytes, tensors_t
 from racer.shared.policy.factory import build_network_for_metadata
 from racer.shared.policy.onnx_export import export_onnx
 from racer.trainer.device import DeviceError, cuda_absence_reason, resolve_device
-from racer.trainer.ppo import PPOLearner, PPOSettings
+from racer.trainer.ppo import PPOLearner, PPOSettings, make_training_batch
 from racer.trainer.sac import SACLearner, SACSettings
 from tests.trainer.ppo_task import random_episodes, task_network
 
@@ -78,7 +78,9 @@ def test_trainer_refuses_cuda_before_connecting(tmp_path):
 
 @pytest.mark.skipif(cuda_absence_reason() is not None, reason="needs a CUDA device (run on a GPU machine)")
 def test_a_ppo_update_on_the_gpu_lands_where_the_cpu_update_does():
-    """Same seed, same episodes: the same minibatches, and weights within float rounding of the CPU's."""
+    """Same seed, same episodes, same minibatches: the GPU-updated policy is the CPU-updated one to within float
+    rounding, measured as the KL between them against the KL the update itself moved the policy by (Adam turns
+    rounding on near-zero gradients into whole steps, so single weights may differ by a learning rate)."""
     network = task_network(num_actions=3, seed=0)
     episodes = random_episodes(network, [100, 90, 66], np.random.default_rng(1))
     hyperparameters = Hyperparameters(batch_size=64, num_epochs=2, lr=3e-4)
@@ -86,9 +88,15 @@ def test_a_ppo_update_on_the_gpu_lands_where_the_cpu_update_does():
     on_gpu = PPOLearner(copy.deepcopy(network), hyperparameters, PPOSettings(seed=0, device="cuda"))
     cpu_stats, gpu_stats = on_cpu.update(episodes), on_gpu.update(episodes)
     assert [s.minibatches for s in cpu_stats] == [s.minibatches for s in gpu_stats]
-    gpu_weights = on_gpu.network.state_dict().values()
-    for (name, cpu_weight), gpu_weight in zip(on_cpu.network.state_dict().items(), gpu_weights, strict=True):
-        assert torch.allclose(cpu_weight, gpu_weight.cpu(), atol=1e-4), name
+    observations = make_training_batch(episodes, network.input_names).observations
+    with torch.no_grad():
+        before = network.distribution(observations).probs
+        after_cpu = on_cpu.network.distribution(observations).probs
+        after_gpu = on_gpu.network.distribution({k: v.cuda() for k, v in observations.items()}).probs.cpu()
+    update_kl = float((before * (before / after_cpu).log()).sum(1).mean())
+    device_kl = float((after_cpu * (after_cpu / after_gpu).log()).sum(1).mean())
+    assert update_kl > 1e-4
+    assert device_kl < 0.01 * update_kl, (device_kl, update_kl)
 
 
 @pytest.mark.skipif(cuda_absence_reason() is not None, reason="needs a CUDA device (run on a GPU machine)")
