@@ -2,7 +2,7 @@
 
 Layout under the model prefix (DeepRacer-for-Cloud's evaluation layout; docs/evaluation.md):
 
-    <prefix>/metrics/EvaluationMetrics-<ts>.json                 DeepRacer's schema (s3_metrics.py), one entry per lap
+    <prefix>/metrics/evaluation/evaluation-<ts>.json             DeepRacer's schema (s3_metrics.py), one entry per lap
     <prefix>/evaluation-<ts>/evaluation-simtrace/0-iteration.csv  19-column simtrace of every step
     <prefix>/evaluation-<ts>/summary.json                         what ran and its laps (race rule: laps, best lap,
                                                                   resets per lap, total progress), timings, file keys
@@ -12,13 +12,15 @@ Layout under the model prefix (DeepRacer-for-Cloud's evaluation layout; docs/eva
     <prefix>/evaluation-<ts>/camera-45degree/0-video.mp4
     <prefix>/evaluation-<ts>/evaluation.mcap                      Foxglove recording
 
-`<ts>` is the UTC start time `YYYYmmddHHMMSS`; a second evaluation started within the same second gets `-2`, `-3`.
+`<ts>` is the UTC start time `YYYYmmddHHMMSS`; a second evaluation started within the same second takes the next free
+second (racer's earlier runs may have a `-2` suffix and their metrics at `metrics/EvaluationMetrics-<ts>.json`).
 Videos and the recording sit in the evaluation folder (not `<prefix>/mp4/`) so that one evaluation's files stay
 together and several evaluations of one model never overwrite each other's `0-video.mp4`.
 """
 
 from __future__ import annotations
 
+import datetime as dt
 from dataclasses import asdict
 from typing import Any
 
@@ -35,14 +37,19 @@ from racer.shared.sim.env import DeepRacerEnv
 from racer.shared.store import ObjectStore, join_key
 
 
-def choose_run_name(store: ObjectStore, model_prefix: str, timestamp: str) -> str:
-    """`evaluation-<ts>`, or with `-2`, `-3` ... when that folder already has files."""
-    name = model_layout.evaluation_folder(timestamp)
-    suffix = 1
-    while store.list_keys(join_key(model_prefix, name) + "/"):
-        suffix += 1
-        name = model_layout.evaluation_folder(f"{timestamp}-{suffix}")
-    return name
+def choose_run_name(store: ObjectStore, model_prefix: str, started: dt.datetime) -> str:
+    """`evaluation-<ts>` of the start time, or of the next second free of an evaluation folder and metrics file.
+
+    A later second rather than a suffix (`-2`): deepracer-utils reads an evaluation only from a folder named with
+    exactly 14 digits (model_layout.EVALUATION_TIMESTAMP_FORMAT)."""
+    moment = started
+    while True:
+        timestamp = moment.strftime(model_layout.EVALUATION_TIMESTAMP_FORMAT)
+        folder = join_key(model_prefix, model_layout.evaluation_folder(timestamp))
+        metrics = join_key(model_prefix, model_layout.evaluation_metrics(timestamp))
+        if not store.list_keys(folder + "/") and not store.exists(metrics):
+            return model_layout.evaluation_folder(timestamp)
+        moment += dt.timedelta(seconds=1)
 
 
 class SimtraceRecorder:

@@ -124,8 +124,7 @@ class EvaluationSession:
             raise ValueError("a policy object needs its model_metadata")
         self.policy = policy
         self.model_metadata = model_metadata
-        timestamp = (now or dt.datetime.now(dt.UTC)).strftime("%Y%m%d%H%M%S")
-        self.layout = EvaluationLayout(prefix, choose_run_name(store, prefix, timestamp))
+        self.layout = EvaluationLayout(prefix, choose_run_name(store, prefix, now or dt.datetime.now(dt.UTC)))
         self.env = DeepRacerEnv(
             self._env_config(),
             render_mode="rgb_array" if (config.video.enabled or config.mcap) else None,

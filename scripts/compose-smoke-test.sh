@@ -332,8 +332,8 @@ numbers = sorted({int(m.group(1)) for k in keys if k.startswith(f"{prefix}/model
 if numbers[-1:] != [2]:
     problems.append(f"checkpoints {numbers}: expected the last to be 2 (checkpoint 0 + two iterations)")
 if os.environ["CHECK"] == "evaluation":  # after `docker compose --profile evaluation run evaluation`
-    metrics = [k for k in keys if re.fullmatch(re.escape(prefix) + r"/metrics/EvaluationMetrics-[^/]+\.json", k)]
-    simtraces = [k for k in keys if re.fullmatch(re.escape(prefix) + r"/evaluation-[^/]+/evaluation-simtrace/0-iteration\.csv", k)]
+    metrics = [k for k in keys if re.fullmatch(re.escape(prefix) + r"/metrics/evaluation/evaluation-\d{14}\.json", k)]
+    simtraces = [k for k in keys if re.fullmatch(re.escape(prefix) + r"/evaluation-\d{14}/evaluation-simtrace/0-iteration\.csv", k)]
     if not metrics or not simtraces:
         sys.exit(f"no evaluation output under s3://{bucket}/{prefix}/: metrics {metrics}, simtraces {simtraces}")
     print(f"evaluation: {metrics[0]}, {simtraces[0]}")

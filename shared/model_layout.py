@@ -21,7 +21,15 @@ import/export/validation, analysis) imports its names from here.
     training-simtrace/<n>-iteration.csv     one worker (several: <i>/training-simtrace/<n>-iteration.csv)
     metrics/TrainingMetrics.json            worker 0 (worker i: TrainingMetrics_<i>.json)
     metrics/iterations.jsonl                racer's own iteration log
-    metrics/EvaluationMetrics-<ts>.json, evaluation-<ts>/evaluation-simtrace/0-iteration.csv    one evaluation
+    metrics/evaluation/evaluation-<ts>.json one evaluation's metrics (racer's earlier key
+                                            metrics/EvaluationMetrics-<ts>.json is still read)
+    evaluation-<ts>/evaluation-simtrace/0-iteration.csv    one evaluation's simtrace; <ts> is 14 digits
+
+These are the keys DeepRacer-for-Cloud's scripts give the SimApp (deepracer-for-cloud 2eb1a1f1
+`scripts/training/prepare-config.py`, `scripts/evaluation/prepare-config.py`, `defaults/template-run.env`:
+DR_LOCAL_S3_METRICS_PREFIX=<prefix>/metrics) and the SimApp's simtrace postfixes (deepracer-simapp 01f5f015
+`bundle/markov/boto/s3/constants.py`, worker folders in `bundle/markov/rollout_worker.py`), so DRfC's tools and
+deepracer-utils 1.5.6 (`deepracer/logs/handler.py`, `metrics.py`) open a racer run as one of DRfC's.
 """
 
 from __future__ import annotations
@@ -166,11 +174,29 @@ def training_metrics(worker_id: int) -> str:
 
 
 EVALUATION_PREFIX = "evaluation-"
+EVALUATION_TIMESTAMP_FORMAT = "%Y%m%d%H%M%S"
+"""`<ts>`: 14 digits, as DRfC's evaluation prepare-config.py writes it; deepracer-utils 1.5.6 finds an evaluation's
+simtrace only under `evaluation-<14 digits>/` (`evaluation-([0-9]{14})` in `deepracer/logs/handler.py`)."""
+EVALUATION_METRICS_DIR = "metrics/evaluation"
+_EVALUATION_METRICS = re.compile(r"^metrics/(?:evaluation/evaluation-|EvaluationMetrics-)(?P<timestamp>[^/]+)\.json$")
 
 
 def evaluation_folder(timestamp: str) -> str:
     """`evaluation-<ts>`: one evaluation's folder under the model prefix."""
     return EVALUATION_PREFIX + timestamp
+
+
+def evaluation_metrics(timestamp: str) -> str:
+    """`metrics/evaluation/evaluation-<ts>.json`, where DRfC's evaluations put their metrics today."""
+    return f"{EVALUATION_METRICS_DIR}/{EVALUATION_PREFIX}{timestamp}.json"
+
+
+def evaluation_metrics_timestamp(relative: str) -> str | None:
+    """The `<ts>` of an evaluation metrics key relative to the model prefix, else None. Both forms count: the current
+    one and racer's earlier `metrics/EvaluationMetrics-<ts>.json` (DRfC's own until deepracer-for-cloud 59ed9e9,
+    March 2024), so that evaluations written before are still found."""
+    match = _EVALUATION_METRICS.match(relative)
+    return None if match is None else match["timestamp"]
 
 
 _EVALUATION_FILES = {
@@ -185,13 +211,20 @@ _EVALUATION_FILES = {
 class EvaluationLayout:
     """Keys of one evaluation, relative to the model prefix (`relative`) and absolute in the store (`key`).
 
-    DeepRacer-for-Cloud's evaluation layout: `metrics/EvaluationMetrics-<ts>.json` and the folder `evaluation-<ts>/`
-    with the simtrace; racer keeps its summary, settings, videos and recording in the same folder.
+    DeepRacer-for-Cloud's evaluation layout: `metrics/evaluation/evaluation-<ts>.json` (METRICS_S3_OBJECT_KEY in
+    deepracer-for-cloud 2eb1a1f1 `scripts/evaluation/prepare-config.py`, under DR_LOCAL_S3_METRICS_PREFIX) and the
+    folder `evaluation-<ts>/` with the simtrace (its SIMTRACE_S3_PREFIX); racer keeps its summary, settings, videos
+    and recording in the same folder.
+
+    The metrics are written under the current key only, not under racer's earlier `metrics/EvaluationMetrics-<ts>.json`
+    as well: no tool needs both (deepracer-utils 1.5.6 reads no evaluation metrics; DRfC's upload and import copy the
+    whole `metrics/` prefix), and two copies would count each evaluation twice for anything that lists `metrics/`.
+    Readers recognise both (`evaluation_metrics_timestamp`), so evaluations written before still open.
     """
 
     model_prefix: str
     run_name: str
-    """`evaluation-<ts>` (possibly with a `-<n>` suffix)."""
+    """`evaluation-<ts>`; racer's earlier runs may carry a `-<n>` suffix."""
 
     @property
     def timestamp(self) -> str:
@@ -200,7 +233,7 @@ class EvaluationLayout:
     def relative(self, name: str) -> str:
         """`metrics`, `simtrace`, `summary`, `params`, `mcap`, or any file name inside the evaluation folder."""
         if name == "metrics":
-            return f"metrics/EvaluationMetrics-{self.timestamp}.json"
+            return evaluation_metrics(self.timestamp)
         return f"{self.run_name}/{_EVALUATION_FILES.get(name, name)}"
 
     def video(self, view: str) -> str:

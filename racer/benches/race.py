@@ -37,6 +37,7 @@ from racer.benches.race_field import (
     say,
 )
 from racer.benches.workdir import bench_workdir, cpu_description
+from racer.shared.model_layout import evaluation_metrics_timestamp
 
 GOAL_RATIO = 1.7
 """Entrants per minute of the race over the one-after-another baseline, on 2 cores (issue 32)."""
@@ -68,10 +69,15 @@ def evaluate_args(race: dict[str, Any], name: str, seed: int, out: Path) -> list
 
 def sequential_laps(out: Path, name: str) -> list[int]:
     """Lap times (ms) of a baseline evaluation, from its local copy's metrics file."""
-    metrics = sorted((out / name).glob("metrics/EvaluationMetrics-*.json"))
+    folder = out / name
+    metrics = sorted(
+        (timestamp, path)
+        for path in folder.glob("metrics/**/*.json")
+        if (timestamp := evaluation_metrics_timestamp(path.relative_to(folder).as_posix())) is not None
+    )
     if not metrics:
         return []
-    return [int(lap["elapsed_time_in_milliseconds"]) for lap in json.loads(metrics[-1].read_text())["metrics"]]
+    return [int(lap["elapsed_time_in_milliseconds"]) for lap in json.loads(metrics[-1][1].read_text())["metrics"]]
 
 
 def board_check(board: dict[str, Any], names: list[str]) -> dict[str, Any]:

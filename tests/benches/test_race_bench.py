@@ -11,7 +11,7 @@ import pytest
 import yaml
 from click.testing import CliRunner
 
-from racer.benches.race import race_bench_command
+from racer.benches.race import race_bench_command, sequential_laps
 from racer.shared.store import LocalStore
 from tests.race.test_real_race import save_model
 
@@ -111,3 +111,17 @@ def test_an_entrant_copy_holds_only_the_raced_checkpoint(tmp_path):
     copy = CheckpointStore(store, "fast-2")
     assert copy.select("best") == first
     copy.load_inference_policy(first)
+
+
+def test_baseline_laps_come_from_either_evaluation_metrics_key(tmp_path):
+    """The newest evaluation's laps, whether its metrics sit at DeepRacer-for-Cloud's current key or racer's earlier
+    `metrics/EvaluationMetrics-<ts>.json`."""
+    model = tmp_path / "out" / "alpha"
+    (model / "metrics" / "evaluation").mkdir(parents=True)
+    lap = {"elapsed_time_in_milliseconds": 0}
+    (model / "metrics" / "EvaluationMetrics-20250101000000.json").write_text(json.dumps({"metrics": [lap]}))
+    assert sequential_laps(tmp_path / "out", "alpha") == [0]
+    newer = [{**lap, "elapsed_time_in_milliseconds": ms} for ms in (11200, 10900)]
+    (model / "metrics" / "evaluation" / "evaluation-20260101000000.json").write_text(json.dumps({"metrics": newer}))
+    (model / "metrics" / "TrainingMetrics.json").write_text(json.dumps({"metrics": []}))
+    assert sequential_laps(tmp_path / "out", "alpha") == [11200, 10900]

@@ -96,7 +96,7 @@ def test_metrics_file_has_deepracers_keys_order_and_types(tmp_path, deepracer_da
         tmp_path, exits={0: [50.0]}, deepracer=DeepRacerRules(number_of_trials=2, number_of_resets=2)
     )
     ours_raw = (tmp_path / report.keys["metrics"]).read_bytes()
-    assert report.keys["metrics"].startswith("scripted-model/metrics/EvaluationMetrics-")
+    assert report.keys["metrics"].startswith("scripted-model/metrics/evaluation/evaluation-")
     ours = json.loads(ours_raw)
     real_files = sorted(deepracer_data.glob("metrics/*EvaluationMetrics*.json"))
     assert real_files

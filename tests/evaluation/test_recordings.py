@@ -39,7 +39,7 @@ def test_store_layout_follows_deepracer_for_cloud(recorded):
     root, out, report = recorded
     run = "scripted-model/evaluation-20261122073005"
     assert report.keys == {
-        "metrics": "scripted-model/metrics/EvaluationMetrics-20261122073005.json",
+        "metrics": "scripted-model/metrics/evaluation/evaluation-20261122073005.json",
         "simtrace": f"{run}/evaluation-simtrace/0-iteration.csv",
         "summary": f"{run}/summary.json",
         "params": f"{run}/evaluation_params.yaml",
@@ -159,12 +159,14 @@ def test_evaluation_params_use_deepracers_yaml_keys(recorded):
     )
 
 
-def test_a_second_evaluation_in_the_same_second_gets_its_own_folder(tmp_path):
+def test_a_second_evaluation_in_the_same_second_takes_the_next_free_second(tmp_path):
+    """Still 14 digits, the only evaluation folder name deepracer-utils reads."""
     first, _ = run_scripted(tmp_path, exits={0: [5.0]}, now=NOW)
     second, _ = run_scripted(tmp_path, exits={0: [5.0]}, now=NOW)
     assert first.layout.run_name == "evaluation-20261122073005"
-    assert second.layout.run_name == "evaluation-20261122073005-2"
+    assert second.layout.run_name == "evaluation-20261122073006"
     assert first.keys["simtrace"] != second.keys["simtrace"]
+    assert second.keys["metrics"] == "scripted-model/metrics/evaluation/evaluation-20261122073006.json"
 
 
 def test_lidar_models_record_a_laser_scan_per_step(tmp_path):
