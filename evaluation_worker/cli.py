@@ -13,9 +13,10 @@ from pathlib import Path
 import click
 
 from racer.evaluation_worker.config import CONSOLE_NUMBER_OF_RESETS, MODES
-from racer.shared.sim.car_dynamics import CAR_PROFILE_NAMES, DEFAULT_CAR_PROFILE
+from racer.shared.sim.car_dynamics import CAR_PROFILE_NAMES
 from racer.shared.sim.challenge_cli import challenge_options, challenge_params_from_options
 from racer.shared.sim.config import DEFAULT_TRACK, RESET_POSITIONS
+from racer.shared.sim.generation_option import CAR_PROFILE_HELP, GENERATION_HELP, generation_option
 from racer.shared.sim.track_option import TRACK_HELP, direction_option
 from racer.shared.sim.worlds import WORLD_NAMES
 
@@ -122,12 +123,12 @@ def _video_size(text: str) -> tuple[int, int]:
     help="Also keep a local copy of the outputs here (same layout as under the model prefix).",
 )
 @click.option("--seed", type=int, default=0, show_default=True, help="Seeds sensor noise; the sim clock starts at 0.")
+@generation_option(help_text=f"{GENERATION_HELP} The model's training_params record the one it trained in.")
 @click.option(
     "--car-profile",
-    type=click.Choice(CAR_PROFILE_NAMES),
-    default=DEFAULT_CAR_PROFILE,
-    show_default=True,
-    help="The car's dynamics (RACER_CAR_PROFILE); the model's training_params record the one it trained in.",
+    type=click.Choice(("", *CAR_PROFILE_NAMES)),
+    default="",
+    help=CAR_PROFILE_HELP,
 )
 @click.option(
     "--opponent",
@@ -168,6 +169,7 @@ def evaluate_command(
     out_dir,
     seed,
     car_profile,
+    generation,
     opponents,
     multi_car_type,
     race_type,
@@ -219,6 +221,7 @@ def evaluate_command(
             seed=seed,
             challenge=challenge,
             car_profile=car_profile,
+            generation=generation,
         )
         store = open_store(settings_from_env().store)
         if opponents:

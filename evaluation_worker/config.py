@@ -7,9 +7,10 @@ from pathlib import Path
 
 from racer.shared.deepracer.model_metadata import ModelMetadata
 from racer.shared.run_settings import JobSettings
-from racer.shared.sim.car_dynamics import CAR_PROFILE_NAMES, DEFAULT_CAR_PROFILE
+from racer.shared.sim.car_dynamics import CAR_PROFILE_NAMES
 from racer.shared.sim.challenge_config import ChallengeConfig
 from racer.shared.sim.config import DEFAULT_TRACK, RESET_POSITIONS
+from racer.shared.sim.generations import DEFAULT_GENERATION, GENERATION_NAMES
 from racer.shared.sim.worlds import WORLD_NAMES
 from racer.shared.worker_settings import WorkerSettings
 
@@ -126,11 +127,17 @@ class EvaluationConfig:
     mcap: bool = True
     seed: int = 0
     """Seeds the LIDAR noise; the sim clock starts at 0."""
-    car_profile: str = DEFAULT_CAR_PROFILE
-    """RACER_CAR_PROFILE: the car's dynamics (`car_dynamics.CAR_DYNAMICS`)."""
+    car_profile: str = ""
+    """RACER_CAR_PROFILE: a car (`car_dynamics.CAR_DYNAMICS`) instead of the generation's; "" = the generation's."""
+    generation: str = DEFAULT_GENERATION
+    """RACER_GENERATION: the DeepRacer simulator the evaluation stands in for (look and car)."""
 
     def __post_init__(self) -> None:
-        if self.car_profile not in CAR_PROFILE_NAMES:
+        if self.generation not in GENERATION_NAMES:
+            raise EvaluationConfigError(
+                f"--generation (RACER_GENERATION) must be one of {', '.join(GENERATION_NAMES)}, got {self.generation!r}"
+            )
+        if self.car_profile and self.car_profile not in CAR_PROFILE_NAMES:
             raise EvaluationConfigError(
                 f"--car-profile (RACER_CAR_PROFILE) must be one of {', '.join(CAR_PROFILE_NAMES)}, "
                 f"got {self.car_profile!r}"
@@ -162,6 +169,7 @@ class EvaluationConfig:
             off_track_penalty_s=off_track,
             collision_penalty_s=collision,
             car_profile=self.car_profile,
+            generation=self.generation,
             challenge=self.challenge,
         )
         return settings, job

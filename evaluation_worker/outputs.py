@@ -104,6 +104,7 @@ def evaluation_params(config: EvaluationConfig, layout: EvaluationLayout, checkp
         "MP4_S3_OBJECT_PREFIX": layout.key(layout.run_name),
         "RACER_EVALUATION_MODE": config.mode,
         "RACER_CAR_PROFILE": config.car_profile,
+        "RACER_GENERATION": config.generation,
     }
     if config.challenge.has_objects:
         params.update(config.challenge.to_training_params())  # OBJECT_POSITIONS stays a YAML list

@@ -172,6 +172,7 @@ class EvaluationSession:
             "track_length_m": round(self.env.base_track.length_m, 6),
             "world": config.world,
             "reverse_dir": config.reverse_dir,
+            "generation": config.generation,
             "car_profile": config.car_profile,
             "action_space_type": "continuous" if self.model_metadata.is_continuous else "discrete",
             "sensors": sorted(self.env.observation_space.spaces),

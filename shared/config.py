@@ -18,6 +18,7 @@ before MuJoCo loads, and launchers that copy their environment into a child proc
 | `RACER_DEEPRACER_DATA` | a folder of DeepRacer's own files (routes, models, reward functions, simtraces) that benchmarks compare against (`racer bench ... --data`) | unset |
 | `RACER_TRACKS_URL` | where SimApp route files are fetched from on first use (http(s)://, file://, a folder, a SimApp checkout) | the SimApp's repository at the catalogue's commit |
 | `RACER_CACHE_HOME` | racer's per-user cache; fetched route files are kept in its `routes/` | `$XDG_CACHE_HOME/racer`, else `~/.cache/racer` |
+| `RACER_GENERATION` | the DeepRacer simulator to stand in for, its look and car together (`--generation`: 2019, simapp5, simapp6) | `simapp6` |
 """
 
 from __future__ import annotations
@@ -176,3 +177,13 @@ def deepracer_data(environ: Mapping[str, str] | None = None) -> Path | None:
     env = os.environ if environ is None else environ
     raw = env.get(DEEPRACER_DATA_VARIABLE, "").strip()
     return Path(raw).expanduser().resolve() if raw else None
+
+
+GENERATION_VARIABLE = "RACER_GENERATION"
+
+
+def generation_name(environ: Mapping[str, str] | None = None) -> str | None:
+    """The DeepRacer generation RACER_GENERATION names (the default of `--generation`); None when unset, which
+    means racer's default generation (`racer.shared.sim.generations.DEFAULT_GENERATION`)."""
+    env = os.environ if environ is None else environ
+    return env.get(GENERATION_VARIABLE, "").strip() or None

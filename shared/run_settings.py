@@ -21,10 +21,10 @@ from dataclasses import dataclass, fields
 from pathlib import Path
 
 from racer.shared.deepracer.model_metadata import ModelMetadata
-from racer.shared.sim.car_dynamics import DEFAULT_CAR_PROFILE
 from racer.shared.sim.challenge_cli import challenge_option_args
 from racer.shared.sim.challenge_config import param_text
 from racer.shared.sim.config import DEFAULT_MODEL_METADATA, DEFAULT_TRACK, EnvConfig
+from racer.shared.sim.generations import DEFAULT_GENERATION
 from racer.shared.sim.worlds import WORLD_NAMES
 from racer.shared.user_errors import RunConfigError
 from racer.shared.worker_settings import SETTING, WorkerSettings
@@ -47,9 +47,11 @@ NOT_FROM_SETTINGS: tuple[str, ...] = (
     "image_width_px",
     "image_height_px",
     "render_full_resolution",
+    "look",
 )
 """EnvConfig fields no run setting sets: the simulator's own constants (DeepRacer's camera size, the immobilized
-rule, physics substeps) and what benchmarks and tests choose. A run's env has their defaults."""
+rule, physics substeps) and what benchmarks and tests choose (a perturbed look). A run's env has their defaults (the
+look is the generation's)."""
 
 
 @dataclass(frozen=True)
@@ -101,8 +103,11 @@ class RunOptions:
     """Given to the workers in turn."""
     domain_randomization: bool = False
     car_randomization: bool = False
-    car_profile: str = DEFAULT_CAR_PROFILE
+    car_profile: str = ""
+    """A car profile instead of the generation's car ("" = the generation's)."""
     dynamics_randomization: bool = False
+    generation: str = DEFAULT_GENERATION
+    """RACER_GENERATION: the DeepRacer simulator the workers stand in for (look and car)."""
     challenge_params: tuple[tuple[str, str], ...] = ()
     """RACE_TYPE and the obstacle / bot-car training_params keys (`--race-type`, `--race-param`)."""
 
@@ -123,6 +128,8 @@ class RunOptions:
             self.car_profile,
             "--dynamics-randomization",
             str(self.dynamics_randomization),
+            "--generation",
+            self.generation,
             *challenge_option_args(self.challenge_params),
         ]
 
@@ -132,8 +139,8 @@ def load_worker_settings(custom_files: Path, options: RunOptions) -> list[Worker
 
     workers.json holds DeepRacer training_params keys applied to every worker, and optionally
     `"workers": [{...}, {...}]` with per-worker overrides (like DeepRacer-for-Cloud's worker-N.env). The options'
-    challenge keys (RACE_TYPE, obstacles, bot cars), car profile and randomization flags apply to every worker under
-    workers.json.
+    challenge keys (RACE_TYPE, obstacles, bot cars), generation, car profile and randomization flags apply to every
+    worker under workers.json.
     """
     try:
         settings = [  # worker i gets world i, cycling through the worlds, on the same track
@@ -144,11 +151,12 @@ def load_worker_settings(custom_files: Path, options: RunOptions) -> list[Worker
                 car_randomization=options.car_randomization,
                 car_profile=options.car_profile,
                 dynamics_randomization=options.dynamics_randomization,
+                generation=options.generation,
             )
             for i in range(options.num_workers)
         ]
     except ValueError as error:
-        raise RunConfigError(f"racer train options (--car-profile): {error}") from error
+        raise RunConfigError(f"racer train options (--generation, --car-profile): {error}") from error
     if options.challenge_params:
         source = "racer train options (--race-type / --race-param)"
         try:

@@ -10,9 +10,10 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
-from racer.shared.sim.car_dynamics import DEFAULT_CAR_PROFILE, CarDynamics, car_profile
+from racer.shared.sim.car_dynamics import CarDynamics, car_profile
 from racer.shared.sim.challenge_config import ChallengeConfig
 from racer.shared.sim.config import DEFAULT_TRACK
+from racer.shared.sim.generations import DEFAULT_GENERATION, generation
 from racer.shared.sim.track_catalog import world_name_for_direction
 from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
 
@@ -130,9 +131,13 @@ class WorkerSettings:
     dynamics_randomization: bool = setting(False, "RACER_DYNAMICS_RANDOMIZATION", FLAG)
     """racer's RACER_DYNAMICS_RANDOMIZATION: a car drawn around the profile every episode (tyres, yaw inertia,
     steering servo, rolling radius, a 0-1 step command delay; shared/sim/dynamics_randomization.py)."""
-    car_profile: str = setting(DEFAULT_CAR_PROFILE, "RACER_CAR_PROFILE", TEXT_OR_DEFAULT, env="car_dynamics",
-                               to_env=car_profile)  # fmt: skip
-    """racer's RACER_CAR_PROFILE: the car's dynamics, one of `car_dynamics.CAR_DYNAMICS` (gazebo, simtrace-fit)."""
+    generation: str = setting(DEFAULT_GENERATION, "RACER_GENERATION", TEXT_OR_DEFAULT)
+    """racer's RACER_GENERATION: the DeepRacer simulator the worker stands in for, its look and car together
+    (`generations.GENERATIONS`: 2019, simapp5, simapp6)."""
+    car_profile: str = setting("", "RACER_CAR_PROFILE", TEXT_OR_DEFAULT, env="car_dynamics",
+                               to_env=lambda name: car_profile(name) if name else None)  # fmt: skip
+    """racer's RACER_CAR_PROFILE: a car (`car_dynamics.CAR_DYNAMICS`) instead of the generation's; "" = the
+    generation's car."""
     simapp_dir: str = setting("", "RACER_SIMAPP_DIR", TEXT_OR_DEFAULT, to_env=lambda text: Path(text) if text else None)
     """racer's RACER_SIMAPP_DIR: a SimApp bundle/ folder on the worker's machine whose world meshes and textures
     the camera draws instead of racer's look ("" = racer's look)."""
@@ -155,12 +160,14 @@ class WorkerSettings:
             raise ValueError(f"RACER_EVAL_MAX_STEPS must be >= 0 (0: no cap), got {self.eval_max_steps}")
         if self.off_track_penalty_s < 0 or self.collision_penalty_s < 0:
             raise ValueError("OFF_TRACK_PENALTY and COLLISION_PENALTY must be >= 0 seconds")
-        car_profile(self.car_profile)  # an unknown name: ValueError naming RACER_CAR_PROFILE and the valid names
+        generation(self.generation)  # an unknown name: ValueError naming RACER_GENERATION and the valid names
+        if self.car_profile:
+            car_profile(self.car_profile)  # an unknown name: ValueError naming RACER_CAR_PROFILE and the valid names
 
     @property
     def car_dynamics(self) -> CarDynamics:
-        """The dynamics of this worker's car profile (`EnvConfig.car_dynamics`)."""
-        return car_profile(self.car_profile)
+        """The car this worker drives (`EnvConfig.car_dynamics`): its car profile's, else its generation's."""
+        return car_profile(self.car_profile) if self.car_profile else generation(self.generation).car
 
     def to_training_params(self, model_prefix: str, num_workers: int) -> dict[str, object]:
         """DeepRacer's training_params.yaml keys, values strings as DeepRacer-for-Cloud writes them (OBJECT_POSITIONS,

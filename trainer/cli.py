@@ -99,6 +99,7 @@ def trainer_command(
     car_randomization,
     dynamics_randomization,
     car_profile,
+    generation,
     sac_replay_memory_mb,
     sac_updates_per_transition,
     device,
@@ -127,6 +128,7 @@ def trainer_command(
         domain_randomization=domain_randomization,
         car_randomization=car_randomization,
         car_profile=car_profile,
+        generation=generation,
         dynamics_randomization=dynamics_randomization,
         challenge_params=challenge_params_from_options(race_type, race_param),
     )

@@ -6,7 +6,8 @@ from collections.abc import Callable
 
 import click
 
-from racer.shared.sim.car_dynamics import CAR_PROFILE_NAMES, DEFAULT_CAR_PROFILE
+from racer.shared.sim.car_dynamics import CAR_PROFILE_NAMES
+from racer.shared.sim.generation_option import CAR_PROFILE_HELP, GENERATION_HELP, generation_option
 from racer.trainer.device import DEFAULT_DEVICE, DEVICE_NAMES
 from racer.trainer.precision import DEFAULT_PRECISION, PRECISION_NAMES
 
@@ -22,7 +23,7 @@ device_option = click.option(
 
 
 def trainer_run_options(command: Callable) -> Callable:
-    """--device, --precision, --car-profile and --dynamics-randomization."""
+    """--device, --precision, --generation, --car-profile and --dynamics-randomization."""
     options = (
         device_option,
         click.option(
@@ -33,12 +34,14 @@ def trainer_run_options(command: Callable) -> Callable:
             help="What the trainer's towers compute in during updates. bf16 is about twice as fast on CPUs with native "
             "bf16 (AVX512-BF16, AMX) but learns differently (docs/benchmarks.md); fp32 learns the same on every CPU.",
         ),
+        generation_option(
+            help_text=f"RACER_GENERATION for every worker (workers.json may set it per worker). {GENERATION_HELP}"
+        ),
         click.option(
             "--car-profile",
-            type=click.Choice(CAR_PROFILE_NAMES),
-            default=DEFAULT_CAR_PROFILE,
-            show_default=True,
-            help="RACER_CAR_PROFILE for every worker: the car's dynamics (workers.json may set it per worker).",
+            type=click.Choice(("", *CAR_PROFILE_NAMES)),
+            default="",
+            help=f"RACER_CAR_PROFILE for every worker (workers.json may set it per worker). {CAR_PROFILE_HELP}",
         ),
         click.option(
             "--dynamics-randomization",

@@ -26,6 +26,8 @@ GAZEBO_EPISODE_SIMAPP_VERSION = 3.0
 """The camera mount of the car that recorded the Gazebo frames: SimApp version >= 3, (0.145, 0, 0.130) m. Their lines
 fit re:Invent 2018 at a median 1.84 cm with it against 3.23 cm with the older (0.2, 0, 0.164) m mount of version < 3
 (research/frame_pairs/README.md)."""
+GAZEBO_EPISODE_GENERATION = "2019"
+"""The frames are Gazebo classic's of 2019: racer draws them in that generation's look (walls, lights)."""
 
 
 def load_gazebo_frames(folder: Path) -> np.ndarray:
@@ -47,10 +49,16 @@ def load_gazebo_frames(folder: Path) -> np.ndarray:
 def gazebo_episode_config(
     route: str | Path, world: str, full_resolution: bool, simapp_dir: Path | None = None
 ) -> EnvConfig:
-    """An env with the camera of the car that recorded the Gazebo frames (`GAZEBO_EPISODE_SIMAPP_VERSION`)."""
+    """An env with the camera of the car that recorded the Gazebo frames (`GAZEBO_EPISODE_SIMAPP_VERSION`), in the
+    generation they were recorded in (`2019`)."""
     metadata = dataclasses.replace(DEFAULT_MODEL_METADATA, version=GAZEBO_EPISODE_SIMAPP_VERSION)
     return EnvConfig(
-        track=route, world=world, model_metadata=metadata, render_full_resolution=full_resolution, simapp_dir=simapp_dir
+        track=route,
+        world=world,
+        model_metadata=metadata,
+        render_full_resolution=full_resolution,
+        simapp_dir=simapp_dir,
+        generation=GAZEBO_EPISODE_GENERATION,
     )
 
 

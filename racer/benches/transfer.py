@@ -4,15 +4,16 @@ A model trained in DeepRacer's Gazebo simulator drives well in racer only if rac
 enough to what it learnt on. So every model folder under `--models` (default: the `models/` of `--data`, DeepRacer's
 own files: a real model trained in DeepRacer's simulator) goes through `racer model import`'s own path (its frozen graphs become racer
 checkpoints) and each checkpoint drives re:Invent 2018 greedily from `--starts` evenly spaced starts under evaluation
-rules without resets, in each world, render path and car profile asked for (`--car-profile`, repeatable; default
-the default car); the bench prints laps and mean progress per checkpoint. A change to the car, the camera or the look
-that costs a lap or more than 3 points of mean progress on a shared checkpoint does not land (docs/transfer.md).
+rules without resets, in each generation, world, render path and car asked for (`--generation`, repeatable, default
+`2019`: the simulator those checkpoints were trained in; `--car-profile`, repeatable, replaces the generation's car);
+the bench prints laps and mean progress per checkpoint. A change to the car, the camera or the look that costs a lap
+or more than 3 points of mean progress on a shared checkpoint in `2019` does not land (docs/transfer.md).
 
 `--racer-model` adds the reverse check: a racer model's greedy steering side on DeepRacer's 92 Gazebo frames (left /
 straight / right shares) and how often its side agrees with each real checkpoint's.
 
-`--matrix` trains a model per car profile, with and without dynamics randomisation, and drives each in every profile
-(`transfer_matrix.py`).
+`--matrix` trains a model per generation (or car profile), with and without dynamics randomisation, and drives each
+in every generation (`transfer_matrix.py`).
 """
 
 from __future__ import annotations
@@ -30,17 +31,20 @@ import torch
 
 from racer.benches.deepracer_data import REINVENT_2018_ROUTE, data_folder, data_option
 from racer.benches.gazebo_frames import GAZEBO_FRAMES, load_gazebo_frames, render_lap
-from racer.benches.transfer_matrix import DEFAULT_MINUTES, DEFAULT_WORKERS, SOURCE_PROFILES, run_matrix
+from racer.benches.transfer_matrix import DEFAULT_MINUTES, DEFAULT_WORKERS, TRAIN_GENERATIONS, DriveCar, run_matrix
 from racer.benches.workdir import cpu_description
 from racer.shared.deepracer.model_metadata import ModelMetadata, parse_model_metadata
 from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.sim.camera import rgb_to_y
-from racer.shared.sim.car_dynamics import CAR_PROFILE_NAMES, DEFAULT_CAR_PROFILE, car_profile
+from racer.shared.sim.car_dynamics import CAR_PROFILE_NAMES, car_profile
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
+from racer.shared.sim.generations import GENERATION_NAMES, generation
 from racer.shared.sim.worlds import WORLD_NAMES
 from racer.shared.store import LocalStore
 
+JUDGING_GENERATION = "2019"
+"""The generation the landing rule drives the shared checkpoints in: the simulator they were trained in."""
 MAX_STEPS_PER_START = 2000
 """Far more than a lap of re:Invent 2018 at 1 m/s takes (about 260 steps at 15 Hz)."""
 
@@ -223,13 +227,23 @@ def reverse_check(racer_model: Path, real: list[RealModel], frames_grey: np.ndar
 @click.option("--world", type=click.Choice(WORLD_NAMES), multiple=True, default=("base",), show_default=True)
 @click.option("--render", type=click.Choice(["default", "full"]), multiple=True, default=("default",))
 @click.option(
+    "--generation",
+    "generation_names",
+    type=click.Choice(GENERATION_NAMES),
+    multiple=True,
+    default=(JUDGING_GENERATION,),
+    show_default=True,
+    help="Drive in this generation, its look and car (RACER_GENERATION); repeat to drive in each one given. "
+    "--matrix: the generations its models are driven in (default: every one).",
+)
+@click.option(
     "--car-profile",
     "car_profile_names",
     type=click.Choice(CAR_PROFILE_NAMES),
     multiple=True,
-    default=(DEFAULT_CAR_PROFILE,),
-    show_default=True,
-    help="Drive in this car profile (RACER_CAR_PROFILE); repeat to drive in each one given.",
+    default=(),
+    help="Drive with this car profile instead of each generation's car (RACER_CAR_PROFILE); repeatable. Default: "
+    "the generation's car.",
 )
 @click.option("--starts", type=click.IntRange(1, 100), default=10, show_default=True)
 @click.option(
@@ -241,17 +255,26 @@ def reverse_check(racer_model: Path, real: list[RealModel], frames_grey: np.ndar
 @click.option(
     "--matrix",
     is_flag=True,
-    help="Instead: train a model per --train-profile with and without dynamics randomisation (the reverse-check "
-    "setup) and drive each in every profile (or each --car-profile given); one JSON matrix.",
+    help="Instead: train a model per --train-generation (and --train-profile) with and without dynamics "
+    "randomisation (the reverse-check setup) and drive each in every generation (or each --generation / "
+    "--car-profile given); one JSON matrix.",
+)
+@click.option(
+    "--train-generation",
+    "train_generation_names",
+    type=click.Choice(GENERATION_NAMES),
+    multiple=True,
+    default=TRAIN_GENERATIONS,
+    show_default=True,
+    help="--matrix: train in this generation (repeatable).",
 )
 @click.option(
     "--train-profile",
     "train_profile_names",
     type=click.Choice(CAR_PROFILE_NAMES),
     multiple=True,
-    default=SOURCE_PROFILES,
-    show_default=True,
-    help="--matrix: train in this profile (repeatable).",
+    default=(),
+    help="--matrix: train with this car profile instead of the generation's car (repeatable).",
 )
 @click.option(
     "--minutes",
@@ -285,10 +308,12 @@ def transfer_bench_command(
     track,
     world,
     render,
+    generation_names,
     car_profile_names,
     starts,
     racer_model,
     matrix,
+    train_generation_names,
     train_profile_names,
     minutes,
     workers,
@@ -303,14 +328,17 @@ def transfer_bench_command(
     data = data_folder(data_dir)
     models_root = models_root or data / "models"
     track = track or data / REINVENT_2018_ROUTE
+    profiles = tuple(car_profile_names) or ("",)
     if matrix:
-        explicit = ctx.get_parameter_source("car_profile_names") != click.core.ParameterSource.DEFAULT
+        explicit = ctx.get_parameter_source("generation_names") != click.core.ParameterSource.DEFAULT
+        drive_generations = tuple(generation_names) if explicit else GENERATION_NAMES
         result = run_matrix(
             data,
             track,
             drive,
-            train_profiles=tuple(train_profile_names),
-            drive_profiles=tuple(car_profile_names) if explicit else None,
+            train_generations=tuple(train_generation_names),
+            train_profiles=tuple(train_profile_names) or ("",),
+            drive_cars=tuple(DriveCar(name, profile) for name in drive_generations for profile in profiles),
             minutes=minutes,
             starts=starts,
             workers=workers,
@@ -326,27 +354,29 @@ def transfer_bench_command(
     with tempfile.TemporaryDirectory(prefix="racer-transfer-") as store_root:
         real = import_real_models(folders, Path(store_root))
     result: dict = {"benchmark": "transfer", "cpu": cpu_description(), "track": str(track), "drives": []}
+    cars = [(name, profile or generation(name).car_profile) for name in generation_names for profile in profiles]
     for model in real:
         for world_name in world:
             for render_mode in render:
-                for profile in car_profile_names:
+                for generation_name, profile in cars:
                     config = EnvConfig(
                         track=track,
                         world=world_name,
                         model_metadata=model.metadata,
                         render_full_resolution=render_mode == "full",
+                        generation=generation_name,
                         car_dynamics=car_profile(profile),
                     )
                     figures = drive(model, config, starts)
                     print(
-                        f"transfer bench: {model.label} {world_name}/{render_mode}/{profile}: "
+                        f"transfer bench: {model.label} {generation_name}/{world_name}/{render_mode}/{profile}: "
                         f"{figures['laps']}/{starts} laps, mean progress {figures['mean_progress']} %",
                         file=sys.stderr,
                         flush=True,
                     )
                     result["drives"].append(
-                        {"model": model.label, "world": world_name, "render": render_mode, "car_profile": profile,
-                         **figures}
+                        {"model": model.label, "generation": generation_name, "world": world_name,
+                         "render": render_mode, "car_profile": profile, **figures}
                     )  # fmt: skip
     if racer_model is not None:
         frames_rgb = load_gazebo_frames(data / GAZEBO_FRAMES)

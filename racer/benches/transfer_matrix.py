@@ -1,13 +1,13 @@
-"""`racer bench transfer --matrix`: does a model trained in one car profile drive in the others?
+"""`racer bench transfer --matrix`: does a model trained in one generation drive in the others?
 
-For each training profile (default: the profiles built from DeepRacer's source, `simapp5-ros1` and `simapp6-ros2`)
-and with and without `RACER_DYNAMICS_RANDOMIZATION`, a model is trained for `--minutes` with the reverse-check setup
-(issue 29): the re:Invent 2018 sample's `model_metadata.json` (12 actions), the AWS centre-line reward
+For each training generation (default `simapp6`, today's simulator; `--train-profile` replaces its car) and with and
+without `RACER_DYNAMICS_RANDOMIZATION`, a model is trained for `--minutes` with the reverse-check setup (issue 29):
+the re:Invent 2018 sample's `model_metadata.json` (12 actions), the AWS centre-line reward
 (`reward_functions/awsdoc_example_1.py`), `custom_files/hyperparameters.json`, re:Invent 2018, world base, fp32, one
 seed, through the same local training `racer train` runs. The last checkpoint of each then drives greedily in every
-profile from `--starts` evenly spaced starts (as the transfer bench drives the real checkpoints). One JSON line:
-`matrix[trained in][driven in]` = laps / mean progress. The goal (issue 29): trained with dynamics randomisation,
->= 8 of 10 laps in every profile.
+generation (or each `--generation` / `--car-profile` given) from `--starts` evenly spaced starts, as the transfer
+bench drives the real checkpoints. One JSON line: `matrix[trained in][driven in]` = laps / mean progress. The goal
+(issues 29, 44): trained in `simapp6` with dynamics randomisation, >= 8 of 10 laps in every generation.
 """
 
 from __future__ import annotations
@@ -28,21 +28,45 @@ from racer.shared.run_settings import RunOptions
 
 SAMPLE_MODEL = "gazebo-sample-reinvent2018"
 REWARD_FUNCTION = "awsdoc_example_1.py"
-SOURCE_PROFILES = ("simapp5-ros1", "simapp6-ros2")
+TRAIN_GENERATIONS = ("simapp6",)
 DEFAULT_MINUTES = 15.0
 DEFAULT_WORKERS = 4
 
 
 @dataclass(frozen=True)
 class MatrixCell:
-    """One training run of the matrix."""
+    """One training run of the matrix: a generation, a car profile in place of its car ("" = its own), randomised
+    or not."""
 
+    generation: str
     profile: str
     dynamics_randomization: bool
 
     @property
     def model_prefix(self) -> str:
-        return f"matrix-{self.profile}-{'dr' if self.dynamics_randomization else 'fixed'}"
+        car = f"-{self.profile}" if self.profile else ""
+        return f"matrix-{self.generation}{car}-{'dr' if self.dynamics_randomization else 'fixed'}"
+
+
+@dataclass(frozen=True)
+class DriveCar:
+    """Where a matrix model is driven: a generation, and a car profile in place of its car ("" = its own)."""
+
+    generation: str
+    profile: str = ""
+
+    @property
+    def label(self) -> str:
+        return f"{self.generation}/{self.profile}" if self.profile else self.generation
+
+    def env_config(self, track: Path, metadata: object):
+        from racer.shared.sim.car_dynamics import car_profile
+        from racer.shared.sim.config import EnvConfig
+
+        car = car_profile(self.profile) if self.profile else None
+        return EnvConfig(
+            track=track, world="base", model_metadata=metadata, generation=self.generation, car_dynamics=car
+        )
 
 
 def write_custom_files(folder: Path, shared_data: Path) -> Path:
@@ -73,6 +97,7 @@ def train_cell(cell: MatrixCell, workdir: Path, custom: Path, track: Path, minut
             worlds=("base",) * workers,
             car_profile=cell.profile,
             dynamics_randomization=cell.dynamics_randomization,
+            generation=cell.generation,
         ),
         max_episodes=None,
         max_minutes=minutes,
@@ -97,14 +122,12 @@ class TrainedModel:
 
 
 def drive_last_checkpoint(
-    store_root: Path, cell: MatrixCell, track: Path, profiles: tuple[str, ...], starts: int, drive: Callable
+    store_root: Path, cell: MatrixCell, track: Path, cars: tuple[DriveCar, ...], starts: int, drive: Callable
 ):
-    """The cell's last checkpoint, greedy in every profile (`drive` is the transfer bench's): {profile: figures},
+    """The cell's last checkpoint, greedy in every car (`drive` is the transfer bench's): {car label: figures},
     and the checkpoint's name."""
     from racer.shared.deepracer.model_metadata import parse_model_metadata
     from racer.shared.policy.checkpoints import CheckpointStore
-    from racer.shared.sim.car_dynamics import car_profile
-    from racer.shared.sim.config import EnvConfig
     from racer.shared.store import LocalStore
 
     checkpoints = CheckpointStore(LocalStore(store_root), cell.model_prefix)
@@ -115,16 +138,15 @@ def drive_last_checkpoint(
     metadata = parse_model_metadata(json.loads(metadata_path.read_text()), source=str(metadata_path))
     model = TrainedModel(f"{cell.model_prefix}/{last}", metadata, checkpoints.load_policy(last))
     drives = {}
-    for profile in profiles:
-        config = EnvConfig(track=track, world="base", model_metadata=metadata, car_dynamics=car_profile(profile))
-        figures = drive(model, config, starts)
+    for car in cars:
+        figures = drive(model, car.env_config(track, metadata), starts)
         print(
-            f"transfer matrix: {cell.model_prefix}/{last} in {profile}: {figures['laps']}/{starts} laps, "
+            f"transfer matrix: {cell.model_prefix}/{last} in {car.label}: {figures['laps']}/{starts} laps, "
             f"mean progress {figures['mean_progress']} %",
             file=sys.stderr,
             flush=True,
         )
-        drives[profile] = figures
+        drives[car.label] = figures
     return last, drives
 
 
@@ -132,8 +154,9 @@ def run_matrix(
     shared_data: Path,
     track: Path,
     drive: Callable,
-    train_profiles: tuple[str, ...] = SOURCE_PROFILES,
-    drive_profiles: tuple[str, ...] | None = None,
+    train_generations: tuple[str, ...] = TRAIN_GENERATIONS,
+    train_profiles: tuple[str, ...] = ("",),
+    drive_cars: tuple[DriveCar, ...] | None = None,
     minutes: float = DEFAULT_MINUTES,
     starts: int = 10,
     workers: int = DEFAULT_WORKERS,
@@ -141,12 +164,18 @@ def run_matrix(
     randomizations: tuple[bool, ...] = (False, True),
     keep_models: Path | None = None,
 ) -> dict:
-    """Train every (profile, randomisation in `randomizations`) cell and drive each in every profile with `drive(model, config, starts)`
-    (the transfer bench's); the matrix as a dict."""
-    from racer.shared.sim.car_dynamics import CAR_PROFILE_NAMES
+    """Train every (generation, profile, randomisation in `randomizations`) cell and drive each in every car of
+    `drive_cars` (default: every generation with its own car) with `drive(model, config, starts)` (the transfer
+    bench's); the matrix as a dict."""
+    from racer.shared.sim.generations import GENERATION_NAMES
 
-    drive_profiles = drive_profiles or CAR_PROFILE_NAMES
-    cells = [MatrixCell(profile, randomized) for profile in train_profiles for randomized in randomizations]
+    drive_cars = drive_cars or tuple(DriveCar(name) for name in GENERATION_NAMES)
+    cells = [
+        MatrixCell(generation, profile, randomized)
+        for generation in train_generations
+        for profile in train_profiles
+        for randomized in randomizations
+    ]
     started = time.monotonic()
     result: dict = {
         "benchmark": "transfer-matrix",
@@ -165,12 +194,13 @@ def run_matrix(
         for cell in cells:
             load_before = os.getloadavg()[0]
             store_root, records = train_cell(cell, workdir, custom, track, minutes, workers, seed)
-            checkpoint, drives = drive_last_checkpoint(store_root, cell, track, drive_profiles, starts, drive)
+            checkpoint, drives = drive_last_checkpoint(store_root, cell, track, drive_cars, starts, drive)
             if keep_models is not None:  # for `--racer-model` reverse checks after the bench's folder is gone
                 shutil.copytree(store_root / cell.model_prefix, keep_models / cell.model_prefix, dirs_exist_ok=True)
             result["runs"].append(
                 {
                     "model": cell.model_prefix,
+                    "generation": cell.generation,
                     "car_profile": cell.profile,
                     "dynamics_randomization": cell.dynamics_randomization,
                     "iterations": len(records),
@@ -181,8 +211,8 @@ def run_matrix(
                 }
             )
             result["matrix"][cell.model_prefix] = {
-                profile: f"{figures['laps']}/{figures['starts']} {figures['mean_progress']} %"
-                for profile, figures in drives.items()
+                car: f"{figures['laps']}/{figures['starts']} {figures['mean_progress']} %"
+                for car, figures in drives.items()
             }
     result["wall_minutes"] = round((time.monotonic() - started) / 60, 1)
     return result

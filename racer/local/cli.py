@@ -95,6 +95,7 @@ def train_command(
     device,
     precision,
     car_profile,
+    generation,
     dynamics_randomization,
     race_type,
     race_param,
@@ -112,6 +113,7 @@ def train_command(
         track=track,
         worlds=tuple(w.strip() for w in worlds.split(",") if w.strip()),
         car_profile=car_profile,
+        generation=generation,
         dynamics_randomization=dynamics_randomization,
         challenge_params=challenge_params_from_options(race_type, race_param),
     )

@@ -147,10 +147,11 @@ def car_mjcf(
     camera_names: tuple[tuple[str, float], ...],
     camera_pos_m: tuple[float, float, float] = CAMERA_POS_M,
     dynamics: CarDynamics = GAZEBO_DYNAMICS,
+    camera_pitch_down_rad: float = CAMERA_PITCH_DOWN_RAD,
 ) -> str:
     """The car body (free joint at the origin) with wheels, steering hinges, cameras and the LIDAR site."""
     fovy = vertical_fov_deg()
-    s, c = math.sin(CAMERA_PITCH_DOWN_RAD), math.cos(CAMERA_PITCH_DOWN_RAD)
+    s, c = math.sin(camera_pitch_down_rad), math.cos(camera_pitch_down_rad)
     # Camera looks along its -z with +y up: x = car right (-y), up tilted forward by the pitch.
     cam_axes = f"0 -1 0 {s:.9f} 0 {c:.9f}"
     cameras = "\n".join(

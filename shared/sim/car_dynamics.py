@@ -66,9 +66,9 @@ CAR_DYNAMICS: dict[str, CarDynamics] = {
 }
 """The presets by name: the car profiles (`RACER_CAR_PROFILE`, `--car-profile`; `racer bench fidelity --car`)."""
 CAR_PROFILE_NAMES: tuple[str, ...] = tuple(CAR_DYNAMICS)
-DEFAULT_CAR_PROFILE = "gazebo"
-"""The car a worker, an evaluation and the benches drive unless told otherwise (`EnvConfig`'s default): the profile
-real DeepRacer policies drive best in (`racer bench transfer`, every profile, four worlds, both sample checkpoints)."""
+DEFAULT_CAR_PROFILE = "simapp6-ros2"
+"""The car of the default generation (`generations.DEFAULT_GENERATION`, tested equal): what a worker, an evaluation
+and the benches drive unless a generation or a car profile is named."""
 
 
 def car_profile(name: str) -> CarDynamics:

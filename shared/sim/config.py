@@ -6,8 +6,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from racer.shared.deepracer.model_metadata import ModelMetadata, parse_model_metadata
-from racer.shared.sim.car_dynamics import GAZEBO_DYNAMICS, CarDynamics
+from racer.shared.sim.car_dynamics import CarDynamics
 from racer.shared.sim.challenge_config import ChallengeConfig
+from racer.shared.sim.generation_looks import GenerationLook
+from racer.shared.sim.generations import DEFAULT_GENERATION, generation
 from racer.shared.sim.worlds import WORLD_NAMES
 
 DEFAULT_TRACK = "racer_oval"
@@ -96,14 +98,28 @@ class EnvConfig:
     render_full_resolution: bool = False
     """True = DeepRacer's path: render 640×480, bilinear-resize to the image size (PIL, as the SimApp).
     False (default) = render the image size directly, several times cheaper with software GL."""
-    car_dynamics: CarDynamics = GAZEBO_DYNAMICS
-    """The car's tyres, steering servo and yaw inertia. The default is what policies trained in DeepRacer's Gazebo
-    lap with (stiff equal-axle tyres at the commanded speed, the URDF's yaw inertia); `car_dynamics.SIMTRACE_FIT_DYNAMICS`
-    is the open-loop fit to real simtraces (docs/car-and-camera.md)."""
+    generation: str = DEFAULT_GENERATION
+    """racer's RACER_GENERATION: which DeepRacer simulator this env stands in for (`generations.GENERATIONS`: 2019,
+    simapp5, simapp6); it sets the look (lights, walls, camera) and, unless `car_dynamics` is given, the car."""
+    car_dynamics: CarDynamics | None = None
+    """The car's tyres, steering servo and yaw inertia; None (the default) = the generation's car, filled in at
+    construction (a car profile, `car_dynamics.CAR_DYNAMICS`, replaces it: docs/car-and-camera.md)."""
+    look: GenerationLook | None = None
+    """What the camera sees; None (the default) = the generation's look, filled in at construction (a perturbed look
+    for the robustness bench)."""
     challenge: ChallengeConfig = ChallengeConfig()
     """RACE_TYPE and the obstacle / bot-car keys; the default is a time trial (nothing on the track)."""
 
     def __post_init__(self) -> None:
+        try:
+            chosen = generation(self.generation)
+        except ValueError as error:
+            raise ValueError(f"EnvConfig.generation: {error}") from None
+        # The generation's car and look where none is given: frozen, so set once here.
+        if self.car_dynamics is None:
+            object.__setattr__(self, "car_dynamics", chosen.car)
+        if self.look is None:
+            object.__setattr__(self, "look", chosen.look)
         if self.world not in WORLD_NAMES:
             raise ValueError(f"EnvConfig.world: unknown world {self.world!r}; choose one of {', '.join(WORLD_NAMES)}")
         if not 0.0 <= self.round_robin_advance_dist < 1.0:

@@ -11,7 +11,7 @@ import numpy as np
 
 from racer.shared.deepracer.episode_status import EpisodeStatus
 from racer.shared.sim._mujoco import mujoco
-from racer.shared.sim.car import Car, camera_mount_m, clip_command, command_wheel_radius_m
+from racer.shared.sim.car import CAMERA_PITCH_DOWN_RAD, Car, camera_mount_m, clip_command, command_wheel_radius_m
 from racer.shared.sim.car_dynamics import CarDynamics
 from racer.shared.sim.config import STEPS_PER_SECOND, EnvConfig
 from racer.shared.sim.domain_randomization import SceneRandomizer
@@ -134,10 +134,14 @@ class DeepRacerEnv(gym.Env):
                 get_world(cfg.world),
                 1.0 / (STEPS_PER_SECOND * self._substeps),
                 cameras,
-                camera_mount_m(self._metadata.version),
+                cfg.look.camera_pos_m or camera_mount_m(self._metadata.version),
                 load_simapp_world(cfg.simapp_dir, cfg.world) if cfg.simapp_dir is not None else None,
                 object_slots=slots,
                 car_dynamics=cfg.car_dynamics,
+                look=cfg.look,
+                camera_pitch_down_rad=(
+                    CAMERA_PITCH_DOWN_RAD if cfg.look.camera_pitch_down_rad is None else cfg.look.camera_pitch_down_rad
+                ),
             )
         )
         self._data = mujoco.MjData(self._model)

@@ -14,8 +14,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from racer.shared.sim import car as car_geometry
-from racer.shared.sim import track_looks, world_look
+from racer.shared.sim import world_look
 from racer.shared.sim._mujoco import mujoco
+from racer.shared.sim.generation_looks import LOOK_SIMAPP6, GenerationLook
 from racer.shared.sim.object_bodies import (
     ObjectSlot,
     object_bodies_mjcf,
@@ -50,6 +51,9 @@ class SceneSpec:
     """One mocap body per obstacle or bot car (`object_bodies.py`), moved by `ObjectBodies.place` every step."""
     car_dynamics: car_geometry.CarDynamics = car_geometry.GAZEBO_DYNAMICS
     """The car's yaw inertia and steering servo (compiled in); its tyres are `Car`'s (`EnvConfig.car_dynamics`)."""
+    look: GenerationLook = LOOK_SIMAPP6
+    """The generation's lights, walls and sky (`EnvConfig.look`); the camera mount is `camera_pos_m`."""
+    camera_pitch_down_rad: float = car_geometry.CAMERA_PITCH_DOWN_RAD
 
 
 def _floats(values: np.ndarray) -> str:
@@ -113,13 +117,14 @@ def _walls_mesh(lo: np.ndarray, hi: np.ndarray, height_m: float) -> str:
     return _mesh_xml("walls", np.array(vertices), np.array(faces), np.array(texcoord))
 
 
-def _lights_xml() -> str:
-    sun, point = world_look.default_lights()["sun"], world_look.default_lights()["point"]
-    ambient = world_look.LIGHT_SCALE * world_look.SCENE_AMBIENT
-    px, py, pz = world_look.POINT_LIGHT_POS_M
+def _lights_xml(lighting: world_look.Lighting) -> str:
+    lights = world_look.default_lights(lighting)
+    sun, point = lights["sun"], lights["point"]
+    ambient = lighting.render_scale * lighting.ambient
+    px, py, pz = lighting.point_pos_m
     return (
         f'    <light name="sun" type="directional" castshadow="false" pos="0 0 15" '
-        f'dir="{_floats(world_look.SUN_DIRECTION)}"\n'
+        f'dir="{_floats(lighting.sun_direction)}"\n'
         f'           diffuse="{_floats(sun.diffuse)}" ambient="{ambient} {ambient} {ambient}" specular="0 0 0"/>\n'
         # A spot light straight down with a 90 degree cutoff and no falloff lights everything below it as the
         # SimApp's point light does (MuJoCo's renderer draws no light of type "point").
@@ -132,7 +137,8 @@ def _lights_xml() -> str:
 def _racer_visuals(spec: SceneSpec, lo: np.ndarray, hi: np.ndarray) -> tuple[str, str, str, dict[str, bytes]]:
     """racer's own look of the world, or of the track where its SimApp world has one (`track_looks.py`):
     (asset elements, geoms, lights, texture files)."""
-    look = track_looks.look_for(spec.track.name, spec.world.name)
+    look = spec.look.world_look(spec.track.name, spec.world.name)
+    lighting = spec.look.lighting
     road_mesh, width_m = _road_band_mesh(spec.track)
     tile = world_look.FIELD_TILE_M
     assets_xml = f"""    <texture name="field_tex" type="2d" file="field.png"/>
@@ -147,17 +153,17 @@ def _racer_visuals(spec: SceneSpec, lo: np.ndarray, hi: np.ndarray) -> tuple[str
     geoms_xml = """    <geom name="road" type="mesh" mesh="road" material="road" contype="0" conaffinity="0" group="1"/>
     <geom name="walls" type="mesh" mesh="walls" material="walls" contype="0" conaffinity="0" group="0"/>"""
     files = {
-        "field.png": world_look.field_texture_png(look),
-        "road.png": world_look.road_texture_png(look, round(width_m, 4)),
+        "field.png": world_look.field_texture_png(look, lighting=lighting),
+        "road.png": world_look.road_texture_png(look, round(width_m, 4), lighting=lighting),
         "wall.png": world_look.wall_texture_png(look),
     }
-    return assets_xml, geoms_xml, _lights_xml(), files
+    return assets_xml, geoms_xml, _lights_xml(lighting), files
 
 
 def scene_mjcf_and_assets(spec: SceneSpec) -> tuple[str, dict[str, bytes]]:
     """The MJCF text and the texture files (PNG bytes by file name) it refers to."""
     track, world = spec.track, spec.world
-    look = track_looks.look_for(track.name, world.name)
+    look = spec.look.world_look(track.name, world.name)
     lo = np.min(track.waypoints.reshape(-1, 3, 2), axis=(0, 1)) - look.field_margin_m
     hi = np.max(track.waypoints.reshape(-1, 3, 2), axis=(0, 1)) + look.field_margin_m
     mid, half = (lo + hi) / 2, (hi - lo) / 2
@@ -188,7 +194,7 @@ def scene_mjcf_and_assets(spec: SceneSpec) -> tuple[str, dict[str, bytes]]:
           {floor_look} friction="{mu} 0.005 0.0001" contype="1" conaffinity="2"/>
 {geoms_xml}
 {object_bodies_mjcf(spec.object_slots)}
-{car_geometry.car_mjcf(mu, spec.camera_names, spec.camera_pos_m, spec.car_dynamics)}
+{car_geometry.car_mjcf(mu, spec.camera_names, spec.camera_pos_m, spec.car_dynamics, spec.camera_pitch_down_rad)}
   </worldbody>
 {car_geometry.car_actuators_mjcf(spec.car_dynamics)}
 </mujoco>

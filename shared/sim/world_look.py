@@ -9,14 +9,16 @@ Facts taken from the SimApp's world files (`bundle/worlds/reinvent_*.world`, `mo
 * carpet / concrete / wood (`walls.dae`, `field_*.dae`, centimetres): the whole floor, road included, is the
   carpet, concrete or wood texture; the same white edge and orange dashed lines; 2 m walls with a light-blue
   gradient 0.3 m past the road; a `<sky/>`.
-* light, every world: scene ambient 0.5; a directional sun along (-0.5, 0.1, -0.9) of colour (1, 1, 0.8); a point
-  light 15 m above the origin, diffuse 0.225, attenuation (0.4, 0.01, 0). Materials are Phong with specular 0.5.
+* light, every world (SimApp v6.0.5): scene ambient 0.5; a directional sun along (-0.5, 0.1, -0.9) of colour
+  (1, 1, 0.8); a point light 15 m above the origin, diffuse 0.225, attenuation (0.4, 0.01, 0). Materials are Phong
+  with specular 0.5. Other generations light the same worlds differently (`Lighting`, `generation_looks.py`).
 
 Colours are the ones the camera shows in DeepRacer's Gazebo frames (`frames/gazebo_reinvent_episode`: road
 (36, 52, 68), edge lines (229, 230, 225), centre line (236, 143, 2), field (100, 143, 110), walls (37, 63, 76)
 facing the light and (16, 26, 32) away from it); textures are divided by the light a floor receives so the
 rendered floor shows those colours. The sun and point light keep the SimApp's directions and ratios, scaled by
-`LIGHT_SCALE` (MuJoCo adds ambient and diffuse light without Ogre's tone mapping).
+`LIGHT_SCALE` (MuJoCo adds ambient and diffuse light without Ogre's tone mapping); a generation with other lights is
+scaled so that the floor at the reference point gets the same light (`Lighting.scale`).
 
 Anti-aliasing: the lines are painted into one mip-mapped road texture (margin | edge | asphalt | dash | asphalt |
 edge | margin) instead of being separate meshes, so GL's texture filter smooths them the way DeepRacer's
@@ -159,28 +161,72 @@ class LightSetting:
     attenuation: tuple[float, float, float]
 
 
-def default_lights() -> dict[str, LightSetting]:
-    """The SimApp's two lights, by racer light name, in MuJoCo units."""
+FLOOR_REFERENCE_M = (4.0, 2.6)
+"""Where on the floor the light is matched across lightings (a point of the re:Invent 2018 track, 15.7 m from the
+point light)."""
+
+
+@dataclass(frozen=True)
+class Lighting:
+    """One world file's lights in Gazebo units: scene ambient, a directional sun, a point light above the origin."""
+
+    ambient: float
+    sun_rgb: tuple[float, float, float]
+    sun_direction: tuple[float, float, float]
+    point_diffuse: float
+    point_attenuation: tuple[float, float, float] = POINT_LIGHT_ATTENUATION
+    point_pos_m: tuple[float, float, float] = POINT_LIGHT_POS_M
+    gain: float = 1.0
+    """Every light times this when drawn, the textures calibrated without it (a perturbation; 1 = the world's)."""
+
+    def gazebo_floor_light(self, position_m: tuple[float, float] = FLOOR_REFERENCE_M) -> np.ndarray:
+        """RGB light (Gazebo units) an up-facing surface receives at `position_m`."""
+        sun = np.asarray(self.sun_direction, dtype=np.float64)
+        cos_sun = max(0.0, -sun[2] / np.linalg.norm(sun))
+        to_light = np.asarray(self.point_pos_m) - np.array([position_m[0], position_m[1], 0.0])
+        distance = float(np.linalg.norm(to_light))
+        constant, linear, quadratic = self.point_attenuation
+        point = self.point_diffuse * (to_light[2] / distance) / (constant + linear * distance + quadratic * distance**2)
+        return self.ambient + cos_sun * np.asarray(self.sun_rgb, dtype=np.float64) + point
+
+    @property
+    def scale(self) -> float:
+        """MuJoCo light per Gazebo light unit: `LIGHT_SCALE` for the SimApp v6.0.5 lights; any other lighting is
+        scaled so the floor at `FLOOR_REFERENCE_M` gets the same mean light, which keeps the calibrated floor
+        colours and leaves what the lights change: their colour, direction and spread, and the walls' light.
+        The textures are calibrated with it; the lights are drawn at `render_scale`."""
+        reference = float(np.mean(SIMAPP6_LIGHTING.gazebo_floor_light()))
+        return LIGHT_SCALE * reference / float(np.mean(self.gazebo_floor_light()))
+
+    @property
+    def render_scale(self) -> float:
+        """The scale the lights are drawn with: `scale` times `gain`."""
+        return self.scale * self.gain
+
+
+SIMAPP6_LIGHTING = Lighting(SCENE_AMBIENT, SUN_RGB, SUN_DIRECTION, POINT_LIGHT_DIFFUSE)
+"""deepracer-simapp v6.0.5 `bundle/worlds/reinvent_*.world`: the lights of today's worlds (and racer's default)."""
+
+
+def default_lights(lighting: Lighting = SIMAPP6_LIGHTING) -> dict[str, LightSetting]:
+    """A lighting's two lights, by racer light name, in MuJoCo units."""
+    scale = lighting.render_scale
     return {
-        "sun": LightSetting(tuple(LIGHT_SCALE * c for c in SUN_RGB), (1.0, 0.0, 0.0)),
-        "point": LightSetting((LIGHT_SCALE * POINT_LIGHT_DIFFUSE,) * 3, POINT_LIGHT_ATTENUATION),
+        "sun": LightSetting(tuple(scale * c for c in lighting.sun_rgb), (1.0, 0.0, 0.0)),
+        "point": LightSetting((scale * lighting.point_diffuse,) * 3, lighting.point_attenuation),
     }
 
 
-def floor_light(position_m: tuple[float, float] = (4.0, 2.6)) -> np.ndarray:
-    """RGB light factor an up-facing surface receives at `position_m` from the default lights."""
-    sun = np.asarray(SUN_DIRECTION, dtype=np.float64)
-    cos_sun = -sun[2] / np.linalg.norm(sun)
-    to_light = np.asarray(POINT_LIGHT_POS_M) - np.array([position_m[0], position_m[1], 0.0])
-    distance = float(np.linalg.norm(to_light))
-    constant, linear, quadratic = POINT_LIGHT_ATTENUATION
-    point = POINT_LIGHT_DIFFUSE * (to_light[2] / distance) / (constant + linear * distance + quadratic * distance**2)
-    return LIGHT_SCALE * (SCENE_AMBIENT + cos_sun * np.asarray(SUN_RGB) + point)
+def floor_light(
+    position_m: tuple[float, float] = FLOOR_REFERENCE_M, lighting: Lighting = SIMAPP6_LIGHTING
+) -> np.ndarray:
+    """RGB light factor an up-facing surface receives at `position_m` from a lighting's lights (MuJoCo units)."""
+    return lighting.scale * lighting.gazebo_floor_light(position_m)
 
 
-def _texture_rgb(rendered: RGB) -> np.ndarray:
-    """Texture colour that renders as `rendered` on a floor under the default light."""
-    return np.asarray(rendered, dtype=np.float64) / floor_light()
+def _texture_rgb(rendered: RGB, lighting: Lighting = SIMAPP6_LIGHTING) -> np.ndarray:
+    """Texture colour that renders as `rendered` on a floor under a lighting."""
+    return np.asarray(rendered, dtype=np.float64) / floor_light(lighting=lighting)
 
 
 def _png(pixels: np.ndarray) -> bytes:
@@ -203,7 +249,9 @@ def _grain(rng: np.random.Generator, std: float, rows: int, columns: int) -> np.
 
 
 @functools.cache
-def road_texture_png(look: WorldLook, road_width_m: float, seed: int = 0) -> bytes:
+def road_texture_png(
+    look: WorldLook, road_width_m: float, seed: int = 0, lighting: Lighting = SIMAPP6_LIGHTING
+) -> bytes:
     """The road band's texture: u across the band (margin, lines, asphalt), v along `ROAD_TILE_DASHES` dashes.
 
     Texel colours are area-weighted where a line edge crosses a texel, so the texture itself is anti-aliased.
@@ -238,10 +286,10 @@ def road_texture_png(look: WorldLook, road_width_m: float, seed: int = 0) -> byt
     road_noise = _grain(rng, look.road_grain, along_px, size)
     field_noise = _grain(rng, look.field_grain, along_px, size)
     pixels = (
-        field_w * (_texture_rgb(look.field_rgb) + field_noise)
-        + asphalt_w * (_texture_rgb(look.road_rgb) + road_noise)
-        + edge_w * _texture_rgb(look.edge_line_rgb)
-        + centre[..., None] * _texture_rgb(look.center_line_rgb)
+        field_w * (_texture_rgb(look.field_rgb, lighting) + field_noise)
+        + asphalt_w * (_texture_rgb(look.road_rgb, lighting) + road_noise)
+        + edge_w * _texture_rgb(look.edge_line_rgb, lighting)
+        + centre[..., None] * _texture_rgb(look.center_line_rgb, lighting)
     )
     return _png(pixels)
 
@@ -251,10 +299,10 @@ def road_tile_length_m() -> float:
 
 
 @functools.cache
-def field_texture_png(look: WorldLook, seed: int = 1) -> bytes:
+def field_texture_png(look: WorldLook, seed: int = 1, lighting: Lighting = SIMAPP6_LIGHTING) -> bytes:
     rng = np.random.default_rng(seed)
     size = FIELD_TEXTURE_PX
-    return _png(_texture_rgb(look.field_rgb) + rng.normal(0.0, look.field_grain, (size, size, 1)))
+    return _png(_texture_rgb(look.field_rgb, lighting) + rng.normal(0.0, look.field_grain, (size, size, 1)))
 
 
 WALL_TEXTURE_PX = 64

@@ -75,9 +75,33 @@ def test_each_car_profile_given_is_driven(monkeypatch, deepracer_data):
     assert result.exit_code == 0, result.output
     report = json.loads([line for line in result.stdout.splitlines() if line.startswith("{")][-1])
     assert [drive["car_profile"] for drive in report["drives"]] == ["gazebo", "simtrace-fit"] * 2
+    assert [drive["generation"] for drive in report["drives"]] == ["2019"] * 4  # the landing rule's generation
     assert [dynamics for _, dynamics in driven] == [CAR_DYNAMICS["gazebo"], CAR_DYNAMICS["simtrace-fit"]] * 2
     bad = CliRunner().invoke(transfer_bench_command, ["--car-profile", "f1"])
     assert bad.exit_code == 2 and "'gazebo', 'simtrace-fit'" in bad.output
+
+
+def test_each_generation_given_is_driven_with_its_own_look_and_car(monkeypatch, deepracer_data):
+    """`--generation` repeats: without --car-profile every checkpoint drives each generation's car in its look."""
+    from racer.benches import transfer as transfer_bench
+    from racer.shared.sim.generations import generation
+
+    driven = []
+
+    def drive(model, config, starts):
+        driven.append((config.generation, config.car_dynamics, config.look))
+        return {"laps": 0, "starts": starts, "mean_progress": 1.0, "progress_per_start": [1.0] * starts}
+
+    monkeypatch.setattr(transfer_bench, "drive", drive)
+    args = ["--starts", "1", "--generation", "simapp6", "--generation", "2019", "--data", str(deepracer_data)]
+    result = CliRunner().invoke(transfer_bench_command, args, catch_exceptions=False)
+    assert result.exit_code == 0, result.output
+    report = json.loads([line for line in result.stdout.splitlines() if line.startswith("{")][-1])
+    names = ["simapp6", "2019"] * 2
+    assert [(d["generation"], d["car_profile"]) for d in report["drives"]] == [
+        (name, generation(name).car_profile) for name in names
+    ]
+    assert driven == [(name, generation(name).car, generation(name).look) for name in names]
 
 
 def test_without_deepracer_data_the_bench_names_the_option_and_the_variable(monkeypatch):
@@ -87,19 +111,19 @@ def test_without_deepracer_data_the_bench_names_the_option_and_the_variable(monk
 
 
 def test_matrix_trains_each_cell_and_drives_its_last_checkpoint(deepracer_data):
-    """`--matrix` with a tiny budget: one profile, with dynamics randomisation only (which cells `--randomization`
+    """`--matrix` with a tiny budget: one generation, with dynamics randomisation only (which cells `--randomization`
     picks is tested without training, test_transfer_matrix_cells.py), 0.3 minutes, one start."""
-    args = ["--matrix", "--train-profile", "simapp6-ros2", "--car-profile", "simapp6-ros2", "--randomization", "on"]
+    args = ["--matrix", "--train-generation", "simapp6", "--generation", "simapp6", "--randomization", "on"]
     args += ["--minutes", "0.3", "--starts", "1", "--workers", "1", "--data", str(deepracer_data)]
     result = CliRunner().invoke(transfer_bench_command, args, catch_exceptions=False)
     assert result.exit_code == 0, result.output
     report = json.loads([line for line in result.stdout.splitlines() if line.startswith("{")][-1])
     assert report["benchmark"] == "transfer-matrix" and report["minutes_per_model"] == 0.3
     runs = {run["model"]: run for run in report["runs"]}
-    assert sorted(runs) == ["matrix-simapp6-ros2-dr"]
-    assert runs["matrix-simapp6-ros2-dr"]["dynamics_randomization"] is True
+    assert sorted(runs) == ["matrix-simapp6-dr"]
+    assert runs["matrix-simapp6-dr"]["dynamics_randomization"] is True
     for name, run in runs.items():
-        assert run["car_profile"] == "simapp6-ros2"
+        assert (run["generation"], run["car_profile"]) == ("simapp6", "")
         if run["checkpoint"] is not None:  # a checkpoint within 18 s is likely, not certain on a loaded machine
-            assert list(run["drives"]) == ["simapp6-ros2"] and run["drives"]["simapp6-ros2"]["starts"] == 1
-            assert report["matrix"][name]["simapp6-ros2"].startswith(f"{run['drives']['simapp6-ros2']['laps']}/1 ")
+            assert list(run["drives"]) == ["simapp6"] and run["drives"]["simapp6"]["starts"] == 1
+            assert report["matrix"][name]["simapp6"].startswith(f"{run['drives']['simapp6']['laps']}/1 ")

@@ -27,14 +27,41 @@ def test_randomization_on_trains_only_the_randomised_cell_and_keeps_its_model(tm
     args += ["--data", str(deepracer_data)]
     result = CliRunner().invoke(transfer_bench_command, [*args, "--keep-models", str(kept)], catch_exceptions=False)
     assert result.exit_code == 0, result.output
-    assert trained == ["matrix-gazebo-dr", "matrix-simapp6-ros2-dr"]
+    assert trained == ["matrix-simapp6-gazebo-dr", "matrix-simapp6-simapp6-ros2-dr"]
     report = json.loads(result.stdout.strip().splitlines()[-1])
     assert [run["dynamics_randomization"] for run in report["runs"]] == [True, True]
-    assert (kept / "matrix-simapp6-ros2-dr" / "marker").read_text() == "matrix-simapp6-ros2-dr"
+    assert [run["generation"] for run in report["runs"]] == ["simapp6", "simapp6"]
+    assert (kept / "matrix-simapp6-simapp6-ros2-dr" / "marker").read_text() == "matrix-simapp6-simapp6-ros2-dr"
 
     trained.clear()
     result = CliRunner().invoke(
         transfer_bench_command,
         ["--matrix", "--train-profile", "gazebo", "--randomization", "off", "--data", str(deepracer_data)],
     )
-    assert result.exit_code == 0 and trained == ["matrix-gazebo-fixed"]
+    assert result.exit_code == 0 and trained == ["matrix-simapp6-gazebo-fixed"]
+
+
+def test_the_matrix_trains_per_generation_and_drives_in_every_generation(monkeypatch, deepracer_data):
+    """By default a model trained in a generation (its own car) is driven in each generation with its own car; the
+    drives' env configs carry the generation and its car."""
+    from racer.shared.sim.generations import GENERATION_NAMES, generation
+
+    cells, configs = [], []
+    monkeypatch.setattr(
+        transfer_matrix, "train_cell", lambda cell, workdir, *rest: (cells.append(cell), (workdir / "store", []))[1]
+    )
+
+    def drive_last_checkpoint(store_root, cell, track, cars, starts, drive):
+        configs.extend(car.env_config(track, None) for car in cars)
+        return None, {car.label: {"laps": 0, "starts": starts, "mean_progress": 0.0} for car in cars}
+
+    monkeypatch.setattr(transfer_matrix, "drive_last_checkpoint", drive_last_checkpoint)
+    args = ["--matrix", "--train-generation", "2019", "--randomization", "on", "--data", str(deepracer_data)]
+    result = CliRunner().invoke(transfer_bench_command, args, catch_exceptions=False)
+    assert result.exit_code == 0, result.output
+    assert [(cell.generation, cell.profile, cell.model_prefix) for cell in cells] == [("2019", "", "matrix-2019-dr")]
+    assert [(config.generation, config.car_dynamics) for config in configs] == [
+        (name, generation(name).car) for name in GENERATION_NAMES
+    ]
+    report = json.loads(result.stdout.strip().splitlines()[-1])
+    assert list(report["matrix"]["matrix-2019-dr"]) == list(GENERATION_NAMES)

@@ -163,6 +163,29 @@ def test_the_car_profile_reaches_the_env_and_the_evaluation_params(tmp_path, mon
     assert bad.exit_code == 2 and "--car-profile" in bad.output and "'gazebo', 'simtrace-fit'" in bad.output
 
 
+def test_the_generation_reaches_the_env_and_the_evaluation_params(tmp_path, monkeypatch):
+    """`--generation` picks the look and the car of the evaluation's env, and the outputs record it."""
+    from racer.evaluation_worker import runner
+    from racer.shared.deepracer.training_params import parse_training_params
+    from racer.shared.sim.generations import generation
+
+    store = LocalStore(tmp_path / "store")
+    save_model(store)
+    configs, env_type = [], runner.DeepRacerEnv
+    monkeypatch.setattr(runner, "DeepRacerEnv", lambda config, **kw: configs.append(config) or env_type(config, **kw))
+    result = invoke(str(tmp_path / "store"), "--trials", "1", "--no-video", "--no-mcap", "--generation", "2019")
+    assert result.exit_code == 0, result.output
+    assert [(c.generation, c.look, c.car_dynamics) for c in configs] == [
+        ("2019", generation("2019").look, generation("2019").car)
+    ]
+    keys = files_of(store, result.output)
+    assert json.loads(store.get_bytes(keys["summary"]))["generation"] == "2019"
+    params = parse_training_params(store.get_bytes(keys["params"]).decode(), source="evaluation_params.yaml")
+    assert (params.values["RACER_GENERATION"], params.values["RACER_CAR_PROFILE"]) == ("2019", "")
+    bad = invoke(str(tmp_path / "store"), "--generation", "2020")
+    assert bad.exit_code == 2 and "--generation" in bad.output and "'2019', 'simapp5', 'simapp6'" in bad.output
+
+
 def test_bad_input_gives_one_clear_line(tmp_path):
     store = LocalStore(tmp_path / "store")
     save_model(store)

@@ -18,6 +18,7 @@ from racer.shared.deepracer.training_params import training_params_to_yaml
 from racer.shared.model_layout import ModelLayout
 from racer.shared.run_settings import NOT_FROM_SETTINGS, JobSettings, env_config, settings_fields
 from racer.shared.sim.car_dynamics import SIMTRACE_FIT_DYNAMICS, car_profile
+from racer.shared.sim.generations import generation
 from racer.shared.sim.challenge_config import ChallengeConfig
 from racer.shared.sim.config import DEFAULT_MODEL_METADATA, EnvConfig
 from racer.shared.store import open_store
@@ -44,6 +45,7 @@ NOT_DEFAULT: dict[str, object] = {
     "domain_randomization": True,
     "car_randomization": True,
     "dynamics_randomization": True,
+    "generation": "2019",
     "car_profile": "simtrace-fit",
     "simapp_dir": "/opt/simapp/bundle",
     "challenge": OBSTACLES,
@@ -91,8 +93,10 @@ def test_every_setting_travels_through_training_params_yaml_into_the_env():
         want = expected.get(env_field, NOT_DEFAULT[name])
         assert getattr(config, env_field) == want, env_field
         assert getattr(config, env_field) != getattr(default, env_field), f"{env_field}: the test value is the default"
+    same_generation = EnvConfig(generation=NOT_DEFAULT["generation"])  # the look follows the generation
     for name in NOT_FROM_SETTINGS:
-        assert getattr(config, name) == getattr(default, name)
+        assert getattr(config, name) == getattr(same_generation, name), name
+    assert config.look == generation("2019").look != default.look
 
 
 def upload_run(tmp_path: Path, settings: WorkerSettings) -> Path:
@@ -130,6 +134,7 @@ def test_rollout_and_evaluation_build_the_same_env_from_the_same_settings(tmp_pa
         summit=SummitRules(resets_per_lap=3, reset_penalty_s=1.5, put_back="where_it_left"),
         challenge=OBSTACLES,
         car_profile="simtrace-fit",
+        generation="simapp5",
     )
     penalty = {"deepracer": (1.5, 3.0), "race": (1.5, 1.5)}[mode]
     worker = WorkerSettings(
@@ -140,6 +145,7 @@ def test_rollout_and_evaluation_build_the_same_env_from_the_same_settings(tmp_pa
         off_track_penalty_s=penalty[0],
         collision_penalty_s=penalty[1],
         car_profile="simtrace-fit",
+        generation="simapp5",
         challenge=OBSTACLES,
     )
     store = open_store(LocalStoreSettings(root=upload_run(tmp_path, worker)))
@@ -149,6 +155,7 @@ def test_rollout_and_evaluation_build_the_same_env_from_the_same_settings(tmp_pa
     assert settings == run.worker
     evaluated = env_config(settings, job)
     assert evaluated.car_dynamics == car_profile("simtrace-fit") and evaluated.challenge == OBSTACLES
+    assert evaluated.generation == rollout.generation == "simapp5"
     job_fields = {item.name for item in dataclasses.fields(JobSettings)}
     assert dataclasses.replace(rollout, **{name: getattr(evaluated, name) for name in job_fields}) == evaluated
     assert rollout.reward_function_path == run.reward_function_path and evaluated.reward_function_path is None

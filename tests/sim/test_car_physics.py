@@ -34,7 +34,10 @@ def _drive(env: DeepRacerEnv, speed_mps: float, steering_deg: float, seconds: fl
 
 @pytest.fixture(scope="module")
 def envs():
-    created = {world: DeepRacerEnv(EnvConfig(world=world)) for world in ("base", "carpet", "wood")}
+    created = {
+        world: DeepRacerEnv(EnvConfig(world=world, car_dynamics=GAZEBO_DYNAMICS))
+        for world in ("base", "carpet", "wood")
+    }
     yield created
     for env in created.values():
         env.close()
@@ -135,7 +138,7 @@ def _compiled_yaw_inertia_kgm2(env: DeepRacerEnv) -> float:
     return total
 
 
-def test_default_car_has_the_urdf_yaw_inertia_and_turns_near_kinematically(envs, fitted_env):
+def test_the_gazebo_car_has_the_urdf_yaw_inertia_and_turns_near_kinematically(envs, fitted_env):
     """GAZEBO_DYNAMICS: the URDF's inertia about the vertical, and stiff equal axles, so a moderate turn follows the
     wheels (the simtrace fit's soft front axle understeers: a wider circle)."""
     from racer.shared.sim.car import urdf_yaw_inertia_kgm2
@@ -228,7 +231,7 @@ def test_acceleration_after_prepare_matches_real_simtraces(deepracer_data):
             "version": "5",
         }
     )
-    env = DeepRacerEnv(EnvConfig(model_metadata=metadata, track="racer_circuit"))
+    env = DeepRacerEnv(EnvConfig(model_metadata=metadata, track="racer_circuit", car_dynamics=GAZEBO_DYNAMICS))
     try:
         env.reset(seed=0)
         rows = [env.step(0)[-1]["simtrace"] for _ in range(5)]

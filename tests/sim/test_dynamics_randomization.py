@@ -62,7 +62,7 @@ def test_draws_are_seeded_within_the_ranges_and_span_both_profiles():
 
 
 def test_off_by_default_the_env_drives_the_profiles_car(make_env):
-    env = make_env()
+    env = make_env(car_dynamics=GAZEBO_DYNAMICS)
     inertia, servo = env.model.body_inertia.copy(), env.model.actuator_biasprm.copy()
     for seed in (0, 1):
         env.reset(seed=seed)
@@ -118,7 +118,7 @@ def test_a_delayed_episode_drives_each_step_with_the_previous_command(make_env):
 
 def test_an_evaluation_episode_drives_the_profiles_own_car_between_randomised_ones(make_env):
     """Evaluation measures the checkpoint on the run's car (as `racer evaluate` does); training goes on drawing."""
-    env = make_env(dynamics_randomization=True)
+    env = make_env(dynamics_randomization=True, car_dynamics=GAZEBO_DYNAMICS)
     inertia, servo = env.model.body_inertia.copy(), env.model.actuator_biasprm.copy()
     env.reset(seed=3)
     drawn = env.car_dynamics

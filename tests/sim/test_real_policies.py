@@ -1,8 +1,8 @@
 """Closed loop with real DeepRacer policies: the sample model trained in DeepRacer's Gazebo on re:Invent 2018
-(`models/gazebo-sample-reinvent2018`, frozen graphs, 12 actions, front camera) drives racer's default car greedily.
+(`models/gazebo-sample-reinvent2018`, frozen graphs, 12 actions, front camera) drives racer's `2019` generation (the
+simulator it was trained in) greedily.
 
-`racer bench transfer` drives them from 10 spread starts: both lap with the default car and not with the car fitted on
-the simtraces (docs/transfer.md); here three starts each keep the test at a few seconds. The graphs' weights are read
+`racer bench transfer` drives them from 10 spread starts (docs/transfer.md); here three starts each keep the test at a few seconds. The graphs' weights are read
 from the GraphDef's Const nodes in numpy (no TensorFlow), the network is DeepRacer's shallow one.
 """
 
@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from racer.shared.deepracer.model_metadata import parse_model_metadata
-from racer.shared.sim.car_dynamics import GAZEBO_DYNAMICS, SIMTRACE_FIT_DYNAMICS
+from racer.shared.sim.car_dynamics import SIMTRACE_FIT_DYNAMICS
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
 
@@ -102,6 +102,7 @@ def laps(deepracer_data, checkpoint: int, starts: tuple[float, ...], **config) -
     folder = deepracer_data / "models" / "gazebo-sample-reinvent2018"
     metadata = parse_model_metadata(json.loads((folder / "model_metadata.json").read_text()), source="sample")
     weights = frozen_graph_weights(folder / f"model_{checkpoint}.pb")
+    config = {"generation": "2019", **config}  # the simulator they were trained in (the landing rule's)
     env = DeepRacerEnv(
         EnvConfig(track=deepracer_data / "routes" / "reinvent_base.npy", model_metadata=metadata, **config)
     )
@@ -124,7 +125,7 @@ STARTS = (0.0, 0.4, 0.7)
 
 
 @pytest.mark.parametrize("checkpoint", [30, 15])
-def test_gazebo_trained_policies_lap_with_the_default_car(deepracer_data, checkpoint):
+def test_gazebo_trained_policies_lap_in_the_2019_generation(deepracer_data, checkpoint):
     assert laps(deepracer_data, checkpoint, STARTS) == [100.0] * len(STARTS)
 
 
@@ -141,14 +142,17 @@ def test_with_dynamics_randomization_the_real_policy_still_drives(deepracer_data
     weights = frozen_graph_weights(folder / "model_30.pb")
     env = DeepRacerEnv(
         EnvConfig(
-            track=deepracer_data / "routes" / "reinvent_base.npy", model_metadata=metadata, dynamics_randomization=True
+            track=deepracer_data / "routes" / "reinvent_base.npy",
+            model_metadata=metadata,
+            dynamics_randomization=True,
+            generation="2019",
         )
     )
     key = next(iter(env.observation_space.spaces))
     try:
         for seed in (0, 1, 2):
             obs, _ = env.reset(seed=seed)
-            assert env.car_dynamics != GAZEBO_DYNAMICS
+            assert env.car_dynamics != env.config.car_dynamics
             for _ in range(20):
                 obs, _, terminated, truncated, info = env.step(greedy_action(weights, obs[key][..., 0]))
                 assert not truncated and np.isfinite(env.data.qpos).all()

@@ -280,11 +280,13 @@ def test_the_car_profile_travels_from_train_options_and_workers_json_to_each_wor
     from racer.rollout_worker.worker_files import load_worker_files, training_env_config
     from racer.shared.deepracer.training_params import parse_training_params
     from racer.shared.sim.car_dynamics import GAZEBO_DYNAMICS, SIMTRACE_FIT_DYNAMICS
+    from racer.shared.sim.generations import DEFAULT_GENERATION, generation
     from racer.shared.user_errors import RunConfigError
 
     make_trainer(redis_settings, tmp_path / "default", custom_files).setup()
     store = open_store(LocalStoreSettings(root=tmp_path / "default" / "store"))
-    assert training_env_config(load_worker_files(store, PREFIX, 0, tmp_path / "w")).car_dynamics == GAZEBO_DYNAMICS
+    default_car = generation(DEFAULT_GENERATION).car  # no car profile: the default generation's car
+    assert training_env_config(load_worker_files(store, PREFIX, 0, tmp_path / "w")).car_dynamics == default_car
 
     (custom_files / "workers.json").write_text(json.dumps({"workers": [{}, {"RACER_CAR_PROFILE": "gazebo"}]}))
     make_trainer(redis_settings, tmp_path, custom_files, car_profile="simtrace-fit").setup()
@@ -305,6 +307,43 @@ def test_the_car_profile_travels_from_train_options_and_workers_json_to_each_wor
     (custom_files / "workers.json").unlink()
     with pytest.raises(RunConfigError, match=rf"--car-profile.*RACER_CAR_PROFILE: {valid}"):
         make_trainer(redis_settings, tmp_path / "bad", custom_files, car_profile="f1").setup()
+
+
+def test_the_generation_travels_from_train_options_and_workers_json_to_each_workers_env(
+    redis_settings, tmp_path, custom_files
+):
+    """`--generation` for every worker, workers.json's RACER_GENERATION over it per worker: each worker's env gets
+    that generation's look and car, and a RACER_CAR_PROFILE beside it replaces only the car. A bad name is refused
+    by name."""
+    from racer.rollout_worker.worker_files import load_worker_files, training_env_config
+    from racer.shared.deepracer.training_params import parse_training_params
+    from racer.shared.sim.car_dynamics import GAZEBO_DYNAMICS
+    from racer.shared.sim.generations import DEFAULT_GENERATION, generation
+    from racer.shared.user_errors import RunConfigError
+
+    make_trainer(redis_settings, tmp_path / "default", custom_files).setup()
+    store = open_store(LocalStoreSettings(root=tmp_path / "default" / "store"))
+    assert training_env_config(load_worker_files(store, PREFIX, 0, tmp_path / "w")).generation == DEFAULT_GENERATION
+
+    workers = [{"RACER_GENERATION": "simapp5"}, {"RACER_CAR_PROFILE": "gazebo"}]
+    (custom_files / "workers.json").write_text(json.dumps({"workers": workers}))
+    make_trainer(redis_settings, tmp_path, custom_files, generation="2019").setup()
+    store = open_store(LocalStoreSettings(root=tmp_path / "store"))
+    layout = ModelLayout(PREFIX)
+    recorded = [parse_training_params(store.get_bytes(layout.training_params(i)).decode()).values for i in (0, 1)]
+    assert [(values["RACER_GENERATION"], values["RACER_CAR_PROFILE"]) for values in recorded] == [
+        ("simapp5", ""),
+        ("2019", "gazebo"),
+    ]
+    configs = [training_env_config(load_worker_files(store, PREFIX, i, tmp_path / f"worker-{i}")) for i in (0, 1)]
+    assert [(config.generation, config.look, config.car_dynamics) for config in configs] == [
+        ("simapp5", generation("simapp5").look, generation("simapp5").car),
+        ("2019", generation("2019").look, GAZEBO_DYNAMICS),
+    ]
+
+    (custom_files / "workers.json").write_text(json.dumps({"workers": [{}, {"RACER_GENERATION": "2020"}]}))
+    with pytest.raises(RunConfigError, match=r"workers.json \(worker 1\): RACER_GENERATION: unknown generation '2020'"):
+        make_trainer(redis_settings, tmp_path / "bad", custom_files).setup()
 
 
 def test_dynamics_randomization_travels_from_train_options_and_workers_json_to_each_workers_env(
