@@ -12,6 +12,7 @@ from pathlib import Path
 
 import click
 
+from racer.drfc.options import drfc_evaluate_option
 from racer.evaluation_worker.config import CONSOLE_NUMBER_OF_RESETS, MODES
 from racer.shared.sim.car_dynamics import CAR_PROFILE_NAMES
 from racer.shared.sim.challenge_cli import challenge_options, challenge_params_from_options
@@ -32,7 +33,10 @@ def _video_size(text: str) -> tuple[int, int]:
 
 
 @click.command(name="evaluate")
-@click.option("--model-prefix", required=True, help="The model's prefix in the store (the training run's name).")
+@drfc_evaluate_option
+@click.option(
+    "--model-prefix", default=None, help="The model's prefix in the store (the training run's name); required."
+)
 @click.option(
     "--checkpoint",
     default="best",
@@ -176,6 +180,8 @@ def evaluate_command(
     race_param,
 ) -> None:
     """Evaluate a model from the store (RACER_STORE) and write metrics, simtrace, videos and an MCAP next to it."""
+    if not model_prefix:
+        raise click.UsageError("Missing option '--model-prefix' (or --drfc, whose DR_LOCAL_S3_MODEL_PREFIX names it).")
     from racer.evaluation_worker.config import (
         DeepRacerRules,
         EvaluationConfig,

@@ -9,6 +9,7 @@ from pathlib import Path
 import click
 
 from racer.defaults import DEFAULT_CUSTOM_FILES
+from racer.drfc.options import drfc_train_option
 from racer.local.run import LocalRunPlan, run_local_training
 from racer.rollout_worker.batched_rollout import DEFAULT_ENVS_PER_WORKER, DEFAULT_WORKERS
 from racer.shared.config import LocalStoreSettings, settings_from_env
@@ -22,6 +23,7 @@ from racer.trainer.run_options import trainer_run_options
 
 
 @click.command(name="train")
+@drfc_train_option
 @click.option("--model-prefix", default=None, help="Model name (store prefix). Default: racer-<date>-<time>.")
 @click.option(
     "--custom-files",

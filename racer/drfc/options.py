@@ -1,0 +1,176 @@
+"""`--drfc` for `racer train` and `racer evaluate`: the experiment's settings become the command's options.
+
+An option given on the command line beside `--drfc` wins over the env files (and over worker-N.env, for every
+worker); every other option the experiment sets takes the experiment's value. Each decorator wraps its command as
+racer.shared.sim.track_option's `--direction` does, so the commands themselves only gain one decorator line.
+"""
+
+from __future__ import annotations
+
+import functools
+import tempfile
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import click
+from click.core import ParameterSource
+
+from racer.drfc.evaluation import read_evaluation
+from racer.drfc.shell_env import DrfcFileError
+from racer.drfc.training import DrfcTraining, read_training, run_worker_params, write_custom_files
+from racer.shared.sim.challenge_cli import challenge_params_from_options
+from racer.shared.sim.challenge_config import CHALLENGE_KEYS
+from racer.shared.sim.track_option import resolved_track_name
+
+__all__ = ["drfc_evaluate_option", "drfc_train_option"]
+
+TRAIN_HELP = (
+    "Train a DeepRacer-for-Cloud experiment as it is: a folder with run.env (system.env, worker-N.env and "
+    "custom_files/ beside it), or its run.env. Options given here as well override the env files, for every worker "
+    "(docs/coming-from-drfc.md)."
+)
+EVALUATE_HELP = (
+    "Evaluate as DeepRacer-for-Cloud's dr-start-evaluation would: the model, track, race and DR_EVAL_* settings of "
+    "this experiment folder (or run.env). Options given here as well override the env files."
+)
+GIVEN = (ParameterSource.COMMANDLINE, ParameterSource.ENVIRONMENT, ParameterSource.PROMPT)
+
+
+def _given() -> set[str]:
+    """The options the user gave (not defaults)."""
+    context = click.get_current_context()
+    return {name for name in context.params if context.get_parameter_source(name) in GIVEN}
+
+
+def _say(command: str, lines: list[str]) -> None:
+    for line in lines:
+        click.echo(f"racer {command} --drfc: {line}", err=True)
+
+
+def drfc_train_option(command: Callable[..., Any]) -> Callable[..., Any]:
+    """Add `--drfc PATH` to `racer train` (its `track`, `direction`, `custom_files`, ... parameters)."""
+
+    @click.option("--drfc", type=click.Path(exists=True, path_type=Path), default=None, help=TRAIN_HELP)
+    @functools.wraps(command)
+    def wrapper(*args: Any, drfc: Path | None = None, **kwargs: Any) -> Any:
+        if drfc is None:
+            return command(*args, **kwargs)
+        given = _given()
+        try:
+            training = read_training(drfc, kwargs["num_workers"] if "num_workers" in given else None)
+        except DrfcFileError as error:
+            raise click.ClickException(str(error)) from error
+        overrides, challenge_replaced = _train_overrides(training, kwargs, given)
+        source = kwargs["custom_files"] if "custom_files" in given else None
+        try:
+            workers = run_worker_params(training, source or training.experiment.custom_files, overrides,
+                                        challenge_replaced)  # fmt: skip
+        except DrfcFileError as error:
+            raise click.ClickException(str(error)) from error
+        for name, value in (
+            ("model_prefix", training.model_prefix),
+            ("num_workers", training.num_workers),
+            ("pretrained_prefix", training.pretrained_prefix),
+            ("pretrained_checkpoint", training.pretrained_checkpoint),
+            ("viewer_port", training.viewer_port),
+        ):
+            if name not in given and value is not None:
+                kwargs[name] = value
+        kwargs.update(track=workers[0]["WORLD_NAME"], direction=None, race_type=None, race_param=())
+        _say("train", [*_summary(training, workers), *(f"note: {note}" for note in training.notes)])
+        with tempfile.TemporaryDirectory(prefix="racer-drfc-") as scratch:  # lives as long as the run
+            kwargs["custom_files"] = write_custom_files(training, Path(scratch), workers, source)
+            return command(*args, **kwargs)
+
+    return wrapper
+
+
+def _train_overrides(
+    training: DrfcTraining, kwargs: dict[str, Any], given: set[str]
+) -> tuple[list[dict[str, str]], bool]:
+    """Per worker, the training_params the command line sets; and whether it chose the race type."""
+    overrides: list[dict[str, str]] = [{} for _ in range(training.num_workers)]
+    if "track" in given or "direction" in given:
+        for worker_id, params in enumerate(training.worker_params):
+            track = kwargs["track"] if "track" in given else params["WORLD_NAME"]
+            overrides[worker_id]["WORLD_NAME"] = resolved_track_name(track, kwargs.get("direction"))
+    challenge_replaced = "race_type" in given
+    if challenge_replaced:
+        pairs = challenge_params_from_options(kwargs["race_type"], kwargs["race_param"])
+    else:
+        pairs = tuple(_race_param(item) for item in kwargs["race_param"])
+    for worker in overrides:
+        worker.update(pairs)
+    return overrides, challenge_replaced
+
+
+def _race_param(item: str) -> tuple[str, str]:
+    """One --race-param KEY=VALUE, to go over the experiment's race settings (checked there, per worker)."""
+    key, equals, value = item.partition("=")
+    key = key.strip().upper()
+    if not equals or key not in CHALLENGE_KEYS or key == "RACE_TYPE":
+        raise click.BadParameter(f"{item!r}: expected KEY=VALUE with KEY one of {', '.join(CHALLENGE_KEYS[1:])}",
+                                 param_hint="--race-param")  # fmt: skip
+    return key, value.strip()
+
+
+def _summary(training: DrfcTraining, workers: list[dict[str, str]]) -> list[str]:
+    experiment = training.experiment
+    lines = [
+        f"read {', '.join(str(path) for path in experiment.files)}; model {training.model_prefix!r}, "
+        f"{training.num_workers} worker(s)"
+        + (f", cloning {training.pretrained_prefix!r} ({training.pretrained_checkpoint})" if training.pretrained_prefix else "")
+    ]  # fmt: skip
+    for worker_id, params in enumerate(workers):
+        reverse = ", reversed" if params.get("REVERSE_DIR") == "True" else ""
+        source = (
+            f" (DRfC's worker {worker_id + 1}: worker-{worker_id + 1}.env)"
+            if worker_id and experiment.multi_config
+            else ""
+        )
+        lines.append(f"worker {worker_id}{source}: track {params['WORLD_NAME']}{reverse}, {params['RACE_TYPE']}")
+    return lines
+
+
+def drfc_evaluate_option(command: Callable[..., Any]) -> Callable[..., Any]:
+    """Add `--drfc PATH` to `racer evaluate`."""
+
+    @click.option("--drfc", type=click.Path(exists=True, path_type=Path), default=None, help=EVALUATE_HELP)
+    @functools.wraps(command)
+    def wrapper(*args: Any, drfc: Path | None = None, **kwargs: Any) -> Any:
+        if drfc is None:
+            return command(*args, **kwargs)
+        given = _given()
+        try:
+            evaluation = read_evaluation(drfc)
+        except DrfcFileError as error:
+            raise click.ClickException(str(error)) from error
+        for name, value in (
+            ("model_prefix", evaluation.model_prefix),
+            ("checkpoint", evaluation.checkpoint),
+            ("reverse", evaluation.reverse),
+            ("trials", evaluation.trials),
+            ("continuous", evaluation.continuous),
+            ("resets", evaluation.resets),
+            ("off_track_penalty", evaluation.off_track_penalty_s),
+            ("collision_penalty", evaluation.collision_penalty_s),
+            ("video", evaluation.video),
+            ("opponents", evaluation.opponents),
+        ):
+            if name not in given:
+                kwargs[name] = value
+        if "track" not in given and "direction" not in given:
+            kwargs["track"] = evaluation.track
+        if "race_type" not in given:
+            mine = dict(evaluation.race_params)
+            mine.update(_race_param(item) for item in kwargs["race_param"])
+            kwargs.update(race_type=evaluation.race_type, race_param=tuple(f"{k}={v}" for k, v in mine.items()))
+        summary = (
+            f"model {kwargs['model_prefix']!r} ({kwargs['checkpoint']}) on {kwargs['track']}, "
+            f"{evaluation.race_type or 'HEAD_TO_MODEL against ' + ', '.join(kwargs['opponents'])}"
+        )
+        _say("evaluate", [summary, *(f"note: {note}" for note in evaluation.notes)])
+        return command(*args, **kwargs)
+
+    return wrapper
