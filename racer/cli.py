@@ -23,6 +23,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "Race models on a DeepRacer-on-AWS race definition and write a leaderboard.",
     ),
     "analyze": ("racer.analysis.cli:analyze_command", "Analyse simtrace logs into tables, plots and an HTML report."),
+    "compare": (
+        "racer.compare.cli:compare_command",
+        "Compare training runs side by side on one page: curves, evaluations, best laps, settings.",
+    ),
     "model": ("racer.model_io.cli:model_group", "Validate, import and export models in DeepRacer's layout."),
     "bench": ("racer.benches:bench_group", "Benchmarks that print one JSON line (sim, ppo, time-to-lap, viewer)."),
     "track": ("racer.shared.sim.track_cli:track_group", "List, inspect and plot tracks."),

@@ -1,4 +1,6 @@
-"""The HTML report: one self-contained file (pictures embedded) that can be mailed or opened from a bucket."""
+"""The HTML report: one self-contained file (pictures embedded) that can be mailed or opened from a bucket.
+
+`racer analyze` and `racer compare` (racer.compare.page) write theirs with it."""
 
 from __future__ import annotations
 
@@ -10,19 +12,32 @@ from pathlib import Path
 import pandas as pd
 
 
+@dataclass(frozen=True)
+class Html:
+    """A section's content written as HTML by its maker (who escaped what it took from files)."""
+
+    text: str
+
+
 @dataclass
 class Report:
     title: str
     source: str
     notes: list[str] = field(default_factory=list)
-    sections: list[tuple[str, str, Path | pd.DataFrame]] = field(default_factory=list)
-    """(heading, one-line caption, PNG path or table), in reading order."""
+    sections: list[tuple[str, str, Path | pd.DataFrame | Html]] = field(default_factory=list)
+    """(heading, one-line caption, PNG path, table or HTML), in reading order; an empty heading or caption is left
+    out."""
+    style: str = ""
+    """CSS added to the report's own (for the classes an Html section uses)."""
 
     def add_picture(self, heading: str, path: Path, caption: str) -> None:
         self.sections.append((heading, caption, Path(path)))
 
     def add_table(self, heading: str, table: pd.DataFrame, caption: str) -> None:
         self.sections.append((heading, caption, table))
+
+    def add_html(self, heading: str, html_text: str, caption: str = "") -> None:
+        self.sections.append((heading, caption, Html(html_text)))
 
 
 _STYLE = """
@@ -50,14 +65,20 @@ def format_table(table: pd.DataFrame) -> pd.DataFrame:
 def render_html(report: Report) -> str:
     parts = [
         "<!DOCTYPE html>",
-        f"<html><head><meta charset='utf-8'><title>{html.escape(report.title)}</title><style>{_STYLE}</style></head><body>",
+        f"<html><head><meta charset='utf-8'><title>{html.escape(report.title)}</title>"
+        f"<style>{_STYLE}{report.style}</style></head><body>",
         f"<h1>{html.escape(report.title)}</h1>",
         f"<p class='source'>source: {html.escape(report.source)}</p>",
     ]
     parts += [f"<div class='note'>{html.escape(note)}</div>" for note in report.notes]
     for heading, caption, content in report.sections:
-        parts += [f"<h2>{html.escape(heading)}</h2>", f"<p class='caption'>{html.escape(caption)}</p>"]
-        if isinstance(content, Path):
+        if heading:
+            parts.append(f"<h2>{html.escape(heading)}</h2>")
+        if caption:
+            parts.append(f"<p class='caption'>{html.escape(caption)}</p>")
+        if isinstance(content, Html):
+            parts.append(content.text)
+        elif isinstance(content, Path):
             encoded = base64.b64encode(content.read_bytes()).decode("ascii")
             parts.append(f"<img alt='{html.escape(heading)}' src='data:image/png;base64,{encoded}'>")
         else:

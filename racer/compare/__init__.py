@@ -1,0 +1,1 @@
+"""`racer compare`: training runs side by side on one self-contained page."""

@@ -1,0 +1,57 @@
+"""Short real training runs (`racer train` end to end, two workers, a few episodes) for tests that need finished runs
+in a store: the compare page, the viewer's run list."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+CENTRE_REWARD = '''def reward_function(params):
+    """Stay near the centre line."""
+    half_width = 0.5 * params["track_width"]
+    return max(1e-3, 1.0 - params["distance_from_center"] / half_width)
+'''
+
+
+def train_env(store: Path) -> dict[str, str]:
+    return dict(os.environ, RACER_STORE=str(store), MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"))
+
+
+def train_args(custom_files: Path, model: str, *args: str) -> list[str]:
+    return [
+        sys.executable,
+        "-m",
+        "racer.cli",
+        "train",
+        "--custom-files",
+        str(custom_files),
+        "--workers",
+        "2",
+        "--worlds",
+        "base,wood",
+        "--model-prefix",
+        model,
+        *args,
+    ]
+
+
+def train_short_run(store: Path, workdir: Path, model: str, custom_files: Path, *args: str) -> Path:
+    """Train `model` into the local store `store` to the end (`args`: its limit, e.g. --max-episodes 4); its folder."""
+    result = subprocess.run(
+        train_args(custom_files, model, "--viewer-port", "0", *args),
+        capture_output=True,
+        text=True,
+        env=train_env(store),
+        cwd=workdir,
+        timeout=600,
+    )
+    assert result.returncode == 0, (result.stdout + result.stderr)[-4000:]
+    return store / model
+
+
+def set_hyperparameters(custom_files: Path, **values: object) -> None:
+    path = custom_files / "hyperparameters.json"
+    path.write_text(json.dumps({**json.loads(path.read_text()), **values}))
