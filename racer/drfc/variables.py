@@ -63,7 +63,7 @@ GPU = (
     "no GPU pinning: the rollout workers act on the CPU; the trainer's `--device` (auto, cpu, cuda) picks where it "
     "learns"
 )
-LOGS = "racer writes each process's log to <store>/.runs/<model>/ and sends nothing to CloudWatch"
+LOGS = "racer writes each process's log to `<store>/.runs/<model>/` and sends nothing to CloudWatch"
 MOUNTS = (
     "racer runs no SimApp code, so there is nothing to mount (RACER_SIMAPP_DIR in workers.json borrows a SimApp "
     "bundle's meshes for the camera only)"
@@ -90,7 +90,7 @@ VARIABLES: tuple[DrfcVariable, ...] = (
     DrfcVariable("DR_RUN_ID", "each `racer train` has its own Redis and processes; runs are told apart by model "
                  "prefix, so there is no run id", X, X, ("0", "")),
     DrfcVariable("DR_WORLD_NAME", "the track (WORLD_NAME) of each worker and of the evaluation: a SimApp route name, "
-                 "its _cw/_ccw suffix included, fetched on first use (--track)", H, H),
+                 "its `_cw`/`_ccw` suffix included, fetched on first use (--track)", H, H),
     DrfcVariable("DR_RACE_TYPE", "RACE_TYPE of each worker and of the evaluation: TIME_TRIAL, OBJECT_AVOIDANCE or "
                  "HEAD_TO_BOT; HEAD_TO_MODEL evaluates against DR_EVAL_OPP_S3_MODEL_PREFIX (--opponent)", H, H),
     DrfcVariable("DR_CAR_NAME", NAMES, N, N),
@@ -207,8 +207,8 @@ VARIABLES: tuple[DrfcVariable, ...] = (
     DrfcVariable("DR_REMOTE_MINIO_URL", STORE, X, X, ("",)),
     DrfcVariable("DR_ROBOMAKER_CUDA_DEVICES", GPU, X, X, ("",)),
     DrfcVariable("DR_SAGEMAKER_CUDA_DEVICES", GPU, X, R, ("",)),
-    DrfcVariable("DR_EXPERIMENT_NAME", "picks experiments/<name>/ of the DRfC folder given to --drfc, as "
-                 "activate.sh does; --drfc experiments/<name> is `activate.sh -e <name>`", H, H),
+    DrfcVariable("DR_EXPERIMENT_NAME", "picks `experiments/<name>/` of the DRfC folder given to --drfc, as "
+                 "activate.sh does; `--drfc experiments/<name>` is `activate.sh -e <name>`", H, H),
     DrfcVariable("DR_TELEGRAF_HOST", TELEGRAF, X, X, ("",)),
     DrfcVariable("DR_TELEGRAF_PORT", TELEGRAF, X, X, ("",)),
     DrfcVariable("DR_DROA_URL", DROA, R, R),
