@@ -16,6 +16,7 @@ from pathlib import Path
 from racer.drfc.experiment import Env, read_experiment
 from racer.drfc.notices import variable_notes
 from racer.drfc.shell_env import DrfcFileError
+from racer.drfc.simapp_version import simapp_generation
 from racer.drfc.training import DEFAULT_MODEL_PREFIX, TRUE_WORDS
 from racer.drfc.training_params import Param, challenge_params, racer_params
 from racer.shared.sim.challenge_config import MULTI_CAR_RACE_TYPES
@@ -44,6 +45,8 @@ class DrfcEvaluation:
     race_params: tuple[tuple[str, str], ...]
     """The obstacle / bot-car keys and RESET_BEHIND_DIST (training_params names), RACE_TYPE left out."""
     opponents: tuple[str, ...]
+    generation: str | None
+    """The generation DR_SIMAPP_VERSION stands for; None: racer's default."""
     notes: tuple[str, ...]
 
 
@@ -52,6 +55,8 @@ def read_evaluation(path: Path) -> DrfcEvaluation:
     experiment = read_experiment(path, training=False)
     env = experiment.env
     notes = [*experiment.notes, *variable_notes(experiment, "evaluate")]
+    generation, generation_notes = simapp_generation(env.get("DR_SIMAPP_VERSION"))
+    notes += generation_notes
 
     def param(key: str, variable: str, default: str) -> Param:
         assignment = env.get(variable)
@@ -96,6 +101,7 @@ def read_evaluation(path: Path) -> DrfcEvaluation:
         race_type=race_type,
         race_params=(*race_params, ("RESET_BEHIND_DIST", str(reset_behind))),
         opponents=opponents,
+        generation=generation,
         notes=tuple(notes),
     )
 

@@ -19,6 +19,7 @@ from click.core import ParameterSource
 from racer.drfc.evaluation import read_evaluation
 from racer.drfc.shell_env import DrfcFileError
 from racer.drfc.training import DrfcTraining, read_training, run_worker_params, write_custom_files
+from racer.shared.config import generation_name
 from racer.shared.sim.challenge_cli import challenge_params_from_options
 from racer.shared.sim.challenge_config import CHALLENGE_KEYS
 from racer.shared.sim.track_option import resolved_track_name
@@ -41,6 +42,13 @@ def _given() -> set[str]:
     """The options the user gave (not defaults)."""
     context = click.get_current_context()
     return {name for name in context.params if context.get_parameter_source(name) in GIVEN}
+
+
+def _generation(experiment_generation: str | None, given: set[str]) -> str | None:
+    """DR_SIMAPP_VERSION's generation, unless --generation or RACER_GENERATION chose one."""
+    if "generation" in given or generation_name() is not None:
+        return None
+    return experiment_generation
 
 
 def _say(command: str, lines: list[str]) -> None:
@@ -74,11 +82,13 @@ def drfc_train_option(command: Callable[..., Any]) -> Callable[..., Any]:
             ("pretrained_prefix", training.pretrained_prefix),
             ("pretrained_checkpoint", training.pretrained_checkpoint),
             ("viewer_port", training.viewer_port),
+            ("generation", _generation(training.generation, given)),
         ):
             if name not in given and value is not None:
                 kwargs[name] = value
         kwargs.update(track=workers[0]["WORLD_NAME"], direction=None, race_type=None, race_param=())
-        _say("train", [*_summary(training, workers), *(f"note: {note}" for note in training.notes)])
+        summary = _summary(training, workers, kwargs.get("generation"))
+        _say("train", [*summary, *(f"note: {note}" for note in training.notes)])
         with tempfile.TemporaryDirectory(prefix="racer-drfc-") as scratch:  # lives as long as the run
             kwargs["custom_files"] = write_custom_files(training, Path(scratch), workers, source)
             return command(*args, **kwargs)
@@ -115,11 +125,11 @@ def _race_param(item: str) -> tuple[str, str]:
     return key, value.strip()
 
 
-def _summary(training: DrfcTraining, workers: list[dict[str, str]]) -> list[str]:
+def _summary(training: DrfcTraining, workers: list[dict[str, str]], generation: str | None) -> list[str]:
     experiment = training.experiment
     lines = [
         f"read {', '.join(str(path) for path in experiment.files)}; model {training.model_prefix!r}, "
-        f"{training.num_workers} worker(s)"
+        f"{training.num_workers} worker(s), generation {generation}"
         + (f", cloning {training.pretrained_prefix!r} ({training.pretrained_checkpoint})" if training.pretrained_prefix else "")
     ]  # fmt: skip
     for worker_id, params in enumerate(workers):
@@ -160,6 +170,8 @@ def drfc_evaluate_option(command: Callable[..., Any]) -> Callable[..., Any]:
         ):
             if name not in given:
                 kwargs[name] = value
+        if _generation(evaluation.generation, given) is not None:
+            kwargs["generation"] = evaluation.generation
         if "track" not in given and "direction" not in given:
             kwargs["track"] = evaluation.track
         if "race_type" not in given:
@@ -168,7 +180,8 @@ def drfc_evaluate_option(command: Callable[..., Any]) -> Callable[..., Any]:
             kwargs.update(race_type=evaluation.race_type, race_param=tuple(f"{k}={v}" for k, v in mine.items()))
         summary = (
             f"model {kwargs['model_prefix']!r} ({kwargs['checkpoint']}) on {kwargs['track']}, "
-            f"{evaluation.race_type or 'HEAD_TO_MODEL against ' + ', '.join(kwargs['opponents'])}"
+            f"{evaluation.race_type or 'HEAD_TO_MODEL against ' + ', '.join(kwargs['opponents'])}, generation "
+            f"{kwargs.get('generation')}"
         )
         _say("evaluate", [summary, *(f"note: {note}" for note in evaluation.notes)])
         return command(*args, **kwargs)

@@ -22,6 +22,7 @@ from pathlib import Path
 from racer.drfc.experiment import DrfcExperiment, read_experiment
 from racer.drfc.notices import variable_notes
 from racer.drfc.shell_env import Assignment, DrfcFileError
+from racer.drfc.simapp_version import simapp_generation
 from racer.drfc.training_params import experiment_worker_params, racer_params, worker_file_notes
 from racer.shared.sim.challenge_config import CHALLENGE_KEYS, param_text
 from racer.shared.worker_settings import WorkerSettings
@@ -54,6 +55,8 @@ class DrfcTraining:
     pretrained_checkpoint: str
     viewer_port: int | None
     """DR_WEBVIEWER_PORT; None when unset."""
+    generation: str | None
+    """The generation DR_SIMAPP_VERSION stands for; None: racer's default."""
     notes: tuple[str, ...]
 
     @property
@@ -69,6 +72,8 @@ def read_training(path: Path, num_workers: int | None = None) -> DrfcTraining:
         racer_params(params, worker_id) for worker_id, params in enumerate(experiment_worker_params(experiment))
     )
     notes = [*experiment.notes, *worker_file_notes(experiment), *variable_notes(experiment, "train")]
+    generation, generation_notes = simapp_generation(env.get("DR_SIMAPP_VERSION"))
+    notes += generation_notes
     pretrained = env.get("DR_LOCAL_S3_PRETRAINED")
     pretrained_prefix = None
     checkpoint = "last"
@@ -95,6 +100,7 @@ def read_training(path: Path, num_workers: int | None = None) -> DrfcTraining:
         pretrained_prefix=pretrained_prefix,
         pretrained_checkpoint=checkpoint,
         viewer_port=_viewer_port(env.get("DR_WEBVIEWER_PORT")),
+        generation=generation,
         notes=tuple(notes),
     )
 

@@ -189,7 +189,8 @@ VARIABLES: tuple[DrfcVariable, ...] = (
     DrfcVariable("DR_CAMERA_KVS_ENABLE", VIDEO, X, X, OFF),
     DrfcVariable("DR_ENABLE_EXTRA_KVS_OVERLAY", VIDEO, X, X, OFF),
     DrfcVariable("DR_SIMAPP_SOURCE", CONTAINERS, X, X),
-    DrfcVariable("DR_SIMAPP_VERSION", CONTAINERS, X, X),
+    DrfcVariable("DR_SIMAPP_VERSION", "--generation, the simulator racer stands in for: a 5.x SimApp is simapp5 "
+                 "(ROS 1), 6.x simapp6 (ROS 2); unset (or RACER_GENERATION set), racer's default", H, H),
     DrfcVariable("DR_MINIO_IMAGE", CONTAINERS, X, X),
     DrfcVariable("DR_ANALYSIS_IMAGE", "the image of dr-start-loganalysis; racer's analysis is `racer analyze`", R, R),
     DrfcVariable("DR_WORKERS", "--workers: the number of rollout workers", H, R),

@@ -17,16 +17,17 @@ from racer.drfc.options import drfc_evaluate_option, drfc_train_option
 from racer.evaluation_worker.cli import evaluate_command
 from racer.local.cli import train_command
 from racer.shared.sim.challenge_cli import challenge_options
+from racer.shared.sim.generation_option import generation_option
 from racer.shared.sim.track_option import direction_option
 from tests.drfc.conftest import write_experiment
 
 TRAIN_OPTIONS = {
     "model_prefix", "custom_files", "num_workers", "track", "direction", "pretrained_prefix", "pretrained_checkpoint",
-    "viewer_port", "race_type", "race_param",
+    "viewer_port", "race_type", "race_param", "generation",
 }  # fmt: skip
 EVALUATE_OPTIONS = {
     "model_prefix", "checkpoint", "track", "direction", "reverse", "trials", "continuous", "resets",
-    "off_track_penalty", "collision_penalty", "video", "opponents", "race_type", "race_param",
+    "off_track_penalty", "collision_penalty", "video", "opponents", "race_type", "race_param", "generation",
 }  # fmt: skip
 
 RUN = (
@@ -74,6 +75,7 @@ def train_probe() -> tuple[click.Command, dict]:
     @click.option("--pretrained-prefix", default=None)
     @click.option("--pretrained-checkpoint", default="last")
     @click.option("--viewer-port", type=int, default=8100)
+    @generation_option()
     @challenge_options
     @direction_option
     def probe(**kwargs):
@@ -100,6 +102,7 @@ def evaluate_probe() -> tuple[click.Command, dict]:
     @click.option("--collision-penalty", type=float, default=5.0)
     @click.option("--video/--no-video", default=True)
     @click.option("--opponent", "opponents", multiple=True)
+    @generation_option()
     @challenge_options
     @direction_option
     def probe(**kwargs):
@@ -184,6 +187,26 @@ def test_evaluate_takes_dr_eval_settings_and_options_win(experiment):
     assert "DR_EVAL_COLLISION_PENALTY=2.0 has no effect" in result.output
     assert seen["race_type"] == "OBJECT_AVOIDANCE"
     assert "NUMBER_OF_OBSTACLES=4" in seen["race_param"] and "RESET_BEHIND_DIST=1.0" in seen["race_param"]
+
+
+def test_the_simapp_version_picks_the_generation_unless_racer_is_told_one(experiment, monkeypatch):
+    monkeypatch.delenv("RACER_GENERATION", raising=False)
+    (experiment / "system.env").write_text("DR_SIMAPP_VERSION=5.3.3-gpu\n")
+    for probe_and_seen in (train_probe(), evaluate_probe()):
+        probe, seen = probe_and_seen
+        result = CliRunner().invoke(probe, ["--drfc", str(experiment)])
+        assert result.exit_code == 0, result.output
+        assert seen["generation"] == "simapp5" and "generation simapp5" in result.output
+        result = CliRunner().invoke(probe, ["--drfc", str(experiment), "--generation", "2019"])
+        assert seen["generation"] == "2019", result.output
+    monkeypatch.setenv("RACER_GENERATION", "simapp6")
+    probe, seen = train_probe()
+    result = CliRunner().invoke(probe, ["--drfc", str(experiment)])
+    assert seen["generation"] == "simapp6", result.output
+    (experiment / "system.env").write_text("DR_SIMAPP_VERSION=latest\n")
+    monkeypatch.delenv("RACER_GENERATION")
+    result = CliRunner().invoke(probe, ["--drfc", str(experiment)])
+    assert "DR_SIMAPP_VERSION=latest: not a SimApp version" in result.output
 
 
 def test_head_to_model_evaluates_against_the_opponent_prefix(tmp_path):
