@@ -87,12 +87,12 @@ class RunProgress:
 
     def describe(self) -> str:
         """`3:20 of 10:00, about 6:40 left` (time limit) or `16/1000 episodes, about 12:05 left`: what `racer train`
-        adds to its lines."""
+        adds to its lines; `..., stopping` once the limit is reached (the trainer saves and evaluates a last time)."""
         if self.stops_by == STOPS_BY_TIME and self.max_minutes:
             used = f"{clock(self.elapsed_s)} of {clock(60 * self.max_minutes)}"
         else:
             used = f"{self.episodes}/{self.max_episodes} episodes"
-        return f"{used}, about {clock(self.remaining_s)} left"
+        return f"{used}, about {clock(self.remaining_s)} left" if self.remaining_s >= 1 else f"{used}, stopping"
 
     def to_dict(self) -> dict:
         return {**asdict(self), "fraction_done": round(self.fraction_done, 4)}

@@ -7,6 +7,8 @@
 | `/api/run` | model, store, live or not, the workers' worlds, the track map |
 | `/api/live` | workers (up/down, state, newest frame's pose, trail and JPEG), Redis reachable; renews `watching` (`watch=0`: no frames; `workers=0,2`: frames of these workers only) |
 | `/api/progress` | per-iteration curves, evaluations per checkpoint, best lap path, `racer evaluate` runs |
+| `/api/runs` | every run in the store: finished or not, iterations, last scores and progress (racer.viewer.store_runs) |
+| `/api/runs/curves?run=<prefix>` | one listed run's per-iteration curves, to lay over the shown run's; 404 for anything else |
 | `/api/workers/<id>/frame.jpg` | the newest camera frame of a worker |
 | `/files/<key>` | a file of the run (videos, simtraces, metrics) from the store; nothing outside the model prefix; HTTP Range (206, 416) on a local and an S3 store |
 """
@@ -24,11 +26,13 @@ from starlette.responses import FileResponse, JSONResponse, Response
 from starlette.routing import Mount, Route
 from starlette.staticfiles import StaticFiles
 
+from racer.shared.deepracer.metrics import MetricsError
 from racer.shared.store import LocalStore, ObjectNotFoundError, S3Store
 from racer.shared.store.base import validate_key
 from racer.viewer.live import LiveRun
 from racer.viewer.object_ranges import s3_object_response
 from racer.viewer.run_reader import RunReader
+from racer.viewer.store_runs import StoreRuns
 
 STATIC_DIR = Path(__file__).resolve().parent / "static"
 
@@ -65,6 +69,8 @@ def _worker_ids(listed: str | None) -> list[int] | None:
 
 
 def create_app(files: RunReader, live: LiveRun | None) -> Starlette:
+    runs = StoreRuns(files.store, files)
+
     async def index(request: Request) -> Response:
         return _no_store(FileResponse(STATIC_DIR / "index.html", media_type="text/html"))
 
@@ -130,6 +136,19 @@ def create_app(files: RunReader, live: LiveRun | None) -> Starlette:
         response.headers["ETag"] = etag
         return _no_store(response)
 
+    def store_runs(request: Request) -> Response:
+        return _no_store(JSONResponse({"runs": runs.summaries()}))
+
+    def run_curves(request: Request) -> Response:
+        prefix = request.query_params.get("run", "")
+        try:
+            iterations = runs.curves(prefix)
+        except MetricsError as error:
+            raise HTTPException(422, str(error)) from None
+        if iterations is None:
+            raise HTTPException(404, f"no run {prefix!r} in {files.store.describe()}")
+        return _no_store(JSONResponse({"run": prefix, "iterations": iterations}))
+
     def frame_jpeg(request: Request) -> Response:
         worker_id = request.path_params["worker_id"]
         frame = live.frame(worker_id) if live is not None else None
@@ -168,6 +187,8 @@ def create_app(files: RunReader, live: LiveRun | None) -> Starlette:
         Route("/api/run", run_info),
         Route("/api/live", live_status),
         Route("/api/progress", progress),
+        Route("/api/runs", store_runs),
+        Route("/api/runs/curves", run_curves),
         Route("/api/workers/{worker_id:int}/frame.jpg", frame_jpeg),
         Route("/files/{path:path}", run_file),
         Mount("/static", StaticFiles(directory=STATIC_DIR), name="static"),

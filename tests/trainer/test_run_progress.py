@@ -70,6 +70,7 @@ def test_the_sooner_limit_stops_the_run():
 
     late = pace.after_iteration(1, elapsed_s=700.0, episodes=20, measured_at=0.0)  # past the limit, still stopping
     assert late.remaining_s == 0.0 and late.fraction_done == 1.0
+    assert late.describe() == "11:40 of 10:00, stopping"
 
 
 def test_a_measurement_counts_on_to_a_later_moment_and_travels_as_json():

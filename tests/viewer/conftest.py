@@ -13,6 +13,8 @@ import numpy as np
 import pytest
 import uvicorn
 
+from tests.browser import chromium
+
 DRFC_MODEL = "drfc-model"
 EVALUATION_RUN = "evaluation-20220709200242"
 
@@ -111,3 +113,9 @@ def drfc_store(tmp_path, deepracer_data) -> Path:
     root = tmp_path / "store"
     write_drfc_run(root, deepracer_data)
     return root
+
+
+@pytest.fixture
+def browser():
+    """A headless chromium (tests.browser) for the page tests."""
+    yield from chromium()

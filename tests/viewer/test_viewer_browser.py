@@ -13,21 +13,17 @@ import subprocess
 import sys
 import time
 import urllib.request
-from collections.abc import Callable
 from pathlib import Path
 
 import pytest
-from selenium import webdriver
-from selenium.webdriver.chrome.service import Service
 
 from racer.local.services import _die_with_parent
+from tests.browser import wait_for
 from tests.conftest import write_custom_files
 from tests.viewer.conftest import free_port
 
 pytestmark = [pytest.mark.slow, pytest.mark.serial]  # they time their own processes
 
-CHROMIUM = "/usr/bin/chromium"
-CHROMEDRIVER = "/usr/bin/chromedriver"
 MODEL = "viewer-model"
 
 PIXEL_HASH = """
@@ -42,40 +38,6 @@ let hash = 0;
 for (let i = 0; i < pixels.length; i += 4) hash = (hash * 31 + pixels[i]) >>> 0;
 return [img.dataset.frameId, hash, canvas.width, canvas.height];
 """
-
-
-@pytest.fixture
-def browser():
-    if not (Path(CHROMIUM).is_file() and Path(CHROMEDRIVER).is_file()):
-        raise FileNotFoundError(
-            f"{CHROMIUM} and {CHROMEDRIVER} are needed (scripts/setup.sh installs Debian's "
-            "chromium and chromium-driver)"
-        )
-    options = webdriver.ChromeOptions()
-    options.binary_location = CHROMIUM
-    for argument in (
-        "--headless=new",
-        "--no-sandbox",
-        "--disable-dev-shm-usage",
-        "--window-size=1500,1900",
-        "--disable-gpu",
-        "--hide-scrollbars",
-    ):
-        options.add_argument(argument)
-    # An explicit driver path: selenium-manager is never asked to find or download anything.
-    driver = webdriver.Chrome(service=Service(executable_path=CHROMEDRIVER), options=options)
-    yield driver
-    driver.quit()
-
-
-def wait_for(what: str, check: Callable[[], object], timeout_s: float, describe: Callable[[], str]) -> object:
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        value = check()
-        if value:
-            return value
-        time.sleep(0.5)
-    raise AssertionError(f"timed out after {timeout_s:.0f} s waiting for {what}\n{describe()}")
 
 
 def test_live_page_follows_a_running_training(tmp_path, browser, request):

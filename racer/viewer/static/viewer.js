@@ -7,6 +7,8 @@ const HIDDEN_POLL_MS = 5000; // a hidden tab asks for no frames and polls rarely
 const WORLD_COLOURS = { base: "#60a5fa", carpet: "#f87171", concrete: "#cbd5e1", wood: "#f59e0b" };
 const EXTRA_COLOURS = ["#a78bfa", "#34d399", "#f472b6", "#22d3ee"];
 const ALL_COLOUR = "#f8fafc";
+const OVERLAY_COLOURS = ["#e879f9", "#2dd4bf", "#fb923c", "#a3e635", "#38bdf8", "#fda4af"];
+const RUNS_POLL_MS = 15000; // the server lists the store at most every 15 s
 
 Chart.defaults.color = "#8ea0bd";
 Chart.defaults.borderColor = "#1e2b47";
@@ -14,7 +16,7 @@ Chart.defaults.font.family = "system-ui, sans-serif";
 Chart.defaults.animation = false; // redraw only what changed, cheaply: the rollout shares the CPU
 
 const state = { run: null, live: null, progress: null, progressETag: null, progressSignature: null, workers: new Map(), charts: {},
-                pids: new Map(), onScreen: new Set() };
+                pids: new Map(), onScreen: new Set(), runs: [], overlays: new Map() };
 window.racerViewer = state; // read by the browser tests
 
 function $(id) { return document.getElementById(id); }
@@ -228,24 +230,37 @@ function series(label, colour, values, extra = {}) {
 }
 
 function updateCurves(progress) {
-  const its = progress.iterations;
-  const labels = its.map(r => r.iteration);
+  const own = progress.iterations;
+  const numbers = new Set(own.map(r => r.iteration));
+  for (const o of state.overlays.values()) for (const r of o.iterations || []) numbers.add(r.iteration);
+  const labels = [...numbers].sort((a, b) => a - b);
+  const ownByIteration = new Map(own.map(r => [r.iteration, r]));
+  const its = labels.map(n => ownByIteration.get(n) || { iteration: n, missing: true, worlds: {} });
+  // Another run's curves over this one's: dashed, one colour per run, on the same iteration axis.
+  const overlaid = (key, scale = 1) => [...state.overlays.entries()].filter(([, o]) => o.iterations).map(([name, o]) => {
+    const byIteration = new Map(o.iterations.map(r => [r.iteration, r]));
+    return series(name, o.colour, labels.map(n => { const r = byIteration.get(n);
+      return r && r[key] !== null && r[key] !== undefined ? r[key] * scale : null; }),
+      { borderDash: [6, 4], borderWidth: 2, pointRadius: 0 });
+  });
+  const value = (r, key, scale = 1) => (r.missing || r[key] === null || r[key] === undefined) ? null : r[key] * scale;
   const worlds = [...new Set(its.flatMap(r => Object.keys(r.worlds || {})))].sort();
   const perWorld = (key, scale = 1) => worlds.map((w, i) => series(w, worldColour(w, i),
     its.map(r => (r.worlds && r.worlds[w] && r.worlds[w][key] !== undefined) ? r.worlds[w][key] * scale : null),
     { borderWidth: 1.5, pointRadius: 1.5 }));
-  const all = (label, values) => series(label, ALL_COLOUR, values, { borderWidth: 2.5 });
+  const all = (label, values) => series(state.overlays.size ? `${state.run ? state.run.model : "this run"} (all workers)` : label,
+    ALL_COLOUR, values, { borderWidth: 2.5 });
   const evalByIteration = new Map(progress.evaluations.map(e => [e.checkpoint_number, e]));
   const evalProgress = its.map(r => { const e = evalByIteration.get(r.iteration); return e ? e.mean_progress : null; });
   const evalLaps = its.map(r => { const e = evalByIteration.get(r.iteration); return e ? 100 * e.laps_completed / e.trials : null; });
   const evalStyle = { borderDash: [5, 4], borderWidth: 2, pointStyle: "rectRot", pointRadius: 4 };
   const sets = {
-    reward: [all("all workers", its.map(r => r.mean_reward)), ...perWorld("mean_reward")],
-    progress: [all("all workers", its.map(r => r.mean_progress)), ...perWorld("mean_progress"),
-               series("evaluation", "#f59e0b", evalProgress, evalStyle)],
-    completion: [all("all workers", its.map(r => 100 * r.completion_rate)), ...perWorld("completion_rate", 100),
-                 series("evaluation", "#f59e0b", evalLaps, evalStyle)],
-    speed: [all("all workers", its.map(r => r.experience_steps_per_s)), ...perWorld("steps_per_s")],
+    reward: [all("all workers", its.map(r => value(r, "mean_reward"))), ...perWorld("mean_reward"), ...overlaid("mean_reward")],
+    progress: [all("all workers", its.map(r => value(r, "mean_progress"))), ...perWorld("mean_progress"),
+               series("evaluation", "#f59e0b", evalProgress, evalStyle), ...overlaid("mean_progress")],
+    completion: [all("all workers", its.map(r => value(r, "completion_rate", 100))), ...perWorld("completion_rate", 100),
+                 series("evaluation", "#f59e0b", evalLaps, evalStyle), ...overlaid("completion_rate", 100)],
+    speed: [all("all workers", its.map(r => value(r, "experience_steps_per_s"))), ...perWorld("steps_per_s")],
   };
   for (const [name, datasets] of Object.entries(sets)) {
     const chart = state.charts[name];
@@ -253,20 +268,109 @@ function updateCurves(progress) {
     chart.data.datasets = datasets;
     chart.update("none");
   }
-  const speedKnown = its.some(r => r.experience_steps_per_s !== null && r.experience_steps_per_s !== undefined);
-  $("chart-speed").closest("figure").hidden = its.length > 0 && !speedKnown; // runs racer did not train lack it
-  $("curves").dataset.points = String(its.length);
+  const speedKnown = own.some(r => r.experience_steps_per_s !== null && r.experience_steps_per_s !== undefined);
+  $("chart-speed").closest("figure").hidden = own.length > 0 && !speedKnown; // runs racer did not train lack it
+  $("curves").dataset.points = String(own.length);
+  $("curves").dataset.overlays = [...state.overlays.keys()].filter(n => state.overlays.get(n).iterations).sort().join(",");
+  updateSummary();
+  $("curves-note").textContent = own.length ? `per iteration (${own.length})` : "per iteration: none finished yet";
+}
+
+// ---- how far the run is: the trainer's figures of its newest iteration (racer.shared.run_progress) ---------
+function clock(seconds) {
+  const whole = Math.max(0, Math.floor(seconds));
+  const h = Math.floor(whole / 3600), m = Math.floor((whole % 3600) / 60), s = whole % 60;
+  return h ? `${h}:${String(m).padStart(2, "0")}:${String(s).padStart(2, "0")}` : `${m}:${String(s).padStart(2, "0")}`;
+}
+// Between iterations the figures count on from the measurement, as `racer train`'s status line does (RunProgress.at).
+function progressText(p, finished) {
+  const passed = finished ? 0 : Math.max(0, Date.now() / 1000 - p.measured_at);
+  const elapsed = p.elapsed_s + passed, remaining = Math.max(0, p.remaining_s - passed);
+  const used = p.stops_by === "time" && p.max_minutes ? `${clock(elapsed)} of ${clock(60 * p.max_minutes)}`
+    : `${p.episodes}/${p.max_episodes} episodes`;
+  if (finished) return used;
+  return remaining >= 1 ? `${used} · about ${clock(remaining)} left` : `${used} · stopping`;
+}
+function updateSummary() {
+  const its = state.progress ? state.progress.iterations : [];
   const last = its[its.length - 1];
-  if (last) {
-    const parts = [`iteration ${last.iteration}`];
-    if (last.env_steps_total !== null && last.env_steps_total !== undefined) parts.push(`${last.env_steps_total.toLocaleString()} steps`);
-    if (last.elapsed_s !== null && last.elapsed_s !== undefined) {
-      const minutes = Math.floor(last.elapsed_s / 60), seconds = Math.floor(last.elapsed_s % 60);
-      parts.push(`${minutes}:${String(seconds).padStart(2, "0")} trained`);
-    }
-    $("summary").textContent = parts.join(" · ");
+  if (!last) return;
+  const parts = [`iteration ${last.iteration}`];
+  if (last.env_steps_total !== null && last.env_steps_total !== undefined) parts.push(`${last.env_steps_total.toLocaleString()} steps`);
+  let eta = "";
+  if (last.progress) {
+    eta = progressText(last.progress, state.progress.finished);
+  } else if (last.elapsed_s !== null && last.elapsed_s !== undefined) {
+    parts.push(`${clock(last.elapsed_s)} trained`);
   }
-  $("curves-note").textContent = its.length ? `per iteration (${its.length})` : "per iteration: none finished yet";
+  setHTML($("summary"), parts.join(" · ") + (eta ? ` · <span class="eta" id="eta">${eta}</span>` : ""));
+}
+setInterval(() => { if (!document.hidden && state.progress && !state.progress.finished) updateSummary(); }, 1000);
+
+// ---- the runs of the store, and overlays --------------------------------------------------------------------
+function overlayColour(name) {
+  const used = new Set([...state.overlays.values()].map(o => o.colour));
+  return OVERLAY_COLOURS.find(c => !used.has(c)) || OVERLAY_COLOURS[state.overlays.size % OVERLAY_COLOURS.length];
+}
+async function loadOverlay(name) {
+  const overlay = state.overlays.get(name);
+  if (!overlay) return;
+  try {
+    const data = await getJSON(`/api/runs/curves?run=${encodeURIComponent(name)}`);
+    if (state.overlays.get(name) !== overlay) return; // unticked meanwhile
+    overlay.iterations = data.iterations;
+    overlay.count = data.iterations.length;
+  } catch (error) {
+    setText($("footer"), `overlay ${name}: ${error.message}`);
+    state.overlays.delete(name);
+  }
+  if (state.progress) updateCurves(state.progress);
+  showRuns();
+}
+function toggleOverlay(name, on) {
+  if (on && !state.overlays.has(name)) {
+    state.overlays.set(name, { colour: overlayColour(name), iterations: null, count: -1 });
+    loadOverlay(name);
+  } else if (!on && state.overlays.delete(name)) {
+    if (state.progress) updateCurves(state.progress);
+    showRuns();
+  }
+}
+function showRuns() {
+  const body = $("runs").querySelector("tbody");
+  const signature = JSON.stringify([state.runs, [...state.overlays.entries()].map(([n, o]) => [n, o.colour])]);
+  if (body.dataset.signature === signature) return; // leave the checkboxes alone while nothing changed
+  body.dataset.signature = signature;
+  body.replaceChildren();
+  if (!state.runs.length) {
+    body.append(el("tr", { class: "empty" }, el("td", { colspan: "7", text: "No other run in this store." })));
+    return;
+  }
+  for (const run of state.runs) {
+    const overlay = state.overlays.get(run.name);
+    const name = el("td", { class: "run-name", text: run.name });
+    const box = el("td");
+    if (run.current) {
+      box.textContent = "shown";
+    } else {
+      const input = el("input", { type: "checkbox", "data-run": run.name, title: `lay ${run.name}'s curves over these` });
+      input.checked = !!overlay;
+      input.addEventListener("change", () => toggleOverlay(run.name, input.checked));
+      box.append(input);
+      if (overlay) {
+        const swatch = el("span", { class: "swatch" });
+        swatch.style.setProperty("--overlay", overlay.colour);
+        box.append(swatch);
+      }
+    }
+    const stateText = run.current ? (state.run && state.run.live && !run.finished ? "live" : (run.finished ? "finished" : "not finished"))
+      : (run.finished ? "finished" : "not finished");
+    const time = run.progress ? progressText(run.progress, true) : "–";
+    body.append(el("tr", { class: run.current ? "current" : "", "data-run": run.name }, name, box,
+      el("td", { text: stateText }), el("td", { text: String(run.iterations) }),
+      el("td", { text: fmt(run.mean_reward, 1) }), el("td", { text: fmt(run.mean_progress, 1, " %") }),
+      el("td", { text: time })));
+  }
 }
 
 // ---- evaluations and the best lap -------------------------------------------------------------------------
@@ -406,6 +510,22 @@ async function pollProgress() {
 }
 polls.progress.run = pollProgress;
 
+async function pollRuns() {
+  try {
+    const data = await getJSON("/api/runs");
+    state.runs = data.runs;
+    for (const run of data.runs) { // a run still training: fetch its overlay again when it has more iterations
+      const overlay = state.overlays.get(run.name);
+      if (overlay && overlay.iterations && overlay.count !== run.iterations) loadOverlay(run.name);
+    }
+    showRuns();
+  } catch (error) {
+    setText($("footer"), `runs: ${error.message}`);
+  }
+  schedule("runs", document.hidden ? 4 * RUNS_POLL_MS : RUNS_POLL_MS);
+}
+polls.runs = { timer: null, busy: false, run: pollRuns };
+
 async function loadRun() {
   const run = await getJSON("/api/run");
   const hadTrack = state.run && state.run.track && state.run.track.outer;
@@ -447,6 +567,7 @@ async function start() {
     setTimeout(retry, 3000);
   }
   schedule("progress", 0);
+  schedule("runs", 0);
 }
 
 start();
