@@ -38,6 +38,7 @@ def view_command(target: str, live: bool, host: str, port: int) -> None:
     or a finished race's folder (`racer race --out`, default races/<race>): its leaderboard with playable videos.
 
     Without --live it reads only the store: curves, evaluations, the best lap, `racer evaluate` laps and videos.
+    Either way the page lists the store's other runs and lays a ticked run's curves over the shown one's.
     """
     from pathlib import Path
 

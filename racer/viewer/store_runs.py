@@ -3,8 +3,8 @@
 A run is a model prefix with one of the files a run leaves (racer's iterations log, DeepRacer's TrainingMetrics.json,
 model_metadata.json: racer.shared.model_layout); folders whose name starts with a dot (`racer train`'s logs in
 `.runs/`) are not runs. Each run is read with its own RunReader, so its curves are exactly what the viewer shows for
-it, and files are read again only when they changed. The store is listed again at most every `LIST_EVERY_S`: a
-bucket of many runs is a long listing, and the page asks every few seconds.
+it, and files are read again only when they changed (a size check per run when the page asks, every 15 s). The
+store is listed again at most every `LIST_EVERY_S`: a bucket of many runs is a long listing.
 """
 
 from __future__ import annotations
@@ -17,7 +17,8 @@ from racer.shared.model_layout import ITERATIONS_LOG, MODEL_METADATA, training_m
 from racer.shared.store import ObjectStore
 from racer.viewer.run_reader import RunLocation, RunReader
 
-LIST_EVERY_S = 15.0
+LIST_EVERY_S = 60.0
+"""A new run shows within a minute; a listing of a bucket of many runs costs a request per 1000 keys."""
 RUN_MARKERS = (ITERATIONS_LOG, training_metrics(0), MODEL_METADATA)
 """Files (relative to a model prefix) that make a prefix a run."""
 CURVE_KEYS = ("iteration", "episodes", "mean_reward", "mean_progress", "completion_rate", "elapsed_s")
