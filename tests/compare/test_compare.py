@@ -18,7 +18,7 @@ from racer.shared.store import S3Store
 from tests.compare.conftest import BASELINE, CENTRE
 from tests.viewer.conftest import DRFC_MODEL, write_drfc_run
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.serial]  # two real training runs keep both cores busy
 
 
 def compare(*args: str, env: dict | None = None):

@@ -10,7 +10,7 @@ from click.testing import CliRunner
 
 from racer.compare.cli import compare_command
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.serial]  # two real training runs keep both cores busy
 
 HIGHLIGHT = "rgba(255, 233, 168, 1)"
 """The marked rows' background (racer.compare.page STYLE #ffe9a8)."""
