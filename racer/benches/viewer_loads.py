@@ -121,7 +121,8 @@ class WatchingOnly:
 
 class PagePolls:
     """The page's requests without a browser (a Python thread): the live endpoint twice a second, every new camera
-    frame, the progress endpoint every 3 s; the viewer server, Redis and the tap work as with the page."""
+    frame, the progress endpoint every 3 s, the store's run list every 15 s; the viewer server, Redis and the tap
+    work as with the page."""
 
     def __init__(self, url: str):
         self.url = url.rstrip("/")
@@ -137,7 +138,7 @@ class PagePolls:
 
     def _run(self) -> None:
         seen: dict[int, str] = {}
-        next_progress = 0.0
+        next_progress = next_runs = 0.0
         while not self._quit.wait(0.5):
             if not self._on.is_set():
                 continue
@@ -151,6 +152,9 @@ class PagePolls:
                 if time.monotonic() >= next_progress:
                     next_progress = time.monotonic() + 3.0
                     self._get("/api/progress")
+                if time.monotonic() >= next_runs:
+                    next_runs = time.monotonic() + 15.0
+                    self._get("/api/runs")
             except OSError as error:
                 click.echo(f"poll failed: {error}", err=True)
             self._cpu_s += time.thread_time() - started
