@@ -189,18 +189,24 @@ def position_errors_m(batch: SegmentBatch, xs: np.ndarray, ys: np.ndarray, horiz
     return np.hypot(xs[rows, k] - logged[:, 0], ys[rows, k] - logged[:, 1])
 
 
-def loss(batch: SegmentBatch, constants: CarConstants) -> float:
+def loss(batch: SegmentBatch, constants: CarConstants, horizons_s: tuple[float, ...] = FIT_HORIZONS_S) -> float:
     xs, ys, _ = simulate(batch, constants)
-    return float(sum(np.mean(position_errors_m(batch, xs, ys, h)) for h in FIT_HORIZONS_S))
+    return float(sum(np.mean(position_errors_m(batch, xs, ys, h)) for h in horizons_s))
 
 
 def fit(
-    batch: SegmentBatch, start: CarConstants | None = None, evaluations: int = 600, progress: bool = False
+    batch: SegmentBatch,
+    start: CarConstants | None = None,
+    evaluations: int = 600,
+    progress: bool = False,
+    fixed: tuple[str, ...] = FIXED,
+    horizons_s: tuple[float, ...] = FIT_HORIZONS_S,
 ) -> CarConstants:
-    """Nelder-Mead on the logarithms of the free constants (all positive), from `start` (the defaults)."""
+    """Nelder-Mead on the logarithms of the free constants (all positive), from `start` (the defaults); `fixed`
+    names the constants kept at `start`'s values, `horizons_s` the times after the start the loss measures."""
     start = start or CarConstants()
     names = [*(f.name for f in fields(TyreParams)), "steering_time_constant_s", "yaw_inertia_kgm2"]
-    free = np.array([name not in FIXED for name in names])
+    free = np.array([name not in fixed for name in names])
     base = start.vector()
 
     def constants_of(z: np.ndarray) -> CarConstants:
@@ -214,7 +220,7 @@ def fit(
         calls[0] += 1
         if progress and calls[0] % 100 == 0:
             print(f"fit: {calls[0]}/{evaluations} evaluations", file=sys.stderr, flush=True)
-        return loss(batch, constants_of(z))
+        return loss(batch, constants_of(z), horizons_s)
 
     result = minimize(
         objective, np.log(base[free]), method="Nelder-Mead", options={"maxfev": evaluations, "xatol": 1e-4}

@@ -1,11 +1,15 @@
 """The car's dynamics constants as one value (`EnvConfig.car_dynamics`) and its presets, the car profiles.
 MuJoCo-free, so the config can name them without importing the simulator.
 
-* `GAZEBO_DYNAMICS` (the default): what policies trained in DeepRacer's Gazebo lap with in racer's simulator, judged
-  closed loop with real policies (`racer bench transfer`; docs/car-and-camera.md).
+* `GAZEBO_DYNAMICS`: what policies trained in DeepRacer's Gazebo lap with in racer's simulator, chosen closed loop
+  with real policies (`racer bench transfer`; docs/car-and-camera.md).
 * `SIMTRACE_FIT_DYNAMICS`: the constants fitted open loop on the real simtraces (research/tyre_fit/).
 * `SIMAPP5_ROS1_DYNAMICS`, `SIMAPP6_ROS2_DYNAMICS`: DeepRacer's car per SimApp generation, built from the SimApp's
   URDF, contact and controller files (`simapp_car_profiles`).
+* `SIMAPP6_FIT_DYNAMICS`: the `simapp6` generation's car, its source facts kept and the rest fitted on DeepRacer on
+  AWS's 2026 logs (research/simapp6_fit/).
+
+A generation (`generations.py`) names the profile its car is; the profiles stay available for studies.
 """
 
 from __future__ import annotations
@@ -40,8 +44,8 @@ SIMTRACE_FIT_DYNAMICS = CarDynamics(TyreParams(), STEERING_TIME_CONSTANT_S, YAW_
 """The constants fitted on the real simtraces (console 2022 / DRfC runs, research/tyre_fit/): the open-loop
 replay's best car, but real DeepRacer policies do not lap with it (soft front axle, 6× the URDF's yaw inertia)."""
 GAZEBO_DYNAMICS = CarDynamics(GAZEBO_TYRES, STEERING_TIME_CONSTANT_S, URDF_YAW_INERTIA_KGM2)
-"""The env's default: stiff equal-axle tyres rolling at the commanded speed, the URDF's yaw inertia and the fast
-servo. Policies trained in DeepRacer's Gazebo lap racer's tracks with it, and not with the simtrace fit or the
+"""Stiff equal-axle tyres rolling at the commanded speed, the URDF's yaw inertia and the fast servo (racer's default
+car until generations). Policies trained in DeepRacer's Gazebo lap racer's tracks with it, and not with the simtrace fit or the
 profiles built from DeepRacer's source (`racer bench transfer`). Against the source it keeps two constants: a servo
 ≈ 30× faster than the ROS 1 hinge PD's 0.5 s and a peak grip ≈ 2× a Coulomb μ 0.5, the two source facts that cost
 real policies their laps (docs/car-and-camera.md)."""
@@ -58,15 +62,38 @@ SIMAPP6_ROS2_DYNAMICS = CarDynamics(
 """The ROS 2 / gz-sim SimApp's car (v6.0.5; DeepRacer on AWS, DRfC 6), models of version >= 5: as the ROS 1 car but
 with 0.98 kg more on the camera links and shell (yaw inertia 0.0828 kg·m² for racer's body) and gz_ros2_control's
 60 Hz position loop on the hinges (gain 0.1: a 0.158 s servo); the wheels are velocity-commanded."""
+SIMAPP6_FIT_DYNAMICS = CarDynamics(
+    TyreParams(
+        front_cornering_stiffness_n_per_rad=79.34,
+        rear_cornering_stiffness_n_per_rad=161.77,
+        front_peak_grip=1.0,
+        rear_peak_grip=1.0,
+        drive_stiffness_n_per_mps=99.02,
+        max_drive_force_n=42.24,
+        rolling_radius_m=simapp.WHEEL_MESH_RADIUS_M,
+    ),
+    steering_time_constant_s=0.0664,
+    yaw_inertia_kgm2=0.1333,
+)
+"""The `simapp6` generation's car: fitted on DeepRacer on AWS's March 2026 logs (SimApp v6.0.5, Spain_track; three
+files, research/simapp6_fit/: `python -m research.simapp6_fit`, the constants fitted on all three). Held out (each
+file replayed with the constants fitted on the other two) the median position error after 1 s is 0.139 m at
+1.25-1.75 m/s and 0.105 m at >= 1.75 m/s, against 0.56 and 0.37 m for the car built from the v6.0.5 files alone.
+Kept from the source, not fitted: μ 0.5 Coulomb wheels (peak grip 1 × μ × load) rolling on the 0.036 m wheel mesh.
+Fitted: the cornering stiffness (an understeering car, front half the rear), a drive that reaches the commanded
+speed in ≈ 0.07 s and at most 6.4 m/s², a hinge servo of 0.066 s (the logs reject the 0.158 s read from
+gz_ros2_control's position loop: held there, the held-out errors are 0.35 and 0.28 m) and a yaw inertia of 0.133 kg·m²
+(the v6 URDF gives 0.083 for racer's body)."""
 CAR_DYNAMICS: dict[str, CarDynamics] = {
     "gazebo": GAZEBO_DYNAMICS,
     "simtrace-fit": SIMTRACE_FIT_DYNAMICS,
     "simapp5-ros1": SIMAPP5_ROS1_DYNAMICS,
     "simapp6-ros2": SIMAPP6_ROS2_DYNAMICS,
+    "simapp6-fit": SIMAPP6_FIT_DYNAMICS,
 }
 """The presets by name: the car profiles (`RACER_CAR_PROFILE`, `--car-profile`; `racer bench fidelity --car`)."""
 CAR_PROFILE_NAMES: tuple[str, ...] = tuple(CAR_DYNAMICS)
-DEFAULT_CAR_PROFILE = "simapp6-ros2"
+DEFAULT_CAR_PROFILE = "simapp6-fit"
 """The car of the default generation (`generations.DEFAULT_GENERATION`, tested equal): what a worker, an evaluation
 and the benches drive unless a generation or a car profile is named."""
 

@@ -57,10 +57,10 @@ GENERATIONS: dict[str, Generation] = {
     "simapp6": Generation(
         "simapp6",
         "SimApp v6.0.5, ROS 2 / gz-sim (DeepRacer on AWS, DRfC 6)",
-        "simapp6-ros2",
+        "simapp6-fit",
         LOOK_SIMAPP6,
-        "look: deepracer-simapp v6.0.5 bundle/worlds/reinvent_*.world; car: deepracer-simapp v6.0.5 URDF and "
-        "controllers (simapp_car_profiles.py)",
+        "look: deepracer-simapp v6.0.5 bundle/worlds/reinvent_*.world; car: the v6.0.5 files' μ 0.5 wheels and "
+        "0.036 m mesh, the rest fitted on DeepRacer on AWS's 2026 logs (research/simapp6_fit/, leave one file out)",
     ),
 }
 GENERATION_NAMES: tuple[str, ...] = tuple(GENERATIONS)

@@ -87,8 +87,11 @@ class Segment:
         return math.hypot(vx, vy)
 
 
-def load_segments(paths: Iterable[Path], horizon_s: float = max(HORIZONS_S)) -> list[Segment]:
-    """Segments of `horizon_s` (plus one row) of uninterrupted `in_progress` driving from real simtrace files."""
+def load_segments(
+    paths: Iterable[Path], horizon_s: float = max(HORIZONS_S), stride_rows: int = SEGMENT_STRIDE_ROWS
+) -> list[Segment]:
+    """Segments of `horizon_s` (plus one row) of uninterrupted `in_progress` driving from real simtrace files, one
+    starting every `stride_rows` rows of an episode."""
     segments: list[Segment] = []
     for path in paths:
         rows = read_simtrace(Path(path).read_bytes(), source=str(path))
@@ -97,7 +100,7 @@ def load_segments(paths: Iterable[Path], horizon_s: float = max(HORIZONS_S)) -> 
             tstamp = group.tstamp.to_numpy(dtype=np.float64)
             columns = {name: group[name].to_numpy(dtype=np.float64) for name in ("X", "Y", "yaw", "steer", "throttle")}
             n = len(group)
-            for start in range(3, n, SEGMENT_STRIDE_ROWS):
+            for start in range(3, n, stride_rows):
                 # Poses start-2 .. end need tstamp of the row before each: rows start-3 .. end-1.
                 end = start + 1
                 while end < n and tstamp[end - 1] - tstamp[start - 1] < horizon_s + 0.03:
