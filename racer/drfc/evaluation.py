@@ -13,7 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from racer.drfc.experiment import Env, read_experiment
+from racer.drfc.experiment import DrfcExperiment, Env, read_experiment
 from racer.drfc.notices import variable_notes
 from racer.drfc.shell_env import DrfcFileError
 from racer.drfc.simapp_version import simapp_generation
@@ -30,6 +30,7 @@ HEAD_TO_MODEL = "HEAD_TO_MODEL"
 class DrfcEvaluation:
     """`racer evaluate`'s options, as the experiment sets them."""
 
+    experiment: DrfcExperiment
     model_prefix: str
     checkpoint: str
     track: str
@@ -88,6 +89,7 @@ def read_evaluation(path: Path) -> DrfcEvaluation:
     reset_behind = _number(param("RESET_BEHIND_DIST", "DR_EVAL_RESET_BEHIND_DIST", "1.0"))
     race_params = tuple((k, v) for k, v in checked.items() if k not in {"WORLD_NAME", "RACE_TYPE", "REVERSE_DIR"})
     return DrfcEvaluation(
+        experiment=experiment,
         model_prefix=_text(param("", "DR_LOCAL_S3_MODEL_PREFIX", DEFAULT_MODEL_PREFIX)).strip("/"),
         checkpoint="best" if str(param("", "DR_EVAL_CHECKPOINT", "last").value).lower() == "best" else "last",
         track=checked["WORLD_NAME"],

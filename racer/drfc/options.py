@@ -17,6 +17,7 @@ import click
 from click.core import ParameterSource
 
 from racer.drfc.evaluation import read_evaluation
+from racer.drfc.experiment import Env
 from racer.drfc.shell_env import DrfcFileError
 from racer.drfc.training import DrfcTraining, read_training, run_worker_params, write_custom_files
 from racer.shared.config import generation_name
@@ -42,6 +43,21 @@ def _given() -> set[str]:
     """The options the user gave (not defaults)."""
     context = click.get_current_context()
     return {name for name in context.params if context.get_parameter_source(name) in GIVEN}
+
+
+def _take(kwargs: dict[str, Any], given: set[str], name: str, value: Any, variable: str, env: Env) -> None:
+    """Set option `name` to the experiment's `value` unless the user gave it, checked by the option's own type
+    (its range or choices), a refusal naming the variable and the line that set it."""
+    if name in given or value is None:
+        return
+    context = click.get_current_context()
+    param = next(p for p in context.command.params if p.name == name)
+    try:
+        kwargs[name] = param.type_cast_value(context, value)
+    except click.BadParameter as error:
+        assignment = env.get(variable)
+        where = f"{assignment.where}: {variable}={assignment.value}" if assignment is not None else variable
+        raise click.ClickException(f"{where}: {error.message} (it stands for {param.opts[0]})") from None
 
 
 def _generation(experiment_generation: str | None, given: set[str]) -> str | None:
@@ -76,16 +92,16 @@ def drfc_train_option(command: Callable[..., Any]) -> Callable[..., Any]:
                                         challenge_replaced)  # fmt: skip
         except DrfcFileError as error:
             raise click.ClickException(str(error)) from error
-        for name, value in (
-            ("model_prefix", training.model_prefix),
-            ("num_workers", training.num_workers),
-            ("pretrained_prefix", training.pretrained_prefix),
-            ("pretrained_checkpoint", training.pretrained_checkpoint),
-            ("viewer_port", training.viewer_port),
-            ("generation", _generation(training.generation, given)),
+        env = training.experiment.env
+        for name, value, variable in (
+            ("model_prefix", training.model_prefix, "DR_LOCAL_S3_MODEL_PREFIX"),
+            ("num_workers", training.num_workers, "DR_WORKERS"),
+            ("pretrained_prefix", training.pretrained_prefix, "DR_LOCAL_S3_PRETRAINED_PREFIX"),
+            ("pretrained_checkpoint", training.pretrained_checkpoint, "DR_LOCAL_S3_PRETRAINED_CHECKPOINT"),
+            ("viewer_port", training.viewer_port, "DR_WEBVIEWER_PORT"),
+            ("generation", _generation(training.generation, given), "DR_SIMAPP_VERSION"),
         ):
-            if name not in given and value is not None:
-                kwargs[name] = value
+            _take(kwargs, given, name, value, variable, env)
         kwargs.update(track=workers[0]["WORLD_NAME"], direction=None, race_type=None, race_param=())
         summary = _summary(training, workers, kwargs.get("generation"))
         _say("train", [*summary, *(f"note: {note}" for note in training.notes)])
@@ -156,22 +172,21 @@ def drfc_evaluate_option(command: Callable[..., Any]) -> Callable[..., Any]:
             evaluation = read_evaluation(drfc)
         except DrfcFileError as error:
             raise click.ClickException(str(error)) from error
-        for name, value in (
-            ("model_prefix", evaluation.model_prefix),
-            ("checkpoint", evaluation.checkpoint),
-            ("reverse", evaluation.reverse),
-            ("trials", evaluation.trials),
-            ("continuous", evaluation.continuous),
-            ("resets", evaluation.resets),
-            ("off_track_penalty", evaluation.off_track_penalty_s),
-            ("collision_penalty", evaluation.collision_penalty_s),
-            ("video", evaluation.video),
-            ("opponents", evaluation.opponents),
+        env = evaluation.experiment.env
+        for name, value, variable in (
+            ("model_prefix", evaluation.model_prefix, "DR_LOCAL_S3_MODEL_PREFIX"),
+            ("checkpoint", evaluation.checkpoint, "DR_EVAL_CHECKPOINT"),
+            ("reverse", evaluation.reverse, "DR_EVAL_REVERSE_DIRECTION"),
+            ("trials", evaluation.trials, "DR_EVAL_NUMBER_OF_TRIALS"),
+            ("continuous", evaluation.continuous, "DR_EVAL_IS_CONTINUOUS"),
+            ("resets", evaluation.resets, "DR_EVAL_MAX_RESETS"),
+            ("off_track_penalty", evaluation.off_track_penalty_s, "DR_EVAL_OFF_TRACK_PENALTY"),
+            ("collision_penalty", evaluation.collision_penalty_s, "DR_COLLISION_PENALTY"),
+            ("video", evaluation.video, "DR_EVAL_SAVE_MP4"),
+            ("opponents", evaluation.opponents, "DR_EVAL_OPP_S3_MODEL_PREFIX"),
+            ("generation", _generation(evaluation.generation, given), "DR_SIMAPP_VERSION"),
         ):
-            if name not in given:
-                kwargs[name] = value
-        if _generation(evaluation.generation, given) is not None:
-            kwargs["generation"] = evaluation.generation
+            _take(kwargs, given, name, value, variable, env)
         if "track" not in given and "direction" not in given:
             kwargs["track"] = evaluation.track
         if "race_type" not in given:

@@ -70,7 +70,7 @@ def train_probe() -> tuple[click.Command, dict]:
     @drfc_train_option
     @click.option("--model-prefix", default=None)
     @click.option("--custom-files", type=click.Path(path_type=Path), default=Path("racer-defaults"))
-    @click.option("--workers", "num_workers", type=int, default=4)
+    @click.option("--workers", "num_workers", type=click.IntRange(1, 32), default=4)  # as racer train's
     @click.option("--track", default="racer_oval")
     @click.option("--pretrained-prefix", default=None)
     @click.option("--pretrained-checkpoint", default="last")
@@ -209,6 +209,16 @@ def test_the_simapp_version_picks_the_generation_unless_racer_is_told_one(experi
     assert "DR_SIMAPP_VERSION=latest: not a SimApp version" in result.output
 
 
+def test_a_value_out_of_the_options_range_names_its_variable_and_line(experiment):
+    run = (experiment / "run.env").read_text().replace("DR_WORKERS=2", "DR_WORKERS=40")
+    (experiment / "run.env").write_text(run.replace("DR_TRAIN_MULTI_CONFIG=True", "DR_TRAIN_MULTI_CONFIG=False"))
+    probe, seen = train_probe()
+    result = CliRunner().invoke(probe, ["--drfc", str(experiment)])
+    assert result.exit_code == 1 and seen == {}
+    assert f"{experiment / 'run.env'}:3: DR_WORKERS=40: 40 is not in the range 1<=x<=32" in result.output
+    assert "it stands for --workers" in result.output
+
+
 def test_head_to_model_evaluates_against_the_opponent_prefix(tmp_path):
     folder = write_experiment(
         tmp_path / "exp", "DR_RACE_TYPE=HEAD_TO_MODEL\nDR_EVAL_OPP_S3_MODEL_PREFIX=rival\nDR_COLLISION_PENALTY=1.5\n"
@@ -221,5 +231,7 @@ def test_head_to_model_evaluates_against_the_opponent_prefix(tmp_path):
 
 def test_the_real_commands_have_the_options_the_decorators_set():
     assert TRAIN_OPTIONS <= {p.name for p in train_command.params}
+    workers = next(p for p in train_command.params if p.name == "num_workers")
+    assert (workers.type.min, workers.type.max) == (1, 32)  # train_probe's --workers
     assert EVALUATE_OPTIONS <= {p.name for p in evaluate_command.params}
     assert "drfc" in {p.name for p in train_command.params} and "drfc" in {p.name for p in evaluate_command.params}
