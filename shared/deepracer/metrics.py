@@ -6,6 +6,11 @@ is rounded from the difference of the two clocks (not the difference of the roun
 `int(round(total reward))` and `completion_percentage` is `int(progress)` (truncation). The whole file is rewritten
 after every episode as `json.dumps(...)` with default separators and no trailing newline.
 Source: deepracer-simapp v5.3.3 `bundle/markov/metrics/s3_metrics.py`.
+
+`completion_percentage` is not floored at 0: an episode whose last step leaves the car behind its start line (turned
+round and driven back, then off track, reversed or stopped by a step cap) records a negative value, as the SimApp's
+`int(self._progress_)` does with its unclamped step progress (deepracer-simapp v6.0.5 116686f4
+`bundle/markov/metrics/s3_metrics.py`, `bundle/markov/agent_ctrl/utils.py` compute_current_prog).
 """
 
 from __future__ import annotations

@@ -322,7 +322,8 @@ def route_facts(path: Path) -> tuple[float, float, str, int]:
 
 def compute_progress(current_ndist: float, start_ndist: float, prev_progress: float) -> float:
     """Progress in % with DeepRacer's finish-line wrap rules (deepracer-simapp v5.3.3
-    `bundle/markov/agent_ctrl/utils.py`); capped at 100."""
+    `bundle/markov/agent_ctrl/utils.py`); capped at 100, not floored: behind the start line it is negative, as the
+    SimApp's (the reward params, simtrace and metrics all see that value)."""
     progress = 100.0 * (current_ndist - start_ndist)
     if progress <= 0.0:
         progress += 100.0
