@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from racer.drfc.experiment import DrfcExperiment
 from racer.drfc.shell_env import Assignment
+from racer.drfc.training_params import PER_WORKER_VARIABLES
 from racer.drfc.variables import Use, variable
 
 __all__ = ["variable_notes"]
@@ -14,12 +15,13 @@ DRFC_COMMIT = "2eb1a1f1"
 def variable_notes(experiment: DrfcExperiment, command: str) -> list[str]:
     """Notes for `command` ("train" or "evaluate"): the variables set that racer does not honour there, grouped by
     what racer does instead, and the ones racer does not know. Each variable is named once, with the first value
-    that asks for something (worker-N.env included)."""
+    that asks for something (worker-N.env's per-worker variables included: its other lines have no effect, which
+    training_params.worker_file_notes says)."""
     values = {name: a.value for name, a in experiment.env.items()}
     assignments: dict[str, list[Assignment]] = {}
     for assignment in (
         *experiment.env.values(),
-        *(a for file in experiment.worker_files for a in file.assignments),
+        *(a for file in experiment.worker_files for a in file.assignments if a.name in PER_WORKER_VARIABLES),
     ):
         assignments.setdefault(assignment.name, []).append(assignment)
     groups: dict[str, list[str]] = {}

@@ -103,7 +103,7 @@ def drfc_train_option(command: Callable[..., Any]) -> Callable[..., Any]:
         ):
             _take(kwargs, given, name, value, variable, env)
         kwargs.update(track=workers[0]["WORLD_NAME"], direction=None, race_type=None, race_param=())
-        summary = _summary(training, workers, kwargs.get("generation"))
+        summary = _summary(training, workers, kwargs, source)
         _say("train", [*summary, *(f"note: {note}" for note in training.notes)])
         with tempfile.TemporaryDirectory(prefix="racer-drfc-") as scratch:  # lives as long as the run
             kwargs["custom_files"] = write_custom_files(training, Path(scratch), workers, source)
@@ -141,21 +141,34 @@ def _race_param(item: str) -> tuple[str, str]:
     return key, value.strip()
 
 
-def _summary(training: DrfcTraining, workers: list[dict[str, str]], generation: str | None) -> list[str]:
+def _summary(
+    training: DrfcTraining, workers: list[dict[str, str]], kwargs: dict[str, Any], source: Path | None
+) -> list[str]:
+    """What the run will be, with the options given beside --drfc applied."""
     experiment = training.experiment
+    clone = kwargs.get("pretrained_prefix")
     lines = [
-        f"read {', '.join(str(path) for path in experiment.files)}; model {training.model_prefix!r}, "
-        f"{training.num_workers} worker(s), generation {generation}"
-        + (f", cloning {training.pretrained_prefix!r} ({training.pretrained_checkpoint})" if training.pretrained_prefix else "")
-    ]  # fmt: skip
+        f"read {', '.join(str(path) for path in experiment.files)}; model {kwargs['model_prefix']!r}, "
+        f"{len(workers)} worker(s), generation {kwargs.get('generation')}"
+        + (f", cloning {clone!r} ({kwargs['pretrained_checkpoint']})" if clone else "")
+    ]
+    if source is not None:
+        lines.append(f"custom files from {source} (--custom-files)")
+    else:
+        renamed = [
+            f"{name} is {path.relative_to(experiment.folder)}"
+            for name, path in training.custom_file_sources.items()
+            if path != experiment.custom_files / name
+        ]
+        lines.append(f"custom files from {experiment.custom_files}" + (f" ({', '.join(renamed)})" if renamed else ""))
     for worker_id, params in enumerate(workers):
         reverse = ", reversed" if params.get("REVERSE_DIR") == "True" else ""
-        source = (
+        drfc_worker = (
             f" (DRfC's worker {worker_id + 1}: worker-{worker_id + 1}.env)"
             if worker_id and experiment.multi_config
             else ""
         )
-        lines.append(f"worker {worker_id}{source}: track {params['WORLD_NAME']}{reverse}, {params['RACE_TYPE']}")
+        lines.append(f"worker {worker_id}{drfc_worker}: track {params['WORLD_NAME']}{reverse}, {params['RACE_TYPE']}")
     return lines
 
 

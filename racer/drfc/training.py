@@ -167,7 +167,9 @@ def run_worker_params(
         settings.update(shared)
         if worker_id < len(per_worker):
             settings.update(per_worker[worker_id])
-        source = f"worker {worker_id}, from the DRfC files, the command line and {path}"
+        source = f"worker {worker_id}, from the DRfC files, the command line" + (
+            f" and {path}" if path.is_file() else ""
+        )
         try:
             WorkerSettings.from_training_params(settings, source)
         except ValueError as error:

@@ -150,6 +150,7 @@ def test_options_given_beside_drfc_win_for_every_worker(experiment, tmp_path):
         "2",
     )
     assert seen["track"] == "Bowtie_track"
+    assert "model 'mine', 1 worker(s)" in result.output and f"custom files from {own} (--custom-files)" in result.output
 
 
 def test_an_explicit_race_type_replaces_the_experiments_race(experiment):

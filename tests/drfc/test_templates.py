@@ -68,7 +68,7 @@ def test_what_racer_cannot_honour_is_reported_once_by_name(template_experiment):
     with (template_experiment / "run.env").open("a") as run_env:
         run_env.write("\nDR_TRAIN_MULTI_CONFIG=True\nDR_WORKERS=2\nDR_FAVOURITE_COLOUR=blue\n")
     (template_experiment / "worker-2.env").write_text(
-        "DR_WORLD_NAME=Oval_track\nDR_CAMERA_SUB_ENABLE=True\nDR_CAMERA_MAIN_ENABLE=True\n"
+        "DR_WORLD_NAME=Oval_track\nDR_CAMERA_SUB_ENABLE=True\nDR_CAMERA_MAIN_ENABLE=True\nDR_GUI_ENABLE=True\n"
     )
     system = (template_experiment / "system.env").read_text()
     system = system.replace("DR_DOCKER_STYLE=<DOCKER_STYLE>", "DR_DOCKER_STYLE=swarm")
@@ -83,8 +83,10 @@ def test_what_racer_cannot_honour_is_reported_once_by_name(template_experiment):
         "DR_SAGEMAKER_CUDA_DEVICES",
         "DR_TRAIN_RTF",
         "DR_FAVOURITE_COLOUR",
+        "DR_GUI_ENABLE",  # not a per-worker variable: no effect from worker-2.env, said as such
     ):
         assert len(re.findall(rf"\b{name}\b", text)) == 1, (name, notes)
+    assert "DR_GUI_ENABLE" in next(n for n in notes if n.startswith("no effect, as in DRfC"))
     gpu = next(n for n in notes if "DR_SAGEMAKER_CUDA_DEVICES" in n)
     assert gpu.startswith("not honoured: DR_SAGEMAKER_CUDA_DEVICES=0:") and "--device" in gpu
     assert "DR_CAMERA_SUB_ENABLE=True" in text  # the value that asks for it, not system.env's False
