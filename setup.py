@@ -15,8 +15,13 @@ packages = []
 for package, folder in PACKAGE_DIRS.items():
     packages.append(package)
     packages += [f"{package}.{sub}" for sub in find_packages(folder)]
-# Folders of data files, listed so setuptools ships them as packages of their own: the viewer's page (HTML, JS, CSS)
-# and the example custom files (racer.defaults: `racer train`'s default --custom-files).
-packages += ["racer.viewer.static", "racer.defaults.custom_files"]
+# Folders of data files, listed so setuptools ships them as packages of their own: the viewer's page (HTML, JS, CSS),
+# the example custom files (racer.defaults: `racer train`'s default --custom-files) and the racing recipe's two.
+packages += [
+    "racer.viewer.static",
+    "racer.defaults.custom_files",
+    "racer.defaults.racing.discrete",
+    "racer.defaults.racing.continuous",
+]
 
 setup(packages=packages, package_dir=PACKAGE_DIRS)
