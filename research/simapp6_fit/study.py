@@ -83,7 +83,7 @@ def fold_constants(
     for source in [*np.unique(batch.sources).tolist(), "all files"]:
         training = batch if source == "all files" else batch.subset(batch.sources != source)
         if progress:
-            print(f"simapp6 fit: fitting {'on all files' if source == 'all files' else 'without ' + source}",
+            print(f"fit: fitting {'on all files' if source == 'all files' else 'without ' + source}",
                   file=sys.stderr, flush=True)  # fmt: skip
         folds[source] = fit(training, start, EVALUATIONS, fixed=fixed, horizons_s=LOSS_HORIZONS_S)
     return folds

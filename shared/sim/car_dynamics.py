@@ -6,6 +6,8 @@ MuJoCo-free, so the config can name them without importing the simulator.
 * `SIMTRACE_FIT_DYNAMICS`: the constants fitted open loop on the real simtraces (research/tyre_fit/).
 * `SIMAPP5_ROS1_DYNAMICS`, `SIMAPP6_ROS2_DYNAMICS`: DeepRacer's car per SimApp generation, built from the SimApp's
   URDF, contact and controller files (`simapp_car_profiles`).
+* `CONSOLE2020_FIT_DYNAMICS`: fitted on the DeepRacer console's 2020 log (research/console2020_fit/): the `2019`
+  generation's car by its data, but the sample checkpoints lap none of 10 with it, so `2019` keeps `gazebo`.
 * `SIMAPP6_FIT_DYNAMICS`: the `simapp6` generation's car, its source facts kept and the rest fitted on DeepRacer on
   AWS's 2026 logs (research/simapp6_fit/).
 
@@ -84,12 +86,35 @@ Fitted: the cornering stiffness (an understeering car, front half the rear), a d
 speed in ≈ 0.07 s and at most 6.4 m/s², a hinge servo of 0.066 s (the logs reject the 0.158 s read from
 gz_ros2_control's position loop: held there, the held-out errors are 0.35 and 0.28 m) and a yaw inertia of 0.133 kg·m²
 (the v6 URDF gives 0.083 for racer's body)."""
+CONSOLE2020_FIT_DYNAMICS = CarDynamics(
+    TyreParams(
+        front_cornering_stiffness_n_per_rad=15.78,
+        rear_cornering_stiffness_n_per_rad=13.09,
+        front_peak_grip=1.0,
+        rear_peak_grip=1.0,
+        drive_stiffness_n_per_mps=55.97,
+        max_drive_force_n=simapp.friction_drive_cap_n(),
+        rolling_radius_m=simapp.WHEEL_MESH_RADIUS_M,
+    ),
+    steering_time_constant_s=0.0599,
+    yaw_inertia_kgm2=0.1647,
+)
+"""The car of the one log of the `2019` generation's simulator: the DeepRacer console's evaluation of September 2020 (Gazebo classic,
+ROS 1, a model of version 3 as the 2019 sample checkpoints; `Belille`, three episodes at 0.33-1 m/s;
+research/console2020_fit/: `python -m research.console2020_fit`, the constants fitted on all three). Held out (each
+episode replayed with the constants fitted on the other two) the median position error after 1 s is 0.070 m at
+0-0.75 m/s and 0.080 m at 0.75-1.25 m/s. Kept from the ROS 1 files: μ 0.5 Coulomb wheels on the 0.036 m mesh and the
+drive's friction limit (μ × weight), which the log never reaches. Fitted: soft, nearly equal axles (15.8 / 13.1
+N/rad), a 0.060 s servo, a yaw inertia of 0.165 kg·m². The log holds no speed above 1.25 m/s: at the sample
+checkpoints' 2 m/s this car is an extrapolation, and closed loop they lap 0 of 10 with it (mean progress 12.8 and
+25.6 %, `racer bench transfer --car-profile console2020-fit`), so `2019` keeps `gazebo`."""
 CAR_DYNAMICS: dict[str, CarDynamics] = {
     "gazebo": GAZEBO_DYNAMICS,
     "simtrace-fit": SIMTRACE_FIT_DYNAMICS,
     "simapp5-ros1": SIMAPP5_ROS1_DYNAMICS,
     "simapp6-ros2": SIMAPP6_ROS2_DYNAMICS,
     "simapp6-fit": SIMAPP6_FIT_DYNAMICS,
+    "console2020-fit": CONSOLE2020_FIT_DYNAMICS,
 }
 """The presets by name: the car profiles (`RACER_CAR_PROFILE`, `--car-profile`; `racer bench fidelity --car`)."""
 CAR_PROFILE_NAMES: tuple[str, ...] = tuple(CAR_DYNAMICS)

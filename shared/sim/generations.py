@@ -7,7 +7,9 @@ within its look. Every constant of a generation's car and look is a fact from th
 its data (docs/car-and-camera.md says which):
 
 * `2019`: Gazebo classic and ROS 1, the world the 2018-2019 sample model was trained in and its 92 frames were
-  taken in (aws-deepracer-community/deepracer-core at 6d9f8481; `generation_looks.LOOK_2019`).
+  taken in (aws-deepracer-community/deepracer-core at 6d9f8481; `generation_looks.LOOK_2019`). Its car is the one
+  exception to the rule below: `gazebo`, chosen closed loop with the sample checkpoints, because the car fitted on
+  that era's one log (`console2020-fit`) laps none of them (docs/car-and-camera.md).
 * `simapp5`: the ROS 1 SimApp up to v5.3.3 (the AWS console until 2025, DeepRacer-for-Cloud 5).
 * `simapp6`: the ROS 2 / gz-sim SimApp v6.0.5 (DeepRacer on AWS, DeepRacer-for-Cloud 6): the default.
 """
@@ -44,7 +46,9 @@ GENERATIONS: dict[str, Generation] = {
         "gazebo",
         LOOK_2019,
         "look: deepracer-core 6d9f8481 deepracer_simulation worlds/reinvent_*.world, models/reinvent_base, "
-        "meshes/reinvent/walls.dae; osrf/gazebo_models sun/model.sdf; car: pending a fit to that era's data",
+        "meshes/reinvent/walls.dae; osrf/gazebo_models sun/model.sdf; car: gazebo, chosen closed loop with the 2019 "
+        "sample checkpoints, not a fact or a fit: the car fitted on that era's one log (console2020-fit, "
+        "research/console2020_fit/) laps none of them, so the landing rule keeps gazebo",
     ),
     "simapp5": Generation(
         "simapp5",
