@@ -1,6 +1,6 @@
-"""Worker 0's in-training evaluation: MIN_EVAL_TRIALS greedy episodes of each new checkpoint (deepracer_checkpoints.json
-and the best checkpoint follow from them, racer.rollout_worker.training_log), and the exploration rule they share with
-training episodes."""
+"""Worker 0's in-training evaluation: MIN_EVAL_TRIALS greedy episodes of each new checkpoint, or with
+RACER_EVAL_CONTINUOUS as many consecutive laps of one run (deepracer_checkpoints.json and the best checkpoint follow from
+them, racer.rollout_worker.training_log), and the exploration rule they share with training episodes."""
 
 from __future__ import annotations
 
@@ -9,11 +9,12 @@ import threading
 
 import numpy as np
 
-from racer.rollout_worker.episode_runner import play_episode
+from racer.rollout_worker.episode_runner import EpisodeRecorder, PlayedEpisode, play_episode
 from racer.rollout_worker.worker_files import WorkerFiles
 from racer.shared.deepracer.hyperparameters import Hyperparameters
 from racer.shared.deepracer.model_metadata import ModelMetadata
 from racer.shared.policy.action_selection import E_GREEDY_EVALUATION_EPSILON
+from racer.shared.policy.frame_stack import frame_stacker_for
 from racer.shared.sim.env import DeepRacerEnv
 
 log = logging.getLogger(__name__)
@@ -40,10 +41,35 @@ def evaluate_checkpoint(
     stop: threading.Event,
 ) -> list | None:
     """The run's MIN_EVAL_TRIALS greedy episodes of checkpoint `iteration` (spread over the lap when
-    RACER_EVAL_SPREAD_STARTS, each at most RACER_EVAL_MAX_STEPS steps when set); None when `stop` is set before
-    they are all played."""
+    RACER_EVAL_SPREAD_STARTS, each at most RACER_EVAL_MAX_STEPS steps when set), or its consecutive laps with
+    RACER_EVAL_CONTINUOUS (`play_consecutive_laps`); None when `stop` is set before they are all played."""
     trials = run.worker.min_eval_trials
     epsilon = evaluation_epsilon(run.hyperparameters, run.model_metadata)
+    if run.worker.eval_continuous:
+        laps = play_consecutive_laps(
+            env,
+            policy,
+            laps=trials,
+            generator=generator,
+            epsilon=epsilon,
+            policy_version=iteration,
+            worker_id=worker_id,
+            world=run.worker.world,
+            on_step=on_step,
+            stop=stop,
+            max_steps=run.worker.eval_max_steps or None,
+        )
+        if laps is not None:
+            log.info(
+                "worker %d: evaluation of checkpoint %d, %d consecutive laps: %s",
+                worker_id,
+                iteration,
+                len(laps),
+                ", ".join(
+                    f"{lap.final_status} {lap.progress:.1f}% {lap.end_time_s - lap.start_time_s:.2f} s" for lap in laps
+                ),
+            )
+        return laps
     results = []
     first_start = env.start_ndist
     for trial in range(trials):
@@ -77,3 +103,52 @@ def evaluate_checkpoint(
             results[-1].progress,
         )
     return results
+
+
+def play_consecutive_laps(
+    env: DeepRacerEnv,
+    policy,
+    *,
+    laps: int,
+    generator: np.random.Generator,
+    epsilon: float,
+    policy_version: int,
+    worker_id: int,
+    world: str,
+    on_step,
+    stop: threading.Event,
+    max_steps: int | None = None,
+) -> list[PlayedEpisode] | None:
+    """Up to `laps` greedy laps in one evaluation run from the env's start, as DeepRacer's continuous evaluation: each
+    crossing of the line closes a lap (one PlayedEpisode, its lap time from the crossing before) and the car drives on
+    at speed; a reset rule or the step cap ends the run with the lap it was in. None when `stop` is set between laps.
+    The policy's frame stack runs on across the line, as the car does."""
+    options: dict = {"evaluation": True}
+    if max_steps is not None:
+        options["max_steps"] = max_steps
+    stacker = frame_stacker_for(policy)
+    observation, reset_info = env.reset(options=options)
+    policy_observation = observation if stacker is None else stacker.reset(observation)
+    recorder = EpisodeRecorder(observation, reset_info)
+    played: list[PlayedEpisode] = []
+    while True:
+        action, log_prob = policy.act(policy_observation, greedy=True, generator=generator, epsilon=epsilon)
+        result = env.step(action)
+        on_step(result[0], float(result[1]), result[4])
+        policy_observation = result[0] if stacker is None else stacker.push(result[0])
+        if not recorder.record(action, log_prob, result):
+            continue
+        lap = recorder.finish(
+            policy_version=policy_version,
+            worker_id=worker_id,
+            world=world,
+            episode_index=len(played),
+            simtrace_episode=None,
+        )
+        played.append(lap)
+        if not lap.lap_completed or len(played) == laps:
+            return played
+        if stop.is_set():
+            return None
+        env.continue_after_lap(lap.end_time_s, renew_reset_budget=False)
+        recorder = EpisodeRecorder(result[0], {"start_time_s": lap.end_time_s})

@@ -124,6 +124,12 @@ class WorkerSettings:
     many steps (0: no cap but DeepRacer's 100,000). A barely trained greedy policy may circle without leaving the
     track, and worker 0 plays such an episode to the end before it reads the trainer's next announcement; a cap of a
     few laps' steps keeps short runs (tests, quick trials) from waiting minutes for it."""
+    eval_continuous: bool = setting(False, "RACER_EVAL_CONTINUOUS", FLAG, env=None)
+    """racer's option (training_params key RACER_EVAL_CONTINUOUS): the MIN_EVAL_TRIALS evaluation trials are the laps
+    of one run, as DeepRacer's continuous evaluation (IS_CONTINUOUS) drives them: each crossing of the line closes a
+    lap and the next goes on at speed; the first reset rule (off track, reversed, ...) ends the run, so every lap it
+    completed is a lap without a reset. One run has one start (RACER_EVAL_SPREAD_STARTS spreads nothing) and
+    RACER_EVAL_MAX_STEPS caps the whole run. `racer bench race-pace` judges three consecutive laps this way."""
     domain_randomization: bool = setting(False, "ENABLE_DOMAIN_RANDOMIZATION", FLAG)
     """ENABLE_DOMAIN_RANDOMIZATION: random light colours and attenuation at every episode, as the SimApp."""
     car_randomization: bool = setting(False, "RACER_CAR_RANDOMIZATION", FLAG)

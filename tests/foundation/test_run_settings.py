@@ -42,6 +42,7 @@ NOT_DEFAULT: dict[str, object] = {
     "number_of_reverse_counts": 20,
     "eval_spread_starts": True,
     "eval_max_steps": 300,
+    "eval_continuous": True,
     "domain_randomization": True,
     "car_randomization": True,
     "dynamics_randomization": True,
