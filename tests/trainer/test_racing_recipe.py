@@ -14,14 +14,14 @@ from racer.defaults import RACING_CUSTOM_FILES
 from racer.shared.deepracer.model_metadata import load_model_metadata
 from racer.shared.run_settings import RunOptions
 from racer.shared.sim import car
-from racer.shared.sim.car_dynamics import CAR_DYNAMICS
+from racer.shared.sim.generations import generation
 from racer.shared.sim.lap_time_bound import CarLimits
 from racer.shared.sim.reward_cli import reward_group
 from racer.trainer.preflight import preflight
 
 SPACES = ("discrete", "continuous")
-DEEPRACER_ON_AWS_CAR = CarLimits.of_car(CAR_DYNAMICS["simapp6-ros2"], world="base")
-"""The car the action spaces are derived for: DeepRacer on AWS's (the ROS 2 SimApp's), on μ 0.5."""
+DEEPRACER_ON_AWS_CAR = CarLimits.of_car(generation("simapp6").car, world="base")
+"""The car the action spaces are derived for: DeepRacer on AWS's (the `simapp6` generation's), on μ 0.5."""
 
 
 @pytest.mark.parametrize("space", SPACES)
