@@ -33,6 +33,7 @@ from racer.rollout_worker.envs import env_generator, spread_env_configs
 from racer.rollout_worker.episode_runner import EpisodeRecorder
 from racer.rollout_worker.training_log import WorkerLog
 from racer.rollout_worker.worker_files import WorkerFiles, load_worker_files, training_env_config
+from racer.shared import worker_phases
 from racer.shared.config import ServiceSettings
 from racer.shared.policy.action_selection import e_greedy_epsilon
 from racer.shared.policy.checkpoints import CheckpointStore
@@ -43,6 +44,7 @@ from racer.shared.store import open_store
 from racer.shared.transport.channels import Announcement, RunChannel
 from racer.shared.transport.codec import EpisodeBatch
 from racer.shared.transport.frames import FrameChannel, FrameTap
+from racer.shared.worker_phases import PhaseClock
 
 log = logging.getLogger(__name__)
 
@@ -67,6 +69,13 @@ class _WorkerState:
     episodes_played: int = 0
     steps_per_s: float = 0.0
     extra: dict = field(default_factory=dict)
+    phases: PhaseClock = field(default_factory=PhaseClock)
+    """Wall seconds per phase (racer.shared.worker_phases): in the heartbeat and in every delivered episode."""
+
+    def enter(self, status: str, phase: str) -> None:
+        """The status the heartbeat shows, and the phase its time counts to."""
+        self.status = status
+        self.phases.enter(phase)
 
 
 class RolloutWorker:
@@ -121,6 +130,7 @@ class RolloutWorker:
                 "world": world,
                 "steps_per_s": round(self.state.steps_per_s, 1),
                 "pid": os.getpid(),
+                "phase_s": {phase: round(seconds, 1) for phase, seconds in self.state.phases.totals_s().items()},
             },
         )
 
@@ -153,7 +163,7 @@ class RolloutWorker:
             shutil.rmtree(self._workdir, ignore_errors=True)  # the run's files as downloaded; the store keeps them
 
     def _wait_for_first_announcement(self) -> Announcement:
-        self.state.status = "waiting for trainer"
+        self.state.enter("waiting for trainer", worker_phases.WAITING)
         deadline = time.monotonic() + self.options.wait_timeout_s
         while not self._stop.is_set():
             announcement = self.channel.latest_iteration_announcement()
@@ -168,7 +178,7 @@ class RolloutWorker:
         raise InterruptedError("stopped before the trainer started")
 
     def _wait_for_announcements(self, after_id: str) -> list[Announcement]:
-        self.state.status = "waiting for checkpoint"
+        self.state.enter("waiting for checkpoint", worker_phases.WAITING)
         started = time.monotonic()
         next_notice = started + 60
         while not self._stop.is_set():
@@ -193,6 +203,7 @@ class RolloutWorker:
 
     # ---- set-up ----------------------------------------------------------------------------------
     def _prepare(self, announcement: Announcement) -> None:
+        self.state.enter("building envs", worker_phases.STARTING)
         self.run = load_worker_files(
             self.store,
             self.options.model_prefix,
@@ -224,7 +235,7 @@ class RolloutWorker:
     def _load_policy(self, announcement: Announcement) -> None:
         if self.policy_version == announcement.iteration:
             return
-        self.state.status = f"loading {announcement.checkpoint}"
+        self.state.enter(f"loading {announcement.checkpoint}", worker_phases.LOADING)
         self.policy = self.checkpoints.load_inference_policy(announcement.checkpoint)
         self.policy.eval()
         self.policy_version = announcement.iteration
@@ -268,7 +279,7 @@ class RolloutWorker:
             if number is None:
                 return None
             if played["episodes"] == 0 and self.state.status != "playing":
-                self.state.status = "playing"
+                self.state.enter("playing", worker_phases.PLAYING)
                 self.frame_tap.phase = "training"
                 self._beat()  # at once: a short share can finish between two periodic beats
             epsilon = 0.0
@@ -292,7 +303,9 @@ class RolloutWorker:
             rate = played["steps"] / max(1e-6, time.monotonic() - started)
             self.state.steps_per_s = rate
             self.log.record_training_episode(episode, iteration)
-            episode.episode.info.update(rollout_steps_per_s=round(rate, 1))
+            episode.episode.info.update(
+                rollout_steps_per_s=round(rate, 1), **worker_phases.episode_info(self.state.phases.totals_s())
+            )
             self.channel.deliver_episode(
                 EpisodeBatch(
                     iteration=iteration,
@@ -358,7 +371,7 @@ class RolloutWorker:
     def _evaluate(self, announcement: Announcement) -> None:
         if self.run.worker.min_eval_trials <= 0:
             return
-        self.state.status = "evaluating"
+        self.state.enter("evaluating", worker_phases.EVALUATING)
         self.frame_tap.phase = "evaluation"
         results = evaluate_checkpoint(
             self.env,

@@ -14,12 +14,25 @@ from racer.shared.episode import Episode
 from racer.shared.model_layout import ModelLayout
 from racer.shared.store import ObjectNotFoundError, ObjectStore
 from racer.shared.transport.channels import RunChannel
+from racer.shared.worker_phases import from_episode_info
 
 
 def world_steps_per_s(episodes: list[Episode]) -> float:
     """Experience rate of one world: the rates its workers measured while playing their shares, added up."""
     by_worker = {e.worker_id: float(e.info.get("rollout_steps_per_s", 0.0)) for e in episodes}
     return round(sum(by_worker.values()), 1)
+
+
+def worker_phases_s(episodes: list[Episode]) -> dict[str, dict[str, float]]:
+    """Each worker's wall seconds per phase since it started (racer.shared.worker_phases), as its latest episode of the
+    iteration carried them: where the workers' time went, kept in the iterations log."""
+    latest: dict[str, dict[str, float]] = {}
+    for episode in episodes:
+        totals = from_episode_info(episode.info)
+        key = str(episode.worker_id)
+        if totals is not None and sum(totals.values()) >= sum(latest.get(key, {}).values()):
+            latest[key] = totals
+    return dict(sorted(latest.items()))
 
 
 def _scores(episodes: list[Episode]) -> dict:
@@ -45,6 +58,7 @@ def iteration_summary(
         **_scores(episodes),
         "experience_steps_per_s": steps / max(rollout_wall_s, 1e-6),
         "elapsed_s": elapsed_s,
+        "worker_phases_s": worker_phases_s(episodes),
         "worlds": {
             world: {"episodes": len(items), **_scores(items), "steps_per_s": world_steps_per_s(items)}
             for world, items in by_world.items()
