@@ -119,11 +119,12 @@ def play_consecutive_laps(
     stop: threading.Event,
     max_steps: int | None = None,
 ) -> list[PlayedEpisode] | None:
-    """Up to `laps` greedy laps in one evaluation run from the env's start, as DeepRacer's continuous evaluation: each
-    crossing of the line closes a lap (one PlayedEpisode, its lap time from the crossing before) and the car drives on
-    at speed; a reset rule or the step cap ends the run with the lap it was in. None when `stop` is set between laps.
-    The policy's frame stack runs on across the line, as the car does."""
-    options: dict = {"evaluation": True}
+    """Up to `laps` greedy laps in one evaluation run, as DeepRacer's continuous evaluation: from the start line
+    (START_POSITION_OFFSET, where DeepRacer's evaluation job starts, not where the training round robin has got to, so
+    every checkpoint drives the same laps), each crossing closes a lap (one PlayedEpisode, its lap time from the
+    crossing before) and the car drives on at speed; a reset rule or the step cap ends the run with the lap it was in.
+    None when `stop` is set between laps. The policy's frame stack runs on across the line, as the car does."""
+    options: dict = {"evaluation": True, "start_ndist": env.config.start_position_offset % 1.0}
     if max_steps is not None:
         options["max_steps"] = max_steps
     stacker = frame_stacker_for(policy)
