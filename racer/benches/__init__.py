@@ -1,7 +1,9 @@
 """`racer bench ...`: benchmarks that print one JSON line each (speed goals are measured, not asserted).
 
 A bench here is one a user runs to judge their own model, machine or simulator: one module per bench (`sim`, `ppo`,
-`transfer`, `fidelity`, `sac`, `rollout`, `throughput`, `time_to_lap`, `viewer`, `race`) and their helpers (`workdir`:
+`transfer`, `fidelity`, `sac`, `rollout`, `throughput`, `time_to_lap`, `race_pace`, `viewer`, `race`) and their helpers
+(`race_pace_laps`, `race_pace_picture`: the race-pace bench's lap figures and its picture; `time_shares`: where a
+training run's wall time went, from its iterations log; `workdir`:
 the work folder a bench's training run writes to; `deepracer_data`: where a bench finds DeepRacer's own files, `--data`
 or RACER_DEEPRACER_DATA; `sim_loop`, `sim_races`: the simulator bench's step loop and its
 envs with objects; `gazebo_frames`: DeepRacer's reference camera frames and racer's at the same poses;
@@ -39,6 +41,10 @@ BENCHMARKS: dict[str, tuple[str, str]] = {
     "time-to-lap": (
         "racer.benches.time_to_lap:time_to_lap_command",
         "Minutes from scratch until greedy evaluation completes 3 of 3 laps.",
+    ),
+    "race-pace": (
+        "racer.benches.race_pace:race_pace_command",
+        "Best lap and best 3-lap average in --minutes with the racing recipe, against the car's lap-time bound.",
     ),
     "rollout": (
         "racer.benches.rollout:rollout_bench_command",
