@@ -13,7 +13,8 @@ or more than 3 points of mean progress on a shared checkpoint in `2019` does not
 straight / right shares) and how often its side agrees with each real checkpoint's.
 
 `--matrix` trains a model per generation (or car profile), with and without dynamics randomisation, and drives each
-in every generation (`transfer_matrix.py`).
+in every generation (`transfer_matrix.py`). `--robustness` drives the real checkpoints under a fixed set of small
+perturbations of the start, the camera and the lights and prints the table (`transfer_robustness.py`).
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ import torch
 from racer.benches.deepracer_data import REINVENT_2018_ROUTE, data_folder, data_option
 from racer.benches.gazebo_frames import GAZEBO_FRAMES, load_gazebo_frames, render_lap
 from racer.benches.transfer_matrix import DEFAULT_MINUTES, DEFAULT_WORKERS, TRAIN_GENERATIONS, DriveCar, run_matrix
+from racer.benches.transfer_robustness import run_robustness
 from racer.benches.workdir import cpu_description
 from racer.shared.deepracer.model_metadata import ModelMetadata, parse_model_metadata
 from racer.shared.policy.checkpoints import CheckpointStore
@@ -114,14 +116,16 @@ def greedy_action(network: torch.nn.Module, camera: str, grey: np.ndarray) -> in
     return int(probabilities[0].argmax())
 
 
-def drive(model: RealModel, config: EnvConfig, starts: int) -> dict:
-    """Greedy laps from `starts` evenly spaced places, evaluation rules, no resets."""
+def drive(model: RealModel, config: EnvConfig, starts: int, start_offset: tuple[float, float] = (0.0, 0.0)) -> dict:
+    """Greedy laps from `starts` evenly spaced places, evaluation rules, no resets; `start_offset` (metres, radians
+    to the left) moves every start off the centre line (the robustness table)."""
     env = DeepRacerEnv(config)
     camera = model.metadata.camera_sensor
     progress, steps_driven = [], []
+    options = {"evaluation": True, "start_offset": start_offset} if any(start_offset) else {"evaluation": True}
     try:
         for k in range(starts):
-            observation, _ = env.reset(seed=1, options={"evaluation": True, "start_ndist": k / starts})
+            observation, _ = env.reset(seed=1, options={**options, "start_ndist": k / starts})
             done, steps, info = False, 0, {"progress": 0.0}
             while not done and steps < MAX_STEPS_PER_START:
                 observation, _, terminated, truncated, info = env.step(
@@ -300,6 +304,13 @@ def reverse_check(racer_model: Path, real: list[RealModel], frames_grey: np.ndar
     help="--matrix: copy each trained model folder here (the bench's own folder is removed at the end).",
 )
 @click.option("--seed", type=int, default=0, show_default=True, help="--matrix: the training seed.")
+@click.option(
+    "--robustness",
+    is_flag=True,
+    help="Instead: drive each real checkpoint in each --generation (base world, or the first --world) as it stands "
+    "and under each small perturbation (start 5 cm to a side or turned 5 degrees, camera 5 mm up or down or pitched "
+    "1 degree, lights 15 % brighter or dimmer); the table on stderr, one JSON line.",
+)
 @data_option
 @click.pass_context
 def transfer_bench_command(
@@ -320,6 +331,7 @@ def transfer_bench_command(
     randomization,
     keep_models,
     seed,
+    robustness,
     data_dir,
 ) -> None:
     """Real DeepRacer checkpoints drive racer, closed loop: laps and mean progress per checkpoint, one JSON line."""
@@ -353,6 +365,29 @@ def transfer_bench_command(
         raise click.ClickException(f"{models_root}: no DeepRacer model folder (model_metadata.json with .pb graphs)")
     with tempfile.TemporaryDirectory(prefix="racer-transfer-") as store_root:
         real = import_real_models(folders, Path(store_root))
+    if robustness:
+        result = {"benchmark": "transfer-robustness", "cpu": cpu_description(), "track": str(track), "starts": starts}
+        for generation_name, profile in [(name, profile or generation(name).car_profile) for name in generation_names
+                                         for profile in profiles]:  # fmt: skip
+
+            def config_of(
+                model: RealModel, generation_name: str = generation_name, profile: str = profile
+            ) -> EnvConfig:
+                return EnvConfig(
+                    track=track,
+                    world=world[0],
+                    model_metadata=model.metadata,
+                    generation=generation_name,
+                    car_dynamics=car_profile(profile),
+                )
+
+            table = run_robustness(real, config_of, drive, starts)
+            result.setdefault("tables", []).append(
+                {"generation": generation_name, "world": world[0], "car_profile": profile, **table}
+            )
+        result["wall_s"] = round(time.monotonic() - started, 1)
+        click.echo(json.dumps(result))
+        return
     result: dict = {"benchmark": "transfer", "cpu": cpu_description(), "track": str(track), "drives": []}
     cars = [(name, profile or generation(name).car_profile) for name in generation_names for profile in profiles]
     for model in real:

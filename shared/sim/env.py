@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 from typing import Any
@@ -17,7 +18,7 @@ from racer.shared.sim.config import STEPS_PER_SECOND, EnvConfig
 from racer.shared.sim.domain_randomization import SceneRandomizer
 from racer.shared.sim.dynamics_randomization import draw_dynamics
 from racer.shared.sim.episode_phase import PhaseMachine, StepVerdict
-from racer.shared.sim.episode_start import StartRotation, episode_max_steps, read_reset_options
+from racer.shared.sim.episode_start import StartRotation, episode_max_steps, read_reset_options, start_offset
 from racer.shared.sim.judged_pose import PoseJudge, judged_reward_params
 from racer.shared.sim.object_bodies import ObjectBodies
 from racer.shared.sim.object_poses import ObjectPose
@@ -261,6 +262,8 @@ class DeepRacerEnv(gym.Env):
             if not evaluation or (options or {}).get("clear_start"):  # the SimApp moves only training starts
                 x, y, yaw = self._track_objects.start_pose(self._track, start_ndist) or (x, y, yaw)
             self._place_objects()
+        left_m, turn_rad = start_offset(options)
+        x, y, yaw = x - left_m * math.sin(yaw), y + left_m * math.cos(yaw), yaw + turn_rad
         self._car.teleport(self._model, self._data, x, y, yaw)
         if self._observer.lidar is not None:
             self._observer.lidar.reset()

@@ -7,7 +7,7 @@ from typing import Any
 
 from racer.shared.sim.config import EnvConfig
 
-RESET_OPTIONS = ("evaluation", "start_ndist", "clear_start", "max_steps")
+RESET_OPTIONS = ("evaluation", "start_ndist", "clear_start", "max_steps", "start_offset")
 
 
 class StartRotation:
@@ -64,3 +64,19 @@ def episode_max_steps(options: dict[str, Any] | None, config_max_steps: int) -> 
     if isinstance(wanted, bool) or not isinstance(wanted, int) or wanted < 1:
         raise ValueError(f"reset option 'max_steps' must be a whole number >= 1, got {wanted!r}")
     return min(wanted, config_max_steps)
+
+
+def start_offset(options: dict[str, Any] | None) -> tuple[float, float]:
+    """`options["start_offset"]`: (metres to the left, radians to the left) the car starts off its start pose, for
+    an evaluation episode (racer's robustness bench); (0, 0) when absent."""
+    options = options or {}
+    offset = options.get("start_offset")
+    if offset is None:
+        return 0.0, 0.0
+    if not options.get("evaluation"):
+        raise ValueError("reset option 'start_offset' is for evaluation episodes")
+    try:
+        left_m, turn_rad = (float(value) for value in offset)
+    except (TypeError, ValueError):
+        raise ValueError(f"reset option 'start_offset' must be (metres, radians), got {offset!r}") from None
+    return left_m, turn_rad

@@ -18,9 +18,9 @@ from racer.shared.deepracer.training_params import training_params_to_yaml
 from racer.shared.model_layout import ModelLayout
 from racer.shared.run_settings import NOT_FROM_SETTINGS, JobSettings, env_config, settings_fields
 from racer.shared.sim.car_dynamics import SIMTRACE_FIT_DYNAMICS, car_profile
-from racer.shared.sim.generations import generation
 from racer.shared.sim.challenge_config import ChallengeConfig
 from racer.shared.sim.config import DEFAULT_MODEL_METADATA, EnvConfig
+from racer.shared.sim.generations import generation
 from racer.shared.store import open_store
 from racer.shared.worker_settings import SETTING, WorkerSettings
 
