@@ -89,7 +89,10 @@ MODEL_PREFIX = "race-pace"
     metavar="KEY=VALUE",
     help="A hyperparameters.json key over the recipe's (repeatable).",
 )
-@generation_option()
+@generation_option(
+    help_text="The DeepRacer simulator the run stands in for, its look and car together: 2019, simapp5 or simapp6 "
+    "(DeepRacer on AWS). The bench takes no other car or look: the bound is this car's."
+)
 @device_option
 @click.option("--seed", type=int, default=0, show_default=True)
 @click.option(
