@@ -121,6 +121,7 @@ class WorkerLog:
             "best_lap_time_s": min((p.lap_time_s for p in laps if p.lap_time_s), default=None),
             "lap_times_s": [p.lap_time_s if p.lap_completed else None for p in results],
             "statuses": [p.final_status for p in results],
+            "progresses": [round(p.progress, 3) for p in results],
             "continuous": self.run.worker.eval_continuous,
             "env_steps_total": checkpoint.env_steps if checkpoint else None,
         }

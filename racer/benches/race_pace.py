@@ -25,7 +25,7 @@ from pathlib import Path
 
 import click
 
-from racer.benches.race_pace_laps import CheckpointLaps, race_pace
+from racer.benches.race_pace_laps import CheckpointLaps, lap_to_draw, race_pace
 from racer.benches.race_pace_picture import draw_race_pace, drive_lap_again
 from racer.benches.time_shares import time_shares
 from racer.benches.time_to_lap import hyperparameter_overrides
@@ -277,18 +277,26 @@ def _picture(
     workdir: Path,
     seed: int,
 ) -> dict:
-    """Draw the bound's line and the best lap, driven again; say whether the drive matched the evaluation."""
-    lap = None
-    found = {}
-    best = pace["best_lap"]
-    if best is not None:
-        evaluation = next(e for e in evaluations if e.checkpoint == best["checkpoint"])
-        index = next(
-            i for i, t in enumerate(evaluation.lap_times_s) if t is not None and t == min(evaluation.completed_laps_s)
-        )
+    """Draw the bound's line and the best lap (before any lap: the furthest drive), driven again from its checkpoint;
+    say whether the drive matched the evaluation (racer's simulator is deterministic)."""
+    target = lap_to_draw(evaluations)
+    driven = None
+    found: dict = {}
+    if target is not None:
         store = open_store(LocalStoreSettings(root=workdir / "store"))
-        lap = drive_lap_again(store, MODEL_PREFIX, best["checkpoint"], index, workdir / "replay", seed)
-        found["picture_lap_s"] = None if lap.lap_time_s is None else round(lap.lap_time_s, 3)
-        found["picture_lap_matches"] = lap.lap_time_s is not None and abs(lap.lap_time_s - best["seconds"]) < 1e-6
-    draw_race_pace(route, bound, lap, _title(result, pace), path)
+        driven = drive_lap_again(store, MODEL_PREFIX, target.checkpoint, target.lap_index, workdir / "replay", seed)
+        found["picture_lap"] = {
+            "checkpoint": target.checkpoint,
+            "lap": target.lap_index + 1,
+            "lap_s": None if driven.lap_time_s is None else round(driven.lap_time_s, 3),
+            "progress": round(driven.progress, 3),
+            "matches_the_evaluation": _same(driven.lap_time_s, target.lap_time_s)
+            and _same(driven.progress, target.progress),
+        }
+    draw_race_pace(route, bound, driven, _title(result, pace), path)
     return {"picture": str(path), **found}
+
+
+def _same(a: float | None, b: float | None) -> bool:
+    """Equal to the evaluation's rounding (progress is recorded to 0.001 %)."""
+    return (a is None and b is None) or (a is not None and b is not None and abs(a - b) < 2e-3)

@@ -36,6 +36,8 @@ class CheckpointLaps:
     lap_times_s: tuple[float | None, ...]
     """Each lap of the run; None for the lap a reset rule (or the step cap) ended."""
     statuses: tuple[str, ...]
+    progresses: tuple[float, ...]
+    """Each lap's progress (%) when it ended: 100 for a completed one."""
 
     @classmethod
     def from_record(cls, record: Mapping, minutes: float) -> CheckpointLaps:
@@ -52,6 +54,7 @@ class CheckpointLaps:
             checkpoint=str(record["checkpoint"]),
             lap_times_s=tuple(None if t is None else float(t) for t in record["lap_times_s"]),
             statuses=tuple(str(s) for s in record["statuses"]),
+            progresses=tuple(float(p) for p in record.get("progresses", ())),
         )
 
     @property
@@ -118,6 +121,32 @@ def _first_best(evaluations: Sequence[CheckpointLaps], value) -> FirstReached | 
         if seconds is not None and (best is None or seconds < best.value_s):
             best = FirstReached(seconds, evaluation.minutes, evaluation.env_steps, evaluation.checkpoint)
     return best
+
+
+@dataclass(frozen=True)
+class LapOfCheckpoint:
+    """Which lap of which evaluation: what the picture drives again."""
+
+    checkpoint: str
+    lap_index: int
+    lap_time_s: float | None
+    progress: float | None
+
+
+def lap_to_draw(evaluations: Sequence[CheckpointLaps]) -> LapOfCheckpoint | None:
+    """The best lap without a reset, first reached; before any, the furthest a run got (its last lap's progress)."""
+    lap = best_lap(evaluations)
+    if lap is not None:
+        evaluation = next(e for e in evaluations if e.checkpoint == lap.checkpoint)
+        return LapOfCheckpoint(lap.checkpoint, evaluation.lap_times_s.index(lap.value_s), lap.value_s, 100.0)
+    furthest = None
+    for evaluation in evaluations:
+        if evaluation.progresses and (furthest is None or evaluation.progresses[-1] > furthest.progresses[-1]):
+            furthest = evaluation
+    if furthest is None:
+        return None
+    index = len(furthest.progresses) - 1
+    return LapOfCheckpoint(furthest.checkpoint, index, furthest.lap_times_s[index], furthest.progresses[-1])
 
 
 def curve(evaluations: Sequence[CheckpointLaps]) -> list[dict]:

@@ -37,6 +37,8 @@ class DrivenLap:
     points_m: np.ndarray
     """(steps, 2) the car's position at each step (the simtrace's X, Y)."""
     lap_time_s: float | None
+    progress: float
+    """Progress (%) when the lap ended: 100 for a completed one."""
 
     @property
     def speeds_mps(self) -> np.ndarray:
@@ -78,7 +80,7 @@ def drive_lap_again(
         )
     lap = laps[lap_index]
     points = np.array([(row["X"], row["Y"]) for row in lap.simtrace_rows], dtype=float)
-    return DrivenLap(checkpoint, lap_index, points, lap.lap_time_s)
+    return DrivenLap(checkpoint, lap_index, points, lap.lap_time_s, lap.progress)
 
 
 def draw_race_pace(track: Track, line: RacingLine, lap: DrivenLap | None, title: str, path: Path) -> Path:
@@ -99,7 +101,7 @@ def draw_race_pace(track: Track, line: RacingLine, lap: DrivenLap | None, title:
         axes[1].plot(*closed.T, color="0.45", linewidth=0.8, linestyle="--", zorder=2)
         axes[1].add_collection(_speed_segments(lap.points_m, lap.speeds_mps, norm, width=2.5))
         axes[1].plot(*lap.points_m[0], "o", color="green", markersize=5, zorder=4)
-        lap_text = "not completed" if lap.lap_time_s is None else f"{lap.lap_time_s:.2f} s"
+        lap_text = f"{lap.progress:.0f} %, no lap yet" if lap.lap_time_s is None else f"{lap.lap_time_s:.2f} s"
         axes[1].set_title(f"policy: {lap.checkpoint}, lap {lap.lap_index + 1}: {lap_text}")
     figure.colorbar(collection, ax=axes.tolist(), label="speed (m/s)", shrink=0.8)
     figure.suptitle(title)

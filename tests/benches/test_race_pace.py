@@ -11,7 +11,7 @@ import pytest
 from click.testing import CliRunner
 
 from racer.benches.race_pace import race_pace_command
-from racer.benches.race_pace_laps import CheckpointLaps, best_average, best_lap, race_pace
+from racer.benches.race_pace_laps import CheckpointLaps, best_average, best_lap, lap_to_draw, race_pace
 from racer.benches.race_pace_picture import DrivenLap, draw_race_pace
 from racer.benches.time_shares import time_shares
 from racer.shared import worker_phases
@@ -21,12 +21,14 @@ from racer.shared.sim.track import Track
 
 
 def record(checkpoint: str, laps: list[float | None], statuses: list[str], steps: int = 100) -> dict:
-    """An `evaluations` stream record as worker 0 publishes it with RACER_EVAL_CONTINUOUS."""
+    """An `evaluations` stream record as worker 0 publishes it with RACER_EVAL_CONTINUOUS (a lap that did not finish
+    got a third of the way)."""
     return {
         "checkpoint": checkpoint,
         "env_steps_total": steps,
         "lap_times_s": laps,
         "statuses": statuses,
+        "progresses": [100.0 if status == "lap_complete" else 33.3 for status in statuses],
         "continuous": True,
     }
 
@@ -69,6 +71,19 @@ def test_the_summary_compares_the_last_checkpoint_and_counts_resets_but_not_the_
     assert up_to_five["last_to_best_average"] == pytest.approx(expected, abs=1e-4)
 
 
+def test_the_picture_drives_the_best_lap_or_before_any_the_furthest_attempt():
+    target = lap_to_draw(evaluations())
+    assert (target.checkpoint, target.lap_index, target.lap_time_s) == ("4.ckpt", 2, 7.1)
+    early = [
+        CheckpointLaps.from_record(record("1.ckpt", [None], ["off_track"]) | {"progresses": [12.0]}, 0.5),
+        CheckpointLaps.from_record(record("2.ckpt", [None], ["off_track"]) | {"progresses": [31.5]}, 1.0),
+        CheckpointLaps.from_record(record("3.ckpt", [None], ["off_track"]) | {"progresses": [20.0]}, 1.5),
+    ]
+    target = lap_to_draw(early)
+    assert (target.checkpoint, target.lap_index, target.lap_time_s, target.progress) == ("2.ckpt", 0, None, 31.5)
+    assert lap_to_draw([]) is None
+
+
 def test_an_evaluation_without_consecutive_laps_is_refused_naming_the_setting():
     with pytest.raises(ValueError, match="RACER_EVAL_CONTINUOUS"):
         CheckpointLaps.from_record({"checkpoint": "1.ckpt", "trials": 3, "laps_completed": 0}, 1.0)
@@ -101,7 +116,7 @@ def test_the_picture_draws_the_line_and_a_lap(tmp_path):
     track = Track.load("racer_oval")
     line = racing_line(track, CarLimits.of_car(CAR_DYNAMICS["gazebo"]), control_spacings_m=(0.8,))
     angles = np.linspace(0, 2 * np.pi, 120)
-    lap = DrivenLap("3.ckpt", 1, np.column_stack((2.0 * np.cos(angles), np.sin(angles))), 8.0)
+    lap = DrivenLap("3.ckpt", 1, np.column_stack((2.0 * np.cos(angles), np.sin(angles))), 8.0, 100.0)
     assert lap.speeds_mps.shape == (119,) and np.all(lap.speeds_mps > 0)
     path = draw_race_pace(track, line, lap, "test", tmp_path / "pace.png")
     assert path.stat().st_size > 10_000
@@ -155,4 +170,7 @@ def test_a_short_run_prints_one_json_line_with_every_figure(tmp_path, monkeypatc
     assert sum(v for k, v in shares["workers"].items() if k not in ("workers", "wall_s")) == pytest.approx(1, abs=0.01)
     assert 0 < shares["trainer"]["updating"] < 1
     assert (tmp_path / "pace.png").stat().st_size > 10_000
+    drawn = line["picture_lap"]  # the best lap, or before any the furthest drive, driven again from its checkpoint
+    assert drawn["checkpoint"] in {checkpoint["checkpoint"] for checkpoint in line["checkpoints"]}
+    assert drawn["matches_the_evaluation"], drawn  # racer's simulator is deterministic: the same drive again
     assert not [p for p in tmp_path.iterdir() if p.name.startswith("racer-race-pace-")]  # the run's folder is gone
