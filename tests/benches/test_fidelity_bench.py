@@ -127,3 +127,17 @@ def test_files_of_another_track_are_left_out_and_named(deepracer_data, capsys):
     assert files_on_route([spain, kept[0]], route) == ([kept[0]], [spain])
     with pytest.raises(click.ClickException, match="was driven on"):
         replay_files(spain, route)
+
+
+def test_a_generation_replays_its_own_car_and_car_replaces_it(deepracer_data, monkeypatch):
+    """`--generation simapp6` replays the simapp6 car; `--car` beside it wins; neither: the simtrace fit."""
+    from racer.benches.fidelity import replay
+
+    replayed = []
+    monkeypatch.setattr(replay, "run_fidelity", lambda files, route, progress, car: replayed.append(car) or {})
+    base = ["--simtraces", str(deepracer_data / "simtrace" / "drfc1_evaluation_0-iteration.csv")]
+    base += ["--route", str(deepracer_data / "routes" / "reinvent_base.npy")]
+    for extra in (["--generation", "simapp6"], ["--generation", "simapp6", "--car", "gazebo"], []):
+        result = CliRunner().invoke(fidelity_bench_command, [*base, *extra])
+        assert result.exit_code == 0, result.output
+    assert replayed == ["simapp6-fit", "gazebo", "simtrace-fit"]

@@ -33,6 +33,7 @@ from racer.shared.sim.car import STEERING_JOINTS, WHEEL_NAMES, WHEEL_RADIUS_M, C
 from racer.shared.sim.car_dynamics import CAR_DYNAMICS, SIMTRACE_FIT_DYNAMICS, CarDynamics
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
+from racer.shared.sim.generations import GENERATION_NAMES, GENERATIONS
 from racer.shared.sim.track import Track
 
 HORIZONS_S: tuple[float, ...] = (1.0, 2.0)
@@ -128,8 +129,8 @@ class CarReplay:
     """Racer's car (the base world: DeepRacer's tyre μ 0.5) driven by logged commands, outside the env's rules."""
 
     def __init__(self, route: Path, dynamics: CarDynamics = SIMTRACE_FIT_DYNAMICS) -> None:
-        """`dynamics`: the car to replay; by default the simtrace fit (the constants fitted to these logs), not the
-        env's default car (`car_dynamics.GAZEBO_DYNAMICS`, chosen closed loop with real policies)."""
+        """`dynamics`: the car to replay; by default the simtrace fit (the constants fitted to the ROS 1 console and
+        DRfC logs), not the env's default car (the default generation's)."""
         self.env = DeepRacerEnv(EnvConfig(track=route, world="base", car_dynamics=dynamics))
         self.model, self.data, self.car = self.env.model, self.env.data, self.env.car
         self.timestep_s = float(self.model.opt.timestep)
@@ -327,14 +328,22 @@ def run_fidelity(simtraces: Sequence[Path], route: Path, progress: bool = False,
 @click.option(
     "--car",
     type=click.Choice(sorted(CAR_DYNAMICS)),
-    default="simtrace-fit",
-    show_default=True,
-    help="The car to replay: the constants fitted on these logs, or the env's default (gazebo: what real "
-    "DeepRacer policies lap with; docs/car-and-camera.md).",
+    default=None,
+    help="The car profile to replay. Default: the --generation's car, else simtrace-fit (the car fitted on the "
+    "default logs, DeepRacer's ROS 1 console and DRfC runs; docs/car-and-camera.md).",
+)
+@click.option(
+    "--generation",
+    type=click.Choice(GENERATION_NAMES),
+    default=None,
+    help="Replay this generation's car (simapp6: fitted on DeepRacer on AWS's 2026 logs); --car replaces it.",
 )
 @data_option
-def fidelity_bench_command(simtraces: Path | None, route: Path | None, car: str, data_dir: Path | None) -> None:
+def fidelity_bench_command(
+    simtraces: Path | None, route: Path | None, car: str | None, generation: str | None, data_dir: Path | None
+) -> None:
     """Open-loop replay of real simtraces: median and p90 position/heading error after 1 s and 2 s per speed band."""
+    car = car or (GENERATIONS[generation].car_profile if generation else "simtrace-fit")
     if simtraces is None or route is None:
         data = data_folder(data_dir)
         simtraces = simtraces or data / "simtrace"
