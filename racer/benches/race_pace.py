@@ -26,7 +26,7 @@ from pathlib import Path
 import click
 
 from racer.benches.race_pace_laps import CheckpointLaps, lap_to_draw, race_pace
-from racer.benches.race_pace_picture import draw_race_pace, drive_lap_again
+from racer.benches.race_pace_picture import draw_race_pace, drive_lap_again, keep_checkpoint
 from racer.benches.time_shares import time_shares
 from racer.benches.time_to_lap import hyperparameter_overrides
 from racer.benches.workdir import bench_workdir, cpu_description, read_iteration_records
@@ -34,6 +34,7 @@ from racer.defaults import RACING_CUSTOM_FILES
 from racer.local.run import LocalRunPlan, run_local_training
 from racer.rollout_worker.batched_rollout import DEFAULT_WORKERS
 from racer.shared.config import LocalStoreSettings, RedisSettings, ServiceSettings
+from racer.shared.policy.manifest import CheckpointError
 from racer.shared.run_settings import RunOptions, load_worker_settings
 from racer.shared.sim.config import STEPS_PER_SECOND
 from racer.shared.sim.generation_option import generation_option
@@ -48,12 +49,14 @@ from racer.trainer.run_options import device_option
 DEFAULT_TRACK = "reinvent_base"
 """re:Invent 2018, the track DeepRacer's console and the community have lap times for."""
 DEFAULT_MINUTES = 20.0
-"""An evening's training on two cores: the issue's goal is judged within it."""
+"""An evening's training on two cores: the benchmark's goals are judged within it (docs/racing.md)."""
 EVALUATION_LAPS = 3
 SLOWEST_RACE_PACE_MPS = 1.0
 """The evaluation run's step cap is its 3 laps at this average speed: slower is no race pace, and the cap only stops a
 barely trained policy that circles on the road from holding worker 0 for minutes."""
 MODEL_PREFIX = "race-pace"
+KEPT_STORE = "kept"
+"""The folder (beside the run's store) where the checkpoint of the lap to draw is copied before retention deletes it."""
 
 
 @click.command(name="race-pace")
@@ -167,7 +170,7 @@ def race_pace_command(
             seed=seed,
             trainer_options=("--device", device),
         )
-        trained = _train(plan, minutes)
+        trained = _train(plan, minutes, keep_to_draw=picture is not None)
         evaluations = trained.evaluations
         records = read_iteration_records(workdir / "store", plan)
         pace = race_pace(evaluations)
@@ -194,10 +197,13 @@ class _Trained:
     wall_s: float
 
 
-def _train(plan: LocalRunPlan, minutes: float) -> _Trained:
+def _train(plan: LocalRunPlan, minutes: float, keep_to_draw: bool) -> _Trained:
+    """Run the training; `keep_to_draw`: copy the checkpoint of the lap to draw aside as its evaluation arrives."""
     evaluations: list[CheckpointLaps] = []
     late = 0
     started = time.monotonic()
+    run_store = open_store(LocalStoreSettings(root=plan.log_dir.parent / "store"))
+    kept = open_store(LocalStoreSettings(root=plan.log_dir.parent / KEPT_STORE))
 
     def on_evaluation(record: dict) -> bool:
         nonlocal late
@@ -206,6 +212,9 @@ def _train(plan: LocalRunPlan, minutes: float) -> _Trained:
             late += 1
             return True
         evaluations.append(CheckpointLaps.from_record(record, elapsed_min))
+        target = lap_to_draw(evaluations)
+        if keep_to_draw and target is not None and target.checkpoint == evaluations[-1].checkpoint:
+            keep_checkpoint(run_store, kept, plan.model_prefix, target.checkpoint)
         best = min((e.best_lap_s for e in evaluations if e.best_lap_s), default=None)
         click.echo(
             f"race-pace: {elapsed_min:5.2f} min {record['checkpoint']}: laps {evaluations[-1].summary()['laps_s']}, "
@@ -283,8 +292,15 @@ def _picture(
     driven = None
     found: dict = {}
     if target is not None:
-        store = open_store(LocalStoreSettings(root=workdir / "store"))
-        driven = drive_lap_again(store, MODEL_PREFIX, target.checkpoint, target.lap_index, workdir / "replay", seed)
+        run_store = open_store(LocalStoreSettings(root=workdir / "store"))
+        kept = open_store(LocalStoreSettings(root=workdir / KEPT_STORE))
+        try:
+            driven = drive_lap_again(
+                run_store, kept, MODEL_PREFIX, target.checkpoint, target.lap_index, workdir / "replay", seed
+            )
+        except CheckpointError as error:  # deleted by retention before the bench could copy it: drawn without it
+            draw_race_pace(route, bound, None, _title(result, pace), path)
+            return {"picture": str(path), "picture_lap": {"checkpoint": target.checkpoint, "error": str(error)}}
         found["picture_lap"] = {
             "checkpoint": target.checkpoint,
             "lap": target.lap_index + 1,

@@ -1,7 +1,8 @@
 """`racer bench race-pace --picture`: the bound's racing line coloured by its speed, and the policy's best lap beside it
 on the same colours, the line drawn under it. The best lap is driven again from its checkpoint, as worker 0 drove it
 (its settings from the store, its continuous run from the start line): racer's simulator is deterministic, so the
-replay is the same lap, and the bench says whether its time matches the evaluation's."""
+replay is the same lap, and the bench says whether it matches the evaluation's. The trainer keeps only the newest
+checkpoints, so the bench copies the one to draw aside as soon as its evaluation arrives (`keep_checkpoint`)."""
 
 from __future__ import annotations
 
@@ -16,6 +17,7 @@ from matplotlib.figure import Figure
 
 from racer.rollout_worker.checkpoint_evaluation import evaluation_epsilon, play_consecutive_laps
 from racer.rollout_worker.worker_files import load_worker_files, training_env_config
+from racer.shared.model_layout import CheckpointName, ModelLayout
 from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.sim.config import STEPS_PER_SECOND
 from racer.shared.sim.env import DeepRacerEnv
@@ -49,12 +51,30 @@ class DrivenLap:
         return np.convolve(padded, kernel, mode="valid")
 
 
+def keep_checkpoint(run_store: ObjectStore, kept: ObjectStore, model_prefix: str, checkpoint: str) -> None:
+    """Copy what acting with `checkpoint` needs (its files and its ONNX model) from the run's store to `kept`, under
+    the same keys, before the trainer's retention deletes it."""
+    layout = ModelLayout(model_prefix)
+    number = CheckpointName.parse(checkpoint).number
+    wanted = layout.inference_model(number)
+    for key in run_store.list_keys(layout.model_dir):
+        if key == wanted or key.rsplit("/", 1)[-1].startswith(checkpoint + "."):
+            kept.put_bytes(key, run_store.get_bytes(key))
+
+
 def drive_lap_again(
-    store: ObjectStore, model_prefix: str, checkpoint: str, lap_index: int, workdir: Path, seed: int
+    run_store: ObjectStore,
+    checkpoints: ObjectStore,
+    model_prefix: str,
+    checkpoint: str,
+    lap_index: int,
+    workdir: Path,
+    seed: int,
 ) -> DrivenLap:
-    """Lap `lap_index` of `checkpoint`'s continuous evaluation run, driven again with worker 0's env and settings."""
-    run = load_worker_files(store, model_prefix, 0, workdir)
-    policy = CheckpointStore(store, model_prefix).load_inference_policy(checkpoint)
+    """Lap `lap_index` of `checkpoint`'s continuous evaluation run, driven again with worker 0's env and settings (from
+    `run_store`) and the checkpoint (from `checkpoints`, where `keep_checkpoint` put it)."""
+    run = load_worker_files(run_store, model_prefix, 0, workdir)
+    policy = CheckpointStore(checkpoints, model_prefix).load_inference_policy(checkpoint)
     policy.eval()
     env = DeepRacerEnv(training_env_config(run))
     try:

@@ -133,7 +133,8 @@ class RacingLine:
     lap_time_s: float
     """A flying lap: the periodic speed profile, the car crossing the line at speed."""
     standing_laps_s: tuple[float, ...]
-    """STANDING_START_LAPS consecutive laps from rest at the start line, the first one with the prepare step."""
+    """STANDING_START_LAPS consecutive laps from rest at the start line, as DeepRacer times them: the first one with the
+    prepare step, and shorter by the front of the car (progress is judged there, and it starts past the line)."""
     centre_line_lap_time_s: float
     """The same car on the centre line: how much the line itself is worth."""
     min_clearance_m: float
@@ -384,8 +385,8 @@ def _flying_lap(torch, curvature, lengths, limits: CarLimits):
 
 
 def _standing_laps(torch, curvature, lengths, limits: CarLimits, laps: int = STANDING_START_LAPS) -> tuple[float, ...]:
-    """`laps` laps in a row from rest at station 0, the first with the prepare step; the car drives on after the last
-    line (no braking for it)."""
+    """`laps` laps in a row from rest at station 0, the first with the prepare step and shorter by the front of the
+    car, as DeepRacer counts them; the car drives on after the last line (no braking for it)."""
     ceiling = _ceiling(torch, curvature, limits)
     n = ceiling.shape[0]
     path = torch.cat([ceiling.repeat(laps), ceiling[:1]])
@@ -396,10 +397,15 @@ def _standing_laps(torch, curvature, lengths, limits: CarLimits, laps: int = STA
         _forward_pass(torch, path.flip(0), path_lengths.flip(0), limits.brake_accel_mps2).flip(0),
     )
     speeds = torch.sqrt(u)
-    times = _segment_times(speeds[:-1], speeds[1:], path_lengths).reshape(laps, n).sum(dim=1)
-    result = [float(t) for t in times]
+    clock = np.concatenate(([0.0], np.cumsum(_segment_times(speeds[:-1], speeds[1:], path_lengths).numpy())))
+    distance = np.concatenate(([0.0], np.cumsum(path_lengths.numpy())))
+    lap_m = distance[n]
+    # Progress is judged at the front of the car, which starts car.Car.FRONT_OF_CAR_M past the line: each line
+    # crossing comes that much before the car's origin has gone round.
+    crossings = np.interp(lap_m * np.arange(1, laps + 1) - car.Car.FRONT_OF_CAR_M, distance, clock)
+    result = np.diff(np.concatenate(([0.0], crossings)))
     result[0] += PREPARE_STEP_S
-    return tuple(result)
+    return tuple(float(t) for t in result)
 
 
 def _segment_times(speed_from, speed_to, lengths):
