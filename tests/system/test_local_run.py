@@ -5,7 +5,6 @@ from __future__ import annotations
 import os
 import signal
 import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -14,6 +13,7 @@ import pytest
 from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.store import LocalStore
 from tests.conftest import write_custom_files
+from tests.short_runs import train_args, train_env
 
 pytestmark = [pytest.mark.slow, pytest.mark.serial]  # they time their own processes
 
@@ -41,27 +41,12 @@ def small_custom_files(tmp_path: Path) -> Path:
 
 
 def racer_train(tmp_path: Path, custom_files: Path, *args: str) -> subprocess.Popen:
-    env = dict(os.environ, RACER_STORE=str(tmp_path / "store"), MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"))
     return subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "racer.cli",
-            "train",
-            "--custom-files",
-            str(custom_files),
-            "--workers",
-            "2",
-            "--worlds",
-            "base,wood",
-            "--model-prefix",
-            "local-model",
-            *args,
-        ],
+        train_args(custom_files, "local-model", *args),
         stdout=subprocess.PIPE,
         stderr=subprocess.STDOUT,
         text=True,
-        env=env,
+        env=train_env(tmp_path / "store"),
         cwd=tmp_path,
     )
 

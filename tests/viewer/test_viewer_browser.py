@@ -20,6 +20,7 @@ import pytest
 from racer.local.services import _die_with_parent
 from tests.browser import wait_for
 from tests.conftest import write_custom_files
+from tests.short_runs import train_args, train_env
 from tests.viewer.conftest import free_port
 
 pytestmark = [pytest.mark.slow, pytest.mark.serial]  # they time their own processes
@@ -44,30 +45,12 @@ def test_live_page_follows_a_running_training(tmp_path, browser, request):
     custom_files = write_custom_files(tmp_path / "custom_files")
     store = tmp_path / "store"
     port = free_port()
-    env = dict(os.environ, RACER_STORE=str(store), MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"))
     train = subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "racer.cli",
-            "train",
-            "--custom-files",
-            str(custom_files),
-            "--workers",
-            "2",
-            "--worlds",
-            "base,wood",
-            "--model-prefix",
-            MODEL,
-            "--max-episodes",
-            "400",
-            "--viewer-port",
-            str(port),
-        ],
+        train_args(custom_files, MODEL, "--max-episodes", "400", "--viewer-port", str(port)),
         stdout=subprocess.PIPE,
         stderr=subprocess.STDOUT,
         text=True,
-        env=env,
+        env=train_env(store),
         cwd=tmp_path,
     )
     logs = store / ".runs" / MODEL
