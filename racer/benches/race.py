@@ -27,6 +27,7 @@ import yaml
 from racer.benches.deepracer_data import GAZEBO_SAMPLE, REINVENT_2018_ROUTE, data_folder, data_option
 from racer.benches.race_field import (
     BROKEN_NAME,
+    SAMPLE_GENERATION,
     broken_folder,
     copy_entrants,
     field_of,
@@ -64,6 +65,7 @@ def evaluate_args(race: dict[str, Any], name: str, seed: int, out: Path) -> list
     args += ["--resets", str(race.get("maxResets", 10000))]
     args += ["--off-track-penalty", str(resetting["offTrackPenaltySeconds"])]
     args += ["--collision-penalty", str(resetting["collisionPenaltySeconds"])]
+    args += ["--generation", SAMPLE_GENERATION]
     return [*args, "--video", "--no-mcap", "--seed", str(seed), "--out", str(out / name)]
 
 
@@ -161,6 +163,7 @@ def race_bench_command(
         say(f"racing {len(field)} entrants, {workers} at a time")
         started = time.perf_counter()
         command = racer_command("race", str(race_file), *field, "--workers", str(workers), "--seed", str(seed))
+        command += ["--generation", SAMPLE_GENERATION]
         status = run_logged([*command, "--out", str(work / "race"), "--video"], logs / "race.log", env)
         race_s = time.perf_counter() - started
         if status != 0:

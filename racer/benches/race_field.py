@@ -40,6 +40,11 @@ def broken_folder(work: Path) -> Path:
     return folder
 
 
+SAMPLE_GENERATION = "2019"
+"""The races and their baseline run in the generation the field's two Gazebo checkpoints were trained in (racer bench
+transfer judges them there too); a racer model entrant races there with them."""
+
+
 def racer_command(*args: str) -> list[str]:
     return [sys.executable, "-m", "racer.cli", *args]
 

@@ -12,6 +12,7 @@ from typing import Any
 import yaml
 
 from racer.benches.race_field import (
+    SAMPLE_GENERATION,
     copy_entrants,
     field_of,
     racer_command,
@@ -42,6 +43,7 @@ def _run_twice(work: Path, race_file: Path, names: list[str], seed: int, env: di
         out = work / f"{race_file.stem}-{run}"
         started = time.perf_counter()
         command = racer_command("race", str(race_file), *names, "--seed", str(seed), "--out", str(out), "--video")
+        command += ["--generation", SAMPLE_GENERATION]
         status = run_logged(command, work / "logs" / f"{race_file.stem}.log", env)
         walls.append(round(time.perf_counter() - started, 1))
         board_path = out / "leaderboard.csv"

@@ -6,6 +6,8 @@ from pathlib import Path
 
 import click
 
+from racer.shared.sim.generation_option import GENERATION_HELP, generation_option
+
 
 @click.command(name="race")
 @click.argument("race_file", type=click.Path(dir_okay=False, path_type=Path))
@@ -25,7 +27,8 @@ import click
     help="Where the leaderboard, videos and each entrant's evaluation go. Default: ./races/<race name>.",
 )
 @click.option("--video/--no-video", default=True, show_default=True, help="In-car, top-view and follow videos.")
-def race_command(race_file: Path, entrants: tuple[str, ...], workers, seed, out_dir, video) -> None:
+@generation_option(help_text=f"{GENERATION_HELP} Every entrant races in it.")
+def race_command(race_file: Path, entrants: tuple[str, ...], workers, seed, out_dir, video, generation) -> None:
     """Race ENTRANTs on the race RACE_FILE defines and write leaderboard.json, .csv and .html.
 
     RACE_FILE: DeepRacer on AWS's leaderboard definition (trackConfig, raceType, timingMethod,
@@ -59,13 +62,23 @@ def race_command(race_file: Path, entrants: tuple[str, ...], workers, seed, out_
     ranked_by = "finishing order" if definition.race_type == "F1" else definition.timing_method
     click.echo(
         f"race {definition.name}: {definition.race_type} on {route}, {ranked_by}, "
-        f"{len(field)} entrants, {at_once}, seed {seed} -> {out}"
+        f"{len(field)} entrants, {at_once}, seed {seed}, generation {generation} -> {out}"
     )
     if definition.multi_car:
-        run = run_multi_car_race(definition, field, route=route, out_dir=out, seed=seed, video=video, log=click.echo)
+        run = run_multi_car_race(
+            definition, field, route=route, out_dir=out, seed=seed, video=video, generation=generation, log=click.echo
+        )
     else:
         run = run_race(
-            definition, field, route=route, out_dir=out, seed=seed, workers=count, video=video, log=click.echo
+            definition,
+            field,
+            route=route,
+            out_dir=out,
+            seed=seed,
+            workers=count,
+            video=video,
+            generation=generation,
+            log=click.echo,
         )
     standings = standings_from_results(definition, run.results)
     videos = race_videos(out, definition.multi_car)

@@ -21,6 +21,7 @@ from racer.evaluation_worker.config import (
     VideoOptions,
 )
 from racer.race.race_file import RaceDefinition, RaceFileError
+from racer.shared.sim.generations import DEFAULT_GENERATION
 from racer.shared.sim.track_catalog import resolve_track
 
 
@@ -56,6 +57,7 @@ def evaluation_config(
     seed: int,
     video: bool,
     mcap: bool = False,
+    generation: str = DEFAULT_GENERATION,
 ) -> EvaluationConfig:
     """The `racer evaluate` job one entrant runs (time limit aside: see `maxTimeInMinutes` above)."""
     return EvaluationConfig(
@@ -70,4 +72,5 @@ def evaluation_config(
         video=VideoOptions(enabled=video),
         mcap=mcap,
         seed=seed,
+        generation=generation,
     )

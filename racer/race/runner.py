@@ -21,6 +21,7 @@ from racer.race.entrants import Entrant
 from racer.race.race_file import RaceDefinition
 from racer.race.videos import ALL_CARS_TOP_VIEW
 from racer.race.worker_pool import WorkerPool
+from racer.shared.sim.generations import DEFAULT_GENERATION
 
 
 @dataclass(frozen=True)
@@ -42,7 +43,9 @@ def missing_result(entrant: Entrant) -> dict[str, Any]:
     }
 
 
-def _task(entrant: Entrant, definition: RaceDefinition, route: str, seed: int, video: bool, out: Path) -> dict:
+def _task(
+    entrant: Entrant, definition: RaceDefinition, route: str, seed: int, video: bool, out: Path, generation: str
+) -> dict:
     work = out / "entrants" / entrant.name
     return {
         "name": entrant.name,
@@ -53,6 +56,7 @@ def _task(entrant: Entrant, definition: RaceDefinition, route: str, seed: int, v
         "race_source": definition.source,
         "route": route,
         "seed": seed,
+        "generation": generation,
         "video": video,
         "work_dir": str(work),
         "videos_dir": str(out / "videos"),
@@ -68,6 +72,7 @@ def run_multi_car_race(
     out_dir: Path,
     seed: int,
     video: bool,
+    generation: str = DEFAULT_GENERATION,
     log: Callable[[str], None] = print,
 ) -> RaceRun:
     """HEAD_TO_MODEL / F1: every entrant in ONE multi-car evaluation, in one process (`racer.race.worker`); a
@@ -86,6 +91,7 @@ def run_multi_car_race(
         "race_source": definition.source,
         "route": route,
         "seed": seed,
+        "generation": generation,
         "video": video,
         "work_dir": str(work),
         "videos_dir": str(out_dir / "videos"),
@@ -123,6 +129,7 @@ def run_race(
     seed: int,
     workers: int,
     video: bool,
+    generation: str = DEFAULT_GENERATION,
     log: Callable[[str], None] = print,
 ) -> RaceRun:
     started = time.perf_counter()
@@ -133,7 +140,7 @@ def run_race(
             results[entrant.name] = missing_result(entrant)
             log(f"skipped {entrant.name}: {results[entrant.name]['reason']}")
             continue
-        task = _task(entrant, definition, route, seed, video, out_dir)
+        task = _task(entrant, definition, route, seed, video, out_dir, generation)
         work = Path(task["work_dir"])
         shutil.rmtree(work, ignore_errors=True)
         work.mkdir(parents=True)

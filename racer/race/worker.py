@@ -127,7 +127,12 @@ def race_entrant(task: dict[str, Any], store: ObjectStore, log) -> dict[str, Any
             failure.reason += " (" + " ".join(notes) + ")"
         raise
     config = evaluation_config(
-        definition, route=task["route"], model_prefix=prefix, seed=task["seed"], video=task["video"]
+        definition,
+        route=task["route"],
+        model_prefix=prefix,
+        seed=task["seed"],
+        video=task["video"],
+        generation=task["generation"],
     )
     guard = PolicyGuard(policy, time_limit_s=definition.max_time_minutes * 60.0)
     out_dir = Path(task["work_dir"]) / "evaluation"
@@ -241,6 +246,7 @@ def race_multi_car(task: dict[str, Any], store: ObjectStore, log) -> list[dict[s
             model_prefix=entrant["model_prefix"],
             seed=task["seed"],
             video=task["video"],
+            generation=task["generation"],
         )
         # racer's multi-car evaluation runs the laps continuously, one reset budget per car (multi_car.py)
         return dataclasses.replace(config, deepracer=dataclasses.replace(config.deepracer, is_continuous=True))
