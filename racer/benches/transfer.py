@@ -32,7 +32,14 @@ import torch
 
 from racer.benches.deepracer_data import REINVENT_2018_ROUTE, data_folder, data_option
 from racer.benches.gazebo_frames import GAZEBO_FRAMES, load_gazebo_frames, render_lap
-from racer.benches.transfer_matrix import DEFAULT_MINUTES, DEFAULT_WORKERS, TRAIN_GENERATIONS, DriveCar, run_matrix
+from racer.benches.transfer_matrix import (
+    DEFAULT_MINUTES,
+    DEFAULT_WORKERS,
+    TRAIN_GENERATIONS,
+    TRAIN_WORLDS,
+    DriveCar,
+    run_matrix,
+)
 from racer.benches.transfer_robustness import run_robustness
 from racer.benches.workdir import cpu_description
 from racer.shared.deepracer.model_metadata import ModelMetadata, parse_model_metadata
@@ -281,6 +288,16 @@ def reverse_check(racer_model: Path, real: list[RealModel], frames_grey: np.ndar
     help="--matrix: train with this car profile instead of the generation's car (repeatable).",
 )
 @click.option(
+    "--train-world",
+    "train_world_names",
+    type=click.Choice(WORLD_NAMES),
+    multiple=True,
+    default=TRAIN_WORLDS,
+    show_default=True,
+    help="--matrix: the worlds its workers train in, worker i in the i-th (cycling), as racer train spreads them "
+    "(repeatable; racer train's default is all four).",
+)
+@click.option(
     "--minutes",
     type=click.FloatRange(min=0.05),
     default=DEFAULT_MINUTES,
@@ -326,6 +343,7 @@ def transfer_bench_command(
     matrix,
     train_generation_names,
     train_profile_names,
+    train_world_names,
     minutes,
     workers,
     randomization,
@@ -357,6 +375,7 @@ def transfer_bench_command(
             seed=seed,
             randomizations={"both": (False, True), "on": (True,), "off": (False,)}[randomization],
             keep_models=keep_models,
+            train_worlds=tuple(train_world_names),
         )
         click.echo(json.dumps(result))
         return

@@ -3,7 +3,7 @@
 For each training generation (default `simapp6`, today's simulator; `--train-profile` replaces its car) and with and
 without `RACER_DYNAMICS_RANDOMIZATION`, a model is trained for `--minutes` with the reverse-check setup (issue 29):
 the re:Invent 2018 sample's `model_metadata.json` (12 actions), the AWS centre-line reward
-(`reward_functions/awsdoc_example_1.py`), `custom_files/hyperparameters.json`, re:Invent 2018, world base, fp32, one
+(`reward_functions/awsdoc_example_1.py`), `custom_files/hyperparameters.json`, re:Invent 2018, world base (`--train-world`: others), fp32, one
 seed, through the same local training `racer train` runs. The last checkpoint of each then drives greedily in every
 generation (or each `--generation` / `--car-profile` given) from `--starts` evenly spaced starts, as the transfer
 bench drives the real checkpoints. One JSON line: `matrix[trained in][driven in]` = laps / mean progress. The goal
@@ -29,6 +29,8 @@ from racer.shared.run_settings import RunOptions
 SAMPLE_MODEL = "gazebo-sample-reinvent2018"
 REWARD_FUNCTION = "awsdoc_example_1.py"
 TRAIN_GENERATIONS = ("simapp6",)
+TRAIN_WORLDS = ("base",)
+"""The reverse-check setup's: every worker on the base world. `racer train` spreads its workers over all four."""
 DEFAULT_MINUTES = 15.0
 DEFAULT_WORKERS = 4
 
@@ -82,8 +84,18 @@ def write_custom_files(folder: Path, shared_data: Path) -> Path:
     return folder
 
 
-def train_cell(cell: MatrixCell, workdir: Path, custom: Path, track: Path, minutes: float, workers: int, seed: int):
-    """Train one cell's model to the time limit; returns (store root, iteration records)."""
+def train_cell(
+    cell: MatrixCell,
+    workdir: Path,
+    custom: Path,
+    track: Path,
+    minutes: float,
+    workers: int,
+    seed: int,
+    worlds: tuple[str, ...] = TRAIN_WORLDS,
+):
+    """Train one cell's model to the time limit, worker i on `worlds[i % len(worlds)]` as `racer train` spreads
+    them; returns (store root, iteration records)."""
     from racer.local.run import LocalRunPlan, run_local_training
     from racer.shared.config import LocalStoreSettings, RedisSettings, ServiceSettings
 
@@ -94,7 +106,7 @@ def train_cell(cell: MatrixCell, workdir: Path, custom: Path, track: Path, minut
         run=RunOptions(
             num_workers=workers,
             track=str(track),
-            worlds=("base",) * workers,
+            worlds=worlds,
             car_profile=cell.profile,
             dynamics_randomization=cell.dynamics_randomization,
             generation=cell.generation,
@@ -163,6 +175,7 @@ def run_matrix(
     seed: int = 0,
     randomizations: tuple[bool, ...] = (False, True),
     keep_models: Path | None = None,
+    train_worlds: tuple[str, ...] = TRAIN_WORLDS,
 ) -> dict:
     """Train every (generation, profile, randomisation in `randomizations`) cell and drive each in every car of
     `drive_cars` (default: every generation with its own car) with `drive(model, config, starts)` (the transfer
@@ -186,6 +199,7 @@ def run_matrix(
         "seed": seed,
         "precision": "fp32",
         "track": str(track),
+        "train_worlds": list(train_worlds),
         "runs": [],
         "matrix": {},
     }
@@ -193,7 +207,7 @@ def run_matrix(
         custom = write_custom_files(workdir / "custom_files", shared_data)
         for cell in cells:
             load_before = os.getloadavg()[0]
-            store_root, records = train_cell(cell, workdir, custom, track, minutes, workers, seed)
+            store_root, records = train_cell(cell, workdir, custom, track, minutes, workers, seed, train_worlds)
             checkpoint, drives = drive_last_checkpoint(store_root, cell, track, drive_cars, starts, drive)
             if keep_models is not None:  # for `--racer-model` reverse checks after the bench's folder is gone
                 shutil.copytree(store_root / cell.model_prefix, keep_models / cell.model_prefix, dirs_exist_ok=True)

@@ -13,8 +13,9 @@ from racer.benches.transfer import transfer_bench_command
 def test_randomization_on_trains_only_the_randomised_cell_and_keeps_its_model(tmp_path, monkeypatch, deepracer_data):
     trained = []
 
-    def train_cell(cell, workdir, custom, track, minutes, workers, seed):
+    def train_cell(cell, workdir, custom, track, minutes, workers, seed, worlds):
         """Stands in for a training run: a model folder with one file, no iteration records."""
+        assert worlds == ("base",)  # the reverse-check setup unless --train-world says otherwise
         trained.append(cell.model_prefix)
         (workdir / "store" / cell.model_prefix).mkdir(parents=True)
         (workdir / "store" / cell.model_prefix / "marker").write_text(cell.model_prefix)
@@ -65,3 +66,28 @@ def test_the_matrix_trains_per_generation_and_drives_in_every_generation(monkeyp
     ]
     report = json.loads(result.stdout.strip().splitlines()[-1])
     assert list(report["matrix"]["matrix-2019-dr"]) == list(GENERATION_NAMES)
+
+
+def test_train_world_spreads_the_matrix_workers_over_the_worlds_given(tmp_path, monkeypatch, deepracer_data):
+    """`--train-world` reaches the training run's options (worker i on the i-th world, cycling, as `racer train`),
+    and the report says which worlds trained."""
+    import racer.local.run
+    from racer.shared.run_settings import load_worker_settings
+
+    plans, worker_worlds = [], []
+
+    def run_local_training(plan, base):
+        plans.append(plan)
+        worker_worlds.append([worker.world for worker in load_worker_settings(plan.custom_files, plan.run)])
+
+    monkeypatch.setattr(racer.local.run, "run_local_training", run_local_training)
+    monkeypatch.setattr(transfer_matrix, "read_iteration_records", lambda store_root, plan: [])
+    monkeypatch.setattr(transfer_matrix, "drive_last_checkpoint", lambda *args: (None, {}))
+    args = ["--matrix", "--randomization", "on", "--train-world", "base", "--train-world", "carpet"]
+    args += ["--workers", "3", "--data", str(deepracer_data)]
+    result = CliRunner().invoke(transfer_bench_command, args, catch_exceptions=False)
+    assert result.exit_code == 0, result.output
+    assert [plan.run.worlds for plan in plans] == [("base", "carpet")]
+    assert worker_worlds == [["base", "carpet", "base"]]
+    report = json.loads(result.stdout.strip().splitlines()[-1])
+    assert report["train_worlds"] == ["base", "carpet"]
