@@ -3,8 +3,8 @@
 For each training generation (default `simapp6`, today's simulator; `--train-profile` replaces its car) and with and
 without `RACER_DYNAMICS_RANDOMIZATION`, a model is trained for `--minutes` with the reverse-check setup (issue 29):
 the re:Invent 2018 sample's `model_metadata.json` (12 actions), the AWS centre-line reward
-(`reward_functions/awsdoc_example_1.py`), `custom_files/hyperparameters.json`, re:Invent 2018, world base (`--train-world`: others), fp32, one
-seed, through the same local training `racer train` runs. The last checkpoint of each then drives greedily in every
+(`reward_functions/awsdoc_example_1.py`), `custom_files/hyperparameters.json`, re:Invent 2018, world base
+(`--train-world`: others), fp32, one seed, through the same local training `racer train` runs. The last checkpoint of each then drives greedily in every
 generation (or each `--generation` / `--car-profile` given) from `--starts` evenly spaced starts, as the transfer
 bench drives the real checkpoints. One JSON line: `matrix[trained in][driven in]` = laps / mean progress. The goal
 (issues 29, 44): trained in `simapp6` with dynamics randomisation, >= 8 of 10 laps in every generation.
