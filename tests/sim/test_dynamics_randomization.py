@@ -1,68 +1,64 @@
 """racer's dynamics randomisation (RACER_DYNAMICS_RANDOMIZATION): a car drawn at every reset, seeded like the scene
-randomisation, within the stated ranges, applied to the compiled model, and off by default."""
+randomisation, around each generation's car, applied to the compiled model, and off by default."""
 
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from racer.shared.sim.car import chassis_inertia_kgm2, steering_kv
-from racer.shared.sim.car_dynamics import CAR_DYNAMICS, GAZEBO_DYNAMICS, SIMTRACE_FIT_DYNAMICS
-from racer.shared.sim.dynamics_randomization import DYNAMICS_RANDOMIZATION_RANGES, draw_dynamics
+from racer.shared.sim.car_dynamics import (
+    GAZEBO_DYNAMICS,
+    SIMAPP5_ROS1_DYNAMICS,
+    SIMAPP6_FIT_DYNAMICS,
+    SIMTRACE_FIT_DYNAMICS,
+)
+from racer.shared.sim.dynamics_randomization import FIT_SPREAD_FACTOR, draw_dynamics, mixture_centres
+from racer.shared.sim.generations import GENERATIONS
 
 
-def _within(value: float, bounds: tuple[float, float]) -> bool:
-    return bounds[0] - 1e-9 <= value <= bounds[1] + 1e-9
-
-
-def test_draws_are_seeded_within_the_ranges_and_span_both_profiles():
-    ranges = DYNAMICS_RANDOMIZATION_RANGES
+def test_draws_are_seeded_and_spread_around_each_generations_car():
     first = [draw_dynamics(GAZEBO_DYNAMICS, np.random.default_rng(7)) for _ in range(2)]
     assert first[0] == first[1]
     rng = np.random.default_rng(0)
-    draws = [draw_dynamics(GAZEBO_DYNAMICS, rng) for _ in range(400)]
+    draws = [draw_dynamics(SIMAPP6_FIT_DYNAMICS, rng) for _ in range(600)]
     assert len({draw.car for draw in draws}) == len(draws)
+    generation_cars = {generation.car for generation in GENERATIONS.values()}
+    assert set(mixture_centres(SIMAPP6_FIT_DYNAMICS)) == generation_cars and len(generation_cars) == 3
+    counts = {centre: sum(draw.centre == centre for draw in draws) for centre in generation_cars}
+    assert all(150 < count < 250 for count in counts.values()), counts
+    low, high = 1 / FIT_SPREAD_FACTOR - 1e-9, FIT_SPREAD_FACTOR + 1e-9
+    ratios = {"front": [], "rear": [], "servo": [], "inertia": []}
     for draw in draws:
-        tyres = draw.car.tyres
-        front, rear = tyres.front_cornering_stiffness_n_per_rad, tyres.rear_cornering_stiffness_n_per_rad
-        assert _within(math.sqrt(front * rear), ranges.cornering_stiffness_n_per_rad)
-        assert _within(front / rear, ranges.front_rear_balance)
-        assert _within(draw.car.yaw_inertia_kgm2, ranges.yaw_inertia_kgm2)
-        assert _within(draw.car.steering_time_constant_s, ranges.steering_time_constant_s)
-        assert _within(tyres.rolling_radius_m / 0.035, ranges.speed_factor)
+        tyres, centre = draw.car.tyres, draw.centre.tyres
+        ratios["front"].append(tyres.front_cornering_stiffness_n_per_rad / centre.front_cornering_stiffness_n_per_rad)
+        ratios["rear"].append(tyres.rear_cornering_stiffness_n_per_rad / centre.rear_cornering_stiffness_n_per_rad)
+        ratios["servo"].append(draw.car.steering_time_constant_s / draw.centre.steering_time_constant_s)
+        ratios["inertia"].append(draw.car.yaw_inertia_kgm2 / draw.centre.yaw_inertia_kgm2)
+        # what the sources fix stays the centre's
+        assert replace(
+            tyres,
+            front_cornering_stiffness_n_per_rad=centre.front_cornering_stiffness_n_per_rad,
+            rear_cornering_stiffness_n_per_rad=centre.rear_cornering_stiffness_n_per_rad,
+        ) == centre
         assert draw.command_delay_steps in (0, 1)
-        assert tyres.front_peak_grip == tyres.rear_peak_grip and _within(tyres.front_peak_grip, ranges.peak_grip)
-        # what the ranges leave out stays the profile's
-        assert (tyres.drive_stiffness_n_per_mps, tyres.max_drive_force_n) == (
-            GAZEBO_DYNAMICS.tyres.drive_stiffness_n_per_mps,
-            GAZEBO_DYNAMICS.tyres.max_drive_force_n,
-        )
-    assert 0.35 < np.mean([draw.command_delay_steps for draw in draws]) < 0.65
-    # the range is between the cars and around them: every generation's car and the source-built profiles (not the
-    # console2020-fit study car, whose soft axles at <= 1 m/s no generation drives)
-    from racer.shared.sim.generations import GENERATIONS
+    for name, values in ratios.items():
+        assert low <= min(values) and max(values) <= high, name
+        # spread both ways, log-uniformly: about a quarter of the draws beyond each half-factor
+        assert np.mean(np.array(values) > math.sqrt(FIT_SPREAD_FACTOR)) > 0.18, name
+        assert np.mean(np.array(values) < 1 / math.sqrt(FIT_SPREAD_FACTOR)) > 0.18, name
+    assert 0.4 < np.mean([draw.command_delay_steps for draw in draws]) < 0.6
 
-    covered = {generation.car_profile for generation in GENERATIONS.values()} | {"simapp5-ros1", "simapp6-ros2"}
-    assert covered <= set(CAR_DYNAMICS) and len(covered) == 5
-    for profile in (CAR_DYNAMICS[name] for name in sorted(covered)):
-        tyres = profile.tyres
-        assert _within(
-            math.sqrt(tyres.front_cornering_stiffness_n_per_rad * tyres.rear_cornering_stiffness_n_per_rad),
-            ranges.cornering_stiffness_n_per_rad,
-        )
-        assert _within(
-            tyres.front_cornering_stiffness_n_per_rad / tyres.rear_cornering_stiffness_n_per_rad,
-            ranges.front_rear_balance,
-        )
-        assert _within(profile.yaw_inertia_kgm2, ranges.yaw_inertia_kgm2)
-        assert _within(profile.steering_time_constant_s, ranges.steering_time_constant_s)
-        assert _within(tyres.rolling_radius_m / 0.035, ranges.speed_factor)
-        assert _within(tyres.front_peak_grip, ranges.peak_grip) and _within(tyres.rear_peak_grip, ranges.peak_grip)
-    # the grip reaches both the ROS 1 car's and the default's
-    grips = [draw.car.tyres.front_peak_grip for draw in draws]
-    assert min(grips) < 1.1 and max(grips) > 1.9
+
+def test_a_run_car_that_is_no_generations_is_a_centre_too():
+    assert mixture_centres(SIMAPP5_ROS1_DYNAMICS)[-1] == SIMAPP5_ROS1_DYNAMICS
+    assert len(mixture_centres(SIMAPP5_ROS1_DYNAMICS)) == len(GENERATIONS) + 1
+    rng = np.random.default_rng(1)
+    centres = {draw_dynamics(SIMAPP5_ROS1_DYNAMICS, rng).centre for _ in range(100)}
+    assert SIMAPP5_ROS1_DYNAMICS in centres and len(centres) == 4
 
 
 def test_off_by_default_the_env_drives_the_profiles_car(make_env):
@@ -98,8 +94,10 @@ def test_seeded_resets_give_the_same_cars_and_the_model_drives_them(make_env):
         env.model.actuator_biasprm[env.car.steering_actuators, 2], -steering_kv(car.steering_time_constant_s)
     )
     assert env.car.tyres.params == car.tyres
-    # drawn around this profile: its drive stays
-    assert car.tyres.drive_stiffness_n_per_mps == SIMTRACE_FIT_DYNAMICS.tyres.drive_stiffness_n_per_mps
+    # drawn around one generation's car: its drive stays that car's
+    assert car.tyres.drive_stiffness_n_per_mps in {
+        generation.car.tyres.drive_stiffness_n_per_mps for generation in GENERATIONS.values()
+    }
 
 
 def test_a_delayed_episode_drives_each_step_with_the_previous_command(make_env):
