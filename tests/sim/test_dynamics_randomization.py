@@ -39,11 +39,14 @@ def test_draws_are_seeded_and_spread_around_each_generations_car():
         ratios["servo"].append(draw.car.steering_time_constant_s / draw.centre.steering_time_constant_s)
         ratios["inertia"].append(draw.car.yaw_inertia_kgm2 / draw.centre.yaw_inertia_kgm2)
         # what the sources fix stays the centre's
-        assert replace(
-            tyres,
-            front_cornering_stiffness_n_per_rad=centre.front_cornering_stiffness_n_per_rad,
-            rear_cornering_stiffness_n_per_rad=centre.rear_cornering_stiffness_n_per_rad,
-        ) == centre
+        assert (
+            replace(
+                tyres,
+                front_cornering_stiffness_n_per_rad=centre.front_cornering_stiffness_n_per_rad,
+                rear_cornering_stiffness_n_per_rad=centre.rear_cornering_stiffness_n_per_rad,
+            )
+            == centre
+        )
         assert draw.command_delay_steps in (0, 1)
     for name, values in ratios.items():
         assert low <= min(values) and max(values) <= high, name
