@@ -93,8 +93,9 @@ class EnvConfig:
     """racer's RACER_CAR_RANDOMIZATION: per-episode material tint and brightness, camera blur, noise and pose
     jitter, for models meant for the physical car (see domain_randomization.py)."""
     dynamics_randomization: bool = False
-    """racer's RACER_DYNAMICS_RANDOMIZATION: at every reset a car drawn around `car_dynamics` (tyre stiffness and
-    balance, yaw inertia, steering servo, rolling radius, a 0-1 step command delay; see dynamics_randomization.py)."""
+    """racer's RACER_DYNAMICS_RANDOMIZATION: at every training reset a car drawn around one generation's car or
+    `car_dynamics` (both axles' stiffness, yaw inertia, steering servo, a 0-1 step command delay; see
+    dynamics_randomization.py)."""
     render_full_resolution: bool = False
     """True = DeepRacer's path: render 640×480, bilinear-resize to the image size (PIL, as the SimApp).
     False (default) = render the image size directly, several times cheaper with software GL."""
