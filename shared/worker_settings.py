@@ -136,7 +136,8 @@ class WorkerSettings:
     """racer's RACER_CAR_RANDOMIZATION: tint, brightness, camera blur, noise and pose jitter per episode."""
     dynamics_randomization: bool = setting(False, "RACER_DYNAMICS_RANDOMIZATION", FLAG)
     """racer's RACER_DYNAMICS_RANDOMIZATION: every training episode a car drawn around one generation's car
-    (both axles' stiffness, yaw inertia, steering servo, a 0-1 step command delay; shared/sim/dynamics_randomization.py)."""
+    (both axles' stiffness, yaw inertia, steering servo, a 0-1 step command delay;
+    shared/sim/dynamics_randomization.py)."""
     generation: str = setting(DEFAULT_GENERATION, "RACER_GENERATION", TEXT_OR_DEFAULT)
     """racer's RACER_GENERATION: the DeepRacer simulator the worker stands in for, its look and car together
     (`generations.GENERATIONS`: 2019, simapp5, simapp6)."""

@@ -48,7 +48,7 @@ def trainer_run_options(command: Callable) -> Callable:
             type=bool,
             default=False,
             show_default=True,
-            help="RACER_DYNAMICS_RANDOMIZATION for every worker: a car drawn around one generation's car every episode.",
+            help="RACER_DYNAMICS_RANDOMIZATION for every worker: a car drawn around a generation's car every episode.",
         ),
     )
     for option in reversed(options):
