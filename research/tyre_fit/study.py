@@ -21,6 +21,7 @@ from racer.benches.fidelity.replay import (
 )
 from research import route_option, simtraces_option
 from research.tyre_fit.hypotheses import screen
+from research.tyre_fit.inertia_profile import inertia_profile
 from research.tyre_fit.twin import CarConstants, SegmentBatch, fit, leave_one_file_out
 
 FIT_MODES = ("all", "leave-one-file-out")
@@ -70,6 +71,16 @@ def run_hypotheses(simtraces: Sequence[Path]) -> dict:
     }
 
 
+def run_inertia_profile(simtraces: Sequence[Path], values_kgm2: Sequence[float], held_out: bool) -> dict:
+    """How firmly the logs set the yaw inertia (inertia_profile.py)."""
+    segments = load_replayable(simtraces)
+    try:
+        rows = inertia_profile(SegmentBatch.of(segments), values_kgm2, held_out=held_out)
+    except ValueError as exc:
+        raise click.ClickException(str(exc)) from None
+    return {"segments": len(segments), "files": len(simtraces), "yaw_inertia_profile": rows}
+
+
 @click.command(name="tyre-fit")
 @simtraces_option
 @route_option
@@ -86,8 +97,23 @@ def run_hypotheses(simtraces: Sequence[Path]) -> dict:
     is_flag=True,
     help="Instead: vary how the logs are read (command delay, time base, start state) with the twin (seconds).",
 )
-def tyre_fit_command(simtraces: Path, route: Path, mode: str, hypotheses: bool) -> None:
+@click.option(
+    "--yaw-inertia-profile",
+    "profile_values_kgm2",
+    type=click.FloatRange(min=0.0, min_open=True),
+    multiple=True,
+    help="Instead: hold the yaw inertia at this value (kg·m², repeatable), refit the rest with the twin, and report "
+    "the loss in sample and held out per value (minutes per value; --fit all: in sample only).",
+)
+def tyre_fit_command(
+    simtraces: Path, route: Path, mode: str, hypotheses: bool, profile_values_kgm2: tuple[float, ...]
+) -> None:
     """Fit the car's dynamics constants to real simtraces and replay them; one JSON line."""
     paths = replay_files(simtraces, route)
-    result = run_hypotheses(paths) if hypotheses else run_fit(paths, route, mode, progress=True)
+    if profile_values_kgm2:
+        result = run_inertia_profile(paths, profile_values_kgm2, held_out=mode == "leave-one-file-out")
+    elif hypotheses:
+        result = run_hypotheses(paths)
+    else:
+        result = run_fit(paths, route, mode, progress=True)
     click.echo(json.dumps(result))
