@@ -16,6 +16,7 @@ from research.tyre_fit.twin import (
     CarConstants,
     SegmentBatch,
     fit,
+    leave_one_file_out,
     loss,
     position_errors_m,
     simulate,
@@ -36,12 +37,10 @@ def held_out_errors(batch: SegmentBatch, yaw_inertia_kgm2: float, evaluations: i
     """Each file replayed with the rest fitted on the other files (from `NEUTRAL`, the inertia held): the loss
     averaged over segments, and every segment's position error after 1 s (m)."""
     start = replace(NEUTRAL, yaw_inertia_kgm2=yaw_inertia_kgm2)
+    folds = leave_one_file_out(batch, evaluations, start=start, fixed=HELD)
     weighted_loss, errors = 0.0, []
-    for source in np.unique(batch.sources):
+    for source, fitted in folds.items():
         held_out = batch.sources == source
-        if held_out.all():
-            raise ValueError(f"leave-one-file-out needs segments from at least two files; all are from {source}")
-        fitted = fit(batch.subset(~held_out), start, evaluations, fixed=HELD)
         segments = batch.subset(held_out)
         weighted_loss += loss(segments, fitted) * int(held_out.sum())
         xs, ys, _ = simulate(segments, fitted)

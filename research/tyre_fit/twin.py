@@ -229,9 +229,14 @@ def fit(
 
 
 def leave_one_file_out(
-    batch: SegmentBatch, evaluations: int = LOFO_EVALUATIONS, progress: bool = False
+    batch: SegmentBatch,
+    evaluations: int = LOFO_EVALUATIONS,
+    progress: bool = False,
+    start: CarConstants = NEUTRAL,
+    fixed: tuple[str, ...] = FIXED,
 ) -> dict[str, CarConstants]:
-    """Per file, the constants fitted on all other files' segments, starting from NEUTRAL."""
+    """Per file, the constants fitted on all other files' segments, starting from `start` (NEUTRAL) with `fixed`
+    kept at its values."""
     folds = {}
     for source in np.unique(batch.sources):
         held_out = batch.sources == source
@@ -239,5 +244,5 @@ def leave_one_file_out(
             raise ValueError(f"leave-one-file-out needs segments from at least two files; all are from {source}")
         if progress:
             print(f"fitting without {source}", file=sys.stderr, flush=True)
-        folds[str(source)] = fit(batch.subset(~held_out), NEUTRAL, evaluations, progress)
+        folds[str(source)] = fit(batch.subset(~held_out), start, evaluations, progress, fixed)
     return folds

@@ -11,6 +11,7 @@ from click.testing import CliRunner
 
 from racer.benches.fidelity.replay import load_segments
 from research.tyre_fit import inertia_profile as profile
+from research.tyre_fit import twin
 from research.tyre_fit.study import tyre_fit_command
 from research.tyre_fit.twin import CarConstants, SegmentBatch, loss
 
@@ -25,12 +26,13 @@ def test_the_held_inertia_is_kept_and_the_rest_refitted(two_files, monkeypatch):
     held_values = []
     real_fit = profile.fit
 
-    def recording_fit(batch, start, evaluations, fixed):
-        fitted = real_fit(batch, start, evaluations, fixed=fixed)
+    def recording_fit(batch, start, evaluations, progress=False, fixed=()):
+        fitted = real_fit(batch, start, evaluations, progress, fixed)
         held_values.append(fitted.yaw_inertia_kgm2)
         return fitted
 
     monkeypatch.setattr(profile, "fit", recording_fit)
+    monkeypatch.setattr(twin, "fit", recording_fit)  # the held-out folds fit through twin.leave_one_file_out
     rows = profile.inertia_profile(two_files, [0.2], evaluations=60, held_out_evaluations=40)
     assert held_values == [0.2, 0.2, 0.2]  # in sample, then one fold per file
     start = replace(CarConstants(), yaw_inertia_kgm2=0.2)
