@@ -3,7 +3,7 @@
 #
 #   docker/stack-deploy.sh [STACK]        # default stack name: racer
 #
-# Run it on a manager node, in the repository (the trainer's node: racer/defaults/redis.conf and the custom files
+# Run it on a manager node, in the repository (the trainer's node: redis.conf and the custom files
 # folder are bind-mounted from here). Before the first deploy:
 #   docker swarm init                                             # or join nodes to an existing swarm
 #   docker node update --label-add racer.trainer=true <this node>  # trainer, Redis and MinIO run there

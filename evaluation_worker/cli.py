@@ -14,12 +14,12 @@ import click
 
 from racer.drfc.options import drfc_evaluate_option
 from racer.evaluation_worker.config import CONSOLE_NUMBER_OF_RESETS, MODES
-from racer.shared.sim.car_dynamics import CAR_PROFILE_NAMES
-from racer.shared.sim.challenge_cli import challenge_options, challenge_params_from_options
+from racer.options.challenge import challenge_options, challenge_params_from_options
+from racer.options.generation import CAR_PROFILE_HELP, GENERATION_HELP, generation_option
+from racer.options.track import TRACK_HELP, direction_option
+from racer.shared.sim.car.dynamics import CAR_PROFILE_NAMES
 from racer.shared.sim.config import DEFAULT_TRACK, RESET_POSITIONS
-from racer.shared.sim.generation_option import CAR_PROFILE_HELP, GENERATION_HELP, generation_option
-from racer.shared.sim.track_option import TRACK_HELP, direction_option
-from racer.shared.sim.worlds import WORLD_NAMES
+from racer.shared.sim.scene.worlds import WORLD_NAMES
 
 
 def _video_size(text: str) -> tuple[int, int]:
@@ -194,7 +194,7 @@ def evaluate_command(
     from racer.evaluation_worker.video import VideoError
     from racer.shared.config import settings_from_env
     from racer.shared.policy.manifest import CheckpointError
-    from racer.shared.sim.challenge_config import ChallengeConfig
+    from racer.shared.sim.objects.challenge import ChallengeConfig
     from racer.shared.store import open_store
     from racer.shared.user_errors import user_error_types
 

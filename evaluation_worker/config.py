@@ -7,11 +7,11 @@ from pathlib import Path
 
 from racer.shared.deepracer.model_metadata import ModelMetadata
 from racer.shared.run_settings import JobSettings
-from racer.shared.sim.car_dynamics import CAR_PROFILE_NAMES
-from racer.shared.sim.challenge_config import ChallengeConfig
+from racer.shared.sim.car.dynamics import CAR_PROFILE_NAMES
 from racer.shared.sim.config import DEFAULT_TRACK, RESET_POSITIONS
-from racer.shared.sim.generations import DEFAULT_GENERATION, GENERATION_NAMES
-from racer.shared.sim.worlds import WORLD_NAMES
+from racer.shared.sim.generations.catalog import DEFAULT_GENERATION, GENERATION_NAMES
+from racer.shared.sim.objects.challenge import ChallengeConfig
+from racer.shared.sim.scene.worlds import WORLD_NAMES
 from racer.shared.worker_settings import WorkerSettings
 
 MODES: tuple[str, ...] = ("deepracer", "race")

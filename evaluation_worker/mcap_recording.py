@@ -51,9 +51,9 @@ from mcap_protobuf.schema import register_schema
 
 from racer.evaluation_worker.driver import StepRecord
 from racer.shared.sim.env import DeepRacerEnv
-from racer.shared.sim.lidar import MAX_ANGLE_RAD, MIN_ANGLE_RAD
-from racer.shared.sim.object_bodies import drawn_size
-from racer.shared.sim.object_poses import ObjectKind, ObjectPose
+from racer.shared.sim.objects.bodies import drawn_size
+from racer.shared.sim.objects.poses import ObjectKind, ObjectPose
+from racer.shared.sim.sensors.lidar import MAX_ANGLE_RAD, MIN_ANGLE_RAD
 
 FRAME_ID = "track"
 JPEG_QUALITY = 85

@@ -31,8 +31,8 @@ from dataclasses import dataclass
 from racer.evaluation_worker.driver import PENALTY_STATUSES, EvaluationDriver
 from racer.evaluation_worker.laps import LapCallback, LapResult, LapTally
 from racer.shared.deepracer.episode_status import EpisodeStatus
-from racer.shared.sim.peer_cars import PeerCars, PeerState
-from racer.shared.sim.track import compute_progress
+from racer.shared.sim.objects.peer_cars import PeerCars, PeerState
+from racer.shared.sim.tracks.track import compute_progress
 
 START_POS_OFFSET_M = 0.75
 """deepracer-simapp v6.0.5 `bundle/markov/track_geom/constants.py` START_POS_OFFSET: the gap between grid places."""

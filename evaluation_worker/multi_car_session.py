@@ -21,7 +21,7 @@ from racer.evaluation_worker.multi_car_video import AllCarsTopView
 from racer.evaluation_worker.runner import EvaluationReport, EvaluationSession
 from racer.shared.deepracer.model_metadata import ModelMetadata
 from racer.shared.policy.torch_threads import one_torch_thread_if_loaded
-from racer.shared.sim.peer_cars import PeerCars
+from racer.shared.sim.objects.peer_cars import PeerCars
 from racer.shared.store import ObjectStore
 
 

@@ -17,10 +17,10 @@ import numpy as np
 
 from racer.evaluation_worker.config import VideoOptions
 from racer.evaluation_worker.video import Mp4Encoder, Projection, car_outline, top_view_camera
-from racer.shared.sim._mujoco import mujoco
 from racer.shared.sim.env import DeepRacerEnv
-from racer.shared.sim.object_bodies import OBJECT_GEOM_GROUP
-from racer.shared.sim.peer_cars import PeerState
+from racer.shared.sim.objects.bodies import OBJECT_GEOM_GROUP
+from racer.shared.sim.objects.peer_cars import PeerState
+from racer.shared.sim.scene._mujoco import mujoco
 
 ALL_CARS_VIEW = "camera-allcars"
 """`racer evaluate --opponent`: the view's folder beside the first car's videos (`<run>/camera-allcars/0-video.mp4`)."""

@@ -44,7 +44,7 @@ from racer.shared.policy.torch_threads import one_torch_thread_if_loaded
 from racer.shared.run_settings import env_config
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
-from racer.shared.sim.track_objects import TrackObjects
+from racer.shared.sim.objects.track_objects import TrackObjects
 from racer.shared.store import ObjectNotFoundError, ObjectStore
 
 

@@ -23,11 +23,11 @@ import numpy as np
 
 from racer.evaluation_worker.config import VideoOptions
 from racer.evaluation_worker.driver import StepRecord
-from racer.shared.sim._mujoco import mujoco
-from racer.shared.sim.car import CAR_GEOM_GROUP
+from racer.shared.sim.car.vehicle import CAR_GEOM_GROUP
 from racer.shared.sim.env import DeepRacerEnv
-from racer.shared.sim.object_bodies import OBJECT_GEOM_GROUP, drawn_size
-from racer.shared.sim.object_poses import ObjectKind, ObjectPose
+from racer.shared.sim.objects.bodies import OBJECT_GEOM_GROUP, drawn_size
+from racer.shared.sim.objects.poses import ObjectKind, ObjectPose
+from racer.shared.sim.scene._mujoco import mujoco
 
 FPS = 15
 VIEWS: tuple[str, ...] = ("camera-incar", "camera-topview", "camera-45degree")

@@ -28,9 +28,9 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "Compare training runs side by side on one page: curves, evaluations, best laps, settings.",
     ),
     "model": ("racer.model_io.cli:model_group", "Validate, import and export models in DeepRacer's layout."),
-    "bench": ("racer.benches:bench_group", "Benchmarks that print one JSON line (sim, ppo, time-to-lap, viewer)."),
-    "track": ("racer.shared.sim.track_cli:track_group", "List, inspect and plot tracks."),
-    "reward": ("racer.shared.sim.reward_cli:reward_group", "Test a reward function over a whole track."),
+    "bench": ("racer.bench_moved:bench_command", "Where the benchmarks went: python -m benchmarks, in a checkout."),
+    "track": ("racer.track.cli:track_group", "List, inspect and plot tracks."),
+    "reward": ("racer.reward.cli:reward_group", "Test a reward function over a whole track."),
     "view": (
         "racer.viewer.cli:view_command",
         "Watch a run in the browser: camera streams, curves, evaluations, best lap.",

@@ -1,7 +1,7 @@
 """Training episodes on several envs of one world at once, all their actions from one batched forward pass.
 
 On two cores the policy's forward pass for one frame costs more than the env step itself, and most of it is per call,
-not per frame: one call for K frames costs far less than K calls (`racer bench rollout`, docs/benchmarks.md). So a
+not per frame: one call for K frames costs far less than K calls (`python -m benchmarks rollout`, docs/benchmarks.md). So a
 rollout worker steps K envs in lockstep: observe all, one `policy.act_batch`, step each. An env whose episode ends
 asks for its next episode at once (`next_episode`), so envs never wait for each other between episodes.
 

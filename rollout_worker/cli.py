@@ -9,8 +9,8 @@ import click
 
 from racer.rollout_worker.batched_rollout import DEFAULT_ENVS_PER_WORKER
 from racer.shared.config import settings_from_env
-from racer.shared.sim.reward import RewardFunctionError
-from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
+from racer.shared.sim.reward.function import RewardFunctionError
+from racer.shared.sim.scene.worlds import WORLD_NAMES as WORLDS
 from racer.shared.user_errors import user_error_types
 
 EXIT_RUN_CANNOT_GO_ON = 3

@@ -15,8 +15,8 @@ from racer.shared.deepracer.model_metadata import ModelMetadata, parse_model_met
 from racer.shared.deepracer.training_params import parse_training_params
 from racer.shared.model_layout import ModelLayout
 from racer.shared.run_settings import JobSettings, env_config
-from racer.shared.sim.challenge_config import param_text
 from racer.shared.sim.config import EnvConfig
+from racer.shared.sim.objects.challenge import param_text
 from racer.shared.store import ObjectNotFoundError, ObjectStore
 from racer.shared.worker_settings import WorkerSettings
 

@@ -1,7 +1,7 @@
 """Deployment settings: where Redis and the object store are.
 
 This is the only module that reads environment variables: everything else receives the values built here, so a
-test or a subprocess can be configured explicitly. The exceptions are `shared/sim/gl.py`, which chooses `MUJOCO_GL`
+test or a subprocess can be configured explicitly. The exceptions are `shared/sim/scene/gl.py`, which chooses `MUJOCO_GL`
 before MuJoCo loads, and launchers that copy their environment into a child process's
 (tests/foundation/test_environment_reads.py holds the list).
 
@@ -15,7 +15,7 @@ before MuJoCo loads, and launchers that copy their environment into a child proc
 | `MAX_MEMORY_STEPS` | trainer: transitions one iteration trains on, as the SimApp's variable (0 = no cap) | DeepRacer's: 10000 shallow network, 3000 others |
 | `RACER_ROUTES_PATH` | folders of DeepRacer route files (`<WORLD_NAME>.npy`), `:`-separated, searched in order before the route library and racer's `tracks/` | unset |
 | `RACER_DATA_HOME` | racer's per-user data folder; its `routes/` is the route library `racer track import` fills | `$XDG_DATA_HOME/racer`, else `~/.local/share/racer` |
-| `RACER_DEEPRACER_DATA` | a folder of DeepRacer's own files (routes, models, reward functions, simtraces) that benchmarks compare against (`racer bench ... --data`) | unset |
+| `RACER_DEEPRACER_DATA` | a folder of DeepRacer's own files (routes, models, reward functions, simtraces) that benchmarks compare against (`python -m benchmarks ... --data`) | unset |
 | `RACER_TRACKS_URL` | where SimApp route files are fetched from on first use (http(s)://, file://, a folder, a SimApp checkout) | the SimApp's repository at the catalogue's commit |
 | `RACER_CACHE_HOME` | racer's per-user cache; fetched route files are kept in its `routes/` | `$XDG_CACHE_HOME/racer`, else `~/.cache/racer` |
 | `RACER_GENERATION` | the DeepRacer simulator to stand in for, its look and car together (`--generation`: 2019, simapp5, simapp6) | `simapp6` |
@@ -184,6 +184,6 @@ GENERATION_VARIABLE = "RACER_GENERATION"
 
 def generation_name(environ: Mapping[str, str] | None = None) -> str | None:
     """The DeepRacer generation RACER_GENERATION names (the default of `--generation`); None when unset, which
-    means racer's default generation (`racer.shared.sim.generations.DEFAULT_GENERATION`)."""
+    means racer's default generation (`racer.shared.sim.generations.catalog.DEFAULT_GENERATION`)."""
     env = os.environ if environ is None else environ
     return env.get(GENERATION_VARIABLE, "").strip() or None

@@ -21,11 +21,10 @@ from dataclasses import dataclass, fields
 from pathlib import Path
 
 from racer.shared.deepracer.model_metadata import ModelMetadata
-from racer.shared.sim.challenge_cli import challenge_option_args
-from racer.shared.sim.challenge_config import param_text
 from racer.shared.sim.config import DEFAULT_MODEL_METADATA, DEFAULT_TRACK, EnvConfig
-from racer.shared.sim.generations import DEFAULT_GENERATION
-from racer.shared.sim.worlds import WORLD_NAMES
+from racer.shared.sim.generations.catalog import DEFAULT_GENERATION
+from racer.shared.sim.objects.challenge import param_text
+from racer.shared.sim.scene.worlds import WORLD_NAMES
 from racer.shared.user_errors import RunConfigError
 from racer.shared.worker_settings import SETTING, WorkerSettings
 
@@ -191,3 +190,11 @@ def load_worker_settings(custom_files: Path, options: RunOptions) -> list[Worker
         except ValueError as error:
             raise RunConfigError(str(error)) from error
     return result
+
+
+def challenge_option_args(pairs: tuple[tuple[str, str], ...]) -> list[str]:
+    """The same options as command-line arguments for a child process (`racer train` -> `racer trainer`)."""
+    args: list[str] = []
+    for key, value in pairs:
+        args += ["--race-type", value] if key == "RACE_TYPE" else ["--race-param", f"{key}={value}"]
+    return args

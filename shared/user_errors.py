@@ -13,9 +13,9 @@ def user_error_types() -> tuple[type[Exception], ...]:
     from racer.shared.deepracer.simtrace import SimtraceError
     from racer.shared.policy.manifest import CheckpointError
     from racer.shared.redis_connection import RedisUnavailableError
-    from racer.shared.sim.gl import GLBackendError
-    from racer.shared.sim.reward import RewardFunctionError
-    from racer.shared.sim.track import TrackError
+    from racer.shared.sim.reward.function import RewardFunctionError
+    from racer.shared.sim.scene.gl import GLBackendError
+    from racer.shared.sim.tracks.track import TrackError
     from racer.shared.store import StoreError
 
     return (

@@ -1,5 +1,5 @@
 """Where a rollout worker's wall time goes: seconds per phase since it started, so a run can tell simulating from
-waiting and the next speed-up is chosen from a measurement (`racer bench race-pace` reports the shares).
+waiting and the next speed-up is chosen from a measurement (`python -m benchmarks race-pace` reports the shares).
 
 The worker keeps a `PhaseClock` and sends its totals in its heartbeat and in every episode it delivers (flat keys of
 `Episode.info`, `episode_info`); the trainer's iteration summary keeps each worker's latest (`from_episode_info`), so

@@ -10,12 +10,12 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
-from racer.shared.sim.car_dynamics import CarDynamics, car_profile
-from racer.shared.sim.challenge_config import ChallengeConfig
+from racer.shared.sim.car.dynamics import CarDynamics, car_profile
 from racer.shared.sim.config import DEFAULT_TRACK
-from racer.shared.sim.generations import DEFAULT_GENERATION, generation
-from racer.shared.sim.track_catalog import world_name_for_direction
-from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
+from racer.shared.sim.generations.catalog import DEFAULT_GENERATION, generation
+from racer.shared.sim.objects.challenge import ChallengeConfig
+from racer.shared.sim.scene.worlds import WORLD_NAMES as WORLDS
+from racer.shared.sim.tracks.catalog import world_name_for_direction
 
 __all__ = ["SETTING", "Setting", "WorkerSettings", "setting"]
 
@@ -50,7 +50,7 @@ LOWER: Reader = lambda params, name, default, source: str(params.get(name, defau
 TEXT_OR_DEFAULT: Reader = lambda params, name, default, source: str(params.get(name) or default).strip()  # noqa: E731
 """Text where an empty value means the default."""
 CHALLENGE: Reader = lambda params, name, default, source: ChallengeConfig.from_training_params(params)  # noqa: E731
-"""RACE_TYPE and the obstacle / bot-car keys (shared/sim/challenge_config.py)."""
+"""RACE_TYPE and the obstacle / bot-car keys (shared/sim/objects/challenge.py)."""
 
 _SAME = "<same name>"
 
@@ -129,7 +129,7 @@ class WorkerSettings:
     of one run, as DeepRacer's continuous evaluation (IS_CONTINUOUS) drives them: each crossing of the line closes a
     lap and the next goes on at speed; the first reset rule (off track, reversed, ...) ends the run, so every lap it
     completed is a lap without a reset. One run has one start (RACER_EVAL_SPREAD_STARTS spreads nothing) and
-    RACER_EVAL_MAX_STEPS caps the whole run. `racer bench race-pace` judges three consecutive laps this way."""
+    RACER_EVAL_MAX_STEPS caps the whole run. `python -m benchmarks race-pace` judges three consecutive laps this way."""
     domain_randomization: bool = setting(False, "ENABLE_DOMAIN_RANDOMIZATION", FLAG)
     """ENABLE_DOMAIN_RANDOMIZATION: random light colours and attenuation at every episode, as the SimApp."""
     car_randomization: bool = setting(False, "RACER_CAR_RANDOMIZATION", FLAG)
@@ -137,7 +137,7 @@ class WorkerSettings:
     dynamics_randomization: bool = setting(False, "RACER_DYNAMICS_RANDOMIZATION", FLAG)
     """racer's RACER_DYNAMICS_RANDOMIZATION: every training episode a car drawn around one generation's car
     (both axles' stiffness, yaw inertia, steering servo, a 0-1 step command delay;
-    shared/sim/dynamics_randomization.py)."""
+    shared/sim/car/dynamics_randomization.py)."""
     generation: str = setting(DEFAULT_GENERATION, "RACER_GENERATION", TEXT_OR_DEFAULT)
     """racer's RACER_GENERATION: the DeepRacer simulator the worker stands in for, its look and car together
     (`generations.GENERATIONS`: 2019, simapp5, simapp6)."""
@@ -149,7 +149,7 @@ class WorkerSettings:
     """racer's RACER_SIMAPP_DIR: a SimApp bundle/ folder on the worker's machine whose world meshes and textures
     the camera draws instead of racer's look ("" = racer's look)."""
     challenge: ChallengeConfig = setting(ChallengeConfig(), "RACE_TYPE", CHALLENGE)
-    """RACE_TYPE and the obstacle / bot-car keys (shared/sim/challenge_config.py)."""
+    """RACE_TYPE and the obstacle / bot-car keys (shared/sim/objects/challenge.py)."""
 
     def __post_init__(self) -> None:
         if self.world not in WORLDS:

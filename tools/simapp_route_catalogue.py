@@ -17,8 +17,8 @@ from pathlib import Path
 
 import click
 
-from racer.shared.sim.droa_tracks import parse_catalogue
-from racer.shared.sim.simapp_routes import (
+from racer.shared.sim.tracks.droa_tracks import parse_catalogue
+from racer.shared.sim.tracks.simapp_routes import (
     DROA_REPOSITORY,
     DROA_TRACKS_PATH,
     SIMAPP_REPOSITORY,
@@ -27,7 +27,7 @@ from racer.shared.sim.simapp_routes import (
     file_sha256,
     shipped_catalogue_path,
 )
-from racer.shared.sim.track import route_facts
+from racer.shared.sim.tracks.track import route_facts
 
 
 def describe_route(path: Path) -> SimAppRoute:

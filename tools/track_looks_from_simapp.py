@@ -223,7 +223,7 @@ def _mesh_parts(reader: Reader, path: str, facts: WorldFacts) -> None:
 
 
 def table_document(all_facts: list[WorldFacts], tags: list[str]) -> dict:
-    """The JSON document `shared/sim/track_looks.py` reads: an `about` line and one entry per world with a road."""
+    """The JSON document `shared/sim/scene/track_looks.py` reads: an `about` line and one entry per world with a road."""
     worlds = {}
     for f in all_facts:
         parts = {p.role: p for p in f.parts}
@@ -241,7 +241,7 @@ def table_document(all_facts: list[WorldFacts], tags: list[str]) -> dict:
         f"{', '.join(tags)} (do not edit by hand: re-run it). Colours are 0-1 RGB as the files state them: an "
         "effect's diffuse colour or the mean of its diffuse texture; `sources` names the file, effect and texture of "
         "each part; `geometry` is measured from trackgen vertices where the mesh is one. Read by "
-        "shared/sim/track_looks.py."
+        "shared/sim/scene/track_looks.py."
     )
     return {"about": about, "worlds": worlds}
 

@@ -11,5 +11,5 @@ The trainer saves every checkpoint but does not choose the best one: choosing ne
 trainer has none. Rollout worker 0 evaluates each new checkpoint (racer.rollout_worker.checkpoint_evaluation) and
 records the best and the last in `model/deepracer_checkpoints.json` (racer.rollout_worker.training_log with
 racer.shared.policy.best_and_last, DeepRacer's rule), as the SimApp's rollout worker does.
-The trainer's benches (`racer bench ppo`, `racer bench sac`) live in `racer.benches`.
+The trainer's benches (`python -m benchmarks ppo`, `python -m benchmarks sac`) live in `benchmarks`.
 """

@@ -7,11 +7,11 @@ from pathlib import Path
 
 import click
 
+from racer.options.challenge import challenge_options, challenge_params_from_options
+from racer.options.track import TRACK_HELP, direction_option
 from racer.shared.config import settings_from_env
-from racer.shared.sim.challenge_cli import challenge_options, challenge_params_from_options
 from racer.shared.sim.config import DEFAULT_TRACK
-from racer.shared.sim.track_option import TRACK_HELP, direction_option
-from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
+from racer.shared.sim.scene.worlds import WORLD_NAMES as WORLDS
 from racer.shared.user_errors import user_error_types
 from racer.trainer.run_options import trainer_run_options
 

@@ -29,7 +29,7 @@ One update, as DeepRacer's `ClippedPPOAgent.train()` does it:
    no value clipping. A preset (racer.trainer.preset) may change these; its `clipping_decay_schedule` scales the
    0.2 by the run's environment steps (racer.trainer.clip_schedule).
 
-Speed (see `racer bench ppo`): the value tower's forward and backward run on a second thread while the policy
+Speed (see `python -m benchmarks ppo`): the value tower's forward and backward run on a second thread while the policy
 tower runs on the calling one (the towers share no weight, so the gradients are exactly those of the summed loss),
 each with `threads_per_tower` intra-op threads for the duration of the update; Adam runs as one fused kernel
 (`fused=True`, same arithmetic as the textbook loop); the network is channels-last; step 2 replaces the

@@ -46,8 +46,8 @@ from racer.shared.policy.network_file import (
 )
 from racer.shared.policy.network_size import network_size_findings
 from racer.shared.run_settings import RunOptions, load_worker_settings
-from racer.shared.sim.reward import load_reward_function
-from racer.shared.sim.track import Track, TrackError
+from racer.shared.sim.reward.function import load_reward_function
+from racer.shared.sim.tracks.track import Track, TrackError
 from racer.shared.store import ObjectNotFoundError, ObjectStore
 from racer.shared.user_errors import CloneError, RunConfigError, UnsupportedConfigurationError
 from racer.shared.worker_settings import WorkerSettings
@@ -136,7 +136,7 @@ def _check_reward_over_track(path: Path, workers: list[WorkerSettings], metadata
     """A short `racer reward test`: the reward is called over worker 0's track and race type (and each other
     track/race type the workers use); one that raises or returns no usable number is refused before anything
     starts. Slow calls and what DeepRacer on AWS's validator would reject come back as warnings."""
-    from racer.shared.sim.reward_check import check_reward_file
+    from racer.reward.check import check_reward_file
 
     warnings: list[str] = []
     seen: set[tuple[str, str]] = set()

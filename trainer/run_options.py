@@ -6,8 +6,8 @@ from collections.abc import Callable
 
 import click
 
-from racer.shared.sim.car_dynamics import CAR_PROFILE_NAMES
-from racer.shared.sim.generation_option import CAR_PROFILE_HELP, GENERATION_HELP, generation_option
+from racer.options.generation import CAR_PROFILE_HELP, GENERATION_HELP, generation_option
+from racer.shared.sim.car.dynamics import CAR_PROFILE_NAMES
 from racer.trainer.device import DEFAULT_DEVICE, DEVICE_NAMES
 from racer.trainer.precision import DEFAULT_PRECISION, PRECISION_NAMES
 

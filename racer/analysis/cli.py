@@ -15,7 +15,7 @@ from racer.analysis.results import Analysis
 from racer.analysis.sources import TRAINING, SourceError
 from racer.analysis.track_sections import TrackError
 from racer.shared.deepracer.simtrace import SimtraceError
-from racer.shared.sim.reward import RewardFunctionError
+from racer.shared.sim.reward.function import RewardFunctionError
 from racer.shared.store import StoreError
 
 TERMINAL_ITERATIONS = 15

@@ -15,10 +15,10 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from racer.shared.sim.challenge_config import ChallengeConfig
-from racer.shared.sim.object_poses import ObjectPose
-from racer.shared.sim.obstacles import place_obstacles
-from racer.shared.sim.track import Track
+from racer.shared.sim.objects.challenge import ChallengeConfig
+from racer.shared.sim.objects.obstacles import place_obstacles
+from racer.shared.sim.objects.poses import ObjectPose
+from racer.shared.sim.tracks.track import Track
 
 _TRAINING_PARAMS = re.compile(r"training_params(?:_(\d+))?\.ya?ml$")
 

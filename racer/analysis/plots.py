@@ -16,7 +16,7 @@ from matplotlib.ticker import MaxNLocator
 
 from racer.analysis.loading import EPISODE_KEY
 from racer.analysis.track_sections import Track, section_of_waypoint
-from racer.shared.sim.object_poses import ObjectKind, ObjectPose
+from racer.shared.sim.objects.poses import ObjectKind, ObjectPose
 
 DPI = 110
 INCIDENT_STATUSES = ("off_track", "crashed", "immobilized", "reversed")

@@ -1,4 +1,4 @@
-"""The track for the pictures: loaded with racer.shared.sim.track, cut into equal-length sections."""
+"""The track for the pictures: loaded with racer.shared.sim.tracks.track, cut into equal-length sections."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 
 from racer.analysis.loading import EPISODE_KEY
-from racer.shared.sim.track import Track, TrackError
+from racer.shared.sim.tracks.track import Track, TrackError
 
 
 def load_track(name_or_path: str, tracks_dir: Path | None = None) -> Track:

@@ -21,9 +21,9 @@ import pandas as pd
 from racer.analysis import aggregate
 from racer.analysis.loading import EPISODE_KEY
 from racer.analysis.sources import TRAINING
-from racer.shared.sim.reward import load_reward_function
-from racer.shared.sim.reward_params import make_reward_params
-from racer.shared.sim.track import Track
+from racer.shared.sim.reward.function import load_reward_function
+from racer.shared.sim.reward.params import make_reward_params
+from racer.shared.sim.tracks.track import Track
 
 NOT_CALLED_STATUSES = ("prepare", "pause")
 

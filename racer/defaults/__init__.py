@@ -1,10 +1,11 @@
 """Files racer ships with its code, so an installed racer needs no source tree.
 
-`redis.conf` configures every Redis racer uses (the embedded `racer train`, the tests, docker compose) and
+`redis.conf` (a link to the repository's top-level `redis.conf`, the one file; the wheel carries its contents)
+configures every Redis racer uses (the embedded `racer train`, the tests, docker compose) and
 `custom_files/` is the example reward function, `model_metadata.json` and `hyperparameters.json` that
 `racer train` uses when no `--custom-files` is given. The repository's top-level `custom_files` is a link here.
 `racing/discrete/` and `racing/continuous/` are the racing recipe: custom files for a fast lap (docs/racing.md says
-why each value is what it is; `racer bench race-pace` trains with them).
+why each value is what it is; `python -m benchmarks race-pace` trains with them).
 """
 
 from __future__ import annotations

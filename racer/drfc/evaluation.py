@@ -19,7 +19,7 @@ from racer.drfc.shell_env import DrfcFileError
 from racer.drfc.simapp_version import simapp_generation
 from racer.drfc.training import DEFAULT_MODEL_PREFIX, TRUE_WORDS
 from racer.drfc.training_params import Param, challenge_params, racer_params
-from racer.shared.sim.challenge_config import MULTI_CAR_RACE_TYPES
+from racer.shared.sim.objects.challenge import MULTI_CAR_RACE_TYPES
 
 __all__ = ["DrfcEvaluation", "read_evaluation"]
 

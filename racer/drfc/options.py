@@ -2,7 +2,7 @@
 
 An option given on the command line beside `--drfc` wins over the env files (and over worker-N.env, for every
 worker); every other option the experiment sets takes the experiment's value. Each decorator wraps its command as
-racer.shared.sim.track_option's `--direction` does, so the commands themselves only gain one decorator line.
+racer.options.track's `--direction` does, so the commands themselves only gain one decorator line.
 """
 
 from __future__ import annotations
@@ -20,10 +20,10 @@ from racer.drfc.evaluation import read_evaluation
 from racer.drfc.experiment import Env
 from racer.drfc.shell_env import DrfcFileError
 from racer.drfc.training import DrfcTraining, read_training, run_worker_params, write_custom_files
+from racer.options.challenge import challenge_params_from_options
+from racer.options.track import resolved_track_name
 from racer.shared.config import generation_name
-from racer.shared.sim.challenge_cli import challenge_params_from_options
-from racer.shared.sim.challenge_config import CHALLENGE_KEYS
-from racer.shared.sim.track_option import resolved_track_name
+from racer.shared.sim.objects.challenge import CHALLENGE_KEYS
 
 __all__ = ["drfc_evaluate_option", "drfc_train_option"]
 

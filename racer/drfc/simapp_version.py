@@ -1,4 +1,4 @@
-"""DR_SIMAPP_VERSION -> the racer generation that stands in for that SimApp (racer.shared.sim.generations).
+"""DR_SIMAPP_VERSION -> the racer generation that stands in for that SimApp (racer.shared.sim.generations.catalog).
 
 DRfC runs the SimApp image `DR_SIMAPP_SOURCE:DR_SIMAPP_VERSION` (deepracer-for-cloud 2eb1a1f1 bin/activate.sh; its
 bin/init.sh fills in `<version>-<cpu|gpu>` from defaults/dependencies.json, 6.0.4 there). Versions up to 5.x are the

@@ -24,7 +24,7 @@ from racer.drfc.notices import variable_notes
 from racer.drfc.shell_env import Assignment, DrfcFileError
 from racer.drfc.simapp_version import simapp_generation
 from racer.drfc.training_params import experiment_worker_params, racer_params, worker_file_notes
-from racer.shared.sim.challenge_config import CHALLENGE_KEYS, param_text
+from racer.shared.sim.objects.challenge import CHALLENGE_KEYS, param_text
 from racer.shared.worker_settings import WorkerSettings
 
 __all__ = ["CUSTOM_FILE_KEYS", "DrfcTraining", "read_training", "run_worker_params", "write_custom_files"]

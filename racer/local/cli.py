@@ -11,13 +11,13 @@ import click
 from racer.defaults import DEFAULT_CUSTOM_FILES
 from racer.drfc.options import drfc_train_option
 from racer.local.run import LocalRunPlan, run_local_training
+from racer.options.challenge import challenge_options, challenge_params_from_options
+from racer.options.track import TRACK_HELP, direction_option
 from racer.rollout_worker.batched_rollout import DEFAULT_ENVS_PER_WORKER, DEFAULT_WORKERS
 from racer.shared.config import LocalStoreSettings, settings_from_env
 from racer.shared.run_settings import RunOptions
-from racer.shared.sim.challenge_cli import challenge_options, challenge_params_from_options
 from racer.shared.sim.config import DEFAULT_TRACK
-from racer.shared.sim.track_option import TRACK_HELP, direction_option
-from racer.shared.sim.worlds import WORLD_NAMES as WORLDS
+from racer.shared.sim.scene.worlds import WORLD_NAMES as WORLDS
 from racer.trainer.device import DeviceError, resolve_device
 from racer.trainer.run_options import trainer_run_options
 

@@ -25,7 +25,7 @@ from racer.rollout_worker.cli import EXIT_RUN_CANNOT_GO_ON
 from racer.shared.config import LocalStoreSettings, RedisSettings, S3Settings, ServiceSettings
 from racer.shared.redis_connection import RedisLink, RedisUnavailableError
 from racer.shared.run_settings import RunOptions
-from racer.shared.sim.gl import ensure_gl_backend
+from racer.shared.sim.scene.gl import ensure_gl_backend
 from racer.shared.store import S3Store, open_store
 from racer.shared.transport.channels import RunChannel
 

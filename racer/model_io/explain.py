@@ -339,7 +339,7 @@ def explain_command(
         raise click.UsageError("give FRAMES (image files or folders) or --racer-frames N")
     names, grey = load_frames(frames) if frames else ([], np.zeros((0, FRAME_HEIGHT, FRAME_WIDTH), np.uint8))
     if racer_frames:
-        from racer.shared.sim.worlds import WORLD_NAMES
+        from racer.shared.sim.scene.worlds import WORLD_NAMES
 
         if world not in WORLD_NAMES:
             raise click.BadParameter(f"{world!r}: choose from {', '.join(WORLD_NAMES)}", param_hint="--world")

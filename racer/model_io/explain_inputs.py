@@ -134,7 +134,7 @@ def load_frames(paths: tuple[Path, ...]) -> tuple[list[str], np.ndarray]:
     """Image files and folders of them -> names and (N, 120, 160) uint8 grey frames as the camera gives them."""
     from PIL import Image
 
-    from racer.shared.sim.camera import rgb_to_y
+    from racer.shared.sim.sensors.camera import rgb_to_y
 
     files: list[Path] = []
     for path in paths:
@@ -163,9 +163,9 @@ def load_frames(paths: tuple[Path, ...]) -> tuple[list[str], np.ndarray]:
 def racer_frames_of(count: int, world: str, track: str | Path) -> tuple[list[str], np.ndarray]:
     """racer's front camera at `count` evenly spread centre-line poses around the lap of `track` (a name on the
     route search path or a route file); a track that cannot be loaded is a usage error naming it."""
-    from racer.benches.gazebo_frames import render_lap
-    from racer.shared.sim.camera import rgb_to_y
-    from racer.shared.sim.track import TrackError
+    from racer.model_io.pose_frames import render_lap
+    from racer.shared.sim.sensors.camera import rgb_to_y
+    from racer.shared.sim.tracks.track import TrackError
 
     try:
         rendered, _ = render_lap(track, world, count, full_resolution=False)

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from racer.shared.sim.generation_option import GENERATION_HELP, generation_option
+from racer.options.generation import GENERATION_HELP, generation_option
 
 
 @click.command(name="race")

@@ -29,7 +29,7 @@ def track_map_png(route: str, laps: Sequence[tuple[str, dict[str, Any]]]) -> byt
     import matplotlib.pyplot as plt
     import numpy as np
 
-    from racer.shared.sim.track import Track
+    from racer.shared.sim.tracks.track import Track
 
     track = Track.load(route)
     speeds = np.concatenate([np.asarray(trace["speed_mps"]) for _, trace in laps])

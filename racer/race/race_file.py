@@ -26,7 +26,7 @@ from typing import Any
 
 import yaml
 
-from racer.shared.sim.challenge_config import ChallengeConfig
+from racer.shared.sim.objects.challenge import ChallengeConfig
 
 MULTI_CAR_RACE_TYPES = ("HEAD_TO_MODEL", "F1")
 """Every entrant on the track at once, in one multi-car evaluation (evaluation_worker/multi_car.py)."""

@@ -21,14 +21,14 @@ from racer.evaluation_worker.config import (
     VideoOptions,
 )
 from racer.race.race_file import RaceDefinition, RaceFileError
-from racer.shared.sim.generations import DEFAULT_GENERATION
-from racer.shared.sim.track_catalog import resolve_track
+from racer.shared.sim.generations.catalog import DEFAULT_GENERATION
+from racer.shared.sim.tracks.catalog import resolve_track
 
 
 def resolve_route(definition: RaceDefinition) -> str:
     """The route name of trackConfig (trackId + trackDirection), through racer's track resolution; the route must
     load, so a missing track stops the race before it starts."""
-    from racer.shared.sim.track import Track
+    from racer.shared.sim.tracks.track import Track
 
     key = "trackConfig.trackDirection" if definition.track_direction else "trackConfig.trackId"
     try:

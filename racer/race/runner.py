@@ -21,7 +21,7 @@ from racer.race.entrants import Entrant
 from racer.race.race_file import RaceDefinition
 from racer.race.videos import ALL_CARS_TOP_VIEW
 from racer.race.worker_pool import WorkerPool
-from racer.shared.sim.generations import DEFAULT_GENERATION
+from racer.shared.sim.generations.catalog import DEFAULT_GENERATION
 
 
 @dataclass(frozen=True)

@@ -212,7 +212,7 @@ def race_multi_car(task: dict[str, Any], store: ObjectStore, log) -> list[dict[s
     import dataclasses
 
     from racer.evaluation_worker.multi_car_session import run_multi_car_evaluation
-    from racer.shared.sim.peer_cars import PeerCars
+    from racer.shared.sim.objects.peer_cars import PeerCars
 
     definition = parse_race(task["race"], task["race_source"], task["race"]["name"])
     rules = definition.multi_car_rules()

@@ -30,7 +30,7 @@ from racer.shared.model_layout import (
     checkpoint_name,
     training_metrics,
 )
-from racer.shared.sim.track import Track, TrackError
+from racer.shared.sim.tracks.track import Track, TrackError
 from racer.shared.store import LocalStore, ObjectNotFoundError, ObjectStore, join_key, open_store
 from racer.viewer.laps import BestLapFinder
 

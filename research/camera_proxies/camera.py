@@ -20,11 +20,11 @@ from pathlib import Path
 import click
 import numpy as np
 
-from racer.benches.gazebo_frames import GAZEBO_FRAMES, load_gazebo_frames, render_lap, render_poses
-from racer.shared.sim.camera import CENTER_CAMERA, CameraRenderer, rgb_to_y
+from benchmarks.gazebo_frames import GAZEBO_FRAMES, load_gazebo_frames, render_lap, render_poses
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
-from racer.shared.sim.worlds import WORLD_NAMES
+from racer.shared.sim.scene.worlds import WORLD_NAMES
+from racer.shared.sim.sensors.camera import CENTER_CAMERA, CameraRenderer, rgb_to_y
 from research import DEEPRACER_DATA, data_option
 from research.camera_proxies.grey_stats import frame_stats, histogram_emd, paired_grey_stats
 from research.frame_pairs.poses import load_fitted_poses

@@ -23,8 +23,8 @@ from pathlib import Path
 import click
 import pandas as pd
 
-from racer.benches.fidelity.replay import Segment, SegmentError, load_segments
-from racer.shared.sim.simapp_car_profiles import friction_drive_cap_n
+from benchmarks.fidelity.replay import Segment, SegmentError, load_segments
+from racer.shared.sim.car.simapp_profiles import friction_drive_cap_n
 from research import DEEPRACER_DATA
 from research.simapp6_fit.study import (
     FIT_STRIDE_ROWS,
@@ -72,7 +72,7 @@ def run_fit(log: Path, route: Path, progress: bool = False) -> dict:
         per_fold[source] = {"constants": folds[source].as_dict(), "held_out": band_table(own, errors)}
         held_out += errors
         ordered += own
-    from racer.shared.sim.car_dynamics import CAR_DYNAMICS
+    from racer.shared.sim.car.dynamics import CAR_DYNAMICS
 
     shipped = folds["all files"]
     return {

@@ -33,10 +33,10 @@ import click
 import cv2
 import numpy as np
 
-from racer.benches.gazebo_frames import GAZEBO_FRAMES, load_gazebo_frames, render_poses
-from racer.benches.workdir import cpu_description
-from racer.shared.sim.car import CAMERA_HORIZONTAL_FOV_RAD, CAMERA_PITCH_DOWN_RAD, CAMERA_POS_M
-from racer.shared.sim.world_look import EDGE_LINE_WIDTH_M
+from benchmarks.gazebo_frames import GAZEBO_FRAMES, load_gazebo_frames, render_poses
+from benchmarks.workdir import cpu_description
+from racer.shared.sim.car.vehicle import CAMERA_HORIZONTAL_FOV_RAD, CAMERA_PITCH_DOWN_RAD, CAMERA_POS_M
+from racer.shared.sim.scene.world_look import EDGE_LINE_WIDTH_M
 from research import data_option
 from research.camera_proxies.grey_stats import paired_grey_stats
 from research.frame_pairs.poses import FITTED_POSES
@@ -247,7 +247,7 @@ def fit_poses(frames: np.ndarray, route: np.ndarray, camera: CameraMount, jobs: 
 
 
 def grey_of(frames_rgb: np.ndarray) -> np.ndarray:
-    from racer.shared.sim.camera import rgb_to_y
+    from racer.shared.sim.sensors.camera import rgb_to_y
 
     return np.stack([rgb_to_y(frame) for frame in frames_rgb])
 
@@ -279,7 +279,7 @@ def compare_policies(
     """Per policy ({label: (metadata, network)}): steering-side agreement between the two frames of each pair (all,
     and the good pairs), the control (racer's frame against racer's frame at a jittered pose) and the shares; for a
     racer policy also its agreement with each real one, on the Gazebo frames and on racer's frames of the same poses."""
-    from racer.benches.transfer import shares, steering_sides
+    from benchmarks.transfer import shares, steering_sides
 
     grey = {"gazebo": grey_of(gazebo), "racer": grey_of(ours), "jittered": grey_of(jittered)}
     sides = {
@@ -310,7 +310,7 @@ def compare_policies(
 def run_frame_pairs(
     data: Path, camera: CameraMount, jobs: int, limit: int | None, racer_model: Path | None, picture: Path | None
 ) -> dict:
-    from racer.benches.transfer import import_real_models, model_folders
+    from benchmarks.transfer import import_real_models, model_folders
 
     started = time.perf_counter()
     route_path = data / ROUTE
@@ -354,7 +354,7 @@ def run_frame_pairs(
 
 def racer_policies(model_folder: Path) -> dict[str, tuple]:
     """The last four checkpoints of a racer model folder (racer's local store layout)."""
-    from racer.benches.transfer import open_racer_model
+    from benchmarks.transfer import open_racer_model
 
     metadata, checkpoints = open_racer_model(model_folder)
     return {f"racer:{name}": (metadata, checkpoints.load_policy(name)) for name in checkpoints.names()[-4:]}
@@ -401,7 +401,7 @@ def frame_pairs_command(
     camera_forward: float,
 ) -> None:
     """Fit each Gazebo frame's pose from its lines, render racer's frame there, and compare policies on the pairs."""
-    from racer.shared.sim.gl import ensure_gl_backend
+    from racer.shared.sim.scene.gl import ensure_gl_backend
 
     ensure_gl_backend()
     camera = CameraMount(forward_m=camera_forward, height_m=camera_height)

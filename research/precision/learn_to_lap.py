@@ -1,12 +1,12 @@
 """Does a tower precision change what PPO learns? Env steps to a lap, fp32 against bf16, in one process.
 
-`racer bench time-to-lap` runs the whole system (four worker processes, four worlds), so which worker plays which
+`python -m benchmarks time-to-lap` runs the whole system (four worker processes, four worlds), so which worker plays which
 episode depends on timing and no two runs see the same data. This study takes timing out: one process, one env
 (re:Invent 2018, base world, the time-to-lap bench's five actions at 1 m/s and its recipe: 20 episodes, 3 epochs,
 discount 0.99, the AWS centre-line reward), episodes played one after another with a seeded generator, then one PPO
 update, then three greedy evaluation laps from 0, 1/3 and 2/3 of the lap. With one seed, fp32 and bf16 start from the
 same weights and the same first batch, so any difference is the arithmetic's. It also compares the first update's
-outcome on that real batch (racer.benches.precision_agreement). bf16 is emulated where the CPU lacks it: slower, same
+outcome on that real batch (benchmarks.precision_agreement). bf16 is emulated where the CPU lacks it: slower, same
 rounding, so the learning effect shows on any machine.
 """
 
@@ -22,9 +22,9 @@ import click
 import numpy as np
 import torch
 
-from racer.benches.precision_agreement import update_agreement
-from racer.benches.time_to_lap_races import time_to_lap_hyperparameters
-from racer.benches.workdir import cpu_description
+from benchmarks.precision_agreement import update_agreement
+from benchmarks.time_to_lap_races import time_to_lap_hyperparameters
+from benchmarks.workdir import cpu_description
 from racer.rollout_worker.episode_runner import play_episode
 from racer.shared.deepracer.hyperparameters import parse_hyperparameters
 from racer.shared.deepracer.model_metadata import parse_model_metadata

@@ -1,4 +1,4 @@
-"""How predictable the real heading is: a yardstick for `racer bench fidelity`'s heading errors.
+"""How predictable the real heading is: a yardstick for `python -m benchmarks fidelity`'s heading errors.
 
 A linear predictor of each segment's heading change over 1 s from the logged steering commands (times the start
 speed) and the logged start yaw rate, fitted by least squares on the other files' segments (leave one file out, so
@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
-    from racer.benches.fidelity.replay import Segment
+    from benchmarks.fidelity.replay import Segment
 
 COMMAND_ROWS = 18
 """Commands of rows start-2 .. start+15 (1 s is 14-18 rows of 55-75 ms); shorter segments are zero-padded."""

@@ -1,6 +1,6 @@
 """What the logs themselves allow: the real rows' timing noise, and the replay error of a car model that is exact.
 
-`racer bench fidelity` compares racer's car with real simtraces whose rows are not evenly timed: the SimApp's
+`python -m benchmarks fidelity` compares racer's car with real simtraces whose rows are not evenly timed: the SimApp's
 Gazebo runs on while the agent thinks, a row's pose is a cached model state and its `tstamp` a clock callback.
 These measures bound what any car model can reach on these logs:
 
@@ -27,11 +27,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from racer.shared.deepracer.simtrace import read_simtrace
-from racer.shared.sim.car import Car
+from racer.shared.sim.car.vehicle import Car
 from research.tyre_fit.twin import CarConstants, SegmentBatch, position_errors_m, simulate
 
 if TYPE_CHECKING:
-    from racer.benches.fidelity.replay import Segment
+    from benchmarks.fidelity.replay import Segment
 
 HELD_ROWS_BEFORE = 4
 HELD_ROWS_AFTER = 9

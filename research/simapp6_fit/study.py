@@ -2,7 +2,7 @@
 
 Three files of one run on Spain_track (two training iterations, one evaluation). Each fold fits the tyre fit's
 planar twin (research/tyre_fit/twin.py) on two files and replays the third in MuJoCo with the fold's constants, as
-`racer bench fidelity` replays (logged start, logged commands, 1/15 s per row). What the SimApp v6.0.5 files state is
+`python -m benchmarks fidelity` replays (logged start, logged commands, 1/15 s per row). What the SimApp v6.0.5 files state is
 kept, not fitted: Coulomb μ 0.5 wheels (peak grip 1 × μ × load) rolling on the 0.036 m wheel mesh
 (`simapp_car_profiles.py`). What they leave to the simulator (the cornering and drive stiffness, the drive's cap, how
 fast the hinges follow, the yaw inertia racer's body needs) is fitted.
@@ -18,7 +18,7 @@ from pathlib import Path
 import click
 import numpy as np
 
-from racer.benches.fidelity.replay import (
+from benchmarks.fidelity.replay import (
     SPEED_BANDS_MPS,
     CarReplay,
     Segment,
@@ -28,13 +28,13 @@ from racer.benches.fidelity.replay import (
     replay_errors,
     replay_files,
 )
-from racer.shared.sim.car_dynamics import CAR_DYNAMICS, CarDynamics
-from racer.shared.sim.simapp_car_profiles import (
+from racer.shared.sim.car.dynamics import CAR_DYNAMICS, CarDynamics
+from racer.shared.sim.car.simapp_profiles import (
     ROS1_YAW_INERTIA_KGM2,
     ROS2_STEERING_TIME_CONSTANT_S,
     WHEEL_MESH_RADIUS_M,
 )
-from racer.shared.sim.tyres import TyreParams
+from racer.shared.sim.car.tyres import TyreParams
 from research import DEEPRACER_DATA, simtraces_option
 from research.replay_limits.noise import in_progress_rows, replay_floor_m, row_timing
 from research.tyre_fit.twin import CarConstants, SegmentBatch, fit

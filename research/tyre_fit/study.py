@@ -9,7 +9,7 @@ from pathlib import Path
 
 import click
 
-from racer.benches.fidelity.replay import (
+from benchmarks.fidelity.replay import (
     SPEED_BANDS_MPS,
     CarReplay,
     Segment,

@@ -21,7 +21,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy.optimize import minimize
 
-from racer.shared.sim.car import (
+from racer.shared.sim.car.tyres import GRAVITY_MPS2, TyreParams
+from racer.shared.sim.car.vehicle import (
     COMMAND_WHEEL_RADIUS_M,
     FRONT_AXLE_X_M,
     REAR_AXLE_X_M,
@@ -31,11 +32,10 @@ from racer.shared.sim.car import (
     Car,
     clip_command,
 )
-from racer.shared.sim.tyres import GRAVITY_MPS2, TyreParams
-from racer.shared.sim.worlds import get_world
+from racer.shared.sim.scene.worlds import get_world
 
 if TYPE_CHECKING:
-    from racer.benches.fidelity.replay import Segment
+    from benchmarks.fidelity.replay import Segment
 
 FIT_HORIZONS_S = (0.5, 1.0, 1.5)
 """The fit minimises the mean front-of-car position error at these times after the start (a robust, smooth loss)."""

@@ -3,7 +3,7 @@
 A rollout worker chooses one action per frame. ONNX Runtime's default graph optimisations (NCHWc convolutions) are
 the fastest exact path measured on AVX2, ahead of the PyTorch module in either memory layout. In the shallow
 network most of a small batch's call is the 11264x512 dense layer, which streams its 23 MB of weights from memory
-once per call whatever the batch; so the cost per frame falls with the batch (`racer bench rollout`).
+once per call whatever the batch; so the cost per frame falls with the batch (`python -m benchmarks rollout`).
 Action choice itself is numpy alone (racer.shared.policy.action_selection, which
 `networks.select_action` runs too), so sampling, argmax and e-greedy behave exactly as `ActorCritic.act`, and this
 module imports no torch: the rollout and evaluation workers' image carries none.

@@ -6,11 +6,11 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from racer.shared.deepracer.model_metadata import ModelMetadata, parse_model_metadata
-from racer.shared.sim.car_dynamics import CarDynamics
-from racer.shared.sim.challenge_config import ChallengeConfig
-from racer.shared.sim.generation_looks import GenerationLook
-from racer.shared.sim.generations import DEFAULT_GENERATION, generation
-from racer.shared.sim.worlds import WORLD_NAMES
+from racer.shared.sim.car.dynamics import CarDynamics
+from racer.shared.sim.generations.catalog import DEFAULT_GENERATION, generation
+from racer.shared.sim.generations.looks import GenerationLook
+from racer.shared.sim.objects.challenge import ChallengeConfig
+from racer.shared.sim.scene.worlds import WORLD_NAMES
 
 DEFAULT_TRACK = "racer_oval"
 """The short quick-start track shipped in `tracks/`."""

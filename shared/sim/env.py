@@ -11,26 +11,32 @@ import gymnasium as gym
 import numpy as np
 
 from racer.shared.deepracer.episode_status import EpisodeStatus
-from racer.shared.sim._mujoco import mujoco
-from racer.shared.sim.car import CAMERA_PITCH_DOWN_RAD, Car, camera_mount_m, clip_command, command_wheel_radius_m
-from racer.shared.sim.car_dynamics import CarDynamics
+from racer.shared.sim.car.dynamics import CarDynamics
+from racer.shared.sim.car.dynamics_randomization import draw_dynamics
+from racer.shared.sim.car.vehicle import (
+    CAMERA_PITCH_DOWN_RAD,
+    Car,
+    camera_mount_m,
+    clip_command,
+    command_wheel_radius_m,
+)
 from racer.shared.sim.config import STEPS_PER_SECOND, EnvConfig
-from racer.shared.sim.domain_randomization import SceneRandomizer
-from racer.shared.sim.dynamics_randomization import draw_dynamics
-from racer.shared.sim.episode_phase import PhaseMachine, StepVerdict
-from racer.shared.sim.episode_start import StartRotation, episode_max_steps, read_reset_options, start_offset
-from racer.shared.sim.judged_pose import PoseJudge, judged_reward_params
-from racer.shared.sim.object_bodies import ObjectBodies
-from racer.shared.sim.object_poses import ObjectPose
-from racer.shared.sim.observation import Observer, scene_cameras
-from racer.shared.sim.reward import RewardFunction, default_evaluation_reward, load_reward_function
-from racer.shared.sim.scene import SceneSpec, build_model
-from racer.shared.sim.simapp_world import load_simapp_world
-from racer.shared.sim.spaces import ChosenAction, action_space, decode_action, observation_space
-from racer.shared.sim.step_info import step_info
-from racer.shared.sim.track import Track
-from racer.shared.sim.track_objects import TrackObjects, object_slots
-from racer.shared.sim.worlds import get_world
+from racer.shared.sim.episode.judged_pose import PoseJudge, judged_reward_params
+from racer.shared.sim.episode.phase import PhaseMachine, StepVerdict
+from racer.shared.sim.episode.start import StartRotation, episode_max_steps, read_reset_options, start_offset
+from racer.shared.sim.episode.step_info import step_info
+from racer.shared.sim.objects.bodies import ObjectBodies
+from racer.shared.sim.objects.poses import ObjectPose
+from racer.shared.sim.objects.track_objects import TrackObjects, object_slots
+from racer.shared.sim.reward.function import RewardFunction, default_evaluation_reward, load_reward_function
+from racer.shared.sim.scene._mujoco import mujoco
+from racer.shared.sim.scene.domain_randomization import SceneRandomizer
+from racer.shared.sim.scene.mjcf import SceneSpec, build_model
+from racer.shared.sim.scene.simapp_world import load_simapp_world
+from racer.shared.sim.scene.worlds import get_world
+from racer.shared.sim.sensors.observation import Observer, scene_cameras
+from racer.shared.sim.sensors.spaces import ChosenAction, action_space, decode_action, observation_space
+from racer.shared.sim.tracks.track import Track
 
 _SCENE_RNG_STREAM = 22
 """Seeds the scene randomisation apart from the LIDAR noise (which uses `np_random`)."""

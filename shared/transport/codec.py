@@ -17,7 +17,7 @@ says how it ended (lap_complete, off_track, ...). T is the episode's step count,
 
 Camera frames are most of the bytes. Workers compress them with zstd level 1: on rendered grayscale frames it
 shrinks them about as much as zlib level 1 at a fraction of the CPU time, and compressing runs in the worker's step
-loop, once per finished episode (`racer bench rollout` measures it). That keeps a 20-episode iteration to a few MB
+loop, once per finished episode (`python -m benchmarks rollout` measures it). That keeps a 20-episode iteration to a few MB
 in Redis. Arrays with codec "zlib" still decode.
 """
 

@@ -15,8 +15,8 @@ from PIL import Image
 from racer.analysis.cli import analyze_command
 from racer.analysis.obstacle_layout import obstacle_layout
 from racer.shared.deepracer.simtrace import SIMTRACE_COLUMNS
-from racer.shared.sim.object_poses import ObjectKind
-from racer.shared.sim.track import Track
+from racer.shared.sim.objects.poses import ObjectKind
+from racer.shared.sim.tracks.track import Track
 
 OA_PARAMS = """WORLD_NAME: "reinvent_base"
 RACE_TYPE: "OBJECT_AVOIDANCE"

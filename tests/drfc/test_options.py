@@ -16,9 +16,9 @@ from racer.drfc.evaluation import read_evaluation
 from racer.drfc.options import drfc_evaluate_option, drfc_train_option
 from racer.evaluation_worker.cli import evaluate_command
 from racer.local.cli import train_command
-from racer.shared.sim.challenge_cli import challenge_options
-from racer.shared.sim.generation_option import generation_option
-from racer.shared.sim.track_option import direction_option
+from racer.options.challenge import challenge_options
+from racer.options.generation import generation_option
+from racer.options.track import direction_option
 from tests.drfc.conftest import write_experiment
 
 TRAIN_OPTIONS = {

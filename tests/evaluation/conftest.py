@@ -9,7 +9,7 @@ from racer.evaluation_worker.config import DeepRacerRules, EvaluationConfig, Sum
 from racer.evaluation_worker.runner import EvaluationReport, EvaluationSession
 from racer.shared.deepracer.model_metadata import ModelMetadata
 from racer.shared.deepracer.simtrace import read_simtrace
-from racer.shared.sim.challenge_config import ChallengeConfig
+from racer.shared.sim.objects.challenge import ChallengeConfig
 from racer.shared.store import LocalStore, ObjectStore
 from tests.evaluation.scripted import CONTINUOUS_METADATA, ScriptedPolicy
 from tests.torch_threads import one_torch_thread  # noqa: F401 (an autouse fixture for this folder)

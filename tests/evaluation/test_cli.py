@@ -144,7 +144,7 @@ def test_best_checkpoint_comes_from_deepracer_checkpoints_json(tmp_path):
 def test_the_car_profile_reaches_the_env_and_the_evaluation_params(tmp_path, monkeypatch):
     from racer.evaluation_worker import runner
     from racer.shared.deepracer.training_params import parse_training_params
-    from racer.shared.sim.car_dynamics import SIMTRACE_FIT_DYNAMICS
+    from racer.shared.sim.car.dynamics import SIMTRACE_FIT_DYNAMICS
 
     store = LocalStore(tmp_path / "store")
     save_model(store)
@@ -167,7 +167,7 @@ def test_the_generation_reaches_the_env_and_the_evaluation_params(tmp_path, monk
     """`--generation` picks the look and the car of the evaluation's env, and the outputs record it."""
     from racer.evaluation_worker import runner
     from racer.shared.deepracer.training_params import parse_training_params
-    from racer.shared.sim.generations import generation
+    from racer.shared.sim.generations.catalog import generation
 
     store = LocalStore(tmp_path / "store")
     save_model(store)

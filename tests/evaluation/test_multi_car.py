@@ -17,7 +17,7 @@ from racer.evaluation_worker.multi_car import (
 )
 from racer.shared.run_settings import env_config
 from racer.shared.sim.env import DeepRacerEnv
-from racer.shared.sim.peer_cars import PeerCars, car_name
+from racer.shared.sim.objects.peer_cars import PeerCars, car_name
 from tests.evaluation.scripted import CONTINUOUS_METADATA, ScriptedPolicy
 
 

@@ -13,9 +13,9 @@ from mcap_protobuf.decoder import DecoderFactory
 from racer.evaluation_worker.config import DeepRacerRules, EvaluationConfig, VideoOptions
 from racer.evaluation_worker.runner import EvaluationSession
 from racer.evaluation_worker.video import VIEWS
-from racer.shared.sim.challenge_config import ChallengeConfig, ObjectPosition
-from racer.shared.sim.object_bodies import BOX_HEIGHT_M, BOX_LENGTH_M, BOX_WIDTH_M
-from racer.shared.sim.track import Track
+from racer.shared.sim.objects.bodies import BOX_HEIGHT_M, BOX_LENGTH_M, BOX_WIDTH_M
+from racer.shared.sim.objects.challenge import ChallengeConfig, ObjectPosition
+from racer.shared.sim.tracks.track import Track
 from racer.shared.store import LocalStore
 from tests.evaluation.conftest import simtrace_of
 from tests.evaluation.scripted import CONTINUOUS_METADATA, ScriptedPolicy

@@ -6,7 +6,7 @@ from __future__ import annotations
 import pytest
 
 from racer.evaluation_worker.config import DeepRacerRules, SummitRules
-from racer.shared.sim.challenge_config import ChallengeConfig, ObjectPosition
+from racer.shared.sim.objects.challenge import ChallengeConfig, ObjectPosition
 
 from .conftest import run_scripted, simtrace_of
 

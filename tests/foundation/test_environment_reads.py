@@ -13,7 +13,7 @@ PRODUCT_FOLDERS = ("racer", "shared", "trainer", "rollout_worker", "evaluation_w
 
 READERS: dict[str, str] = {
     "shared/config.py": "the one module that reads the environment",
-    "shared/sim/gl.py": "chooses MUJOCO_GL and sets it before mujoco is imported (MuJoCo reads it once, at import)",
+    "shared/sim/scene/gl.py": "chooses MUJOCO_GL and sets it before mujoco is imported (MuJoCo reads it once, at import)",
 }
 """Files that may read the environment in any way, and why."""
 
@@ -22,7 +22,7 @@ LAUNCHERS: dict[str, str] = {
     "racer/local/services.py": "redis-server and MinIO start with the launcher's environment",
     "racer/race/runner.py": "race worker processes inherit the environment with their thread counts pinned",
     "racer/model_io/tensorflow/runner.py": "the TensorFlow interpreter runs with the caller's environment",
-    "racer/benches/race.py": "the race bench runs `racer race` and `racer evaluate` as the user would",
+    "benchmarks/race.py": "the race bench runs `racer race` and `racer evaluate` as the user would",
 }
 """Files that may copy the whole environment into a child process's (`dict(os.environ)`, `{**os.environ, ...}`), and
 why; any other read there (`os.environ[...]`, `.get`, `os.getenv`) still fails."""

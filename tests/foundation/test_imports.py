@@ -102,7 +102,7 @@ def test_the_walk_finds_the_house():
     assert "racer.shared.config" in MODULES and "racer.trainer.training_loop" in MODULES
     assert "racer.trainer.ppo" in IMPORTS["racer.trainer.algorithms"][0]  # module level
     user_errors_top, user_errors_anywhere = IMPORTS["racer.shared.user_errors"]
-    assert "racer.shared.sim.gl" in user_errors_anywhere - user_errors_top  # inside a function
+    assert "racer.shared.sim.scene.gl" in user_errors_anywhere - user_errors_top  # inside a function
 
 
 @pytest.mark.parametrize("module", sorted(m for m in MODULES if _within(m, ("racer.shared",))))

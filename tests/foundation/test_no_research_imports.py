@@ -1,6 +1,7 @@
-"""Product code imports nothing from the repository's `research/` (one-off studies) or `tools/` (generators run
-against a SimApp checkout): the wheel installs neither, so such an import would work in a checkout and fail for a
-user.
+"""Product code imports nothing from the repository's `benchmarks/` (what measures racer), `research/` (one-off
+studies) or `tools/` (generators run against a SimApp checkout): the wheel installs none of them, so such an import
+would work in a checkout and fail for a user. `research/` may import `benchmarks/`; `benchmarks/` never imports
+`research/`.
 
 Read from the source: every import statement under the folders setup.py maps to `racer`, at module level or inside
 a function, and every string that names a module the way a lazy command does (`research.x:command`). Then, in a
@@ -20,7 +21,7 @@ import pytest
 
 from tests.foundation.test_imports import MODULES, ROOT
 
-FORBIDDEN = ("research", "tools")
+FORBIDDEN = ("benchmarks", "research", "tools")
 NOT_IMPORTABLE_HERE = {
     "racer.model_io.tensorflow.tool": "runs in its own TensorFlow interpreter (runner.py), never imported by racer",
 }
@@ -63,14 +64,21 @@ COMMANDS = {"x": ("research.camera_proxies.camera:camera_command", "help")}
         "5: research.frame_pairs.pairs",
         "6: research.camera_proxies.camera",
     ]
+    assert forbidden_references("from benchmarks.sim import sim_bench_command") == ["1: benchmarks.sim"]
     assert forbidden_references("import researcher\nfrom racer.tools import x\nTEXT = 'see research.'\n") == []
 
 
 @pytest.mark.parametrize("module", sorted(MODULES))
-def test_product_modules_do_not_import_research_or_tools(module):
+def test_product_modules_do_not_import_benchmarks_research_or_tools(module):
     path = MODULES[module]
     found = forbidden_references(path.read_text(encoding="utf-8"), str(path))
-    assert not found, f"{path.relative_to(ROOT)} refers to {found}: research/ and tools/ are not installed"
+    assert not found, f"{path.relative_to(ROOT)} refers to {found}: benchmarks/, research/ and tools/ are not installed"
+
+
+@pytest.mark.parametrize("path", sorted((ROOT / "benchmarks").rglob("*.py")), ids=lambda path: path.stem)
+def test_benchmarks_never_import_research(path):
+    found = [ref for ref in forbidden_references(path.read_text(encoding="utf-8"), str(path)) if "research" in ref]
+    assert not found, f"{path.relative_to(ROOT)} refers to {found}: research may import benchmarks, not the reverse"
 
 
 _PROBE = """
@@ -94,9 +102,9 @@ print(json.dumps(failed))
 
 
 @pytest.mark.slow
-def test_every_product_module_imports_without_research_or_tools(tmp_path):
+def test_every_product_module_imports_without_benchmarks_research_or_tools(tmp_path):
     """A fresh interpreter outside the checkout (so the repository root is not on sys.path through the working
-    folder), with `research` and `tools` refused outright, imports every product module."""
+    folder), with `benchmarks`, `research` and `tools` refused outright, imports every product module."""
     modules = sorted(set(MODULES) - set(NOT_IMPORTABLE_HERE))
     result = subprocess.run(
         [sys.executable, "-c", _PROBE.format(forbidden=set(FORBIDDEN)), *modules],

@@ -17,10 +17,10 @@ from racer.shared.config import LocalStoreSettings
 from racer.shared.deepracer.training_params import training_params_to_yaml
 from racer.shared.model_layout import ModelLayout
 from racer.shared.run_settings import NOT_FROM_SETTINGS, JobSettings, env_config, settings_fields
-from racer.shared.sim.car_dynamics import SIMTRACE_FIT_DYNAMICS, car_profile
-from racer.shared.sim.challenge_config import ChallengeConfig
+from racer.shared.sim.car.dynamics import SIMTRACE_FIT_DYNAMICS, car_profile
 from racer.shared.sim.config import DEFAULT_MODEL_METADATA, EnvConfig
-from racer.shared.sim.generations import generation
+from racer.shared.sim.generations.catalog import generation
+from racer.shared.sim.objects.challenge import ChallengeConfig
 from racer.shared.store import open_store
 from racer.shared.worker_settings import SETTING, WorkerSettings
 
@@ -77,7 +77,7 @@ def test_every_worker_setting_has_its_own_training_params_key_and_a_test_value()
 def test_every_setting_travels_through_training_params_yaml_into_the_env():
     """WorkerSettings -> training_params.yaml text -> WorkerSettings -> EnvConfig, each field off its default."""
     from racer.shared.deepracer.training_params import parse_training_params
-    from racer.shared.sim.challenge_config import param_text
+    from racer.shared.sim.objects.challenge import param_text
 
     settings = WorkerSettings(**NOT_DEFAULT)
     text = training_params_to_yaml(settings.to_training_params("model", 2))

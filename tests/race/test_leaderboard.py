@@ -8,7 +8,7 @@ from racer.race.html_report import write_html
 from racer.race.lap_trace import sector_times
 from racer.race.leaderboard import board_json, standings_from_results, write_board
 from racer.race.race_file import parse_race
-from racer.shared.sim.track import Track
+from racer.shared.sim.tracks.track import Track
 
 
 def test_board_files_and_page(tmp_path):

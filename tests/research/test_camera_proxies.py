@@ -6,7 +6,7 @@ import json
 
 import pytest
 
-from racer.shared.sim.camera import rgb_to_y
+from racer.shared.sim.sensors.camera import rgb_to_y
 
 
 @pytest.mark.slow
@@ -35,7 +35,7 @@ def test_camera_proxy_reports_a_policys_steering_shares(deepracer_data, tmp_path
     """--checkpoint: a model folder in racer's store layout; its newest checkpoint steers on the 92 Gazebo frames."""
     import torch
 
-    from racer.benches.gazebo_frames import GAZEBO_FRAMES, load_gazebo_frames
+    from benchmarks.gazebo_frames import GAZEBO_FRAMES, load_gazebo_frames
     from racer.shared.config import LocalStoreSettings
     from racer.shared.policy.checkpoints import CheckpointStore
     from racer.shared.policy.networks import build_actor_critic

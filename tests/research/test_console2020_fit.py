@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from racer.benches.fidelity.replay import CarReplay, replay_errors
-from racer.shared.sim.car_dynamics import CAR_DYNAMICS
+from benchmarks.fidelity.replay import CarReplay, replay_errors
+from racer.shared.sim.car.dynamics import CAR_DYNAMICS
 from research.console2020_fit.study import LOG, ROUTE, episode_segments
 
 

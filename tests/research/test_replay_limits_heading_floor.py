@@ -1,4 +1,4 @@
-"""The heading yardstick of `racer bench fidelity` (research/replay_limits): a leave-one-file-out linear predictor on real simtraces."""
+"""The heading yardstick of `python -m benchmarks fidelity` (research/replay_limits): a leave-one-file-out linear predictor on real simtraces."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from racer.benches.fidelity.replay import load_segments
+from benchmarks.fidelity.replay import load_segments
 from research.replay_limits.heading_floor import heading_floor_deg
 
 

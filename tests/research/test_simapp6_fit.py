@@ -7,7 +7,7 @@ from __future__ import annotations
 import pytest
 from click.testing import CliRunner
 
-from racer.benches.fidelity.replay import load_segments, run_fidelity
+from benchmarks.fidelity.replay import load_segments, run_fidelity
 from research.simapp6_fit.study import FIXED_FACTS, LOSS_HORIZONS_S, START, simapp6_fit_command
 from research.tyre_fit.twin import SegmentBatch, fit
 
@@ -21,7 +21,7 @@ def spain(deepracer_data):
 
 
 def test_the_simapp6_car_replays_the_2026_logs_within_0_15_m_and_the_source_built_car_does_not(spain):
-    """`racer bench fidelity`'s 2 s segments, median position error after 1 s per band with >= 30 segments."""
+    """`python -m benchmarks fidelity`'s 2 s segments, median position error after 1 s per band with >= 30 segments."""
     files, route = spain
     for car, within in (("simapp6-fit", True), ("simapp6-ros2", False)):
         bands = run_fidelity(files, route, car=car)["bands"]

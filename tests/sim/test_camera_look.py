@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from racer.shared.sim.camera import rgb_to_y
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
+from racer.shared.sim.sensors.camera import rgb_to_y
 
 COLOUR_TOLERANCE = 12
 """Per channel, 0-255: rendered colour against the colour DeepRacer's Gazebo frames show."""
@@ -68,7 +68,7 @@ def test_base_world_colours_match_deepracer(reinvent_route):
 @pytest.mark.parametrize("world", ["carpet", "concrete", "wood"])
 def test_other_worlds_floor_is_their_surface(reinvent_route, world):
     """carpet / concrete / wood: road and field are one surface (the SimApp's road_* mesh lies off the field)."""
-    from racer.shared.sim.world_look import get_look
+    from racer.shared.sim.scene.world_look import get_look
 
     env = DeepRacerEnv(EnvConfig(track=reinvent_route, world=world))
     try:
@@ -163,7 +163,7 @@ def test_track_plot_rendered_top_view(tmp_path):
     from click.testing import CliRunner
     from PIL import Image
 
-    from racer.shared.sim.track_cli import plot_command
+    from racer.track.cli import plot_command
 
     out = tmp_path / "oval.png"
     result = CliRunner().invoke(plot_command, ["racer_oval", str(out), "--rendered", "base"])

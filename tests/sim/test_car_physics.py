@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from racer.shared.deepracer.model_metadata import parse_model_metadata
-from racer.shared.sim.car import (
+from racer.shared.sim.car.dynamics import GAZEBO_DYNAMICS, SIMTRACE_FIT_DYNAMICS
+from racer.shared.sim.car.vehicle import (
     COMMAND_WHEEL_RADIUS_M,
     WHEELBASE_M,
     Car,
@@ -18,7 +19,6 @@ from racer.shared.sim.car import (
     command_wheel_radius_m,
     vertical_fov_deg,
 )
-from racer.shared.sim.car_dynamics import GAZEBO_DYNAMICS, SIMTRACE_FIT_DYNAMICS
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
 
@@ -141,8 +141,8 @@ def _compiled_yaw_inertia_kgm2(env: DeepRacerEnv) -> float:
 def test_the_gazebo_car_has_the_urdf_yaw_inertia_and_turns_near_kinematically(envs, fitted_env):
     """GAZEBO_DYNAMICS: the URDF's inertia about the vertical, and stiff equal axles, so a moderate turn follows the
     wheels (the simtrace fit's soft front axle understeers: a wider circle)."""
-    from racer.shared.sim.car import urdf_yaw_inertia_kgm2
-    from racer.shared.sim.car_dynamics import URDF_YAW_INERTIA_KGM2
+    from racer.shared.sim.car.dynamics import URDF_YAW_INERTIA_KGM2
+    from racer.shared.sim.car.vehicle import urdf_yaw_inertia_kgm2
 
     assert URDF_YAW_INERTIA_KGM2 == pytest.approx(urdf_yaw_inertia_kgm2(), abs=1e-6)
     env = envs["base"]

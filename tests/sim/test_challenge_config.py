@@ -5,8 +5,9 @@ from __future__ import annotations
 import click
 import pytest
 
-from racer.shared.sim.challenge_cli import challenge_option_args, challenge_params_from_options
-from racer.shared.sim.challenge_config import ChallengeConfig, ObjectPosition
+from racer.options.challenge import challenge_params_from_options
+from racer.shared.run_settings import challenge_option_args
+from racer.shared.sim.objects.challenge import ChallengeConfig, ObjectPosition
 
 
 def test_defaults_are_the_simapps():

@@ -9,15 +9,15 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from racer.shared.sim.car import chassis_inertia_kgm2, steering_kv
-from racer.shared.sim.car_dynamics import (
+from racer.shared.sim.car.dynamics import (
     GAZEBO_DYNAMICS,
     SIMAPP5_ROS1_DYNAMICS,
     SIMAPP6_FIT_DYNAMICS,
     SIMTRACE_FIT_DYNAMICS,
 )
-from racer.shared.sim.dynamics_randomization import FIT_SPREAD_FACTOR, draw_dynamics, mixture_centres
-from racer.shared.sim.generations import GENERATIONS
+from racer.shared.sim.car.dynamics_randomization import FIT_SPREAD_FACTOR, draw_dynamics, mixture_centres
+from racer.shared.sim.car.vehicle import chassis_inertia_kgm2, steering_kv
+from racer.shared.sim.generations.catalog import GENERATIONS
 
 
 def test_draws_are_seeded_and_spread_around_each_generations_car():

@@ -19,9 +19,9 @@ import pytest
 
 from racer.shared.deepracer.model_metadata import parse_model_metadata
 from racer.shared.deepracer.simtrace import SIMTRACE_COLUMNS
-from racer.shared.sim.challenge_config import ChallengeConfig, ObjectPosition
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
+from racer.shared.sim.objects.challenge import ChallengeConfig, ObjectPosition
 from tests.sim.conftest import place_far_off_track, place_front_at
 
 STRAIGHT = 2  # default metadata: steering 0°, 1 m/s

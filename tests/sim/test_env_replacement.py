@@ -63,9 +63,9 @@ def test_envs_can_be_replaced_and_dropped(backend):
 
 def test_close_frees_the_gl_context():
     """close() releases the context at once (not at garbage collection) and the renderer refuses new frames."""
-    from racer.shared.sim.camera import CameraRenderer
     from racer.shared.sim.config import EnvConfig
     from racer.shared.sim.env import DeepRacerEnv
+    from racer.shared.sim.sensors.camera import CameraRenderer
 
     env = DeepRacerEnv(EnvConfig())
     try:

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from racer.shared.deepracer.simtrace import SIMTRACE_COLUMNS
-from racer.shared.sim.reward_params import PARAM_KEYS
+from racer.shared.sim.reward.params import PARAM_KEYS
 
 from .conftest import place_far_off_track, place_front_at
 

@@ -7,10 +7,10 @@ import math
 import numpy as np
 import pytest
 
-from racer.shared.sim.car import Car, CarPose
+from racer.shared.sim.car.vehicle import Car, CarPose
 from racer.shared.sim.config import EnvConfig
-from racer.shared.sim.episode_phase import PhaseMachine, StepVerdict
-from racer.shared.sim.track import Track
+from racer.shared.sim.episode.phase import PhaseMachine, StepVerdict
+from racer.shared.sim.tracks.track import Track
 
 STEP_S = 1.0 / 15
 

@@ -10,13 +10,13 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
+from racer.options.generation import car_profile_option, generation_option
 from racer.shared.config import generation_name
-from racer.shared.sim import world_look
-from racer.shared.sim.car_dynamics import CAR_DYNAMICS, DEFAULT_CAR_PROFILE, SIMTRACE_FIT_DYNAMICS
+from racer.shared.sim.car.dynamics import CAR_DYNAMICS, DEFAULT_CAR_PROFILE, SIMTRACE_FIT_DYNAMICS
 from racer.shared.sim.config import EnvConfig
-from racer.shared.sim.generation_looks import LIGHTING_2019, LOOK_2019, LOOK_SIMAPP6
-from racer.shared.sim.generation_option import car_profile_option, generation_option
-from racer.shared.sim.generations import DEFAULT_GENERATION, GENERATION_NAMES, GENERATIONS, generation
+from racer.shared.sim.generations.catalog import DEFAULT_GENERATION, GENERATION_NAMES, GENERATIONS, generation
+from racer.shared.sim.generations.looks import LIGHTING_2019, LOOK_2019, LOOK_SIMAPP6
+from racer.shared.sim.scene import world_look
 from racer.shared.worker_settings import WorkerSettings
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from racer.shared.sim.gl import GLBackendError, ensure_gl_backend, probe_backend
+from racer.shared.sim.scene.gl import GLBackendError, ensure_gl_backend, probe_backend
 
 
 def test_explicit_backend_is_honoured():
@@ -76,10 +76,10 @@ def test_full_resolution_path_gives_a_similar_picture():
 def test_camera_renderer_matches_mujoco_renderer():
     """The lean renderer draws exactly what `mujoco.Renderer` draws for the same camera (without the
     anti-aliasing of the direct frame, which `test_camera_look.py` compares with the full-resolution path)."""
-    from racer.shared.sim._mujoco import mujoco
-    from racer.shared.sim.camera import CameraRenderer
     from racer.shared.sim.config import EnvConfig
     from racer.shared.sim.env import DeepRacerEnv
+    from racer.shared.sim.scene._mujoco import mujoco
+    from racer.shared.sim.sensors.camera import CameraRenderer
 
     env = DeepRacerEnv(EnvConfig())
     reference = mujoco.Renderer(env.model, height=120, width=160)

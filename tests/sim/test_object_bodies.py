@@ -8,11 +8,8 @@ import cv2
 import numpy as np
 import pytest
 
-from racer.shared.sim import lidar as lidar_sensor
-from racer.shared.sim._mujoco import mujoco
-from racer.shared.sim.camera import CENTER_CAMERA, LEFT_CAMERA, RIGHT_CAMERA, CameraRenderer
-from racer.shared.sim.car import LIDAR_POS_M, STEREO_HALF_BASELINE_M, Car
-from racer.shared.sim.object_bodies import (
+from racer.shared.sim.car.vehicle import LIDAR_POS_M, STEREO_HALF_BASELINE_M, Car
+from racer.shared.sim.objects.bodies import (
     BOX_HEIGHT_M,
     BOX_LENGTH_M,
     BOX_WIDTH_M,
@@ -20,10 +17,13 @@ from racer.shared.sim.object_bodies import (
     ObjectBodies,
     ObjectSlot,
 )
-from racer.shared.sim.object_poses import ObjectKind, ObjectPose
-from racer.shared.sim.scene import SceneSpec, build_model
-from racer.shared.sim.track import Track
-from racer.shared.sim.worlds import get_world
+from racer.shared.sim.objects.poses import ObjectKind, ObjectPose
+from racer.shared.sim.scene._mujoco import mujoco
+from racer.shared.sim.scene.mjcf import SceneSpec, build_model
+from racer.shared.sim.scene.worlds import get_world
+from racer.shared.sim.sensors import lidar as lidar_sensor
+from racer.shared.sim.sensors.camera import CENTER_CAMERA, LEFT_CAMERA, RIGHT_CAMERA, CameraRenderer
+from racer.shared.sim.tracks.track import Track
 
 SLOTS = (
     ObjectSlot("obstacle_0", ObjectKind.BOX_OBSTACLE),

@@ -9,9 +9,9 @@ import shutil
 import numpy as np
 import pytest
 
-from racer.shared.sim.challenge_config import ChallengeConfig, ObjectPosition
-from racer.shared.sim.reward import load_reward_function
-from racer.shared.sim.track import Track
+from racer.shared.sim.objects.challenge import ChallengeConfig, ObjectPosition
+from racer.shared.sim.reward.function import load_reward_function
+from racer.shared.sim.tracks.track import Track
 
 from .conftest import place_front_at
 

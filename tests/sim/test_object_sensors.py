@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 from racer.shared.deepracer.model_metadata import parse_model_metadata
-from racer.shared.sim import lidar as lidar_sensor
-from racer.shared.sim.car import LIDAR_POS_M
-from racer.shared.sim.challenge_config import ChallengeConfig, ObjectPosition
-from racer.shared.sim.object_bodies import BOX_LENGTH_M, BOX_WIDTH_M
-from racer.shared.sim.object_poses import ObjectKind
+from racer.shared.sim.car.vehicle import LIDAR_POS_M
+from racer.shared.sim.objects.bodies import BOX_LENGTH_M, BOX_WIDTH_M
+from racer.shared.sim.objects.challenge import ChallengeConfig, ObjectPosition
+from racer.shared.sim.objects.poses import ObjectKind
+from racer.shared.sim.sensors import lidar as lidar_sensor
 
 BOX_AHEAD = ChallengeConfig(race_type="OBJECT_AVOIDANCE", object_positions=(ObjectPosition(0.1, 1),))
 """racer_oval: 10 % of the lap is on the first straight; the box stands on the inner (left) lane."""
@@ -137,7 +137,7 @@ def test_the_lidar_measures_a_bot_car_and_its_camera_shows_it(make_env):
 def test_domain_randomization_recolours_each_obstacle_per_episode_but_not_bot_cars(make_env):
     """ENABLE_DOMAIN_RANDOMIZATION: each static obstacle gets one colour per episode, as the SimApp's
     ModelVisualRandomizer does; bot cars driving their lane keep theirs; seeded resets repeat the colours."""
-    from racer.shared.sim.object_bodies import obstacle_materials
+    from racer.shared.sim.objects.bodies import obstacle_materials
 
     two = ChallengeConfig(
         race_type="OBJECT_AVOIDANCE", object_positions=(ObjectPosition(0.1, 1), ObjectPosition(0.5, -1))

@@ -2,7 +2,7 @@
 (`models/gazebo-sample-reinvent2018`, frozen graphs, 12 actions, front camera) drives racer's `2019` generation (the
 simulator it was trained in) greedily.
 
-`racer bench transfer` drives them from 10 spread starts (docs/transfer.md); here three starts each keep the test at a few seconds. The graphs' weights are read
+`python -m benchmarks transfer` drives them from 10 spread starts (docs/transfer.md); here three starts each keep the test at a few seconds. The graphs' weights are read
 from the GraphDef's Const nodes in numpy (no TensorFlow), the network is DeepRacer's shallow one.
 """
 
@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from racer.shared.deepracer.model_metadata import parse_model_metadata
-from racer.shared.sim.car_dynamics import SIMTRACE_FIT_DYNAMICS
+from racer.shared.sim.car.dynamics import SIMTRACE_FIT_DYNAMICS
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
 

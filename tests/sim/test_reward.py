@@ -7,9 +7,9 @@ import math
 
 import pytest
 
-from racer.shared.sim.reward import RewardFunctionError, default_evaluation_reward, load_reward_function
-from racer.shared.sim.reward_params import PARAM_KEYS, RewardObject, make_reward_params
-from racer.shared.sim.track import Track
+from racer.shared.sim.reward.function import RewardFunctionError, default_evaluation_reward, load_reward_function
+from racer.shared.sim.reward.params import PARAM_KEYS, RewardObject, make_reward_params
+from racer.shared.sim.tracks.track import Track
 
 TEMPLATE_RETURNING_ELLIPSIS = "awsdoc_input_example_1.py"
 

@@ -1,5 +1,5 @@
 """`racer reward test`: real reward functions pass under the race type they were written for; broken ones are named
-with file and line (racer.shared.sim.reward_check)."""
+with file and line (racer.reward.check)."""
 
 from __future__ import annotations
 
@@ -8,9 +8,9 @@ import time
 import pytest
 from click.testing import CliRunner
 
-from racer.shared.sim.reward_check import check_reward_file
-from racer.shared.sim.reward_cli import reward_group
-from racer.shared.sim.track import Track
+from racer.reward.check import check_reward_file
+from racer.reward.cli import reward_group
+from racer.shared.sim.tracks.track import Track
 
 OBJECT_REWARD = "dpr401_object_avoidance_head_to_head.py"
 PLACEHOLDER = "awsdoc_input_example_1.py"

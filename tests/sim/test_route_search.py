@@ -9,10 +9,10 @@ import pytest
 from click.testing import CliRunner
 
 from racer.shared.config import route_folders
-from racer.shared.sim.route_search import default_tracks_dir, search_folders
-from racer.shared.sim.track import Track, TrackError
-from racer.shared.sim.track_cli import track_group
+from racer.shared.sim.tracks.route_search import default_tracks_dir, search_folders
+from racer.shared.sim.tracks.track import Track, TrackError
 from racer.shared.worker_settings import WorkerSettings
+from racer.track.cli import track_group
 
 
 @pytest.fixture

@@ -7,11 +7,11 @@ import pytest
 from PIL import Image
 
 from racer.shared.deepracer.model_metadata import parse_model_metadata
-from racer.shared.sim.camera import rgb_to_l, rgb_to_y
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
-from racer.shared.sim.lidar import sector_bits
-from racer.shared.sim.worlds import WORLD_NAMES
+from racer.shared.sim.scene.worlds import WORLD_NAMES
+from racer.shared.sim.sensors.camera import rgb_to_l, rgb_to_y
+from racer.shared.sim.sensors.lidar import sector_bits
 
 SENSOR_SETS = (
     ("FRONT_FACING_CAMERA",),
@@ -64,8 +64,8 @@ def test_observation_shapes(world, sensors):
         image = obs[camera]
         assert image.std() > 5.0  # the road, its markings and the floor are visible
         # Upright: the frame correlates with mujoco.Renderer's picture of the same camera, not with its mirror image.
-        from racer.shared.sim._mujoco import mujoco
-        from racer.shared.sim.camera import rgb_to_y
+        from racer.shared.sim.scene._mujoco import mujoco
+        from racer.shared.sim.sensors.camera import rgb_to_y
 
         camera_name = {"LEFT_CAMERA": "left_camera", "STEREO_CAMERAS": "left_camera"}.get(camera, "front_camera")
         with mujoco.Renderer(env.model, height=120, width=160) as reference:
@@ -119,8 +119,8 @@ def test_sector_bits_one_hot_per_sector():
 
 
 def test_lidar_rays_hit_group_zero_geoms_only():
-    from racer.shared.sim._mujoco import mujoco
-    from racer.shared.sim.lidar import NUM_RAYS, Lidar
+    from racer.shared.sim.scene._mujoco import mujoco
+    from racer.shared.sim.sensors.lidar import NUM_RAYS, Lidar
 
     model = mujoco.MjModel.from_xml_string(
         """<mujoco><worldbody>
@@ -141,7 +141,7 @@ def test_lidar_rays_hit_group_zero_geoms_only():
 
 def test_grayscale_is_exact_for_every_colour():
     """All 16.7M colours: the fast converter equals RL Coach's float64 formula (256 slices of 256×256)."""
-    from racer.shared.sim.camera import GrayConverter
+    from racer.shared.sim.sensors.camera import GrayConverter
 
     converter = GrayConverter((256, 256))
     g, b = np.meshgrid(np.arange(256), np.arange(256), indexing="ij")

@@ -7,9 +7,9 @@ import math
 
 import pytest
 
-from racer.shared.sim import car as car_geometry
-from racer.shared.sim import simapp_car_profiles as simapp
-from racer.shared.sim.car_dynamics import (
+from racer.shared.sim.car import simapp_profiles as simapp
+from racer.shared.sim.car import vehicle as car_geometry
+from racer.shared.sim.car.dynamics import (
     CAR_DYNAMICS,
     CAR_PROFILE_NAMES,
     SIMAPP5_ROS1_DYNAMICS,

@@ -18,7 +18,8 @@ import pytest
 from click.testing import CliRunner
 
 from racer.shared.config import route_cache, tracks_url
-from racer.shared.sim.route_fetch import (
+from racer.shared.sim.tracks.catalog import resolve_track
+from racer.shared.sim.tracks.route_fetch import (
     RouteFetchError,
     RouteSource,
     default_tracks_url,
@@ -26,11 +27,10 @@ from racer.shared.sim.route_fetch import (
     is_cached,
     route_address,
 )
-from racer.shared.sim.route_search import RouteNotFoundError, find_route
-from racer.shared.sim.simapp_routes import shipped_catalogue, shipped_catalogue_path
-from racer.shared.sim.track import Track
-from racer.shared.sim.track_catalog import resolve_track
-from racer.shared.sim.track_cli import track_group
+from racer.shared.sim.tracks.route_search import RouteNotFoundError, find_route
+from racer.shared.sim.tracks.simapp_routes import shipped_catalogue, shipped_catalogue_path
+from racer.shared.sim.tracks.track import Track
+from racer.track.cli import track_group
 from tests.shared_data import REPO_ROOT, SHARED_DATA
 
 SIMAPP_COMMIT = "01f5f015fd852f952b351643898d4beb4f36494b"  # SOURCES.md: simapp-routes/

@@ -7,7 +7,7 @@ import shutil
 import numpy as np
 import pytest
 
-from racer.shared.sim.simapp_world import SimappWorldError, load_simapp_world
+from racer.shared.sim.scene.simapp_world import SimappWorldError, load_simapp_world
 
 
 @pytest.fixture(scope="module")

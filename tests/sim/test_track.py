@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from shapely.geometry import LinearRing, LineString, Point, Polygon
 
-from racer.shared.sim.track import Track, TrackError, compute_progress
+from racer.shared.sim.tracks.track import Track, TrackError, compute_progress
 
 
 def _routes(deepracer_data):

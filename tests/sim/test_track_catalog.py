@@ -14,12 +14,12 @@ import click
 import pytest
 from click.testing import CliRunner
 
-from racer.shared.sim.droa_tracks import CATALOGUE_FILE, TrackDirectionError, parse_catalogue, read_catalogue
-from racer.shared.sim.route_search import default_tracks_dir, search_folders
-from racer.shared.sim.track import Track, available_tracks
-from racer.shared.sim.track_catalog import resolve_track, world_name_for_direction
-from racer.shared.sim.track_cli import track_group
-from racer.shared.sim.track_option import resolved_track_name
+from racer.options.track import resolved_track_name
+from racer.shared.sim.tracks.catalog import resolve_track, world_name_for_direction
+from racer.shared.sim.tracks.droa_tracks import CATALOGUE_FILE, TrackDirectionError, parse_catalogue, read_catalogue
+from racer.shared.sim.tracks.route_search import default_tracks_dir, search_folders
+from racer.shared.sim.tracks.track import Track, available_tracks
+from racer.track.cli import track_group
 from tests.shared_data import SHARED_DATA
 
 # Made-up display names over the shared routes (racer ships no DeepRacer-on-AWS list): one two-direction track,
@@ -177,8 +177,8 @@ def _write(folder: Path, data: object) -> Path:
 
 def _route_paths() -> list[Path]:
     """racer's own routes and every SimApp route, fetched by name into the test session's cache."""
-    from racer.shared.sim.route_fetch import fetch_catalogue_route
-    from racer.shared.sim.simapp_routes import shipped_catalogue
+    from racer.shared.sim.tracks.route_fetch import fetch_catalogue_route
+    from racer.shared.sim.tracks.simapp_routes import shipped_catalogue
 
     return sorted(default_tracks_dir().glob("*.npy")) + [
         fetch_catalogue_route(route.name) for route in shipped_catalogue().routes

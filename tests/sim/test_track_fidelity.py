@@ -7,7 +7,7 @@ import csv
 
 import pytest
 
-from racer.shared.sim.track import Track, compute_progress
+from racer.shared.sim.tracks.track import Track, compute_progress
 
 ROUND_ROBIN_ADVANCE = 0.05
 
@@ -80,7 +80,7 @@ def test_wheel_geometry_reproduces_all_wheels_on_track_and_off_track(deepracer_d
 
     import numpy as np
 
-    from racer.shared.sim import car
+    from racer.shared.sim.car import vehicle as car
 
     track = Track.load(deepracer_data / "routes" / "reinvent_base.npy")
     local = np.array(
@@ -120,7 +120,8 @@ def test_reset_rules_reproduce_real_episode_statuses(deepracer_data):
 
     import numpy as np
 
-    from racer.shared.sim import car, rules
+    from racer.shared.sim.car import vehicle as car
+    from racer.shared.sim.episode import reset_rules as rules
 
     track = Track.load(deepracer_data / "routes" / "reinvent_base.npy")
     local = np.array(

@@ -8,11 +8,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from racer.shared.sim import world_look
-from racer.shared.sim.camera import rgb_to_y
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
-from racer.shared.sim.track_looks import ROLES, TRACK_LOOKS, look_for, track_look, world_look_of
+from racer.shared.sim.scene import world_look
+from racer.shared.sim.scene.track_looks import ROLES, TRACK_LOOKS, look_for, track_look, world_look_of
+from racer.shared.sim.sensors.camera import rgb_to_y
 
 GOLDEN_FRAMES = Path(__file__).parent / "data" / "reinvent_base_frames_before_track_looks.npz"
 """re:Invent 2018 base, front camera at 0, 1/3 and 2/3 of the lap on the centre line, rendered (egl) by the commit
@@ -109,8 +109,8 @@ def test_rendered_plot_works_for_every_track_racer_finds(tmp_path, deepracer_dat
     from click.testing import CliRunner
     from PIL import Image
 
-    from racer.shared.sim.route_search import available_routes, search_folders
-    from racer.shared.sim.track_cli import track_group
+    from racer.shared.sim.tracks.route_search import available_routes, search_folders
+    from racer.track.cli import track_group
 
     monkeypatch.setenv("RACER_ROUTES_PATH", str(deepracer_data / "routes"))
     names = available_routes(search_folders())

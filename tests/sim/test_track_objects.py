@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from racer.shared.sim.challenge_config import ChallengeConfig, ObjectPosition
-from racer.shared.sim.collisions import rectangle_corners
-from racer.shared.sim.object_poses import BOT_CAR_SIZE, BOX_OBSTACLE_SIZE
+from racer.shared.sim.objects.challenge import ChallengeConfig, ObjectPosition
+from racer.shared.sim.objects.collisions import rectangle_corners
+from racer.shared.sim.objects.poses import BOT_CAR_SIZE, BOX_OBSTACLE_SIZE
 
 STRAIGHT = 2  # default metadata: index 2 = steering 0°, 1 m/s
 BOX_AHEAD = ChallengeConfig(race_type="OBJECT_AVOIDANCE", object_positions=(ObjectPosition(0.1, 1),))

@@ -9,17 +9,18 @@ import math
 import numpy as np
 import pytest
 
-from racer.shared.sim import object_bodies, scene
-from racer.shared.sim._mujoco import mujoco
-from racer.shared.sim.camera import CENTER_CAMERA, CameraRenderer
-from racer.shared.sim.car import Car
-from racer.shared.sim.challenge_config import ChallengeConfig
-from racer.shared.sim.moving_projection import MovingProjection
-from racer.shared.sim.object_bodies import OBJECT_GEOM_GROUP, ObjectBodies, ObjectSlot
-from racer.shared.sim.object_poses import ObjectKind, ObjectPose
-from racer.shared.sim.scene import SceneSpec, build_model
-from racer.shared.sim.track import Track
-from racer.shared.sim.worlds import get_world
+from racer.shared.sim.car.vehicle import Car
+from racer.shared.sim.objects import bodies as object_bodies
+from racer.shared.sim.objects.bodies import OBJECT_GEOM_GROUP, ObjectBodies, ObjectSlot
+from racer.shared.sim.objects.challenge import ChallengeConfig
+from racer.shared.sim.objects.moving_projection import MovingProjection
+from racer.shared.sim.objects.poses import ObjectKind, ObjectPose
+from racer.shared.sim.scene import mjcf as scene
+from racer.shared.sim.scene._mujoco import mujoco
+from racer.shared.sim.scene.mjcf import SceneSpec, build_model
+from racer.shared.sim.scene.worlds import get_world
+from racer.shared.sim.sensors.camera import CENTER_CAMERA, CameraRenderer
+from racer.shared.sim.tracks.track import Track
 
 
 def objects_ahead(slots, car_pose, offsets_m, yaw_offset):

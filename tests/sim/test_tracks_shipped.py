@@ -8,9 +8,9 @@ from click.testing import CliRunner
 from shapely.geometry import LinearRing, Polygon
 
 from racer.shared.sim.config import DEFAULT_TRACK
-from racer.shared.sim.track import Track, available_tracks, default_tracks_dir
-from racer.shared.sim.track_cli import track_group
-from racer.shared.sim.track_design import DESIGNS, write_tracks
+from racer.shared.sim.tracks.track import Track, available_tracks, default_tracks_dir
+from racer.track.cli import track_group
+from tools.track_design import DESIGNS, write_tracks
 
 
 def test_at_least_three_original_tracks_in_deepracer_format():

@@ -7,12 +7,12 @@ import math
 import numpy as np
 import pytest
 
-from racer.benches.fidelity.replay import CarReplay, load_segments
-from racer.shared.sim.car import REAR_AXLE_X_M, STEERING_JOINTS, WHEELBASE_M
-from racer.shared.sim.car_dynamics import SIMTRACE_FIT_DYNAMICS
+from benchmarks.fidelity.replay import CarReplay, load_segments
+from racer.shared.sim.car.dynamics import SIMTRACE_FIT_DYNAMICS
+from racer.shared.sim.car.tyres import GRAVITY_MPS2, TyreParams
+from racer.shared.sim.car.vehicle import REAR_AXLE_X_M, STEERING_JOINTS, WHEELBASE_M
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
-from racer.shared.sim.tyres import GRAVITY_MPS2, TyreParams
 
 
 def test_params_must_be_positive_and_the_error_names_the_field():

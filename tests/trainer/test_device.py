@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 import torch
 
-from racer.benches.sac import METADATA as SAC_METADATA
-from racer.benches.sac import synthetic_episodes as sac_episodes
+from benchmarks.sac import METADATA as SAC_METADATA
+from benchmarks.sac import synthetic_episodes as sac_episodes
 from racer.shared.deepracer.hyperparameters import Hyperparameters
 from racer.shared.deepracer.model_metadata import parse_model_metadata
 from racer.shared.policy.checkpoint_tensors import tensors_from_bytes, tensors_to_bytes

@@ -11,12 +11,12 @@ import pytest
 from click.testing import CliRunner
 
 from racer.defaults import RACING_CUSTOM_FILES
+from racer.racing_line.lap_time_bound import CarLimits
+from racer.reward.cli import reward_group
 from racer.shared.deepracer.model_metadata import load_model_metadata
 from racer.shared.run_settings import RunOptions
-from racer.shared.sim import car
-from racer.shared.sim.generations import generation
-from racer.shared.sim.lap_time_bound import CarLimits
-from racer.shared.sim.reward_cli import reward_group
+from racer.shared.sim.car import vehicle as car
+from racer.shared.sim.generations.catalog import generation
 from racer.trainer.preflight import preflight
 
 SPACES = ("discrete", "continuous")

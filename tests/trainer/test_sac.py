@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 import torch
 
-from racer.benches.sac import plain_sac_step, synthetic_episodes
+from benchmarks.sac import plain_sac_step, synthetic_episodes
 from racer.shared.config import LocalStoreSettings
 from racer.shared.deepracer.hyperparameters import Hyperparameters, load_hyperparameters
 from racer.shared.deepracer.model_metadata import load_model_metadata, parse_model_metadata

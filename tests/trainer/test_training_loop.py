@@ -231,7 +231,7 @@ def test_race_settings_travel_from_train_options_and_workers_json_to_each_worker
     OBJECT_POSITIONS as DeepRacer's list of "ndist,lane"; each worker's env gets its ChallengeConfig."""
     from racer.rollout_worker.worker_files import load_worker_files, training_env_config
     from racer.shared.deepracer.training_params import parse_training_params
-    from racer.shared.sim.challenge_config import ChallengeConfig, ObjectPosition
+    from racer.shared.sim.objects.challenge import ChallengeConfig, ObjectPosition
 
     (custom_files / "workers.json").write_text(
         json.dumps(
@@ -279,8 +279,8 @@ def test_the_car_profile_travels_from_train_options_and_workers_json_to_each_wor
     training_params record each worker's car and each worker's env drives it. A bad name is refused by name."""
     from racer.rollout_worker.worker_files import load_worker_files, training_env_config
     from racer.shared.deepracer.training_params import parse_training_params
-    from racer.shared.sim.car_dynamics import GAZEBO_DYNAMICS, SIMTRACE_FIT_DYNAMICS
-    from racer.shared.sim.generations import DEFAULT_GENERATION, generation
+    from racer.shared.sim.car.dynamics import GAZEBO_DYNAMICS, SIMTRACE_FIT_DYNAMICS
+    from racer.shared.sim.generations.catalog import DEFAULT_GENERATION, generation
     from racer.shared.user_errors import RunConfigError
 
     make_trainer(redis_settings, tmp_path / "default", custom_files).setup()
@@ -317,8 +317,8 @@ def test_the_generation_travels_from_train_options_and_workers_json_to_each_work
     by name."""
     from racer.rollout_worker.worker_files import load_worker_files, training_env_config
     from racer.shared.deepracer.training_params import parse_training_params
-    from racer.shared.sim.car_dynamics import GAZEBO_DYNAMICS
-    from racer.shared.sim.generations import DEFAULT_GENERATION, generation
+    from racer.shared.sim.car.dynamics import GAZEBO_DYNAMICS
+    from racer.shared.sim.generations.catalog import DEFAULT_GENERATION, generation
     from racer.shared.user_errors import RunConfigError
 
     make_trainer(redis_settings, tmp_path / "default", custom_files).setup()

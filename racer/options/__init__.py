@@ -1,0 +1,1 @@
+"""Command-line options that several racer commands take, each defined once."""

@@ -1,0 +1,47 @@
+"""`--generation` and `--car-profile`: the click options of every command that builds a car (train, trainer,
+evaluate, the benches), defined once so their help and override rule read the same everywhere."""
+
+from __future__ import annotations
+
+import click
+
+from racer.shared.config import GENERATION_VARIABLE, generation_name
+from racer.shared.sim.car.dynamics import CAR_PROFILE_NAMES
+from racer.shared.sim.generations.catalog import DEFAULT_GENERATION, GENERATION_NAMES
+
+GENERATION_HELP = (
+    "The DeepRacer simulator to stand in for, its look (walls, lights, camera) and car together: 2019 (Gazebo "
+    "classic, the 2018-2019 console), simapp5 (ROS 1 SimApp v5.3.3: console until 2025, DRfC 5) or simapp6 (ROS 2 "
+    f"SimApp v6.0.5: DeepRacer on AWS, DRfC 6). Default: {GENERATION_VARIABLE}, else {DEFAULT_GENERATION}. "
+    "--car-profile replaces its car, --world picks the floor (docs/car-and-camera.md)."
+)
+CAR_PROFILE_HELP = (
+    "A car profile instead of the generation's car (RACER_CAR_PROFILE; a study's choice: the generation's car is "
+    "the one its data and files give). Empty: the generation's car."
+)
+
+
+def default_generation() -> str:
+    """`--generation`'s default: RACER_GENERATION, else racer's default generation."""
+    return generation_name() or DEFAULT_GENERATION
+
+
+def generation_option(default: str | None = None, help_text: str = GENERATION_HELP):
+    """`--generation NAME` (`default`: a fixed default instead of RACER_GENERATION's, for a bench that judges in one
+    generation)."""
+    return click.option(
+        "--generation",
+        type=click.Choice(GENERATION_NAMES),
+        default=default or default_generation,
+        show_default=default or f"{GENERATION_VARIABLE}, else {DEFAULT_GENERATION}",
+        help=help_text,
+    )
+
+
+car_profile_option = click.option(
+    "--car-profile",
+    type=click.Choice(("", *CAR_PROFILE_NAMES)),
+    default="",
+    help=CAR_PROFILE_HELP,
+)
+"""`--car-profile NAME`: "" (the default) keeps the generation's car."""

@@ -1,0 +1,1 @@
+"""The car's fastest line round a track and its speed profile."""

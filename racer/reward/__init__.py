@@ -1,0 +1,1 @@
+"""`racer reward test`: a reward function checked over a whole track."""

@@ -1,0 +1,1 @@
+"""`racer track ...`: list, inspect and plot tracks."""

@@ -1,0 +1,1 @@
+"""The car: geometry and MJCF, tyre forces, its dynamics profiles and their randomisation."""

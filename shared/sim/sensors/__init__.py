@@ -1,0 +1,1 @@
+"""The car's sensors: cameras, LIDAR, the observation they make and its gymnasium spaces."""
