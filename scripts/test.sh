@@ -19,7 +19,7 @@ echo "[test] ruff check, ruff format --check"
 .venv/bin/ruff check .
 .venv/bin/ruff format --check .
 echo "[test] mkdocs build --strict (documentation: broken links fail)"
-NO_MKDOCS_2_WARNING=1 .venv/bin/mkdocs build --strict --site-dir "$(mktemp -d)"
+NO_MKDOCS_2_WARNING=1 .venv/bin/python -m mkdocs build --strict --site-dir "$(mktemp -d)"
 if [ "${RACER_TEST_DOCKER:-1}" != "0" ]; then
   ./scripts/compose-smoke-test.sh
 fi

@@ -9,8 +9,10 @@ install's finder (`__editable__.racer_deepracer-*.pth` there) never loads: `race
 environment, where pip installs it from the wheel alone (`--no-deps --no-index`). The test checks that
 `racer.__file__` lies in the fresh environment.
 
-The wheel is built from a copy of what the Dockerfile copies (pyproject.toml, setup.py, README.md and setup.py's
-PACKAGE_DIRS folders), so no build/ folder left in the checkout by an earlier build can add a file to it.
+The wheel is built from a copy of what the Dockerfile copies (pyproject.toml, setup.py, README.md, redis.conf and
+setup.py's PACKAGE_DIRS folders), so no build/ folder left in the checkout by an earlier build can add a file to it.
+The wheel holds no benchmark (`benchmarks/` stays in the repository) and carries the top-level redis.conf's text;
+the installed `racer bench` says where the benchmarks went.
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ import shutil
 import subprocess
 import sys
 import sysconfig
+import zipfile
 from pathlib import Path
 
 import pytest
@@ -51,7 +54,7 @@ def run(command: list[str], **kwargs) -> subprocess.CompletedProcess:
 def test_the_wheel_installs_in_a_fresh_environment_and_trains_in_an_empty_folder(tmp_path):
     source = tmp_path / "source"
     source.mkdir()
-    for name in ("pyproject.toml", "setup.py", "README.md"):
+    for name in ("pyproject.toml", "setup.py", "README.md", "redis.conf"):
         shutil.copy2(ROOT / name, source / name)
     ignored = shutil.ignore_patterns("__pycache__", "*.pyc", "*.egg-info")
     for folder in package_folders():
@@ -72,6 +75,12 @@ def test_the_wheel_installs_in_a_fresh_environment_and_trains_in_an_empty_folder
         ]
     )
     (wheel,) = wheels.glob("racer_deepracer-*.whl")
+    with zipfile.ZipFile(wheel) as archive:
+        names = archive.namelist()
+        assert archive.read("racer/defaults/redis.conf") == (ROOT / "redis.conf").read_bytes()
+    benchmark_files = [name for name in names if name.startswith(("benchmarks/", "racer/benches/", "research/"))]
+    assert not benchmark_files, f"the wheel carries what measures racer: {benchmark_files[:5]}"
+    assert "racer/shared/sim/env.py" in names and "racer/racing_line/__init__.py" in names
 
     venv = tmp_path / "venv"
     run([sys.executable, "-m", "venv", "--without-pip", str(venv)])
@@ -98,6 +107,10 @@ def test_the_wheel_installs_in_a_fresh_environment_and_trains_in_an_empty_folder
     for path in where:
         assert Path(path).is_relative_to(venv), f"{path} is not in the fresh environment {venv}"
     hyperparameters = json.loads((Path(where[2]) / "hyperparameters.json").read_text())
+    bench = subprocess.run(
+        [str(venv / "bin" / "racer"), "bench", "sim"], cwd=empty, env=env, capture_output=True, text=True, timeout=120
+    )
+    assert bench.returncode == 1 and "python -m benchmarks" in bench.stderr, bench.stdout + bench.stderr
 
     # `racer train` with the installed example files, stopped after one iteration's episodes.
     one_iteration = str(hyperparameters["num_episodes_between_training"])
