@@ -128,7 +128,7 @@ class EvaluationConfig:
     seed: int = 0
     """Seeds the LIDAR noise; the sim clock starts at 0."""
     car_profile: str = ""
-    """RACER_CAR_PROFILE: a car (`car_dynamics.CAR_DYNAMICS`) instead of the generation's; "" = the generation's."""
+    """RACER_CAR_PROFILE: a car (`car.dynamics.CAR_DYNAMICS`) instead of the generation's; "" = the generation's."""
     generation: str = DEFAULT_GENERATION
     """RACER_GENERATION: the DeepRacer simulator the evaluation stands in for (look and car)."""
 

@@ -143,7 +143,7 @@ class WorkerSettings:
     (`generations.GENERATIONS`: 2019, simapp5, simapp6)."""
     car_profile: str = setting("", "RACER_CAR_PROFILE", TEXT_OR_DEFAULT, env="car_dynamics",
                                to_env=lambda name: car_profile(name) if name else None)  # fmt: skip
-    """racer's RACER_CAR_PROFILE: a car (`car_dynamics.CAR_DYNAMICS`) instead of the generation's; "" = the
+    """racer's RACER_CAR_PROFILE: a car (`car.dynamics.CAR_DYNAMICS`) instead of the generation's; "" = the
     generation's car."""
     simapp_dir: str = setting("", "RACER_SIMAPP_DIR", TEXT_OR_DEFAULT, to_env=lambda text: Path(text) if text else None)
     """racer's RACER_SIMAPP_DIR: a SimApp bundle/ folder on the worker's machine whose world meshes and textures

@@ -301,7 +301,7 @@ def replay_files(simtraces: Path, route: Path) -> list[Path]:
 
 
 def run_fidelity(simtraces: Sequence[Path], route: Path, progress: bool = False, car: str = "simtrace-fit") -> dict:
-    """The replay's error table for the car preset `car` (`car_dynamics.CAR_DYNAMICS`)."""
+    """The replay's error table for the car preset `car` (`car.dynamics.CAR_DYNAMICS`)."""
     segments = load_replayable(simtraces)
     replay = CarReplay(route, CAR_DYNAMICS[car])
     try:

@@ -4,7 +4,7 @@ Three files of one run on Spain_track (two training iterations, one evaluation).
 planar twin (research/tyre_fit/twin.py) on two files and replays the third in MuJoCo with the fold's constants, as
 `python -m benchmarks fidelity` replays (logged start, logged commands, 1/15 s per row). What the SimApp v6.0.5 files state is
 kept, not fitted: Coulomb μ 0.5 wheels (peak grip 1 × μ × load) rolling on the 0.036 m wheel mesh
-(`simapp_car_profiles.py`). What they leave to the simulator (the cornering and drive stiffness, the drive's cap, how
+(`car/simapp_profiles.py`). What they leave to the simulator (the cornering and drive stiffness, the drive's cap, how
 fast the hinges follow, the yaw inertia racer's body needs) is fitted.
 """
 
@@ -91,7 +91,7 @@ def fold_constants(
 
 def source_servo_held_out(route: Path, fit_segments: Sequence[Segment], report_segments: Sequence[Segment]) -> dict:
     """The same leave-one-file-out fit with the hinge servo held at the 0.158 s read from the v6.0.5 controllers
-    (gz_ros2_control's 60 Hz position loop, `simapp_car_profiles.ROS2_STEERING_TIME_CONSTANT_S`)."""
+    (gz_ros2_control's 60 Hz position loop, `car.simapp_profiles.ROS2_STEERING_TIME_CONSTANT_S`)."""
     start = CarConstants(START.tyres, ROS2_STEERING_TIME_CONSTANT_S, START.yaw_inertia_kgm2)
     folds = fold_constants(fit_segments, False, start, (*FIXED_FACTS, "steering_time_constant_s"))
     segments, errors = [], []

@@ -3,7 +3,7 @@
 The twin integrates the same equations as the MuJoCo car (tyre forces of `Tyres.apply`, a first-order steering
 servo, the chassis' mass and yaw inertia) for all replay segments at once, so a Nelder-Mead fit of the nine
 constants takes a minute where the MuJoCo replay would take hours. `python -m research.tyre_fit --fit all` prints the
-constants fitted on all files (`car_dynamics.SIMTRACE_FIT_DYNAMICS` comes from it); `--fit leave-one-file-out` fits
+constants fitted on all files (`car.dynamics.SIMTRACE_FIT_DYNAMICS` comes from it); `--fit leave-one-file-out` fits
 on all files but one and replays that one in MuJoCo with the fold's constants, so the reported error is on data the
 fit never saw.
 The twin leaves out what MuJoCo adds (second-order hinge, the wheels' spin-up, the chassis' small roll and pitch):

@@ -104,7 +104,7 @@ class EnvConfig:
     simapp5, simapp6); it sets the look (lights, walls, camera) and, unless `car_dynamics` is given, the car."""
     car_dynamics: CarDynamics | None = None
     """The car's tyres, steering servo and yaw inertia; None (the default) = the generation's car, filled in at
-    construction (a car profile, `car_dynamics.CAR_DYNAMICS`, replaces it: docs/car-and-camera.md)."""
+    construction (a car profile, `car.dynamics.CAR_DYNAMICS`, replaces it: docs/car-and-camera.md)."""
     look: GenerationLook | None = None
     """What the camera sees; None (the default) = the generation's look, filled in at construction (a perturbed look
     for the robustness bench)."""

@@ -5,7 +5,7 @@ MuJoCo-free, so the config can name them without importing the simulator.
   with real policies (`python -m benchmarks transfer`; docs/car-and-camera.md).
 * `SIMTRACE_FIT_DYNAMICS`: the constants fitted open loop on the real simtraces (research/tyre_fit/).
 * `SIMAPP5_ROS1_DYNAMICS`, `SIMAPP6_ROS2_DYNAMICS`: DeepRacer's car per SimApp generation, built from the SimApp's
-  URDF, contact and controller files (`simapp_car_profiles`).
+  URDF, contact and controller files (`car.simapp_profiles`).
 * `CONSOLE2020_FIT_DYNAMICS`: fitted on the DeepRacer console's 2020 log (research/console2020_fit/): the `2019`
   generation's car by its data, but the sample checkpoints lap none of 10 with it, so `2019` keeps `gazebo`.
 * `SIMAPP6_FIT_DYNAMICS`: the `simapp6` generation's car, its source facts kept and the rest fitted on DeepRacer on
@@ -57,7 +57,7 @@ SIMAPP5_ROS1_DYNAMICS = CarDynamics(
 """The ROS 1 / Gazebo classic SimApp's car (deepracer-simapp v5.3.3; the console until 2025, DRfC 5), from its
 source: the URDF's masses and yaw inertia (0.0803 kg·m²), the hinge PD (p 1, d 0.5) as a 0.50 s servo, rigid μ 0.5
 wheels (peak grip 1) driven to the 0.036 m mesh's rolling speed (1.029 × commanded). Only the cornering and drive
-stiffness are racer's (the stiffest its tyre update resolves; `simapp_car_profiles`)."""
+stiffness are racer's (the stiffest its tyre update resolves; `car.simapp_profiles`)."""
 SIMAPP6_ROS2_DYNAMICS = CarDynamics(
     simapp.source_tyres(), simapp.ROS2_STEERING_TIME_CONSTANT_S, simapp.ROS2_YAW_INERTIA_KGM2
 )

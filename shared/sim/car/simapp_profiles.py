@@ -1,5 +1,5 @@
 """DeepRacer's car per SimApp generation, built from the SimApp's own files (the `simapp5-ros1` and `simapp6-ros2`
-car profiles of `car_dynamics.CAR_DYNAMICS`). MuJoCo-free: only numbers and the formulas that turn them into
+car profiles of `car.dynamics.CAR_DYNAMICS`). MuJoCo-free: only numbers and the formulas that turn them into
 racer's `CarDynamics` constants.
 
 Sources (aws-deepracer-community/deepracer-simapp; facts read, no code copied; docs/deepracer-sources.md):

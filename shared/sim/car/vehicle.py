@@ -6,7 +6,7 @@ All four wheels get the same angular velocity `speed / 0.035` and both steering 
 (no Ackermann), as DeepRacer's `send_action`. Commands are clipped to 0.1–4 m/s and ±30° before being sent;
 the zero command of the `prepare` step is sent unclipped. The wheels touch the floor without friction; the
 horizontal tyre forces come from `tyres.py`, so the car is stepped with `Car.step`, not `mujoco.mj_step` alone.
-The dynamics constants (tyres, steering servo, yaw inertia) come as one `car_dynamics.CarDynamics`.
+The dynamics constants (tyres, steering servo, yaw inertia) come as one `car.dynamics.CarDynamics`.
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """A DeepRacer generation: the look and the car of one era of DeepRacer's simulator, chosen together by one name
 (`RACER_GENERATION`, `--generation`). MuJoCo-free, so the config can name them.
 
-A user thinks in generations: "the simulator my model trained in". The car profiles (`car_dynamics.CAR_DYNAMICS`)
+A user thinks in generations: "the simulator my model trained in". The car profiles (`car.dynamics.CAR_DYNAMICS`)
 stay available for studies; `--car-profile` beside a generation replaces its car and `--world` picks the floor
 within its look. Every constant of a generation's car and look is a fact from that generation's files or a fit to
 its data (docs/car-and-camera.md says which):
@@ -29,7 +29,7 @@ class Generation:
     name: str
     title: str
     car_profile: str
-    """The car (`car_dynamics.CAR_DYNAMICS`) unless `--car-profile` replaces it."""
+    """The car (`car.dynamics.CAR_DYNAMICS`) unless `--car-profile` replaces it."""
     look: GenerationLook
     sources: str
     """Where the look's and the car's constants come from (repository, path, tag), in a line."""

@@ -5,11 +5,11 @@ which the cameras draw and the LIDAR's rays see, and collide with nothing (conty
 track-object logic's rectangle test, as in the SimApp. Looks, from the SimApp's models (`bundle/models/*/model.sdf`):
 
 * box_obstacle: a plain brown box (#7b614f) 0.4 m along its heading, 0.3 m across, 0.25 m high. Its collision
-  rectangle (`object_poses.BOX_OBSTACLE_SIZE`, 0.5 x 0.4 m) is the box plus the SimApp's 0.1 m buffer.
+  rectangle (`objects.poses.BOX_OBSTACLE_SIZE`, 0.5 x 0.4 m) is the box plus the SimApp's 0.1 m buffer.
 * bot_car: DeepRacer's car (the `car_body_link_v3` shell, dark grey 0x28, and four wheels), drawn as boxes and
   12-sided wheels that follow the shell mesh's outline: a low body over the full length and width, a narrower upper
   body and the sensor tower at the front, which is what a LIDAR 0.16 m above the floor hits. They are two meshes
-  (body, wheels; `object_meshes.py`): two draws per car instead of seven.
+  (body, wheels; `objects/meshes.py`): two draws per car instead of seven.
 """
 
 from __future__ import annotations
@@ -151,7 +151,7 @@ def _park_position(index: int) -> tuple[float, float, float]:
 
 def render_quality_attributes(slots: Sequence[ObjectSlot]) -> str:
     """Extra `<quality>` attributes for a scene with objects: box faces drawn as one quad instead of 4 x 4 (the
-    same pixels at 160x120, fewer triangles for llvmpipe). The bot cars are meshes (`object_meshes.py`), which this
+    same pixels at 160x120, fewer triangles for llvmpipe). The bot cars are meshes (`objects/meshes.py`), which this
     does not touch. Empty without slots, so a time trial's model is unchanged."""
     return ' numquads="1"' if slots else ""
 

@@ -48,7 +48,7 @@ class SceneSpec:
     simapp: SimappWorld | None = field(default=None, compare=False)
     """DeepRacer's own world meshes and lights to draw instead of racer's look (`EnvConfig.simapp_dir`)."""
     object_slots: tuple[ObjectSlot, ...] = ()
-    """One mocap body per obstacle or bot car (`object_bodies.py`), moved by `ObjectBodies.place` every step."""
+    """One mocap body per obstacle or bot car (`objects/bodies.py`), moved by `ObjectBodies.place` every step."""
     car_dynamics: car_geometry.CarDynamics = car_geometry.GAZEBO_DYNAMICS
     """The car's yaw inertia and steering servo (compiled in); its tyres are `Car`'s (`EnvConfig.car_dynamics`)."""
     look: GenerationLook = LOOK_SIMAPP6

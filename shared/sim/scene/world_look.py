@@ -11,7 +11,7 @@ Facts taken from the SimApp's world files (`bundle/worlds/reinvent_*.world`, `mo
   gradient 0.3 m past the road; a `<sky/>`.
 * light, every world (SimApp v6.0.5): scene ambient 0.5; a directional sun along (-0.5, 0.1, -0.9) of colour
   (1, 1, 0.8); a point light 15 m above the origin, diffuse 0.225, attenuation (0.4, 0.01, 0). Materials are Phong
-  with specular 0.5. Other generations light the same worlds differently (`Lighting`, `generation_looks.py`).
+  with specular 0.5. Other generations light the same worlds differently (`Lighting`, `generations/looks.py`).
 
 Colours are the ones the camera shows in DeepRacer's Gazebo frames (`frames/gazebo_reinvent_episode`: road
 (36, 52, 68), edge lines (229, 230, 225), centre line (236, 143, 2), field (100, 143, 110), walls (37, 63, 76)

@@ -3,7 +3,7 @@
 
 64 rays over ±2.61799 rad (300°) in the car's horizontal plane, 0.15–12 m, Gaussian noise σ = 0.01 m, 10 Hz
 (the env runs at 15 Hz, so a scan is reused until the next one is due). Rays see geoms of group 0 (racer's walls,
-which DeepRacer's LIDAR sees too) and group 2 (obstacles and bot cars, `object_bodies.py`); the floor, the road and
+which DeepRacer's LIDAR sees too) and group 2 (obstacles and bot cars, `objects/bodies.py`); the floor, the road and
 its markings (group 1) and the car itself (group 3, and its body is excluded) are not seen. With DeepRacer's own
 world meshes (`simapp_dir`) everything of the world is in group 1, so only the objects are seen.
 """
