@@ -19,6 +19,7 @@ before MuJoCo loads, and launchers that copy their environment into a child proc
 | `RACER_TRACKS_URL` | where SimApp route files are fetched from on first use (http(s)://, file://, a folder, a SimApp checkout) | the SimApp's repository at the catalogue's commit |
 | `RACER_CACHE_HOME` | racer's per-user cache; fetched route files are kept in its `routes/` | `$XDG_CACHE_HOME/racer`, else `~/.cache/racer` |
 | `RACER_GENERATION` | the DeepRacer simulator to stand in for, its look and car together (`--generation`: 2019, simapp5, simapp6) | `simapp6` |
+| `DR_DIR` | the DeepRacer-for-Cloud folder (its `bin/activate.sh` exports it): `--drfc` given a run.env reads its system.env, worker-N.env and custom_files/ there, as DRfC does | unset: run.env's folder |
 """
 
 from __future__ import annotations
@@ -187,3 +188,14 @@ def generation_name(environ: Mapping[str, str] | None = None) -> str | None:
     means racer's default generation (`racer.shared.sim.generations.catalog.DEFAULT_GENERATION`)."""
     env = os.environ if environ is None else environ
     return env.get(GENERATION_VARIABLE, "").strip() or None
+
+
+DRFC_DIR_VARIABLE = "DR_DIR"
+
+
+def drfc_dir(environ: Mapping[str, str] | None = None) -> Path | None:
+    """The DeepRacer-for-Cloud folder DR_DIR names (DRfC's activate.sh exports it as its own folder); None when
+    unset, and then `--drfc` given a run.env reads the files beside it."""
+    env = os.environ if environ is None else environ
+    raw = env.get(DRFC_DIR_VARIABLE, "").strip()
+    return Path(raw).expanduser().absolute() if raw else None

@@ -51,9 +51,10 @@ class DrfcEvaluation:
     notes: tuple[str, ...]
 
 
-def read_evaluation(path: Path) -> DrfcEvaluation:
-    """Read the experiment (run.env and system.env) and map its evaluation; raises DrfcFileError (file, line)."""
-    experiment = read_experiment(path, training=False)
+def read_evaluation(path: Path, drfc_dir: Path | None = None) -> DrfcEvaluation:
+    """Read the experiment (run.env and system.env) and map its evaluation; raises DrfcFileError (file, line).
+    `drfc_dir`: $DR_DIR (experiment.read_experiment)."""
+    experiment = read_experiment(path, training=False, drfc_dir=drfc_dir)
     env = experiment.env
     notes = [*experiment.notes, *variable_notes(experiment, "evaluate")]
     generation, generation_notes = simapp_generation(env.get("DR_SIMAPP_VERSION"))

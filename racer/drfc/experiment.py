@@ -5,6 +5,10 @@ Where DRfC looks (deepracer-for-cloud 2eb1a1f1 `bin/activate.sh`, `scripts/train
 - system.env lives in the DRfC folder (DR_DIR) and is read first; run.env second, so it overrides system.env and
   may refer to its variables. racer reads system.env beside run.env, or two levels up when the folder is
   `experiments/<name>/`; an experiment without one is read without it.
+- A run.env given by path (`activate.sh path/run.env`, lines 155-157) is only DR_CONFIG: system.env, worker-N.env and
+  custom_files/ still come from DR_DIR, the folder activate.sh lives in (lines 132-134, 70-71; prepare-config.py
+  lines 143-146; bin/scripts_wrapper.sh lines 77-85, dr-upload-custom-files). racer takes them from $DR_DIR when the
+  environment sets it (racer.shared.config.drfc_dir), else from run.env's folder, and says which.
 - DR_EXPERIMENT_NAME in system.env sends DRfC to `experiments/<name>/run.env` (and its worker-N.env and
   custom_files/); `--drfc` given the DRfC folder does the same, and `--drfc experiments/<name>` is `activate.sh -e
   <name>`, which wins over system.env's name.
@@ -51,6 +55,8 @@ class DrfcExperiment:
     worker_files: tuple[EnvFile, ...]
     """The worker-N.env files read, worker-2.env first."""
     notes: tuple[str, ...]
+    warnings: tuple[str, ...] = ()
+    """Lines DRfC reads otherwise than they look, each with file:line (racer reads them as they look)."""
 
     @property
     def num_workers(self) -> int:
@@ -67,33 +73,41 @@ class DrfcExperiment:
         return (*system, self.run_env, *(f.path for f in self.worker_files))
 
 
-def read_experiment(path: Path, num_workers: int | None = None, training: bool = True) -> DrfcExperiment:
+def read_experiment(
+    path: Path, num_workers: int | None = None, training: bool = True, drfc_dir: Path | None = None
+) -> DrfcExperiment:
     """Read the experiment at `path` (a folder or its run.env); `num_workers`: the command line's --workers, which
     stands for DR_WORKERS (so it also decides which worker-N.env files are read). `training` False: as DRfC's
-    evaluation, which reads no worker-N.env."""
+    evaluation, which reads no worker-N.env. `drfc_dir`: $DR_DIR, where a run.env given by path has its system.env,
+    worker-N.env and custom_files/ (None: unset, so they are run.env's neighbours)."""
     path = Path(path).absolute()
+    notes: list[str] = []
+    run_env: Path | None
     if path.is_file():
-        folder, run_env = path.parent, path
+        folder, run_env = _companions_folder(path, drfc_dir), path
     elif path.is_dir():
         folder, run_env = path, None
     else:
         raise DrfcFileError(f"{path}: no such file or folder (--drfc takes a DRfC folder or its run.env)")
-    system_env = _system_env(folder)
-    drfc_dir = system_env.parent if system_env is not None else folder
-    values: dict[str, str] = {"DR_DIR": str(drfc_dir)}  # activate.sh exports DR_DIR before it reads the files
+    by_dr_dir = run_env is not None and drfc_dir is not None
+    system_env = _file_or_none(folder / SYSTEM_ENV) if by_dr_dir else _system_env(folder)
+    drfc_folder = system_env.parent if system_env is not None else folder
+    values: dict[str, str] = {"DR_DIR": str(drfc_folder)}  # activate.sh exports DR_DIR before it reads the files
     env: dict[str, Assignment] = {}
-    notes: list[str] = []
+    warnings: list[str] = []
     if system_env is not None:
-        _absorb(read_shell_env(system_env, values), env, values, notes)
-        folder, run_env = _experiment_folder(folder, run_env, drfc_dir, system_env, env, values)
+        _absorb(read_shell_env(system_env, values), env, values, notes, warnings)
+        folder, run_env = _experiment_folder(folder, run_env, drfc_folder, system_env, env, values)
+    if run_env is not None:
+        notes.append(_companions_note(path, folder, system_env, drfc_dir))
     run_env = run_env or folder / RUN_ENV
     if not run_env.is_file():
         raise DrfcFileError(
             f"{folder}: no {RUN_ENV}: give --drfc the folder that holds a DRfC experiment's run.env, or the file"
         )
-    _absorb(read_shell_env(run_env, values), env, values, notes)
+    _absorb(read_shell_env(run_env, values), env, values, notes, warnings)
     if not training:
-        return DrfcExperiment(folder, run_env, system_env, env, (dict(env),), False, (), tuple(notes))
+        return DrfcExperiment(folder, run_env, system_env, env, (dict(env),), False, (), tuple(notes), tuple(warnings))
     count = num_workers if num_workers is not None else _num_workers(env)
     multi_config = _multi_config(env, count, notes)
     worker_envs: list[Env] = [dict(env)]
@@ -108,6 +122,7 @@ def read_experiment(path: Path, num_workers: int | None = None, training: bool =
                 )
             worker_file = read_worker_env(worker_path)
             worker_files.append(worker_file)
+            warnings += worker_file.warnings
             worker_envs.append({**worker_envs[-1], **{a.name: a for a in worker_file.assignments}})
     else:
         worker_envs *= count
@@ -121,7 +136,38 @@ def read_experiment(path: Path, num_workers: int | None = None, training: bool =
         multi_config=multi_config,
         worker_files=tuple(worker_files),
         notes=tuple(notes),
+        warnings=tuple(warnings),
     )
+
+
+def _companions_folder(run_env: Path, drfc_dir: Path | None) -> Path:
+    """Where a run.env given by path has its companions: $DR_DIR when set (as in DRfC), else its own folder."""
+    if drfc_dir is None:
+        return run_env.parent
+    if not drfc_dir.is_dir():
+        raise DrfcFileError(
+            f"DR_DIR={drfc_dir}: not a folder; DRfC reads a run.env's system.env, worker-N.env and custom_files/ "
+            f"from DR_DIR (bin/activate.sh sets it to its own folder), and so does racer: set DR_DIR to the DRfC "
+            f"folder, or unset it to read them beside {run_env}"
+        )
+    return drfc_dir.absolute()
+
+
+def _companions_note(run_env: Path, folder: Path, system_env: Path | None, drfc_dir: Path | None) -> str:
+    system = f"system.env {system_env}" if system_env is not None else "no system.env"
+    if drfc_dir is not None:
+        return (
+            f"{run_env} given by path: worker-N.env and custom_files/ from {folder}, {system}: from $DR_DIR "
+            f"({drfc_dir}), as in DRfC, where activate.sh sets DR_DIR to its own folder and reads them there"
+        )
+    return (
+        f"{run_env} given by path: worker-N.env and custom_files/ from {folder}, {system}: beside it, since DR_DIR "
+        f"is not set (DRfC reads them from its own folder, which its activate.sh exports as DR_DIR)"
+    )
+
+
+def _file_or_none(path: Path) -> Path | None:
+    return path if path.is_file() else None
 
 
 def _system_env(folder: Path) -> Path | None:
@@ -131,11 +177,14 @@ def _system_env(folder: Path) -> Path | None:
     return None
 
 
-def _absorb(file: EnvFile, env: dict[str, Assignment], values: dict[str, str], notes: list[str]) -> None:
+def _absorb(
+    file: EnvFile, env: dict[str, Assignment], values: dict[str, str], notes: list[str], warnings: list[str]
+) -> None:
     for assignment in file.assignments:
         env[assignment.name] = assignment
         values[assignment.name] = assignment.value
     notes += file.notes
+    warnings += file.warnings
 
 
 def _experiment_folder(

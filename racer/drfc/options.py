@@ -22,7 +22,7 @@ from racer.drfc.shell_env import DrfcFileError
 from racer.drfc.training import DrfcTraining, read_training, run_worker_params, write_custom_files
 from racer.options.challenge import challenge_params_from_options
 from racer.options.track import resolved_track_name
-from racer.shared.config import generation_name
+from racer.shared.config import drfc_dir, generation_name
 from racer.shared.sim.objects.challenge import CHALLENGE_KEYS
 
 __all__ = ["drfc_evaluate_option", "drfc_train_option"]
@@ -72,6 +72,11 @@ def _say(command: str, lines: list[str]) -> None:
         click.echo(f"racer {command} --drfc: {line}", err=True)
 
 
+def _reports(warnings: tuple[str, ...], notes: tuple[str, ...]) -> list[str]:
+    """Warnings first: lines DRfC reads otherwise than they look; then the notes."""
+    return [*(f"warning: {warning}" for warning in warnings), *(f"note: {note}" for note in notes)]
+
+
 def drfc_train_option(command: Callable[..., Any]) -> Callable[..., Any]:
     """Add `--drfc PATH` to `racer train` (its `track`, `direction`, `custom_files`, ... parameters)."""
 
@@ -82,7 +87,7 @@ def drfc_train_option(command: Callable[..., Any]) -> Callable[..., Any]:
             return command(*args, **kwargs)
         given = _given()
         try:
-            training = read_training(drfc, kwargs["num_workers"] if "num_workers" in given else None)
+            training = read_training(drfc, kwargs["num_workers"] if "num_workers" in given else None, drfc_dir())
         except DrfcFileError as error:
             raise click.ClickException(str(error)) from error
         overrides, challenge_replaced = _train_overrides(training, kwargs, given)
@@ -104,7 +109,7 @@ def drfc_train_option(command: Callable[..., Any]) -> Callable[..., Any]:
             _take(kwargs, given, name, value, variable, env)
         kwargs.update(track=workers[0]["WORLD_NAME"], direction=None, race_type=None, race_param=())
         summary = _summary(training, workers, kwargs, source)
-        _say("train", [*summary, *(f"note: {note}" for note in training.notes)])
+        _say("train", [*summary, *_reports(training.experiment.warnings, training.notes)])
         with tempfile.TemporaryDirectory(prefix="racer-drfc-") as scratch:  # lives as long as the run
             kwargs["custom_files"] = write_custom_files(training, Path(scratch), workers, source)
             return command(*args, **kwargs)
@@ -182,7 +187,7 @@ def drfc_evaluate_option(command: Callable[..., Any]) -> Callable[..., Any]:
             return command(*args, **kwargs)
         given = _given()
         try:
-            evaluation = read_evaluation(drfc)
+            evaluation = read_evaluation(drfc, drfc_dir())
         except DrfcFileError as error:
             raise click.ClickException(str(error)) from error
         env = evaluation.experiment.env
@@ -211,7 +216,7 @@ def drfc_evaluate_option(command: Callable[..., Any]) -> Callable[..., Any]:
             f"{evaluation.race_type or 'HEAD_TO_MODEL against ' + ', '.join(kwargs['opponents'])}, generation "
             f"{kwargs.get('generation')}"
         )
-        _say("evaluate", [summary, *(f"note: {note}" for note in evaluation.notes)])
+        _say("evaluate", [summary, *_reports(evaluation.experiment.warnings, evaluation.notes)])
         return command(*args, **kwargs)
 
     return wrapper

@@ -1,14 +1,17 @@
 """run.env and system.env, read as DeepRacer-for-Cloud's `bin/activate.sh` reads them.
 
-activate.sh (deepracer-for-cloud 2eb1a1f1, `dr-update-env`) does not `source` these files. It drops the lines that
-start with `#`, splits the rest at white space (`for l in $LINES`: quotes do not hold words together there), cuts
-each word at `=` (`cut -f1 -d=` is the name, `cut -f2 -d=` the value: only the text up to a second `=`) and runs
-`eval "export NAME=VALUE"`. So a value is shell text: quotes are removed and `$VAR` / `${VAR}` expand to what an
-earlier line set (system.env is read before run.env). This module reads that subset: `NAME=VALUE` with or without
-`export`, comments (whole lines, or after the value), single and double quotes, backslash escapes, `$VAR`, `${VAR}`,
-`${VAR:-word}` and `${VAR-word}`. A line that would not do in DRfC what it says (white space inside a value, an
-unquoted `;`, a command substitution, an unterminated quote) is refused with its file and line; `<NAME>` values are
-bin/init.sh's placeholders, on which the shell fails, so they leave the variable unset, as in DRfC.
+activate.sh (deepracer-for-cloud 2eb1a1f1, `dr-update-env`, lines 70-76 and 100-106) does not `source` these files.
+It drops the lines that start with `#` (column 0 only), splits the rest at white space (`for l in $LINES`: quotes do
+not hold words together there), cuts each word at `=` (`cut -f1 -d=` is the name, `cut -f2 -d=` the value: only the
+text up to a second `=`) and runs `eval "export NAME=VALUE"`. So a value is shell text: quotes are removed and `$VAR`
+/ `${VAR}` expand to what an earlier word set (system.env is read before run.env). And every word is run, comments
+included: `X=False # set X=True to reverse` sets X to True, and so does an indented `# X=True`; racer applies those
+as DRfC does, with a warning. This module reads that subset: `NAME=VALUE` with or without `export`, comments,
+single and double quotes, backslash escapes, `$VAR`, `${VAR}`, `${VAR:-word}` and `${VAR-word}`. A line that would
+not do in DRfC what it says (white space inside a value, an unquoted `;`, a command substitution, an unterminated
+quote, a DRfC variable's bare name in a comment) is refused with its file and line; `<NAME>` values are
+bin/init.sh's placeholders, on which the shell fails, so they leave the variable unset, as in DRfC. Windows line
+ends (CRLF) are read as line ends, with a warning: activate.sh keeps the carriage return in the value.
 """
 
 from __future__ import annotations
@@ -18,9 +21,12 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
+from racer.drfc.variables import variable
 from racer.shared.user_errors import RunConfigError
 
-__all__ = ["Assignment", "DrfcFileError", "EnvFile", "VARIABLE_NAME", "read_shell_env", "read_text"]
+__all__ = [
+    "Assignment", "DrfcFileError", "EnvFile", "VARIABLE_NAME", "crlf_lines", "line_list", "read_shell_env", "read_text",
+]  # fmt: skip
 
 VARIABLE_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 PLACEHOLDER = re.compile(r"<[A-Za-z0-9_]+>")
@@ -53,62 +59,125 @@ class EnvFile:
     assignments: tuple[Assignment, ...]
     notes: tuple[str, ...]
     """What the reader did that the user may not expect (placeholders, references to unset variables)."""
+    warnings: tuple[str, ...] = ()
+    """Lines DRfC reads otherwise than they look (CRLF ends, assignments inside comments), each with file:line."""
 
 
 def read_text(path: Path) -> str:
+    """The file's text with its line ends as they are (a CR before LF kept, for crlf_lines)."""
     try:
-        return path.read_text(encoding="utf-8")
+        return path.read_bytes().decode("utf-8")
     except UnicodeDecodeError as error:
         raise DrfcFileError(f"{path}: not UTF-8 text ({error.reason} at byte {error.start})") from None
     except OSError as error:
         raise DrfcFileError(f"{path}: cannot read it: {error.strerror}") from None
 
 
+def crlf_lines(text: str) -> list[int]:
+    """The numbers of the lines (as str.splitlines numbers them) that end in a Windows line end, CRLF."""
+    return [number for number, line in enumerate(text.splitlines(keepends=True), start=1) if line.endswith("\r\n")]
+
+
+def line_list(numbers: list[int]) -> str:
+    """`line 3` or `lines 1-4, 9`."""
+    runs: list[list[int]] = []
+    for number in numbers:
+        if runs and number == runs[-1][1] + 1:
+            runs[-1][1] = number
+        else:
+            runs.append([number, number])
+    text = ", ".join(str(a) if a == b else f"{a}-{b}" for a, b in runs)
+    return f"line {text}" if len(numbers) == 1 else f"lines {text}"
+
+
 def read_shell_env(path: Path, defined: Mapping[str, str]) -> EnvFile:
     """The assignments of `path`; `defined`: what earlier files set (and DR_DIR), for `$VAR` references."""
+    text = read_text(path)
     values = dict(defined)
     assignments: list[Assignment] = []
     notes: list[str] = []
+    warnings: list[str] = []
     placeholders: list[str] = []
-    for number, text in enumerate(read_text(path).splitlines(), start=1):
-        assigned = _read_line(text, f"{path}:{number}", values, notes)
-        if isinstance(assigned, str):
-            placeholders.append(f"{assigned} (line {number})")
-        elif assigned is not None:
-            name, value = assigned
-            values[name] = value
-            assignments.append(Assignment(name, value, path, number))
+    for number, line in enumerate(text.splitlines(), start=1):
+        where = f"{path}:{number}"
+        for word, in_comment in _words(line, where):
+            assigned = _assignment(word, in_comment, where, values, notes)
+            if isinstance(assigned, str):
+                placeholders.append(f"{assigned} (line {number})")
+            elif assigned is not None:
+                name, value = assigned
+                values[name] = value
+                assignments.append(Assignment(name, value, path, number))
+                if in_comment:
+                    warnings.append(
+                        f"{where}: {word!r} inside a comment: DRfC's activate.sh runs every NAME=VALUE word of a line "
+                        f"as an assignment, comments included (it drops only lines that start with '#'), so it sets "
+                        f"{name}={value!r}, and so does racer; start the line with '#' or reword the comment if "
+                        f"that is not what you meant"
+                    )
     if placeholders:
         notes.append(
             f"{path}: bin/init.sh's placeholders, never filled in, on which the shell fails, so these stay unset "
             f"(as in DRfC): {', '.join(placeholders)}"
         )
-    return EnvFile(path, tuple(assignments), tuple(notes))
+    crlf = crlf_lines(text)
+    if crlf:
+        warnings.append(
+            f"{path}:{crlf[0]}: Windows line ends (CRLF) on {line_list(crlf)}: DRfC's activate.sh keeps the '\\r' "
+            f"as part of the value at the end of a line ('True\\r' is not True there), which breaks the run in "
+            f"DRfC; racer reads the values without it; convert the file (dos2unix) for DRfC"
+        )
+    return EnvFile(path, tuple(assignments), tuple(notes), tuple(warnings))
 
 
-def _read_line(text: str, where: str, values: dict[str, str], notes: list[str]) -> tuple[str, str] | str | None:
-    """(name, value); the name alone for a placeholder value (left unset); None for a comment or blank line."""
-    words = text.split()
-    if not words or words[0].startswith("#"):
-        return None  # activate.sh's grep drops column-0 comments; an indented one only sets junk names there
-    if words[0] == "export" and len(words) > 1:
+def _words(line: str, where: str) -> list[tuple[str, bool]]:
+    """The words of `line` that activate.sh runs as `export NAME=VALUE`, each with whether it is inside a comment.
+    Words that start with `#` are dropped: `eval "export #..."` is a comment there."""
+    if line.startswith("#"):
+        return []  # activate.sh's `grep -v '^#'` drops the line
+    words = line.split()
+    if len(words) > 1 and words[0] == "export":
         words = words[1:]  # activate.sh sets a variable named `export` and then this one: the same in effect
-    word, rest = words[0], words[1:]
-    if rest and not rest[0].startswith("#"):
+    comment = next((index for index, word in enumerate(words) if word.startswith("#")), len(words))
+    if comment > 1:
         raise DrfcFileError(
-            f"{where}: {text.strip()!r}: white space inside the line: DRfC's activate.sh splits each line at white "
+            f"{where}: {line.strip()!r}: white space inside the line: DRfC's activate.sh splits each line at white "
             f"space (quotes do not hold words together there), so this line does not set what it says; write the "
             f"value without spaces"
         )
+    return [(word, False) for word in words[:comment]] + [
+        (word, True) for word in words[comment + 1 :] if not word.startswith("#")
+    ]
+
+
+def _assignment(
+    word: str, in_comment: bool, where: str, values: dict[str, str], notes: list[str]
+) -> tuple[str, str] | str | None:
+    """(name, value); the name alone for a placeholder value (left unset); None for a word of a comment that sets
+    nothing racer reads (the shell sets a variable of that name to itself, or fails)."""
     name, equals, after = word.partition("=")
+    valid_name = VARIABLE_NAME.fullmatch(name) is not None
+    if in_comment and not (equals and valid_name):
+        if not equals and valid_name and variable(name) is not None:
+            raise DrfcFileError(
+                f"{where}: {name} inside a comment: DRfC's activate.sh runs every word of a line as an assignment, "
+                f"comments included, and a word without '=' sets the variable of that name to its own name "
+                f"({name}={name}); start the line with '#' or reword the comment"
+            )
+        return None
     if not equals:
         raise DrfcFileError(f"{where}: {word!r} is not NAME=VALUE")
-    if not VARIABLE_NAME.fullmatch(name):
+    if not valid_name:
         raise DrfcFileError(f"{where}: {name!r} is not a shell variable name")
     value_text, second_equals, _dropped = after.partition("=")
     if PLACEHOLDER.fullmatch(value_text):
         return name
-    value = _shell_word(value_text, where, values, notes)
+    try:
+        value = _shell_word(value_text, where, values, notes)
+    except DrfcFileError as error:
+        if not in_comment:
+            raise
+        raise DrfcFileError(f"{error} (in {word!r}, inside a comment: DRfC's activate.sh runs it too)") from None
     if second_equals:
         notes.append(
             f"{where}: {name}: DRfC's activate.sh keeps only the text before the second '=' (cut -f2 -d=), so "

@@ -64,9 +64,10 @@ class DrfcTraining:
         return len(self.worker_params)
 
 
-def read_training(path: Path, num_workers: int | None = None) -> DrfcTraining:
-    """Read the whole experiment and map it; raises DrfcFileError (file and line) before anything starts."""
-    experiment = read_experiment(path, num_workers)
+def read_training(path: Path, num_workers: int | None = None, drfc_dir: Path | None = None) -> DrfcTraining:
+    """Read the whole experiment and map it; raises DrfcFileError (file and line) before anything starts.
+    `drfc_dir`: $DR_DIR (experiment.read_experiment)."""
+    experiment = read_experiment(path, num_workers, drfc_dir=drfc_dir)
     env = experiment.env
     worker_params = tuple(
         racer_params(params, worker_id) for worker_id, params in enumerate(experiment_worker_params(experiment))
