@@ -43,7 +43,7 @@ BOUND_START_DELAY_S = 20.0
 def machine_bound(processes: int, duration_s: float, settings: ServiceSettings) -> dict:
     """Raw env steps/s of `processes` processes running at once (environment as the rollout workers get it)."""
     start_at = time.time() + BOUND_START_DELAY_S
-    code = f"from benchmarks.sim import raw_rate_child; raw_rate_child({start_at!r}, {duration_s!r}, seed={{seed}})"
+    code = f"from benchmarks.sim_measure import raw_rate_child; raw_rate_child({start_at!r}, {duration_s!r}, seed={{seed}})"
     children = [
         subprocess.Popen(
             [sys.executable, "-c", code.format(seed=index)],
@@ -94,7 +94,7 @@ def policy_forward_cpu_ms(envs_per_worker: int, frames: int = 400) -> float:
 def per_step_costs(envs_per_worker: int) -> dict:
     """CPU ms per step of the policy's forward pass and of the env code beyond the raw loop (the env step and the raw
     loop measured in alternating blocks in this process, so their difference holds when the machine is busy)."""
-    from benchmarks.sim import run_benchmark
+    from benchmarks.sim_measure import run_benchmark
 
     sim = run_benchmark(steps=1800)
     return {

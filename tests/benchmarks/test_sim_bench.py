@@ -18,6 +18,9 @@ def test_bench_prints_one_json_line():
     assert {"env_steps_per_s", "raw_bound_steps_per_s", "ratio"} <= set(numbers)
     assert numbers["env_steps_per_s"] > 0 and numbers["raw_bound_steps_per_s"] > 0
     assert abs(numbers["ratio"] - numbers["env_steps_per_s"] / numbers["raw_bound_steps_per_s"]) < 0.01
+    # The renderer it drew with is named; the suite's MUJOCO_GL overrides the (default) auto choice.
+    assert numbers["mujoco_gl"] == "egl" and numbers["gl_renderer"], numbers
+    assert ("cpu_renderer" in numbers) != ("llvmpipe" in numbers["gl_renderer"]), numbers
 
 
 def test_bench_with_obstacles_and_bot_cars_reports_each_beside_the_time_trial():
