@@ -67,10 +67,10 @@ def tolerances(needs: LineNeeds) -> tuple[float, float]:
 
 def discrete_space(needs: LineNeeds, dynamics: CarDynamics) -> DiscreteSpace:
     """The fewest clusters that hold every step within one tolerance, as actions (see the module docstring)."""
-    commands, accels, steering = step_samples(needs)
+    commands, accels, _ = step_samples(needs)
     speed_tol, accel_tol = tolerances(needs)
     scaled = np.column_stack((commands / speed_tol, np.abs(accels) / accel_tol))
-    recover = _recovery_actions(commands, steering)
+    recover = _recovery_actions(needs.commands_mps, needs.steering_deg)
     best: tuple[tuple[Action, ...], int, float] | None = None
     for count in range(1, len(scaled) + 1):
         centres, worst = _clusters(scaled, count)
@@ -88,9 +88,8 @@ def discrete_space(needs: LineNeeds, dynamics: CarDynamics) -> DiscreteSpace:
 
 def continuous_space(needs: LineNeeds) -> dict:
     """Bounds from the line's slowest command to the top speed, and its largest steering both ways."""
-    commands, _, steering = step_samples(needs)
-    low = max(math.floor(commands.min() / SPEED_STEP_MPS) * SPEED_STEP_MPS, MIN_CONTINUOUS_SPEED_MPS)
-    lock = min(float(math.ceil(np.abs(steering).max())), MAX_STEERING_ANGLE_DEG)
+    low = max(math.floor(needs.commands_mps.min() / SPEED_STEP_MPS) * SPEED_STEP_MPS, MIN_CONTINUOUS_SPEED_MPS)
+    lock = min(float(math.ceil(np.abs(needs.steering_deg).max())), MAX_STEERING_ANGLE_DEG)
     return {"steering_angle": {"low": -lock, "high": lock}, "speed": {"low": round(low, 1), "high": MAX_SPEED_MPS}}
 
 
@@ -117,7 +116,8 @@ def _cluster_actions(centres: np.ndarray, needs: LineNeeds, dynamics: CarDynamic
 
 
 def _recovery_actions(commands: np.ndarray, steering: np.ndarray) -> list[Action]:
-    """Straight at the top speed; the line's largest steering, both ways, at the speed it is needed at."""
+    """Straight at the top speed; the line's largest steering (of all its stations), both ways, at the speed it is
+    needed at."""
     widest = int(np.argmax(np.abs(steering)))
     angle = abs(float(steering[widest]))
     return [_action(0.0, MAX_SPEED_MPS), _action(angle, commands[widest]), _action(-angle, commands[widest])]

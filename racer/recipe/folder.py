@@ -87,6 +87,13 @@ def make_recipe(
         line = racing_line(route, limits, **stages)
     except LapTimeBoundError as error:
         raise RecipeError(f"no recipe for track {route.name}: {error}") from error
+    return recipe_from_line(route, car, line, action_space, route_name)
+
+
+def recipe_from_line(
+    route: Track, car: Car, line: RacingLine, action_space: str = "discrete", route_name: str | None = None
+) -> Recipe:
+    """The recipe of `line`, the racing line of `car` on `route` (`make_recipe` computes it)."""
     _check_converged(route, line)
     needs = line_needs(line, car.dynamics)
     metadata = json.loads((RACING_CUSTOM_FILES[action_space] / "model_metadata.json").read_text())
