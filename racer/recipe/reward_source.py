@@ -83,7 +83,7 @@ def waypoint_table(route: Track, needs: LineNeeds) -> np.ndarray:
     those within MATCH_WINDOW of a lap of it, as x, y and commanded speed."""
     waypoints = np.asarray(route.waypoint_tuples, dtype=float)
     stations = needs.points_m
-    along = _shares(stations, closed=True)
+    along = _shares(stations)
     steps = np.linalg.norm(np.diff(waypoints, axis=0), axis=1)
     waypoint_share = np.concatenate(([0.0], np.cumsum(steps))) / max(float(steps.sum()), 1e-9)
     rows = np.empty((len(waypoints), 3))
@@ -112,8 +112,8 @@ def reward_source(route: Track, needs: LineNeeds, car_description: str) -> str:
     )
 
 
-def _shares(points: np.ndarray, closed: bool) -> np.ndarray:
-    """Each point's distance from the first along the polyline, as a share of its whole length."""
-    steps = np.linalg.norm(np.diff(np.vstack((points, points[:1])) if closed else points, axis=0), axis=1)
+def _shares(points: np.ndarray) -> np.ndarray:
+    """Each point's distance from the first along the closed polyline, as a share of its whole length."""
+    steps = np.linalg.norm(np.diff(np.vstack((points, points[:1])), axis=0), axis=1)
     distance = np.concatenate(([0.0], np.cumsum(steps)[:-1]))
     return distance / steps.sum()
