@@ -3,11 +3,12 @@ consecutive laps as DeepRacer's continuous evaluation drives them, and print one
 3-lap average without a reset (when each was first reached), the curve of bests against minutes, the car's own
 lap-time bound on the same track and the policy's ratio to it, and where the wall time went.
 
-The run is `racer train`'s processes (racer.local.run) with the recipe (racer/defaults/racing, or `--custom-files`)
-and a workers.json of the bench's: MIN_EVAL_TRIALS 3, RACER_EVAL_CONTINUOUS (racer.rollout_worker.checkpoint_evaluation:
+The run is `racer train`'s processes (racer.local.run) with `racer recipe`'s folder for the judged track and car,
+made in the run's folder (racer.recipe; or `--custom-files`, racer/defaults/racing/discrete for the fixed racing
+recipe), and the bench's evaluation keys over its workers.json: MIN_EVAL_TRIALS 3, RACER_EVAL_CONTINUOUS (racer.rollout_worker.checkpoint_evaluation:
 worker 0 drives the laps from the start line, the first reset ending the run) and a step cap. The car and the look are
 the generation's (`--generation`); the bench never changes either. The bound (racer.racing_line.lap_time_bound) is worker
-0's car in worker 0's world, the one the evaluations drive.
+0's car in worker 0's world, the one the evaluations drive: with the default recipe, the recipe's own line.
 """
 
 from __future__ import annotations
@@ -30,16 +31,17 @@ from benchmarks.race_pace_picture import draw_race_pace, drive_lap_again, keep_c
 from benchmarks.time_shares import time_shares
 from benchmarks.time_to_lap import hyperparameter_overrides
 from benchmarks.workdir import bench_workdir, cpu_description, read_iteration_records
-from racer.defaults import RACING_CUSTOM_FILES
 from racer.local.run import LocalRunPlan, run_local_training
 from racer.options.generation import generation_option
 from racer.options.track import TRACK_HELP, direction_option
-from racer.racing_line.lap_time_bound import CarLimits, LapTimeBoundError, RacingLine, racing_line
+from racer.racing_line import CarLimits, LapTimeBoundError, RacingLine, racing_line
+from racer.recipe.folder import Car, Recipe, RecipeError, make_recipe, write_recipe
 from racer.rollout_worker.batched_rollout import DEFAULT_WORKERS
 from racer.shared.config import LocalStoreSettings, RedisSettings, ServiceSettings
 from racer.shared.policy.manifest import CheckpointError
 from racer.shared.run_settings import RunOptions, load_worker_settings
 from racer.shared.sim.config import STEPS_PER_SECOND
+from racer.shared.sim.generations.catalog import generation as generation_named
 from racer.shared.sim.tracks.track import Track, TrackError
 from racer.shared.store import open_store
 from racer.shared.user_errors import user_error_types
@@ -55,6 +57,7 @@ SLOWEST_RACE_PACE_MPS = 1.0
 """The evaluation run's step cap is its 3 laps at this average speed: slower is no race pace, and the cap only stops a
 barely trained policy that circles on the road from holding worker 0 for minutes."""
 MODEL_PREFIX = "race-pace"
+ACTION_SPACES = ("discrete", "continuous")
 KEPT_STORE = "kept"
 """The folder (beside the run's store) where the checkpoint of the lap to draw is copied before retention deletes it."""
 
@@ -71,18 +74,18 @@ KEPT_STORE = "kept"
 )
 @click.option(
     "--action-space",
-    type=click.Choice(tuple(RACING_CUSTOM_FILES)),
+    type=click.Choice(ACTION_SPACES),
     default="discrete",
     show_default=True,
-    help="Which of the racing recipe's two (racer/defaults/racing; docs/racing.md). Discrete: with clipped PPO on "
-    "two cores racer's continuous models have not lapped in 20 minutes (docs/benchmarks.md, time to lap).",
+    help="`racer recipe`'s action space (docs/racing.md). Discrete: with clipped PPO on two cores racer's "
+    "continuous models have not lapped in 20 minutes (docs/benchmarks.md, time to lap).",
 )
 @click.option(
     "--custom-files",
     type=click.Path(exists=True, file_okay=False, path_type=Path),
     default=None,
-    help="Your own custom files instead of the recipe (--action-space is then theirs); the bench sets the "
-    "evaluation keys of their workers.json.",
+    help="Custom files instead of `racer recipe`'s (racer/defaults/racing/discrete: the fixed racing recipe; "
+    "--action-space is then theirs); the bench sets the evaluation keys of their workers.json.",
 )
 @click.option("--workers", "num_workers", type=click.IntRange(1, 32), default=DEFAULT_WORKERS, show_default=True)
 @click.option(
@@ -126,9 +129,10 @@ def race_pace_command(
     except DeviceError as error:
         raise click.UsageError(str(error)) from error
     overrides = hyperparameter_overrides(hyperparameter_pairs)
-    source = custom_files or RACING_CUSTOM_FILES[action_space]
     run = RunOptions(num_workers=num_workers, track=str(track), generation=generation)
     with bench_workdir("racer-race-pace-") as workdir:
+        recipe = None if custom_files else _recipe(str(track), generation, run.worlds[0], action_space, workdir)
+        source = custom_files or workdir / "recipe"
         custom = _bench_custom_files(source, workdir / "custom_files", overrides)
         try:
             evaluator = load_worker_settings(custom, run)[0]  # worker 0 evaluates: its car, world and track
@@ -138,14 +142,16 @@ def race_pace_command(
         route = route.reversed() if evaluator.reverse_dir else route
         _write_evaluation_keys(custom, route.length_m)
         click.echo(f"race-pace: the lap-time bound of the {generation} car on {route.name} ...", err=True)
-        bound = _bound(route, CarLimits.of_car(evaluator.car_dynamics, world=evaluator.world))
+        limits = CarLimits.of_car(evaluator.car_dynamics, world=evaluator.world)
+        same_line = recipe is not None and recipe.line.limits == limits and recipe.line.track == route.name
+        bound = recipe.line if same_line and not evaluator.reverse_dir else _bound(route, limits)
         click.echo(f"race-pace: bound {json.dumps(bound.summary())}", err=True)
         result: dict = {
             "track": route.name,
             "generation": generation,
             "car_profile": bound.limits.car_profile,
             "world": evaluator.world,
-            "recipe": str(source) if custom_files else f"racer/defaults/racing/{action_space}",
+            "recipe": str(custom_files) if custom_files else f"racer recipe {track} --action-space {action_space}",
             "minutes": minutes,
             "workers": num_workers,
             "seed": seed,
@@ -230,6 +236,18 @@ def _train(plan: LocalRunPlan, minutes: float, keep_to_draw: bool) -> _Trained:
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu_s = sum(getattr(after, field) - getattr(before, field) for field in ("ru_utime", "ru_stime"))
     return _Trained(evaluations, late, cpu_s, time.monotonic() - started)
+
+
+def _recipe(track: str, generation: str, world: str, action_space: str, workdir: Path) -> Recipe:
+    """`racer recipe`'s folder for the judged track and the generation's car, written to workdir/recipe."""
+    car = Car(dynamics=generation_named(generation).car, generation=generation, car_profile="", world=world)
+    try:
+        recipe = make_recipe(Track.load(track), car, action_space, route_name=track)
+    except (RecipeError, TrackError) as error:
+        raise click.ClickException(str(error)) from error
+    write_recipe(recipe, workdir / "recipe")
+    click.echo(f"race-pace: racer recipe {track}: {json.dumps(recipe.summary()['action_space'])}", err=True)
+    return recipe
 
 
 def _bench_custom_files(source: Path, folder: Path, overrides: dict) -> Path:

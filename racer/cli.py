@@ -31,6 +31,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "bench": ("racer.bench_moved:bench_command", "Where the benchmarks went: python -m benchmarks, in a checkout."),
     "track": ("racer.track.cli:track_group", "List, inspect and plot tracks."),
     "reward": ("racer.reward.cli:reward_group", "Test a reward function over a whole track."),
+    "recipe": (
+        "racer.recipe.cli:recipe_command",
+        "Write custom files for a fast lap of one track, made from the car's racing line.",
+    ),
     "view": (
         "racer.viewer.cli:view_command",
         "Watch a run in the browser: camera streams, curves, evaluations, best lap.",

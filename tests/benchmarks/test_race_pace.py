@@ -144,6 +144,7 @@ def test_bound_only_prints_the_bound_of_worker_0s_car_and_world():
     assert result.exit_code == 0, result.output
     line = json.loads(result.stdout.strip().splitlines()[-1])
     assert line["car_profile"] == "gazebo" and line["world"] == "base"  # the 2019 generation's car
+    assert line["recipe"] == "racer recipe racer_oval --action-space discrete"  # racer recipe's folder by default
     bound = line["bound"]
     assert bound["flying_lap_s"] < bound["centre_line_lap_s"]
     assert bound["three_lap_average_s"] > bound["flying_lap_s"]  # the first lap starts from rest
