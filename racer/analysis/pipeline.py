@@ -130,7 +130,9 @@ def draw_pictures(analysis: Analysis, out_dir: Path, *, sections: int, top_laps:
         picture, _ = plots.action_usage(training_steps, waypoint, track, sections, out_dir / "action_usage.png")
         analysis.pictures["action_usage"] = picture
     evaluation = analysis.episodes[analysis.episodes["phase"] == EVALUATION]
-    if len(evaluation):
+    if len(evaluation):  # the laps' times as the report's tables give them (evaluation_times), in the same order
+        laps = analysis.evaluation_laps
+        evaluation = evaluation.assign(lap_time_s=laps["lap_time_s"].to_numpy(), time_s=laps["time_s"].to_numpy())
         shown = evaluation.sort_values(["run", "start_tstamp_s"]).head(6)
         analysis.pictures["evaluation_laps"] = plots.laps_by_speed(
             analysis.steps,
