@@ -16,6 +16,8 @@ import pytest
 from racer.analysis.line_comparison import corner_curvature_per_m
 from racer.analysis.pipeline import analyze
 from racer.analysis.run_line import LineBook
+from racer.compare.page import write_compare_page
+from racer.compare.runs import load_runs
 from racer.evaluation_worker.config import DeepRacerRules, EvaluationConfig, VideoOptions
 from racer.evaluation_worker.runner import EvaluationSession
 from racer.racing_line import racing_line
@@ -48,10 +50,15 @@ def evaluation(tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
-def analysed(evaluation, tmp_path_factory):
+def book() -> LineBook:
+    """racer.racing_line at one coarse control spacing: the same optimiser, seconds instead of a minute."""
+    return LineBook(functools.partial(racing_line, spacing_m=0.2, control_spacings_m=(0.8,)))
+
+
+@pytest.fixture(scope="module")
+def analysed(evaluation, book, tmp_path_factory):
     folder, _ = evaluation
     out = tmp_path_factory.mktemp("line-report")
-    book = LineBook(functools.partial(racing_line, spacing_m=0.2, control_spacings_m=(0.8,)))
     return analyze(str(folder), out, sections=6, show_progress=False, lines=book), out
 
 
@@ -135,12 +142,27 @@ def test_the_picture_is_in_the_report(analysed):
     assert "The best evaluation lap over the racing line" in html and "Time lost per corner" in html
 
 
-def test_a_simtrace_without_its_settings_gets_a_note_not_a_line(evaluation, tmp_path):
+def test_a_simtrace_without_its_settings_gets_a_note_not_a_line(evaluation, book, tmp_path):
     folder, run = evaluation
     lone = folder / run / "evaluation-simtrace/0-iteration.csv"
-    book = LineBook(functools.partial(racing_line, spacing_m=0.2, control_spacings_m=(0.8,)))
     analysis = analyze(str(lone), tmp_path, track="racer_oval", pictures=False, show_progress=False, lines=book)
     assert analysis.line_comparison is not None and not analysis.line_comparison.laps
     assert any("no evaluation_params.yaml" in note for note in analysis.notes)
     assert any("simtrace's span" in note for note in analysis.notes)
     assert not (tmp_path / "laps_against_line.csv").exists()
+
+
+def test_racer_compare_gives_the_best_lap_its_ratio(evaluation, analysed, book, tmp_path):
+    """`racer compare`'s best lap (the live viewer's, racer.viewer.laps) against the same line: its car from the evaluation's params."""
+    folder, run = evaluation
+    analysis, _ = analysed
+    compared = load_runs([str(folder), str(folder)], lines=book)
+    bound = compared[0].bound
+    line = analysis.line_comparison.laps[0].stations.line
+    assert compared[0].best_lap["run"] == run
+    # The viewer's best lap is timed as the report times it: the EvaluationMetrics' lap, not the simtrace's span.
+    assert compared[0].best_lap["lap_time_s"] == pytest.approx(analysis.evaluation_laps["lap_time_s"].min(), abs=1e-3)
+    assert bound["line_lap_s"] == pytest.approx(line.lap_time_s, abs=1e-3)
+    assert bound["ratio"] == pytest.approx(compared[0].best_lap["lap_time_s"] / line.lap_time_s, abs=1e-3)
+    page = write_compare_page(compared, tmp_path / "compare.html").read_text()
+    assert "ratio to the lap-time bound" in page and f"{bound['ratio']:.3f}" in page
