@@ -8,8 +8,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from racer.analysis.run_line import LineBook
-from racer.compare.bound import best_lap_bound
 from racer.compare.settings import RunSettings, read_run_settings
+from racer.viewer.lap_bound import best_lap_bound
 from racer.viewer.run_reader import RunLocation, RunReader, resolve_run
 
 

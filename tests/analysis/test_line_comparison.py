@@ -23,6 +23,7 @@ from racer.evaluation_worker.runner import EvaluationSession
 from racer.racing_line import racing_line
 from racer.shared.sim.config import STEPS_PER_SECOND
 from racer.shared.store import LocalStore
+from racer.viewer.run_reader import RunLocation, RunReader
 from tests.evaluation.scripted import CONTINUOUS_METADATA, ScriptedPolicy
 
 MODEL = "scripted-model"
@@ -166,3 +167,15 @@ def test_racer_compare_gives_the_best_lap_its_ratio(evaluation, analysed, book, 
     assert bound["ratio"] == pytest.approx(compared[0].best_lap["lap_time_s"] / line.lap_time_s, abs=1e-3)
     page = write_compare_page(compared, tmp_path / "compare.html").read_text()
     assert "ratio to the lap-time bound" in page and f"{bound['ratio']:.3f}" in page
+
+
+def test_the_viewer_gives_its_best_lap_the_ratio_without_waiting(evaluation, book):
+    """The first poll answers at once (the line is computed in a thread); a later one has the ratio."""
+    folder, run = evaluation
+    reader = RunReader(RunLocation(LocalStore(folder.parent), folder.name), lines=book)
+    first = reader.progress()
+    assert first["best_lap"]["run"] == run and first["best_lap"]["complete"]
+    reader._bounding.join(timeout=120)
+    bound = reader.progress()["best_lap_bound"]
+    assert bound["ratio"] == pytest.approx(first["best_lap"]["lap_time_s"] / bound["line_lap_s"], abs=1e-3)
+    assert "racer_oval" in bound["line"]

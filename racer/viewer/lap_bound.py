@@ -1,13 +1,18 @@
 """A run's best lap against the lap-time bound: the racing line of the car that drove it (its worker's
-training_params, or its evaluation's evaluation_params) on its track, from a LineBook shared by all compared runs."""
+training_params, or its evaluation's evaluation_params) on its track, from a LineBook (the viewer's own, or one shared by
+all the runs `racer compare` compares)."""
 
 from __future__ import annotations
+
+from typing import TYPE_CHECKING
 
 from racer.analysis.run_line import LineBook, ratio_to_bound, run_car
 from racer.shared.deepracer.training_params import TrainingParamsError, parse_training_params
 from racer.shared.sim.tracks.track import Track, TrackError
 from racer.shared.store import ObjectNotFoundError
-from racer.viewer.run_reader import RunReader
+
+if TYPE_CHECKING:
+    from racer.viewer.run_reader import RunReader
 
 
 def _params_of_lap(reader: RunReader, best: dict) -> tuple[str, dict] | str:
