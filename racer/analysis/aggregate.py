@@ -139,7 +139,11 @@ def evaluation_laps(episode_table: pd.DataFrame) -> pd.DataFrame:
 
 def evaluations(episode_table: pd.DataFrame) -> pd.DataFrame:
     """One row per evaluation run: laps finished, best and mean lap, total time and resets."""
-    laps = evaluation_laps(episode_table)
+    return evaluations_of_laps(evaluation_laps(episode_table))
+
+
+def evaluations_of_laps(laps: pd.DataFrame) -> pd.DataFrame:
+    """`evaluations` of a table of evaluation laps (racer.analysis.evaluation_times gives them DeepRacer's times)."""
     table = laps.groupby("run").agg(
         laps=("lap", "size"),
         laps_complete=("lap_complete", "sum"),

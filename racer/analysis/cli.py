@@ -9,9 +9,11 @@ import click
 import pandas as pd
 
 from racer.analysis import aggregate
+from racer.analysis.line_analysis import line_tables
 from racer.analysis.pipeline import analyze
 from racer.analysis.report import format_table
 from racer.analysis.results import Analysis
+from racer.analysis.run_line import LineBook
 from racer.analysis.sources import TRAINING, SourceError
 from racer.analysis.track_sections import TrackError
 from racer.shared.deepracer.simtrace import SimtraceError
@@ -115,8 +117,28 @@ def print_summary(analysis: Analysis) -> None:
     _echo_table(
         "Evaluation laps",
         analysis.evaluation_laps,
-        ["run", "lap", "lap_time_s", "progress_pct", "status", "resets", "off_track", "crashed", "penalty_s"],
+        [
+            "run",
+            "lap",
+            "lap_time_s",
+            "simtrace_time_s",
+            "time_from",
+            "progress_pct",
+            "status",
+            "resets",
+            "off_track",
+            "crashed",
+            "penalty_s",
+        ],
     )
+    tables = line_tables(analysis.line_comparison)
+    if tables:
+        _echo_table(
+            "Evaluation laps against the racing line",
+            tables["laps_against_line"],
+            ["run", "lap", "lap_time_s", "line_lap_s", "ratio_to_bound", "loss_s", "line"],
+        )
+        _echo_table("Time lost per track section (s)", tables["section_losses"], list(tables["section_losses"].columns))
 
 
 @click.command("analyze")
@@ -168,6 +190,12 @@ def print_summary(analysis: Analysis) -> None:
     help="How many of the fastest laps to draw.",
 )
 @click.option("--no-pictures", is_flag=True, help="Tables and CSVs only (faster).")
+@click.option(
+    "--no-line",
+    is_flag=True,
+    help="Leave out the evaluation laps against the racing line (computing a line takes tens of seconds on a big "
+    "track).",
+)
 def analyze_command(
     source: str,
     track: str | None,
@@ -178,6 +206,7 @@ def analyze_command(
     sections: int,
     top_laps: int,
     no_pictures: bool,
+    no_line: bool,
 ) -> None:
     """Analyse DeepRacer/racer simtrace logs. SOURCE is a model folder, a .tar.gz export, s3://bucket/prefix,
     a model prefix in RACER_STORE, one simtrace .csv, or a simulation .log with SIM_TRACE_LOG lines.
@@ -197,6 +226,7 @@ def analyze_command(
             sections=sections,
             top_laps=top_laps,
             pictures=not no_pictures,
+            lines=None if no_line else LineBook(),
         )
     except (SourceError, SimtraceError, TrackError, StoreError, RewardFunctionError) as error:
         raise click.ClickException(str(error)) from error

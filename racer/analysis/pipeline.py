@@ -11,11 +11,14 @@ from pathlib import Path
 
 import pandas as pd
 
-from racer.analysis import action_distributions, aggregate, plots, training_metrics, whatif
+from racer.analysis import action_distributions, aggregate, evaluation_times, plots, training_metrics, whatif
+from racer.analysis.line_analysis import compare_with_line, line_tables
+from racer.analysis.line_picture import best_lap_over_line
 from racer.analysis.loading import load_steps
 from racer.analysis.obstacle_layout import obstacle_layout
 from racer.analysis.report_contents import build_report
 from racer.analysis.results import Analysis, for_pictures, on_track
+from racer.analysis.run_line import LineBook
 from racer.analysis.run_track import resolve_track
 from racer.analysis.sources import EVALUATION, TRAINING, SimtraceFiles, open_source
 from racer.analysis.track_sections import TrackError, forward_waypoint, reversed_episodes
@@ -56,6 +59,7 @@ def build_tables(
             )
     layout = obstacle_layout(files.params_yaml, track)
     notes.extend(layout.notes)
+    laps = evaluation_times.timed_laps(files, aggregate.evaluation_laps(episodes), notes)
     return Analysis(
         files=files,
         layout=layout,
@@ -64,8 +68,8 @@ def build_tables(
         iterations=aggregate.iterations(episodes),
         iterations_by_worker=aggregate.iterations(episodes, per_worker=True),
         workers=aggregate.workers(episodes),
-        evaluation_laps=aggregate.evaluation_laps(episodes),
-        evaluations=aggregate.evaluations(episodes),
+        evaluation_laps=laps,
+        evaluations=evaluation_times.evaluations(laps),
         track=track,
         notes=notes,
         reversed_episodes=reversed_by_episode,
@@ -126,7 +130,9 @@ def draw_pictures(analysis: Analysis, out_dir: Path, *, sections: int, top_laps:
         picture, _ = plots.action_usage(training_steps, waypoint, track, sections, out_dir / "action_usage.png")
         analysis.pictures["action_usage"] = picture
     evaluation = analysis.episodes[analysis.episodes["phase"] == EVALUATION]
-    if len(evaluation):
+    if len(evaluation):  # the laps' times as the report's tables give them (evaluation_times), in the same order
+        laps = analysis.evaluation_laps
+        evaluation = evaluation.assign(lap_time_s=laps["lap_time_s"].to_numpy(), time_s=laps["time_s"].to_numpy())
         shown = evaluation.sort_values(["run", "start_tstamp_s"]).head(6)
         analysis.pictures["evaluation_laps"] = plots.laps_by_speed(
             analysis.steps,
@@ -154,6 +160,10 @@ def write_tables(analysis: Analysis, out_dir: Path) -> None:
             path = out_dir / f"{name}.csv"
             table.to_csv(path, index=False)
             analysis.tables_written[name] = path
+    for name, table in line_tables(analysis.line_comparison).items():
+        path = out_dir / f"{name}.csv"
+        table.to_csv(path, index=False)
+        analysis.tables_written[name] = path
 
 
 def compare_reward(
@@ -194,8 +204,12 @@ def analyze(
     top_laps: int = 4,
     pictures: bool = True,
     show_progress: bool = True,
+    lines: LineBook | None = None,
 ) -> Analysis:
-    """Everything `racer analyze` writes: CSV tables, PNGs, the optional reward what-if and report.html."""
+    """Everything `racer analyze` writes: CSV tables, PNGs, the optional reward what-if and report.html.
+
+    `lines`: where the evaluation laps' racing lines come from (one computation per route, car and world); None:
+    no line comparison."""
     files = open_source(source)
     analysis = build_tables(
         files, track, tracks_dir, track_required=reward_function is not None, show_progress=show_progress
@@ -208,9 +222,17 @@ def analyze(
             f"{last}; the tables use all of them."
         )
     out_dir.mkdir(parents=True, exist_ok=True)
+    if lines is not None and len(analysis.evaluation_laps):
+        if show_progress:
+            print("the evaluation laps against the racing line (computing a line takes a while)", file=sys.stderr)
+        analysis.line_comparison = compare_with_line(analysis, lines, sections)
+        analysis.notes.extend(analysis.line_comparison.notes)
     write_tables(analysis, out_dir)
     if pictures:
         draw_pictures(analysis, out_dir, sections=sections, top_laps=top_laps)
+        best = analysis.line_comparison.best() if analysis.line_comparison is not None else None
+        if best is not None:
+            analysis.pictures["best_lap_over_line"] = best_lap_over_line(best, out_dir / "best_lap_over_line.png")
     if reward_function is not None:
         compare_reward(analysis, reward_function, out_dir, picture=pictures, show_progress=show_progress)
     build_report(analysis, out_dir)

@@ -8,6 +8,7 @@ from pathlib import Path
 import pandas as pd
 
 from racer.analysis import aggregate
+from racer.analysis.line_analysis import line_tables
 from racer.analysis.report import Report, write_html
 from racer.analysis.results import Analysis
 from racer.analysis.sources import TRAINING
@@ -44,6 +45,12 @@ _PICTURE_TEXT = {
         "Continuous actions",
         "Commanded steering and speed of the training steps: histograms "
         "for early, middle and late iterations, and steering against speed.",
+    ),
+    "best_lap_over_line": (
+        "The best evaluation lap over the racing line",
+        "Left: the lap's path coloured by the time it lost to the line per metre of line (red: slower, blue: "
+        "faster), the line dashed, each section's loss boxed. Right: the loss per section and per corner. Below: the "
+        "lap's speed along the line (the simtrace's distance per step) and the line's.",
     ),
     "reward_comparison": (
         "Reward what-if",
@@ -94,8 +101,18 @@ def build_report(analysis: Analysis, out_dir: Path) -> Path:
         ("picture", "action_usage"),
         ("picture", "action_distributions"),
         ("table", "Evaluations", analysis.evaluations, "One row per evaluation run."),
-        ("table", "Evaluation laps", analysis.evaluation_laps, "Per lap: time, progress, resets and penalty time."),
+        (
+            "table",
+            "Evaluation laps",
+            analysis.evaluation_laps,
+            "Per lap: time, progress, resets and penalty time. lap_time_s and time_s are DeepRacer's, from the reset "
+            "(time_from EvaluationMetrics: the run's metrics file, as racer evaluate and the console show them); "
+            "simtrace_time_s is the simtrace's span from its prepare row, one step shorter on a lap from a standing "
+            "start (time_from simtrace: no metrics file, the span is all there is).",
+        ),
         ("picture", "evaluation_laps"),
+        *_line_sections(analysis),
+        ("picture", "best_lap_over_line"),
         ("table", "Reward what-if by iteration", comparison, "Logged reward and the candidate's, per iteration."),
         ("picture", "reward_comparison"),
         (
@@ -129,3 +146,43 @@ def _crash_table(analysis: Analysis) -> pd.DataFrame:
         )
         table = table.merge(counter.reset_index(), on=["run", "iteration"], how="left")
     return table
+
+
+def _line_sections(analysis: Analysis) -> list[tuple]:
+    """The laps-against-the-line tables, each with what it is."""
+    tables = line_tables(analysis.line_comparison)
+    if not tables:
+        return []
+    thresholds = "; ".join(
+        f"{run}: {kappa:.3f} /m, radius {1 / kappa:.2f} m"
+        for run, kappa in sorted(analysis.line_comparison.corner_threshold_per_m.items())
+    )
+    return [
+        (
+            "table",
+            "Laps against the line",
+            tables["laps_against_line"],
+            "Each complete evaluation lap against the car's racing line on the same track (racer.racing_line: the "
+            "fastest line found for the run's car in its world). line_lap_s is the line's flying lap, ratio_to_bound "
+            "the lap over it; line_three_lap_average_s the line's best 3 laps from a standing start. The lap time is "
+            "the table above's (time_from says whose).",
+        ),
+        (
+            "table",
+            "Time lost per track section",
+            tables["section_losses"],
+            "The report's track sections (equal lengths of centre line from waypoint 0) mapped onto the line: the "
+            "line's time there and each lap's loss (its time there minus the line's; the lap's rows projected onto "
+            "the line by distance). A lap's section losses add up to its lap time minus the line's flying lap; the "
+            "first section carries the standing start.",
+        ),
+        (
+            "table",
+            "Time lost per corner",
+            tables["corner_losses"],
+            "Corners are the stretches where the line's curvature exceeds a_lat / (v_top - a_drive × 1/15 s)²: "
+            "there the car's lateral grip holds it below its top speed by more than one control period's "
+            "acceleration (bending less is free: the line's straights lie on a_lat / v_top²). "
+            f"Threshold {thresholds}. start_m and end_m are distances along the line from the start line.",
+        ),
+    ]

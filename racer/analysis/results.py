@@ -5,12 +5,16 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import pandas as pd
 
 from racer.analysis.obstacle_layout import ObstacleLayout
 from racer.analysis.sources import TRAINING, SimtraceFiles
 from racer.analysis.track_sections import Track
+
+if TYPE_CHECKING:
+    from racer.analysis.line_analysis import LineComparison
 
 
 @dataclass
@@ -39,6 +43,8 @@ class Analysis:
     """(first, last or None = to the end): training iterations the track pictures and the what-if use."""
     layout: ObstacleLayout = field(default_factory=ObstacleLayout)
     """Race type and fixed obstacles from the run's params yaml (drawn on the track maps)."""
+    line_comparison: LineComparison | None = None
+    """The evaluation laps against their runs' racing lines (racer.analysis.line_analysis), when compared."""
 
     @property
     def has_crashes(self) -> bool:

@@ -31,6 +31,12 @@ TRAINING = "training"
 EVALUATION = "evaluation"
 
 _PARAMS_FILE = re.compile(r"^(training_params.*|eval_params.*|evaluation_params.*)\.ya?ml$")
+_EVALUATION_METRICS = re.compile(r"(?:^|/)metrics/(?:evaluation/evaluation-|EvaluationMetrics-)[^/]+\.json$")
+"""An evaluation's EvaluationMetrics JSON (racer.shared.model_layout.evaluation_metrics, both forms)."""
+
+
+def is_evaluation_metrics(key: str) -> bool:
+    return _EVALUATION_METRICS.search(key) is not None
 
 
 def is_training_metrics(key: str) -> bool:
@@ -72,6 +78,9 @@ class SimtraceFiles:
     """training/evaluation params yaml files found next to the simtraces, by name (they name the track)."""
     training_metrics: dict[str, bytes] = field(default_factory=dict)
     """Worker 0's TrainingMetrics JSON files, by name (they hold the in-training evaluations)."""
+    evaluation_metrics: dict[str, bytes] = field(default_factory=dict)
+    """EvaluationMetrics JSON files of `racer evaluate` / DRfC evaluations, by name (their lap times count from the
+    reset, racer.analysis.evaluation_times)."""
 
 
 def classify(key: str) -> tuple[str, str, int, int] | None:
@@ -108,6 +117,7 @@ def _from_keys(keys: list[str], name_of: Callable[[str], str], read: Callable[[s
     simtraces: list[SimtraceFile] = []
     params: dict[str, bytes] = {}
     metrics: dict[str, bytes] = {}
+    evaluation_metrics: dict[str, bytes] = {}
     for key in keys:
         found = classify(key)
         if found is not None:
@@ -119,8 +129,10 @@ def _from_keys(keys: list[str], name_of: Callable[[str], str], read: Callable[[s
             params[name_of(key)] = read(key)
         elif is_training_metrics(key):
             metrics[name_of(key)] = read(key)
+        elif is_evaluation_metrics(key):
+            evaluation_metrics[name_of(key)] = read(key)
     simtraces.sort(key=lambda f: (f.phase, f.run, f.worker, f.iteration))
-    return SimtraceFiles("", simtraces, params, metrics)
+    return SimtraceFiles("", simtraces, params, metrics, evaluation_metrics)
 
 
 def from_folder(folder: Path) -> SimtraceFiles:
@@ -153,6 +165,7 @@ def from_tar(path: Path) -> SimtraceFiles:
                     classify(member.name) is not None
                     or _PARAMS_FILE.match(PurePosixPath(member.name).name)
                     or is_training_metrics(member.name)
+                    or is_evaluation_metrics(member.name)
                 )
             }
     except tarfile.TarError as error:

@@ -137,9 +137,25 @@ def best_lap_table(runs: Sequence[ComparedRun]) -> str:
             f"<td class='run'>{html.escape(plots.best_lap_text(run.best_lap))}</td>",
             f"<td>{best.get('steps', '–')}</td>",
             f"<td>{_fmt(min(evaluated) if evaluated else None, 3, ' s')}</td>",
+            *_bound_cells(run.bound),
         ]
         rows.append(f"<tr>{''.join(cells)}</tr>")
-    return _table(["run", "best lap", "progress", "where", "steps", "best racer evaluate lap"], rows)
+    head = ["run", "best lap", "progress", "where", "steps", "best racer evaluate lap"]
+    if any(run.bound is not None for run in runs):
+        head += ["ratio to the lap-time bound", "bound (flying lap)"]
+    return _table(head, rows)
+
+
+def _bound_cells(bound: dict | None) -> list[str]:
+    """The best lap over its car's flying-lap bound and the bound's line, or why there is none."""
+    if bound is None:
+        return []
+    if "ratio" not in bound:
+        return ["<td>–</td>", f"<td class='text'>{html.escape(bound['note'])}</td>"]
+    return [
+        f"<td>{bound['ratio']:.3f}</td>",
+        f"<td class='text'>{bound['line_lap_s']:.3f} s · {html.escape(bound['line'])}</td>",
+    ]
 
 
 def settings_section(runs: Sequence[ComparedRun]) -> tuple[str, str]:

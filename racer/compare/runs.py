@@ -7,7 +7,9 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from racer.analysis.run_line import LineBook
 from racer.compare.settings import RunSettings, read_run_settings
+from racer.viewer.lap_bound import best_lap_bound
 from racer.viewer.run_reader import RunLocation, RunReader, resolve_run
 
 
@@ -30,6 +32,8 @@ class ComparedRun:
     settings: RunSettings
     finished: bool
     notes: tuple[str, ...]
+    bound: dict | None = None
+    """The best lap against its car's lap-time bound (racer.compare.bound); None: not asked for."""
 
     @property
     def episodes(self) -> int:
@@ -57,7 +61,7 @@ def _short_name(location: RunLocation) -> str:
     return location.prefix.rstrip("/").rsplit("/", 1)[-1] or location.prefix
 
 
-def read_run(location: RunLocation, target: str, label: str) -> ComparedRun:
+def read_run(location: RunLocation, target: str, label: str, lines: LineBook | None = None) -> ComparedRun:
     reader = RunReader(location)
     progress = reader.progress()
     iterations = tuple(progress["iterations"])
@@ -78,13 +82,15 @@ def read_run(location: RunLocation, target: str, label: str) -> ComparedRun:
         settings=settings,
         finished=bool(progress["finished"]),
         notes=tuple(notes),
+        bound=None if lines is None else best_lap_bound(reader, progress["best_lap"], lines),
     )
 
 
-def load_runs(targets: Sequence[str]) -> list[ComparedRun]:
+def load_runs(targets: Sequence[str], lines: LineBook | None = None) -> list[ComparedRun]:
     """The runs the targets name (a model folder, s3://bucket/MODEL or a model prefix in RACER_STORE, as `racer
     view` takes them: `resolve_run`, which raises RunNotFoundError naming a target that is not a run), labelled by
-    their names; a name two runs share gets ` (1)`, ` (2)` ..."""
+    their names; a name two runs share gets ` (1)`, ` (2)` ...; `lines`: the best laps' lap-time bounds come from it
+    (None: no bound)."""
     locations = [resolve_run(target) for target in targets]
     names = [_short_name(location) for location in locations]
     labels = []
@@ -92,5 +98,6 @@ def load_runs(targets: Sequence[str]) -> list[ComparedRun]:
         same = names[:index].count(name)
         labels.append(name if names.count(name) == 1 else f"{name} ({same + 1})")
     return [
-        read_run(location, target, label) for location, target, label in zip(locations, targets, labels, strict=True)
+        read_run(location, target, label, lines)
+        for location, target, label in zip(locations, targets, labels, strict=True)
     ]

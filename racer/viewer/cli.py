@@ -42,6 +42,7 @@ def view_command(target: str, live: bool, host: str, port: int) -> None:
     """
     from pathlib import Path
 
+    from racer.analysis.run_line import LineBook
     from racer.viewer.app import create_app
     from racer.viewer.live import LiveRun
     from racer.viewer.race_app import create_race_app, is_race_folder
@@ -68,7 +69,7 @@ def view_command(target: str, live: bool, host: str, port: int) -> None:
         except RunNotFoundError as error:
             raise click.ClickException(str(error)) from error
         live_run = None
-    app = create_app(RunReader(location), live_run)
+    app = create_app(RunReader(location, lines=LineBook()), live_run)
     shown_host = "localhost" if host in {"127.0.0.1", "::1", "localhost"} else host
     click.echo(f"racer view: {location.describe()}{' (live)' if live else ''} at http://{shown_host}:{port}/", err=True)
     serve(app, host, port)

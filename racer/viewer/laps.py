@@ -1,7 +1,8 @@
 """The best lap so far and its path, from the run's simtraces, read incrementally.
 
 Each simtrace CSV (one per worker and iteration, written whole once; one per `racer evaluate` run) is read once
-with racer.analysis (the same lap times as `racer analyze`); only the best episode's path is kept. Without a
+with racer.analysis (the same lap times as `racer analyze`: an evaluation's from its EvaluationMetrics file when it has
+one); only the best episode's path is kept. Without a
 finished lap the episode that got furthest stands in, marked `complete: false`.
 """
 
@@ -10,10 +11,12 @@ from __future__ import annotations
 import logging
 import threading
 
-from racer.analysis.aggregate import episodes
+from racer.analysis.aggregate import episodes, evaluation_laps
+from racer.analysis.evaluation_times import timed_laps
 from racer.analysis.loading import EPISODE_KEY, add_step_deltas, read_one
-from racer.analysis.sources import SimtraceFile, classify
+from racer.analysis.sources import EVALUATION, SimtraceFile, SimtraceFiles, classify
 from racer.shared.deepracer.simtrace import SimtraceError
+from racer.shared.model_layout import EVALUATION_PREFIX, evaluation_metrics
 from racer.shared.store import ObjectNotFoundError, ObjectStore
 
 log = logging.getLogger(__name__)
@@ -47,6 +50,8 @@ class BestLapFinder:
         table = episodes(steps)
         if table.empty:
             return None
+        if phase == EVALUATION:
+            table = self._metrics_times(run, table)
         complete = table[table["lap_complete"]]
         if len(complete):
             row = complete.sort_values("lap_time_s").iloc[0]
@@ -68,6 +73,17 @@ class BestLapFinder:
             "steps": int(row["steps"]),
             "path": [[round(float(x), 3), round(float(y), 3)] for x, y in path[::stride]],
         }
+
+    def _metrics_times(self, run: str, table):
+        """The evaluation's laps timed as its EvaluationMetrics time them (evaluation_times), when the file is there."""
+        timestamp = run.rsplit("/", 1)[-1].removeprefix(EVALUATION_PREFIX)
+        key = f"{self.prefix}/{evaluation_metrics(timestamp)}"
+        try:
+            files = SimtraceFiles("", [], {}, evaluation_metrics={key: self.store.get_bytes(key)})
+        except ObjectNotFoundError:
+            return table
+        laps = timed_laps(files, evaluation_laps(table.assign(run=f"{self.prefix}/{run}")), notes=[])
+        return table.assign(lap_time_s=laps["lap_time_s"].to_numpy(), time_s=laps["time_s"].to_numpy())
 
     def best(self) -> dict | None:
         """Reads the simtraces that are new (or changed size) since the last call."""

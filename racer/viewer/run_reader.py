@@ -17,6 +17,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 
+from racer.analysis.run_line import LineBook
 from racer.shared.config import settings_from_env, store_settings_at
 from racer.shared.deepracer.episode_status import EpisodeStatus
 from racer.shared.deepracer.metrics import MetricsError, read_training_metrics
@@ -32,6 +33,7 @@ from racer.shared.model_layout import (
 )
 from racer.shared.sim.tracks.track import Track, TrackError
 from racer.shared.store import LocalStore, ObjectNotFoundError, ObjectStore, join_key, open_store
+from racer.viewer.lap_bound import best_lap_bound
 from racer.viewer.laps import BestLapFinder
 
 _TRAINING_PARAMS = re.compile(r"^training_params(?:_(\d+))?\.yaml$")
@@ -109,7 +111,8 @@ def _iterations_from_training_metrics(data: bytes, name: str) -> list[dict]:
 class RunReader:
     """Cached reads of one run's files; each is read again only when its size changed (thread-safe)."""
 
-    def __init__(self, location: RunLocation):
+    def __init__(self, location: RunLocation, lines: LineBook | None = None):
+        """`lines`: where the best lap's lap-time bound comes from (None: no bound)."""
         self.location = location
         self.store = location.store
         self.prefix = location.prefix
@@ -117,6 +120,9 @@ class RunReader:
         self._cache: dict[tuple[str, str], tuple[int, object]] = {}
         self.laps = BestLapFinder(self.store, self.prefix)
         self._workers: tuple[float, list[dict]] | None = None
+        self._lines = lines
+        self._bounds: dict[tuple, dict] = {}
+        self._bounding: threading.Thread | None = None
 
     def key(self, *parts: str) -> str:
         return join_key(self.prefix, *parts)
@@ -296,6 +302,28 @@ class RunReader:
             )
         return result
 
+    def best_lap_bound(self, best: dict | None) -> dict | None:
+        """The best lap's ratio to its car's lap-time bound (racer.viewer.lap_bound), None while its line is being
+        computed: in a thread of its own, since a line takes tens of seconds and a poll must not wait."""
+        if self._lines is None or not best or not best.get("complete"):
+            return None
+        lines = self._lines
+        key = (best["run"], best["worker"], best["iteration"], best["episode"], best["lap_time_s"])
+        with self._lock:
+            if key in self._bounds:
+                return self._bounds[key]
+            if self._bounding is not None and self._bounding.is_alive():
+                return None
+
+            def compute() -> None:
+                found = best_lap_bound(self, best, lines)
+                with self._lock:
+                    self._bounds[key] = found
+
+            self._bounding = threading.Thread(target=compute, name="viewer-lap-bound", daemon=True)
+            self._bounding.start()
+        return None
+
     def finished(self) -> bool:
         return self.store.exists(self.key(FINISHED))
 
@@ -306,10 +334,12 @@ class RunReader:
             evaluations, note = [], str(error)
         else:
             note = None
+        best = self.laps.best()
         return {
             "iterations": self.iterations(),
             "evaluations": evaluations,
-            "best_lap": self.laps.best(),
+            "best_lap": best,
+            "best_lap_bound": self.best_lap_bound(best),
             "evaluation_runs": self.evaluation_runs(),
             "finished": self.finished(),
             "note": note,

@@ -22,7 +22,8 @@ pytestmark = [pytest.mark.slow, pytest.mark.serial]  # two real training runs ke
 
 
 def compare(*args: str, env: dict | None = None):
-    result = CliRunner().invoke(compare_command, [str(a) for a in args], env=env)
+    # --no-line: the short runs' track is a big one, whose racing line takes minutes (tests/analysis test the ratio)
+    result = CliRunner().invoke(compare_command, [*map(str, args), "--no-line"], env=env)
     assert result.exit_code == 0, result.output
     return result
 

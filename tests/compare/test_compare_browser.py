@@ -21,7 +21,7 @@ PICTURES = """return [...document.images].map(img => [img.alt, img.complete, img
 
 def test_the_compare_page_reads_in_a_browser(two_short_runs, browser, tmp_path, request):
     page = tmp_path / "compare.html"
-    result = CliRunner().invoke(compare_command, [*map(str, two_short_runs), "--out", str(page)])
+    result = CliRunner().invoke(compare_command, [*map(str, two_short_runs), "--out", str(page), "--no-line"])
     assert result.exit_code == 0, result.output
     browser.get(page.as_uri())
     assert browser.title == "racer compare: baseline vs centre-reward"

@@ -389,7 +389,7 @@ function updateEvaluations(rows) {
   }
 }
 
-function updateBestLap(best) {
+function updateBestLap(best, bound) {
   const track = state.run && state.run.track;
   if (track && track.outer && !state.charts.bestLap) {
     state.charts.bestLap = trackChart($("chart-best-lap"), track, [
@@ -400,7 +400,8 @@ function updateBestLap(best) {
   if (!best) return;
   const where = best.phase === "evaluation" ? `evaluation ${best.run}` : `training iteration ${best.iteration}, worker ${best.worker}`;
   $("best-lap-caption").innerHTML = best.complete
-    ? `<b>${fmt(best.lap_time_s, 3)} s</b> lap · ${where} · ${best.steps} steps`
+    ? `<b>${fmt(best.lap_time_s, 3)} s</b> lap · ${where} · ${best.steps} steps` +
+      (bound && bound.ratio ? ` · <b>${fmt(bound.ratio, 3)}</b> × the lap-time bound (${fmt(bound.line_lap_s, 3)} s flying lap, ${String(bound.line).replace(/[<>&]/g, c => `&#${c.charCodeAt(0)};`)})` : "")
     : `No complete lap in the simtraces yet. Furthest: <b>${fmt(best.progress, 1)} %</b> in ${fmt(best.time_s, 1)} s · ${where}`;
   $("best-lap-note").textContent = best.complete ? "fastest complete lap" : "furthest episode";
   const chart = state.charts.bestLap;
@@ -490,12 +491,12 @@ async function pollProgress() {
     state.progress = progress;
     const signature = JSON.stringify([progress.iterations.length, progress.evaluations,
       progress.best_lap && [progress.best_lap.lap_time_s, progress.best_lap.progress, progress.best_lap.run,
-                            progress.best_lap.iteration, progress.best_lap.episode], !!(state.run && state.run.track && state.run.track.outer)]);
+                            progress.best_lap.iteration, progress.best_lap.episode], progress.best_lap_bound, !!(state.run && state.run.track && state.run.track.outer)]);
     if (signature !== state.progressSignature) { // redraw the charts only when something changed
       state.progressSignature = signature;
       updateCurves(progress);
       updateEvaluations(progress.evaluations);
-      updateBestLap(progress.best_lap);
+      updateBestLap(progress.best_lap, progress.best_lap_bound);
     }
     updateEvaluationRuns(progress.evaluation_runs);
     if (progress.finished && $("mode-badge").className !== "badge done") {
