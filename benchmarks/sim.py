@@ -22,7 +22,8 @@ import numpy as np
 
 from benchmarks.sim_loop import BENCH_REWARD, env_block
 from benchmarks.sim_races import run_race_benchmark
-from racer.options.track import direction_option
+from racer.options.track import direction_option, track_option
+from racer.options.training import seed_option
 from racer.shared.sim.config import DEFAULT_TRACK, EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
 from racer.shared.sim.scene._mujoco import mujoco
@@ -129,14 +130,8 @@ def raw_rate_child(start_at_epoch_s: float, duration_s: float, seed: int = 0) ->
 
 @click.command("sim")
 @click.option("--steps", default=3000, show_default=True, help="Steps measured for each of env and raw bound.")
-@click.option("--seed", default=0, show_default=True)
-@click.option(
-    "--track",
-    default=DEFAULT_TRACK,
-    show_default=True,
-    help="Track for the time-trial figure: a route name (any SimApp track, fetched on first use), a DeepRacer-on-AWS "
-    "name or a .npy path.",
-)
+@seed_option
+@track_option()
 @direction_option
 @click.option(
     "--full-resolution", is_flag=True, help="Render 640x480 and resize, as DeepRacer (default: 160x120 directly)."
