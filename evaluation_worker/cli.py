@@ -16,6 +16,7 @@ from racer.drfc.options import drfc_evaluate_option
 from racer.evaluation_worker.config import CONSOLE_NUMBER_OF_RESETS, MODES
 from racer.options.challenge import challenge_options, challenge_params_from_options
 from racer.options.generation import car_profile_option, generation_option
+from racer.options.model import checkpoint_option
 from racer.options.track import direction_option, track_option
 from racer.options.training import model_prefix_option, seed_option
 from racer.shared.sim.config import RESET_POSITIONS
@@ -35,12 +36,7 @@ def _video_size(text: str) -> tuple[int, int]:
 @click.command(name="evaluate")
 @drfc_evaluate_option
 @model_prefix_option()
-@click.option(
-    "--checkpoint",
-    default="best",
-    show_default=True,
-    help="best, last, or a checkpoint name such as 3_Step-1234.ckpt (EVAL_CHECKPOINT).",
-)
+@checkpoint_option
 @click.option(
     "--mode",
     type=click.Choice(MODES),

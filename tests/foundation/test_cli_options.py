@@ -87,6 +87,7 @@ COMMANDS = {
     "bench sac": "benchmarks.sac:sac_bench_command",
     "bench ppo": "benchmarks.ppo:ppo_bench_command",
     "bench sim": "benchmarks.sim:sim_bench_command",
+    "racer model explain": "racer.model_io.explain:explain_command",
     "bench transfer": "benchmarks.transfer:transfer_bench_command",
 }
 KNOBS = {
@@ -107,6 +108,7 @@ KNOBS = {
     "--model-prefix": ("racer train", "racer trainer", "racer rollout", "racer evaluate"),
     "--max-minutes": ("racer train", "racer trainer"),
     "--race-type": ("racer train", "racer trainer", "racer evaluate"),
+    "--checkpoint": ("racer evaluate", "racer model explain"),
 }  # fmt: skip
 RACE_WORKERS = ("--workers", ("racer race", "bench race"))
 """Each knob and the commands that take it. Other knobs under the same name are not compared with these: `racer
