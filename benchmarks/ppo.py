@@ -35,6 +35,8 @@ from torch import nn
 
 from benchmarks.precision_agreement import update_agreement
 from benchmarks.workdir import cpu_description, native_bf16_available
+from racer.options.trainer import device_option
+from racer.options.training import seed_option
 from racer.shared.deepracer.hyperparameters import Hyperparameters
 from racer.shared.deepracer.model_metadata import parse_model_metadata
 from racer.shared.episode import Episode
@@ -54,7 +56,6 @@ from racer.trainer.ppo import (
     shuffled_minibatches,
 )
 from racer.trainer.precision import Precision
-from racer.trainer.run_options import device_option
 
 __all__ = ["bench_network", "plain_ppo_update", "ppo_bench_command", "synthetic_episodes"]
 
@@ -199,7 +200,7 @@ def _time_baseline(
     help="Cores for each path: baseline intra-op threads; trainer threads_per_tower = threads // 2.",
 )
 @click.option("--repeats", default=1, show_default=True, help="Timed runs per path (alternating); medians reported.")
-@click.option("--seed", default=0, show_default=True)
+@seed_option
 @click.option(
     "--agreement-transitions",
     default=640,

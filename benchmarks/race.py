@@ -38,6 +38,8 @@ from benchmarks.race_field import (
     say,
 )
 from benchmarks.workdir import bench_workdir, cpu_description
+from racer.options.race import race_workers_option
+from racer.options.training import seed_option
 from racer.shared.model_layout import evaluation_metrics_timestamp
 
 GOAL_RATIO = 1.7
@@ -117,8 +119,8 @@ def per_minute(count: int, wall_s: float) -> float:
     type=click.Path(exists=True, path_type=Path),
     help="A racer model folder or anything `racer model import` takes; repeatable.",
 )
-@click.option("--workers", type=click.IntRange(min=1), default=None, help="The race's --workers. Default: the cores.")
-@click.option("--seed", type=int, default=0, show_default=True)
+@race_workers_option
+@seed_option
 @click.option(
     "--quick",
     is_flag=True,
@@ -136,11 +138,11 @@ def race_bench_command(
     data_dir: Path | None,
 ) -> None:
     """A time trial of --entrants entrants (videos on) with --workers, against `racer evaluate` one after another."""
-    from racer.race.runner import default_workers
+    from racer.race.runner import race_workers_for_the_cores
 
     data = data_folder(data_dir)
     route = data / REINVENT_2018_ROUTE
-    workers = workers or default_workers()
+    workers = workers or race_workers_for_the_cores()
     env = {"MUJOCO_GL": "egl", **os.environ}
     with bench_workdir("racer-bench-race-") as work:
         store, logs = work / "store", work / "logs"

@@ -34,9 +34,10 @@ from benchmarks.workdir import bench_workdir, cpu_description, read_iteration_re
 from racer.local.run import LocalRunPlan, run_local_training
 from racer.options.generation import generation_option
 from racer.options.track import TRACK_HELP, direction_option
+from racer.options.trainer import device_option
+from racer.options.training import seed_option, workers_option
 from racer.racing_line import CarLimits, LapTimeBoundError, RacingLine, racing_line
 from racer.recipe.folder import Car, Recipe, RecipeError, make_recipe, write_recipe
-from racer.rollout_worker.batched_rollout import DEFAULT_WORKERS
 from racer.shared.config import LocalStoreSettings, RedisSettings, ServiceSettings
 from racer.shared.policy.manifest import CheckpointError
 from racer.shared.run_settings import RunOptions, load_worker_settings
@@ -46,7 +47,6 @@ from racer.shared.sim.tracks.track import Track, TrackError
 from racer.shared.store import open_store
 from racer.shared.user_errors import user_error_types
 from racer.trainer.device import DeviceError, describe_device, resolve_device
-from racer.trainer.run_options import device_option
 
 DEFAULT_TRACK = "reinvent_base"
 """re:Invent 2018, the track DeepRacer's console and the community have lap times for."""
@@ -87,7 +87,7 @@ KEPT_STORE = "kept"
     help="Custom files instead of `racer recipe`'s (racer/defaults/racing/discrete: the fixed racing recipe; "
     "--action-space is then theirs); the bench sets the evaluation keys of their workers.json.",
 )
-@click.option("--workers", "num_workers", type=click.IntRange(1, 32), default=DEFAULT_WORKERS, show_default=True)
+@workers_option
 @click.option(
     "--hyperparameter",
     "hyperparameter_pairs",
@@ -95,12 +95,9 @@ KEPT_STORE = "kept"
     metavar="KEY=VALUE",
     help="A hyperparameters.json key over the recipe's (repeatable).",
 )
-@generation_option(
-    help_text="The DeepRacer simulator the run stands in for, its look and car together: 2019, simapp5 or simapp6 "
-    "(DeepRacer on AWS). The bench takes no other car or look: the bound is this car's."
-)
+@generation_option
 @device_option
-@click.option("--seed", type=int, default=0, show_default=True)
+@seed_option
 @click.option(
     "--picture",
     type=click.Path(dir_okay=False, writable=True, path_type=Path),
@@ -123,7 +120,7 @@ def race_pace_command(
 ):
     """Train from scratch for --minutes with the racing recipe; judge each checkpoint on 3 consecutive greedy laps
     from the start line; print the best lap, the best 3-lap average, the curve, the car's lap-time bound and where
-    the time went as one JSON line."""
+    the time went as one JSON line. It takes --generation's car and look and no other: the bound is that car's."""
     try:  # a GPU asked for and absent is refused before anything starts
         trainer_device = describe_device(resolve_device(device))
     except DeviceError as error:

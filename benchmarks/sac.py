@@ -31,6 +31,8 @@ import numpy as np
 import torch
 from torch import nn
 
+from racer.options.trainer import device_option
+from racer.options.training import seed_option
 from racer.shared.deepracer.hyperparameters import Hyperparameters
 from racer.shared.deepracer.model_metadata import parse_model_metadata
 from racer.shared.episode import Episode
@@ -38,7 +40,6 @@ from racer.shared.policy.factory import build_network_for_metadata
 from racer.trainer.device import DeviceError, describe_device, resolve_device
 from racer.trainer.ppo import HUBER_DELTA
 from racer.trainer.replay import ReplayBatch
-from racer.trainer.run_options import device_option
 from racer.trainer.sac import SACLearner, SACSettings
 
 __all__ = ["METADATA", "plain_sac_step", "sac_bench_command", "synthetic_episodes"]
@@ -133,7 +134,7 @@ def _time_plain(trainer: SACLearner, steps: int, batch_size: int, threads: int) 
 )
 @click.option("--threads-per-tower", type=click.IntRange(1), default=None, help="The trainer's (default: half).")
 @click.option("--repeats", type=click.IntRange(1), default=3, show_default=True, help="Alternating runs per path.")
-@click.option("--seed", type=int, default=0, show_default=True)
+@seed_option
 @device_option
 def sac_bench_command(
     steps: int,

@@ -16,7 +16,8 @@ import sys
 import click
 
 from racer.options.renderer import renderer_option
-from racer.options.track import direction_option
+from racer.options.track import direction_option, track_option
+from racer.options.training import seed_option
 from racer.shared.sim.config import DEFAULT_TRACK
 from racer.shared.sim.scene.gl import ensure_gl_backend
 from racer.shared.sim.scene.renderer import (
@@ -59,14 +60,8 @@ def _cpu_renderer_figures(steps: int, seed: int, full_resolution: bool, track: s
 
 @click.command("sim")
 @click.option("--steps", default=3000, show_default=True, help="Steps measured for each of env and raw bound.")
-@click.option("--seed", default=0, show_default=True)
-@click.option(
-    "--track",
-    default=DEFAULT_TRACK,
-    show_default=True,
-    help="Track for the time-trial figure: a route name (any SimApp track, fetched on first use), a DeepRacer-on-AWS "
-    "name or a .npy path.",
-)
+@seed_option
+@track_option()
 @direction_option
 @click.option(
     "--full-resolution", is_flag=True, help="Render 640x480 and resize, as DeepRacer (default: 160x120 directly)."

@@ -29,12 +29,19 @@ import click
 from benchmarks.workdir import bench_workdir, read_iteration_records
 from racer.defaults import DEFAULT_CUSTOM_FILES
 from racer.local.run import LocalRunPlan, run_local_training, service_environment
-from racer.rollout_worker.batched_rollout import DEFAULT_ENVS_PER_WORKER, default_workers
+from racer.options.training import envs_option, seed_option
 from racer.shared.config import LocalStoreSettings, RedisSettings, ServiceSettings
 from racer.shared.deepracer.hyperparameters import load_hyperparameters
 from racer.shared.run_settings import RunOptions
 from racer.shared.sim.config import DEFAULT_TRACK
 from racer.shared.sim.scene.worlds import WORLD_NAMES
+
+
+def workers_for_every_core() -> int:
+    """The bench's rollout workers: one per core at least, so every core has envs to step; four at least, one per
+    world. (`racer train`'s default is the same on every machine: racer.options.training.DEFAULT_WORKERS.)"""
+    return max(4, len(os.sched_getaffinity(0)))
+
 
 BOUND_START_DELAY_S = 20.0
 """Time the bound's processes get to build their scene before all start measuring together."""
@@ -133,12 +140,17 @@ def system_rates(records: list[dict]) -> dict:
 
 @click.command("throughput")
 @click.option("--iterations", type=click.IntRange(2, 1000), default=5, show_default=True)
-@click.option("--workers", "num_workers", type=click.IntRange(1, 32), default=default_workers(), show_default=True)
 @click.option(
-    "--envs", "envs_per_worker", type=click.IntRange(1, 64), default=DEFAULT_ENVS_PER_WORKER, show_default=True
+    "--workers",
+    "num_workers",
+    type=click.IntRange(1, 32),
+    default=workers_for_every_core(),
+    show_default=True,
+    help="Rollout workers: by default one per core, four at least.",
 )
+@envs_option
 @click.option("--bound-seconds", type=float, default=20.0, show_default=True, help="Length of each bound measurement.")
-@click.option("--seed", type=int, default=0, show_default=True)
+@seed_option
 def throughput_bench_command(iterations, num_workers, envs_per_worker, bound_seconds, seed) -> None:
     """The default system's experience steps/s vs one raw env process per core; prints one JSON line."""
     cores = len(os.sched_getaffinity(0))

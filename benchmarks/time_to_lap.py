@@ -16,22 +16,18 @@ from benchmarks.deepracer_data import data_folder, data_option
 from benchmarks.time_to_lap_races import TIME_TO_LAP_RACES, time_to_lap_hyperparameters
 from benchmarks.workdir import bench_workdir, cpu_description, read_iteration_records
 from racer.local.run import LocalRunPlan, run_local_training
-from racer.options.track import direction_option
+from racer.options.track import direction_option, track_option
+from racer.options.trainer import trainer_run_options
+from racer.options.training import seed_option, workers_option
 from racer.shared.config import LocalStoreSettings, RedisSettings, ServiceSettings
 from racer.shared.deepracer.hyperparameters import HyperparametersError, parse_hyperparameters
 from racer.shared.run_settings import RunOptions
 from racer.shared.sim.scene.worlds import WORLD_NAMES as WORLDS
 from racer.trainer.device import DeviceError, describe_device, resolve_device
-from racer.trainer.run_options import trainer_run_options
 
 
 @click.command(name="time-to-lap")
-@click.option(
-    "--track",
-    required=True,
-    help="A SimApp track name (fetched on first use: reinvent_base is re:Invent 2018), a DeepRacer-on-AWS name, a "
-    "route on the search path or a .npy path.",
-)
+@track_option(required=True)
 @direction_option
 @click.option(
     "--reward-function",
@@ -57,7 +53,7 @@ from racer.trainer.run_options import trainer_run_options
 @click.option("--speed", type=float, default=1.0, show_default=True, help="The one speed (m/s) of the 5 actions.")
 @click.option("--min-speed", type=float, default=1.0, show_default=True, help="Continuous: lowest speed (m/s).")
 @click.option("--max-speed", type=float, default=2.0, show_default=True, help="Continuous: highest speed (m/s).")
-@click.option("--workers", "num_workers", type=int, default=4, show_default=True)
+@workers_option
 @click.option("--time-limit-minutes", type=float, default=30.0, show_default=True)
 @click.option(
     "--episodes-per-iteration",
@@ -111,7 +107,7 @@ from racer.trainer.run_options import trainer_run_options
     help="A preset.json (docs/custom-networks.md).",
 )
 @trainer_run_options
-@click.option("--seed", type=int, default=0, show_default=True)
+@seed_option
 @data_option
 def time_to_lap_command(
     track,

@@ -34,7 +34,6 @@ from benchmarks.deepracer_data import REINVENT_2018_ROUTE, data_folder, data_opt
 from benchmarks.gazebo_frames import GAZEBO_FRAMES, load_gazebo_frames, render_lap
 from benchmarks.transfer_matrix import (
     DEFAULT_MINUTES,
-    DEFAULT_WORKERS,
     TRAIN_GENERATIONS,
     TRAIN_WORLDS,
     DriveCar,
@@ -42,6 +41,7 @@ from benchmarks.transfer_matrix import (
 )
 from benchmarks.transfer_robustness import run_robustness
 from benchmarks.workdir import cpu_description
+from racer.options.training import seed_option, workers_option
 from racer.shared.deepracer.model_metadata import ModelMetadata, parse_model_metadata
 from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.sim.car.dynamics import CAR_PROFILE_NAMES, car_profile
@@ -304,9 +304,7 @@ def reverse_check(racer_model: Path, real: list[RealModel], frames_grey: np.ndar
     show_default=True,
     help="--matrix: per model.",
 )
-@click.option(
-    "--workers", type=click.IntRange(1, 16), default=DEFAULT_WORKERS, show_default=True, help="--matrix: per model."
-)
+@workers_option
 @click.option(
     "--randomization",
     type=click.Choice(["both", "on", "off"]),
@@ -320,7 +318,7 @@ def reverse_check(racer_model: Path, real: list[RealModel], frames_grey: np.ndar
     default=None,
     help="--matrix: copy each trained model folder here (the bench's own folder is removed at the end).",
 )
-@click.option("--seed", type=int, default=0, show_default=True, help="--matrix: the training seed.")
+@seed_option
 @click.option(
     "--robustness",
     is_flag=True,
@@ -345,14 +343,16 @@ def transfer_bench_command(
     train_profile_names,
     train_world_names,
     minutes,
-    workers,
+    num_workers,
     randomization,
     keep_models,
     seed,
     robustness,
     data_dir,
 ) -> None:
-    """Real DeepRacer checkpoints drive racer, closed loop: laps and mean progress per checkpoint, one JSON line."""
+    """Real DeepRacer checkpoints drive racer, closed loop: laps and mean progress per checkpoint, one JSON line.
+
+    With --matrix, --workers and --seed are each model's training run's."""
     torch.set_num_threads(1)
     started = time.monotonic()
     data = data_folder(data_dir)
@@ -371,7 +371,7 @@ def transfer_bench_command(
             drive_cars=tuple(DriveCar(name, profile) for name in drive_generations for profile in profiles),
             minutes=minutes,
             starts=starts,
-            workers=workers,
+            workers=num_workers,
             seed=seed,
             randomizations={"both": (False, True), "on": (True,), "off": (False,)}[randomization],
             keep_models=keep_models,

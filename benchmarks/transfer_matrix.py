@@ -24,6 +24,7 @@ from pathlib import Path
 
 from benchmarks.workdir import bench_workdir, cpu_description, read_iteration_records
 from racer.defaults import DEFAULT_CUSTOM_FILES
+from racer.options.training import DEFAULT_WORKERS
 from racer.shared.run_settings import RunOptions
 
 SAMPLE_MODEL = "gazebo-sample-reinvent2018"
@@ -32,7 +33,6 @@ TRAIN_GENERATIONS = ("simapp6",)
 TRAIN_WORLDS = ("base",)
 """The reverse-check setup's: every worker on the base world. `racer train` spreads its workers over all four."""
 DEFAULT_MINUTES = 15.0
-DEFAULT_WORKERS = 4
 
 
 @dataclass(frozen=True)

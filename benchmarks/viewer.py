@@ -40,6 +40,8 @@ from benchmarks.viewer_loads import (
 )
 from benchmarks.workdir import bench_workdir
 from racer.defaults import DEFAULT_CUSTOM_FILES
+from racer.options.track import track_option
+from racer.options.training import workers_option
 from racer.shared.config import LocalStoreSettings, RedisSettings, ServiceSettings
 from racer.shared.deepracer.hyperparameters import HyperparametersError, parse_hyperparameters
 from racer.shared.redis_connection import RedisLink
@@ -191,7 +193,7 @@ class PhaseCosts:
     show_default=True,
     help="Not measured; the page is loaded at the end of the first.",
 )
-@click.option("--workers", "num_workers", type=int, default=4, show_default=True)
+@workers_option
 @click.option(
     "--episodes-per-iteration",
     type=int,
@@ -202,7 +204,7 @@ class PhaseCosts:
     "episodes of 150-250 steps). With 32 (2-3 s of rollout) an iteration's rate is mostly its slowest episode's, the "
     "per-iteration start-up's and the page's once-per-iteration refresh.",
 )
-@click.option("--track", default="racer_oval", show_default=True)
+@track_option()
 @click.option(
     "--learning-rate",
     type=float,

@@ -15,10 +15,11 @@ import click
 from racer.drfc.options import drfc_evaluate_option
 from racer.evaluation_worker.config import CONSOLE_NUMBER_OF_RESETS, MODES
 from racer.options.challenge import challenge_options, challenge_params_from_options
-from racer.options.generation import CAR_PROFILE_HELP, GENERATION_HELP, generation_option
-from racer.options.track import TRACK_HELP, direction_option
-from racer.shared.sim.car.dynamics import CAR_PROFILE_NAMES
-from racer.shared.sim.config import DEFAULT_TRACK, RESET_POSITIONS
+from racer.options.generation import car_profile_option, generation_option
+from racer.options.model import checkpoint_option
+from racer.options.track import direction_option, track_option
+from racer.options.training import model_prefix_option, seed_option
+from racer.shared.sim.config import RESET_POSITIONS
 from racer.shared.sim.scene.worlds import WORLD_NAMES
 
 
@@ -34,15 +35,8 @@ def _video_size(text: str) -> tuple[int, int]:
 
 @click.command(name="evaluate")
 @drfc_evaluate_option
-@click.option(
-    "--model-prefix", default=None, help="The model's prefix in the store (the training run's name); required."
-)
-@click.option(
-    "--checkpoint",
-    default="best",
-    show_default=True,
-    help="best, last, or a checkpoint name such as 3_Step-1234.ckpt (EVAL_CHECKPOINT).",
-)
+@model_prefix_option()
+@checkpoint_option
 @click.option(
     "--mode",
     type=click.Choice(MODES),
@@ -50,7 +44,7 @@ def _video_size(text: str) -> tuple[int, int]:
     show_default=True,
     help="deepracer: NUMBER_OF_TRIALS laps with DeepRacer's rules; race: the 4-minute, 3-resets-per-lap rule.",
 )
-@click.option("--track", default=DEFAULT_TRACK, show_default=True, help=TRACK_HELP)
+@track_option()
 @click.option("--world", type=click.Choice(WORLD_NAMES), default="base", show_default=True)
 @click.option(
     "--reverse/--no-reverse", default=False, show_default=True, help="Drive the route the other way (REVERSE_DIR)."
@@ -126,14 +120,9 @@ def _video_size(text: str) -> tuple[int, int]:
     default=None,
     help="Also keep a local copy of the outputs here (same layout as under the model prefix).",
 )
-@click.option("--seed", type=int, default=0, show_default=True, help="Seeds sensor noise; the sim clock starts at 0.")
-@generation_option(help_text=f"{GENERATION_HELP} The model's training_params record the one it trained in.")
-@click.option(
-    "--car-profile",
-    type=click.Choice(("", *CAR_PROFILE_NAMES)),
-    default="",
-    help=CAR_PROFILE_HELP,
-)
+@seed_option
+@generation_option
+@car_profile_option
 @click.option(
     "--opponent",
     "opponents",
@@ -179,7 +168,10 @@ def evaluate_command(
     race_type,
     race_param,
 ) -> None:
-    """Evaluate a model from the store (RACER_STORE) and write metrics, simtrace, videos and an MCAP next to it."""
+    """Evaluate a model from the store (RACER_STORE) and write metrics, simtrace, videos and an MCAP next to it.
+
+    --model-prefix names the model (required, unless --drfc does); --seed seeds the sensor noise, the sim clock
+    starts at 0."""
     if not model_prefix:
         raise click.UsageError("Missing option '--model-prefix' (or --drfc, whose DR_LOCAL_S3_MODEL_PREFIX names it).")
     from racer.evaluation_worker.config import (

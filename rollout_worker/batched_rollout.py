@@ -11,7 +11,6 @@ plays the same episodes in a batch as it would alone (tests/rollout/test_batched
 
 from __future__ import annotations
 
-import os
 import threading
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -20,21 +19,6 @@ import numpy as np
 
 from racer.rollout_worker.episode_runner import EpisodeRecorder
 from racer.shared.policy.frame_stack import frame_stacker_for
-
-DEFAULT_ENVS_PER_WORKER = 4
-"""Per-frame inference cost falls steeply from batch 1 to 4 and less after (README, Benchmarks): the dense layer's
-weights are read once per call. With the default 4 workers and 20 episodes per iteration more envs per worker would
-mostly sit idle (an iteration has fewer episodes than 4 x 8 env slots), so 4 stays the default."""
-
-
-DEFAULT_WORKERS = 4
-"""Rollout workers of `racer train` on any machine: one per world. Not the core count: which worker plays which
-episode shapes the run, and a default may not make runs differ between machines."""
-
-
-def default_workers() -> int:
-    """One worker per core at least, so every core has envs to step; four at least, one per world."""
-    return max(4, len(os.sched_getaffinity(0)))
 
 
 @dataclass(frozen=True)

@@ -7,7 +7,7 @@ import signal
 
 import click
 
-from racer.rollout_worker.batched_rollout import DEFAULT_ENVS_PER_WORKER
+from racer.options.training import envs_option, model_prefix_option, seed_option
 from racer.shared.config import settings_from_env
 from racer.shared.sim.reward.function import RewardFunctionError
 from racer.shared.sim.scene.worlds import WORLD_NAMES as WORLDS
@@ -19,18 +19,12 @@ EXIT_RUN_CANNOT_GO_ON = 3
 
 
 @click.command(name="rollout")
-@click.option("--model-prefix", required=True, help="Model name: the store prefix of the training run to join.")
+@model_prefix_option(required=True)
 @click.option("--worker-id", type=click.IntRange(0, 63), required=True, help="0-based; worker 0 also evaluates.")
 @click.option("--world", type=click.Choice(WORLDS), default=None, help="Override the world from training_params.")
 @click.option("--track", default=None, help="Override the track from training_params.")
-@click.option("--seed", type=int, default=0, show_default=True)
-@click.option(
-    "--envs",
-    type=click.IntRange(1, 64),
-    default=DEFAULT_ENVS_PER_WORKER,
-    show_default=True,
-    help="Envs of its world the worker steps at once (one batched forward pass picks all their actions).",
-)
+@seed_option
+@envs_option
 @click.option(
     "--wait-timeout-s",
     type=float,
@@ -38,7 +32,7 @@ EXIT_RUN_CANNOT_GO_ON = 3
     show_default=True,
     help="Longest wait for the trainer's next checkpoint before exiting with an error.",
 )
-def rollout_command(model_prefix, worker_id, world, track, seed, envs, wait_timeout_s) -> None:
+def rollout_command(model_prefix, worker_id, world, track, seed, envs_per_worker, wait_timeout_s) -> None:
     """Simulate one world and feed episodes to the trainer (Redis and store from RACER_REDIS_URL / RACER_STORE)."""
     from racer.rollout_worker.worker import RolloutOptions, RolloutWorker
 
@@ -53,7 +47,7 @@ def rollout_command(model_prefix, worker_id, world, track, seed, envs, wait_time
                 wait_timeout_s=wait_timeout_s,
                 world_override=world,
                 track_override=track,
-                envs=envs,
+                envs=envs_per_worker,
             ),
         )
         signal.signal(signal.SIGTERM, lambda signum, frame: worker.stop())

@@ -8,37 +8,34 @@ from pathlib import Path
 import click
 
 from racer.options.challenge import challenge_options, challenge_params_from_options
-from racer.options.track import TRACK_HELP, direction_option
+from racer.options.track import direction_option, track_option
+from racer.options.trainer import trainer_run_options
+from racer.options.training import (
+    custom_files_option,
+    max_episodes_option,
+    max_minutes_option,
+    model_prefix_option,
+    pretrained_checkpoint_option,
+    pretrained_prefix_option,
+    seed_option,
+    workers_option,
+    worlds_option,
+)
 from racer.shared.config import settings_from_env
-from racer.shared.sim.config import DEFAULT_TRACK
-from racer.shared.sim.scene.worlds import WORLD_NAMES as WORLDS
 from racer.shared.user_errors import user_error_types
-from racer.trainer.run_options import trainer_run_options
 
 
 @click.command(name="trainer")
-@click.option("--model-prefix", required=True, help="Model name: the store prefix of this training run.")
-@click.option(
-    "--custom-files",
-    type=click.Path(exists=True, file_okay=False, path_type=Path),
-    required=True,
-    help="Folder with reward_function.py, model_metadata.json, hyperparameters.json [, workers.json].",
-)
-@click.option(
-    "--workers",
-    "num_workers",
-    type=click.IntRange(1, 64),
-    default=4,
-    show_default=True,
-    help="Number of rollout workers that share each iteration's episodes.",
-)
-@click.option("--track", default=DEFAULT_TRACK, show_default=True, help=TRACK_HELP)
-@click.option("--worlds", default=",".join(WORLDS), show_default=True)
-@click.option("--max-episodes", type=int, default=None, help="Default: term_cond_max_episodes.")
-@click.option("--max-minutes", type=float, default=None)
-@click.option("--pretrained-prefix", default=None, help="Clone the weights of this model's checkpoint.")
-@click.option("--pretrained-checkpoint", type=click.Choice(["last", "best"]), default="last", show_default=True)
-@click.option("--seed", type=int, default=0, show_default=True)
+@model_prefix_option(required=True)
+@custom_files_option(required=True)
+@workers_option
+@track_option()
+@worlds_option
+@max_episodes_option
+@max_minutes_option
+@pretrained_prefix_option
+@pretrained_checkpoint_option
+@seed_option
 @click.option(
     "--max-memory-steps",
     type=click.IntRange(min=0),

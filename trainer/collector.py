@@ -31,12 +31,15 @@ class StopRequested(Exception):
 
 @dataclass(frozen=True)
 class CollectTimes:
+    """How long the trainer waits while collecting (TrainerOptions holds one)."""
+
     share_timeout_s: float = 3600.0
     """Longest wait for the episodes of one iteration before giving up with an error."""
     dead_worker_grace_s: float = 20.0
     """How long a share may have no live worker before it is re-assigned."""
     announcement_check_s: float = 30.0
-    """While collecting, how often to check that Redis still holds this iteration's announcement."""
+    """While collecting, how often to check that Redis still holds this iteration's announcement (a restarted
+    Redis may have lost the newest writes); a lost one is announced again."""
 
 
 class Collector:

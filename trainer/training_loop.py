@@ -67,16 +67,12 @@ class TrainerOptions:
     seed: int = 0
     pretrained_prefix: str | None = None
     pretrained_checkpoint: str = "last"
-    share_timeout_s: float = 3600.0
-    """Longest wait for the episodes of one iteration before giving up with an error."""
-    dead_worker_grace_s: float = 20.0
-    """How long a share may have no live worker before it is re-assigned."""
+    collect_times: CollectTimes = CollectTimes()
+    """How long collecting waits: for an iteration's episodes, on a share with no live worker, between checks of the
+    announcement (racer.trainer.collector)."""
     max_memory_steps: int | None = None
     """Transitions one iteration trains on (DeepRacer's MAX_MEMORY_STEPS): None = DeepRacer's cap for the network
     (10,000 shallow, 3,000 others), 0 = no cap."""
-    announcement_check_s: float = 30.0
-    """While collecting, how often to check that Redis still holds this iteration's announcement (a restarted
-    Redis may have lost the newest writes); a lost one is announced again."""
     sac_replay_memory_mb: float = 1024.0
     """SAC: memory budget of the replay ring on the trainer (its capacity in transitions follows from it)."""
     sac_updates_per_transition: float | None = None
@@ -145,11 +141,7 @@ class Trainer:
             self.learner,
             self.checkpoints.latest_name,
             self.stop_event,
-            CollectTimes(
-                share_timeout_s=self.options.share_timeout_s,
-                dead_worker_grace_s=self.options.dead_worker_grace_s,
-                announcement_check_s=self.options.announcement_check_s,
-            ),
+            self.options.collect_times,
         )
         latest = self.checkpoints.latest_name()
         if latest is not None:

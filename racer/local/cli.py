@@ -8,61 +8,42 @@ from pathlib import Path
 
 import click
 
-from racer.defaults import DEFAULT_CUSTOM_FILES
 from racer.drfc.options import drfc_train_option
 from racer.local.run import LocalRunPlan, run_local_training
 from racer.options.challenge import challenge_options, challenge_params_from_options
-from racer.options.track import TRACK_HELP, direction_option
-from racer.rollout_worker.batched_rollout import DEFAULT_ENVS_PER_WORKER, DEFAULT_WORKERS
+from racer.options.track import direction_option, track_option
+from racer.options.trainer import trainer_run_options
+from racer.options.training import (
+    custom_files_option,
+    envs_option,
+    max_episodes_option,
+    max_minutes_option,
+    model_prefix_option,
+    pretrained_checkpoint_option,
+    pretrained_prefix_option,
+    seed_option,
+    workers_option,
+    worlds_option,
+)
 from racer.shared.config import LocalStoreSettings, settings_from_env
 from racer.shared.run_settings import RunOptions
-from racer.shared.sim.config import DEFAULT_TRACK
-from racer.shared.sim.scene.worlds import WORLD_NAMES as WORLDS
 from racer.trainer.device import DeviceError, resolve_device
-from racer.trainer.run_options import trainer_run_options
 
 
 @click.command(name="train")
 @drfc_train_option
-@click.option("--model-prefix", default=None, help="Model name (store prefix). Default: racer-<date>-<time>.")
-@click.option(
-    "--custom-files",
-    type=click.Path(exists=True, file_okay=False, path_type=Path),
-    default=DEFAULT_CUSTOM_FILES,
-    show_default="the example files installed with racer, racer/defaults/custom_files",
-    help="Folder with reward_function.py, model_metadata.json, hyperparameters.json.",
-)
-@click.option(
-    "--workers",
-    "num_workers",
-    type=click.IntRange(1, 32),
-    default=DEFAULT_WORKERS,
-    show_default=True,
-    help="Rollout workers, one per world in turn. The default is the same on every machine, so a seed gives the "
-    "same kind of run everywhere; on more than 4 cores raise it to use them (the run then plays its episodes on "
-    "other workers and so differs, though it learns the same way).",
-)
-@click.option(
-    "--envs",
-    "envs_per_worker",
-    type=click.IntRange(1, 64),
-    default=DEFAULT_ENVS_PER_WORKER,
-    show_default=True,
-    help="Envs each worker steps at once, all actions from one batched forward pass.",
-)
-@click.option("--worlds", default=",".join(WORLDS), show_default=True, help="Worlds given to workers in turn.")
-@click.option("--track", default=DEFAULT_TRACK, show_default=True, help=TRACK_HELP)
-@click.option(
-    "--max-episodes",
-    type=int,
-    default=None,
-    help="Stop after this many training episodes (default: hyperparameters' term_cond_max_episodes).",
-)
-@click.option("--max-minutes", type=float, default=None, help="Stop after this much wall time.")
+@model_prefix_option(default_text="racer-<date>-<time>")
+@custom_files_option()
+@workers_option
+@envs_option
+@worlds_option
+@track_option()
+@max_episodes_option
+@max_minutes_option
 @click.option("--minio", "use_minio", is_flag=True, help="Store in a local MinIO server instead of a directory.")
-@click.option("--pretrained-prefix", default=None, help="Clone: start from this model's checkpoint.")
-@click.option("--pretrained-checkpoint", type=click.Choice(["last", "best"]), default="last", show_default=True)
-@click.option("--seed", type=int, default=0, show_default=True)
+@pretrained_prefix_option
+@pretrained_checkpoint_option
+@seed_option
 @click.option(
     "--viewer-port",
     type=click.IntRange(0, 65535),

@@ -28,6 +28,7 @@ from racer.model_io.explain_inputs import (
     open_model,
     racer_frames_of,
 )
+from racer.options.model import checkpoint_option
 from racer.shared.sim.config import DEFAULT_TRACK
 
 PANEL_SCALE = 4
@@ -302,7 +303,7 @@ def summarise(model: LoadedModel, result: Explanation, records: list[dict], meth
 @click.argument("frames", nargs=-1, type=click.Path(exists=True, path_type=Path))
 @click.option("--out", type=click.Path(file_okay=False, path_type=Path), default=Path("explain"), show_default=True)
 @click.option("--method", type=click.Choice(["gradcam", "saliency"]), default="gradcam", show_default=True)
-@click.option("--checkpoint", default="best", show_default=True, help="best, last or a name such as 30_Step-0.ckpt.")
+@checkpoint_option
 @click.option(
     "--store", "store_location", default=None, help="This system's store (for a store prefix). Default: RACER_STORE."
 )

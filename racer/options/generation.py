@@ -1,5 +1,5 @@
 """`--generation` and `--car-profile`: the click options of every command that builds a car (train, trainer,
-evaluate, the benches), defined once so their help and override rule read the same everywhere."""
+evaluate, race, the benches), defined once so their help and override rule read the same everywhere."""
 
 from __future__ import annotations
 
@@ -12,12 +12,14 @@ from racer.shared.sim.generations.catalog import DEFAULT_GENERATION, GENERATION_
 GENERATION_HELP = (
     "The DeepRacer simulator to stand in for, its look (walls, lights, camera) and car together: 2019 (Gazebo "
     "classic, the 2018-2019 console), simapp5 (ROS 1 SimApp v5.3.3: console until 2025, DRfC 5) or simapp6 (ROS 2 "
-    f"SimApp v6.0.5: DeepRacer on AWS, DRfC 6). Default: {GENERATION_VARIABLE}, else {DEFAULT_GENERATION}. "
-    "--car-profile replaces its car, --world picks the floor (docs/car-and-camera.md)."
+    f"SimApp v6.0.5: DeepRacer on AWS, DRfC 6). Default: {GENERATION_VARIABLE}, else {DEFAULT_GENERATION}. A "
+    "training run gives it to every worker (workers.json may set it per worker); a model's training_params record "
+    "the one it trained in. --car-profile replaces its car, --world picks the floor (docs/car-and-camera.md)."
 )
 CAR_PROFILE_HELP = (
-    "A car profile instead of the generation's car (RACER_CAR_PROFILE; a study's choice: the generation's car is "
-    "the one its data and files give). Empty: the generation's car."
+    "A car profile instead of the generation's car (RACER_CAR_PROFILE; a training run gives it to every worker, "
+    "workers.json may set it per worker; a study's choice: the generation's car is the one its data and files give). "
+    "Empty: the generation's car."
 )
 
 
@@ -26,17 +28,14 @@ def default_generation() -> str:
     return generation_name() or DEFAULT_GENERATION
 
 
-def generation_option(default: str | None = None, help_text: str = GENERATION_HELP):
-    """`--generation NAME` (`default`: a fixed default instead of RACER_GENERATION's, for a bench that judges in one
-    generation)."""
-    return click.option(
-        "--generation",
-        type=click.Choice(GENERATION_NAMES),
-        default=default or default_generation,
-        show_default=default or f"{GENERATION_VARIABLE}, else {DEFAULT_GENERATION}",
-        help=help_text,
-    )
-
+generation_option = click.option(
+    "--generation",
+    type=click.Choice(GENERATION_NAMES),
+    default=default_generation,
+    show_default=f"{GENERATION_VARIABLE}, else {DEFAULT_GENERATION}",
+    help=GENERATION_HELP,
+)
+"""`--generation NAME`: RACER_GENERATION's generation, else racer's default."""
 
 car_profile_option = click.option(
     "--car-profile",

@@ -1,4 +1,4 @@
-"""`--direction` for the commands that take `--track`: the pair resolves to one route name before the command runs.
+"""`--track` and its `--direction`: the pair resolves to one route name before the command runs.
 
 `--track "Forever Raceway" --direction clockwise` becomes `2024_reinvent_champ_cw`; a direction the track does not
 offer is a usage error naming the ones it does (`racer.shared.sim.tracks.catalog.resolve_track`).
@@ -12,6 +12,7 @@ from typing import Any
 
 import click
 
+from racer.shared.sim.config import DEFAULT_TRACK
 from racer.shared.sim.tracks.catalog import resolve_track
 from racer.shared.sim.tracks.droa_tracks import TrackDirectionError
 
@@ -26,6 +27,13 @@ DIRECTION_HELP = (
     "trackId of a single-direction DeepRacer-on-AWS track); default: the name as given, a DeepRacer-on-AWS display "
     "name in its default direction."
 )
+
+
+def track_option(required: bool = False):
+    """`--track NAME`: racer's default track unless the command requires one."""
+    if required:
+        return click.option("--track", required=True, help=TRACK_HELP)
+    return click.option("--track", default=DEFAULT_TRACK, show_default=True, help=TRACK_HELP)
 
 
 def resolved_track_name(track: str, direction: str | None) -> str:

@@ -6,19 +6,16 @@ from pathlib import Path
 
 import click
 
-from racer.options.generation import GENERATION_HELP, generation_option
+from racer.options.generation import generation_option
+from racer.options.race import race_workers_option
+from racer.options.training import seed_option
 
 
 @click.command(name="race")
 @click.argument("race_file", type=click.Path(dir_okay=False, path_type=Path))
 @click.argument("entrants", nargs=-1, required=True)
-@click.option(
-    "--workers",
-    type=click.IntRange(min=1),
-    default=None,
-    help="Entrants racing at once, one process each. Default: one per core.",
-)
-@click.option("--seed", type=int, default=0, show_default=True, help="Every entrant's evaluation seed.")
+@race_workers_option
+@seed_option
 @click.option(
     "--out",
     "out_dir",
@@ -27,12 +24,13 @@ from racer.options.generation import GENERATION_HELP, generation_option
     help="Where the leaderboard, videos and each entrant's evaluation go. Default: ./races/<race name>.",
 )
 @click.option("--video/--no-video", default=True, show_default=True, help="In-car, top-view and follow videos.")
-@generation_option(help_text=f"{GENERATION_HELP} Every entrant races in it.")
+@generation_option
 def race_command(race_file: Path, entrants: tuple[str, ...], workers, seed, out_dir, video, generation) -> None:
     """Race ENTRANTs on the race RACE_FILE defines and write leaderboard.json, .csv and .html.
 
     RACE_FILE: DeepRacer on AWS's leaderboard definition (trackConfig, raceType, timingMethod,
     resettingBehaviorConfig, submissionTerminationConditions, maxResets, objectAvoidanceConfig) in YAML or JSON.
+    Every entrant races in --generation, --seed seeding its evaluation.
     ENTRANT: [NAME=]SOURCE, SOURCE a model prefix in the store (RACER_STORE) or anything `racer model import`
     takes (a folder, .tar.gz, .zip, s3://bucket/prefix); imports go under races/<race>/<NAME> in the store.
     A broken entrant gets a row with its reason; the others race. HEAD_TO_MODEL and F1 put every entrant on the
@@ -44,7 +42,7 @@ def race_command(race_file: Path, entrants: tuple[str, ...], workers, seed, out_
     from racer.race.leaderboard import board_json, format_board, standings_from_results, write_board
     from racer.race.race_file import RaceFileError, read_race_file
     from racer.race.rules import resolve_route
-    from racer.race.runner import default_workers, run_multi_car_race, run_race
+    from racer.race.runner import race_workers_for_the_cores, run_multi_car_race, run_race
     from racer.race.videos import race_videos
     from racer.shared.config import settings_from_env
     from racer.shared.store import open_store
@@ -57,7 +55,7 @@ def race_command(race_file: Path, entrants: tuple[str, ...], workers, seed, out_
     except (RaceFileError, EntrantError) as error:
         raise click.ClickException(str(error)) from None
     out = (out_dir or Path("races") / definition.name).resolve()
-    count = 1 if definition.multi_car else min(workers or default_workers(), len(field))
+    count = 1 if definition.multi_car else min(workers or race_workers_for_the_cores(), len(field))
     at_once = "all on the track at once" if definition.multi_car else f"{count} at a time"
     ranked_by = "finishing order" if definition.race_type == "F1" else definition.timing_method
     click.echo(

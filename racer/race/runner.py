@@ -31,7 +31,9 @@ class RaceRun:
     wall_s: float
 
 
-def default_workers() -> int:
+def race_workers_for_the_cores() -> int:
+    """Entrants racing at once when `racer race --workers` is not given: one per core, each in a process of its own
+    (not rollout workers: racer.options.training.DEFAULT_WORKERS is those)."""
     return max(1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1)
 
 

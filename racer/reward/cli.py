@@ -8,8 +8,7 @@ from pathlib import Path
 
 import click
 
-from racer.options.track import TRACK_HELP
-from racer.shared.sim.config import DEFAULT_TRACK
+from racer.options.track import direction_option, track_option
 from racer.shared.sim.objects.challenge import RACE_TYPES
 
 
@@ -20,8 +19,7 @@ def reward_group() -> None:
 
 @reward_group.command("test")
 @click.argument("reward_file", type=click.Path(exists=True, dir_okay=False, path_type=Path))
-@click.option("--track", default=DEFAULT_TRACK, show_default=True, help=TRACK_HELP)
-@click.option("--direction", default=None, help="clockwise or counter-clockwise (see racer track list).")
+@track_option()
 @click.option(
     "--race-type",
     type=click.Choice(RACE_TYPES, case_sensitive=False),
@@ -37,10 +35,10 @@ def reward_group() -> None:
 )
 @click.option("--plot", type=click.Path(dir_okay=False, path_type=Path), default=None, help="Draw the reward (PNG).")
 @click.option("--budget", type=float, default=6.0, show_default=True, help="Seconds the calls may take at most.")
+@direction_option
 def test_command(
     reward_file: Path,
     track: str,
-    direction: str | None,
     race_type: str,
     model_metadata: Path | None,
     plot: Path | None,
@@ -50,14 +48,13 @@ def test_command(
     the track direction and reversed, each action, the race type's objects) and report every exception (file, line,
     params), every return that is not a finite number within ±1e5, a mean call slower than 1 ms, and, as warnings,
     what DeepRacer on AWS's validator rejects. Exit status 1 on any error."""
-    from racer.options.track import resolved_track_name
     from racer.reward.check import check_reward_file, reward_map
     from racer.shared.deepracer.model_metadata import ModelMetadataError, load_model_metadata
     from racer.shared.sim.tracks.track import Track, TrackError
 
     start = time.perf_counter()
     try:
-        route = Track.load(resolved_track_name(track, direction))
+        route = Track.load(track)
         metadata = load_model_metadata(model_metadata) if model_metadata else None
     except (TrackError, ModelMetadataError) as error:
         raise click.ClickException(str(error)) from error

@@ -75,7 +75,7 @@ def train_probe() -> tuple[click.Command, dict]:
     @click.option("--pretrained-prefix", default=None)
     @click.option("--pretrained-checkpoint", default="last")
     @click.option("--viewer-port", type=int, default=8100)
-    @generation_option()
+    @generation_option
     @challenge_options
     @direction_option
     def probe(**kwargs):
@@ -102,7 +102,7 @@ def evaluate_probe() -> tuple[click.Command, dict]:
     @click.option("--collision-penalty", type=float, default=5.0)
     @click.option("--video/--no-video", default=True)
     @click.option("--opponent", "opponents", multiple=True)
-    @generation_option()
+    @generation_option
     @challenge_options
     @direction_option
     def probe(**kwargs):

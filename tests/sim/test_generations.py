@@ -55,7 +55,7 @@ def test_racer_generation_is_the_options_default_and_the_option_wins():
     assert generation_name({}) is None and generation_name({"RACER_GENERATION": " 2019 "}) == "2019"
 
     @click.command()
-    @generation_option()
+    @generation_option
     @car_profile_option
     def show(generation, car_profile):
         click.echo(f"{generation}|{car_profile}")

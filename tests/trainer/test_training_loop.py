@@ -21,6 +21,7 @@ from racer.shared.run_settings import RunOptions
 from racer.shared.store import open_store
 from racer.shared.transport.channels import RunChannel
 from racer.shared.transport.codec import EpisodeBatch
+from racer.trainer.collector import CollectTimes
 from racer.trainer.precision import Precision
 from racer.trainer.training_loop import Trainer, TrainerOptions
 from tests.conftest import make_episode, write_custom_files
@@ -80,7 +81,9 @@ def test_collect_trains_one_batch_per_share_and_drops_stale_and_duplicate_ones(r
 
 
 def test_a_failed_trainer_leaves_the_run_resumable(redis_settings, tmp_path, custom_files, capsys):
-    trainer = make_trainer(redis_settings, tmp_path, custom_files, share_timeout_s=0.5, dead_worker_grace_s=60)
+    trainer = make_trainer(
+        redis_settings, tmp_path, custom_files, collect_times=CollectTimes(share_timeout_s=0.5, dead_worker_grace_s=60)
+    )
     with pytest.raises(TimeoutError, match=r"no episodes for shares \[0, 1\]"):
         trainer.run()  # no worker ever delivers
     store = open_store(LocalStoreSettings(root=tmp_path / "store"))
@@ -179,7 +182,7 @@ def test_an_announcement_lost_by_redis_is_announced_again(redis_settings, tmp_pa
     play it. The collecting trainer notices and announces it again; the workers' batches then arrive."""
     import threading
 
-    trainer = make_trainer(redis_settings, tmp_path, custom_files, announcement_check_s=0.3)
+    trainer = make_trainer(redis_settings, tmp_path, custom_files, collect_times=CollectTimes(announcement_check_s=0.3))
     trainer.setup()
     channel = RunChannel(RedisLink(redis_settings), PREFIX)
     channel.announce_iteration(0, "0_Step-0.ckpt", 2, 2)  # what Trainer.run does before collecting ...
@@ -449,7 +452,7 @@ def test_an_episode_claimed_by_a_worker_killed_while_holding_it_is_played_by_ano
     import sys
     import threading
 
-    trainer = make_trainer(redis_settings, tmp_path, custom_files, dead_worker_grace_s=0.5)
+    trainer = make_trainer(redis_settings, tmp_path, custom_files, collect_times=CollectTimes(dead_worker_grace_s=0.5))
     assert trainer.setup() == 0
     trainer._announce(0, trainer.checkpoints.latest_name())
     channel = RunChannel(RedisLink(redis_settings), PREFIX)
