@@ -26,7 +26,7 @@ from racer.shared.sim.tracks.track import Track, TrackError
     help="The folder to write (refused if it exists, unless --force).",
 )
 @click.option("--force", is_flag=True, help="Replace an existing --out folder.")
-@generation_option()
+@generation_option
 @car_profile_option
 @click.option(
     "--world",

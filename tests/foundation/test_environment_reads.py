@@ -14,6 +14,7 @@ PRODUCT_FOLDERS = ("racer", "shared", "trainer", "rollout_worker", "evaluation_w
 READERS: dict[str, str] = {
     "shared/config.py": "the one module that reads the environment",
     "shared/sim/scene/gl.py": "chooses MUJOCO_GL and sets it before mujoco is imported (MuJoCo reads it once, at import)",
+    "shared/sim/scene/renderer.py": "sets MUJOCO_GL and glvnd's EGL vendor file before mujoco is imported, MUJOCO_GL the override",
 }
 """Files that may read the environment in any way, and why."""
 
