@@ -11,6 +11,7 @@ import click
 from racer.drfc.options import drfc_train_option
 from racer.local.run import LocalRunPlan, run_local_training
 from racer.options.challenge import challenge_options, challenge_params_from_options
+from racer.options.renderer import renderer_option
 from racer.options.track import direction_option, track_option
 from racer.options.trainer import trainer_run_options
 from racer.options.training import (
@@ -27,6 +28,7 @@ from racer.options.training import (
 )
 from racer.shared.config import LocalStoreSettings, settings_from_env
 from racer.shared.run_settings import RunOptions
+from racer.shared.sim.scene.renderer import RendererError, choose_renderer
 from racer.trainer.device import DeviceError, resolve_device
 
 
@@ -57,6 +59,7 @@ from racer.trainer.device import DeviceError, resolve_device
     show_default=True,
     help="Address the page listens on; the default is reachable from this machine only.",
 )
+@renderer_option
 @trainer_run_options
 @challenge_options
 @direction_option
@@ -75,6 +78,7 @@ def train_command(
     seed,
     viewer_port,
     viewer_host,
+    renderer,
     device,
     precision,
     car_profile,
@@ -87,6 +91,10 @@ def train_command(
     try:  # a GPU asked for and absent is refused before anything starts
         resolve_device(device)
     except DeviceError as error:
+        raise click.UsageError(str(error)) from error
+    try:  # likewise a renderer this machine lacks
+        choose_renderer(renderer)
+    except RendererError as error:
         raise click.UsageError(str(error)) from error
     base_settings = settings_from_env()
     model_prefix = model_prefix or datetime.now().strftime("racer-%Y%m%d-%H%M%S")
@@ -114,6 +122,7 @@ def train_command(
         viewer_host=viewer_host,
         viewer_port=viewer_port or None,
         envs_per_worker=envs_per_worker,
+        renderer=renderer,
         trainer_options=("--precision", precision, "--device", device),
     )
     sys.exit(run_local_training(plan, base_settings))

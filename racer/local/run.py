@@ -26,6 +26,7 @@ from racer.shared.config import LocalStoreSettings, RedisSettings, S3Settings, S
 from racer.shared.redis_connection import RedisLink, RedisUnavailableError
 from racer.shared.run_settings import RunOptions
 from racer.shared.sim.scene.gl import ensure_gl_backend
+from racer.shared.sim.scene.renderer import apply_renderer, choose_renderer
 from racer.shared.store import S3Store, open_store
 from racer.shared.transport.channels import RunChannel
 
@@ -51,6 +52,8 @@ class LocalRunPlan:
     """None: the rollout command's default."""
     trainer_options: tuple[str, ...] = ()
     """Further `racer trainer` options, e.g. ("--sac-updates-per-transition", "0.5")."""
+    renderer: str = "auto"
+    """Which device draws the workers' cameras (`--renderer`: auto, cpu or gpu; MUJOCO_GL overrides it)."""
 
 
 def service_environment(settings: ServiceSettings) -> dict[str, str]:
@@ -110,6 +113,7 @@ class LocalRun:
         self.settings: ServiceSettings | None = None
 
     def start_services(self) -> ServiceSettings:
+        apply_renderer(choose_renderer(self.plan.renderer))  # the vendor before the backend; children inherit both
         ensure_gl_backend()  # MUJOCO_GL unset: EGL, else OSMesa, probed once; every child inherits the choice
         self.plan.log_dir.mkdir(parents=True, exist_ok=True)
         self.redis = RedisServer(self.plan.log_dir / "redis")
