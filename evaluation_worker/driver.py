@@ -20,22 +20,11 @@ from typing import Any, Protocol
 import numpy as np
 
 from racer.shared.policy.frame_stack import frame_stacker_for
+from racer.shared.policy.protocol import Policy
 from racer.shared.sim.env import DeepRacerEnv
 
 PENALTY_STATUSES: tuple[str, ...] = ("crashed", "immobilized", "off_track", "reversed")
 """Statuses a reset rule produces; each such step counts once in EvaluationMetrics (`<status>_count`)."""
-
-
-class Policy(Protocol):
-    """What the driver asks of a policy: `ActorCritic.act`, or a scripted stand-in in tests."""
-
-    def act(
-        self,
-        observation: Mapping[str, np.ndarray],
-        greedy: bool,
-        generator: np.random.Generator | None = None,
-        epsilon: float = 0.0,
-    ) -> tuple[Any, float]: ...
 
 
 @dataclass(frozen=True)
