@@ -162,9 +162,8 @@ class EvaluationDriver:
             self._policy_observation = next_observation
         else:
             self._policy_observation = self._stacker.push(next_observation)
-        row = dict(info["simtrace"])
         self._pending = StepOutcome(
-            row=row,
+            row=info["simtrace"],
             reward=float(reward),
             terminated=bool(terminated),
             truncated=bool(truncated),
@@ -180,8 +179,7 @@ class EvaluationDriver:
         if outcome is not self._pending:
             raise RuntimeError("record() must get the outcome of the last step()")
         self._pending = None
-        row = outcome.row
-        row["episode"] = self.lap_index
+        row = {**outcome.row, "episode": self.lap_index}
         if status is not None:
             row["episode_status"] = status
         if done is not None:

@@ -6,7 +6,7 @@ same path: observation -> policy.act -> env.step -> (reward, simtrace row).
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -76,13 +76,25 @@ class EpisodeRecorder:
         self.policy_observation = observation if self._stacker is None else self._stacker.push(observation)
         return bool(terminated or truncated)
 
+    @property
+    def steps(self) -> int:
+        return len(self._rewards)
+
     def finish(
-        self, *, policy_version: int, worker_id: int, world: str, episode_index: int, simtrace_episode: int | None
+        self,
+        *,
+        policy_version: int,
+        worker_id: int,
+        world: str,
+        episode_index: int,
+        simtrace_episode: int | None,
+        info: Mapping[str, float | int | str] | None = None,
     ) -> PlayedEpisode:
+        """The episode as played; `info` goes into `Episode.info` (the worker's rates and phase times)."""
         rows = self._rows
         if simtrace_episode is not None:
             rows = [{**row, "episode": simtrace_episode} for row in rows]
-        info = self._info
+        last_info = self._info
         actions = self._actions
         discrete = isinstance(actions[0], int | np.integer)
         episode = Episode(
@@ -94,10 +106,11 @@ class EpisodeRecorder:
             worker_id=worker_id,
             world=world,
             episode_index=episode_index,
-            final_status=str(info.get("episode_status", rows[-1]["episode_status"])),
-            progress=float(info.get("progress", rows[-1]["progress"])),
+            final_status=str(last_info.get("episode_status", rows[-1]["episode_status"])),
+            progress=float(last_info.get("progress", rows[-1]["progress"])),
+            info=dict(info or {}),
         )
-        lap_time_s = info.get("lap_time_s") if episode.final_status == "lap_complete" else None
+        lap_time_s = last_info.get("lap_time_s") if episode.final_status == "lap_complete" else None
         return PlayedEpisode(
             episode=episode,
             simtrace_rows=tuple(rows),

@@ -288,6 +288,12 @@ class RolloutWorker:
             return EpisodeTicket(number, epsilon)
 
         def finished(_env_index: int, ticket: EpisodeTicket, recorder: EpisodeRecorder) -> None:
+            own_in_flight.discard(ticket.number)
+            played["episodes"] += 1
+            played["steps"] += recorder.steps
+            self.state.episodes_played += 1
+            rate = played["steps"] / max(1e-6, time.monotonic() - started)
+            self.state.steps_per_s = rate
             counter = self.log.next_training_episode
             episode = recorder.finish(
                 policy_version=iteration,
@@ -295,17 +301,12 @@ class RolloutWorker:
                 world=world,
                 episode_index=counter,
                 simtrace_episode=counter,
+                info={
+                    "rollout_steps_per_s": round(rate, 1),
+                    **worker_phases.episode_info(self.state.phases.totals_s()),
+                },
             )
-            own_in_flight.discard(ticket.number)
-            played["episodes"] += 1
-            played["steps"] += episode.steps
-            self.state.episodes_played += 1
-            rate = played["steps"] / max(1e-6, time.monotonic() - started)
-            self.state.steps_per_s = rate
             self.log.record_training_episode(episode, iteration)
-            episode.episode.info.update(
-                rollout_steps_per_s=round(rate, 1), **worker_phases.episode_info(self.state.phases.totals_s())
-            )
             self.channel.deliver_episode(
                 EpisodeBatch(
                     iteration=iteration,
