@@ -35,7 +35,7 @@ from racer.local.run import LocalRunPlan, run_local_training
 from racer.options.generation import generation_option
 from racer.options.track import TRACK_HELP, direction_option
 from racer.racing_line.lap_time_bound import CarLimits, LapTimeBoundError, RacingLine, racing_line
-from racer.rollout_worker.batched_rollout import DEFAULT_WORKERS
+from racer.rollout_worker.envs import DEFAULT_WORKERS
 from racer.shared.config import LocalStoreSettings, RedisSettings, ServiceSettings
 from racer.shared.policy.manifest import CheckpointError
 from racer.shared.run_settings import RunOptions, load_worker_settings

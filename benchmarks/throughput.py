@@ -29,7 +29,7 @@ import click
 from benchmarks.workdir import bench_workdir, read_iteration_records
 from racer.defaults import DEFAULT_CUSTOM_FILES
 from racer.local.run import LocalRunPlan, run_local_training, service_environment
-from racer.rollout_worker.batched_rollout import DEFAULT_ENVS_PER_WORKER, default_workers
+from racer.rollout_worker.envs import DEFAULT_ENVS_PER_WORKER, default_workers
 from racer.shared.config import LocalStoreSettings, RedisSettings, ServiceSettings
 from racer.shared.deepracer.hyperparameters import load_hyperparameters
 from racer.shared.run_settings import RunOptions

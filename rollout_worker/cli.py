@@ -7,7 +7,7 @@ import signal
 
 import click
 
-from racer.rollout_worker.batched_rollout import DEFAULT_ENVS_PER_WORKER
+from racer.rollout_worker.envs import DEFAULT_ENVS_PER_WORKER
 from racer.shared.config import settings_from_env
 from racer.shared.sim.reward.function import RewardFunctionError
 from racer.shared.sim.scene.worlds import WORLD_NAMES as WORLDS

@@ -1,12 +1,29 @@
-"""A worker's envs: how `envs` envs of one world share the starts one env would have, and their random streams."""
+"""A worker's envs: how many (and how many workers), how `envs` envs of one world share the starts one env would
+have, and their random streams. A worker steps its envs in lockstep (racer.shared.episode_loop)."""
 
 from __future__ import annotations
 
 import dataclasses
+import os
 
 import numpy as np
 
 from racer.shared.sim.config import EnvConfig
+
+DEFAULT_ENVS_PER_WORKER = 4
+"""Per-frame inference cost falls steeply from batch 1 to 4 and less after (README, Benchmarks): the dense layer's
+weights are read once per call. With the default 4 workers and 20 episodes per iteration more envs per worker would
+mostly sit idle (an iteration has fewer episodes than 4 x 8 env slots), so 4 stays the default."""
+
+
+DEFAULT_WORKERS = 4
+"""Rollout workers of `racer train` on any machine: one per world. Not the core count: which worker plays which
+episode shapes the run, and a default may not make runs differ between machines."""
+
+
+def default_workers() -> int:
+    """One worker per core at least, so every core has envs to step; four at least, one per world."""
+    return max(4, len(os.sched_getaffinity(0)))
 
 
 def spread_env_configs(config: EnvConfig, count: int) -> list[EnvConfig]:

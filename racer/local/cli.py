@@ -13,7 +13,7 @@ from racer.drfc.options import drfc_train_option
 from racer.local.run import LocalRunPlan, run_local_training
 from racer.options.challenge import challenge_options, challenge_params_from_options
 from racer.options.track import TRACK_HELP, direction_option
-from racer.rollout_worker.batched_rollout import DEFAULT_ENVS_PER_WORKER, DEFAULT_WORKERS
+from racer.rollout_worker.envs import DEFAULT_ENVS_PER_WORKER, DEFAULT_WORKERS
 from racer.shared.config import LocalStoreSettings, settings_from_env
 from racer.shared.run_settings import RunOptions
 from racer.shared.sim.config import DEFAULT_TRACK

@@ -18,9 +18,9 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from racer.rollout_worker.episode_runner import play_episode
 from racer.shared.config import LocalStoreSettings, ServiceSettings
 from racer.shared.episode import Episode
+from racer.shared.episode_loop import play_episode
 from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.policy.frame_stack import frame_stacker_for
 from racer.shared.redis_connection import RedisLink
