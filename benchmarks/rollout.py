@@ -36,7 +36,7 @@ from racer.shared.policy.networks import build_actor_critic
 from racer.shared.policy.onnx_export import export_onnx
 from racer.shared.sim.env import DeepRacerEnv, EnvConfig
 from racer.shared.store import LocalStore
-from racer.shared.transport.codec import ZSTD_LEVEL, EpisodeBatch, encode_batch
+from racer.shared.transport.codec import ZSTD_LEVEL, encode_episode
 
 BATCHES = (1, 4, 8)
 MAX_ENCODED_FRAMES = 1000
@@ -129,7 +129,7 @@ def rollout_costs(policy, config: EnvConfig, blocks: int, episodes_per_block: in
                     totals[count][0] += played.steps
                     if frames is not None:
                         frames.extend(next(iter(played.episode.observations.values())))
-                    encode_batch(EpisodeBatch(0, 0, 0, "base", 0, (played.episode,)))
+                    encode_episode(played.episode)
 
                 start, cpu_start = time.perf_counter(), time.process_time()
                 play_episodes(rollout, next_episode, finished, threading.Event())

@@ -42,7 +42,6 @@ from racer.shared.redis_connection import RedisLink, RedisUnavailableError
 from racer.shared.sim.env import DeepRacerEnv
 from racer.shared.store import open_store
 from racer.shared.transport.channels import Announcement, RunChannel
-from racer.shared.transport.codec import EpisodeBatch
 from racer.shared.transport.frames import FrameChannel, FrameTap
 from racer.shared.worker_phases import PhaseClock
 
@@ -299,22 +298,15 @@ class RolloutWorker:
                 world=world,
                 episode_index=counter,
                 simtrace_episode=counter,
+                iteration=iteration,
+                episode_number=ticket.number,
                 info={
                     "rollout_steps_per_s": round(rate, 1),
                     **worker_phases.episode_info(self.state.phases.totals_s()),
                 },
             )
             self.log.record_training_episode(episode, iteration)
-            self.channel.deliver_episode(
-                EpisodeBatch(
-                    iteration=iteration,
-                    share=ticket.number,
-                    worker_id=self.worker_id,
-                    world=world,
-                    policy_version=iteration,
-                    episodes=(episode.episode,),
-                )
-            )
+            self.channel.deliver_episode(episode.episode)
 
         while True:
             loop = EpisodeLoop(self.policy, self.envs, self.rngs, greedy=False)

@@ -80,9 +80,13 @@ class EpisodeRecorder:
         world: str,
         episode_index: int,
         simtrace_episode: int | None,
+        iteration: int = 0,
+        episode_number: int = 0,
         info: Mapping[str, float | int | str] | None = None,
     ) -> PlayedEpisode:
-        """The episode as played; `info` goes into `Episode.info` (the worker's rates and phase times)."""
+        """The episode as played. `iteration` and `episode_number` say which episode of which iteration it is (what
+        the trainer reads; evaluation episodes never travel); `info` goes into `Episode.info` (the worker's rates and
+        phase times)."""
         rows = self._rows
         if simtrace_episode is not None:
             rows = [{**row, "episode": simtrace_episode} for row in rows]
@@ -97,6 +101,8 @@ class EpisodeRecorder:
             policy_version=policy_version,
             worker_id=worker_id,
             world=world,
+            iteration=iteration,
+            episode_number=episode_number,
             episode_index=episode_index,
             final_status=str(last_info.get("episode_status", rows[-1]["episode_status"])),
             progress=float(last_info.get("progress", rows[-1]["progress"])),
