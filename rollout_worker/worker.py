@@ -308,8 +308,8 @@ class RolloutWorker:
             self.log.record_training_episode(episode, iteration)
             self.channel.deliver_episode(episode.episode)
 
+        loop = EpisodeLoop(self.policy, self.envs, self.rngs, greedy=False)
         while True:
-            loop = EpisodeLoop(self.policy, self.envs, self.rngs, greedy=False)
             if not play_episodes(loop, next_episode, finished, self._stop, on_step=self.frame_tap):
                 self._hand_back_claims(iteration)
                 break

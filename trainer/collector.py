@@ -129,7 +129,7 @@ class Collector:
                     if released:
                         log.warning(
                             "worker %d has no heartbeat: its episodes %s of iteration %d go back to the queue and "
-                            "a live worker plays them",
+                            "a live worker replays it",
                             worker_id,
                             released,
                             iteration,
