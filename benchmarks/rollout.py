@@ -3,7 +3,7 @@
 inference: one forward pass of the default model's network (custom_files/model_metadata.json, fresh weights) on one
 thread at batch 1, 4 and 8, per frame: the checkpoint's ONNX graph with a free batch dimension (what workers use),
 the same graph called once per frame at batch 1, and the PyTorch module.
-rollout: one worker's loop (`BatchedRollout`: env steps, the batched ONNX forward pass, recording, and encoding each
+rollout: one worker's loop (`racer.shared.episode_loop`: env steps, the batched ONNX forward pass, recording, and encoding each
 finished episode as it would be sent) with 1, 4 and 8 envs, in alternating blocks so that other processes' load hits
 all alike; process CPU ms per env step (llvmpipe's render thread included) is the figure to compare on a busy
 machine, wall steps/s is printed beside it.
@@ -28,15 +28,15 @@ import torch
 import zstandard
 
 from racer.defaults import DEFAULT_CUSTOM_FILES
-from racer.rollout_worker.batched_rollout import BatchedRollout, EpisodeTicket
 from racer.rollout_worker.worker import env_generator, spread_env_configs
 from racer.shared.deepracer.model_metadata import load_model_metadata
+from racer.shared.episode_loop import EpisodeLoop, EpisodeTicket, play_episodes
 from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.policy.networks import build_actor_critic
 from racer.shared.policy.onnx_export import export_onnx
 from racer.shared.sim.env import DeepRacerEnv, EnvConfig
 from racer.shared.store import LocalStore
-from racer.shared.transport.codec import ZSTD_LEVEL, EpisodeBatch, encode_batch
+from racer.shared.transport.codec import ZSTD_LEVEL, encode_episode
 
 BATCHES = (1, 4, 8)
 MAX_ENCODED_FRAMES = 1000
@@ -109,7 +109,7 @@ def rollout_costs(policy, config: EnvConfig, blocks: int, episodes_per_block: in
         envs = [DeepRacerEnv(c) for c in spread_env_configs(config, count)]
         for j, env in enumerate(envs):
             env.reset(seed=j)
-        rollouts[count] = BatchedRollout(envs, [env_generator(0, j) for j in range(count)])
+        rollouts[count] = EpisodeLoop(policy, envs, [env_generator(0, j) for j in range(count)], greedy=False)
     totals = {count: [0, 0.0, 0.0] for count in rollouts}
     try:
         for block in range(blocks):
@@ -129,10 +129,10 @@ def rollout_costs(policy, config: EnvConfig, blocks: int, episodes_per_block: in
                     totals[count][0] += played.steps
                     if frames is not None:
                         frames.extend(next(iter(played.episode.observations.values())))
-                    encode_batch(EpisodeBatch(0, 0, 0, "base", 0, (played.episode,)))
+                    encode_episode(played.episode)
 
                 start, cpu_start = time.perf_counter(), time.process_time()
-                rollout.play(policy, next_episode, finished, threading.Event())
+                play_episodes(rollout, next_episode, finished, threading.Event())
                 totals[count][1] += time.perf_counter() - start
                 totals[count][2] += time.process_time() - cpu_start
             click.echo(f"rollout bench: block {block + 1}/{blocks}", err=True)

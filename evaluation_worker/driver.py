@@ -1,4 +1,5 @@
-"""Drive the environment with a greedy policy, one step at a time, and hand every finished step to the recorders.
+"""Drive the environment with a greedy policy, one step of the episode loop (racer.shared.episode_loop) at a time,
+and hand every finished step to the recorders.
 
 Both evaluation modes (DeepRacer trials, race rule) are written on top of this: they decide when a lap starts, how a
 step's status is reported (an intermediate lap of a continuous run is `in_progress`, the race clock can turn a step
@@ -19,23 +20,12 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from racer.shared.policy.frame_stack import frame_stacker_for
+from racer.shared.episode_loop import EpisodeLoop
+from racer.shared.policy.protocol import Policy
 from racer.shared.sim.env import DeepRacerEnv
 
 PENALTY_STATUSES: tuple[str, ...] = ("crashed", "immobilized", "off_track", "reversed")
 """Statuses a reset rule produces; each such step counts once in EvaluationMetrics (`<status>_count`)."""
-
-
-class Policy(Protocol):
-    """What the driver asks of a policy: `ActorCritic.act`, or a scripted stand-in in tests."""
-
-    def act(
-        self,
-        observation: Mapping[str, np.ndarray],
-        greedy: bool,
-        generator: np.random.Generator | None = None,
-        epsilon: float = 0.0,
-    ) -> tuple[Any, float]: ...
 
 
 @dataclass(frozen=True)
@@ -116,12 +106,8 @@ class EvaluationDriver:
         self.policy = policy
         self.observers = tuple(observers)
         self._seed = seed
-        self._generator = np.random.default_rng(seed)
-        self._observation: Mapping[str, np.ndarray] | None = None
-        self._stacker = frame_stacker_for(policy)
-        """stack_size > 1: the policy reads the last N camera frames (reset with the env); observers see single
-        frames."""
-        self._policy_observation: Mapping[str, np.ndarray] | None = None
+        self._loop = EpisodeLoop(policy, [env], [np.random.default_rng(seed)], greedy=True)
+        """The episode loop every mode steps (racer.shared.episode_loop); observers see single frames."""
         self._pending: StepOutcome | None = None
         self._started = False
         self.lap_index = 0
@@ -142,20 +128,15 @@ class EvaluationDriver:
         """
         if self._pending is not None:
             raise RuntimeError("the previous step was not recorded")
-        if self._started:
-            observation, _info = self.env.reset(options={"evaluation": True})
-        else:
-            observation, _info = self.env.reset(seed=self._seed, options={"evaluation": True})
-            self._started = True
-        self._observation = observation
-        self._policy_observation = observation if self._stacker is None else self._stacker.reset(observation)
+        self._loop.reset(0, {"evaluation": True}, seed=None if self._started else self._seed)
+        self._started = True
         self.lap_index = lap_index
         self.lap_resets = 0
         return self.sim_time_s
 
     def step(self) -> StepOutcome:
         """Choose the greedy action for the current observation and step the env. Call `record` next."""
-        if self._observation is None:
+        if not self._started:
             raise RuntimeError("start_lap() must come before step()")
         if self._pending is not None:
             raise RuntimeError("the previous step was not recorded")
@@ -165,23 +146,15 @@ class EvaluationDriver:
             self.observer_seconds[type(observer).__name__] += time.perf_counter() - started
         pose = self.core.car.pose(self.core.data)
         car = CarState(pose.origin_x_m, pose.origin_y_m, pose.yaw_rad, self.sim_time_s)
-        observation = self._observation
-        action, _log_prob = self.policy.act(self._policy_observation, greedy=True, generator=self._generator)
-        next_observation, reward, terminated, truncated, info = self.env.step(action)
-        self._observation = next_observation
-        if self._stacker is None:
-            self._policy_observation = next_observation
-        else:
-            self._policy_observation = self._stacker.push(next_observation)
-        row = dict(info["simtrace"])
+        (step,) = self._loop.step([0], [0.0])
         self._pending = StepOutcome(
-            row=row,
-            reward=float(reward),
-            terminated=bool(terminated),
-            truncated=bool(truncated),
-            lap_time_s=info.get("lap_time_s"),
-            action=action,
-            observation=observation,
+            row=step.info["simtrace"],
+            reward=step.reward,
+            terminated=step.terminated,
+            truncated=step.truncated,
+            lap_time_s=step.info.get("lap_time_s"),
+            action=step.action,
+            observation=step.observation,
             car=car,
         )
         return self._pending
@@ -191,8 +164,7 @@ class EvaluationDriver:
         if outcome is not self._pending:
             raise RuntimeError("record() must get the outcome of the last step()")
         self._pending = None
-        row = outcome.row
-        row["episode"] = self.lap_index
+        row = {**outcome.row, "episode": self.lap_index}
         if status is not None:
             row["episode_status"] = status
         if done is not None:

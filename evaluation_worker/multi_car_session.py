@@ -14,12 +14,13 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from racer.evaluation_worker.config import EvaluationConfig
-from racer.evaluation_worker.driver import EvaluationDriver, Policy, ProgressLog, no_log
+from racer.evaluation_worker.driver import EvaluationDriver, ProgressLog, no_log
 from racer.evaluation_worker.laps import LapResult, describe_lap
 from racer.evaluation_worker.multi_car import MultiCarResult, MultiCarRules, run_multi_car
 from racer.evaluation_worker.multi_car_video import AllCarsTopView
 from racer.evaluation_worker.runner import EvaluationReport, EvaluationSession
 from racer.shared.deepracer.model_metadata import ModelMetadata
+from racer.shared.policy.protocol import Policy
 from racer.shared.policy.torch_threads import one_torch_thread_if_loaded
 from racer.shared.sim.objects.peer_cars import PeerCars
 from racer.shared.store import ObjectStore

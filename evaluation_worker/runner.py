@@ -21,7 +21,7 @@ from typing import Any
 
 from racer.evaluation_worker.config import EvaluationConfig
 from racer.evaluation_worker.deepracer_eval import run_deepracer_evaluation
-from racer.evaluation_worker.driver import EvaluationDriver, Policy, ProgressLog, StepObserver, no_log
+from racer.evaluation_worker.driver import EvaluationDriver, ProgressLog, StepObserver, no_log
 from racer.evaluation_worker.laps import LapResult, describe_lap
 from racer.evaluation_worker.mcap_recording import McapRecorder
 from racer.evaluation_worker.outputs import (
@@ -40,6 +40,7 @@ from racer.shared.deepracer.training_params import training_params_to_yaml
 from racer.shared.model_layout import EvaluationLayout, ModelLayout
 from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.policy.manifest import CheckpointError
+from racer.shared.policy.protocol import Policy
 from racer.shared.policy.torch_threads import one_torch_thread_if_loaded
 from racer.shared.run_settings import env_config
 from racer.shared.sim.config import EnvConfig

@@ -9,12 +9,12 @@ import threading
 
 import numpy as np
 
-from racer.rollout_worker.episode_runner import EpisodeRecorder, PlayedEpisode, play_episode
 from racer.rollout_worker.worker_files import WorkerFiles
 from racer.shared.deepracer.hyperparameters import Hyperparameters
 from racer.shared.deepracer.model_metadata import ModelMetadata
+from racer.shared.episode_loop import EpisodeLoop, EpisodeTicket, play_episode, play_episodes
+from racer.shared.played_episode import EpisodeRecorder, PlayedEpisode
 from racer.shared.policy.action_selection import E_GREEDY_EVALUATION_EPSILON
-from racer.shared.policy.frame_stack import frame_stacker_for
 from racer.shared.sim.env import DeepRacerEnv
 
 log = logging.getLogger(__name__)
@@ -127,29 +127,32 @@ def play_consecutive_laps(
     options: dict = {"evaluation": True, "start_ndist": env.config.start_position_offset % 1.0}
     if max_steps is not None:
         options["max_steps"] = max_steps
-    stacker = frame_stacker_for(policy)
-    observation, reset_info = env.reset(options=options)
-    policy_observation = observation if stacker is None else stacker.reset(observation)
-    recorder = EpisodeRecorder(observation, reset_info)
     played: list[PlayedEpisode] = []
-    while True:
-        action, log_prob = policy.act(policy_observation, greedy=True, generator=generator, epsilon=epsilon)
-        result = env.step(action)
-        on_step(result[0], float(result[1]), result[4])
-        policy_observation = result[0] if stacker is None else stacker.push(result[0])
-        if not recorder.record(action, log_prob, result):
-            continue
-        lap = recorder.finish(
-            policy_version=policy_version,
-            worker_id=worker_id,
-            world=world,
-            episode_index=len(played),
-            simtrace_episode=None,
-        )
-        played.append(lap)
-        if not lap.lap_completed or len(played) == laps:
-            return played
-        if stop.is_set():
+    stopped = False
+
+    def next_lap(_index: int) -> EpisodeTicket | None:
+        nonlocal stopped
+        if not played:
+            return EpisodeTicket(0, epsilon, options)
+        last = played[-1]
+        if not last.lap_completed or len(played) == laps:
             return None
-        env.continue_after_lap(lap.end_time_s, renew_reset_budget=False)
-        recorder = EpisodeRecorder(result[0], {"start_time_s": lap.end_time_s})
+        if stop.is_set():
+            stopped = True
+            return None
+        env.continue_after_lap(last.end_time_s, renew_reset_budget=False)
+        return EpisodeTicket(len(played), epsilon, carry_on_from_s=last.end_time_s)
+
+    def finished(_index: int, ticket: EpisodeTicket, recorder: EpisodeRecorder) -> None:
+        played.append(
+            recorder.finish(
+                policy_version=policy_version,
+                worker_id=worker_id,
+                world=world,
+                episode_index=ticket.number,
+                simtrace_episode=None,
+            )
+        )
+
+    play_episodes(EpisodeLoop(policy, [env], [generator], greedy=True), next_lap, finished, on_step=on_step)
+    return None if stopped else played

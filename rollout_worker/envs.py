@@ -1,4 +1,5 @@
-"""A worker's envs: how `envs` envs of one world share the starts one env would have, and their random streams."""
+"""A worker's envs (their counts' defaults: racer.options.training): how `envs` envs of one world share the starts one env would
+have, and their random streams. A worker steps its envs in lockstep (racer.shared.episode_loop)."""
 
 from __future__ import annotations
 

@@ -14,12 +14,12 @@ import logging
 
 import numpy as np
 
-from racer.rollout_worker.episode_runner import PlayedEpisode
 from racer.rollout_worker.worker_files import WorkerFiles
 from racer.shared.deepracer.episode_status import EpisodeStatus
 from racer.shared.deepracer.metrics import TrainingMetrics, TrainingMetricsEntry, read_training_metrics
 from racer.shared.deepracer.simtrace import SimtraceWriter
 from racer.shared.model_layout import CheckpointName
+from racer.shared.played_episode import PlayedEpisode
 from racer.shared.store import ObjectNotFoundError, ObjectStore
 
 log = logging.getLogger(__name__)

@@ -9,7 +9,7 @@ Protocol (see racer.shared.transport.channels for the keys):
    updates deepracer_checkpoints.json (best by BEST_MODEL_METRIC).
 3. Wait (blocking read, no polling) for the next announcement: a new iteration, a `replay` notice (episodes went
    back to the queue: a worker died holding them; claim them), or `finished`.
-The worker steps `envs` envs of its world at once (racer.rollout_worker.batched_rollout). A heartbeat thread keeps
+The worker steps `envs` envs of its world at once (racer.shared.episode_loop). A heartbeat thread keeps
 `heartbeat:<id>` alive so the trainer can tell a dead worker from a slow one.
 """
 
@@ -26,15 +26,15 @@ from pathlib import Path
 
 import numpy as np
 
-from racer.rollout_worker.batched_rollout import BatchedRollout, EpisodeTicket
 from racer.rollout_worker.checkpoint_evaluation import evaluate_checkpoint, uses_e_greedy
 from racer.rollout_worker.claims import claim_next_episode
 from racer.rollout_worker.envs import env_generator, spread_env_configs
-from racer.rollout_worker.episode_runner import EpisodeRecorder
 from racer.rollout_worker.training_log import WorkerLog
 from racer.rollout_worker.worker_files import WorkerFiles, load_worker_files, training_env_config
 from racer.shared import worker_phases
 from racer.shared.config import ServiceSettings
+from racer.shared.episode_loop import EpisodeLoop, EpisodeTicket, play_episodes
+from racer.shared.played_episode import EpisodeRecorder
 from racer.shared.policy.action_selection import e_greedy_epsilon
 from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.policy.torch_threads import one_torch_thread_if_loaded
@@ -42,7 +42,6 @@ from racer.shared.redis_connection import RedisLink, RedisUnavailableError
 from racer.shared.sim.env import DeepRacerEnv
 from racer.shared.store import open_store
 from racer.shared.transport.channels import Announcement, RunChannel
-from racer.shared.transport.codec import EpisodeBatch
 from racer.shared.transport.frames import FrameChannel, FrameTap
 from racer.shared.worker_phases import PhaseClock
 
@@ -93,7 +92,6 @@ class RolloutWorker:
         self._workdir = Path(tempfile.mkdtemp(prefix=f"racer-worker{self.worker_id}-"))
         self.run: WorkerFiles | None = None
         self.envs: list[DeepRacerEnv] = []
-        self.rollout: BatchedRollout | None = None
         self.policy = None
         self.policy_version = -1
         self.rngs = [env_generator(options.seed, j) for j in range(max(1, options.envs))]
@@ -218,7 +216,6 @@ class RolloutWorker:
             env.reset(seed=self.options.seed + 1000 * j)
             self.envs.append(env)
             self._beat()  # building an env holds the GIL for long stretches: the heartbeat thread may not get in
-        self.rollout = BatchedRollout(self.envs, self.rngs)
         if announcement.kind == "iteration":  # a fresh process holds nothing: claims of an earlier life go back
             self.channel.release_claims(announcement.iteration, self.worker_id)
         self.log = WorkerLog(self.store, self.run, self.worker_id)
@@ -288,6 +285,12 @@ class RolloutWorker:
             return EpisodeTicket(number, epsilon)
 
         def finished(_env_index: int, ticket: EpisodeTicket, recorder: EpisodeRecorder) -> None:
+            own_in_flight.discard(ticket.number)
+            played["episodes"] += 1
+            played["steps"] += recorder.steps
+            self.state.episodes_played += 1
+            rate = played["steps"] / max(1e-6, time.monotonic() - started)
+            self.state.steps_per_s = rate
             counter = self.log.next_training_episode
             episode = recorder.finish(
                 policy_version=iteration,
@@ -295,30 +298,19 @@ class RolloutWorker:
                 world=world,
                 episode_index=counter,
                 simtrace_episode=counter,
+                iteration=iteration,
+                episode_number=ticket.number,
+                info={
+                    "rollout_steps_per_s": round(rate, 1),
+                    **worker_phases.episode_info(self.state.phases.totals_s()),
+                },
             )
-            own_in_flight.discard(ticket.number)
-            played["episodes"] += 1
-            played["steps"] += episode.steps
-            self.state.episodes_played += 1
-            rate = played["steps"] / max(1e-6, time.monotonic() - started)
-            self.state.steps_per_s = rate
             self.log.record_training_episode(episode, iteration)
-            episode.episode.info.update(
-                rollout_steps_per_s=round(rate, 1), **worker_phases.episode_info(self.state.phases.totals_s())
-            )
-            self.channel.deliver_episode(
-                EpisodeBatch(
-                    iteration=iteration,
-                    share=ticket.number,
-                    worker_id=self.worker_id,
-                    world=world,
-                    policy_version=iteration,
-                    episodes=(episode.episode,),
-                )
-            )
+            self.channel.deliver_episode(episode.episode)
 
+        loop = EpisodeLoop(self.policy, self.envs, self.rngs, greedy=False)
         while True:
-            if not self.rollout.play(self.policy, next_episode, finished, self._stop, on_step=self.frame_tap):
+            if not play_episodes(loop, next_episode, finished, self._stop, on_step=self.frame_tap):
                 self._hand_back_claims(iteration)
                 break
             # Every env is idle, so nothing is held any more; a claim still listed (a command Redis ran but whose

@@ -1,8 +1,8 @@
 """One finished episode, as a rollout worker hands it to the trainer.
 
-This is the unit that travels env -> Redis -> trainer. Arrays share a leading time axis of length
-`steps` (every transition, including DeepRacer's zero-reward `prepare` step). The transport encodes
-it without pickle (`racer.shared.transport.codec`).
+This is the one unit that travels env -> Redis -> trainer: one stream entry per episode, which says which episode
+of which iteration it is. Arrays share a leading time axis of length `steps` (every transition, including
+DeepRacer's zero-reward `prepare` step). The transport encodes it without pickle (`racer.shared.transport.codec`).
 """
 
 from __future__ import annotations
@@ -26,6 +26,12 @@ class Episode:
     """Checkpoint number of the policy that played this episode."""
     worker_id: int
     world: str
+    iteration: int = 0
+    """The training iteration the episode was played for (the trainer drops it when it is not the one it collects,
+    unless its learner keeps late episodes)."""
+    episode_number: int = 0
+    """Its number within the iteration, 0..E-1 (worker i of W owns i, i+W, ...): what the trainer counts, orders
+    and drops second copies by."""
     episode_index: int = 0
     """Worker-local training-episode counter (DeepRacer's simtrace `episode`)."""
     final_status: str = ""

@@ -98,7 +98,14 @@ def s3_settings(minio_server, request) -> Iterator[S3Settings]:
 
 
 def make_episode(
-    steps: int, seed: int, continuous: bool = False, worker_id: int = 1, world: str = "carpet", policy_version: int = 3
+    steps: int,
+    seed: int,
+    continuous: bool = False,
+    worker_id: int = 1,
+    world: str = "carpet",
+    policy_version: int = 3,
+    iteration: int = 3,
+    episode_number: int = 0,
 ):
     """A synthetic episode with camera frames and lidar, for transport and trainer-plumbing tests."""
     from racer.shared.episode import Episode
@@ -115,6 +122,8 @@ def make_episode(
         policy_version=policy_version,
         worker_id=worker_id,
         world=world,
+        iteration=iteration,
+        episode_number=episode_number,
         episode_index=seed,
         final_status="off_track",
         progress=12.5,

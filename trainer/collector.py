@@ -1,8 +1,8 @@
 """The trainer's half of the Redis protocol (racer.shared.transport.channels): announce an iteration, then collect its
 episodes from the episode stream, with the reconciliation that keeps a run going when workers or Redis fail.
 
-What `Collector.collect` does with each batch it reads: episodes of an older policy are dropped (clipped PPO is
-strictly on-policy; the learner may keep a late batch, as SAC keeps one of checkpoint k-1 in its replay memory), a
+What `Collector.collect` does with each episode it reads: episodes of an older policy are dropped (clipped PPO is
+strictly on-policy; the learner may keep a late episode, as SAC keeps those of checkpoint k-1 in its replay memory), a
 second copy of an episode number is dropped, and the claims of a worker with no heartbeat go back to the queue for a
 live worker. Episodes that are nowhere in Redis (a restarted Redis lost them) are queued again, and an announcement
 Redis lost is made again.
@@ -16,7 +16,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from racer.shared.transport.channels import ReceivedBatch, RunChannel
+from racer.shared.transport.channels import ReceivedEpisode, RunChannel
 from racer.shared.user_errors import RunCannotGoOnError
 from racer.trainer.learner import Learner
 
@@ -33,10 +33,11 @@ class StopRequested(Exception):
 class CollectTimes:
     """How long the trainer waits while collecting (TrainerOptions holds one)."""
 
-    share_timeout_s: float = 3600.0
+    episodes_timeout_s: float = 3600.0
     """Longest wait for the episodes of one iteration before giving up with an error."""
     dead_worker_grace_s: float = 20.0
-    """How long a share may have no live worker before it is re-assigned."""
+    """How long into an iteration the claims of a worker without a heartbeat may wait before they go back to the
+    queue."""
     announcement_check_s: float = 30.0
     """While collecting, how often to check that Redis still holds this iteration's announcement (a restarted
     Redis may have lost the newest writes); a lost one is announced again."""
@@ -66,49 +67,49 @@ class Collector:
         self.stop_event = stop_event
         self.times = times
 
-    def collect(self, iteration: int) -> dict[int, ReceivedBatch]:
+    def collect(self, iteration: int) -> dict[int, ReceivedEpisode]:
         """The iteration's E episodes, by episode number. Workers claim them from Redis lists (see
         racer.shared.transport.channels); the claims of a worker whose heartbeat lapsed go back to the queue, and a
         live worker plays them."""
         num_workers = self.num_workers
         expected = set(range(self.episodes_per_iteration))
-        got: dict[int, ReceivedBatch] = {}
+        got: dict[int, ReceivedEpisode] = {}
         waiting_since = time.monotonic()
         next_notice = waiting_since + 60
         next_announcement_check = waiting_since + self.times.announcement_check_s
         next_reconcile = waiting_since + self.times.dead_worker_grace_s
         last_queued: set[int] = set()
 
-        def consider(received: ReceivedBatch) -> None:
-            batch = received.batch
-            if batch.iteration < iteration and self.learner.take_late_batch(batch, iteration):
+        def consider(received: ReceivedEpisode) -> None:
+            episode = received.episode
+            if episode.iteration < iteration and self.learner.take_late_episode(episode, iteration):
                 self.channel.ack(received.stream_id)
-            elif batch.iteration != iteration or batch.policy_version != iteration:
+            elif episode.iteration != iteration or episode.policy_version != iteration:
                 log.info(
-                    "dropping a stale batch (iteration %d, policy %d) while training iteration %d",
-                    batch.iteration,
-                    batch.policy_version,
+                    "dropping a stale episode (iteration %d, policy %d) while training iteration %d",
+                    episode.iteration,
+                    episode.policy_version,
                     iteration,
                 )
                 self.channel.ack(received.stream_id)
-            elif batch.share in got or batch.share not in expected:
+            elif episode.episode_number in got or episode.episode_number not in expected:
                 log.info(
                     "dropping a duplicate of episode %d of iteration %d from worker %d",
-                    batch.share,
+                    episode.episode_number,
                     iteration,
-                    batch.worker_id,
+                    episode.worker_id,
                 )
                 self.channel.ack(received.stream_id)
             else:
-                got[batch.share] = received
-                self.channel.mark_received(iteration, batch.share)
+                got[episode.episode_number] = received
+                self.channel.mark_received(iteration, episode.episode_number)
 
         def read_all_now() -> None:
-            while received := self.channel.read_batches(self.consumer, block_s=0.001):
+            while received := self.channel.read_episodes(self.consumer, block_s=0.001):
                 for item in received:
                     consider(item)
 
-        for received in self.channel.read_batches(self.consumer, 0, pending=True):
+        for received in self.channel.read_episodes(self.consumer, 0, pending=True):
             consider(received)
         while expected - got.keys():
             if self.stop_event.is_set():
@@ -116,7 +117,7 @@ class Collector:
             fatal = self.channel.fatal()
             if fatal is not None:  # as the SimApp's RewardFunctionError ends its job: no training on what is left
                 raise RunCannotGoOnError(f"{fatal['source']}: {fatal['message']}")
-            for received in self.channel.read_batches(self.consumer, block_s=2.0):
+            for received in self.channel.read_episodes(self.consumer, block_s=2.0):
                 consider(received)
             missing = sorted(expected - got.keys())
             if not missing:
@@ -163,10 +164,10 @@ class Collector:
                     sorted(live),
                 )
                 next_notice = now + 60
-            if now - waiting_since > self.times.share_timeout_s:
+            if now - waiting_since > self.times.episodes_timeout_s:
                 raise TimeoutError(
-                    f"iteration {iteration}: no episodes for shares {missing} after "
-                    f"{self.times.share_timeout_s:.0f} s (live workers: {sorted(live) or 'none'}); "
+                    f"iteration {iteration}: episodes {missing} did not arrive within "
+                    f"{self.times.episodes_timeout_s:.0f} s (live workers: {sorted(live) or 'none'}); "
                     f"are the rollout workers running against {self.channel.key('episodes')}?"
                 )
         return got

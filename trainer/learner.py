@@ -1,7 +1,7 @@
 """What the trainer's loop asks of a learning algorithm (clipped PPO, SAC), and what every learner shares.
 
 The loop (racer.trainer.training_loop) never asks which algorithm it drives: it calls `Learner.update` with the
-iteration's episodes, prints `Learner.training_lines`, offers a late batch with `Learner.take_late_batch`, and saves
+iteration's episodes, prints `Learner.training_lines`, offers a late episode with `Learner.take_late_episode`, and saves
 `Learner.network` with `Learner.optimizer`. racer.trainer.algorithms builds the learner model_metadata.json asks for.
 """
 
@@ -17,7 +17,6 @@ if TYPE_CHECKING:
     from torch import nn
 
     from racer.shared.episode import Episode
-    from racer.shared.transport.codec import EpisodeBatch
 
 __all__ = ["ADAM_BETAS", "ADAM_EPSILON", "Learner", "UpdateAbandoned", "adam", "seed_or_fresh"]
 
@@ -66,9 +65,9 @@ class Learner(Protocol):
         """The `Policy training>` log lines of an update's statistics."""
         ...
 
-    def take_late_batch(self, batch: EpisodeBatch, iteration: int) -> bool:
-        """Offered a batch played for an older iteration while collecting `iteration`: True when the learner keeps
-        its episodes (the collector then acknowledges it), False when it is dropped as stale."""
+    def take_late_episode(self, episode: Episode, iteration: int) -> bool:
+        """Offered an episode played for an older iteration while collecting `iteration`: True when the learner
+        keeps it (the collector then acknowledges it), False when it is dropped as stale."""
         ...
 
 

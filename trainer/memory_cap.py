@@ -23,10 +23,9 @@ def default_max_memory_steps(neural_network: str) -> int:
     return MAX_MEMORY_STEPS_SHALLOW if neural_network == SHALLOW_NETWORK else MAX_MEMORY_STEPS_OTHER
 
 
-def global_episode_order(shares: Mapping[int, Sequence[Episode]], num_shares: int) -> list[Episode]:
-    """The SimApp's episode order: the j-th episode of share s is episode s + j * num_shares of the iteration."""
-    indexed = [(s + j * num_shares, episode) for s, episodes in shares.items() for j, episode in enumerate(episodes)]
-    return [episode for _, episode in sorted(indexed, key=lambda pair: pair[0])]
+def global_episode_order(by_number: Mapping[int, Episode]) -> list[Episode]:
+    """The SimApp's episode order: by episode number within the iteration (worker i's j-th episode is i + j * W)."""
+    return [by_number[number] for number in sorted(by_number)]
 
 
 @dataclass(frozen=True)

@@ -211,8 +211,8 @@ class PPOLearner:
         """DeepRacer's `Policy training>` line, one per epoch."""
         return [format_policy_training_line(epoch) for epoch in stats]
 
-    def take_late_batch(self, batch, iteration: int) -> bool:
-        """Clipped PPO is strictly on-policy: a batch of an older policy is never kept."""
+    def take_late_episode(self, episode, iteration: int) -> bool:
+        """Clipped PPO is strictly on-policy: an episode of an older policy is never kept."""
         return False
 
     # -- the algorithm -----------------------------------------------------------------------------------------------

@@ -144,7 +144,7 @@ class SACLearner:
             group["lr"] = value
 
     def add_experience(self, episodes: Sequence[Episode]) -> int:
-        """Store finite episodes in the replay memory (also used for late batches of the previous checkpoint)."""
+        """Store finite episodes in the replay memory (also used for late episodes of the previous checkpoint)."""
         kept = finite_episodes(episodes)
         for episode in kept:
             self.replay.add_episode(episode)
@@ -168,19 +168,18 @@ class SACLearner:
         """One `Policy training>` line per iteration."""
         return [format_sac_training_line(entry) for entry in stats]
 
-    def take_late_batch(self, batch, iteration: int) -> bool:
-        """SAC learns off-policy: a late batch played with the previous checkpoint (a share re-played for a worker
-        that came back, a worker that finished after the trainer moved on) is still good experience. Anything older
-        is dropped: what enters the memory during iteration k was played by checkpoint k or k-1."""
-        if batch.policy_version != iteration - 1 or batch.iteration >= iteration:
+    def take_late_episode(self, episode, iteration: int) -> bool:
+        """SAC learns off-policy: a late episode played with the previous checkpoint (an episode played again for a
+        worker that came back, a worker that finished after the trainer moved on) is still good experience. Anything
+        older is dropped: what enters the memory during iteration k was played by checkpoint k or k-1."""
+        if episode.policy_version != iteration - 1 or episode.iteration >= iteration:
             return False
         log.info(
-            "SAC: %d episodes of checkpoint %d (one behind) from worker %d go into the replay memory",
-            len(batch.episodes),
-            batch.policy_version,
-            batch.worker_id,
+            "SAC: an episode of checkpoint %d (one behind) from worker %d goes into the replay memory",
+            episode.policy_version,
+            episode.worker_id,
         )
-        self.add_experience(batch.episodes)
+        self.add_experience([episode])
         return True
 
     def _train(self, steps: int, minibatch: int, abandon: Callable[[], bool] | None = None) -> SACStats:

@@ -5,13 +5,13 @@ One iteration k, top to bottom:
 1. announce checkpoint k on the control stream (it is already complete in the store);
 2. collect the iteration's E episodes (numbers 0..E-1, queued in Redis; workers claim them one by one, their own
    DeepRacer share first, then whatever is left) from the episode stream (consumer group `trainer`): episodes of an
-   older policy are dropped (PPO is strictly on-policy; SAC keeps a late batch of checkpoint k-1 in its replay
+   older policy are dropped (PPO is strictly on-policy; SAC keeps a late episode of checkpoint k-1 in its replay
    memory without counting it, and drops older ones), a second copy of an episode number is dropped, and the
    claims of a worker with no heartbeat go back to the queue for a live worker (racer.trainer.collector);
 3. print DeepRacer's `Training>` line per episode, run the learner's update, print `Policy training>` lines;
 4. save checkpoint k+1 to the store (files first, then `.coach_checkpoint`), record the iteration's summary
-   (racer.trainer.iteration_summary), then acknowledge the batches.
-A trainer killed at any point restarts from the newest checkpoint: unacknowledged batches are read again.
+   (racer.trainer.iteration_summary), then acknowledge the episodes.
+A trainer killed at any point restarts from the newest checkpoint: unacknowledged episodes are read again.
 
 Before the first iteration the run's custom files are checked and published (racer.trainer.run_files); a signal
 or the wall-time limit stops the loop (racer.trainer.stopping). Which checkpoint is the best is not decided here:
@@ -38,7 +38,7 @@ from racer.shared.redis_connection import RedisLink, RedisUnavailableError
 from racer.shared.run_progress import RunPace, StopCondition
 from racer.shared.run_settings import RunOptions
 from racer.shared.store import open_store
-from racer.shared.transport.channels import ReceivedBatch, RunChannel
+from racer.shared.transport.channels import ReceivedEpisode, RunChannel
 from racer.trainer.algorithms import LearnerOptions, build_learner
 from racer.trainer.collector import Collector, CollectTimes, StopRequested
 from racer.trainer.device import describe_device
@@ -192,7 +192,7 @@ class Trainer:
         return name
 
     # ---- one iteration -----------------------------------------------------------------------------
-    def collect(self, iteration: int) -> dict[int, ReceivedBatch]:
+    def collect(self, iteration: int) -> dict[int, ReceivedEpisode]:
         """The iteration's E episodes, by episode number (racer.trainer.collector)."""
         return self.collector.collect(iteration)
 
@@ -204,9 +204,9 @@ class Trainer:
             return self.options.max_memory_steps
         return default_max_memory_steps(self.metadata.neural_network)
 
-    def train_iteration(self, iteration: int, batches: dict[int, ReceivedBatch], rollout_wall_s: float) -> dict:
-        shares = {share: received.batch.episodes for share, received in batches.items()}
-        capped = cap_episodes(global_episode_order(shares, self.options.run.num_workers), self._memory_cap())
+    def train_iteration(self, iteration: int, received: dict[int, ReceivedEpisode], rollout_wall_s: float) -> dict:
+        by_number = {number: item.episode for number, item in received.items()}
+        capped = cap_episodes(global_episode_order(by_number), self._memory_cap())
         episodes = list(capped.kept)
         if capped.dropped:
             log.info(
@@ -285,7 +285,7 @@ class Trainer:
             except RedisUnavailableError as error:
                 if not self.stop_event.is_set() or self.checkpoints.latest_name() is None:
                     raise
-                # Stopping with Redis gone: the newest checkpoint is complete in the store; batches not
+                # Stopping with Redis gone: the newest checkpoint is complete in the store; episodes not
                 # acknowledged are of an older policy by now and a resumed trainer drops them.
                 log.warning("stopping without Redis: %s", error)
             stopped_cleanly = True
@@ -326,15 +326,15 @@ class Trainer:
         saved)."""
         self.collector.announce(iteration, self.checkpoints.latest_name())
         announced = time.monotonic()
-        batches = self.collect(iteration)
-        summary = self.train_iteration(iteration, batches, time.monotonic() - announced)
+        received = self.collect(iteration)
+        summary = self.train_iteration(iteration, received, time.monotonic() - announced)
         self._save(iteration + 1)
         self.iteration = iteration + 1
         summary["progress"] = self.pace.after_iteration(
             iteration, time.monotonic() - self.started, self.episodes_consumed
         ).to_dict()
         record_summary(self.store, self.layout, self.channel, summary)
-        self.channel.ack(*[b.stream_id for b in batches.values()])
+        self.channel.ack(*[item.stream_id for item in received.values()])
         self.channel.forget_iteration(iteration, self.options.run.num_workers)
 
 

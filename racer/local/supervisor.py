@@ -2,7 +2,7 @@
 down and come back, and stop every process within a fixed time whatever state Redis is in.
 
 A redis-server that dies is started again on the same port and data folder: it loads its append-only file, so
-every episode batch a worker had pushed (XADD answered) is still there; the trainer and the workers reconnect
+every episode a worker had pushed (XADD answered) is still there; the trainer and the workers reconnect
 on their own (RedisLink). A rollout worker that exits with an error is started again with a new seed.
 """
 

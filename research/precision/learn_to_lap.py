@@ -25,9 +25,9 @@ import torch
 from benchmarks.precision_agreement import update_agreement
 from benchmarks.time_to_lap_races import time_to_lap_hyperparameters
 from benchmarks.workdir import cpu_description
-from racer.rollout_worker.episode_runner import play_episode
 from racer.shared.deepracer.hyperparameters import parse_hyperparameters
 from racer.shared.deepracer.model_metadata import parse_model_metadata
+from racer.shared.episode_loop import play_episode
 from racer.shared.policy.networks import ActorCritic, build_actor_critic
 from racer.shared.sim.config import EnvConfig
 from racer.shared.sim.env import DeepRacerEnv

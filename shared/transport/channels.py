@@ -8,7 +8,7 @@ Keys (all under `racer:<run>:`, `<run>` = the model prefix):
 | `todo:<k>:<w>` | list | trainer, workers | episode numbers of iteration k not yet claimed, first those of worker w's DeepRacer share |
 | `claimed:<k>:<w>` | list | workers, trainer | episodes worker w is playing; they go back to a todo list when its heartbeat lapses |
 | `opened:<k>` | string | trainer | the todo lists of iteration k were filled (once) |
-| `episodes` | stream, consumer group `trainer` | workers | one entry per episode of iteration k: an `EpisodeBatch` (codec.py) whose `share` is the episode number |
+| `episodes` | stream, consumer group `trainer` | workers | one entry per episode of iteration k: an `Episode` (codec.py) that names its iteration and `episode_number` |
 | `received:<k>` | set | trainer | episode numbers of iteration k the trainer already holds |
 | `heartbeat:<worker>` | string with TTL | workers | JSON status (state, iteration, episodes, steps/s); absent = dead |
 | `evaluations` | stream | worker 0 | greedy evaluation results per checkpoint |
@@ -16,7 +16,7 @@ Keys (all under `racer:<run>:`, `<run>` = the model prefix):
 | `watching`, `frame:<worker>` | strings with TTL | viewer, workers | live camera frames for `racer view` (frames.py) |
 
 Why streams: unlike DeepRacer's pub/sub, a stream entry waits until it is read, so nothing is lost when
-a reader is busy or restarting; the consumer group keeps unacknowledged batches for a restarted trainer.
+a reader is busy or restarting; the consumer group keeps unacknowledged episodes for a restarted trainer.
 """
 
 from __future__ import annotations
@@ -29,8 +29,9 @@ from dataclasses import dataclass
 
 import redis
 
+from racer.shared.episode import Episode
 from racer.shared.redis_connection import RedisLink
-from racer.shared.transport.codec import CodecError, EpisodeBatch, decode_batch, encode_batch
+from racer.shared.transport.codec import CodecError, decode_episode, encode_episode
 
 log = logging.getLogger(__name__)
 
@@ -60,14 +61,13 @@ class Announcement:
     checkpoint: str = ""
     episodes_per_iteration: int = 0
     num_workers: int = 0
-    share: int = -1
     target_worker: int = -1
 
 
 @dataclass(frozen=True)
-class ReceivedBatch:
+class ReceivedEpisode:
     stream_id: str
-    batch: EpisodeBatch
+    episode: Episode
 
 
 def share_sizes(episodes_per_iteration: int, num_workers: int) -> list[int]:
@@ -104,9 +104,9 @@ class RunChannel:
         }
         self.link.do(lambda r: r.xadd(self.key("control"), fields, maxlen=STREAM_MAX_ENTRIES, approximate=True))
 
-    def request_replay(self, iteration: int, share: int = -1, target_worker: int = -1) -> None:
+    def request_replay(self, iteration: int, target_worker: int = -1) -> None:
         """Wake idle workers: episodes of `iteration` went back to the queue (`target_worker` -1: any worker)."""
-        fields = {"kind": "replay", "iteration": iteration, "share": share, "target_worker": target_worker}
+        fields = {"kind": "replay", "iteration": iteration, "target_worker": target_worker}
         self.link.do(lambda r: r.xadd(self.key("control"), fields, maxlen=STREAM_MAX_ENTRIES, approximate=True))
 
     # ---- claimed episodes -----------------------------------------------------------------------
@@ -149,17 +149,16 @@ class RunChannel:
             pipe.llen(self._todo(iteration, w))
         return pipe.execute()
 
-    def deliver_episode(self, batch: EpisodeBatch) -> None:
+    def deliver_episode(self, episode: Episode) -> None:
         """Push one claimed episode and drop its claim in one transaction: an episode is always either claimed,
         queued or delivered, whenever a worker dies."""
-        payload = encode_batch(batch)
-        fields = {"iteration": batch.iteration, "share": batch.share, "worker_id": batch.worker_id, "payload": payload}
-        claimed = self._claimed(batch.iteration, batch.worker_id)
+        fields = self._episode_fields(episode)
+        claimed = self._claimed(episode.iteration, episode.worker_id)
 
         def deliver(r: redis.Redis) -> None:
             pipe = r.pipeline(transaction=True)
             pipe.xadd(self.key("episodes"), fields, maxlen=STREAM_MAX_ENTRIES, approximate=True)
-            pipe.lrem(claimed, 1, batch.share)
+            pipe.lrem(claimed, 1, episode.episode_number)
             pipe.execute()
 
         self.link.do(deliver)
@@ -214,7 +213,6 @@ class RunChannel:
             checkpoint=f.get("checkpoint", ""),
             episodes_per_iteration=int(f.get("episodes_per_iteration", 0)),
             num_workers=int(f.get("num_workers", 0)),
-            share=int(f.get("share", -1)),
             target_worker=int(f.get("target_worker", -1)),
         )
 
@@ -238,9 +236,18 @@ class RunChannel:
         return announcements
 
     # ---- episode stream -------------------------------------------------------------------------
-    def push_batch(self, batch: EpisodeBatch) -> None:
-        payload = encode_batch(batch)
-        fields = {"iteration": batch.iteration, "share": batch.share, "worker_id": batch.worker_id, "payload": payload}
+    @staticmethod
+    def _episode_fields(episode: Episode) -> dict:
+        return {
+            "iteration": episode.iteration,
+            "episode_number": episode.episode_number,
+            "worker_id": episode.worker_id,
+            "payload": encode_episode(episode),
+        }
+
+    def push_episode(self, episode: Episode) -> None:
+        """Add an episode to the stream without a claim to drop (tests, and tools that feed a trainer)."""
+        fields = self._episode_fields(episode)
         self.link.do(lambda r: r.xadd(self.key("episodes"), fields, maxlen=STREAM_MAX_ENTRIES, approximate=True))
 
     def ensure_trainer_group(self) -> None:
@@ -253,8 +260,9 @@ class RunChannel:
 
         self.link.do(create)
 
-    def read_batches(self, consumer: str, block_s: float, pending: bool = False) -> list[ReceivedBatch]:
-        """Read batches for the trainer's consumer group: new ones, or (pending=True) ones it read but never acknowledged."""
+    def read_episodes(self, consumer: str, block_s: float, pending: bool = False) -> list[ReceivedEpisode]:
+        """Read episodes for the trainer's consumer group: new ones, or (pending=True) ones it read but never
+        acknowledged."""
         start = "0" if pending else ">"
 
         def read(r: redis.Redis):
@@ -282,9 +290,9 @@ class RunChannel:
                     self.ack(stream_id)
                     continue
                 try:
-                    received.append(ReceivedBatch(stream_id, decode_batch(payload)))
+                    received.append(ReceivedEpisode(stream_id, decode_episode(payload)))
                 except CodecError as error:
-                    log.error("dropping undecodable episode batch %s: %s", stream_id, error)
+                    log.error("dropping undecodable episode %s: %s", stream_id, error)
                     self.ack(stream_id)
         return received
 
@@ -297,11 +305,11 @@ class RunChannel:
                 )
             )
 
-    def mark_received(self, iteration: int, share: int) -> None:
+    def mark_received(self, iteration: int, episode_number: int) -> None:
         key = self.key(f"received:{iteration}")
-        self.link.do(lambda r: (r.sadd(key, share), r.expire(key, 7 * 24 * 3600)))
+        self.link.do(lambda r: (r.sadd(key, episode_number), r.expire(key, 7 * 24 * 3600)))
 
-    def received_shares(self, iteration: int) -> set[int]:
+    def received_episodes(self, iteration: int) -> set[int]:
         members = self.link.do(lambda r: r.smembers(self.key(f"received:{iteration}")))
         return {int(_text(m)) for m in members}
 

@@ -1,15 +1,16 @@
-"""Wire format of an episode batch: msgpack with raw, zstd-compressed numpy buffers. Never pickle.
+"""Wire format of one episode: msgpack with raw, zstd-compressed numpy buffers. Never pickle.
 
-A batch is the share of one iteration that one worker played (all its episodes), so it is sent as
-one Redis stream entry and arrives whole or not at all. Layout (schema `racer.episodes/1`):
+Every episode a worker plays is sent on its own, as one Redis stream entry, as soon as it ends, so it arrives whole or
+not at all and a worker that dies loses only the episodes it was playing. Layout (schema `racer.episodes/2`):
 
-    {"schema": "racer.episodes/1",
-     "iteration": int, "share": int, "worker_id": int, "world": str, "policy_version": int,
-     "episodes": [
-        {"episode_index": int, "final_status": str, "progress": float, "info": {str: scalar},
-         "arrays": {"actions": ARRAY, "rewards": ARRAY, "log_probs": ARRAY,
-                    "obs/<SENSOR_NAME>": ARRAY, ...}}]}
+    {"schema": "racer.episodes/2",
+     "iteration": int, "episode_number": int, "worker_id": int, "world": str, "policy_version": int,
+     "episode_index": int, "final_status": str, "progress": float, "info": {str: scalar},
+     "arrays": {"actions": ARRAY, "rewards": ARRAY, "log_probs": ARRAY, "obs/<SENSOR_NAME>": ARRAY, ...}}
     ARRAY = {"dtype": "<u1", "shape": [T, 120, 160, 1], "codec": "zstd" | "zlib" | "raw", "data": bytes}
+
+`episode_number` is the episode's number within the iteration (0..E-1); `episode_index` the worker's running count
+of training episodes (the simtrace `episode` column). Schema 1 wrapped episodes in a batch that always held one.
 
 Done flags are not sent: every episode is complete, so its last transition is the only terminal one
 (`episode_ends` in the trainer) and the trainer bootstraps with 0 after it, as DeepRacer does. `final_status`
@@ -24,7 +25,6 @@ in Redis. Arrays with codec "zlib" still decode.
 from __future__ import annotations
 
 import zlib
-from dataclasses import dataclass
 
 import msgpack
 import numpy as np
@@ -32,24 +32,14 @@ import zstandard
 
 from racer.shared.episode import Episode
 
-SCHEMA = "racer.episodes/1"
+SCHEMA = "racer.episodes/2"
 _COMPRESS_MIN_BYTES = 4096
 ZSTD_LEVEL = 1
 _ALLOWED_DTYPES = {"|u1", "<u1", "<i8", "<f4", "<f8", "<i4", "|b1"}
 
 
 class CodecError(ValueError):
-    """A message that is not a valid `racer.episodes/1` batch."""
-
-
-@dataclass(frozen=True)
-class EpisodeBatch:
-    iteration: int
-    share: int
-    worker_id: int
-    world: str
-    policy_version: int
-    episodes: tuple[Episode, ...]
+    """A message that is not a valid `racer.episodes/2` episode."""
 
 
 def _encode_array(array: np.ndarray) -> dict:
@@ -83,51 +73,46 @@ def _decode_array(spec: dict, where: str) -> np.ndarray:
     return array.reshape(shape)
 
 
-def encode_batch(batch: EpisodeBatch) -> bytes:
-    episodes = []
-    for episode in batch.episodes:
-        episode.validate()
-        arrays = {
-            "actions": _encode_array(episode.actions),
-            "rewards": _encode_array(episode.rewards.astype(np.float32, copy=False)),
-            "log_probs": _encode_array(episode.log_probs.astype(np.float32, copy=False)),
-        }
-        for name, observation in episode.observations.items():
-            arrays[f"obs/{name}"] = _encode_array(observation)
-        episodes.append(
-            {
-                "episode_index": episode.episode_index,
-                "final_status": episode.final_status,
-                "progress": float(episode.progress),
-                "info": dict(episode.info),
-                "arrays": arrays,
-            }
-        )
+def encode_episode(episode: Episode) -> bytes:
+    episode.validate()
+    arrays = {
+        "actions": _encode_array(episode.actions),
+        "rewards": _encode_array(episode.rewards.astype(np.float32, copy=False)),
+        "log_probs": _encode_array(episode.log_probs.astype(np.float32, copy=False)),
+    }
+    for name, observation in episode.observations.items():
+        arrays[f"obs/{name}"] = _encode_array(observation)
     message = {
         "schema": SCHEMA,
-        "iteration": batch.iteration,
-        "share": batch.share,
-        "worker_id": batch.worker_id,
-        "world": batch.world,
-        "policy_version": batch.policy_version,
-        "episodes": episodes,
+        "iteration": episode.iteration,
+        "episode_number": episode.episode_number,
+        "worker_id": episode.worker_id,
+        "world": episode.world,
+        "policy_version": episode.policy_version,
+        "episode_index": episode.episode_index,
+        "final_status": episode.final_status,
+        "progress": float(episode.progress),
+        "info": dict(episode.info),
+        "arrays": arrays,
     }
     return msgpack.packb(message, use_bin_type=True)
 
 
-def decode_batch(payload: bytes) -> EpisodeBatch:
+def decode_episode(payload: bytes) -> Episode:
     try:
         message = msgpack.unpackb(payload, raw=False, strict_map_key=True)
     except (msgpack.ExtraData, msgpack.FormatError, msgpack.StackError, ValueError) as error:
-        raise CodecError(f"episode batch is not valid msgpack: {error}") from error
+        raise CodecError(f"episode is not valid msgpack: {error}") from error
     if not isinstance(message, dict) or message.get("schema") != SCHEMA:
         raise CodecError(
             f"expected schema {SCHEMA!r}, got {message.get('schema') if isinstance(message, dict) else type(message)}"
         )
-    episodes = []
-    for number, raw_episode in enumerate(message["episodes"]):
-        where = f"batch worker={message['worker_id']} iteration={message['iteration']} episode #{number}"
-        arrays = {name: _decode_array(spec, f"{where} {name}") for name, spec in raw_episode["arrays"].items()}
+    where = (
+        f"episode {message.get('episode_number')} of iteration {message.get('iteration')} "
+        f"from worker {message.get('worker_id')}"
+    )
+    try:
+        arrays = {name: _decode_array(spec, f"{where} {name}") for name, spec in message["arrays"].items()}
         episode = Episode(
             observations={name.removeprefix("obs/"): a for name, a in arrays.items() if name.startswith("obs/")},
             actions=arrays["actions"],
@@ -136,21 +121,17 @@ def decode_batch(payload: bytes) -> EpisodeBatch:
             policy_version=int(message["policy_version"]),
             worker_id=int(message["worker_id"]),
             world=str(message["world"]),
-            episode_index=int(raw_episode["episode_index"]),
-            final_status=str(raw_episode["final_status"]),
-            progress=float(raw_episode["progress"]),
-            info=dict(raw_episode["info"]),
+            iteration=int(message["iteration"]),
+            episode_number=int(message["episode_number"]),
+            episode_index=int(message["episode_index"]),
+            final_status=str(message["final_status"]),
+            progress=float(message["progress"]),
+            info=dict(message["info"]),
         )
-        try:
-            episode.validate()
-        except ValueError as error:
-            raise CodecError(f"{where}: {error}") from error
-        episodes.append(episode)
-    return EpisodeBatch(
-        iteration=int(message["iteration"]),
-        share=int(message["share"]),
-        worker_id=int(message["worker_id"]),
-        world=str(message["world"]),
-        policy_version=int(message["policy_version"]),
-        episodes=tuple(episodes),
-    )
+    except KeyError as error:
+        raise CodecError(f"{where}: field {error} is missing") from error
+    try:
+        episode.validate()
+    except ValueError as error:
+        raise CodecError(f"{where}: {error}") from error
+    return episode

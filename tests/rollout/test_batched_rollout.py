@@ -8,10 +8,9 @@ import numpy as np
 import pytest
 import torch
 
-from racer.rollout_worker.batched_rollout import BatchedRollout, EpisodeTicket
 from racer.rollout_worker.envs import env_generator, spread_env_configs
-from racer.rollout_worker.episode_runner import play_episode
 from racer.shared.deepracer.model_metadata import load_model_metadata
+from racer.shared.episode_loop import EpisodeLoop, EpisodeTicket, play_episode, play_episodes
 from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.policy.networks import build_actor_critic
 from racer.shared.sim.env import DeepRacerEnv, EnvConfig
@@ -69,8 +68,8 @@ def test_batched_and_single_env_rollouts_give_identical_episodes(setup):
                 recorder.finish(policy_version=0, worker_id=0, world="base", episode_index=0, simtrace_episode=None)
             )
 
-        rollout = BatchedRollout(envs, [env_generator(SEED, j) for j in range(ENVS)])
-        assert rollout.play(policy, next_episode, finished, threading.Event())
+        loop = EpisodeLoop(policy, envs, [env_generator(SEED, j) for j in range(ENVS)], greedy=False)
+        assert play_episodes(loop, next_episode, finished, threading.Event())
     finally:
         for env in envs:
             env.close()

@@ -12,7 +12,6 @@ import pytest
 from racer.rollout_worker.claims import claim_next_episode
 from racer.shared.redis_connection import RedisLink
 from racer.shared.transport.channels import RunChannel
-from racer.shared.transport.codec import EpisodeBatch
 from racer.trainer.collector import Collector, CollectTimes
 
 ITERATION = 0
@@ -38,7 +37,15 @@ def lapse_heartbeat(channel: RunChannel, worker_id: int) -> None:
 
 def deliver(channel: RunChannel, worker_id: int, number: int, episode_factory) -> None:
     channel.deliver_episode(
-        EpisodeBatch(ITERATION, number, worker_id, "base", ITERATION, (episode_factory(5, worker_id),))
+        episode_factory(
+            5,
+            worker_id,
+            worker_id=worker_id,
+            world="base",
+            policy_version=ITERATION,
+            iteration=ITERATION,
+            episode_number=number,
+        )
     )
 
 
@@ -87,7 +94,7 @@ def test_a_lapsed_heartbeat_returns_the_claims_to_the_queue_for_a_live_worker(ch
 
 
 class _OnPolicyLearner:
-    def take_late_batch(self, batch, iteration):
+    def take_late_episode(self, episode, iteration):
         return False
 
 
@@ -107,7 +114,7 @@ def test_the_trainer_collects_an_iteration_whose_worker_died_holding_a_claim(cha
         _OnPolicyLearner(),
         lambda: "checkpoint-0",
         threading.Event(),
-        CollectTimes(share_timeout_s=60.0, dead_worker_grace_s=0.0, announcement_check_s=3600.0),
+        CollectTimes(episodes_timeout_s=60.0, dead_worker_grace_s=0.0, announcement_check_s=3600.0),
     )
     stop = threading.Event()
 
@@ -130,6 +137,6 @@ def test_the_trainer_collects_an_iteration_whose_worker_died_holding_a_claim(cha
         stop.set()
         playing.join(timeout=10)
     assert sorted(got) == list(range(EPISODES))
-    assert {received.batch.worker_id for received in got.values()} == {0}
+    assert {received.episode.worker_id for received in got.values()} == {0}
     replays = [a for a in channel.next_announcements("0", block_s=0) if a.kind == "replay"]
     assert replays, "the collector wakes waiting workers when it hands claims back"

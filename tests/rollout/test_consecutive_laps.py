@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 
 from racer.rollout_worker.checkpoint_evaluation import evaluate_checkpoint
-from racer.rollout_worker.episode_runner import play_episode
 from racer.rollout_worker.worker_files import WorkerFiles
 from racer.shared.deepracer.hyperparameters import Hyperparameters
 from racer.shared.deepracer.model_metadata import parse_model_metadata
+from racer.shared.episode_loop import play_episode
 from racer.shared.model_layout import ModelLayout
 from racer.shared.sim.env import DeepRacerEnv, EnvConfig
 from racer.shared.worker_settings import WorkerSettings

@@ -14,7 +14,6 @@ from racer.shared.redis_connection import RedisLink
 from racer.shared.run_settings import RunOptions
 from racer.shared.store import open_store
 from racer.shared.transport.channels import RunChannel
-from racer.shared.transport.codec import EpisodeBatch
 from racer.trainer.memory_cap import cap_episodes, default_max_memory_steps, global_episode_order
 from racer.trainer.training_loop import Trainer, TrainerOptions
 from tests.conftest import make_episode, write_custom_files
@@ -38,7 +37,8 @@ def test_deepracers_caps_per_network_and_the_environment_override(deepracer_data
 
 def test_episodes_are_kept_in_global_order_while_the_running_count_is_within_the_cap():
     share0, share1 = _episodes([100, 200, 300], worker_id=0), _episodes([50, 60, 70], worker_id=1)
-    ordered = global_episode_order({0: share0, 1: share1}, num_shares=2)
+    by_number = {1 + 2 * j: episode for j, episode in enumerate(share1)} | {2 * j: e for j, e in enumerate(share0)}
+    ordered = global_episode_order(by_number)
     assert ordered == [share0[0], share1[0], share0[1], share1[1], share0[2], share1[2]]  # episodes 0, 1, 2, ...
     capped = cap_episodes(ordered, max_steps=410)  # 100 + 50 + 200 + 60 = 410 fits; + 300 does not
     assert capped.kept == (share0[0], share1[0], share0[1], share1[1])
@@ -67,18 +67,18 @@ def test_the_trainer_drops_episodes_beyond_the_cap_and_counts_only_trained_steps
     )
     assert trainer.setup() == 0
     channel = RunChannel(RedisLink(redis_settings), PREFIX)
-    # One stream entry per claimed episode; the entry's share is the episode's number in the iteration.
+    # One stream entry per claimed episode, which carries its number in the iteration.
     for episode_number, length in enumerate([30, 30, 30, 20]):
         worker_id = episode_number % 2
-        episode = make_episode(length, seed=episode_number, worker_id=worker_id, policy_version=0)
-        channel.push_batch(
-            EpisodeBatch(
-                iteration=0,
-                share=episode_number,
+        channel.push_episode(
+            make_episode(
+                length,
+                seed=episode_number,
                 worker_id=worker_id,
                 world="base",
                 policy_version=0,
-                episodes=(episode,),
+                iteration=0,
+                episode_number=episode_number,
             )
         )
     summary = trainer.train_iteration(0, trainer.collect(0), rollout_wall_s=1.0)

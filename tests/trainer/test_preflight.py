@@ -4,7 +4,7 @@ an iteration or is refused before anything starts, with a message naming the fil
 Pairing: by file-name prefix (console2022_*, drfc1_*, dots_*, drfc_defaults_*); metadata without hyperparameters of
 its own pairs with DeepRacer-for-Cloud's defaults, hyperparameters without metadata with DRfC's default metadata.
 "Trains an iteration" runs the real trainer in-process against a real redis-server: preflight, set-up (checkpoint 0
-with its ONNX model), one episode played in the simulator with that exported model, pushed as every share of
+with its ONNX model), one episode played in the simulator with that exported model, pushed as every episode of
 iteration 0, the update (PPO or SAC), checkpoint 1, which a worker then loads and drives.
 """
 
@@ -18,9 +18,9 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from racer.rollout_worker.episode_runner import play_episode
 from racer.shared.config import LocalStoreSettings, ServiceSettings
 from racer.shared.episode import Episode
+from racer.shared.episode_loop import play_episode
 from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.policy.frame_stack import frame_stacker_for
 from racer.shared.redis_connection import RedisLink
@@ -28,7 +28,6 @@ from racer.shared.run_settings import RunOptions
 from racer.shared.sim.env import DeepRacerEnv, EnvConfig
 from racer.shared.store import open_store
 from racer.shared.transport.channels import RunChannel, share_sizes
-from racer.shared.transport.codec import EpisodeBatch
 from racer.shared.user_errors import CloneError, user_error_types
 from racer.trainer.preflight import UnsupportedConfigurationError, preflight
 from racer.trainer.training_loop import Trainer, TrainerOptions
@@ -37,8 +36,8 @@ CONFIG = Path(__file__).resolve().parents[2].parent / "shared" / "deepracer-data
 REWARD = CONFIG.parent / "reward_functions" / "awsdoc_example_1.py"
 DEFAULT_HYPERPARAMETERS = "drfc_defaults_hyperparameters.json"
 DEFAULT_METADATA = "drfc_defaults_model_metadata.json"
-STEPS_PER_SHARE = 4
-"""Each share carries the first steps of the played episode: enough to train on, quick on two cores."""
+STEPS_PER_EPISODE = 4
+"""Each episode sent carries the first steps of the played one: enough to train on, quick on two cores."""
 
 
 def config_pairs() -> list[tuple[str, str]]:
@@ -75,7 +74,8 @@ def custom_files_from(tmp_path: Path, metadata: str, hyperparameters: str) -> Pa
     return folder
 
 
-def first_steps(episode: Episode, steps: int) -> Episode:
+def first_steps(episode: Episode, steps: int, number: int) -> Episode:
+    """The first `steps` of `episode`, sent as episode `number` of iteration 0 by worker `number`."""
     cut = min(steps, episode.steps)
     return Episode(
         observations={name: array[:cut] for name, array in episode.observations.items()},
@@ -83,8 +83,10 @@ def first_steps(episode: Episode, steps: int) -> Episode:
         rewards=episode.rewards[:cut],
         log_probs=episode.log_probs[:cut],
         policy_version=episode.policy_version,
-        worker_id=episode.worker_id,
+        worker_id=number,
         world=episode.world,
+        iteration=0,
+        episode_number=number,
         final_status=episode.final_status,
         progress=episode.progress,
     )
@@ -143,16 +145,7 @@ def train_one_iteration(custom: Path, report, tmp_path: Path, redis_settings) ->
     channel = RunChannel(RedisLink(redis_settings), "pair")
     for share, size in enumerate(share_sizes(episodes, episodes)):
         assert size == 1
-        channel.push_batch(
-            EpisodeBatch(
-                iteration=0,
-                share=share,
-                worker_id=share,
-                world="base",
-                policy_version=0,
-                episodes=(first_steps(played.episode, STEPS_PER_SHARE),),
-            )
-        )
+        channel.push_episode(first_steps(played.episode, STEPS_PER_EPISODE, share))
     summary = trainer.train_iteration(0, trainer.collect(0), rollout_wall_s=1.0)
     name = trainer._save(1)
 

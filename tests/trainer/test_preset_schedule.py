@@ -151,14 +151,14 @@ def test_the_trainer_clocks_the_schedule_with_its_resumable_step_count(redis_set
     from racer.shared.redis_connection import RedisLink
     from racer.shared.transport.channels import RunChannel
     from tests.conftest import write_custom_files
-    from tests.trainer.test_training_loop import PREFIX, batch, make_trainer
+    from tests.trainer.test_training_loop import PREFIX, make_trainer, wire_episode
 
     custom = write_custom_files(tmp_path / "custom_files", steering_deg=(-30, -15, 0, 15, 30), min_eval_trials=None)
     trainer = make_trainer(redis_settings, tmp_path, custom)
     assert trainer.setup() == 0
     trainer.env_steps = 1000  # as a checkpoint restores it
     channel = RunChannel(RedisLink(redis_settings), PREFIX)
-    for share in (0, 1):
-        channel.push_batch(batch(iteration=0, share=share, worker_id=share, policy_version=0, seed=share))
+    for number in (0, 1):
+        channel.push_episode(wire_episode(iteration=0, number=number, worker_id=number, policy_version=0, seed=number))
     trainer.train_iteration(0, trainer.collect(0), rollout_wall_s=0.0)
     assert trainer.env_steps == 1040 and trainer.learner.env_steps == 1040  # two episodes of 20 steps

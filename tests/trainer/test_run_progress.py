@@ -14,7 +14,7 @@ from racer.shared.run_progress import RunPace, RunProgress, StopCondition, clock
 from racer.shared.store import LocalStore
 from racer.shared.transport.channels import RunChannel
 from tests.conftest import write_custom_files
-from tests.trainer.test_training_loop import PREFIX, batch, make_trainer
+from tests.trainer.test_training_loop import PREFIX, make_trainer, wire_episode
 
 
 @pytest.fixture
@@ -121,8 +121,12 @@ def test_the_trainer_records_its_progress_with_each_iteration(redis_settings, tm
     trainer.setup()
     channel = RunChannel(RedisLink(redis_settings), PREFIX)
     for iteration in (0, 1):
-        channel.push_batch(batch(iteration, share=0, worker_id=0, policy_version=iteration, seed=10 * iteration))
-        channel.push_batch(batch(iteration, share=1, worker_id=1, policy_version=iteration, seed=10 * iteration + 1))
+        channel.push_episode(
+            wire_episode(iteration, number=0, worker_id=0, policy_version=iteration, seed=10 * iteration)
+        )
+        channel.push_episode(
+            wire_episode(iteration, number=1, worker_id=1, policy_version=iteration, seed=10 * iteration + 1)
+        )
         trainer._iterate(iteration)
     log = LocalStore(tmp_path / "store").get_bytes(ModelLayout(PREFIX).iterations_log).decode().splitlines()
     first, second = (RunProgress.from_dict(json.loads(line)["progress"]) for line in log)

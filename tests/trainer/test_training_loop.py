@@ -1,7 +1,7 @@
 """The trainer's iteration loop in-process, against a real redis-server and a local store (no rollout workers).
 
-Batches are pushed by the test through the same channel the workers use, so the trainer's choices can be checked
-one by one: which batch trains, which is dropped, and what a failure leaves behind.
+Episodes are pushed by the test through the same channel the workers use, so the trainer's choices can be checked
+one by one: which episode trains, which is dropped, and what a failure leaves behind.
 """
 
 from __future__ import annotations
@@ -14,13 +14,13 @@ from pathlib import Path
 import pytest
 
 from racer.shared.config import LocalStoreSettings, ServiceSettings
+from racer.shared.episode import Episode
 from racer.shared.model_layout import ModelLayout
 from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.redis_connection import RedisLink
 from racer.shared.run_settings import RunOptions
 from racer.shared.store import open_store
 from racer.shared.transport.channels import RunChannel
-from racer.shared.transport.codec import EpisodeBatch
 from racer.trainer.collector import CollectTimes
 from racer.trainer.precision import Precision
 from racer.trainer.training_loop import Trainer, TrainerOptions
@@ -48,43 +48,49 @@ def make_trainer(redis_settings, tmp_path: Path, custom_files: Path, **options) 
     return Trainer(settings, TrainerOptions(model_prefix=PREFIX, custom_files=custom_files, run=run, **trainer_options))
 
 
-def batch(iteration: int, share: int, worker_id: int, policy_version: int, seed: int) -> EpisodeBatch:
-    episode = make_episode(20, seed=seed, worker_id=worker_id, world="base", policy_version=policy_version)
-    return EpisodeBatch(
-        iteration=iteration,
-        share=share,
+def wire_episode(iteration: int, number: int, worker_id: int, policy_version: int, seed: int) -> Episode:
+    """Episode `number` of `iteration` as a worker sends it (20 steps)."""
+    return make_episode(
+        20,
+        seed=seed,
         worker_id=worker_id,
         world="base",
         policy_version=policy_version,
-        episodes=(episode,),
+        iteration=iteration,
+        episode_number=number,
     )
 
 
-def test_collect_trains_one_batch_per_share_and_drops_stale_and_duplicate_ones(redis_settings, tmp_path, custom_files):
+def test_collect_trains_one_copy_of_each_episode_and_drops_stale_and_duplicate_ones(
+    redis_settings, tmp_path, custom_files
+):
     trainer = make_trainer(redis_settings, tmp_path, custom_files)
     assert trainer.setup() == 0
     channel = RunChannel(RedisLink(redis_settings), PREFIX)
-    channel.push_batch(batch(iteration=0, share=0, worker_id=0, policy_version=-1, seed=1))  # older policy
-    channel.push_batch(batch(iteration=0, share=0, worker_id=0, policy_version=0, seed=2))  # trains
-    channel.push_batch(batch(iteration=0, share=0, worker_id=1, policy_version=0, seed=3))  # replayed twice
-    channel.push_batch(batch(iteration=0, share=1, worker_id=1, policy_version=0, seed=4))  # trains
+    channel.push_episode(wire_episode(iteration=0, number=0, worker_id=0, policy_version=-1, seed=1))  # older policy
+    channel.push_episode(wire_episode(iteration=0, number=0, worker_id=0, policy_version=0, seed=2))  # trains
+    channel.push_episode(wire_episode(iteration=0, number=0, worker_id=1, policy_version=0, seed=3))  # replayed twice
+    channel.push_episode(wire_episode(iteration=0, number=1, worker_id=1, policy_version=0, seed=4))  # trains
 
     got = trainer.collect(0)
 
     assert sorted(got) == [0, 1]
-    assert got[0].batch.episodes[0].episode_index == 2  # the first on-policy batch of share 0, not the replay
-    assert got[1].batch.episodes[0].episode_index == 4
-    assert channel.received_shares(0) == {0, 1}
-    # The dropped batches are acknowledged at once; the two kept ones wait for the checkpoint.
-    pending = channel.read_batches(trainer.consumer, 0, pending=True)
+    assert got[0].episode.episode_index == 2  # the first on-policy copy of episode 0, not the replay
+    assert got[1].episode.episode_index == 4
+    assert channel.received_episodes(0) == {0, 1}
+    # The dropped episodes are acknowledged at once; the two kept ones wait for the checkpoint.
+    pending = channel.read_episodes(trainer.consumer, 0, pending=True)
     assert sorted(r.stream_id for r in pending) == sorted(r.stream_id for r in got.values())
 
 
 def test_a_failed_trainer_leaves_the_run_resumable(redis_settings, tmp_path, custom_files, capsys):
     trainer = make_trainer(
-        redis_settings, tmp_path, custom_files, collect_times=CollectTimes(share_timeout_s=0.5, dead_worker_grace_s=60)
+        redis_settings,
+        tmp_path,
+        custom_files,
+        collect_times=CollectTimes(episodes_timeout_s=0.5, dead_worker_grace_s=60),
     )
-    with pytest.raises(TimeoutError, match=r"no episodes for shares \[0, 1\]"):
+    with pytest.raises(TimeoutError, match=r"episodes \[0, 1\] did not arrive"):
         trainer.run()  # no worker ever delivers
     store = open_store(LocalStoreSettings(root=tmp_path / "store"))
     layout = ModelLayout(PREFIX)
@@ -179,7 +185,7 @@ def test_a_malformed_workers_json_names_the_file_and_line(redis_settings, tmp_pa
 
 def test_an_announcement_lost_by_redis_is_announced_again(redis_settings, tmp_path, custom_files):
     """Redis restarted without its newest writes: the iteration's announcement is gone, so no worker would ever
-    play it. The collecting trainer notices and announces it again; the workers' batches then arrive."""
+    play it. The collecting trainer notices and announces it again; the workers' episodes then arrive."""
     import threading
 
     trainer = make_trainer(redis_settings, tmp_path, custom_files, collect_times=CollectTimes(announcement_check_s=0.3))
@@ -197,8 +203,8 @@ def test_an_announcement_lost_by_redis_is_announced_again(redis_settings, tmp_pa
     announcement = channel.latest_iteration_announcement()
     assert announcement is not None and (announcement.kind, announcement.iteration) == ("iteration", 0)
     assert announcement.checkpoint == "0_Step-0.ckpt" and announcement.num_workers == 2
-    channel.push_batch(batch(iteration=0, share=0, worker_id=0, policy_version=0, seed=5))
-    channel.push_batch(batch(iteration=0, share=1, worker_id=1, policy_version=0, seed=6))
+    channel.push_episode(wire_episode(iteration=0, number=0, worker_id=0, policy_version=0, seed=5))
+    channel.push_episode(wire_episode(iteration=0, number=1, worker_id=1, policy_version=0, seed=6))
     collecting.join(60)
     assert sorted(collected) == [0, 1]
     announcements = channel.link.do(lambda client: client.xlen(channel.key("control")))
@@ -485,7 +491,9 @@ def test_an_episode_claimed_by_a_worker_killed_while_holding_it_is_played_by_ano
                 time.sleep(0.1)
                 continue
             delivered.append(number)
-            channel.deliver_episode(batch(iteration=0, share=number, worker_id=0, policy_version=0, seed=10 + number))
+            channel.deliver_episode(
+                wire_episode(iteration=0, number=number, worker_id=0, policy_version=0, seed=10 + number)
+            )
 
     thread = threading.Thread(target=live_worker, daemon=True)
     thread.start()
@@ -496,7 +504,7 @@ def test_an_episode_claimed_by_a_worker_killed_while_holding_it_is_played_by_ano
         thread.join(5)
     assert sorted(got) == [0, 1]
     assert delivered == [0, 1]
-    assert {received.batch.worker_id for received in got.values()} == {0}
+    assert {received.episode.worker_id for received in got.values()} == {0}
     queued, claimed = channel.queued_and_claimed(0, 2)
     assert not queued and not any(claimed.values())
 

@@ -8,13 +8,20 @@ import pytest
 
 from racer.shared.redis_connection import RedisLink
 from racer.shared.transport.channels import RunChannel, share_sizes
-from racer.shared.transport.codec import EpisodeBatch
 
 
 @pytest.fixture
-def batch(episode_factory):
-    def make(iteration: int, share: int) -> EpisodeBatch:
-        return EpisodeBatch(iteration, share, share, "base", iteration, (episode_factory(5, share),))
+def episode(episode_factory):
+    def make(iteration: int, number: int):
+        return episode_factory(
+            5,
+            number,
+            worker_id=number,
+            world="base",
+            policy_version=iteration,
+            iteration=iteration,
+            episode_number=number,
+        )
 
     return make
 
@@ -26,19 +33,19 @@ def test_share_sizes_follow_deepracer_split():
     assert sum(share_sizes(37, 5)) == 37
 
 
-def test_batches_are_consumed_once_and_redelivered_if_unacked(redis_settings, batch):
+def test_episodes_are_consumed_once_and_redelivered_if_unacked(redis_settings, episode):
     channel = RunChannel(RedisLink(redis_settings), "run-a")
     channel.ensure_trainer_group()
-    channel.push_batch(batch(0, 0))
-    channel.push_batch(batch(0, 1))
-    first = channel.read_batches("trainer-0", block_s=1)
-    assert sorted(b.batch.share for b in first) == [0, 1]
-    assert channel.read_batches("trainer-0", block_s=0.2) == []  # consumed once
+    channel.push_episode(episode(0, 0))
+    channel.push_episode(episode(0, 1))
+    first = channel.read_episodes("trainer-0", block_s=1)
+    assert sorted(e.episode.episode_number for e in first) == [0, 1]
+    assert channel.read_episodes("trainer-0", block_s=0.2) == []  # consumed once
     # A restarted trainer sees what it read but never acknowledged.
-    pending = channel.read_batches("trainer-0", block_s=0, pending=True)
-    assert sorted(b.batch.share for b in pending) == [0, 1]
-    channel.ack(*[b.stream_id for b in pending])
-    assert channel.read_batches("trainer-0", block_s=0, pending=True) == []
+    pending = channel.read_episodes("trainer-0", block_s=0, pending=True)
+    assert sorted(e.episode.episode_number for e in pending) == [0, 1]
+    channel.ack(*[e.stream_id for e in pending])
+    assert channel.read_episodes("trainer-0", block_s=0, pending=True) == []
 
 
 @pytest.mark.serial  # asserts a wall-time bound
@@ -52,18 +59,18 @@ def test_blocking_announcement_wait_wakes_on_publish(redis_settings):
     assert channel.latest_iteration_announcement().iteration == 4
 
 
-def test_run_survives_redis_restart(redis_server, redis_settings, batch):
+def test_run_survives_redis_restart(redis_server, redis_settings, episode):
     channel = RunChannel(RedisLink(redis_settings, reconnect_budget_s=30), "run-c")
     channel.ensure_trainer_group()
-    channel.push_batch(batch(1, 0))
+    channel.push_episode(episode(1, 0))
     channel.link.client.execute_command("BGREWRITEAOF")
     time.sleep(0.5)
     redis_server.restart()
-    channel.push_batch(batch(1, 1))  # reconnects transparently
-    shares = sorted(b.batch.share for b in channel.read_batches("trainer-0", block_s=1))
-    assert shares == [0, 1]
+    channel.push_episode(episode(1, 1))  # reconnects transparently
+    numbers = sorted(e.episode.episode_number for e in channel.read_episodes("trainer-0", block_s=1))
+    assert numbers == [0, 1]
     np.testing.assert_array_equal(
-        channel.read_batches("trainer-0", 0, pending=True)[0].batch.episodes[0].rewards, batch(1, 0).episodes[0].rewards
+        channel.read_episodes("trainer-0", 0, pending=True)[0].episode.rewards, episode(1, 0).rewards
     )
 
 
@@ -76,10 +83,10 @@ def test_heartbeats_expire(redis_settings):
     assert 2 not in channel.live_workers()
 
 
-def test_a_fresh_run_wipes_its_keys_but_not_the_workers_heartbeats(redis_settings, batch):
+def test_a_fresh_run_wipes_its_keys_but_not_the_workers_heartbeats(redis_settings, episode):
     channel = RunChannel(RedisLink(redis_settings), "run-e")
     channel.beat(0, {"state": "starting"})
-    channel.push_batch(batch(0, 0))
+    channel.push_episode(episode(0, 0))
     assert channel.link.client.exists(channel.key("episodes"))
     channel.delete_run_keys()
     assert not channel.link.client.exists(channel.key("episodes"))

@@ -1,52 +1,63 @@
+import dataclasses
+
 import msgpack
 import numpy as np
 import pytest
 
 from racer.shared.episode import Episode
-from racer.shared.transport.codec import CodecError, EpisodeBatch, decode_batch, encode_batch
+from racer.shared.transport.codec import CodecError, decode_episode, encode_episode
 
 
 @pytest.mark.parametrize("continuous", [False, True])
 def test_round_trip_is_exact(continuous, episode_factory):
-    make_episode = episode_factory
-    batch = EpisodeBatch(
-        iteration=3,
-        share=1,
-        worker_id=1,
-        world="carpet",
-        policy_version=3,
-        episodes=(make_episode(40, 1, continuous), make_episode(7, 2, continuous)),
+    original = episode_factory(40, 1, continuous, worker_id=1, world="carpet", iteration=3, episode_number=5)
+    copy = decode_episode(encode_episode(original))
+    assert (copy.iteration, copy.episode_number, copy.worker_id, copy.world, copy.policy_version) == (
+        3,
+        5,
+        1,
+        "carpet",
+        3,
     )
-    decoded = decode_batch(encode_batch(batch))
-    assert (decoded.iteration, decoded.share, decoded.worker_id, decoded.world) == (3, 1, 1, "carpet")
-    for original, copy in zip(batch.episodes, decoded.episodes, strict=True):
-        for name in original.observations:
-            assert copy.observations[name].dtype == original.observations[name].dtype
-            np.testing.assert_array_equal(copy.observations[name], original.observations[name])
-        np.testing.assert_array_equal(copy.actions, original.actions)
-        assert copy.actions.dtype == original.actions.dtype
-        np.testing.assert_array_equal(copy.rewards, original.rewards)
-        np.testing.assert_array_equal(copy.log_probs, original.log_probs)
-        assert (copy.final_status, copy.progress, copy.episode_index) == ("off_track", 12.5, original.episode_index)
+    for name in original.observations:
+        assert copy.observations[name].dtype == original.observations[name].dtype
+        np.testing.assert_array_equal(copy.observations[name], original.observations[name])
+    np.testing.assert_array_equal(copy.actions, original.actions)
+    assert copy.actions.dtype == original.actions.dtype
+    np.testing.assert_array_equal(copy.rewards, original.rewards)
+    np.testing.assert_array_equal(copy.log_probs, original.log_probs)
+    assert (copy.final_status, copy.progress, copy.episode_index, copy.info) == (
+        "off_track",
+        12.5,
+        original.episode_index,
+        original.info,
+    )
 
 
 def test_images_are_compressed(episode_factory):
-    make_episode = episode_factory
-    batch = EpisodeBatch(0, 0, 0, "base", 0, (make_episode(50, 3),))
-    raw_bytes = sum(a.nbytes for a in batch.episodes[0].observations.values())
-    assert len(encode_batch(batch)) < raw_bytes
+    episode = episode_factory(50, 3)
+    raw_bytes = sum(a.nbytes for a in episode.observations.values())
+    assert len(encode_episode(episode)) < raw_bytes
 
 
 def test_rejects_foreign_messages():
     with pytest.raises(CodecError, match="schema"):
-        decode_batch(msgpack.packb({"schema": "other"}))
+        decode_episode(msgpack.packb({"schema": "other"}))
+    with pytest.raises(CodecError, match="schema"):
+        decode_episode(msgpack.packb({"schema": "racer.episodes/1", "episodes": []}))  # the batches of schema 1
     with pytest.raises(CodecError, match="msgpack"):
-        decode_batch(b"\xc1not msgpack")
+        decode_episode(b"\xc1not msgpack")
+
+
+def test_a_missing_field_is_a_codec_error_naming_it(episode_factory):
+    message = msgpack.unpackb(encode_episode(episode_factory(5, 2, episode_number=4)), raw=False)
+    del message["episode_number"]
+    with pytest.raises(CodecError, match=r"iteration 3 from worker 1: field 'episode_number' is missing"):
+        decode_episode(msgpack.packb(message, use_bin_type=True))
 
 
 def test_rejects_mismatched_lengths(episode_factory):
-    make_episode = episode_factory
-    good = make_episode(5, 4)
+    good = episode_factory(5, 4)
     bad = Episode(
         observations=good.observations,
         actions=good.actions[:3],
@@ -57,38 +68,40 @@ def test_rejects_mismatched_lengths(episode_factory):
         world="base",
     )
     with pytest.raises(ValueError, match="actions has 3 steps"):
-        encode_batch(EpisodeBatch(0, 0, 0, "base", 0, (bad,)))
+        encode_episode(bad)
 
 
 def _recompress_with_zlib(payload: bytes) -> bytes:
-    """The same batch as racer wrote it before zstd: every compressed array as zlib level 1."""
+    """The same episode as racer wrote it before zstd: every compressed array as zlib level 1."""
     import zlib
 
     import zstandard
 
     message = msgpack.unpackb(payload, raw=False)
-    for episode in message["episodes"]:
-        for spec in episode["arrays"].values():
-            if spec["codec"] == "zstd":
-                spec["codec"] = "zlib"
-                spec["data"] = zlib.compress(zstandard.ZstdDecompressor().decompress(spec["data"]), 1)
+    for spec in message["arrays"].values():
+        if spec["codec"] == "zstd":
+            spec["codec"] = "zlib"
+            spec["data"] = zlib.compress(zstandard.ZstdDecompressor().decompress(spec["data"]), 1)
     return msgpack.packb(message, use_bin_type=True)
 
 
-def test_frames_travel_as_zstd_and_zlib_batches_still_decode(episode_factory):
+def test_frames_travel_as_zstd_and_zlib_arrays_still_decode(episode_factory):
     episode = episode_factory(30, 5)
-    payload = encode_batch(EpisodeBatch(2, 0, 0, "base", 2, (episode,)))
-    codecs = {name: spec["codec"] for name, spec in msgpack.unpackb(payload)["episodes"][0]["arrays"].items()}
+    payload = encode_episode(episode)
+    codecs = {name: spec["codec"] for name, spec in msgpack.unpackb(payload)["arrays"].items()}
     assert codecs["obs/FRONT_FACING_CAMERA"] == "zstd"
-    old_style = decode_batch(_recompress_with_zlib(payload)).episodes[0]
+    old_style = decode_episode(_recompress_with_zlib(payload))
     np.testing.assert_array_equal(
         old_style.observations["FRONT_FACING_CAMERA"], episode.observations["FRONT_FACING_CAMERA"]
     )
 
 
 def test_a_damaged_zstd_array_is_a_codec_error_naming_the_array(episode_factory):
-    message = msgpack.unpackb(encode_batch(EpisodeBatch(4, 1, 1, "base", 4, (episode_factory(30, 6),))), raw=False)
-    spec = message["episodes"][0]["arrays"]["obs/FRONT_FACING_CAMERA"]
+    episode = dataclasses.replace(episode_factory(30, 6), iteration=4, episode_number=1)
+    message = msgpack.unpackb(encode_episode(episode), raw=False)
+    spec = message["arrays"]["obs/FRONT_FACING_CAMERA"]
     spec["data"] = spec["data"][: len(spec["data"]) // 2]
-    with pytest.raises(CodecError, match=r"worker=1 iteration=4 episode #0 obs/FRONT_FACING_CAMERA: not a zstd frame"):
-        decode_batch(msgpack.packb(message, use_bin_type=True))
+    with pytest.raises(
+        CodecError, match=r"episode 1 of iteration 4 from worker 1 obs/FRONT_FACING_CAMERA: not a zstd frame"
+    ):
+        decode_episode(msgpack.packb(message, use_bin_type=True))
