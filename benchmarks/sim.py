@@ -21,7 +21,7 @@ import click
 import numpy as np
 
 from benchmarks.sim_loop import BENCH_REWARD, env_block
-from benchmarks.sim_races import run_race_benchmark
+from benchmarks.sim_race_types import run_race_type_benchmark
 from racer.options.track import direction_option
 from racer.shared.sim.config import DEFAULT_TRACK, EnvConfig
 from racer.shared.sim.env import DeepRacerEnv
@@ -162,6 +162,6 @@ def sim_bench_command(steps: int, seed: int, track: str, full_resolution: bool, 
             raise click.UsageError("--full-resolution measures the time trial against the raw bound only")
         if track != DEFAULT_TRACK:
             raise click.UsageError("--track applies to the time-trial figure; the object figures use the default track")
-        click.echo(json.dumps(run_race_benchmark(obstacles, bot_cars, steps=steps, seed=seed)))
+        click.echo(json.dumps(run_race_type_benchmark(obstacles, bot_cars, steps=steps, seed=seed)))
         return
     click.echo(json.dumps(run_benchmark(steps=steps, seed=seed, full_resolution=full_resolution, track=track)))

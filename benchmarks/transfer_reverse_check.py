@@ -32,7 +32,8 @@ def steering_sides(model_metadata: ModelMetadata, network: torch.nn.Module, fram
     return np.asarray(sides)
 
 
-def shares(sides: np.ndarray) -> dict[str, float]:
+def side_fractions(sides: np.ndarray) -> dict[str, float]:
+    """The fraction of frames on which the greedy action steers left, goes straight, steers right."""
     return {
         name: round(float(np.mean(sides == value)), 3) for name, value in (("left", 1), ("straight", 0), ("right", -1))
     }
@@ -59,8 +60,8 @@ def reverse_check(racer_model: Path, real: list[RealModel], frames_grey: np.ndar
     result: dict = {"model": str(racer_model), "checkpoints": {}}
     real_sides = {model.label: steering_sides(model.metadata, model.network, frames_grey) for model in real}
     real_on_racer = {model.label: steering_sides(model.metadata, model.network, racer_grey) for model in real}
-    result["real_shares"] = {label: shares(sides) for label, sides in real_sides.items()}
-    result["real_shares_on_racer_frames"] = {label: shares(sides) for label, sides in real_on_racer.items()}
+    result["real_shares"] = {label: side_fractions(sides) for label, sides in real_sides.items()}
+    result["real_shares_on_racer_frames"] = {label: side_fractions(sides) for label, sides in real_on_racer.items()}
     # The real run's own spread: how much two of its checkpoints differ is the scale for any racer model's figures.
     labels = sorted(real_sides)
     result["real_sign_agreement"] = {
@@ -76,10 +77,10 @@ def reverse_check(racer_model: Path, real: list[RealModel], frames_grey: np.ndar
         sides = steering_sides(metadata, network, frames_grey)
         ours = steering_sides(metadata, network, racer_grey)
         result["checkpoints"][name] = {
-            "shares": shares(sides),
+            "shares": side_fractions(sides),
             "sign_agreement": {label: round(float(np.mean(sides == other)), 3) for label, other in real_sides.items()},
             "racer_frames": {
-                "shares": shares(ours),
+                "shares": side_fractions(ours),
                 "sign_agreement": {
                     label: round(float(np.mean(ours == other)), 3) for label, other in real_on_racer.items()
                 },

@@ -90,7 +90,7 @@ def compare_policies(
     """Per policy ({label: (metadata, network)}): steering-side agreement between the two frames of each pair (all,
     and the good pairs), the control (racer's frame against racer's frame at a jittered pose) and the shares; for a
     racer policy also its agreement with each real one, on the Gazebo frames and on racer's frames of the same poses."""
-    from benchmarks.transfer_reverse_check import shares, steering_sides
+    from benchmarks.transfer_reverse_check import side_fractions, steering_sides
 
     grey = {"gazebo": grey_of(gazebo), "racer": grey_of(ours), "jittered": grey_of(jittered)}
     sides = {
@@ -103,8 +103,8 @@ def compare_policies(
             "pairs_all": side_agreement(own["gazebo"], own["racer"]),
             "pairs_good": side_agreement(own["gazebo"], own["racer"], good),
             "control_pose_noise": side_agreement(own["racer"], own["jittered"]),
-            "shares_gazebo": shares(own["gazebo"]),
-            "shares_racer": shares(own["racer"]),
+            "shares_gazebo": side_fractions(own["gazebo"]),
+            "shares_racer": side_fractions(own["racer"]),
         }
         if label in racer:
             figures["agreement_with_real"] = {

@@ -82,7 +82,7 @@ class DeepRacerEnv(gym.Env):
     With resets left, the car is put back and held for the penalty: `pause` rows, at least one even for a 0 s
     penalty, `pause_duration` counting down to what is left (negative on the last row when the penalty is not a
     whole number of steps). The SimApp's spot (`reset_position="deepracer"`): the previous progress as a share of the
-    lap from the route's origin, on the lane whose spot is nearer the previous pose; the race rule's
+    lap from the route's origin, on the lane whose spot is nearer the previous pose; the summit rule's
     (`"where_it_left"`): the centre line half a step behind the last point with four wheels on the road.
 
     ## Start position
@@ -284,9 +284,9 @@ class DeepRacerEnv(gym.Env):
     def continue_after_lap(self, lap_start_time_s: float, *, renew_reset_budget: bool) -> None:
         """Keep an evaluation episode going across the finish line instead of starting a new one.
 
-        DeepRacer's continuous evaluation and the race rule drive lap after lap without returning to the line:
+        DeepRacer's continuous evaluation and the summit rule drive lap after lap without returning to the line:
         progress restarts from 0, the lap clock restarts at `lap_start_time_s` (the crossing), the immobilized and
-        reversed counters restart, and the reset budget is kept for the whole run or renewed per lap (race rule).
+        reversed counters restart, and the reset budget is kept for the whole run or renewed per lap (summit rule).
         """
         if self._episode_open or self._last_status != EpisodeStatus.LAP_COMPLETE:
             raise RuntimeError("continue_after_lap() is only for an episode that has just ended with lap_complete")
