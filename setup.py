@@ -16,7 +16,7 @@ for package, folder in PACKAGE_DIRS.items():
     packages.append(package)
     packages += [f"{package}.{sub}" for sub in find_packages(folder)]
 # Folders of data files, listed so setuptools ships them as packages of their own: the viewer's page (HTML, JS, CSS),
-# the example custom files (racer.defaults: `racer train`'s default --custom-files) and the racing recipe's two.
+# the example custom files (racer.defaults: `racer train`'s default --custom-files) and the fast-lap recipe's two.
 packages += [
     "racer.viewer.static",
     "racer.defaults.custom_files",

@@ -3,10 +3,11 @@
 A bench here is one a user runs to judge their own model, machine or simulator: one module per bench (`sim`, `ppo`,
 `transfer`, `fidelity`, `sac`, `rollout`, `throughput`, `time_to_lap`, `race_pace`, `viewer`, `race`) and their helpers
 (`race_pace_laps`, `race_pace_picture`: the race-pace bench's lap figures and its picture; `time_shares`: where a
-training run's wall time went, from its iterations log; `workdir`:
-the work folder a bench's training run writes to; `deepracer_data`: where a bench finds DeepRacer's own files, `--data`
-or RACER_DEEPRACER_DATA; `sim_loop`, `sim_races`: the simulator bench's step loop and its
-envs with objects; `gazebo_frames`: DeepRacer's reference camera frames and racer's at the same poses;
+training run's wall time went, from its iterations log; `workdir`: the work folder a bench's training run writes to;
+`deepracer_data`: where a bench finds DeepRacer's own files, `--data` or RACER_DEEPRACER_DATA; `sim_loop`,
+`sim_race_types`: the simulator bench's step loop and its envs with objects; `real_models`, `transfer_drive`,
+`transfer_reverse_check`, `transfer_matrix`, `transfer_robustness`: the transfer bench's models, its drives, its reverse
+check, matrix and robustness table; `gazebo_frames`: DeepRacer's reference camera frames and racer's at the same poses;
 `precision_agreement`: how far a bf16 update lands from fp32's). Studies that answered a question once live in the
 repository's `research/`, which the wheel does not install and nothing here imports.
 """
@@ -31,7 +32,7 @@ BENCHMARKS: dict[str, tuple[str, str]] = {
         "Real DeepRacer checkpoints drive racer closed loop: laps and mean progress from evenly spaced starts.",
     ),
     "fidelity": (
-        "benchmarks.fidelity.replay:fidelity_bench_command",
+        "benchmarks.fidelity.simtrace_replay:fidelity_bench_command",
         "Open-loop replay of real simtraces: pose error after 1 s and 2 s per speed band.",
     ),
     "sac": (
@@ -44,7 +45,7 @@ BENCHMARKS: dict[str, tuple[str, str]] = {
     ),
     "race-pace": (
         "benchmarks.race_pace:race_pace_command",
-        "Best lap and best 3-lap average in --minutes with the racing recipe, against the car's lap-time bound.",
+        "Best lap and best 3-lap average in --minutes with the fast-lap recipe, against the car's lap-time bound.",
     ),
     "rollout": (
         "benchmarks.rollout:rollout_bench_command",

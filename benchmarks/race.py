@@ -1,7 +1,7 @@
 """`python -m benchmarks race`: a race's entrants per minute with `--workers` against `racer evaluate` one after another.
 
-A time trial on re:Invent 2018 under DeepRacer's default race rules (the race file of docs/evaluation.md: AVG_LAP_TIME,
-3 laps, 2 s off-track and 5 s collision penalties, 20 minutes), videos on. The field: the two real Gazebo checkpoints
+A time trial on re:Invent 2018 under DeepRacer's default race settings (the race file of docs/evaluation.md:
+AVG_LAP_TIME, 3 laps, 2 s off-track and 5 s collision penalties, 20 minutes), videos on. The field: the two real Gazebo checkpoints
 of DeepRacer's sample model in `--data` (each frozen graph in a folder of its own, as `racer model import` takes it),
 the racer models given with `--entrant`, one broken folder the bench makes, re-entered under distinct names until there are
 `--entrants` (every model given races, so the field may be larger). Every model is imported once with `racer model
@@ -50,7 +50,7 @@ DEFAULT_RULES: dict[str, Any] = {
     "resettingBehaviorConfig": {"continuousLap": False, "offTrackPenaltySeconds": 2, "collisionPenaltySeconds": 5},
     "submissionTerminationConditions": {"minimumLaps": 3, "maximumLaps": 3, "maxTimeInMinutes": 20},
 }
-"""DeepRacer's default race rules (docs/evaluation.md, "Races"); maxResets absent: the console's 10000."""
+"""DeepRacer's default race settings (docs/evaluation.md, "Races"); maxResets absent: the console's 10000."""
 QUICK_LIMITS = {"minimumLaps": 1, "maximumLaps": 1, "maxTimeInMinutes": 1}
 """`--quick`: one lap in at most a simulated minute (a Gazebo checkpoint laps re:Invent 2018 in about 10 s), and
 maxResets 0: the first exit ends an entrant's lap, so an untrained `--entrant` costs seconds, in the race and in
@@ -58,7 +58,8 @@ maxResets 0: the first exit ends an entrant's lap, so an untrained `--entrant` c
 
 
 def evaluate_args(race: dict[str, Any], name: str, seed: int, out: Path) -> list[str]:
-    """`racer evaluate` with the race's rules (racer.race.rules.evaluation_config): deepracer mode, base world."""
+    """`racer evaluate` with the race's settings (racer.race.entrant_evaluation.evaluation_config): deepracer mode,
+    base world."""
     limits = race["submissionTerminationConditions"]
     resetting = race["resettingBehaviorConfig"]
     args = ["evaluate", "--model-prefix", name, "--mode", "deepracer", "--track", race["trackConfig"]["trackId"]]

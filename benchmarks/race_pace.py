@@ -1,7 +1,7 @@
-"""`python -m benchmarks race-pace`: train from scratch with the racing recipe for a fixed wall time, judge every checkpoint on 3
-consecutive laps as DeepRacer's continuous evaluation drives them, and print one JSON line: the best lap and the best
-3-lap average without a reset (when each was first reached), the curve of bests against minutes, the car's own
-lap-time bound on the same track and the policy's ratio to it, and where the wall time went.
+"""`python -m benchmarks race-pace`: train from scratch with the fast-lap recipe for a fixed wall time, judge every
+checkpoint on 3 consecutive laps as DeepRacer's continuous evaluation drives them, and print one JSON line: the best
+lap and the best 3-lap average without a reset (when each was first reached), the curve of bests against minutes, the
+car's own lap-time bound on the same track and the policy's ratio to it, and where the wall time went.
 
 The run is `racer train`'s processes (racer.local.run) with `racer recipe`'s folder for the judged track and car,
 made in the run's folder (racer.recipe; or `--custom-files`, racer/defaults/racing/discrete for the fixed racing
@@ -26,8 +26,8 @@ from pathlib import Path
 
 import click
 
-from benchmarks.race_pace_laps import CheckpointLaps, lap_to_draw, race_pace
-from benchmarks.race_pace_picture import draw_race_pace, drive_lap_again, keep_checkpoint
+from benchmarks.race_pace_laps import CheckpointLaps, lap_to_draw, pace_figures
+from benchmarks.race_pace_picture import draw_pace, drive_lap_again, keep_checkpoint
 from benchmarks.time_shares import time_shares
 from benchmarks.time_to_lap import hyperparameter_overrides
 from benchmarks.workdir import bench_workdir, cpu_description, read_iteration_records
@@ -53,9 +53,9 @@ DEFAULT_TRACK = "reinvent_base"
 DEFAULT_MINUTES = 20.0
 """An evening's training on two cores: the benchmark's goals are judged within it (docs/racing.md)."""
 EVALUATION_LAPS = 3
-SLOWEST_RACE_PACE_MPS = 1.0
-"""The evaluation run's step cap is its 3 laps at this average speed: slower is no race pace, and the cap only stops a
-barely trained policy that circles on the road from holding worker 0 for minutes."""
+SLOWEST_PACE_MPS = 1.0
+"""The evaluation run's step cap is its 3 laps at this average speed: slower is no pace worth judging, and the cap
+only stops a barely trained policy that circles on the road from holding worker 0 for minutes."""
 MODEL_PREFIX = "race-pace"
 ACTION_SPACES = ("discrete", "continuous")
 KEPT_STORE = "kept"
@@ -84,7 +84,7 @@ KEPT_STORE = "kept"
     "--custom-files",
     type=click.Path(exists=True, file_okay=False, path_type=Path),
     default=None,
-    help="Custom files instead of `racer recipe`'s (racer/defaults/racing/discrete: the fixed racing recipe; "
+    help="Custom files instead of `racer recipe`'s (racer/defaults/racing/discrete: the fixed fast-lap recipe; "
     "--action-space is then theirs); the bench sets the evaluation keys of their workers.json.",
 )
 @workers_option
@@ -118,7 +118,7 @@ def race_pace_command(
     picture,
     bound_only,
 ):
-    """Train from scratch for --minutes with the racing recipe; judge each checkpoint on 3 consecutive greedy laps
+    """Train from scratch for --minutes with the fast-lap recipe; judge each checkpoint on 3 consecutive greedy laps
     from the start line; print the best lap, the best 3-lap average, the curve, the car's lap-time bound and where
     the time went as one JSON line. It takes --generation's car and look and no other: the bound is that car's."""
     try:  # a GPU asked for and absent is refused before anything starts
@@ -159,7 +159,7 @@ def race_pace_command(
         }
         if bound_only:
             if picture is not None:
-                result["picture"] = str(draw_race_pace(route, bound, None, _title(result, None), picture))
+                result["picture"] = str(draw_pace(route, bound, None, _title(result, None), picture))
             click.echo(json.dumps(result))
             return
         plan = LocalRunPlan(
@@ -176,7 +176,7 @@ def race_pace_command(
         trained = _train(plan, minutes, keep_to_draw=picture is not None)
         evaluations = trained.evaluations
         records = read_iteration_records(workdir / "store", plan)
-        pace = race_pace(evaluations)
+        pace = pace_figures(evaluations)
         result.update(pace)
         result["evaluations_after_the_limit"] = trained.late
         result["ratio_to_bound"] = _ratios(pace, bound)
@@ -258,10 +258,10 @@ def _bench_custom_files(source: Path, folder: Path, overrides: dict) -> Path:
 
 def _write_evaluation_keys(folder: Path, track_length_m: float) -> None:
     """The evaluation the bench judges, over whatever workers.json the custom files bring: 3 consecutive laps from
-    the start line, capped at 3 laps' steps at SLOWEST_RACE_PACE_MPS."""
+    the start line, capped at 3 laps' steps at SLOWEST_PACE_MPS."""
     path = folder / "workers.json"
     workers = json.loads(path.read_text()) if path.is_file() else {}
-    cap_steps = math.ceil(EVALUATION_LAPS * track_length_m / SLOWEST_RACE_PACE_MPS * STEPS_PER_SECOND)
+    cap_steps = math.ceil(EVALUATION_LAPS * track_length_m / SLOWEST_PACE_MPS * STEPS_PER_SECOND)
     workers.update(MIN_EVAL_TRIALS=EVALUATION_LAPS, RACER_EVAL_CONTINUOUS="True", RACER_EVAL_MAX_STEPS=cap_steps)
     path.write_text(json.dumps(workers, indent=4))
 
@@ -314,7 +314,7 @@ def _picture(
                 run_store, kept, MODEL_PREFIX, target.checkpoint, target.lap_index, workdir / "replay", seed
             )
         except CheckpointError as error:  # deleted by retention before the bench could copy it: drawn without it
-            draw_race_pace(route, bound, None, _title(result, pace), path)
+            draw_pace(route, bound, None, _title(result, pace), path)
             return {"picture": str(path), "picture_lap": {"checkpoint": target.checkpoint, "error": str(error)}}
         found["picture_lap"] = {
             "checkpoint": target.checkpoint,
@@ -324,7 +324,7 @@ def _picture(
             "matches_the_evaluation": _same(driven.lap_time_s, target.lap_time_s)
             and _same(driven.progress, target.progress),
         }
-    draw_race_pace(route, bound, driven, _title(result, pace), path)
+    draw_pace(route, bound, driven, _title(result, pace), path)
     return {"picture": str(path), **found}
 
 

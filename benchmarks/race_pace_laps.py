@@ -165,7 +165,7 @@ def curve(evaluations: Sequence[CheckpointLaps]) -> list[dict]:
     return points
 
 
-def race_pace(evaluations: Sequence[CheckpointLaps]) -> dict:
+def pace_figures(evaluations: Sequence[CheckpointLaps]) -> dict:
     """The bench's figures from the run's evaluations, in the order they arrived."""
     lap, average = best_lap(evaluations), best_average(evaluations)
     last = evaluations[-1] if evaluations else None

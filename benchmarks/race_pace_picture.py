@@ -103,7 +103,7 @@ def drive_lap_again(
     return DrivenLap(checkpoint, lap_index, points, lap.lap_time_s, lap.progress)
 
 
-def draw_race_pace(track: Track, line: RacingLine, lap: DrivenLap | None, title: str, path: Path) -> Path:
+def draw_pace(track: Track, line: RacingLine, lap: DrivenLap | None, title: str, path: Path) -> Path:
     """Two maps on one speed scale: the bound's line, and the policy's lap over the line (thin)."""
     panels = 2 if lap is not None else 1
     figure = Figure(figsize=(6.5 * panels, 5.2), layout="constrained")

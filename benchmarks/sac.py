@@ -39,7 +39,7 @@ from racer.shared.episode import Episode
 from racer.shared.policy.factory import build_network_for_metadata
 from racer.trainer.device import DeviceError, describe_device, resolve_device
 from racer.trainer.ppo import HUBER_DELTA
-from racer.trainer.replay import ReplayBatch
+from racer.trainer.replay_buffer import ReplayBatch
 from racer.trainer.sac import SACLearner, SACSettings
 
 __all__ = ["METADATA", "plain_sac_step", "sac_bench_command", "synthetic_episodes"]

@@ -87,14 +87,14 @@ def sim_bench_command(
     """Measure simulator throughput; prints one JSON line."""
     rendering = _apply(renderer)
     from benchmarks.sim_measure import run_benchmark
-    from benchmarks.sim_races import run_race_benchmark
+    from benchmarks.sim_race_types import run_race_type_benchmark
 
     if obstacles or bot_cars:
         if full_resolution:
             raise click.UsageError("--full-resolution measures the time trial against the raw bound only")
         if track != DEFAULT_TRACK:
             raise click.UsageError("--track applies to the time-trial figure; the object figures use the default track")
-        click.echo(json.dumps({**run_race_benchmark(obstacles, bot_cars, steps=steps, seed=seed), **rendering}))
+        click.echo(json.dumps({**run_race_type_benchmark(obstacles, bot_cars, steps=steps, seed=seed), **rendering}))
         return
     result = {**run_benchmark(steps=steps, seed=seed, full_resolution=full_resolution, track=track), **rendering}
     if not is_software_renderer(rendering["gl_renderer"]):

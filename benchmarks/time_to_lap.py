@@ -13,7 +13,7 @@ from pathlib import Path
 import click
 
 from benchmarks.deepracer_data import data_folder, data_option
-from benchmarks.time_to_lap_races import TIME_TO_LAP_RACES, time_to_lap_hyperparameters
+from benchmarks.time_to_lap_race_types import RACE_TYPE_SETUPS, time_to_lap_hyperparameters
 from benchmarks.workdir import bench_workdir, cpu_description, read_iteration_records
 from racer.local.run import LocalRunPlan, run_local_training
 from racer.options.track import direction_option, track_option
@@ -59,7 +59,7 @@ from racer.trainer.device import DeviceError, describe_device, resolve_device
     "--episodes-per-iteration",
     type=int,
     default=None,
-    help="num_episodes_between_training (default: the race's recipe, else DeepRacer's 20).",
+    help="num_episodes_between_training (default: the race type's recipe, else DeepRacer's 20).",
 )
 @click.option(
     "--sac-updates-per-transition",
@@ -71,7 +71,7 @@ from racer.trainer.device import DeviceError, describe_device, resolve_device
 )
 @click.option(
     "--race-type",
-    type=click.Choice(list(TIME_TO_LAP_RACES)),
+    type=click.Choice(list(RACE_TYPE_SETUPS)),
     default="time-trial",
     show_default=True,
     help="object-avoidance: 3 boxes at fixed places (OBJECT_POSITIONS 0.23,-1;0.46,1;0.67,-1); head-to-bot: 2 bot "
@@ -135,7 +135,7 @@ def time_to_lap_command(
     data_dir,
 ):
     """Train from scratch until greedy evaluation completes 3 of 3 laps (from three starts a third of a lap
-    apart); print one JSON line. Hyperparameters: the race's clipped-PPO recipe (3 epochs, discount 0.99), else
+    apart); print one JSON line. Hyperparameters: the race type's clipped-PPO recipe (3 epochs, discount 0.99), else
     the SimApp's defaults."""
 
     try:  # a GPU asked for and absent is refused before anything starts
@@ -146,8 +146,8 @@ def time_to_lap_command(
     action_space = action_space or ("continuous" if algorithm == "sac" else "discrete")
     if algorithm == "sac" and action_space != "continuous":
         raise click.UsageError("--algorithm sac needs --action-space continuous (DeepRacer's SAC is continuous only)")
-    race = TIME_TO_LAP_RACES[race_type]
-    reward_function = reward_function or data_folder(data_dir) / "reward_functions" / race.reward_function
+    setup = RACE_TYPE_SETUPS[race_type]
+    reward_function = reward_function or data_folder(data_dir) / "reward_functions" / setup.reward_function
     if not Path(reward_function).is_file():
         raise click.UsageError(f"reward function not found: {reward_function}; pass --reward-function")
     with bench_workdir("racer-time-to-lap-") as workdir:
@@ -206,7 +206,7 @@ def time_to_lap_command(
                 car_profile=car_profile,
                 generation=generation,
                 dynamics_randomization=dynamics_randomization,
-                challenge_params=race.challenge_params,
+                challenge_params=setup.challenge_params,
             ),
             max_episodes=None,
             max_minutes=time_limit_minutes,

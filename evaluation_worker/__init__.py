@@ -12,6 +12,6 @@ Modules: `config` (frozen settings), `driver` (greedy policy + env + recorders),
 `deepracer_eval` / `summit_rule` (the two modes), `outputs` (layout, simtrace, EvaluationMetrics, summary, table),
 `video` (MP4s), `mcap_recording` (Foxglove MCAP), `runner` (one evaluation end to end), `cli` (the click command).
 
-Continuous runs (IS_CONTINUOUS, race laps) keep the episode going after `lap_complete` with
+Continuous runs (IS_CONTINUOUS, the summit rule's laps) keep the episode going after `lap_complete` with
 `DeepRacerEnv.continue_after_lap` (lap clock and counters restart at the line; reset budget kept or renewed).
 """

@@ -1,4 +1,4 @@
-"""`racer evaluate`: evaluate a stored model with DeepRacer's evaluation rules or the 4-minute race rule.
+"""`racer evaluate`: evaluate a stored model with DeepRacer's evaluation rules or the 4-minute summit rule.
 
 The store comes from RACER_STORE (a directory or s3://bucket with S3_ENDPOINT_URL for MinIO), as for every racer
 process. Output layout: see `racer.evaluation_worker.outputs`.
@@ -55,7 +55,7 @@ def _video_size(text: str) -> tuple[int, int]:
 @click.option(
     "--continuous/--no-continuous",
     default=None,
-    help="IS_CONTINUOUS: laps run into each other. Default: off in deepracer mode, on in race mode.",
+    help="IS_CONTINUOUS: laps run into each other. Default: off in deepracer mode, on with --mode race.",
 )
 @click.option(
     "--resets",
@@ -84,28 +84,28 @@ def _video_size(text: str) -> tuple[int, int]:
     type=click.FloatRange(min=0.0, min_open=True),
     default=4.0,
     show_default=True,
-    help="Race duration in simulated minutes (race mode).",
+    help="The summit rule's duration in simulated minutes (--mode race).",
 )
 @click.option(
     "--race-resets-per-lap",
     type=click.IntRange(min=0),
     default=3,
     show_default=True,
-    help="Put-backs allowed per lap; the next exit ends the lap attempt (race mode).",
+    help="Put-backs allowed per lap; the next exit ends the lap attempt (--mode race).",
 )
 @click.option(
     "--race-reset-penalty",
     type=click.FloatRange(min=0.0),
     default=2.0,
     show_default=True,
-    help="Seconds the car is held after a put-back (race mode, the marshal's time); the clock keeps running.",
+    help="Seconds the car is held after a put-back (--mode race, the marshal's time); the clock keeps running.",
 )
 @click.option(
     "--race-put-back",
     type=click.Choice(RESET_POSITIONS),
     default="where_it_left",
     show_default=True,
-    help="Where a put-back sets the car (race mode): where it last had four wheels on the road, half a "
+    help="Where a put-back sets the car (--mode race): where it last had four wheels on the road, half a "
     "step back (the seed's rule), or DeepRacer's respawn spot.",
 )
 @click.option("--video/--no-video", default=True, show_default=True, help="MP4s: in-car, top view, 45-degree follow.")

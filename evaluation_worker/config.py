@@ -57,10 +57,10 @@ class DeepRacerRules:
 
 @dataclass(frozen=True)
 class SummitRules:
-    """The AWS Summit physical-track rule: race for a fixed time, up to 3 put-backs per lap."""
+    """The AWS Summit physical-track rule: drive for a fixed time, up to 3 put-backs per lap."""
 
     race_duration_s: float = 240.0
-    """Simulated seconds from the first start to the end of the race (4 minutes)."""
+    """Simulated seconds from the first start to the end of the run (4 minutes)."""
     resets_per_lap: int = 3
     """Put-backs allowed in one lap; leaving the track once more ends the lap attempt."""
     reset_penalty_s: float = 2.0
@@ -122,7 +122,7 @@ class EvaluationConfig:
     summit: SummitRules = field(default_factory=SummitRules)
     challenge: ChallengeConfig = ChallengeConfig()
     """RACE_TYPE and the obstacles / bot cars on the track (both modes); crashes cost COLLISION_PENALTY (deepracer
-    mode) or the put-back penalty (race mode) and count as a reset."""
+    mode) or the put-back penalty (the summit rule) and count as a reset."""
     video: VideoOptions = field(default_factory=VideoOptions)
     mcap: bool = True
     seed: int = 0

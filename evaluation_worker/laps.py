@@ -2,7 +2,7 @@
 
 Counting follows the SimApp's EvalMetrics: every step whose status is crashed/immobilized/off_track/reversed counts
 once for its rule, including the step that ends the lap when the reset budget is used up. `put_backs` counts only
-the times the car was put back on the track (what the race rule limits to 3 per lap).
+the times the car was put back on the track (what the summit rule limits to 3 per lap).
 """
 
 from __future__ import annotations

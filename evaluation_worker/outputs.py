@@ -4,7 +4,7 @@ Layout under the model prefix (DeepRacer-for-Cloud's evaluation layout; docs/eva
 
     <prefix>/metrics/evaluation/evaluation-<ts>.json             DeepRacer's schema (s3_metrics.py), one entry per lap
     <prefix>/evaluation-<ts>/evaluation-simtrace/0-iteration.csv  19-column simtrace of every step
-    <prefix>/evaluation-<ts>/summary.json                         what ran and its laps (race rule: laps, best lap,
+    <prefix>/evaluation-<ts>/summary.json                         what ran and its laps (summit rule: laps, best lap,
                                                                   resets per lap, total progress), timings, file keys
     <prefix>/evaluation-<ts>/evaluation_params.yaml               the job's settings as DeepRacer yaml keys (strings)
     <prefix>/evaluation-<ts>/camera-incar/0-video.mp4             videos (DeepRacer's camera-<view>/<n>-video.mp4 names)
@@ -88,8 +88,8 @@ def evaluation_metrics(laps: list[LapResult] | tuple[LapResult, ...]) -> Evaluat
 def evaluation_params(config: EvaluationConfig, layout: EvaluationLayout, checkpoint: str | None) -> dict[str, object]:
     """The job as an evaluation_params.yaml would describe it (SimApp keys, string values as DRfC writes them).
 
-    Race mode keeps DeepRacer's keys where they mean the same (NUMBER_OF_RESETS = put-backs per lap, RACE_DURATION)
-    and says which rule ran in RACER_EVALUATION_MODE.
+    The summit rule keeps DeepRacer's keys where they mean the same (NUMBER_OF_RESETS = put-backs per lap,
+    RACE_DURATION) and says which rule ran in RACER_EVALUATION_MODE.
     """
     params = {
         "JOB_TYPE": "EVALUATION",

@@ -1,11 +1,11 @@
-"""The AWS Summit physical-track rule: race for 4 minutes of simulated time, lap after lap, 3 put-backs per lap.
+"""The AWS Summit physical-track rule: drive for 4 minutes of simulated time, lap after lap, 3 put-backs per lap.
 
 A lap attempt starts at the line. Leaving the track (or any other reset rule: reversed, immobilized, crashed) puts
 the car back on the track near where it left (the env's reset position, docs/evaluation.md) after `reset_penalty_s`,
 up to `resets_per_lap` times in a lap; the next exit ends the attempt and the next attempt starts at the line.
 A completed lap runs straight into the next one (`continuous`, as on a physical track) with a fresh reset budget.
-When the race clock passes the duration (SimApp's RaceTimeRule: `elapsed > duration`), the current step becomes
-`time_up` and the race ends, mid-lap if need be; that partial lap is reported too.
+When the rule's clock passes the duration (SimApp's RaceTimeRule: `elapsed > duration`), the current step becomes
+`time_up` and the run ends, mid-lap if need be; that partial lap is reported too.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ from racer.evaluation_worker.laps import LapCallback, LapResult, LapTally, ignor
 from racer.shared.deepracer.episode_status import EpisodeStatus
 
 _CLOCK_TOLERANCE_S = 1e-6
-"""The sim clock is a sum of physics steps; this keeps a step landing exactly on the limit inside the race."""
+"""The sim clock is a sum of physics steps; this keeps a step landing exactly on the limit inside the run."""
 
 
 @dataclass(frozen=True)

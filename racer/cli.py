@@ -16,7 +16,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "rollout": ("racer.rollout_worker.cli:rollout_command", "Run one rollout worker (one world) alone."),
     "evaluate": (
         "racer.evaluation_worker.cli:evaluate_command",
-        "Evaluate a model: DeepRacer trials or the 4-minute race rule.",
+        "Evaluate a model: DeepRacer trials or the 4-minute summit rule.",
     ),
     "race": (
         "racer.race.cli:race_command",

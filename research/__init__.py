@@ -45,7 +45,7 @@ def simtraces_option(command: Callable) -> Callable:
 
 def route_option(command: Callable) -> Callable:
     """`--route`: the route the simtraces were driven on (default: re:Invent 2018); files of other tracks are left
-    out (`benchmarks.fidelity.replay.replay_files`)."""
+    out (`benchmarks.fidelity.simtrace_replay.replay_files`)."""
     return click.option(
         "--route",
         type=click.Path(exists=True, dir_okay=False, path_type=Path),

@@ -64,7 +64,7 @@ class JobSettings:
     reverse_penalty_s: float | None = None
     """None: the off-track penalty, as the SimApp."""
     reset_position: str = "deepracer"
-    """`deepracer` or `where_it_left` (the race rule's marshal); `EnvConfig.reset_position`."""
+    """`deepracer` or `where_it_left` (the summit rule's marshal); `EnvConfig.reset_position`."""
 
 
 def settings_fields() -> dict[str, str]:

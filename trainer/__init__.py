@@ -1,7 +1,7 @@
 """The SageMaker side: DeepRacer's clipped-PPO and SAC trainers. Import name: `racer.trainer`.
 
 `racer.trainer.preflight` (custom files checked before anything starts), `racer.trainer.ppo` (PPOLearner.update,
-DeepRacer's log lines), `racer.trainer.sac` (SACLearner.update) with `racer.trainer.replay` (its replay memory),
+DeepRacer's log lines), `racer.trainer.sac` (SACLearner.update) with `racer.trainer.replay_buffer` (its replay memory),
 `racer.trainer.gae`, `racer.trainer.nan_guard`; the process loop is `racer.trainer.training_loop` / `racer.trainer.cli`,
 with the run's files (`racer.trainer.run_files`), the iteration summary (`racer.trainer.iteration_summary`) and the
 stop signals and time limit (`racer.trainer.stopping`) beside it.

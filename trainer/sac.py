@@ -9,7 +9,7 @@ Public API
 
 One iteration, as DeepRacer's trainer runs it:
 
-1. The iteration's episodes go into the replay memory (`racer.trainer.replay`; every episode end is terminal).
+1. The iteration's episodes go into the replay memory (`racer.trainer.replay_buffer`; every episode end is terminal).
 2. Gradient steps: as many as the iteration brought transitions (`num_consecutive_training_steps = rollout steps`),
    times `SACSettings.updates_per_transition` (1.0 = DeepRacer). Minibatch: `batch_size` transitions sampled
    uniformly, or 2^floor(log2(iteration transitions)) while the memory holds no more than `batch_size`.
@@ -60,7 +60,7 @@ from racer.trainer.nan_guard import (
 )
 from racer.trainer.ppo import HUBER_DELTA
 from racer.trainer.precision import DEFAULT_PRECISION, Precision
-from racer.trainer.replay import ReplayBatch, ReplayBuffer
+from racer.trainer.replay_buffer import ReplayBatch, ReplayBuffer
 
 __all__ = ["SACSettings", "SACStats", "SACLearner", "sac_minibatch_size"]
 
@@ -70,7 +70,7 @@ log = logging.getLogger(__name__)
 @dataclass(frozen=True)
 class SACSettings:
     replay_memory_bytes: int = 1 << 30
-    """Memory budget of the replay ring (see racer.trainer.replay): 1 GiB by default."""
+    """Memory budget of the replay ring (see racer.trainer.replay_buffer): 1 GiB by default."""
     updates_per_transition: float = 1.0
     """Gradient steps per transition received; DeepRacer: 1. Lower trades sample efficiency for trainer time."""
     max_nan_retries: int = 3

@@ -1,2 +1,3 @@
-"""`python -m benchmarks fidelity` (`replay`): the open-loop replay of real simtraces through racer's car, per speed band.
+"""`python -m benchmarks fidelity` (`simtrace_replay`): the open-loop replay of real simtraces through racer's car, per
+speed band.
 How its car was fitted and what limits it are studies in the repository's research/ (tyre_fit, replay_limits)."""

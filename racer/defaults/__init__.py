@@ -4,7 +4,7 @@
 configures every Redis racer uses (the embedded `racer train`, the tests, docker compose) and
 `custom_files/` is the example reward function, `model_metadata.json` and `hyperparameters.json` that
 `racer train` uses when no `--custom-files` is given. The repository's top-level `custom_files` is a link here.
-`racing/discrete/` and `racing/continuous/` are the racing recipe: custom files for a fast lap (docs/racing.md says
+`racing/discrete/` and `racing/continuous/` are the fast-lap recipe: custom files for a fast lap (docs/racing.md says
 why each value is what it is; `python -m benchmarks race-pace` trains with them).
 """
 
@@ -33,5 +33,7 @@ REDIS_CONF = packaged_path("redis.conf")
 DEFAULT_CUSTOM_FILES = packaged_path("custom_files")
 """`racer train`'s default `--custom-files` folder."""
 
-RACING_CUSTOM_FILES: dict[str, Path] = {space: packaged_path(f"racing/{space}") for space in ("discrete", "continuous")}
-"""The racing recipe's custom files folders by action space type."""
+FAST_LAP_CUSTOM_FILES: dict[str, Path] = {
+    space: packaged_path(f"racing/{space}") for space in ("discrete", "continuous")
+}
+"""The fast-lap recipe's custom files folders by action space type."""

@@ -2,11 +2,12 @@
 
 `racer model validate|import|export` (racer.model_io.cli) are thin wrappers over:
 `validate_location` / `validate_model` -> ValidationReport (ValidationProblem(code, path, message, fix)),
-`import_model`, `export_model` -> TransferResult.
+`import_model`, `export_model` -> ImportExportResult.
 """
 
 from racer.model_io.codes import CODE_INFO, ProblemCode
 from racer.model_io.destinations import ArchiveDestination, FolderDestination, StoreDestination
+from racer.model_io.import_export import ImportExportResult, ModelExistsError, export_model, import_model
 from racer.model_io.problems import (
     DEFAULT_LIMITS,
     CheckpointSelection,
@@ -16,7 +17,6 @@ from racer.model_io.problems import (
     ValidationReport,
 )
 from racer.model_io.sources import FolderSource, ModelSource, StoreSource, TarSource, open_source
-from racer.model_io.transfer import ModelExistsError, TransferResult, export_model, import_model
 from racer.model_io.validate import validate_location, validate_model
 
 __all__ = [
@@ -34,7 +34,7 @@ __all__ = [
     "StoreDestination",
     "StoreSource",
     "TarSource",
-    "TransferResult",
+    "ImportExportResult",
     "ValidationProblem",
     "ValidationReport",
     "export_model",

@@ -22,6 +22,7 @@ from racer.model_io.deepracer_import import (
 )
 from racer.model_io.destinations import ArchiveDestination, Destination, FolderDestination, StoreDestination
 from racer.model_io.explain import explain_command
+from racer.model_io.import_export import MODEL_NAME, ImportExportResult, ModelExistsError, export_model, import_model
 from racer.model_io.problems import ValidationProblem, ValidationReport
 from racer.model_io.sources import split_s3_location
 from racer.model_io.store_location import open_store_option
@@ -32,7 +33,6 @@ from racer.model_io.tensorflow.runner import (
     TensorFlowToolError,
     tensorflow_available,
 )
-from racer.model_io.transfer import MODEL_NAME, ModelExistsError, TransferResult, export_model, import_model
 from racer.model_io.validate import validate_location, validate_model
 from racer.shared.config import S3Settings, store_settings_at
 from racer.shared.model_layout import COACH_CHECKPOINT, DEEPRACER_CHECKPOINTS
@@ -272,7 +272,7 @@ def _destination(dest: str, overwrite: bool) -> Destination:
     return FolderDestination(path)
 
 
-def _finish(result: TransferResult, success: str) -> None:
+def _finish(result: ImportExportResult, success: str) -> None:
     if not result.report.ok:
         _print_report(result.report)
         sys.exit(1)

@@ -78,7 +78,7 @@ def _import_source(location: str, store, checkpoint: str) -> str:
         import_frozen_graphs,
         tensorflow_only_checkpoints,
     )
-    from racer.model_io.transfer import import_model
+    from racer.model_io.import_export import import_model
     from racer.model_io.validate import validate_location, validate_model
 
     report, opened = validate_location(location)

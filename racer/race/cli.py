@@ -37,11 +37,11 @@ def race_command(race_file: Path, entrants: tuple[str, ...], workers, seed, out_
     track at once (one multi-car evaluation; --workers does not apply): F1 ranks by finishing order over
     maximumLaps laps, HEAD_TO_MODEL by the timing method on each car's laps.
     """
+    from racer.race.entrant_evaluation import resolve_route
     from racer.race.entrants import EntrantError, parse_entrants
     from racer.race.html_report import write_html
     from racer.race.leaderboard import board_json, format_board, standings_from_results, write_board
     from racer.race.race_file import RaceFileError, read_race_file
-    from racer.race.rules import resolve_route
     from racer.race.runner import race_workers_for_the_cores, run_multi_car_race, run_race
     from racer.race.videos import race_videos
     from racer.shared.config import settings_from_env

@@ -21,10 +21,10 @@ from pathlib import Path
 from typing import Any
 
 from racer.model_io.codes import ProblemCode
+from racer.race.entrant_evaluation import evaluation_config
 from racer.race.guard import PolicyGuard, PolicyReturnedNaN, RaceTimeLimit
 from racer.race.lap_trace import best_lap_trace
 from racer.race.race_file import parse_race
-from racer.race.rules import evaluation_config
 from racer.race.videos import ALL_CARS_TOP_VIEW, move_videos
 from racer.shared.store import LocalStore, ObjectNotFoundError, ObjectStore
 

@@ -1,9 +1,9 @@
 """A recipe folder from a track and a car: the line (the lap-time bound's), its needs, and the four custom files.
 
 * `reward_function.py`: the line pasted in (`reward_source`);
-* `model_metadata.json`: the racing recipe's sensor, network and algorithm (racer/defaults/racing) with the action
+* `model_metadata.json`: the fast-lap recipe's sensor, network and algorithm (racer/defaults/racing) with the action
   space the line needs (`action_space`);
-* `hyperparameters.json`: the racing recipe's, unchanged (docs/racing.md gives their reasons);
+* `hyperparameters.json`: the fast-lap recipe's, unchanged (docs/racing.md gives their reasons);
 * `workers.json`: the route, the car, and the worlds where the line holds: every worker drives a world whose tyre μ
   is at least the line's world's, the line's own first (worker 0 evaluates there).
 """
@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from racer.defaults import RACING_CUSTOM_FILES
+from racer.defaults import FAST_LAP_CUSTOM_FILES
 from racer.racing_line import CarLimits, LapTimeBoundError, RacingLine, racing_line
 from racer.recipe.action_space import continuous_space, discrete_space
 from racer.recipe.line_needs import LineNeeds, line_needs
@@ -96,7 +96,7 @@ def recipe_from_line(
     """The recipe of `line`, the racing line of `car` on `route` (`make_recipe` computes it)."""
     _check_converged(route, line)
     needs = line_needs(line, car.dynamics)
-    metadata = json.loads((RACING_CUSTOM_FILES[action_space] / "model_metadata.json").read_text())
+    metadata = json.loads((FAST_LAP_CUSTOM_FILES[action_space] / "model_metadata.json").read_text())
     if action_space == "discrete":
         metadata["action_space"] = discrete_space(needs, car.dynamics).to_json()
     else:
@@ -104,7 +104,7 @@ def recipe_from_line(
     files = {
         "reward_function.py": reward_source(route, needs, car.describe()),
         "model_metadata.json": json.dumps(metadata, indent=4) + "\n",
-        "hyperparameters.json": (RACING_CUSTOM_FILES[action_space] / "hyperparameters.json").read_text(),
+        "hyperparameters.json": (FAST_LAP_CUSTOM_FILES[action_space] / "hyperparameters.json").read_text(),
         "workers.json": json.dumps(_workers(route_name or route.name, car), indent=4) + "\n",
     }
     return Recipe(line, needs, files)

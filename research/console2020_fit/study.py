@@ -23,7 +23,7 @@ from pathlib import Path
 import click
 import pandas as pd
 
-from benchmarks.fidelity.replay import Segment, SegmentError, load_segments
+from benchmarks.fidelity.simtrace_replay import Segment, SegmentError, load_segments
 from racer.shared.sim.car.simapp_profiles import friction_drive_cap_n
 from research import DEEPRACER_DATA
 from research.simapp6_fit.study import (

@@ -23,7 +23,7 @@ import numpy as np
 import torch
 
 from benchmarks.precision_agreement import update_agreement
-from benchmarks.time_to_lap_races import time_to_lap_hyperparameters
+from benchmarks.time_to_lap_race_types import time_to_lap_hyperparameters
 from benchmarks.workdir import cpu_description
 from racer.shared.deepracer.hyperparameters import parse_hyperparameters
 from racer.shared.deepracer.model_metadata import parse_model_metadata

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
-    from benchmarks.fidelity.replay import Segment
+    from benchmarks.fidelity.simtrace_replay import Segment
 
 COMMAND_ROWS = 18
 """Commands of rows start-2 .. start+15 (1 s is 14-18 rows of 55-75 ms); shorter segments are zero-padded."""

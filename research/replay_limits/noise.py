@@ -31,7 +31,7 @@ from racer.shared.sim.car.vehicle import Car
 from research.tyre_fit.twin import CarConstants, SegmentBatch, position_errors_m, simulate
 
 if TYPE_CHECKING:
-    from benchmarks.fidelity.replay import Segment
+    from benchmarks.fidelity.simtrace_replay import Segment
 
 HELD_ROWS_BEFORE = 4
 HELD_ROWS_AFTER = 9
@@ -62,8 +62,8 @@ def in_progress_rows(paths: Iterable[Path]) -> list[tuple[np.ndarray, np.ndarray
 
 
 def row_timing(episodes: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]) -> RowTiming:
-    """From (x, y, tstamp, speed command) per episode's `in_progress` rows. Pose k holds at tstamp[k-1] (replay.py),
-    so the distance from pose k to k+1 is driven during tstamp[k-1] .. tstamp[k]."""
+    """From (x, y, tstamp, speed command) per episode's `in_progress` rows. Pose k holds at tstamp[k-1]
+    (simtrace_replay.py), so the distance from pose k to k+1 is driven during tstamp[k-1] .. tstamp[k]."""
     distance_dev, step_dev, steps = [], [], []
     for x, y, tstamp, speed in episodes:
         distance = np.hypot(np.diff(x), np.diff(y))

@@ -9,7 +9,7 @@ from pathlib import Path
 import click
 import numpy as np
 
-from benchmarks.fidelity.replay import SPEED_BANDS_MPS, Segment, band_label, load_replayable, replay_files
+from benchmarks.fidelity.simtrace_replay import SPEED_BANDS_MPS, Segment, band_label, load_replayable, replay_files
 from research import route_option, simtraces_option
 from research.replay_limits.heading_floor import heading_floor_deg
 from research.replay_limits.noise import in_progress_rows, oracle_start_errors_m, replay_floor_m, row_timing

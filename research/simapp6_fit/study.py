@@ -18,7 +18,7 @@ from pathlib import Path
 import click
 import numpy as np
 
-from benchmarks.fidelity.replay import (
+from benchmarks.fidelity.simtrace_replay import (
     SPEED_BANDS_MPS,
     CarReplay,
     Segment,

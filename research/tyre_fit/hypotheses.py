@@ -20,7 +20,7 @@ from research.replay_limits.noise import oracle_start_errors_m
 from research.tyre_fit.twin import FIT_HORIZONS_S, CarConstants, SegmentBatch, position_errors_m, simulate
 
 if TYPE_CHECKING:
-    from benchmarks.fidelity.replay import Segment
+    from benchmarks.fidelity.simtrace_replay import Segment
 
 
 def step_lengths(batch: SegmentBatch, base: str) -> np.ndarray:

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import click
 
-from benchmarks.fidelity.replay import (
+from benchmarks.fidelity.simtrace_replay import (
     SPEED_BANDS_MPS,
     CarReplay,
     Segment,

@@ -35,7 +35,7 @@ from racer.shared.sim.car.vehicle import (
 from racer.shared.sim.scene.worlds import get_world
 
 if TYPE_CHECKING:
-    from benchmarks.fidelity.replay import Segment
+    from benchmarks.fidelity.simtrace_replay import Segment
 
 FIT_HORIZONS_S = (0.5, 1.0, 1.5)
 """The fit minimises the mean front-of-car position error at these times after the start (a robust, smooth loss)."""

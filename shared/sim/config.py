@@ -16,7 +16,7 @@ DEFAULT_TRACK = "racer_oval"
 """The short quick-start track shipped in `tracks/`."""
 
 RESET_POSITIONS: tuple[str, ...] = ("deepracer", "where_it_left")
-"""Where a reset rule puts the car back: the SimApp's spot, or where it left the road (the race rule's marshal)."""
+"""Where a reset rule puts the car back: the SimApp's spot, or where it left the road (the summit rule's marshal)."""
 
 STEPS_PER_SECOND = 15
 """DeepRacer's camera rate: one env step per camera frame."""
@@ -74,7 +74,7 @@ class EnvConfig:
     reset_position: str = "deepracer"
     """Where the car goes back after a reset rule: `deepracer` = the SimApp's spot (previous progress from the route
     origin, nearer lane); `where_it_left` = on the centre line where the car last had all four wheels on the road,
-    half its last step further back, as the seed's summit-rule code and a marshal do (evaluation race rule)."""
+    half its last step further back, as the seed's summit-rule code and a marshal do (the summit rule)."""
     number_of_reverse_counts: int = 15
     """NUMBER_OF_REVERSE_COUNTS: consecutive steps of decreasing progress that mean `reversed`."""
     immobilized_steps: int = 15

@@ -12,7 +12,7 @@ import numpy as np
 
 from racer.shared.deepracer.episode_status import EpisodeStatus
 from racer.shared.sim.car.dynamics import CarDynamics
-from racer.shared.sim.car.dynamics_randomization import draw_dynamics
+from racer.shared.sim.car.episode_car import EpisodeCar
 from racer.shared.sim.car.vehicle import (
     CAMERA_PITCH_DOWN_RAD,
     Car,
@@ -40,8 +40,6 @@ from racer.shared.sim.tracks.track import Track
 
 _SCENE_RNG_STREAM = 22
 """Seeds the scene randomisation apart from the LIDAR noise (which uses `np_random`)."""
-_DYNAMICS_RNG_STREAM = 23
-"""Seeds the dynamics randomisation apart from both, so turning it on changes no other draw."""
 
 
 class DeepRacerEnv(gym.Env):
@@ -84,7 +82,7 @@ class DeepRacerEnv(gym.Env):
     With resets left, the car is put back and held for the penalty: `pause` rows, at least one even for a 0 s
     penalty, `pause_duration` counting down to what is left (negative on the last row when the penalty is not a
     whole number of steps). The SimApp's spot (`reset_position="deepracer"`): the previous progress as a share of the
-    lap from the route's origin, on the lane whose spot is nearer the previous pose; the race rule's
+    lap from the route's origin, on the lane whose spot is nearer the previous pose; the summit rule's
     (`"where_it_left"`): the centre line half a step behind the last point with four wheels on the road.
 
     ## Start position
@@ -165,11 +163,7 @@ class DeepRacerEnv(gym.Env):
         )
         self._camera = self._observer.camera  # the env's renderer, for tools that render at the env's poses
         self._scene_rng = np.random.default_rng()
-        # The car of the current episode: the profile's, or one drawn at every reset (dynamics randomisation).
-        self._dynamics: CarDynamics = cfg.car_dynamics
-        self._command_delay_steps = 0
-        self._delayed_command = (0.0, 0.0)
-        self._dynamics_rng = np.random.default_rng()
+        self._episode_car = EpisodeCar(self._car, self._model, cfg.car_dynamics, cfg.dynamics_randomization)
         self._judge = PoseJudge(self._car, self._data)
         # Obstacles and bot cars; None in a time trial, so nothing of theirs runs per step.
         self._track_objects = track_objects or (TrackObjects(cfg.challenge) if cfg.challenge.has_objects else None)
@@ -214,12 +208,12 @@ class DeepRacerEnv(gym.Env):
     def car_dynamics(self) -> CarDynamics:
         """The car of the current episode: `config.car_dynamics`, or this episode's draw when
         `config.dynamics_randomization` is on."""
-        return self._dynamics
+        return self._episode_car.dynamics
 
     @property
     def command_delay_steps(self) -> int:
         """1 when this episode drives each step with the previous step's command (dynamics randomisation), else 0."""
-        return self._command_delay_steps
+        return self._episode_car.command_delay_steps
 
     @property
     def start_ndist(self) -> float:
@@ -252,15 +246,13 @@ class DeepRacerEnv(gym.Env):
             # A seeded reset restarts the simulation clock too, so seeded runs are reproducible row for row.
             self._data.time = 0.0
             self._scene_rng = np.random.default_rng((seed, _SCENE_RNG_STREAM))
-            self._dynamics_rng = np.random.default_rng((seed, _DYNAMICS_RNG_STREAM))
+            self._episode_car.seed(seed)
         evaluation, start_ndist = read_reset_options(options, self._starts.start_ndist)
         self._max_steps = episode_max_steps(options, self.config.max_steps)
         self._init_episode_state(evaluation, start_ndist)
         if self._randomizer.enabled:
             self._randomizer.randomize(self._model, self._scene_rng)
-        if self.config.dynamics_randomization:
-            self._draw_episode_dynamics(evaluation)
-        self._delayed_command = (0.0, 0.0)
+        self._episode_car.start(evaluation)
         x, y, yaw = self._track.pose_at(start_ndist, "center")
         if self._track_objects is not None:
             self._objects_start_time_s = float(self._data.time)
@@ -284,16 +276,6 @@ class DeepRacerEnv(gym.Env):
         }
         return observation, info
 
-    def _draw_episode_dynamics(self, evaluation: bool) -> None:
-        """Draw a training episode's car, or go back to `config.car_dynamics` for an evaluation (which measures the
-        checkpoint on the run's own car, as `racer evaluate` does); retune the compiled model and the tyres."""
-        episode = None if evaluation else draw_dynamics(self.config.car_dynamics, self._dynamics_rng)
-        car = self.config.car_dynamics if episode is None else episode.car
-        if car != self._dynamics:
-            self._car.retune(self._model, car.tyres, car.steering_time_constant_s, car.yaw_inertia_kgm2)
-            self._dynamics = car
-        self._command_delay_steps = 0 if episode is None else episode.command_delay_steps
-
     def _finish_episode(self) -> None:
         """End-of-episode bookkeeping (`StartRotation`)."""
         self._episode_open = False
@@ -302,9 +284,9 @@ class DeepRacerEnv(gym.Env):
     def continue_after_lap(self, lap_start_time_s: float, *, renew_reset_budget: bool) -> None:
         """Keep an evaluation episode going across the finish line instead of starting a new one.
 
-        DeepRacer's continuous evaluation and the race rule drive lap after lap without returning to the line:
+        DeepRacer's continuous evaluation and the summit rule drive lap after lap without returning to the line:
         progress restarts from 0, the lap clock restarts at `lap_start_time_s` (the crossing), the immobilized and
-        reversed counters restart, and the reset budget is kept for the whole run or renewed per lap (race rule).
+        reversed counters restart, and the reset budget is kept for the whole run or renewed per lap (summit rule).
         """
         if self._episode_open or self._last_status != EpisodeStatus.LAP_COMPLETE:
             raise RuntimeError("continue_after_lap() is only for an episode that has just ended with lap_complete")
@@ -373,11 +355,7 @@ class DeepRacerEnv(gym.Env):
         objects move on. Returns the clock after it."""
         if verdict.hold_pose is not None:
             self._car.teleport(self._model, self._data, *verdict.hold_pose)
-        command = clip_command(chosen.speed_mps, chosen.steering_deg) if verdict.drives else (0.0, 0.0)
-        if not verdict.drives:  # a pause holds the car: no late command drives it, none is left for after
-            self._delayed_command = (0.0, 0.0)
-        elif self._command_delay_steps:
-            command, self._delayed_command = self._delayed_command, command
+        command = self._episode_car.command(clip_command(chosen.speed_mps, chosen.steering_deg), verdict.drives)
         self._car.command(self._data, command[0], command[1])
         self._car.step(self._model, self._data, self._substeps)
         if self._track_objects is not None:

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from benchmarks.fidelity.replay import (
+from benchmarks.fidelity.simtrace_replay import (
     HORIZONS_S,
     CarReplay,
     fidelity_bench_command,
@@ -131,10 +131,10 @@ def test_files_of_another_track_are_left_out_and_named(deepracer_data, capsys):
 
 def test_a_generation_replays_its_own_car_and_car_replaces_it(deepracer_data, monkeypatch):
     """`--generation simapp6` replays the simapp6 car; `--car` beside it wins; neither: the simtrace fit."""
-    from benchmarks.fidelity import replay
+    from benchmarks.fidelity import simtrace_replay
 
     replayed = []
-    monkeypatch.setattr(replay, "run_fidelity", lambda files, route, progress, car: replayed.append(car) or {})
+    monkeypatch.setattr(simtrace_replay, "run_fidelity", lambda files, route, progress, car: replayed.append(car) or {})
     base = ["--simtraces", str(deepracer_data / "simtrace" / "drfc1_evaluation_0-iteration.csv")]
     base += ["--route", str(deepracer_data / "routes" / "reinvent_base.npy")]
     for extra in (["--generation", "simapp6"], ["--generation", "simapp6", "--car", "gazebo"], []):

@@ -11,8 +11,8 @@ import pytest
 from click.testing import CliRunner
 
 from benchmarks.race_pace import race_pace_command
-from benchmarks.race_pace_laps import CheckpointLaps, best_average, best_lap, lap_to_draw, race_pace
-from benchmarks.race_pace_picture import DrivenLap, draw_race_pace
+from benchmarks.race_pace_laps import CheckpointLaps, best_average, best_lap, lap_to_draw, pace_figures
+from benchmarks.race_pace_picture import DrivenLap, draw_pace
 from benchmarks.time_shares import time_shares
 from racer.racing_line.lap_time_bound import CarLimits, racing_line
 from racer.shared import worker_phases
@@ -59,14 +59,14 @@ def test_best_lap_and_best_average_are_first_reached_where_the_laps_say():
 
 
 def test_the_summary_compares_the_last_checkpoint_and_counts_resets_but_not_the_step_cap():
-    pace = race_pace(evaluations())
+    pace = pace_figures(evaluations())
     assert pace["last_checkpoint"] == "6.ckpt" and pace["last_three_lap_average_s"] is None
     assert pace["evaluations_ended_by_a_reset"] == 2  # 1.ckpt and 2.ckpt; 6.ckpt was capped
     assert pace["laps_completed"] == 0 + 2 + 3 + 3 + 3 + 2
     curve = pace["curve"]
     assert [point["best_lap_s"] for point in curve] == [None, 7.5, 7.2, 7.1, 7.1, 7.1]
     assert all(a["minutes"] <= b["minutes"] for a, b in zip(curve, curve[1:], strict=False))
-    up_to_five = race_pace(evaluations()[:5])
+    up_to_five = pace_figures(evaluations()[:5])
     expected = (7.95 + 7.3 + 7.25) / ((7.8 + 7.2 + 7.1) / 3) / 3
     assert up_to_five["last_to_best_average"] == pytest.approx(expected, abs=1e-4)
 
@@ -118,7 +118,7 @@ def test_the_picture_draws_the_line_and_a_lap(tmp_path):
     angles = np.linspace(0, 2 * np.pi, 120)
     lap = DrivenLap("3.ckpt", 1, np.column_stack((2.0 * np.cos(angles), np.sin(angles))), 8.0, 100.0)
     assert lap.speeds_mps.shape == (119,) and np.all(lap.speeds_mps > 0)
-    path = draw_race_pace(track, line, lap, "test", tmp_path / "pace.png")
+    path = draw_pace(track, line, lap, "test", tmp_path / "pace.png")
     assert path.stat().st_size > 10_000
 
 

@@ -1,4 +1,4 @@
-"""The race rule with a scripted car that leaves the track at planned places (racer_oval, 13.5 m, ~7.6 s a lap)."""
+"""The summit rule with a scripted car that leaves the track at planned places (racer_oval, 13.5 m, ~7.6 s a lap)."""
 
 from __future__ import annotations
 
@@ -90,7 +90,7 @@ def test_put_back_penalty_holds_the_car_while_the_race_clock_runs(tmp_path):
     assert len(pauses) == 15
     assert (pauses.reward == 0.0).all()
     assert list(pauses.pause_duration) == sorted(pauses.pause_duration, reverse=True)
-    # The held car has covered less of the track when the same race clock runs out.
+    # The held car has covered less of the track when the same rule's clock runs out.
     assert held.summary["total_progress_pct"] < fast.summary["total_progress_pct"] - 3.0
 
 

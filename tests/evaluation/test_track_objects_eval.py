@@ -1,4 +1,4 @@
-"""Evaluation with obstacles: a crash costs COLLISION_PENALTY (deepracer mode) or the put-back penalty (race rule) and
+"""Evaluation with obstacles: a crash costs COLLISION_PENALTY (deepracer mode) or the put-back penalty (summit rule) and
 counts as a reset; the job's params name the race type and its objects."""
 
 from __future__ import annotations

@@ -113,7 +113,7 @@ KNOBS = {
 RACE_WORKERS = ("--workers", ("racer race", "bench race"))
 """Each knob and the commands that take it. Other knobs under the same name are not compared with these: `racer
 race`'s `--workers` (entrants at once, its own row), `racer rollout`'s `--track`/`--world` (overrides, no default),
-the race-pace bench's `--track` and `--custom-files` (re:Invent 2018 and the racing recipe by default), the
+the race-pace bench's `--track` and `--custom-files` (re:Invent 2018 and the fast-lap recipe by default), the
 throughput bench's `--workers` (one per core), `racer reward test`'s and the time-to-lap bench's `--race-type`
 (one race each, no workers.json), the transfer bench's repeatable `--generation`, `--car-profile` and `--world`."""
 

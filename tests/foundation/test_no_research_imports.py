@@ -55,13 +55,13 @@ def test_the_check_sees_every_kind_of_reference():
 import research.tyre_fit
 from tools import track_looks_from_simapp
 def later():
-    from research.frame_pairs.pairs import fit_pose
+    from research.frame_pairs.fit import fit_pose
 COMMANDS = {"x": ("research.camera_proxies.camera:camera_command", "help")}
 """
     assert forbidden_references(source) == [
         "2: research.tyre_fit",
         "3: tools",
-        "5: research.frame_pairs.pairs",
+        "5: research.frame_pairs.fit",
         "6: research.camera_proxies.camera",
     ]
     assert forbidden_references("from benchmarks.sim import sim_bench_command") == ["1: benchmarks.sim"]

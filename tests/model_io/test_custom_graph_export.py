@@ -15,11 +15,11 @@ import torch
 
 from racer.model_io.deepracer_import import import_frozen_graphs
 from racer.model_io.destinations import FolderDestination
+from racer.model_io.import_export import export_model
 from racer.model_io.sources import FolderSource
 from racer.model_io.tensorflow.coach_layout import coach_tensors_from_racer, coach_variables, input_node, tower_layers
 from racer.model_io.tensorflow.convert import UnsupportedGraphError, output_node
 from racer.model_io.tensorflow.runner import run_tool, tensorflow_available
-from racer.model_io.transfer import export_model
 from racer.shared.deepracer.hyperparameters import parse_hyperparameters
 from racer.shared.deepracer.model_metadata import parse_model_metadata
 from racer.shared.model_layout import ModelLayout

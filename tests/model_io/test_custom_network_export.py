@@ -10,8 +10,8 @@ from click.testing import CliRunner
 
 from racer.cli import main
 from racer.model_io.destinations import FolderDestination
+from racer.model_io.import_export import export_model
 from racer.model_io.tensorflow.errors import CustomNetworkExportError
-from racer.model_io.transfer import export_model
 from racer.shared.model_layout import ModelLayout
 from racer.shared.store import LocalStore
 from tests.policy.test_network_file import ACTIONS, BATCHNORM

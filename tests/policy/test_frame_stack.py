@@ -160,7 +160,7 @@ def _onnx_inputs(checkpoints):
 def test_sac_replay_memory_stores_stacked_frames_from_single_frame_episodes():
     from racer.shared.episode import Episode
     from racer.shared.policy.policy_config import InputSpec
-    from racer.trainer.replay import ReplayBuffer
+    from racer.trainer.replay_buffer import ReplayBuffer
 
     steps = 4
     episode = Episode(

@@ -5,8 +5,8 @@ from __future__ import annotations
 import pytest
 import yaml
 
+from racer.race.entrant_evaluation import deepracer_rules, resolve_route
 from racer.race.race_file import RaceFileError, read_race_file
-from racer.race.rules import deepracer_rules, resolve_route
 
 GOOD = {
     "name": "club-cup",

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from benchmarks.fidelity.replay import CarReplay, replay_errors
+from benchmarks.fidelity.simtrace_replay import CarReplay, replay_errors
 from racer.shared.sim.car.dynamics import CAR_DYNAMICS
 from research.console2020_fit.study import LOG, ROUTE, episode_segments
 

@@ -10,16 +10,8 @@ import pytest
 from click.testing import CliRunner
 from PIL import Image
 
-from research.frame_pairs.pairs import (
-    CameraMount,
-    RouteLines,
-    fit_pose,
-    frame_pairs_command,
-    ground_points,
-    line_iou,
-    line_masks,
-    render_at,
-)
+from research.frame_pairs.fit import CameraMount, RouteLines, fit_pose, ground_points, line_masks
+from research.frame_pairs.pairs import frame_pairs_command, line_iou, render_at
 from tests.shared_data import SHARED_DATA
 
 ROUTE = SHARED_DATA / "routes" / "reinvent_base.npy"

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from benchmarks.fidelity.replay import load_segments
+from benchmarks.fidelity.simtrace_replay import load_segments
 from research.replay_limits.heading_floor import heading_floor_deg
 
 

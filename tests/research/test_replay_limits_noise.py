@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from benchmarks.fidelity.replay import load_segments
+from benchmarks.fidelity.simtrace_replay import load_segments
 from research.replay_limits.noise import in_progress_rows, oracle_start_errors_m, replay_floor_m, row_timing
 from research.tyre_fit.twin import CarConstants, SegmentBatch, position_errors_m, simulate
 
@@ -73,7 +73,7 @@ def test_an_oracle_start_state_gains_little(deepracer_data):
 
 def test_the_study_prints_each_limit_per_band_below_the_replays_error(deepracer_data):
     """The limits of a car model on these logs lie under what racer's fitted car reaches in `python -m benchmarks fidelity`."""
-    from benchmarks.fidelity.replay import run_fidelity
+    from benchmarks.fidelity.simtrace_replay import run_fidelity
     from research.replay_limits.study import run_limits
 
     paths = [deepracer_data / "simtrace" / "drfc1_evaluation_0-iteration.csv"]

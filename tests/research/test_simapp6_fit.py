@@ -7,7 +7,7 @@ from __future__ import annotations
 import pytest
 from click.testing import CliRunner
 
-from benchmarks.fidelity.replay import load_segments, run_fidelity
+from benchmarks.fidelity.simtrace_replay import load_segments, run_fidelity
 from research.simapp6_fit.study import FIXED_FACTS, LOSS_HORIZONS_S, START, simapp6_fit_command
 from research.tyre_fit.twin import SegmentBatch, fit
 

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from benchmarks.fidelity.replay import CarReplay, load_segments
+from benchmarks.fidelity.simtrace_replay import CarReplay, load_segments
 from research.tyre_fit.study import tyre_fit_command
 from research.tyre_fit.twin import CarConstants, SegmentBatch, fit, loss, simulate
 

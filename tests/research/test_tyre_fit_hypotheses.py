@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from benchmarks.fidelity.replay import SPEED_BANDS_MPS, band_label, load_segments
+from benchmarks.fidelity.simtrace_replay import SPEED_BANDS_MPS, band_label, load_segments
 from research.tyre_fit.hypotheses import VARIANTS, screen, step_lengths
 from research.tyre_fit.study import tyre_fit_command
 from research.tyre_fit.twin import CarConstants, SegmentBatch, position_errors_m, simulate

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from benchmarks.fidelity.replay import load_segments
+from benchmarks.fidelity.simtrace_replay import load_segments
 from research.tyre_fit import inertia_profile as profile
 from research.tyre_fit import twin
 from research.tyre_fit.study import tyre_fit_command

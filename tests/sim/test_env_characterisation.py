@@ -128,7 +128,7 @@ def time_trial_with_resets(p: Player) -> None:
 
 
 def where_it_left(p: Player) -> None:
-    """The race rule's respawn: driven off the road by a hard turn, back on the centre line where it left."""
+    """The summit rule's respawn: driven off the road by a hard turn, back on the centre line where it left."""
     p.reset(seed=3)
     p.until(lambda: HARD_LEFT, lambda s: s.status == "off_track")
     p.until(lambda: STRAIGHT, lambda s: s.status == "in_progress")

@@ -330,7 +330,7 @@ def test_respawn_is_measured_from_the_route_origin_on_the_lane_nearer_the_previo
 
 
 def test_where_it_left_gives_back_what_a_cut_gained_while_leaving(make_env):
-    """The race rule's put-back (reset_position="where_it_left"): a car that jumps ahead with two wheels still on
+    """The summit rule's put-back (reset_position="where_it_left"): a car that jumps ahead with two wheels still on
     the road (a corner cut: still in progress) and then leaves is put back behind the last point where all four
     wheels were on the road. DeepRacer's own spot (previous progress) would keep the gain."""
     results = {}
@@ -353,5 +353,5 @@ def test_where_it_left_gives_back_what_a_cut_gained_while_leaving(make_env):
         assert pause["episode_status"] == "pause"
         results[reset_position] = pause["progress"]
     assert results["deepracer"] > legal["progress"] + 10.0  # the SimApp's spot keeps what the cut gained
-    assert results["where_it_left"] <= legal["progress"]  # the race rule's does not
+    assert results["where_it_left"] <= legal["progress"]  # the summit rule's does not
     assert results["where_it_left"] > legal["progress"] - 5.0

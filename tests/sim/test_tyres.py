@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from benchmarks.fidelity.replay import CarReplay, load_segments
+from benchmarks.fidelity.simtrace_replay import CarReplay, load_segments
 from racer.shared.sim.car.dynamics import SIMTRACE_FIT_DYNAMICS
 from racer.shared.sim.car.tyres import GRAVITY_MPS2, TyreParams
 from racer.shared.sim.car.vehicle import REAR_AXLE_X_M, STEERING_JOINTS, WHEELBASE_M

@@ -23,7 +23,7 @@ from racer.shared.policy.onnx_policy import SacOnnxPolicy
 from racer.shared.policy.sac_networks import SACNetworks, squashed_gaussian_log_prob
 from racer.shared.store import open_store
 from racer.trainer.precision import Precision
-from racer.trainer.replay import ReplayBuffer, bytes_per_transition
+from racer.trainer.replay_buffer import ReplayBuffer, bytes_per_transition
 from racer.trainer.sac import SACLearner, SACSettings, sac_minibatch_size
 
 LIDAR_ONLY = PolicyConfig(

@@ -18,8 +18,8 @@ late with `COMMAND_DELAY_PROBABILITY`.
 An earlier draw took every constant from independent ranges spanning all the profiles (up to dd5e5e0); it met a car
 like `simtrace-fit` only at the corner of four ranges, and models trained with it lost `simapp5` (docs/transfer.md).
 
-MuJoCo-free: `draw_dynamics` only computes the values; the env applies them to its compiled model (`Car.retune`) and
-delays the command itself (`env.py`).
+MuJoCo-free: `draw_dynamics` only computes the values; `episode_car.EpisodeCar` applies them to the env's compiled
+model (`Car.retune`) and delays the command.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The racing recipe racer ships (racer/defaults/racing/{discrete,continuous}): custom files the trainer takes with no
+"""The fast-lap recipe racer ships (racer/defaults/racing/{discrete,continuous}): custom files the trainer takes with no
 warning, a reward DeepRacer on AWS would accept (`racer reward test`: no error, no warning) on several tracks, and
 action spaces that follow the rule docs/racing.md gives for them, checked against the car model."""
 
@@ -10,7 +10,7 @@ import math
 import pytest
 from click.testing import CliRunner
 
-from racer.defaults import RACING_CUSTOM_FILES
+from racer.defaults import FAST_LAP_CUSTOM_FILES
 from racer.racing_line.lap_time_bound import CarLimits
 from racer.reward.cli import reward_group
 from racer.shared.deepracer.model_metadata import load_model_metadata
@@ -26,7 +26,7 @@ DEEPRACER_ON_AWS_CAR = CarLimits.of_car(generation("simapp6").car, world="base")
 
 @pytest.mark.parametrize("space", SPACES)
 def test_the_trainer_takes_the_recipe_without_a_warning(space):
-    report = preflight(RACING_CUSTOM_FILES[space], RunOptions(num_workers=4, track="racer_oval"))
+    report = preflight(FAST_LAP_CUSTOM_FILES[space], RunOptions(num_workers=4, track="racer_oval"))
     assert report.warnings == ()
     assert (report.model_metadata.continuous_action_space is not None) == (space == "continuous")
     assert report.hyperparameters.num_episodes_between_training == 20
@@ -35,7 +35,7 @@ def test_the_trainer_takes_the_recipe_without_a_warning(space):
 @pytest.mark.parametrize("space", SPACES)
 @pytest.mark.parametrize(("track", "direction"), [("racer_oval", None), ("2022_reinvent_champ", "counter-clockwise")])
 def test_racer_reward_test_passes_with_no_warning(space, track, direction):
-    folder = RACING_CUSTOM_FILES[space]
+    folder = FAST_LAP_CUSTOM_FILES[space]
     args = ["test", str(folder / "reward_function.py"), "--model-metadata", str(folder / "model_metadata.json")]
     args += ["--track", track] + (["--direction", direction] if direction else [])
     result = CliRunner().invoke(reward_group, args)
@@ -45,8 +45,8 @@ def test_racer_reward_test_passes_with_no_warning(space, track, direction):
 
 def test_both_spaces_share_the_reward_and_the_hyperparameters():
     for name in ("reward_function.py", "hyperparameters.json"):
-        texts = {(RACING_CUSTOM_FILES[space] / name).read_text() for space in SPACES}
-        assert len(texts) == 1, f"{name} differs between the racing recipe's folders"
+        texts = {(FAST_LAP_CUSTOM_FILES[space] / name).read_text() for space in SPACES}
+        assert len(texts) == 1, f"{name} differs between the fast-lap recipe's folders"
 
 
 def _lateral_accel_mps2(command_mps: float, steering_deg: float) -> float:
@@ -57,7 +57,7 @@ def _lateral_accel_mps2(command_mps: float, steering_deg: float) -> float:
 
 def test_each_discrete_action_steers_as_far_as_the_grip_holds_at_its_speed():
     """docs/racing.md: every action is a turn the tyres hold, at the largest whole degree they hold (or full lock)."""
-    actions = load_model_metadata(RACING_CUSTOM_FILES["discrete"] / "model_metadata.json").discrete_actions
+    actions = load_model_metadata(FAST_LAP_CUSTOM_FILES["discrete"] / "model_metadata.json").discrete_actions
     grip = DEEPRACER_ON_AWS_CAR.lateral_accel_mps2
     for action in actions:
         assert _lateral_accel_mps2(action.speed_mps, action.steering_angle_deg) <= grip, action
@@ -74,8 +74,8 @@ def test_the_slowest_speed_is_where_full_lock_comes_within_the_grip():
     is that speed, rounded down to 0.1 m/s."""
     full_lock_mps = math.sqrt(DEEPRACER_ON_AWS_CAR.lateral_accel_mps2 / DEEPRACER_ON_AWS_CAR.max_curvature_per_m)
     full_lock_command = full_lock_mps * car.MAX_SPEED_MPS / DEEPRACER_ON_AWS_CAR.top_speed_mps
-    continuous = json.loads((RACING_CUSTOM_FILES["continuous"] / "model_metadata.json").read_text())["action_space"]
-    discrete = load_model_metadata(RACING_CUSTOM_FILES["discrete"] / "model_metadata.json").discrete_actions
+    continuous = json.loads((FAST_LAP_CUSTOM_FILES["continuous"] / "model_metadata.json").read_text())["action_space"]
+    discrete = load_model_metadata(FAST_LAP_CUSTOM_FILES["discrete"] / "model_metadata.json").discrete_actions
     for slowest in (continuous["speed"]["low"], min(action.speed_mps for action in discrete)):
         assert slowest <= full_lock_command < slowest + 0.1
     assert continuous["speed"]["high"] == car.MAX_SPEED_MPS

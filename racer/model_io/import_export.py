@@ -54,7 +54,7 @@ class ModelExistsError(Exception):
 
 
 @dataclass(frozen=True)
-class TransferResult:
+class ImportExportResult:
     """What import or export did: the files written (keys relative to the destination prefix) or why not."""
 
     destination: str
@@ -159,7 +159,7 @@ def import_model(
     *,
     overwrite: bool = False,
     limits: SizeLimits = DEFAULT_LIMITS,
-) -> TransferResult:
+) -> ImportExportResult:
     """Validate `source` and copy it to `<model_name>/` in `store` with the console's checkpoint logic."""
     if not MODEL_NAME.match(model_name):
         raise ValueError(
@@ -169,7 +169,7 @@ def import_model(
     destination = StoreDestination(store, model_name)
     report = validate_model(source, limits)
     if report.plan is None:
-        return TransferResult(destination.describe(), report)
+        return ImportExportResult(destination.describe(), report)
     try:
         existing = store.list_keys(model_name + "/")
         if existing and not overwrite:
@@ -180,7 +180,7 @@ def import_model(
         for key in existing:
             store.delete(key)
     except (StoreError, botocore.exceptions.BotoCoreError, botocore.exceptions.ClientError) as error:
-        return TransferResult(
+        return ImportExportResult(
             destination.describe(),
             report,
             problems=(
@@ -207,13 +207,13 @@ def import_model(
         )
     except _CopyFailed as failure:
         _remove_partial(store, model_name)
-        return TransferResult(destination.describe(), report, problems=(failure.problem,))
+        return ImportExportResult(destination.describe(), report, problems=(failure.problem,))
     except SOURCE_ERRORS as error:
         _remove_partial(store, model_name)
-        return TransferResult(
+        return ImportExportResult(
             destination.describe(), report, problems=(problem_for_source_error(error, source.describe()),)
         )
-    return TransferResult(destination.describe(), report, written=tuple(written))
+    return ImportExportResult(destination.describe(), report, written=tuple(written))
 
 
 def _remove_partial(store: ObjectStore, prefix: str) -> None:
@@ -234,7 +234,7 @@ def export_model(
     check: bool = True,
     tensorflow: bool = False,
     layout: str = "racer",
-) -> TransferResult:
+) -> ImportExportResult:
     """Write `model_prefix` from `store` to `destination` in the import-ready layout plus model.tar.gz.
 
     tensorflow=True adds DeepRacer's TensorFlow files for each racer checkpoint (checkpoint + `model_<N>.pb`) and
@@ -247,7 +247,7 @@ def export_model(
     refuse_for_droa(source, layout)
     report = validate_model(source, limits)
     if report.plan is None:
-        return TransferResult(destination.describe(), report)
+        return ImportExportResult(destination.describe(), report)
     plan = _exported_plan(report.plan)
     extra_files = tensorflow_exports(source, plan, layout) if tensorflow else {}
     metadata_targets, hyperparameters_targets = (
@@ -273,18 +273,18 @@ def export_model(
     except _CopyFailed as failure:
         if isinstance(destination, ArchiveDestination):
             destination.discard()
-        return TransferResult(destination.describe(), report, problems=(failure.problem,))
+        return ImportExportResult(destination.describe(), report, problems=(failure.problem,))
     except SOURCE_ERRORS as error:
         if isinstance(destination, ArchiveDestination):
             destination.discard()
-        return TransferResult(
+        return ImportExportResult(
             destination.describe(), report, problems=(problem_for_source_error(error, source.describe()),)
         )
     if isinstance(destination, ArchiveDestination):
         destination.close()
     checked = validate_model(read_back(destination), limits) if check else None
     car_model = None if inference_key is None else car_bundle_member(inference_key)
-    return TransferResult(
+    return ImportExportResult(
         destination.describe(), report, written=tuple(written), car_bundle_model=car_model, check=checked
     )
 

@@ -25,7 +25,7 @@ GOAL_RATIO = 0.85
 """Issue 13: an env with objects keeps at least 85 % of the time trial's steps/s."""
 
 
-def race_setups(obstacles: int, bot_cars: int) -> dict[str, ChallengeConfig]:
+def race_type_setups(obstacles: int, bot_cars: int) -> dict[str, ChallengeConfig]:
     """The envs to compare, by the name their figures carry."""
     setups = {"time_trial": ChallengeConfig()}
     if obstacles:
@@ -37,10 +37,10 @@ def race_setups(obstacles: int, bot_cars: int) -> dict[str, ChallengeConfig]:
     return setups
 
 
-def run_race_benchmark(
+def run_race_type_benchmark(
     obstacles: int, bot_cars: int, steps: int = 3000, blocks: int = 12, seed: int = 0
 ) -> dict[str, float | int | bool]:
-    setups = race_setups(obstacles, bot_cars)
+    setups = race_type_setups(obstacles, bot_cars)
     per_block = max(steps // blocks, 1)
     wall = dict.fromkeys(setups, 0.0)
     cpu = dict.fromkeys(setups, 0.0)

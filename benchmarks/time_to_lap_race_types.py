@@ -1,5 +1,5 @@
-"""The set-ups of `python -m benchmarks time-to-lap --race-type` (issue 13): race params, and the training recipe each race's
-benchmark uses. The recipes are the benchmark's choices, not racer's defaults for users (README, "Benchmarks")."""
+"""The set-ups of `python -m benchmarks time-to-lap --race-type` (issue 13): race params, and the training recipe
+each race type's benchmark uses. The recipes are the benchmark's choices, not racer's defaults for users (README, "Benchmarks")."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 
 @dataclass(frozen=True)
-class TimeToLapRace:
+class RaceTypeSetup:
     challenge_params: tuple[tuple[str, str], ...] = ()
     """RACE_TYPE and the obstacle / bot-car training_params keys for every worker."""
     reward_function: str = "awsdoc_example_1.py"
@@ -26,14 +26,14 @@ against boxes 0.001 reached 2 of 3 laps in 6 minutes and never 3 of 3 in 30."""
 HEAD_TO_BOT_RECIPE: tuple[tuple[str, int | float], ...] = (*PPO_RECIPE, ("lr", 0.001))
 """The same at the console's highest learning rate, with which the head-to-bot benchmark was measured."""
 
-TIME_TO_LAP_RACES: dict[str, TimeToLapRace] = {
-    "time-trial": TimeToLapRace(hyperparameters=PPO_RECIPE),
-    "object-avoidance": TimeToLapRace(
+RACE_TYPE_SETUPS: dict[str, RaceTypeSetup] = {
+    "time-trial": RaceTypeSetup(hyperparameters=PPO_RECIPE),
+    "object-avoidance": RaceTypeSetup(
         challenge_params=(("RACE_TYPE", "OBJECT_AVOIDANCE"), ("OBJECT_POSITIONS", "0.23,-1;0.46,1;0.67,-1")),
         reward_function=OBJECT_AVOIDANCE_REWARD,
         hyperparameters=PPO_RECIPE,
     ),
-    "head-to-bot": TimeToLapRace(
+    "head-to-bot": RaceTypeSetup(
         challenge_params=(
             ("RACE_TYPE", "HEAD_TO_BOT"),
             ("NUMBER_OF_BOT_CARS", "2"),
@@ -48,9 +48,9 @@ TIME_TO_LAP_RACES: dict[str, TimeToLapRace] = {
 
 
 def time_to_lap_hyperparameters(race_type: str, algorithm: str, episodes_per_iteration: int | None) -> dict:
-    """hyperparameters.json of a benchmark run: DeepRacer's 20 episodes per iteration, the race's PPO recipe, then
+    """hyperparameters.json of a benchmark run: DeepRacer's 20 episodes per iteration, the race type's PPO recipe, then
     --episodes-per-iteration when given."""
-    recipe = dict(TIME_TO_LAP_RACES[race_type].hyperparameters) if algorithm == "clipped_ppo" else {}
+    recipe = dict(RACE_TYPE_SETUPS[race_type].hyperparameters) if algorithm == "clipped_ppo" else {}
     hyperparameters = {"num_episodes_between_training": 20, **recipe}
     if episodes_per_iteration is not None:
         hyperparameters["num_episodes_between_training"] = episodes_per_iteration
