@@ -6,7 +6,7 @@ lap-time bound on the same track and the policy's ratio to it, and where the wal
 The run is `racer train`'s processes (racer.local.run) with the recipe (racer/defaults/racing, or `--custom-files`)
 and a workers.json of the bench's: MIN_EVAL_TRIALS 3, RACER_EVAL_CONTINUOUS (racer.rollout_worker.checkpoint_evaluation:
 worker 0 drives the laps from the start line, the first reset ending the run) and a step cap. The car and the look are
-the generation's (`--generation`); the bench never changes either. The bound (racer.racing_line.lap_time_bound) is worker
+the generation's (`--generation`); the bench never changes either. The bound (racer.racing_line) is worker
 0's car in worker 0's world, the one the evaluations drive.
 """
 
@@ -34,7 +34,7 @@ from racer.defaults import RACING_CUSTOM_FILES
 from racer.local.run import LocalRunPlan, run_local_training
 from racer.options.generation import generation_option
 from racer.options.track import TRACK_HELP, direction_option
-from racer.racing_line.lap_time_bound import CarLimits, LapTimeBoundError, RacingLine, racing_line
+from racer.racing_line import CarLimits, LapTimeBoundError, RacingLine, racing_line
 from racer.rollout_worker.batched_rollout import DEFAULT_WORKERS
 from racer.shared.config import LocalStoreSettings, RedisSettings, ServiceSettings
 from racer.shared.policy.manifest import CheckpointError
