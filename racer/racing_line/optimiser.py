@@ -37,7 +37,13 @@ BORDER_MARGIN_M = 0.005
 """Kept between the car's side and a border at every station beyond half the car's width: the line between stations
 may bulge a few millimetres further out than the stations themselves."""
 MAX_ITERATIONS = 1000
-"""Per stage: SLSQP's cap. A stage that reaches it has not converged."""
+"""Per solve: SLSQP's cap."""
+WORKING_SET_NEAR_M = 0.03
+"""A station this close to its border (or closer) has its row in the optimiser's working set (`_solve_stage`)."""
+WORKING_SET_ROUNDS = 6
+"""Solves with a growing working set before one with every row."""
+FEASIBILITY_TOLERANCE_M = 1e-6
+"""A station further than this beyond its bound is off the road: its row joins the working set."""
 
 
 @dataclass(frozen=True)
@@ -156,30 +162,65 @@ def optimise_line(
         model = LineModel.of_track(track, limits.half_width_m, spacing_m, control_spacing_m)
         start = np.zeros(model.controls) if best is None else model.offsets_of(best[1])
         watch = _StageWatch(model, limits, stage, stages, control_spacing_m, on_progress)
-        result = minimize(
-            watch.objective,
-            start,
-            jac=True,
-            method="SLSQP",
-            constraints=[LinearConstraint(model.offset_matrix, model.offset_low, model.offset_high)],
-            options={"maxiter": MAX_ITERATIONS, "ftol": 1e-10},
-            callback=watch.iteration_done,
-        )
+        result = _solve_stage(model, start, watch)
         if not np.all(np.isfinite(result.x)):
             raise LapTimeBoundError(
                 f"track {track.name}: the line did not converge at control spacing {control_spacing_m} m "
                 f"(stage {stage}/{stages}: {result.message})"
             )
-        iterations += int(result.nit)
+        iterations += watch.iterations
         with torch.no_grad():
             line = model.line(torch, torch.from_numpy(result.x))
             lap_time_s = float(flying_lap(torch, *line[1:], limits)[1])
         if on_progress is not None:
-            on_progress(OptimiserProgress(stage, stages, control_spacing_m, int(result.nit), lap_time_s, True))
+            on_progress(OptimiserProgress(stage, stages, control_spacing_m, watch.iterations, lap_time_s, True))
         if best is None or lap_time_s < best[0]:
             best = (lap_time_s, line[0].numpy(), model, result.x)
     assert best is not None  # control_spacings_m is not empty: racing_line checks
     return OptimisedLine(model=best[2], controls=best[3], iterations=iterations)
+
+
+def _solve_stage(model: LineModel, start: np.ndarray, watch: _StageWatch):
+    """SLSQP over the controls with the road's rows as a working set: the rows of the control points' stations and of
+    every station within WORKING_SET_NEAR_M of its border, and then of every station the line found breaks or nears,
+    solved again from there until no station is off the road. SLSQP's step costs time in proportion to its rows
+    (3560 on penbay_pro); the rows that never bind are most of them. The result is a point of the whole problem: its
+    rows all hold, and the ones left out are inactive."""
+    per_control = model.offset_matrix.shape[0] // model.controls
+    anchors = np.zeros(model.offset_matrix.shape[0], dtype=bool)
+    anchors[::per_control] = True
+    x = start
+    low_rows, high_rows = anchors.copy(), anchors.copy()
+    for _ in range(WORKING_SET_ROUNDS):
+        offsets = model.offset_matrix @ x
+        low_rows |= offsets - model.offset_low < WORKING_SET_NEAR_M
+        high_rows |= model.offset_high - offsets < WORKING_SET_NEAR_M
+        result = _slsqp(model, x, watch, low_rows, high_rows)
+        x = result.x
+        offsets = model.offset_matrix @ x
+        broken = (offsets < model.offset_low - FEASIBILITY_TOLERANCE_M) | (
+            offsets > model.offset_high + FEASIBILITY_TOLERANCE_M
+        )
+        if not broken.any() or not np.all(np.isfinite(x)):
+            return result
+    every = np.ones_like(anchors)
+    return _slsqp(model, x, watch, every, every)
+
+
+def _slsqp(model: LineModel, start: np.ndarray, watch: _StageWatch, low_rows: np.ndarray, high_rows: np.ndarray):
+    inf = np.full(model.offset_matrix.shape[0], np.inf)
+    return minimize(
+        watch.objective,
+        start,
+        jac=True,
+        method="SLSQP",
+        constraints=[
+            LinearConstraint(model.offset_matrix[low_rows], model.offset_low[low_rows], inf[low_rows]),
+            LinearConstraint(model.offset_matrix[high_rows], -inf[high_rows], model.offset_high[high_rows]),
+        ],
+        options={"maxiter": MAX_ITERATIONS, "ftol": 1e-10},
+        callback=watch.iteration_done,
+    )
 
 
 class _StageWatch:

@@ -22,9 +22,11 @@ PREPARE_STEP_S = 1.0 / STEPS_PER_SECOND
 STANDING_START_LAPS = 3
 """DeepRacer's evaluation: three laps; driven one after another from a standing start in a continuous run."""
 BRAKING_TOLERANCE = 1e-3
-"""A segment brakes when its drop in v² is this close (relative) to the brake limit's over its length."""
-MIN_BRAKING_DROP_MPS = 0.05
-"""A braking zone that sheds less speed than this is no braking point worth marking (a lift between two bends)."""
+"""A segment brakes at the car's limit when its drop in v² is this close (relative) to the limit's over its length."""
+MIN_BRAKING_DROP_MPS = 0.1
+"""A slowing that sheds less speed than this is no braking point worth marking (a lift between two bends)."""
+SPEED_RISE_MPS = 0.01
+"""A segment gaining more speed than this ends a slowing (less: the spline's curvature wobbling in a bend)."""
 
 
 def torch_module():
@@ -135,21 +137,30 @@ def segment_times(speed_from, speed_to, lengths):
 
 
 def braking_starts(speeds_mps: np.ndarray, lengths_m: np.ndarray, brake_accel_mps2: float) -> np.ndarray:
-    """Stations of a closed line's flying lap where the car starts to brake at its limit for a corner: the first
-    station of each run of segments whose drop in v² is the brake limit's (anything less is the car following a
-    slowly tightening bend), of the runs that shed at least MIN_BRAKING_DROP_MPS."""
+    """Stations of a closed line's flying lap where the car starts to slow for a corner: the first station of each run
+    of segments along which the speed does not rise (by more than SPEED_RISE_MPS), of the runs that brake at the car's
+    limit somewhere and shed at least MIN_BRAKING_DROP_MPS (a run that only follows a tightening bend is no braking)."""
     u = speeds_mps**2
-    drop = u - np.roll(u, -1)
-    braking = drop >= 2.0 * brake_accel_mps2 * lengths_m * (1.0 - BRAKING_TOLERANCE)
-    if braking.all() or not braking.any():
+    after = np.roll(u, -1)
+    n = len(u)
+    brakes = u - after >= 2.0 * brake_accel_mps2 * lengths_m * (1.0 - BRAKING_TOLERANCE)
+    slows = np.roll(speeds_mps, -1) < speeds_mps - SPEED_RISE_MPS / 10.0
+    rises = np.roll(speeds_mps, -1) > speeds_mps + SPEED_RISE_MPS
+    if not rises.any() or not brakes.any():
         return np.zeros(0, dtype=int)
-    starts = np.flatnonzero(braking & ~np.roll(braking, 1))
-    n = len(speeds_mps)
-    kept = []
-    for start in starts:
-        end = start
-        while braking[end % n]:
+    starts = []
+    first_rise = int(np.flatnonzero(rises)[0])
+    segment = first_rise + 1  # walk one lap from just after a rise, so no run is cut by the lap's start
+    while segment <= first_rise + n:
+        index = segment % n
+        if not slows[index]:
+            segment += 1
+            continue
+        end, braked = segment, False  # a run: from its first slowing segment to the next rise
+        while end <= first_rise + n and not rises[end % n]:
+            braked |= bool(brakes[end % n])
             end += 1
-        if speeds_mps[start] - speeds_mps[end % n] >= MIN_BRAKING_DROP_MPS:
-            kept.append(int(start))
-    return np.asarray(kept, dtype=int)
+        if braked and speeds_mps[index] - speeds_mps[end % n] >= MIN_BRAKING_DROP_MPS:
+            starts.append(index)
+        segment = end
+    return np.asarray(sorted(starts), dtype=int)
