@@ -22,13 +22,25 @@ import numpy as np
 
 from racer.racing_line.limits import CarLimits, LapTimeBoundError
 from racer.racing_line.line import RacingLine, racing_line
-from racer.racing_line.optimiser import CONTROL_SPACINGS_M, DEFAULT_SPACING_M, ProgressCallback
+from racer.racing_line.optimiser import (
+    BORDER_MARGIN_M,
+    CONTROL_SPACINGS_M,
+    DEFAULT_SPACING_M,
+    FTOL_S,
+    MAX_ITERATIONS,
+    STEERING_PENALTY_S_M2,
+    ProgressCallback,
+)
 from racer.shared.sim.car.dynamics import CarDynamics
 from racer.shared.sim.tracks.simapp_routes import file_sha256
 from racer.shared.sim.tracks.track import Track
 
 CACHE_FORMAT = 1
-"""Bumped whenever the optimiser or the entry's layout changes what a key would give."""
+"""Bumped whenever the model or the entry's layout changes what a key would give."""
+OPTIMISER_SETTINGS = (
+    f"SLSQP ftol {FTOL_S} maxiter {MAX_ITERATIONS}, steering penalty {STEERING_PENALTY_S_M2}, border margin "
+    f"{BORDER_MARGIN_M}"
+)
 _ARRAYS = ("points_m", "speeds_mps", "curvatures_per_m")
 
 
@@ -49,6 +61,8 @@ class LineKey:
     """Derived from the car and the world, and from the car model's constants (mass, wheelbase, steering limit)."""
     spacing_m: float
     control_spacings_m: tuple[float, ...]
+    optimiser: str = OPTIMISER_SETTINGS
+    """The optimiser's other settings: a change to any of them makes a new key."""
 
     @property
     def digest(self) -> str:
