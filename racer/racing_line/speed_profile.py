@@ -137,9 +137,10 @@ def segment_times(speed_from, speed_to, lengths):
 
 
 def braking_starts(speeds_mps: np.ndarray, lengths_m: np.ndarray, brake_accel_mps2: float) -> np.ndarray:
-    """Stations of a closed line's flying lap where the car starts to slow for a corner: the first station of each run
-    of segments along which the speed does not rise (by more than SPEED_RISE_MPS), of the runs that brake at the car's
-    limit somewhere and shed at least MIN_BRAKING_DROP_MPS (a run that only follows a tightening bend is no braking)."""
+    """Stations of a closed line's flying lap where the car starts to slow for a corner. Along each run of segments
+    where the speed does not rise (by more than SPEED_RISE_MPS) and that brakes at the car's limit somewhere (a run that
+    only follows a tightening bend is no braking): the start of the slowing that leads into its first braking segment,
+    if the run sheds at least MIN_BRAKING_DROP_MPS."""
     u = speeds_mps**2
     after = np.roll(u, -1)
     n = len(u)
@@ -156,11 +157,16 @@ def braking_starts(speeds_mps: np.ndarray, lengths_m: np.ndarray, brake_accel_mp
         if not slows[index]:
             segment += 1
             continue
-        end, braked = segment, False  # a run: from its first slowing segment to the next rise
+        end, first_brake = segment, None  # a run: from its first slowing segment to the next rise
         while end <= first_rise + n and not rises[end % n]:
-            braked |= bool(brakes[end % n])
+            if first_brake is None and brakes[end % n]:
+                first_brake = end
             end += 1
-        if braked and speeds_mps[index] - speeds_mps[end % n] >= MIN_BRAKING_DROP_MPS:
-            starts.append(index)
+        if first_brake is not None:
+            start = first_brake  # back from the first braking segment over the slowing ones just before it
+            while start > segment and slows[(start - 1) % n]:
+                start -= 1
+            if speeds_mps[start % n] - speeds_mps[end % n] >= MIN_BRAKING_DROP_MPS:
+                starts.append(start % n)
         segment = end
     return np.asarray(sorted(starts), dtype=int)
