@@ -7,8 +7,9 @@ The run is `racer train`'s processes (racer.local.run) with `racer recipe`'s fol
 made in the run's folder (racer.recipe; or `--custom-files`, racer/defaults/racing/discrete for the fixed racing
 recipe), and the bench's evaluation keys over its workers.json: MIN_EVAL_TRIALS 3, RACER_EVAL_CONTINUOUS (racer.rollout_worker.checkpoint_evaluation:
 worker 0 drives the laps from the start line, the first reset ending the run) and a step cap. The car and the look are
-the generation's (`--generation`); the bench never changes either. The bound (racer.racing_line.lap_time_bound) is worker
-0's car in worker 0's world, the one the evaluations drive: with the default recipe, the recipe's own line.
+the generation's (`--generation`); the bench never changes either. The bound (racer.racing_line) is worker
+0's car in worker 0's world, the one the evaluations drive (with the default recipe, the line the recipe was made from:
+the same computation, done once).
 """
 
 from __future__ import annotations

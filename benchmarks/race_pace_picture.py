@@ -11,11 +11,11 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from matplotlib.collections import LineCollection
 from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
 
-from racer.racing_line.lap_time_bound import RacingLine
+from racer.racing_line import RacingLine
+from racer.racing_line.picture import draw_road, speed_segments
 from racer.rollout_worker.checkpoint_evaluation import evaluation_epsilon, play_consecutive_laps
 from racer.rollout_worker.worker_files import load_worker_files, training_env_config
 from racer.shared.model_layout import CheckpointName, ModelLayout
@@ -112,14 +112,14 @@ def draw_pace(track: Track, line: RacingLine, lap: DrivenLap | None, title: str,
     norm = Normalize(0.0, top)
     closed = np.vstack((line.points_m, line.points_m[:1]))
     line_speeds = np.append(line.speeds_mps, line.speeds_mps[:1])
-    collection = _speed_segments(closed, 0.5 * (line_speeds[:-1] + line_speeds[1:]), norm, width=3.0)
-    _draw_road(axes[0], track)
+    collection = speed_segments(closed, 0.5 * (line_speeds[:-1] + line_speeds[1:]), norm, width=3.0)
+    draw_road(axes[0], track)
     axes[0].add_collection(collection)
     axes[0].set_title(f"bound: {line.lap_time_s:.2f} s flying lap, {line.standing_average_s:.2f} s over 3 from rest")
     if lap is not None:
-        _draw_road(axes[1], track)
+        draw_road(axes[1], track)
         axes[1].plot(*closed.T, color="0.45", linewidth=0.8, linestyle="--", zorder=2)
-        axes[1].add_collection(_speed_segments(lap.points_m, lap.speeds_mps, norm, width=2.5))
+        axes[1].add_collection(speed_segments(lap.points_m, lap.speeds_mps, norm, width=2.5))
         axes[1].plot(*lap.points_m[0], "o", color="green", markersize=5, zorder=4)
         lap_text = f"{lap.progress:.0f} %, no lap yet" if lap.lap_time_s is None else f"{lap.lap_time_s:.2f} s"
         axes[1].set_title(f"policy: {lap.checkpoint}, lap {lap.lap_index + 1}: {lap_text}")
@@ -127,21 +127,3 @@ def draw_pace(track: Track, line: RacingLine, lap: DrivenLap | None, title: str,
     figure.suptitle(title)
     figure.savefig(path, dpi=DPI, bbox_inches="tight")
     return path
-
-
-def _speed_segments(points: np.ndarray, speeds: np.ndarray, norm: Normalize, width: float) -> LineCollection:
-    segments = np.stack([points[:-1], points[1:]], axis=1)
-    collection = LineCollection(segments, cmap="plasma", norm=norm, linewidth=width, zorder=3)
-    collection.set_array(speeds)
-    return collection
-
-
-def _draw_road(ax, track: Track) -> None:
-    ax.fill(*np.vstack([track.outer_border, track.inner_border[::-1]]).T, color="0.93", zorder=0)
-    for border in (track.inner_border, track.outer_border):
-        ax.plot(*border.T, color="0.35", linewidth=1.0, zorder=1)
-    start = np.vstack((track.inner_border[0], track.outer_border[0]))
-    ax.plot(*start.T, color="black", linewidth=2.0, zorder=1)  # the start line
-    ax.set_aspect("equal")
-    ax.set_xticks([])
-    ax.set_yticks([])

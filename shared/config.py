@@ -17,7 +17,7 @@ before MuJoCo loads, and launchers that copy their environment into a child proc
 | `RACER_DATA_HOME` | racer's per-user data folder; its `routes/` is the route library `racer track import` fills | `$XDG_DATA_HOME/racer`, else `~/.local/share/racer` |
 | `RACER_DEEPRACER_DATA` | a folder of DeepRacer's own files (routes, models, reward functions, simtraces) that benchmarks compare against (`python -m benchmarks ... --data`) | unset |
 | `RACER_TRACKS_URL` | where SimApp route files are fetched from on first use (http(s)://, file://, a folder, a SimApp checkout) | the SimApp's repository at the catalogue's commit |
-| `RACER_CACHE_HOME` | racer's per-user cache; fetched route files are kept in its `routes/` | `$XDG_CACHE_HOME/racer`, else `~/.cache/racer` |
+| `RACER_CACHE_HOME` | racer's per-user cache; fetched route files are kept in its `routes/`, computed racing lines in its `lines/` | `$XDG_CACHE_HOME/racer`, else `~/.cache/racer` |
 | `RACER_GENERATION` | the DeepRacer simulator to stand in for, its look and car together (`--generation`: 2019, simapp5, simapp6) | `simapp6` |
 | `DR_DIR` | the DeepRacer-for-Cloud folder (its `bin/activate.sh` exports it): `--drfc` given a run.env reads its system.env, worker-N.env and custom_files/ there, as DRfC does | unset: run.env's folder |
 """
@@ -155,9 +155,9 @@ def tracks_url(environ: Mapping[str, str] | None = None) -> str | None:
     return env.get(TRACKS_URL_VARIABLE, "").strip() or None
 
 
-def route_cache(environ: Mapping[str, str] | None = None) -> Path | None:
-    """The folder fetched route files are kept in: `$RACER_CACHE_HOME/routes`, else `$XDG_CACHE_HOME/racer/routes`,
-    else `$HOME/.cache/racer/routes`; None when the environment names no home at all."""
+def _cache_folder(name: str, environ: Mapping[str, str] | None) -> Path | None:
+    """`name` in racer's per-user cache: `$RACER_CACHE_HOME`, else `$XDG_CACHE_HOME/racer`, else `$HOME/.cache/racer`;
+    None when the environment names no home at all."""
     env = os.environ if environ is None else environ
     if env.get(CACHE_HOME_VARIABLE, "").strip():
         base = Path(env[CACHE_HOME_VARIABLE])
@@ -167,7 +167,19 @@ def route_cache(environ: Mapping[str, str] | None = None) -> Path | None:
         base = Path(env["HOME"]) / ".cache" / "racer"
     else:
         return None
-    return (base.expanduser() / "routes").resolve()
+    return (base.expanduser() / name).resolve()
+
+
+def route_cache(environ: Mapping[str, str] | None = None) -> Path | None:
+    """The folder fetched route files are kept in: `$RACER_CACHE_HOME/routes`, else `$XDG_CACHE_HOME/racer/routes`,
+    else `$HOME/.cache/racer/routes`; None when the environment names no home at all."""
+    return _cache_folder("routes", environ)
+
+
+def line_cache(environ: Mapping[str, str] | None = None) -> Path | None:
+    """The folder computed racing lines are kept in (`racer track line`): `lines/` beside `route_cache`'s `routes/`;
+    None when the environment names no home at all."""
+    return _cache_folder("lines", environ)
 
 
 DEEPRACER_DATA_VARIABLE = "RACER_DEEPRACER_DATA"

@@ -1,4 +1,4 @@
-"""`--generation` and `--car-profile`: the click options of every command that builds a car (train, trainer,
+"""`--generation`, `--car-profile` and `--world`: the click options of every command that builds a car (train, trainer,
 evaluate, race, the benches), defined once so their help and override rule read the same everywhere."""
 
 from __future__ import annotations
@@ -8,6 +8,7 @@ import click
 from racer.shared.config import GENERATION_VARIABLE, generation_name
 from racer.shared.sim.car.dynamics import CAR_PROFILE_NAMES
 from racer.shared.sim.generations.catalog import DEFAULT_GENERATION, GENERATION_NAMES
+from racer.shared.sim.scene.worlds import WORLD_NAMES
 
 GENERATION_HELP = (
     "The DeepRacer simulator to stand in for, its look (walls, lights, camera) and car together: 2019 (Gazebo "
@@ -44,3 +45,14 @@ car_profile_option = click.option(
     help=CAR_PROFILE_HELP,
 )
 """`--car-profile NAME`: "" (the default) keeps the generation's car."""
+
+
+def world_option(default: str = "base"):
+    """`--world NAME`: the floor the car drives on (its tyre grip differs by world)."""
+    return click.option(
+        "--world",
+        type=click.Choice(WORLD_NAMES),
+        default=default,
+        show_default=True,
+        help="The world (floor) the car drives in: its tyre grip differs by world.",
+    )

@@ -36,6 +36,7 @@ from racer.shared.sim.tracks.route_search import (
 )
 from racer.shared.sim.tracks.simapp_routes import file_sha256, shipped_catalogue
 from racer.shared.sim.tracks.track import Track, TrackError, read_route_file, route_facts
+from racer.track.line_command import line_command
 
 
 def _load(name: str, tracks_dir: Path | None, direction: str | None = None) -> Track:
@@ -89,6 +90,9 @@ def _route_cache_dir() -> Path:
     if cache_dir is None:
         raise click.ClickException(f"no home folder to keep fetched tracks in; set {CACHE_HOME_VARIABLE}")
     return cache_dir
+
+
+track_group.add_command(line_command)
 
 
 @track_group.command("list")

@@ -14,7 +14,7 @@ from benchmarks.race_pace import race_pace_command
 from benchmarks.race_pace_laps import CheckpointLaps, best_average, best_lap, lap_to_draw, pace_figures
 from benchmarks.race_pace_picture import DrivenLap, draw_pace
 from benchmarks.time_shares import time_shares
-from racer.racing_line.lap_time_bound import CarLimits, racing_line
+from racer.racing_line import CarLimits, racing_line
 from racer.shared import worker_phases
 from racer.shared.sim.car.dynamics import CAR_DYNAMICS
 from racer.shared.sim.tracks.track import Track

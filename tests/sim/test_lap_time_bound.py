@@ -1,4 +1,4 @@
-"""The lap-time bound (racer.racing_line.lap_time_bound) against answers worked out by hand: a ring road, whose fastest
+"""The lap-time bound (racer.racing_line) against answers worked out by hand: a ring road, whose fastest
 line hugs the inner border at the grip's or the top speed's limit; a stadium's speed profile with its drive and brake
 phases; a standing start; and a real track, where the line must beat the centre line and keep the car on the road."""
 
@@ -11,8 +11,7 @@ import numpy as np
 import pytest
 import shapely
 
-from racer.racing_line.lap_time_bound import (
-    BORDER_MARGIN_M,
+from racer.racing_line import (
     PREPARE_STEP_S,
     CarLimits,
     LapTimeBoundError,
@@ -20,6 +19,7 @@ from racer.racing_line.lap_time_bound import (
     racing_line,
     standing_start_laps,
 )
+from racer.racing_line.optimiser import BORDER_MARGIN_M
 from racer.shared.sim.car.dynamics import CAR_DYNAMICS, DEFAULT_CAR_PROFILE
 from racer.shared.sim.car.vehicle import Car
 from racer.shared.sim.scene.worlds import get_world

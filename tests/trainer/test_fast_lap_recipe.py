@@ -11,7 +11,7 @@ import pytest
 from click.testing import CliRunner
 
 from racer.defaults import FAST_LAP_CUSTOM_FILES
-from racer.racing_line.lap_time_bound import CarLimits
+from racer.racing_line import CarLimits
 from racer.reward.cli import reward_group
 from racer.shared.deepracer.model_metadata import load_model_metadata
 from racer.shared.run_settings import RunOptions

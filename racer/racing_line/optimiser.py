@@ -1,0 +1,277 @@
+"""The line as the optimiser sees it, and the search for the fastest one.
+
+A periodic cubic spline (scipy) through control points, each offset along the centre line's normal; every station kept
+inside the road shrunk by half the car's width (shapely); the offsets chosen by scipy's SLSQP to minimise the lap time,
+coarse to fine (`CONTROL_SPACINGS_M`). torch's autograd gives the exact gradient of the lap time, so an iteration costs
+one pass. The problem is not convex: the result is the fastest line found, an upper estimate of the true optimum by
+however far the search stopped short.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+from scipy.interpolate import CubicSpline
+from scipy.optimize import LinearConstraint, minimize
+
+from racer.racing_line.limits import CarLimits, LapTimeBoundError
+from racer.racing_line.speed_profile import flying_lap, lengths_of, torch_module
+from racer.shared.sim.tracks.track import Track
+
+DEFAULT_SPACING_M = 0.05
+"""Distance between the stations along the centre line at which the lap time is computed."""
+CONTROL_SPACINGS_M: tuple[float, ...] = (0.8, 0.4, 0.2)
+"""Distances between the offsets the optimiser chooses, coarse to fine: each stage starts from the line the one before
+found. The problem is not convex; solved at one fine spacing from the centre line, it stops in a local minimum that
+depends on the spacing (re:Invent 2018 at 0.5, 0.4, 0.3, 0.25 m: 4.30, 4.32, 4.39, 4.35 s), where a coarse line first
+places the corners and the finer stages only refine them. A spline through the controls gives every station's offset,
+so each variable moves a stretch of line (offsets chosen station by station make curvature, a second difference,
+ill-conditioned as 1/spacing⁴)."""
+STEERING_PENALTY_S_M2 = 10.0
+"""Seconds added per (1/m)² of curvature beyond the steering limit, summed over stations: the optimiser's only
+constraint that is not a bound on an offset."""
+BORDER_MARGIN_M = 0.005
+"""Kept between the car's side and a border at every station beyond half the car's width: the line between stations
+may bulge a few millimetres further out than the stations themselves."""
+MAX_ITERATIONS = 1000
+"""Per stage: SLSQP's cap."""
+FTOL_S = 1e-6
+"""SLSQP stops when an iteration gains less lap time than this. At 1e-10 the search crept on for hundreds of
+iterations to gain under a millisecond; at 1e-6 it takes half the time and the laps differ by at most 0.6 ms
+(re:Invent 2018 4.8821 -> 4.8822 s flying, 4.999 -> 5.000 s over 3 from rest; racer_oval 3.5280 -> 3.5286 s;
+2022 Championship ccw 9.153 s flying, 9.27 s over 3, as the docs' 9.15 and 9.27 s)."""
+
+
+@dataclass(frozen=True)
+class OptimiserProgress:
+    """Where the search is: stage `stage` of `stages` (1-based), its iteration, the lap time of its latest line."""
+
+    stage: int
+    stages: int
+    control_spacing_m: float
+    iteration: int
+    lap_time_s: float
+    stage_done: bool
+
+
+ProgressCallback = Callable[[OptimiserProgress], None]
+
+
+@dataclass(frozen=True)
+class LineModel:
+    """One lateral offset per control point on the centre line; the line is the periodic cubic spline through the
+    offset control points, sampled at stations (its curvature is the spline's own, so the route's waypoint noise does
+    not reach it); each station's offset along its normal is linear in the controls and bounded by the road."""
+
+    control_points: np.ndarray
+    """(M, 2) points on the centre line, evenly spaced from the start line on."""
+    control_normals: np.ndarray
+    """(M, 2) unit normals there, to the left of the driving direction."""
+    values: np.ndarray
+    """(K, M) the spline's value at each station per unit control (its first and second derivatives below)."""
+    first: np.ndarray
+    second: np.ndarray
+    offset_matrix: np.ndarray
+    """(K, M) each station's offset along its own normal per unit control."""
+    offset_low: np.ndarray
+    offset_high: np.ndarray
+
+    @property
+    def controls(self) -> int:
+        return self.control_points.shape[0]
+
+    @classmethod
+    def of_track(cls, track: Track, half_width_m: float, spacing_m: float, control_spacing_m: float) -> LineModel:
+        points, normals = _centre_points(track, control_spacing_m)
+        count = points.shape[0]
+        per_interval = max(1, round(control_spacing_m / spacing_m))
+        parameter = np.arange(count * per_interval) / per_interval
+        units = CubicSpline(np.arange(count + 1), np.vstack((np.eye(count), np.eye(count)[:1])), bc_type="periodic")
+        values, first = units(parameter), units(parameter, 1)
+        stations = values @ points  # the zero-offset line: the centre line smoothed through the control points
+        tangents = first @ points
+        tangents /= np.linalg.norm(tangents, axis=1, keepdims=True)
+        station_normals = np.column_stack((-tangents[:, 1], tangents[:, 0]))
+        low, high = _offset_bounds(track, stations, station_normals, half_width_m)
+        return cls(
+            control_points=points,
+            control_normals=normals,
+            values=values,
+            first=first,
+            second=units(parameter, 2),
+            offset_matrix=values * (station_normals @ normals.T),
+            offset_low=low,
+            offset_high=high,
+        )
+
+    def offsets_of(self, points: np.ndarray) -> np.ndarray:
+        """The controls that put the line through the closed line `points` at every control point: where each control
+        normal crosses it (shapely), the crossing nearest the control point."""
+        ring = shapely.LinearRing(points)
+        reach = 2.0 * float(np.max(np.abs(np.concatenate((self.offset_low, self.offset_high))))) + 0.1
+        ends = np.stack(
+            (self.control_points - reach * self.control_normals, self.control_points + reach * self.control_normals),
+            axis=1,
+        )
+        offsets = np.zeros(self.controls)
+        for index, crossing in enumerate(shapely.intersection(shapely.linestrings(ends), ring)):
+            found = shapely.get_coordinates(crossing)
+            if len(found):
+                nearest = found[np.argmin(np.linalg.norm(found - self.control_points[index], axis=1))]
+                offsets[index] = (nearest - self.control_points[index]) @ self.control_normals[index]
+        return offsets
+
+    def line(self, torch, controls):
+        """(stations (K, 2), signed curvature (K,), segment lengths to the next station (K,)) for these offsets."""
+        knots = torch.from_numpy(self.control_points) + controls[:, None] * torch.from_numpy(self.control_normals)
+        points = torch.from_numpy(self.values) @ knots
+        first = torch.from_numpy(self.first) @ knots
+        second = torch.from_numpy(self.second) @ knots
+        speed = torch.linalg.vector_norm(first, dim=1)
+        curvature = (first[:, 0] * second[:, 1] - first[:, 1] * second[:, 0]) / speed**3
+        return points, curvature, lengths_of(torch, points)
+
+
+@dataclass(frozen=True)
+class OptimisedLine:
+    """The fastest stage's model and controls, and the iterations all stages took."""
+
+    model: LineModel
+    controls: np.ndarray
+    iterations: int
+
+
+def optimise_line(
+    track: Track,
+    limits: CarLimits,
+    spacing_m: float,
+    control_spacings_m: tuple[float, ...],
+    on_progress: ProgressCallback | None = None,
+) -> OptimisedLine:
+    """Run the stages coarse to fine, each from the line the one before found; the fastest stage's line wins. The
+    caller holds torch to one thread (`speed_profile.one_torch_thread`)."""
+    torch = torch_module()
+    best: tuple[float, np.ndarray, LineModel, np.ndarray] | None = None
+    iterations = 0
+    stages = len(control_spacings_m)
+    for stage, control_spacing_m in enumerate(control_spacings_m, start=1):
+        model = LineModel.of_track(track, limits.half_width_m, spacing_m, control_spacing_m)
+        start = np.zeros(model.controls) if best is None else model.offsets_of(best[1])
+        watch = _StageWatch(model, limits, stage, stages, control_spacing_m, on_progress)
+        result = _solve_stage(model, start, watch)
+        if not np.all(np.isfinite(result.x)):
+            raise LapTimeBoundError(
+                f"track {track.name}: the line did not converge at control spacing {control_spacing_m} m "
+                f"(stage {stage}/{stages}: {result.message})"
+            )
+        iterations += watch.iterations
+        with torch.no_grad():
+            line = model.line(torch, torch.from_numpy(result.x))
+            lap_time_s = float(flying_lap(torch, *line[1:], limits)[1])
+        if on_progress is not None:
+            on_progress(OptimiserProgress(stage, stages, control_spacing_m, watch.iterations, lap_time_s, True))
+        if best is None or lap_time_s < best[0]:
+            best = (lap_time_s, line[0].numpy(), model, result.x)
+    assert best is not None  # control_spacings_m is not empty: racing_line checks
+    return OptimisedLine(model=best[2], controls=best[3], iterations=iterations)
+
+
+def _solve_stage(model: LineModel, start: np.ndarray, watch: _StageWatch):
+    """SLSQP over the controls, every station's offset kept inside the road (a linear constraint per station)."""
+    return minimize(
+        watch.objective,
+        start,
+        jac=True,
+        method="SLSQP",
+        constraints=[LinearConstraint(model.offset_matrix, model.offset_low, model.offset_high)],
+        options={"maxiter": MAX_ITERATIONS, "ftol": FTOL_S},
+        callback=watch.iteration_done,
+    )
+
+
+class _StageWatch:
+    """One stage's objective for SLSQP, which remembers the latest lap time to report after each iteration."""
+
+    def __init__(
+        self,
+        model: LineModel,
+        limits: CarLimits,
+        stage: int,
+        stages: int,
+        control_spacing_m: float,
+        on_progress: ProgressCallback | None,
+    ) -> None:
+        self.model, self.limits, self.on_progress = model, limits, on_progress
+        self.stage, self.stages, self.control_spacing_m = stage, stages, control_spacing_m
+        self.iterations = 0
+        self.lap_time_s = float("nan")
+
+    def objective(self, controls: np.ndarray) -> tuple[float, np.ndarray]:
+        value, gradient, self.lap_time_s = _objective_and_gradient(self.model, controls, self.limits)
+        return value, gradient
+
+    def iteration_done(self, _controls: np.ndarray) -> None:
+        self.iterations += 1
+        if self.on_progress is not None:
+            self.on_progress(
+                OptimiserProgress(
+                    self.stage, self.stages, self.control_spacing_m, self.iterations, self.lap_time_s, False
+                )
+            )
+
+
+def _objective_and_gradient(
+    model: LineModel, controls: np.ndarray, limits: CarLimits
+) -> tuple[float, np.ndarray, float]:
+    """The lap time plus the steering penalty, its gradient with respect to the controls (torch's autograd), and the
+    lap time alone."""
+    torch = torch_module()
+    variables = torch.tensor(controls, dtype=torch.float64, requires_grad=True)
+    _, curvature, lengths = model.line(torch, variables)
+    _, lap = flying_lap(torch, curvature, lengths, limits)
+    excess = torch.clamp(curvature.abs() - limits.max_curvature_per_m, min=0.0)
+    objective = lap + STEERING_PENALTY_S_M2 * (excess * excess).sum()
+    objective.backward()
+    return float(objective.detach()), variables.grad.numpy().copy(), float(lap.detach())
+
+
+def _centre_points(track: Track, spacing_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """Points evenly spaced along a periodic cubic spline through the centre line (scipy), from the start line on, and
+    their unit normals to the left of the driving direction."""
+    line = track.center_line
+    steps = np.linalg.norm(np.diff(line, axis=0), axis=1)
+    keep = np.concatenate(([True], steps > 1e-9))  # repeated waypoints would stall the spline's parameter
+    distance = np.concatenate(([0.0], np.cumsum(steps[steps > 1e-9])))
+    spline = CubicSpline(distance, line[keep], bc_type="periodic")
+    count = max(8, round(distance[-1] / spacing_m))
+    along = np.linspace(0.0, distance[-1], count, endpoint=False)
+    tangents = spline(along, 1)
+    tangents /= np.linalg.norm(tangents, axis=1, keepdims=True)
+    return spline(along), np.column_stack((-tangents[:, 1], tangents[:, 0]))
+
+
+def _offset_bounds(
+    track: Track, centres: np.ndarray, normals: np.ndarray, half_width_m: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Per station, the offsets along its normal that keep the whole car on the road: the piece of the normal, nearest
+    to the station, inside the road shrunk by half the car's width and BORDER_MARGIN_M (shapely)."""
+    inside = track.road_polygon.buffer(-(half_width_m + BORDER_MARGIN_M))
+    reach = float(np.max(np.linalg.norm(track.inner_border - track.outer_border, axis=1)))
+    normal_lines = shapely.linestrings(np.stack((centres - reach * normals, centres + reach * normals), axis=1))
+    pieces = shapely.intersection(normal_lines, inside)
+    low, high = np.empty(len(centres)), np.empty(len(centres))
+    for index, piece in enumerate(pieces):
+        parts = [part for part in getattr(piece, "geoms", [piece]) if not part.is_empty and part.length > 0]
+        if not parts:
+            raise LapTimeBoundError(
+                f"track {track.name}: a car {2 * half_width_m:.3f} m wide does not fit on the road (with "
+                f"{BORDER_MARGIN_M} m to each border) at ({centres[index][0]:.2f}, {centres[index][1]:.2f}) m"
+            )
+        centre = shapely.Point(centres[index])
+        nearest = min(parts, key=centre.distance)
+        offsets = (np.asarray(nearest.coords) - centres[index]) @ normals[index]
+        low[index], high[index] = offsets.min(), offsets.max()
+    return low, high
