@@ -7,12 +7,11 @@ from pathlib import Path
 
 import click
 
-from racer.options.generation import car_profile_option, generation_option
+from racer.options.generation import car_profile_option, generation_option, world_option
 from racer.options.track import direction_option
 from racer.recipe.folder import Car, RecipeError, check_out, make_recipe, write_recipe
 from racer.shared.sim.car.dynamics import car_profile as car_profile_named
 from racer.shared.sim.generations.catalog import generation as generation_named
-from racer.shared.sim.scene.worlds import WORLD_NAMES
 from racer.shared.sim.tracks.track import Track, TrackError
 
 
@@ -28,13 +27,7 @@ from racer.shared.sim.tracks.track import Track, TrackError
 @click.option("--force", is_flag=True, help="Replace an existing --out folder.")
 @generation_option
 @car_profile_option
-@click.option(
-    "--world",
-    type=click.Choice(WORLD_NAMES),
-    default="base",
-    show_default=True,
-    help="The world (its tyre grip) the line is computed for; the workers train where it holds.",
-)
+@world_option()
 @click.option(
     "--action-space",
     type=click.Choice(("discrete", "continuous")),

@@ -53,7 +53,7 @@ class _ProgressLines:
 @click.command("line")
 @click.argument("track", metavar="NAME")
 @direction_option
-@generation_option()
+@generation_option
 @car_profile_option
 @world_option()
 @click.option(
