@@ -21,7 +21,7 @@ import shutil
 import tempfile
 import threading
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -94,6 +94,8 @@ class RolloutWorker:
         self.envs: list[DeepRacerEnv] = []
         self.policy = None
         self.policy_version = -1
+        self.evaluated_version = -1
+        """The newest checkpoint worker 0 has evaluated."""
         self.rngs = [env_generator(options.seed, j) for j in range(max(1, options.envs))]
         self.log: WorkerLog | None = None
 
@@ -230,12 +232,14 @@ class RolloutWorker:
         )
 
     def _load_policy(self, announcement: Announcement) -> None:
-        if self.policy_version == announcement.iteration:
+        """The announced checkpoint, unless it is the one held (an overlapped run announces iteration k+1 with
+        checkpoint k, which the worker already plays)."""
+        if self.policy_version == announcement.policy_version:
             return
         self.state.enter(f"loading {announcement.checkpoint}", worker_phases.LOADING)
         self.policy = self.checkpoints.load_inference_policy(announcement.checkpoint)
         self.policy.eval()
-        self.policy_version = announcement.iteration
+        self.policy_version = announcement.policy_version
 
     # ---- announcements ---------------------------------------------------------------------------
     def _handle(self, announcement: Announcement) -> None:
@@ -250,9 +254,9 @@ class RolloutWorker:
                 self._play_claimed(announcement)
                 self.log.finish_iteration(announcement.iteration, announcement.num_workers)
             if self.worker_id == 0:
-                self._evaluate(announcement)
+                self._evaluate_once(announcement)
         elif announcement.kind == "replay" and announcement.target_worker in (-1, self.worker_id):
-            if announcement.iteration != self.policy_version:
+            if announcement.iteration != self.state.iteration:
                 return  # an old notice; the trainer has moved on
             latest = self.channel.latest_iteration_announcement()
             if latest is None or latest.kind != "iteration" or latest.iteration != announcement.iteration:
@@ -293,7 +297,7 @@ class RolloutWorker:
             self.state.steps_per_s = rate
             counter = self.log.next_training_episode
             episode = recorder.finish(
-                policy_version=iteration,
+                policy_version=self.policy_version,
                 worker_id=self.worker_id,
                 world=world,
                 episode_index=counter,
@@ -359,6 +363,16 @@ class RolloutWorker:
 
     def _uses_e_greedy(self) -> bool:
         return uses_e_greedy(self.run.hyperparameters, self.run.model_metadata)
+
+    def _evaluate_once(self, announcement: Announcement) -> None:
+        """Evaluate the announced checkpoint under its own number. An overlapped run announces iteration k+1 with
+        checkpoint k, which was judged after iteration k: each checkpoint is judged once."""
+        if announcement.policy_version != announcement.iteration:
+            if announcement.policy_version <= self.evaluated_version:
+                return
+            announcement = replace(announcement, iteration=announcement.policy_version)
+        self.evaluated_version = max(self.evaluated_version, announcement.iteration)
+        self._evaluate(announcement)
 
     def _evaluate(self, announcement: Announcement) -> None:
         if self.run.worker.min_eval_trials <= 0:

@@ -42,7 +42,7 @@ from racer.shared.transport.channels import ReceivedEpisode, RunChannel
 from racer.trainer.algorithms import LearnerOptions, build_learner
 from racer.trainer.collector import Collector, CollectTimes, StopRequested
 from racer.trainer.device import describe_device
-from racer.trainer.iteration_summary import iteration_summary, record_summary
+from racer.trainer.iteration_summary import iteration_summary, overlap_summary, record_summary
 from racer.trainer.learner import UpdateAbandoned
 from racer.trainer.log_lines import format_training_episode_line
 from racer.trainer.memory_cap import cap_episodes, default_max_memory_steps, global_episode_order
@@ -101,6 +101,8 @@ class Trainer:
         self.env_steps = 0
         self.iteration = 0
         """The newest saved checkpoint's number: the iteration being collected."""
+        self.queued_ahead: int | None = None
+        """Overlap: the iteration announced before the update of the one before it (not announced again)."""
         self.network_file: NetworkFile | None = None
         """network.json of the custom files when model_metadata.json names it."""
         self.preset: Preset | None = None
@@ -142,6 +144,7 @@ class Trainer:
             self.checkpoints.latest_name,
             self.stop_event,
             self.options.collect_times,
+            overlap=self.options.run.overlap,
         )
         latest = self.checkpoints.latest_name()
         if latest is not None:
@@ -232,7 +235,7 @@ class Trainer:
         update_started = time.monotonic()
         try:
             all_stats = self.learner.update(
-                episodes, abandon=update_abandoner(self.stop_event), env_steps=self.env_steps
+                episodes, abandon=update_abandoner(self.stop_event), env_steps=self.env_steps, policy_version=iteration
             )
         except UpdateAbandoned:
             log.warning(
@@ -254,7 +257,14 @@ class Trainer:
             rollout_s=round(rollout_wall_s, 3),
             update_s=round(update_s, 3),
         )
+        if self.options.run.overlap:
+            summary.update(overlap_summary(iteration, episodes, all_stats))
         return summary
+
+    def _queue_ahead(self) -> bool:
+        """Overlap, and the next iteration will be trained (not past the episode limit)."""
+        episodes = self.hyperparameters.num_episodes_between_training
+        return self.options.run.overlap and self.episodes_consumed + episodes < self._max_episodes()
 
     def _max_episodes(self) -> int:
         return self.options.max_episodes or self.hyperparameters.term_cond_max_episodes
@@ -324,9 +334,13 @@ class Trainer:
     def _iterate(self, iteration: int) -> None:
         """Announce, collect, train and save one iteration (`self.iteration` moves on once its checkpoint is
         saved)."""
-        self.collector.announce(iteration, self.checkpoints.latest_name())
+        if self.queued_ahead != iteration:
+            self.collector.announce(iteration, self.checkpoints.latest_name())
         announced = time.monotonic()
         received = self.collect(iteration)
+        if self._queue_ahead():  # the workers play k+1 with checkpoint k while k trains
+            self.collector.announce(iteration + 1, self.checkpoints.latest_name(), policy_version=iteration)
+            self.queued_ahead = iteration + 1
         summary = self.train_iteration(iteration, received, time.monotonic() - announced)
         self._save(iteration + 1)
         self.iteration = iteration + 1
