@@ -54,3 +54,18 @@ def test_the_clip_applies_to_the_ratio_of_an_episode_one_version_behind():
     assert same.clip_fraction == 0.0
     assert mixed.clip_fraction == pytest.approx(12 / 32)
     assert mixed.surrogate_loss != pytest.approx(same.surrogate_loss)
+
+
+def test_a_strict_runs_update_is_the_same_with_or_without_the_network_version():
+    """A strict run's episodes are all the network's own: the update, numbers and weights, is DeepRacer's as before."""
+    results = []
+    for policy_version in (None, 1):
+        network = task_network(3)
+        episodes = [replace(episode, policy_version=1) for episode in episodes_with_one_behind(network)]
+        stats = PPOLearner(network, replace(HP, num_epochs=2), PPOSettings(seed=3)).update(
+            episodes, policy_version=policy_version
+        )
+        results.append((stats, {name: value.clone() for name, value in network.state_dict().items()}))
+    (stats_a, weights_a), (stats_b, weights_b) = results
+    assert stats_a == stats_b
+    assert all(torch.equal(weights_a[name], weights_b[name]) for name in weights_a)
