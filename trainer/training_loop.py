@@ -342,7 +342,9 @@ class Trainer:
             self.collector.announce(iteration + 1, self.checkpoints.latest_name(), policy_version=iteration)
             self.queued_ahead = iteration + 1
         summary = self.train_iteration(iteration, received, time.monotonic() - announced)
-        self._save(iteration + 1)
+        checkpoint = self._save(iteration + 1)
+        if self.options.run.overlap:  # the workers take it up at their next episode
+            self.channel.publish_newest_checkpoint(iteration + 1, checkpoint)
         self.iteration = iteration + 1
         summary["progress"] = self.pace.after_iteration(
             iteration, time.monotonic() - self.started, self.episodes_consumed

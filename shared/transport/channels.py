@@ -317,6 +317,19 @@ class RunChannel:
                 )
             )
 
+    def publish_newest_checkpoint(self, version: int, checkpoint: str) -> None:
+        """An overlapped run: checkpoint `version` is complete in the store; workers take it up between episodes."""
+        key = self.key("newest_checkpoint")
+        self.link.do(lambda r: r.set(key, f"{version} {checkpoint}", ex=CLAIM_KEYS_TTL_S))
+
+    def newest_checkpoint(self) -> tuple[int, str] | None:
+        """(version, checkpoint name) the trainer last published, None before any (or in a strict run)."""
+        value = self.link.do(lambda r: r.get(self.key("newest_checkpoint")))
+        if value is None:
+            return None
+        version, checkpoint = _text(value).split(" ", 1)
+        return int(version), checkpoint
+
     def mark_received(self, iteration: int, episode_number: int) -> None:
         key = self.key(f"received:{iteration}")
         self.link.do(lambda r: (r.sadd(key, episode_number), r.expire(key, 7 * 24 * 3600)))
