@@ -1,4 +1,5 @@
-"""The rollout worker's claim rule: which episode of an iteration it plays next (keys: racer.shared.transport.channels)."""
+"""The rollout worker's claim rule: which episode of an iteration it plays next (keys: racer.shared.transport.channels),
+and, in an overlapped run, the newer checkpoint it takes up before it starts that episode."""
 
 from __future__ import annotations
 

@@ -217,6 +217,7 @@ def test_worker_killed_mid_iteration(system, mode):
     if mode == "overlap":  # iterations 1 and 2 were queued before the update: played by the checkpoint before
         assert records[0]["episodes_one_behind_share"] == 0.0
         assert all(r["episodes_one_behind_share"] > 0 and r["kl_divergence"] is not None for r in records[1:])
+        assert "taking up checkpoint" in system.log_text("worker-0")  # a new checkpoint between episodes
     else:
         assert all("episodes_one_behind_share" not in r for r in records)
     assert "replays it" in system.log_text("trainer")
