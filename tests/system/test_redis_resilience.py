@@ -93,6 +93,7 @@ def test_kill_9_of_the_embedded_redis_loses_no_episode(tmp_path, mode):
     records = [json.loads(line) for line in (store / "metrics" / "iterations.jsonl").read_text().splitlines()]
     assert [r["iteration"] for r in records] == [0, 1, 2, 3]
     assert [(r["episodes"], r["episodes_dropped"]) for r in records] == [(2, 0)] * 4
+    assert all(("episodes_one_behind_share" in r) == (mode == "overlap") for r in records)  # --overlap reached it
     previous_total = 0
     for record in records:
         traces = [
