@@ -234,9 +234,10 @@ def test_worker_killed_mid_iteration(system, mode):
     assert episodes == [episode - 1 for episode in training[-len(episodes) :]]
 
 
-def test_trainer_killed_and_restarted_resumes(system):
+@pytest.mark.parametrize("mode", MODES)
+def test_trainer_killed_and_restarted_resumes(system, mode):
     store = open_store(system.settings.store)
-    trainer = system.start_trainer(max_episodes=6)
+    trainer = system.start_trainer(6, *MODES[mode])
     system.start_worker(0)
     system.start_worker(1)
     deadline = time.monotonic() + 300
@@ -246,7 +247,7 @@ def test_trainer_killed_and_restarted_resumes(system):
     trainer.send_signal(signal.SIGKILL)
     trainer.wait()
     before = checkpoint_numbers(store, system.prefix)
-    system.start_trainer(max_episodes=6)
+    system.start_trainer(6, *MODES[mode])
     assert system.wait_trainer(600) == 0, system.log_text("trainer")[-3000:]
     assert "resuming model-e2e from checkpoint" in system.log_text("trainer")
     after = checkpoint_numbers(store, system.prefix)
