@@ -13,6 +13,10 @@ One iteration k, top to bottom:
    (racer.trainer.iteration_summary), then acknowledge the episodes.
 A trainer killed at any point restarts from the newest checkpoint: unacknowledged episodes are read again.
 
+Under `--overlap` (RunOptions.overlap) step 2 ends by queueing iteration k+1 and announcing it with checkpoint k, so
+the workers play on during the update; checkpoint k+1 is published for them to take up between episodes, and
+iteration k+1 trains on episodes of k (one behind, against their own log_probs) or k+1 (racer.trainer.collector).
+
 Before the first iteration the run's custom files are checked and published (racer.trainer.run_files); a signal
 or the wall-time limit stops the loop (racer.trainer.stopping). Which checkpoint is the best is not decided here:
 rollout worker 0 evaluates each one it is announced and writes deepracer_checkpoints.json
