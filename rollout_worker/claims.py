@@ -1,8 +1,14 @@
-"""The rollout worker's claim rule: which episode of an iteration it plays next (keys: racer.shared.transport.channels)."""
+"""The rollout worker's claim rule: which episode of an iteration it plays next (keys: racer.shared.transport.channels),
+and, in an overlapped run, the newer checkpoint it takes up before it starts that episode."""
 
 from __future__ import annotations
 
+import logging
+
+from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.transport.channels import RunChannel
+
+log = logging.getLogger(__name__)
 
 
 def claim_next_episode(
@@ -18,3 +24,20 @@ def claim_next_episode(
         live = channel.live_workers()
         number = channel.claim_other(iteration, worker_id, num_workers, live)
     return number
+
+
+def newer_policy(channel: RunChannel, checkpoints: CheckpointStore, held_version: int):
+    """An overlapped run: (version, policy) of a checkpoint newer than the one held, once the trainer has written
+    one; None otherwise. The worker takes it up when an env starts its next episode."""
+    newest = channel.newest_checkpoint()
+    if newest is None or newest[0] <= held_version:
+        return None
+    log.info("taking up checkpoint %s (version %d) between episodes", newest[1], newest[0])
+    return newest[0], load_policy(checkpoints, newest[1])
+
+
+def load_policy(checkpoints: CheckpointStore, checkpoint: str):
+    """A checkpoint's inference policy, ready to act."""
+    policy = checkpoints.load_inference_policy(checkpoint)
+    policy.eval()
+    return policy

@@ -21,13 +21,13 @@ import shutil
 import tempfile
 import threading
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
 from racer.rollout_worker.checkpoint_evaluation import evaluate_checkpoint, uses_e_greedy
-from racer.rollout_worker.claims import claim_next_episode
+from racer.rollout_worker.claims import claim_next_episode, load_policy, newer_policy
 from racer.rollout_worker.envs import env_generator, spread_env_configs
 from racer.rollout_worker.training_log import WorkerLog
 from racer.rollout_worker.worker_files import WorkerFiles, load_worker_files, training_env_config
@@ -94,6 +94,8 @@ class RolloutWorker:
         self.envs: list[DeepRacerEnv] = []
         self.policy = None
         self.policy_version = -1
+        self.evaluated_version = -1  # the newest checkpoint worker 0 has evaluated
+        self.overlapped = False  # an announcement named a checkpoint older than its iteration (`--overlap`)
         self.rngs = [env_generator(options.seed, j) for j in range(max(1, options.envs))]
         self.log: WorkerLog | None = None
 
@@ -230,12 +232,13 @@ class RolloutWorker:
         )
 
     def _load_policy(self, announcement: Announcement) -> None:
-        if self.policy_version == announcement.iteration:
+        """The announced checkpoint, unless it is the one held or (overlap) older than it."""
+        held = self.policy_version
+        if held == announcement.policy_version or (self.overlapped and held > announcement.policy_version):
             return
         self.state.enter(f"loading {announcement.checkpoint}", worker_phases.LOADING)
-        self.policy = self.checkpoints.load_inference_policy(announcement.checkpoint)
-        self.policy.eval()
-        self.policy_version = announcement.iteration
+        self.policy = load_policy(self.checkpoints, announcement.checkpoint)
+        self.policy_version = announcement.policy_version
 
     # ---- announcements ---------------------------------------------------------------------------
     def _handle(self, announcement: Announcement) -> None:
@@ -245,14 +248,15 @@ class RolloutWorker:
             return
         if announcement.kind == "iteration":
             self.state.iteration = announcement.iteration
+            self.overlapped |= announcement.policy_version != announcement.iteration
             self._load_policy(announcement)
             if self.worker_id < announcement.num_workers:
                 self._play_claimed(announcement)
                 self.log.finish_iteration(announcement.iteration, announcement.num_workers)
             if self.worker_id == 0:
-                self._evaluate(announcement)
+                self._evaluate_once(announcement)
         elif announcement.kind == "replay" and announcement.target_worker in (-1, self.worker_id):
-            if announcement.iteration != self.policy_version:
+            if announcement.iteration != self.state.iteration:
                 return  # an old notice; the trainer has moved on
             latest = self.channel.latest_iteration_announcement()
             if latest is None or latest.kind != "iteration" or latest.iteration != announcement.iteration:
@@ -266,6 +270,7 @@ class RolloutWorker:
         hp = self.run.hyperparameters
         world = self.run.worker.world
         own_in_flight: set[int] = set()
+        versions: dict[int, int] = {}  # episode number -> the checkpoint it started with
         started = time.monotonic()
         played = {"episodes": 0, "steps": 0}
 
@@ -275,6 +280,10 @@ class RolloutWorker:
             number = claim_next_episode(self.channel, iteration, self.worker_id, num_workers, own_in_flight)
             if number is None:
                 return None
+            if self.overlapped and (newer := newer_policy(self.channel, self.checkpoints, self.policy_version)):
+                self.policy_version, self.policy = newer
+                loop.policy = self.policy  # episodes in flight keep their label; each step logs who chose it
+            versions[number] = self.policy_version
             if played["episodes"] == 0 and self.state.status != "playing":
                 self.state.enter("playing", worker_phases.PLAYING)
                 self.frame_tap.phase = "training"
@@ -293,7 +302,7 @@ class RolloutWorker:
             self.state.steps_per_s = rate
             counter = self.log.next_training_episode
             episode = recorder.finish(
-                policy_version=iteration,
+                policy_version=versions.pop(ticket.number),
                 worker_id=self.worker_id,
                 world=world,
                 episode_index=counter,
@@ -360,14 +369,26 @@ class RolloutWorker:
     def _uses_e_greedy(self) -> bool:
         return uses_e_greedy(self.run.hyperparameters, self.run.model_metadata)
 
+    def _evaluate_once(self, announcement: Announcement) -> None:
+        """Evaluate the announced checkpoint under its own number, once (overlap announces k+1 with checkpoint k)."""
+        if announcement.policy_version != announcement.iteration:
+            if announcement.policy_version <= self.evaluated_version:
+                return
+            announcement = replace(announcement, iteration=announcement.policy_version)
+        self.evaluated_version = max(self.evaluated_version, announcement.iteration)
+        self._evaluate(announcement)
+
     def _evaluate(self, announcement: Announcement) -> None:
         if self.run.worker.min_eval_trials <= 0:
             return
+        policy = self.policy  # overlap: the worker may hold a newer checkpoint than the one judged here
+        if announcement.iteration != self.policy_version:
+            policy = load_policy(self.checkpoints, announcement.checkpoint)
         self.state.enter("evaluating", worker_phases.EVALUATING)
         self.frame_tap.phase = "evaluation"
         results = evaluate_checkpoint(
             self.env,
-            self.policy,
+            policy,
             self.run,
             announcement.iteration,
             self.worker_id,

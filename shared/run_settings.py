@@ -109,6 +109,9 @@ class RunOptions:
     """RACER_GENERATION: the DeepRacer simulator the workers stand in for (look and car)."""
     challenge_params: tuple[tuple[str, str], ...] = ()
     """RACE_TYPE and the obstacle / bot-car training_params keys (`--race-type`, `--race-param`)."""
+    overlap: bool = False
+    """`--overlap`: the workers play iteration k+1 with checkpoint k while the trainer updates (the trainer queues
+    it early and announces which checkpoint plays it); False: DeepRacer's strict alternation."""
 
     def trainer_args(self) -> list[str]:
         """The same settings as `racer trainer` options (how `racer train` hands them to its trainer process)."""
@@ -130,6 +133,7 @@ class RunOptions:
             "--generation",
             self.generation,
             *challenge_option_args(self.challenge_params),
+            *(["--overlap"] if self.overlap else []),
         ]
 
 

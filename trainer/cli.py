@@ -15,6 +15,7 @@ from racer.options.training import (
     max_episodes_option,
     max_minutes_option,
     model_prefix_option,
+    overlap_option,
     pretrained_checkpoint_option,
     pretrained_prefix_option,
     seed_option,
@@ -77,6 +78,7 @@ from racer.shared.user_errors import user_error_types
     hidden=True,
     help="The launcher (racer train) has run the preflight on these custom files: read them without checking again.",
 )
+@overlap_option
 @trainer_run_options
 @challenge_options
 @direction_option
@@ -103,6 +105,7 @@ def trainer_command(
     precision,
     race_type,
     race_param,
+    overlap,
     preflight_passed,
 ) -> None:
     """Run the trainer (clipped PPO or SAC, as model_metadata.json says): Redis and the store come from
@@ -128,6 +131,7 @@ def trainer_command(
         generation=generation,
         dynamics_randomization=dynamics_randomization,
         challenge_params=challenge_params_from_options(race_type, race_param),
+        overlap=overlap,
     )
     try:
         memory_cap = max_memory_steps if max_memory_steps is not None else max_memory_steps_from_env()

@@ -56,6 +56,7 @@ class Collector:
         latest_checkpoint: Callable[[], str | None],
         stop_event: threading.Event,
         times: CollectTimes = CollectTimes(),
+        overlap: bool = False,
     ):
         self.channel = channel
         self.consumer = consumer
@@ -66,6 +67,13 @@ class Collector:
         """The newest saved checkpoint's name (what a lost announcement is announced with again)."""
         self.stop_event = stop_event
         self.times = times
+        self.overlap = overlap
+        """An overlapped run: iteration k+1 is queued while k trains, so its episodes may be of policy k (one
+        behind); an episode of k+1 read while collecting k is kept for k+1."""
+        self.announced: dict[int, tuple[str, int]] = {}
+        """Iteration -> (checkpoint, its number) as announced (what a lost announcement is announced with again)."""
+        self.early: list[ReceivedEpisode] = []
+        """Episodes of the next iteration read while collecting this one (overlap only), not yet acknowledged."""
 
     def collect(self, iteration: int) -> dict[int, ReceivedEpisode]:
         """The iteration's E episodes, by episode number. Workers claim them from Redis lists (see
@@ -80,11 +88,27 @@ class Collector:
         next_reconcile = waiting_since + self.times.dead_worker_grace_s
         last_queued: set[int] = set()
 
+        oldest_policy = iteration - 1 if self.overlap else iteration
+
         def consider(received: ReceivedEpisode) -> None:
             episode = received.episode
-            if episode.iteration < iteration and self.learner.take_late_episode(episode, iteration):
+            if self.overlap and episode.iteration == iteration + 1:
+                self.early.append(received)  # queued ahead; collected with its own iteration
+            elif episode.iteration < iteration and self.learner.take_late_episode(episode, iteration):
                 self.channel.ack(received.stream_id)
-            elif episode.iteration != iteration or episode.policy_version != iteration:
+            elif self.overlap and episode.iteration == iteration and episode.policy_version < oldest_policy:
+                log.info(
+                    "dropping episode %d of iteration %d: its policy %d is more than one version behind; queueing "
+                    "it again",
+                    episode.episode_number,
+                    iteration,
+                    episode.policy_version,
+                )
+                self.channel.ack(received.stream_id)
+                if episode.episode_number in expected and episode.episode_number not in got:
+                    self.channel.requeue(iteration, [episode.episode_number], num_workers)
+                    self.channel.request_replay(iteration)
+            elif episode.iteration != iteration or not oldest_policy <= episode.policy_version <= iteration:
                 log.info(
                     "dropping a stale episode (iteration %d, policy %d) while training iteration %d",
                     episode.iteration,
@@ -109,8 +133,12 @@ class Collector:
                 for item in received:
                     consider(item)
 
-        for received in self.channel.read_episodes(self.consumer, 0, pending=True):
-            consider(received)
+        early, self.early = self.early, []
+        seen: set[str] = set()  # an early episode is also among the pending ones
+        for received in early + self.channel.read_episodes(self.consumer, 0, pending=True):
+            if received.stream_id not in seen:
+                seen.add(received.stream_id)
+                consider(received)
         while expected - got.keys():
             if self.stop_event.is_set():
                 raise StopRequested()
@@ -182,10 +210,14 @@ class Collector:
             "the announcement of iteration %d is no longer in Redis (restarted without it?); announcing it again",
             iteration,
         )
-        self.announce(iteration, self.latest_checkpoint())
+        checkpoint, policy_version = self.announced.get(iteration, (self.latest_checkpoint(), iteration))
+        self.announce(iteration, checkpoint, policy_version)
 
-    def announce(self, iteration: int, checkpoint: str) -> None:
-        """Queue the iteration's episodes (once), then tell the workers."""
+    def announce(self, iteration: int, checkpoint: str, policy_version: int | None = None) -> None:
+        """Queue the iteration's episodes (once), then tell the workers to play them with `checkpoint` (number
+        `policy_version`; None: `iteration`, DeepRacer's strict alternation)."""
         episodes = self.episodes_per_iteration
+        version = iteration if policy_version is None else policy_version
+        self.announced = {iteration: (checkpoint, version)}
         self.channel.open_episodes(iteration, episodes, self.num_workers)
-        self.channel.announce_iteration(iteration, checkpoint, episodes, self.num_workers)
+        self.channel.announce_iteration(iteration, checkpoint, episodes, self.num_workers, version)

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 from collections import defaultdict
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -63,6 +64,22 @@ def iteration_summary(
             world: {"episodes": len(items), **_scores(items), "steps_per_s": world_steps_per_s(items)}
             for world, items in by_world.items()
         },
+    }
+
+
+def overlap_summary(iteration: int, episodes: list[Episode], stats: Sequence[object]) -> dict:
+    """An overlapped run's iteration: the share of its episodes played by the checkpoint before the network's, and
+    the update's clip fraction and KL (means over its epochs; None for a learner that reports neither, SAC)."""
+    behind = sum(1 for episode in episodes if episode.policy_version < iteration)
+
+    def mean(name: str) -> float | None:
+        values = [getattr(entry, name) for entry in stats if hasattr(entry, name)]
+        return round(sum(values) / len(values), 6) if values else None
+
+    return {
+        "episodes_one_behind_share": round(behind / len(episodes), 4) if episodes else 0.0,
+        "clip_fraction": mean("clip_fraction"),
+        "kl_divergence": mean("kl_divergence"),
     }
 
 

@@ -54,11 +54,16 @@ class Learner(Protocol):
         ...
 
     def update(
-        self, episodes: Sequence[Episode], abandon: Callable[[], bool] | None = None, env_steps: int | None = None
+        self,
+        episodes: Sequence[Episode],
+        abandon: Callable[[], bool] | None = None,
+        env_steps: int | None = None,
+        policy_version: int | None = None,
     ) -> Sequence[object]:
         """Learn from one iteration's episodes; returns the update's statistics ([] when nothing was trained).
         `abandon()` is asked between steps; True raises `UpdateAbandoned`. `env_steps`: the run's environment steps
-        trained on, these episodes' included (the clock of a schedule, e.g. PPO's clip range)."""
+        trained on, these episodes' included (the clock of a schedule, e.g. PPO's clip range). `policy_version`: the network's checkpoint number (episodes of an older one
+        came from an overlapped run)."""
         ...
 
     def training_lines(self, stats: Sequence[object]) -> list[str]:

@@ -74,6 +74,7 @@ from racer.trainer.ppo_batch import (
     cat_distributions,
     make_training_batch,
     minibatch_size_for,
+    old_log_probs,
     shuffled_minibatches,
     slice_distribution,
 )
@@ -192,17 +193,24 @@ class PPOLearner:
     # -- public entry point ------------------------------------------------------------------------------------------
 
     def update(
-        self, episodes: Sequence[Episode], abandon: Callable[[], bool] | None = None, env_steps: int | None = None
+        self,
+        episodes: Sequence[Episode],
+        abandon: Callable[[], bool] | None = None,
+        env_steps: int | None = None,
+        policy_version: int | None = None,
     ) -> list[EpochStats]:
         """One PPO iteration on these episodes. Returns per-epoch stats ([] when nothing was trained).
 
         `abandon()` is asked before every minibatch; True raises `UpdateAbandoned` (a stopping trainer that cannot
         wait for a long update). `env_steps`: the run's environment steps trained on, these episodes' included (the
-        trainer's count, which survives a resume); None adds these transitions to the trainer's own count."""
+        trainer's count, which survives a resume); None adds these transitions to the trainer's own count.
+        `policy_version`: the network's checkpoint number; an episode of an older one (an overlapped run) has its
+        ratio taken against its own log-probabilities."""
         episodes = finite_episodes(episodes)
         if not episodes:
             return []
-        batch = make_training_batch(episodes, self.network.input_names, self.network.config).to(self.device)
+        batch = make_training_batch(episodes, self.network.input_names, self.network.config, policy_version)
+        batch = batch.to(self.device)
         self.env_steps = env_steps if env_steps is not None else self.env_steps + batch.size
         stats = self.nan_guard.run(lambda: self._train(batch, abandon), skipped=f"{batch.size} transitions")
         return stats if stats is not None else []
@@ -298,7 +306,7 @@ class PPOLearner:
                 old = slice_distribution(old_policy, indices)
                 new = self.network.distribution(observations, self.tower_dtype)
                 actions = batch.actions[indices]
-                ratio = torch.exp(new.log_prob(actions) - old.log_prob(actions))
+                ratio = torch.exp(new.log_prob(actions) - old_log_probs(batch, indices, old.log_prob(actions)))
                 advantage = advantages[indices]
                 surrogate = -torch.min(ratio * advantage, ratio.clamp(1 - clip, 1 + clip) * advantage).mean()
 

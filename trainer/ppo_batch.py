@@ -21,6 +21,7 @@ __all__ = [
     "cat_distributions",
     "make_training_batch",
     "minibatch_size_for",
+    "old_log_probs",
     "shuffled_minibatches",
     "slice_distribution",
 ]
@@ -34,6 +35,11 @@ class TrainingBatch:
     actions: torch.Tensor
     rewards: torch.Tensor
     episode_ends: torch.Tensor
+    behind: torch.Tensor | None = None
+    """bool (N,): the transition's episode was played by an older checkpoint than the network's (an overlapped run);
+    None when every episode is the network's own."""
+    behaviour_log_probs: torch.Tensor | None = None
+    """float32 (N,): log-probability of each action under the policy that played it (set with `behind`)."""
 
     @property
     def size(self) -> int:
@@ -47,6 +53,8 @@ class TrainingBatch:
             actions=self.actions.to(device),
             rewards=self.rewards,
             episode_ends=self.episode_ends,
+            behind=None if self.behind is None else self.behind.to(device),
+            behaviour_log_probs=None if self.behaviour_log_probs is None else self.behaviour_log_probs.to(device),
         )
 
     def select(self, indices: torch.Tensor) -> dict[str, torch.Tensor]:
@@ -54,11 +62,15 @@ class TrainingBatch:
 
 
 def make_training_batch(
-    episodes: Sequence[Episode], input_names: Sequence[str], config: PolicyConfig | None = None
+    episodes: Sequence[Episode],
+    input_names: Sequence[str],
+    config: PolicyConfig | None = None,
+    policy_version: int | None = None,
 ) -> TrainingBatch:
     """Concatenate episodes (in the order given) into one batch with the sensors the network reads. With a `config`
     whose stack_size > 1 each episode's camera frames are stacked first (racer.shared.policy.frame_stack), as the
-    workers stacked them for the policy."""
+    workers stacked them for the policy. `policy_version`: the network's checkpoint number; the transitions of
+    episodes played by an older one are marked `behind`, with the log-probabilities they were played with."""
     for episode in episodes:
         missing = [name for name in input_names if name not in episode.observations]
         if missing:
@@ -73,12 +85,31 @@ def make_training_batch(
         name: torch.from_numpy(np.concatenate([episode_observations[name] for episode_observations in per_episode]))
         for name in input_names
     }
+    behind = behaviour_log_probs = None
+    if policy_version is not None and any(episode.policy_version < policy_version for episode in episodes):
+        behind = torch.from_numpy(
+            np.concatenate([np.full(episode.steps, episode.policy_version < policy_version) for episode in episodes])
+        )
+        behaviour_log_probs = torch.from_numpy(
+            np.concatenate([episode.log_probs for episode in episodes]).astype(np.float32)
+        )
     return TrainingBatch(
         observations=observations,
         actions=torch.from_numpy(np.concatenate([episode.actions for episode in episodes])),
         rewards=torch.from_numpy(np.concatenate([episode.rewards for episode in episodes]).astype(np.float32)),
         episode_ends=torch.from_numpy(episode_ends_from_lengths([episode.steps for episode in episodes])),
+        behind=behind,
+        behaviour_log_probs=behaviour_log_probs,
     )
+
+
+def old_log_probs(batch: TrainingBatch, indices: torch.Tensor, recomputed: torch.Tensor) -> torch.Tensor:
+    """log pi_old(a|s) of a minibatch for the clipped ratio: the frozen network's (`recomputed`, DeepRacer's old
+    policy) for the network's own episodes, the stored log-probabilities for an episode of an older checkpoint, so
+    its ratio is taken against the policy that played it (importance sampling, as in PPO's own derivation)."""
+    if batch.behind is None:
+        return recomputed
+    return torch.where(batch.behind[indices], batch.behaviour_log_probs[indices], recomputed)
 
 
 def minibatch_size_for(transitions: int, batch_size: int) -> int:

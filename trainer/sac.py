@@ -151,11 +151,15 @@ class SACLearner:
         return sum(episode.steps for episode in kept)
 
     def update(
-        self, episodes: Sequence[Episode], abandon: Callable[[], bool] | None = None, env_steps: int | None = None
+        self,
+        episodes: Sequence[Episode],
+        abandon: Callable[[], bool] | None = None,
+        env_steps: int | None = None,
+        policy_version: int | None = None,
     ) -> list[SACStats]:
         """Store the episodes, then train; `abandon()` is asked before every gradient step (True raises
         `UpdateAbandoned`: a stopping trainer that cannot wait for a long update). `env_steps` is unused: SAC has no
-        schedule over the run's steps."""
+        schedule over the run's steps; nor is `policy_version`: SAC learns off-policy."""
         transitions = self.add_experience(episodes)
         if transitions == 0:
             return []

@@ -13,6 +13,10 @@ One iteration k, top to bottom:
    (racer.trainer.iteration_summary), then acknowledge the episodes.
 A trainer killed at any point restarts from the newest checkpoint: unacknowledged episodes are read again.
 
+Under `--overlap` (RunOptions.overlap) step 2 ends by queueing iteration k+1 and announcing it with checkpoint k, so
+the workers play on during the update; checkpoint k+1 is published for them to take up between episodes, and
+iteration k+1 trains on episodes of k (one behind, against their own log_probs) or k+1 (racer.trainer.collector).
+
 Before the first iteration the run's custom files are checked and published (racer.trainer.run_files); a signal
 or the wall-time limit stops the loop (racer.trainer.stopping). Which checkpoint is the best is not decided here:
 rollout worker 0 evaluates each one it is announced and writes deepracer_checkpoints.json
@@ -42,7 +46,7 @@ from racer.shared.transport.channels import ReceivedEpisode, RunChannel
 from racer.trainer.algorithms import LearnerOptions, build_learner
 from racer.trainer.collector import Collector, CollectTimes, StopRequested
 from racer.trainer.device import describe_device
-from racer.trainer.iteration_summary import iteration_summary, record_summary
+from racer.trainer.iteration_summary import iteration_summary, overlap_summary, record_summary
 from racer.trainer.learner import UpdateAbandoned
 from racer.trainer.log_lines import format_training_episode_line
 from racer.trainer.memory_cap import cap_episodes, default_max_memory_steps, global_episode_order
@@ -101,6 +105,8 @@ class Trainer:
         self.env_steps = 0
         self.iteration = 0
         """The newest saved checkpoint's number: the iteration being collected."""
+        self.queued_ahead: int | None = None
+        """Overlap: the iteration announced before the update of the one before it (not announced again)."""
         self.network_file: NetworkFile | None = None
         """network.json of the custom files when model_metadata.json names it."""
         self.preset: Preset | None = None
@@ -142,6 +148,7 @@ class Trainer:
             self.checkpoints.latest_name,
             self.stop_event,
             self.options.collect_times,
+            overlap=self.options.run.overlap,
         )
         latest = self.checkpoints.latest_name()
         if latest is not None:
@@ -232,7 +239,7 @@ class Trainer:
         update_started = time.monotonic()
         try:
             all_stats = self.learner.update(
-                episodes, abandon=update_abandoner(self.stop_event), env_steps=self.env_steps
+                episodes, abandon=update_abandoner(self.stop_event), env_steps=self.env_steps, policy_version=iteration
             )
         except UpdateAbandoned:
             log.warning(
@@ -254,7 +261,14 @@ class Trainer:
             rollout_s=round(rollout_wall_s, 3),
             update_s=round(update_s, 3),
         )
+        if self.options.run.overlap:
+            summary.update(overlap_summary(iteration, episodes, all_stats))
         return summary
+
+    def _queue_ahead(self) -> bool:
+        """Overlap, and the next iteration will be trained (not past the episode limit)."""
+        episodes = self.hyperparameters.num_episodes_between_training
+        return self.options.run.overlap and self.episodes_consumed + episodes < self._max_episodes()
 
     def _max_episodes(self) -> int:
         return self.options.max_episodes or self.hyperparameters.term_cond_max_episodes
@@ -324,11 +338,19 @@ class Trainer:
     def _iterate(self, iteration: int) -> None:
         """Announce, collect, train and save one iteration (`self.iteration` moves on once its checkpoint is
         saved)."""
-        self.collector.announce(iteration, self.checkpoints.latest_name())
+        if self.queued_ahead != iteration:
+            self.collector.announce(iteration, self.checkpoints.latest_name())
         announced = time.monotonic()
         received = self.collect(iteration)
+        if self._queue_ahead():  # the workers play k+1 with checkpoint k while k trains
+            self.collector.announce(iteration + 1, self.checkpoints.latest_name(), policy_version=iteration)
+            self.queued_ahead = iteration + 1
+        elif self.queued_ahead == iteration:  # the last one: its own checkpoint, for worker 0 to judge as strict does
+            self.collector.announce(iteration, self.checkpoints.latest_name())
         summary = self.train_iteration(iteration, received, time.monotonic() - announced)
-        self._save(iteration + 1)
+        checkpoint = self._save(iteration + 1)
+        if self.options.run.overlap:  # the workers take it up at their next episode
+            self.channel.publish_newest_checkpoint(iteration + 1, checkpoint)
         self.iteration = iteration + 1
         summary["progress"] = self.pace.after_iteration(
             iteration, time.monotonic() - self.started, self.episodes_consumed

@@ -20,6 +20,7 @@ from racer.options.training import (
     max_episodes_option,
     max_minutes_option,
     model_prefix_option,
+    overlap_option,
     pretrained_checkpoint_option,
     pretrained_prefix_option,
     seed_option,
@@ -60,6 +61,7 @@ from racer.trainer.device import DeviceError, resolve_device
     help="Address the page listens on; the default is reachable from this machine only.",
 )
 @renderer_option
+@overlap_option
 @trainer_run_options
 @challenge_options
 @direction_option
@@ -86,6 +88,7 @@ def train_command(
     dynamics_randomization,
     race_type,
     race_param,
+    overlap,
 ) -> None:
     """Train with the embedded default: Redis, store, trainer and rollout workers as local processes."""
     try:  # a GPU asked for and absent is refused before anything starts
@@ -107,6 +110,7 @@ def train_command(
         generation=generation,
         dynamics_randomization=dynamics_randomization,
         challenge_params=challenge_params_from_options(race_type, race_param),
+        overlap=overlap,
     )
     plan = LocalRunPlan(
         model_prefix=model_prefix,

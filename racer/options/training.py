@@ -65,6 +65,16 @@ seed_option = click.option(
     help="Seeds what the command draws at random (networks, episodes, sensor noise).",
 )
 
+overlap_option = click.option(
+    "--overlap",
+    is_flag=True,
+    default=False,
+    help="Workers keep playing while the trainer updates: iteration k+1 is queued as soon as k's episodes are in, "
+    "played with checkpoint k, and trained with each episode's own log-probabilities (docs/training.md, Overlap). "
+    "Without it, DeepRacer's strict alternation; an overlapped run is not reproducible for a seed.",
+)
+"""`--overlap`: RunOptions.overlap, the run's setting the trainer and the workers follow."""
+
 MODEL_PREFIX_HELP = "Model name: its prefix in the store (a training run's name)."
 CUSTOM_FILES_HELP = "Folder with reward_function.py, model_metadata.json, hyperparameters.json [, workers.json]."
 

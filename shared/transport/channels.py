@@ -62,6 +62,9 @@ class Announcement:
     episodes_per_iteration: int = 0
     num_workers: int = 0
     target_worker: int = -1
+    policy_version: int = -1
+    """The checkpoint number `checkpoint` holds: the iteration itself, or one less when the trainer queued the
+    iteration before its update (`overlap`); -1 on notices that name no checkpoint."""
 
 
 @dataclass(frozen=True)
@@ -93,8 +96,14 @@ class RunChannel:
 
     # ---- control stream -------------------------------------------------------------------------
     def announce_iteration(
-        self, iteration: int, checkpoint: str, episodes_per_iteration: int, num_workers: int
+        self,
+        iteration: int,
+        checkpoint: str,
+        episodes_per_iteration: int,
+        num_workers: int,
+        policy_version: int | None = None,
     ) -> None:
+        """`policy_version`: the number of `checkpoint` when it is not `iteration` (an overlapped run)."""
         fields = {
             "kind": "iteration",
             "iteration": iteration,
@@ -102,6 +111,8 @@ class RunChannel:
             "episodes_per_iteration": episodes_per_iteration,
             "num_workers": num_workers,
         }
+        if policy_version is not None and policy_version != iteration:
+            fields["policy_version"] = policy_version
         self.link.do(lambda r: r.xadd(self.key("control"), fields, maxlen=STREAM_MAX_ENTRIES, approximate=True))
 
     def request_replay(self, iteration: int, target_worker: int = -1) -> None:
@@ -214,6 +225,7 @@ class RunChannel:
             episodes_per_iteration=int(f.get("episodes_per_iteration", 0)),
             num_workers=int(f.get("num_workers", 0)),
             target_worker=int(f.get("target_worker", -1)),
+            policy_version=int(f.get("policy_version", f["iteration"] if f.get("checkpoint") else -1)),
         )
 
     def latest_iteration_announcement(self) -> Announcement | None:
@@ -304,6 +316,19 @@ class RunChannel:
                     r.xdel(self.key("episodes"), *stream_ids),
                 )
             )
+
+    def publish_newest_checkpoint(self, version: int, checkpoint: str) -> None:
+        """An overlapped run: checkpoint `version` is complete in the store; workers take it up between episodes."""
+        key = self.key("newest_checkpoint")
+        self.link.do(lambda r: r.set(key, f"{version} {checkpoint}", ex=CLAIM_KEYS_TTL_S))
+
+    def newest_checkpoint(self) -> tuple[int, str] | None:
+        """(version, checkpoint name) the trainer last published, None before any (or in a strict run)."""
+        value = self.link.do(lambda r: r.get(self.key("newest_checkpoint")))
+        if value is None:
+            return None
+        version, checkpoint = _text(value).split(" ", 1)
+        return int(version), checkpoint
 
     def mark_received(self, iteration: int, episode_number: int) -> None:
         key = self.key(f"received:{iteration}")

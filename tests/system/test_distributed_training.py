@@ -186,14 +186,19 @@ def test_two_workers_two_worlds_two_iterations(system):
     assert sorted(system.temp.glob("racer-*")) == []  # the workers' download folders are gone with them
 
 
-def test_worker_killed_mid_iteration(system):
+MODES = {"strict": (), "overlap": ("--overlap",)}
+"""DeepRacer's alternation, and workers that play iteration k+1 while k trains: the chaos tests run under both."""
+
+
+@pytest.mark.parametrize("mode", MODES)
+def test_worker_killed_mid_iteration(system, mode):
     """kill -9 one worker while it plays: the other replays its share; every iteration uses exactly E episodes."""
     store = open_store(system.settings.store)
     hyperparameters = json.loads((system.custom_files / "hyperparameters.json").read_text())
     (system.custom_files / "hyperparameters.json").write_text(
         json.dumps({**hyperparameters, "num_episodes_between_training": 6})
     )
-    system.start_trainer(max_episodes=18)
+    system.start_trainer(18, *MODES[mode])
     system.start_worker(0)
     victim = system.start_worker(1)
     channel = RunChannel(RedisLink(system.settings.redis), system.prefix)
@@ -209,6 +214,14 @@ def test_worker_killed_mid_iteration(system):
     assert system.wait_trainer(600) == 0, system.log_text("trainer")[-3000:]
     records = iteration_records(store, system.prefix)
     assert [r["episodes"] for r in records] == [6, 6, 6]
+    if mode == "overlap":  # iterations 1 and 2 were queued before the update: played by the checkpoint before
+        assert [r["episodes_one_behind_share"] > 0 for r in records] == [False, True, True]
+        assert all(r["kl_divergence"] is not None for r in records)
+        assert "taking up checkpoint" in system.log_text("worker-0")  # a new checkpoint between episodes
+        judged = re.findall(r"evaluation of (\d+)_Step", system.log_text("worker-0"))
+        assert judged == ["0", "1", "2"]  # each checkpoint once, under its own number, as a strict run judges them
+    else:
+        assert all("episodes_one_behind_share" not in r for r in records)
     assert "replays it" in system.log_text("trainer")
     assert checkpoint_numbers(store, system.prefix)[-1] == 3
     # The simtrace `episode` is worker 0's running count of training episodes (the SimApp's counter, as in the real
@@ -221,9 +234,10 @@ def test_worker_killed_mid_iteration(system):
     assert episodes == [episode - 1 for episode in training[-len(episodes) :]]
 
 
-def test_trainer_killed_and_restarted_resumes(system):
+@pytest.mark.parametrize("mode", MODES)
+def test_trainer_killed_and_restarted_resumes(system, mode):
     store = open_store(system.settings.store)
-    trainer = system.start_trainer(max_episodes=6)
+    trainer = system.start_trainer(6, *MODES[mode])
     system.start_worker(0)
     system.start_worker(1)
     deadline = time.monotonic() + 300
@@ -233,7 +247,7 @@ def test_trainer_killed_and_restarted_resumes(system):
     trainer.send_signal(signal.SIGKILL)
     trainer.wait()
     before = checkpoint_numbers(store, system.prefix)
-    system.start_trainer(max_episodes=6)
+    system.start_trainer(6, *MODES[mode])
     assert system.wait_trainer(600) == 0, system.log_text("trainer")[-3000:]
     assert "resuming model-e2e from checkpoint" in system.log_text("trainer")
     after = checkpoint_numbers(store, system.prefix)
@@ -261,9 +275,10 @@ def test_sigterm_stops_the_trainer_cleanly_and_the_workers_follow(system):
         assert worker.wait(60) == 0
 
 
-def test_redis_restart_mid_run(system, redis_server):
+@pytest.mark.parametrize("mode", MODES)
+def test_redis_restart_mid_run(system, redis_server, mode):
     store = open_store(system.settings.store)
-    system.start_trainer(max_episodes=6)
+    system.start_trainer(6, *MODES[mode])
     system.start_worker(0)
     system.start_worker(1)
     deadline = time.monotonic() + 300

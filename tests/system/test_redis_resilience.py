@@ -62,13 +62,14 @@ def newest_checkpoint(model: Path) -> int:
     return int(pointer.read_text().split("_")[0]) if pointer.is_file() else -1
 
 
-def test_kill_9_of_the_embedded_redis_loses_no_episode(tmp_path):
+@pytest.mark.parametrize("mode", ["strict", "overlap"])
+def test_kill_9_of_the_embedded_redis_loses_no_episode(tmp_path, mode):
     from tests.conftest import write_custom_files
 
     # No in-training evaluation: a barely trained greedy policy may circle on the oval, and an evaluation episode
     # then runs to DeepRacer's 100,000-step cap (6 minutes here) while the iteration waits for worker 0.
     custom_files = write_custom_files(tmp_path / "custom_files", min_eval_trials=0)
-    process = racer_train(tmp_path, custom_files, "--max-episodes", "8")
+    process = racer_train(tmp_path, custom_files, "--max-episodes", "8", *(["--overlap"] if mode == "overlap" else []))
     model = tmp_path / "store" / "local-model" / "model"
     try:
         for round_number, checkpoint in enumerate((1, 2)):
@@ -92,6 +93,7 @@ def test_kill_9_of_the_embedded_redis_loses_no_episode(tmp_path):
     records = [json.loads(line) for line in (store / "metrics" / "iterations.jsonl").read_text().splitlines()]
     assert [r["iteration"] for r in records] == [0, 1, 2, 3]
     assert [(r["episodes"], r["episodes_dropped"]) for r in records] == [(2, 0)] * 4
+    assert all(("episodes_one_behind_share" in r) == (mode == "overlap") for r in records)  # --overlap reached it
     previous_total = 0
     for record in records:
         traces = [

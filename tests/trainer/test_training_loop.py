@@ -535,3 +535,27 @@ def test_the_precision_reaches_the_learner_and_every_checkpoints_manifest(
     assert trainer.learner.tower_dtype == expected.tower_dtype
     store = CheckpointStore(open_store(LocalStoreSettings(root=tmp_path / "store")), PREFIX)
     assert store.read_info(store.names()[-1]).extra["trainer_precision"] == expected.value
+
+
+def test_overlap_trains_episodes_one_version_behind_requeues_older_ones_and_keeps_early_ones(
+    redis_settings, tmp_path, custom_files
+):
+    trainer = make_trainer(redis_settings, tmp_path, custom_files, overlap=True)
+    assert trainer.setup() == 0
+    channel = RunChannel(RedisLink(redis_settings), PREFIX)
+    # Iteration 1, queued while iteration 0 trained: played by checkpoint 0 or, once the workers hold it, 1.
+    channel.push_episode(wire_episode(iteration=1, number=0, worker_id=0, policy_version=0, seed=1))  # one behind
+    channel.push_episode(wire_episode(iteration=1, number=1, worker_id=1, policy_version=-1, seed=2))  # two behind
+    channel.push_episode(wire_episode(iteration=2, number=0, worker_id=0, policy_version=1, seed=3))  # the next one's
+    channel.push_episode(wire_episode(iteration=1, number=1, worker_id=1, policy_version=1, seed=4))  # on-policy
+
+    got = trainer.collect(1)
+
+    assert {number: item.episode.episode_index for number, item in got.items()} == {0: 1, 1: 4}
+    queued, _claimed = channel.queued_and_claimed(1, 2)
+    assert queued == {1}  # the episode two versions behind went back to the queue at once: E still train
+    assert [item.episode.episode_index for item in trainer.collector.early] == [3]
+
+    channel.push_episode(wire_episode(iteration=2, number=1, worker_id=1, policy_version=2, seed=5))
+    got = trainer.collect(2)
+    assert {number: item.episode.episode_index for number, item in got.items()} == {0: 3, 1: 5}
