@@ -18,6 +18,7 @@ before MuJoCo loads, and launchers that copy their environment into a child proc
 | `RACER_DEEPRACER_DATA` | a folder of DeepRacer's own files (routes, models, reward functions, simtraces) that benchmarks compare against (`python -m benchmarks ... --data`) | unset |
 | `RACER_TRACKS_URL` | where SimApp route files are fetched from on first use (http(s)://, file://, a folder, a SimApp checkout) | the SimApp's repository at the catalogue's commit |
 | `RACER_CACHE_HOME` | racer's per-user cache; fetched route files are kept in its `routes/`, computed racing lines in its `lines/` | `$XDG_CACHE_HOME/racer`, else `~/.cache/racer` |
+| `RACER_OVERLAP` | workers keep playing while the trainer updates (`--overlap`'s default: True/1 or False/0/empty) | empty: strict |
 | `RACER_GENERATION` | the DeepRacer simulator to stand in for, its look and car together (`--generation`: 2019, simapp5, simapp6) | `simapp6` |
 | `DR_DIR` | the DeepRacer-for-Cloud folder (its `bin/activate.sh` exports it): `--drfc` given a run.env reads its system.env, worker-N.env and custom_files/ there, as DRfC does | unset: run.env's folder |
 """
@@ -200,6 +201,23 @@ def generation_name(environ: Mapping[str, str] | None = None) -> str | None:
     means racer's default generation (`racer.shared.sim.generations.catalog.DEFAULT_GENERATION`)."""
     env = os.environ if environ is None else environ
     return env.get(GENERATION_VARIABLE, "").strip() or None
+
+
+OVERLAP_VARIABLE = "RACER_OVERLAP"
+_TRUE_WORDS = ("true", "1", "yes", "on")
+_FALSE_WORDS = ("", "false", "0", "no", "off")
+
+
+def overlap_setting(environ: Mapping[str, str] | None = None) -> bool:
+    """RACER_OVERLAP (the default of `--overlap`): True, 1, yes or on overlaps; empty, False, 0, no or off keeps
+    DeepRacer's strict alternation; anything else is an error naming the variable."""
+    env = os.environ if environ is None else environ
+    raw = env.get(OVERLAP_VARIABLE, "").strip()
+    if raw.lower() in _TRUE_WORDS:
+        return True
+    if raw.lower() in _FALSE_WORDS:
+        return False
+    raise ValueError(f"{OVERLAP_VARIABLE}={raw!r}: expected True or False (or 1 / 0, empty for False)")
 
 
 DRFC_DIR_VARIABLE = "DR_DIR"

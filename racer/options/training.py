@@ -8,6 +8,7 @@ from pathlib import Path
 import click
 
 from racer.defaults import DEFAULT_CUSTOM_FILES
+from racer.shared.config import OVERLAP_VARIABLE, overlap_setting
 from racer.shared.sim.scene.worlds import WORLD_NAMES
 
 DEFAULT_WORKERS = 4
@@ -65,10 +66,20 @@ seed_option = click.option(
     help="Seeds what the command draws at random (networks, episodes, sensor noise).",
 )
 
+
+def default_overlap() -> bool:
+    """`--overlap`'s default: RACER_OVERLAP (True/1 or False/0/empty), else strict."""
+    try:
+        return overlap_setting()
+    except ValueError as error:
+        raise click.BadParameter(str(error), param_hint="--overlap") from error
+
+
 overlap_option = click.option(
     "--overlap",
     is_flag=True,
-    default=False,
+    default=default_overlap,
+    show_default=f"{OVERLAP_VARIABLE}, else off",
     help="Workers keep playing while the trainer updates: iteration k+1 is queued as soon as k's episodes are in, "
     "played with checkpoint k, and trained with each episode's own log-probabilities (docs/training.md, Overlap). "
     "Without it, DeepRacer's strict alternation; an overlapped run is not reproducible for a seed.",

@@ -170,3 +170,29 @@ def test_rollout_and_evaluation_build_the_same_env_from_the_same_settings(tmp_pa
         assert (evaluated.reset_position, evaluated.reverse_penalty_s) == ("deepracer", None)
     assert run.model_metadata != DEFAULT_MODEL_METADATA  # the stored model, not the default, reached both envs
     assert rollout.model_metadata == evaluated.model_metadata == run.model_metadata
+
+
+def test_racer_overlap_is_read_as_a_boolean_and_anything_else_is_refused():
+    from racer.shared.config import overlap_setting
+
+    assert [overlap_setting({"RACER_OVERLAP": v}) for v in ("True", "1", " yes ", "false", "0", "")] == [
+        True,
+        True,
+        True,
+        False,
+        False,
+        False,
+    ]
+    assert overlap_setting({}) is False
+    with pytest.raises(ValueError, match="RACER_OVERLAP='maybe'"):
+        overlap_setting({"RACER_OVERLAP": "maybe"})
+
+
+def test_overlap_option_takes_its_default_from_racer_overlap(monkeypatch):
+    from click.testing import CliRunner
+
+    from racer.trainer.cli import trainer_command
+
+    monkeypatch.setenv("RACER_OVERLAP", "nonsense")
+    result = CliRunner().invoke(trainer_command, ["--model-prefix", "m", "--custom-files", ".", "--max-episodes", "1"])
+    assert result.exit_code == 2 and "RACER_OVERLAP='nonsense'" in result.output, result.output
