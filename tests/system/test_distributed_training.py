@@ -275,11 +275,11 @@ def test_redis_restart_mid_run(system, redis_server):
 
 
 def test_clone_with_different_action_count_is_a_clear_error(system, custom_files, tmp_path):
+    """The trainer process refuses before it starts. The clone check reads the source's model/model_metadata.json
+    alone (racer.trainer.preflight.check_clone_source), so the source is that file, as a finished run leaves it
+    (a trainer that clones a stored model: tests/model_io/test_model_sac.py::test_sac_clones_sac)."""
     store = open_store(system.settings.store)
-    system.start_trainer(max_episodes=2)
-    system.start_worker(0)
-    system.start_worker(1)
-    assert system.wait_trainer(600) == 0
+    store.put_bytes(f"{system.prefix}/model/model_metadata.json", (custom_files / "model_metadata.json").read_bytes())
     clone_files = tmp_path / "clone_files"
     clone_files.mkdir()
     for name in ("reward_function.py", "hyperparameters.json"):
