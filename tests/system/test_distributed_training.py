@@ -221,15 +221,24 @@ def test_worker_killed_mid_iteration(system):
     assert episodes == [episode - 1 for episode in training[-len(episodes) :]]
 
 
-def test_trainer_killed_and_restarted_resumes(system):
+def test_redis_restart_mid_run_then_the_trainer_killed_and_restarted_resumes(system, redis_server):
+    """One run, two faults: Redis restarts after checkpoint 1 and the trainer and workers train on through it to
+    checkpoint 2; then the trainer is killed (-9), and a new one resumes from the last checkpoint and finishes."""
     store = open_store(system.settings.store)
     trainer = system.start_trainer(max_episodes=6)
     system.start_worker(0)
     system.start_worker(1)
-    deadline = time.monotonic() + 300
-    while time.monotonic() < deadline and checkpoint_numbers(store, system.prefix)[-1:] != [1]:
-        time.sleep(0.3)
-    assert checkpoint_numbers(store, system.prefix)[-1] >= 1
+
+    def wait_for_checkpoint(number: int) -> None:
+        deadline = time.monotonic() + 300
+        while time.monotonic() < deadline and checkpoint_numbers(store, system.prefix)[-1:] != [number]:
+            assert trainer.poll() is None, system.log_text("trainer")[-3000:]
+            time.sleep(0.3)
+        assert checkpoint_numbers(store, system.prefix)[-1:] == [number], system.log_text("trainer")[-3000:]
+
+    wait_for_checkpoint(1)
+    redis_server.restart()
+    wait_for_checkpoint(2)  # trained on through the restart
     trainer.send_signal(signal.SIGKILL)
     trainer.wait()
     before = checkpoint_numbers(store, system.prefix)
@@ -259,19 +268,6 @@ def test_sigterm_stops_the_trainer_cleanly_and_the_workers_follow(system):
     assert "Training finished at checkpoint" in system.log_text("trainer")
     for worker in workers:
         assert worker.wait(60) == 0
-
-
-def test_redis_restart_mid_run(system, redis_server):
-    store = open_store(system.settings.store)
-    system.start_trainer(max_episodes=6)
-    system.start_worker(0)
-    system.start_worker(1)
-    deadline = time.monotonic() + 300
-    while time.monotonic() < deadline and not checkpoint_numbers(store, system.prefix)[-1:] == [1]:
-        time.sleep(0.3)
-    redis_server.restart()
-    assert system.wait_trainer(600) == 0, system.log_text("trainer")[-3000:]
-    assert checkpoint_numbers(store, system.prefix)[-1] == 3
 
 
 def test_clone_with_different_action_count_is_a_clear_error(system, custom_files, tmp_path):
