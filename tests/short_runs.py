@@ -1,5 +1,6 @@
 """Short real training runs (`racer train` end to end, two workers, a few episodes) for tests that need finished runs
-in a store: the compare page, the viewer's run list."""
+in a store: the compare page, the viewer's run list. tests/conftest.py's session fixture `two_short_runs` trains
+the two runs of `train_two_short_runs` once for both."""
 
 from __future__ import annotations
 
@@ -8,6 +9,8 @@ import os
 import subprocess
 import sys
 from pathlib import Path
+
+from tests.conftest import write_custom_files
 
 CENTRE_REWARD = '''def reward_function(params):
     """Stay near the centre line."""
@@ -55,3 +58,19 @@ def train_short_run(store: Path, workdir: Path, model: str, custom_files: Path, 
 def set_hyperparameters(custom_files: Path, **values: object) -> None:
     path = custom_files / "hyperparameters.json"
     path.write_text(json.dumps({**json.loads(path.read_text()), **values}))
+
+
+BASELINE = "baseline"
+CENTRE = "centre-reward"
+
+
+def train_two_short_runs(root: Path) -> tuple[Path, Path]:
+    """Two runs in one store, root/store: a baseline (4 episodes, 2 iterations), and one with another reward
+    function, more epochs and a longer episode limit (6 episodes, 3 iterations); their model folders."""
+    store = root / "store"
+    baseline = write_custom_files(root / "baseline-files")
+    centre = write_custom_files(root / "centre-files", reward_source=CENTRE_REWARD)
+    set_hyperparameters(centre, num_epochs=5)
+    first = train_short_run(store, root, BASELINE, baseline, "--max-episodes", "4")
+    second = train_short_run(store, root, CENTRE, centre, "--max-episodes", "6")
+    return first, second

@@ -15,7 +15,7 @@ from PIL import Image
 
 from racer.compare.cli import compare_command
 from racer.shared.store import S3Store
-from tests.compare.conftest import BASELINE, CENTRE
+from tests.short_runs import BASELINE, CENTRE
 from tests.viewer.conftest import DRFC_MODEL, write_drfc_run
 
 pytestmark = [pytest.mark.slow, pytest.mark.serial]  # two real training runs keep both cores busy

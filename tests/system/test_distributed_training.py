@@ -235,15 +235,24 @@ def test_worker_killed_mid_iteration(system, mode):
 
 
 @pytest.mark.parametrize("mode", MODES)
-def test_trainer_killed_and_restarted_resumes(system, mode):
+def test_redis_restart_mid_run_then_the_trainer_killed_and_restarted_resumes(system, redis_server, mode):
+    """One run, two faults: Redis restarts after checkpoint 1 and the trainer and workers train on through it to
+    checkpoint 2; then the trainer is killed (-9), and a new one resumes from the last checkpoint and finishes."""
     store = open_store(system.settings.store)
     trainer = system.start_trainer(6, *MODES[mode])
     system.start_worker(0)
     system.start_worker(1)
-    deadline = time.monotonic() + 300
-    while time.monotonic() < deadline and checkpoint_numbers(store, system.prefix)[-1:] != [1]:
-        time.sleep(0.3)
-    assert checkpoint_numbers(store, system.prefix)[-1] >= 1
+
+    def wait_for_checkpoint(number: int) -> None:
+        deadline = time.monotonic() + 300
+        while time.monotonic() < deadline and checkpoint_numbers(store, system.prefix)[-1:] != [number]:
+            assert trainer.poll() is None, system.log_text("trainer")[-3000:]
+            time.sleep(0.3)
+        assert checkpoint_numbers(store, system.prefix)[-1:] == [number], system.log_text("trainer")[-3000:]
+
+    wait_for_checkpoint(1)
+    redis_server.restart()
+    wait_for_checkpoint(2)  # trained on through the restart
     trainer.send_signal(signal.SIGKILL)
     trainer.wait()
     before = checkpoint_numbers(store, system.prefix)
@@ -275,26 +284,12 @@ def test_sigterm_stops_the_trainer_cleanly_and_the_workers_follow(system):
         assert worker.wait(60) == 0
 
 
-@pytest.mark.parametrize("mode", MODES)
-def test_redis_restart_mid_run(system, redis_server, mode):
-    store = open_store(system.settings.store)
-    system.start_trainer(6, *MODES[mode])
-    system.start_worker(0)
-    system.start_worker(1)
-    deadline = time.monotonic() + 300
-    while time.monotonic() < deadline and not checkpoint_numbers(store, system.prefix)[-1:] == [1]:
-        time.sleep(0.3)
-    redis_server.restart()
-    assert system.wait_trainer(600) == 0, system.log_text("trainer")[-3000:]
-    assert checkpoint_numbers(store, system.prefix)[-1] == 3
-
-
 def test_clone_with_different_action_count_is_a_clear_error(system, custom_files, tmp_path):
+    """The trainer process refuses before it starts. The clone check reads the source's model/model_metadata.json
+    alone (racer.trainer.preflight.check_clone_source), so the source is that file, as a finished run leaves it
+    (a trainer that clones a stored model: tests/model_io/test_model_sac.py::test_sac_clones_sac)."""
     store = open_store(system.settings.store)
-    system.start_trainer(max_episodes=2)
-    system.start_worker(0)
-    system.start_worker(1)
-    assert system.wait_trainer(600) == 0
+    store.put_bytes(f"{system.prefix}/model/model_metadata.json", (custom_files / "model_metadata.json").read_bytes())
     clone_files = tmp_path / "clone_files"
     clone_files.mkdir()
     for name in ("reward_function.py", "hyperparameters.json"):

@@ -1,16 +1,18 @@
-"""A short object-avoidance training through `racer train` (real Redis, real workers): simtraces with crashes, which
-`racer analyze` counts per episode and iteration."""
+"""A short object-avoidance training through `racer train` (real Redis, real workers): it runs to its episode limit
+and leaves no process behind, and its simtraces hold crashes, which `racer analyze` counts per episode and
+iteration."""
 
 from __future__ import annotations
 
 import csv
+import time
 
 import pandas as pd
 import pytest
 from click.testing import CliRunner
 
 from racer.analysis.cli import analyze_command
-from tests.system.test_local_run import racer_train, small_custom_files  # noqa: F401  (fixture)
+from tests.system.test_local_run import processes_mentioning, racer_train, small_custom_files  # noqa: F401
 
 pytestmark = [pytest.mark.slow, pytest.mark.serial]  # they time their own processes
 
@@ -29,7 +31,12 @@ def test_object_avoidance_training_writes_crashes_that_the_analysis_counts(tmp_p
     )
     output, _ = process.communicate(timeout=600)
     assert process.returncode == 0, output[-4000:]
+    assert "iteration   0" in output and "iteration   1" in output, output[-3000:]
     model = tmp_path / "store" / "local-model"
+    assert (model / "model" / ".coach_checkpoint").read_text().startswith("2_Step-")  # 4 episodes, 2 per iteration
+    assert (model / "model" / ".finished").is_file()
+    time.sleep(1)
+    assert processes_mentioning(str(tmp_path)) == []
     rows = []
     for path in sorted(model.glob("*/training-simtrace/*-iteration.csv")):
         with path.open() as handle:

@@ -112,7 +112,8 @@ def test_kill_9_of_the_embedded_redis_loses_no_episode(tmp_path, mode):
 
 
 def test_sigterm_with_redis_hung_stops_everything_within_30_s(tmp_path, small_custom_files):
-    """A stopped (SIGSTOP) redis-server: alive, so nobody restarts it, and it answers nothing."""
+    """A stopped (SIGSTOP) redis-server: alive, so nobody restarts it, and it answers nothing. Also what Ctrl-C does
+    (racer train handles SIGINT and SIGTERM alike): the final checkpoint, .finished, no process left."""
     process = racer_train(tmp_path, small_custom_files, "--max-episodes", "1000")
     model = tmp_path / "store" / "local-model" / "model"
     try:
@@ -132,7 +133,10 @@ def test_sigterm_with_redis_hung_stops_everything_within_30_s(tmp_path, small_cu
     assert processes_mentioning(str(tmp_path)) == []
     assert (model / ".finished").is_file()
     checkpoints = CheckpointStore(LocalStore(tmp_path / "store"), "local-model")
-    checkpoints.load_policy(checkpoints.latest_name())  # the final checkpoint is complete
+    final = checkpoints.latest_name()
+    checkpoints.load_policy(final)  # the pointer names the final checkpoint, complete and loadable
+    trainer_log = (tmp_path / "store" / ".runs" / "local-model" / "trainer.log").read_text()
+    assert f"Training finished at checkpoint {final.split('_')[0]} " in trainer_log
 
 
 def test_with_redis_dead_the_trainer_honours_max_minutes_and_workers_stop_on_sigterm(

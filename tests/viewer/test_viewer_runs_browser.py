@@ -1,6 +1,7 @@
 """The live page in a real browser (Debian's chromium) lists the runs of its store and lays a finished run's curves
 over the running one's; its header shows how far the run is and how long it has left. A real `racer train` runs
-beside a finished short run in the same store. The test leaves a screenshot at .pytest_cache/d/viewer/runs.png."""
+beside a finished short run in the same store (tests/conftest.py's `two_short_runs`, which the compare tests read
+too: trained once). The test leaves a screenshot at .pytest_cache/d/viewer/runs.png."""
 
 from __future__ import annotations
 
@@ -16,12 +17,13 @@ import pytest
 
 from tests.browser import wait_for
 from tests.conftest import write_custom_files
-from tests.short_runs import train_args, train_env, train_short_run
+from tests.short_runs import CENTRE, train_args, train_env
 from tests.viewer.conftest import free_port
 
 pytestmark = [pytest.mark.slow, pytest.mark.serial]  # they time their own processes
 
-FINISHED = "finished-run"
+FINISHED = CENTRE
+"""The shared runs' 6-episode run."""
 LIVE = "live-run"
 
 OVERLAY_REWARDS = """const chart = window.racerViewer.charts.reward;
@@ -29,10 +31,10 @@ const set = chart.data.datasets.find(d => d.label === arguments[0]);
 return set ? [set.data.filter(v => v !== null), set.borderDash] : null;"""
 
 
-def test_the_live_page_overlays_a_finished_run_of_its_store(tmp_path, browser, request):
-    store = tmp_path / "store"
+def test_the_live_page_overlays_a_finished_run_of_its_store(two_short_runs, tmp_path, browser, request):
+    finished = two_short_runs[1]
+    store = finished.parent
     custom_files = write_custom_files(tmp_path / "custom_files")
-    finished = train_short_run(store, tmp_path, FINISHED, custom_files, "--max-episodes", "6")
     logged = [json.loads(line) for line in (finished / "metrics" / "iterations.jsonl").read_text().splitlines()]
 
     port = free_port()
