@@ -13,7 +13,7 @@ from contextlib import contextmanager
 
 import numpy as np
 
-from racer.racing_line.limits import CarLimits
+from racer.racing_line.limits import CarLimits, LapTimeBoundError
 from racer.shared.sim.car import vehicle as car
 from racer.shared.sim.config import STEPS_PER_SECOND
 
@@ -30,9 +30,15 @@ SPEED_RISE_MPS = 0.01
 
 
 def torch_module():
-    """torch, imported when a line is computed: the workers' image has no torch, and they never compute one."""
-    import torch
-
+    """torch, imported when a line is computed (its autograd gives the lap time's gradient). The worker image has no
+    torch: there a line cannot be computed, and what asks for one (racer analyze, the viewer) says so and goes on."""
+    try:
+        import torch
+    except ModuleNotFoundError as error:
+        raise LapTimeBoundError(
+            "computing the racing line needs torch, which this installation lacks (the worker image has none; "
+            "the trainer image and a pip install of racer have it)"
+        ) from error
     return torch
 
 

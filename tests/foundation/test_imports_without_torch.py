@@ -56,3 +56,29 @@ def test_the_probe_sees_torch_when_a_module_imports_it():
     )
     assert result.returncode == 0, result.stderr
     assert "torch" in result.stdout
+
+
+_LINE_WITHOUT_TORCH = """
+import sys
+
+class Refuse:
+    def find_spec(self, name, path=None, target=None):
+        if name.split(".")[0] == "torch":
+            raise ModuleNotFoundError("No module named 'torch'", name="torch")
+        return None
+
+sys.meta_path.insert(0, Refuse())
+from racer.analysis.run_line import LineBook, run_car
+from racer.shared.sim.tracks.track import Track
+
+car = run_car({"WORLD_NAME": "racer_oval", "RACER_GENERATION": "simapp6"}, "params", Track.load("racer_oval"))
+print(LineBook().line(car))
+"""
+
+
+def test_without_torch_a_racing_line_is_a_reason_not_a_crash():
+    """`racer analyze` and the viewer run in the worker image: there the line comparison says why it is missing
+    (the compose smoke test's analysis service once died of the ModuleNotFoundError)."""
+    result = subprocess.run([sys.executable, "-c", _LINE_WITHOUT_TORCH], capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stderr[-3000:]
+    assert "computing the racing line needs torch" in result.stdout, result.stdout
