@@ -5,9 +5,16 @@ Every step's need is a commanded speed and a lateral acceleration (left or right
 tolerances are one action: in speed, what the drive changes in one control period (brake limit × 1/15 s, in command
 units); in lateral acceleration, the margin the held line keeps below the tyres' peak (`line_needs.HELD_SLIP`): an
 action off by more would spend all of it. The clusters (k-means on the needs scaled by the tolerances, fewest that
-put every step within one tolerance of an action, scipy) become actions turning both ways (a policy that
-corrects a drift needs the other side too), each steering the steady turn of its cluster's centre. Three more let the
-car recover: straight at the top speed, and the line's largest steering both ways at its speed.
+put every step within one tolerance of an action or of a mix of two, scipy) become actions turning both ways (a
+policy that corrects a drift needs the other side too), each steering the steady turn of its cluster's centre. Three
+more let the car recover: straight at the top speed, and the line's largest steering both ways at its speed.
+
+A mix of two actions is a point on the segment between them: the car's drive and steering servo answer with a lag
+(`simapp6`: 0.066 s each, one control period), so a policy that alternates two actions from frame to frame drives
+between them, as DeepRacer's fast discrete models do on their way into and out of a corner. A first-order lag tau fed
+a command that alternates every period dt swings ± half the two actions' difference × tanh(dt / 2 tau) about their
+mean: two actions make a mix only while that swing stays within one tolerance (`mix_span`: 4.3 tolerances apart for
+`simapp6`). A step's need farther than a tolerance from every action and every mix is one no action serves.
 """
 
 from __future__ import annotations
@@ -18,7 +25,14 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.cluster.vq import kmeans2
 
-from racer.recipe.line_needs import HELD_SLIP, STEP_S, LineNeeds, steady_steering_deg, step_samples
+from racer.recipe.line_needs import (
+    HELD_SLIP,
+    STEP_S,
+    LineNeeds,
+    drive_time_constant_s,
+    steady_steering_deg,
+    step_samples,
+)
 from racer.shared.deepracer.model_metadata import (
     MAX_DISCRETE_ACTIONS,
     MAX_SPEED_MPS,
@@ -34,6 +48,9 @@ STEERING_STEP_DEG = 0.1
 """Steering to a tenth of a degree: at 4 m/s a whole degree is more than a tolerance (docs/racing.md)."""
 CLUSTER_SEED = 0
 """k-means++ draws its first centres: a fixed seed makes the same line give the same actions."""
+CLUSTER_TRIES = 8
+"""k-means minimises the mean distance, the rule asks for the largest: of this many draws, the one whose farthest step
+is nearest."""
 
 
 @dataclass(frozen=True)
@@ -48,7 +65,8 @@ class DiscreteSpace:
     actions: tuple[Action, ...]
     clusters: int
     worst_distance: float
-    """The farthest step's distance to its cluster in tolerances (≤ 1 unless the action limit stopped the search)."""
+    """The farthest step's distance, in tolerances, to its nearest cluster or mix of two clusters (≤ 1 unless the
+    action limit stopped the search)."""
     speed_tolerance_mps: float
     accel_tolerance_mps2: float
 
@@ -70,10 +88,11 @@ def discrete_space(needs: LineNeeds, dynamics: CarDynamics) -> DiscreteSpace:
     commands, accels, _ = step_samples(needs)
     speed_tol, accel_tol = tolerances(needs)
     scaled = np.column_stack((commands / speed_tol, np.abs(accels) / accel_tol))
+    span = mix_span(dynamics)
     recover = _recovery_actions(needs.commands_mps, needs.steering_deg)
     best: tuple[tuple[Action, ...], int, float] | None = None
     for count in range(1, len(scaled) + 1):
-        centres, worst = _clusters(scaled, count)
+        centres, worst = _clusters(scaled, count, span)
         actions = _dedupe(
             recover[:1] + _cluster_actions(centres * (speed_tol, accel_tol), needs, dynamics) + recover[1:]
         )
@@ -93,14 +112,39 @@ def continuous_space(needs: LineNeeds) -> dict:
     return {"steering_angle": {"low": -lock, "high": lock}, "speed": {"low": round(low, 1), "high": MAX_SPEED_MPS}}
 
 
-def _clusters(scaled: np.ndarray, count: int) -> tuple[np.ndarray, float]:
-    """k-means centres of the scaled needs and the largest distance of a need to its centre."""
+def mix_span(dynamics: CarDynamics) -> float:
+    """How far apart (in tolerances) two actions may be for the car to drive their mix: the faster of its drive and
+    servo lags swings ± half the span × tanh(dt / 2 tau) when they alternate every frame, at most one tolerance."""
+    lag_s = min(drive_time_constant_s(dynamics), dynamics.steering_time_constant_s)
+    return 2.0 / math.tanh(STEP_S / (2.0 * max(lag_s, 1e-9)))
+
+
+def _clusters(scaled: np.ndarray, count: int, span: float) -> tuple[np.ndarray, float]:
+    """k-means centres of the scaled needs and the largest distance of a need to its nearest centre or mix of two
+    centres no more than `span` apart."""
     if count == 1:
         centres = scaled.mean(axis=0, keepdims=True)
-    else:
-        centres, _ = kmeans2(scaled, count, iter=50, minit="++", seed=np.random.default_rng(CLUSTER_SEED))
-    distance = np.linalg.norm(scaled[:, None, :] - centres[None, :, :], axis=2).min(axis=1)
-    return centres, float(distance.max())
+        return centres, float(mix_distances(scaled, centres, span).max())
+    rng = np.random.default_rng(CLUSTER_SEED)
+    tries = [kmeans2(scaled, count, iter=50, minit="++", seed=rng)[0] for _ in range(CLUSTER_TRIES)]
+    worst = [float(mix_distances(scaled, centres, span).max()) for centres in tries]
+    best = int(np.argmin(worst))
+    return tries[best], worst[best]
+
+
+def mix_distances(points: np.ndarray, centres: np.ndarray, span: float) -> np.ndarray:
+    """Each point's distance to the nearest of the centres and of the segments between two of them at most `span`
+    apart."""
+    distance = np.linalg.norm(points[:, None, :] - centres[None, :, :], axis=2).min(axis=1)
+    for first in range(len(centres)):
+        for second in range(first + 1, len(centres)):
+            start, span_vector = centres[first], centres[second] - centres[first]
+            if float(np.linalg.norm(span_vector)) > span:
+                continue
+            along = np.clip((points - start) @ span_vector / max(float(span_vector @ span_vector), 1e-12), 0, 1)
+            nearest = start + along[:, None] * span_vector
+            distance = np.minimum(distance, np.linalg.norm(points - nearest, axis=1))
+    return distance
 
 
 def _cluster_actions(centres: np.ndarray, needs: LineNeeds, dynamics: CarDynamics) -> list[Action]:

@@ -71,10 +71,15 @@ def held_limits(limits: CarLimits) -> CarLimits:
     return dataclasses.replace(limits, lateral_accel_mps2=math.tanh(HELD_SLIP) * limits.lateral_accel_mps2)
 
 
+def drive_time_constant_s(dynamics: CarDynamics) -> float:
+    """How long the drive takes to answer a new speed command (mass / drive stiffness: a first-order lag)."""
+    return car.TOTAL_MASS_KG / dynamics.tyres.drive_stiffness_n_per_mps
+
+
 def command_lead_s(dynamics: CarDynamics) -> float:
     """How far ahead a speed is commanded: one control period (an action drives from the next frame on) plus the
-    drive's time constant (mass / drive stiffness)."""
-    return STEP_S + car.TOTAL_MASS_KG / dynamics.tyres.drive_stiffness_n_per_mps
+    drive's time constant."""
+    return STEP_S + drive_time_constant_s(dynamics)
 
 
 def steady_steering_deg(

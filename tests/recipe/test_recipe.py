@@ -16,10 +16,10 @@ import pytest
 from click.testing import CliRunner
 
 from racer.racing_line import CarLimits, racing_line
-from racer.recipe.action_space import discrete_space, tolerances
+from racer.recipe.action_space import discrete_space, mix_distances, mix_span, tolerances
 from racer.recipe.cli import recipe_command
 from racer.recipe.folder import RECIPE_FILES, Car, recipe_from_line, write_recipe
-from racer.recipe.line_needs import line_needs, steady_steering_deg
+from racer.recipe.line_needs import drive_time_constant_s, line_needs, steady_steering_deg
 from racer.recipe.reward_source import waypoint_table
 from racer.reward.check import check_reward_file
 from racer.reward.probes import Pose, params_at
@@ -82,6 +82,46 @@ def test_the_reward_pays_the_line_at_its_speed_more_than_off_it_or_slower(made):
     assert on_line > reward({**params, "x": x, "y": y, "speed": target / 2})
     assert on_line > reward({**params, "x": x + 0.25 * params["track_width"], "y": y, "speed": target})
     assert reward({**params, "is_offtrack": True}) == pytest.approx(1e-3)
+
+
+def test_a_lap_at_half_the_line_s_pace_earns_half_as_much(made):
+    """Each term is s^2 a step at a share s of the line's pace, and such a lap takes 1/s times the steps."""
+    route, line, folders = made
+    reward = load_reward_function(folders["discrete"] / "reward_function.py")
+    module = {
+        node.targets[0].id: ast.literal_eval(node.value)
+        for node in ast.parse((folders["discrete"] / "reward_function.py").read_text()).body
+        if isinstance(node, ast.Assign) and isinstance(node.targets[0], ast.Name) and node.targets[0].id.isupper()
+    }
+    params = params_at(route, Pose(0.4, 0.0, 0.0, (0.0, 1.0)), [])
+    x, y, target = waypoint_table(route, _needs(line))[params["closest_waypoints"][0]]
+
+    def step(share: float) -> float:
+        steps = 40.0
+        progress = share * module["LINE_PROGRESS_PER_STEP"] * steps
+        return reward({**params, "x": x, "y": y, "speed": share * target, "steps": steps, "progress": progress})
+
+    assert step(1.0) == pytest.approx(2.0, rel=1e-3)  # pace 1 and the line at its speed
+    assert step(0.5) == pytest.approx(step(1.0) / 4, rel=1e-3)  # x 2 the steps: half the lap's pay
+    lap_steps = module["LAP_STEPS"]
+    done = {**params, "x": x, "y": y, "speed": target, "progress": 100.0}
+    bonus_fast = reward({**done, "steps": float(lap_steps)}) - reward({**done, "progress": 99.9, "steps": lap_steps})
+    assert bonus_fast == pytest.approx(lap_steps, rel=0.01)
+    slow_end = reward({**done, "steps": 2.0 * lap_steps}) - reward({**done, "progress": 99.9, "steps": 2.0 * lap_steps})
+    assert slow_end == pytest.approx(lap_steps / 2, rel=0.01)
+
+
+def test_two_actions_close_enough_serve_the_needs_between_them():
+    """A mix is the segment between two centres no farther apart than the car's lags smooth."""
+    span = mix_span(CAR.dynamics)
+    lag_s = min(CAR.dynamics.steering_time_constant_s, drive_time_constant_s(CAR.dynamics))
+    assert span == pytest.approx(2 / math.tanh(1 / 15 / (2 * lag_s)))
+    assert 4.0 < span < 4.6  # simapp6: both lags about one control period
+    assert mix_span(generation("2019").car) < span  # a quicker servo smooths less
+    centres = np.array([[0.0, 0.0], [4.0, 0.0]])
+    between = np.array([[2.0, 0.0], [2.0, 0.5], [5.0, 0.0]])
+    assert mix_distances(between, centres, span) == pytest.approx([0.0, 0.5, 1.0])
+    assert mix_distances(between, centres, 3.0) == pytest.approx([2.0, np.hypot(2.0, 0.5), 1.0])  # too far apart
 
 
 def test_the_discrete_space_is_within_deepracer_on_aws_limits_and_holds_the_line_s_needs(made):
