@@ -36,7 +36,7 @@ from racer.local.run import LocalRunPlan, run_local_training
 from racer.options.generation import generation_option
 from racer.options.track import TRACK_HELP, direction_option
 from racer.options.trainer import device_option
-from racer.options.training import seed_option, workers_option
+from racer.options.training import overlap_option, seed_option, workers_option
 from racer.racing_line import CarLimits, LapTimeBoundError, RacingLine, racing_line
 from racer.recipe.folder import Car, Recipe, RecipeError, make_recipe, write_recipe
 from racer.shared.config import LocalStoreSettings, RedisSettings, ServiceSettings
@@ -98,6 +98,7 @@ KEPT_STORE = "kept"
 )
 @generation_option
 @device_option
+@overlap_option
 @seed_option
 @click.option(
     "--picture",
@@ -115,6 +116,7 @@ def race_pace_command(
     hyperparameter_pairs,
     generation,
     device,
+    overlap,
     seed,
     picture,
     bound_only,
@@ -127,7 +129,7 @@ def race_pace_command(
     except DeviceError as error:
         raise click.UsageError(str(error)) from error
     overrides = hyperparameter_overrides(hyperparameter_pairs)
-    run = RunOptions(num_workers=num_workers, track=str(track), generation=generation)
+    run = RunOptions(num_workers=num_workers, track=str(track), generation=generation, overlap=overlap)
     with bench_workdir("racer-race-pace-") as workdir:
         recipe = None if custom_files else _recipe(str(track), generation, run.worlds[0], action_space, workdir)
         source = custom_files or workdir / "recipe"
@@ -152,6 +154,7 @@ def race_pace_command(
             "recipe": str(custom_files) if custom_files else f"racer recipe {track} --action-space {action_space}",
             "minutes": minutes,
             "workers": num_workers,
+            "overlap": overlap,
             "seed": seed,
             "device": trainer_device,
             "cpu": cpu_description(),

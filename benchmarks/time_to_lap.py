@@ -18,7 +18,7 @@ from benchmarks.workdir import bench_workdir, cpu_description, read_iteration_re
 from racer.local.run import LocalRunPlan, run_local_training
 from racer.options.track import direction_option, track_option
 from racer.options.trainer import trainer_run_options
-from racer.options.training import seed_option, workers_option
+from racer.options.training import overlap_option, seed_option, workers_option
 from racer.shared.config import LocalStoreSettings, RedisSettings, ServiceSettings
 from racer.shared.deepracer.hyperparameters import HyperparametersError, parse_hyperparameters
 from racer.shared.run_settings import RunOptions
@@ -107,6 +107,7 @@ from racer.trainer.device import DeviceError, describe_device, resolve_device
     help="A preset.json (docs/custom-networks.md).",
 )
 @trainer_run_options
+@overlap_option
 @seed_option
 @data_option
 def time_to_lap_command(
@@ -131,6 +132,7 @@ def time_to_lap_command(
     car_profile,
     generation,
     dynamics_randomization,
+    overlap,
     seed,
     data_dir,
 ):
@@ -207,6 +209,7 @@ def time_to_lap_command(
                 generation=generation,
                 dynamics_randomization=dynamics_randomization,
                 challenge_params=setup.challenge_params,
+                overlap=overlap,
             ),
             max_episodes=None,
             max_minutes=time_limit_minutes,
@@ -227,6 +230,7 @@ def time_to_lap_command(
             "generation": generation,
             "car_profile": car_profile,
             "dynamics_randomization": dynamics_randomization,
+            "overlap": overlap,
             "cpu": cpu_description(),
             "minutes": None,
             "env_steps": None,

@@ -162,6 +162,7 @@ def test_a_short_run_prints_one_json_line_with_every_figure(tmp_path, monkeypatc
     assert len(lines) == 1  # the run's progress went to stderr
     line = json.loads(lines[0])
     assert line["track"] == "racer_oval" and line["minutes"] == 0.5 and line["workers"] == 1
+    assert line["overlap"] is False  # strict unless --overlap (or RACER_OVERLAP)
     assert line["evaluations"] >= 1 and len(line["curve"]) == line["evaluations"]
     assert all(len(checkpoint["laps_s"]) <= 3 for checkpoint in line["checkpoints"])
     assert all(point["minutes"] <= 0.5 for point in line["curve"])
