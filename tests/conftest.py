@@ -46,7 +46,7 @@ def simapp_tracks_offline(tmp_path_factory) -> Iterator[None]:
 @pytest.fixture(scope="session")
 def two_short_runs(tmp_path_factory) -> tuple[Path, Path]:
     """Two short real runs in one store (tests.short_runs.train_two_short_runs), trained once for the compare page
-    and the viewer's run list (both serial: one process, one session)."""
+    and the viewer's run list (their modules share the xdist_group "two_short_runs": one worker, one session)."""
     from tests.short_runs import train_two_short_runs
 
     return train_two_short_runs(tmp_path_factory.mktemp("short-runs"))

@@ -20,7 +20,8 @@ from tests.conftest import write_custom_files
 from tests.short_runs import CENTRE, train_args, train_env
 from tests.viewer.conftest import free_port
 
-pytestmark = [pytest.mark.slow, pytest.mark.serial]  # they time their own processes
+# a browser and two real training runs (tests/conftest.py's two_short_runs), made once for its group
+pytestmark = [pytest.mark.slow, pytest.mark.heavy, pytest.mark.xdist_group("two_short_runs")]
 
 FINISHED = CENTRE
 """The shared runs' 6-episode run."""
