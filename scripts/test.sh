@@ -6,10 +6,9 @@
 #      trains two iterations in containers, checks MinIO, then the same on a single-node swarm);
 #   3. pytest against real redis-server and MinIO processes, in three phases: every test not marked `heavy` or
 #      `serial` on two pytest-xdist workers (most tests use one core); then the `heavy` ones (they start training
-#      runs, a browser, a wheel build) two at a time, so that one's waits overlap the other's work (--dist loadgroup:
-#      the tests of one xdist_group, which share a session fixture, stay on one worker); then the `serial` ones (they
-#      assert a tight wall-time bound) one at a time; each phase ends with its 25 slowest tests, and the script
-#      prints the whole run's time (goal: 20 minutes on 2 cores).
+#      runs, a browser, a wheel build) two at a time, test by test, so that one's waits overlap the other's work; then
+#      the `serial` ones (they assert a tight wall-time bound) one at a time; each phase ends with its 25 slowest
+#      tests, and the script prints the whole run's time (goal: 20 minutes on 2 cores).
 # RACER_TEST_DOCKER=0 skips step 2 (a quick local run); extra arguments make step 3 one plain pytest run with them,
 # e.g. `-m "not slow"` for the fast loop (docs/getting-started.md).
 set -euo pipefail
@@ -33,7 +32,7 @@ echo "[test] pytest, phase 1 of 3: the tests marked neither heavy nor serial, on
 .venv/bin/python -m pytest -n 2 --dist loadscope -m "not heavy and not serial" --durations=25
 parallel_s=$SECONDS
 echo "[test] pytest, phase 2 of 3: the heavy tests, two at a time"
-.venv/bin/python -m pytest -n 2 --dist loadgroup -m "heavy and not serial" --durations=25
+.venv/bin/python -m pytest -n 2 --dist load -m "heavy and not serial" --durations=25
 heavy_s=$((SECONDS - parallel_s))
 echo "[test] pytest, phase 3 of 3: the serial tests, one at a time"
 .venv/bin/python -m pytest -m serial --durations=25

@@ -10,8 +10,7 @@ from click.testing import CliRunner
 
 from racer.compare.cli import compare_command
 
-# two real training runs (tests/conftest.py's two_short_runs), made once for its group
-pytestmark = [pytest.mark.slow, pytest.mark.heavy, pytest.mark.xdist_group("two_short_runs")]
+pytestmark = [pytest.mark.slow, pytest.mark.heavy]  # two real training runs (tests/conftest.py's two_short_runs)
 
 HIGHLIGHT = "rgba(255, 233, 168, 1)"
 """The marked rows' background (racer.compare.page STYLE #ffe9a8)."""

@@ -20,8 +20,7 @@ from tests.conftest import write_custom_files
 from tests.short_runs import CENTRE, train_args, train_env
 from tests.viewer.conftest import free_port
 
-# a browser and two real training runs (tests/conftest.py's two_short_runs), made once for its group
-pytestmark = [pytest.mark.slow, pytest.mark.heavy, pytest.mark.xdist_group("two_short_runs")]
+pytestmark = [pytest.mark.slow, pytest.mark.heavy]  # a training run, a browser, the two_short_runs
 
 FINISHED = CENTRE
 """The shared runs' 6-episode run."""
