@@ -45,11 +45,14 @@ def simapp_tracks_offline(tmp_path_factory) -> Iterator[None]:
 
 @pytest.fixture(scope="session")
 def two_short_runs(tmp_path_factory) -> tuple[Path, Path]:
-    """Two short real runs in one store (tests.short_runs.train_two_short_runs), trained once for the compare page
-    and the viewer's run list (both serial: one process, one session)."""
-    from tests.short_runs import train_two_short_runs
+    """Two short real runs in one store (tests.short_runs.train_two_short_runs), trained once per pytest run for the
+    compare page and the viewer's run list: pytest-xdist workers share them (the first to ask trains them under a
+    file lock while the other waits), so those tests may run on either worker."""
+    from tests.short_runs import shared_short_runs
 
-    return train_two_short_runs(tmp_path_factory.mktemp("short-runs"))
+    base = tmp_path_factory.getbasetemp()
+    # A worker's basetemp is popen-gw<N> in the run's own folder, which the controller removes after a passing run.
+    return shared_short_runs(base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base)
 
 
 @pytest.fixture(scope="session")

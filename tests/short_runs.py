@@ -1,9 +1,10 @@
 """Short real training runs (`racer train` end to end, two workers, a few episodes) for tests that need finished runs
 in a store: the compare page, the viewer's run list. tests/conftest.py's session fixture `two_short_runs` trains
-the two runs of `train_two_short_runs` once for both."""
+the two runs of `train_two_short_runs` once for both (`shared_short_runs`, across pytest-xdist workers)."""
 
 from __future__ import annotations
 
+import fcntl
 import json
 import os
 import subprocess
@@ -74,3 +75,16 @@ def train_two_short_runs(root: Path) -> tuple[Path, Path]:
     first = train_short_run(store, root, BASELINE, baseline, "--max-episodes", "4")
     second = train_short_run(store, root, CENTRE, centre, "--max-episodes", "6")
     return first, second
+
+
+def shared_short_runs(folder: Path) -> tuple[Path, Path]:
+    """`train_two_short_runs` in folder/two-short-runs, once: a later caller, in this process or another, waits on
+    the lock and gets the runs the first one trained."""
+    root = folder / "two-short-runs"
+    root.mkdir(exist_ok=True)
+    with open(root / "lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)  # released when the file closes, and by the kernel if this process dies
+        if not (root / "trained").exists():
+            train_two_short_runs(root)
+            (root / "trained").write_text("")
+    return root / "store" / BASELINE, root / "store" / CENTRE

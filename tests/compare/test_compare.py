@@ -18,7 +18,7 @@ from racer.shared.store import S3Store
 from tests.short_runs import BASELINE, CENTRE
 from tests.viewer.conftest import DRFC_MODEL, write_drfc_run
 
-pytestmark = [pytest.mark.slow, pytest.mark.serial]  # two real training runs keep both cores busy
+pytestmark = [pytest.mark.slow, pytest.mark.heavy]  # two real training runs (tests/conftest.py's two_short_runs)
 
 
 def compare(*args: str, env: dict | None = None):

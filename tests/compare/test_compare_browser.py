@@ -10,7 +10,7 @@ from click.testing import CliRunner
 
 from racer.compare.cli import compare_command
 
-pytestmark = [pytest.mark.slow, pytest.mark.serial]  # two real training runs keep both cores busy
+pytestmark = [pytest.mark.slow, pytest.mark.heavy]  # two real training runs (tests/conftest.py's two_short_runs)
 
 HIGHLIGHT = "rgba(255, 233, 168, 1)"
 """The marked rows' background (racer.compare.page STYLE #ffe9a8)."""

@@ -80,7 +80,7 @@ def deepracer_utils_credentials(s3_settings, monkeypatch):
 
 
 @pytest.mark.slow
-@pytest.mark.serial  # a trainer and a rollout worker as processes keep both cores busy
+@pytest.mark.heavy  # a trainer and a rollout worker as processes
 def test_deepracer_utils_opens_a_racer_run_in_minio(trained_and_evaluated, deepracer_utils_credentials):
     store, s3 = trained_and_evaluated
     keys = {key.removeprefix(PREFIX + "/") for key in store.list_keys(PREFIX + "/")}

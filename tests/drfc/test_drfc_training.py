@@ -16,7 +16,7 @@ from racer.shared.model_layout import ModelLayout
 from tests.drfc.conftest import write_experiment
 from tests.system.test_local_run import processes_mentioning
 
-pytestmark = [pytest.mark.slow, pytest.mark.serial]  # they time their own processes
+pytestmark = [pytest.mark.slow, pytest.mark.heavy]  # trainers and workers as processes
 
 SYSTEM = "DR_WORKERS=2\nDR_SIMAPP_VERSION=5.3.3-cpu\nDR_DOCKER_STYLE=swarm\n"
 RUN = (

@@ -25,7 +25,7 @@ from racer.shared.store import open_store
 from racer.shared.transport.channels import RunChannel
 from tests.conftest import write_custom_files
 
-pytestmark = [pytest.mark.slow, pytest.mark.serial]  # they time their own processes
+pytestmark = [pytest.mark.slow, pytest.mark.heavy]  # trainers and workers as processes
 
 TRACK = "racer_oval"
 CHECKPOINT_NAME = re.compile(r"^(\d+)_Step-(\d+)\.ckpt$")

@@ -65,7 +65,7 @@ def test_the_setup_check_needs_no_go_no_minio_and_installs_nothing(tmp_path):
 
 
 @pytest.mark.slow
-@pytest.mark.serial  # keeps both cores busy
+@pytest.mark.heavy  # a training run of its own
 def test_train_sh_trains_with_no_go_and_no_minio(tmp_path):
     custom_files = write_custom_files(tmp_path / "custom_files")
     env = fresh_machine_environment(tmp_path)

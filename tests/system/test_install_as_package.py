@@ -29,7 +29,7 @@ from pathlib import Path
 
 import pytest
 
-pytestmark = [pytest.mark.slow, pytest.mark.serial]  # the training keeps both cores busy
+pytestmark = [pytest.mark.slow, pytest.mark.heavy]  # a pip build and a training run
 
 ROOT = Path(__file__).resolve().parents[2]
 

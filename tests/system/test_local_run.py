@@ -16,7 +16,7 @@ import pytest
 from tests.conftest import write_custom_files
 from tests.short_runs import train_args, train_env
 
-pytestmark = [pytest.mark.slow, pytest.mark.serial]  # they time their own processes
+pytestmark = [pytest.mark.slow, pytest.mark.heavy]  # trainers and workers as processes
 
 
 def processes_mentioning(text: str) -> list[str]:

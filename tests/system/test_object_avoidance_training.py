@@ -14,7 +14,7 @@ from click.testing import CliRunner
 from racer.analysis.cli import analyze_command
 from tests.system.test_local_run import processes_mentioning, racer_train, small_custom_files  # noqa: F401
 
-pytestmark = [pytest.mark.slow, pytest.mark.serial]  # they time their own processes
+pytestmark = [pytest.mark.slow, pytest.mark.heavy]  # trainers and workers as processes
 
 
 def test_object_avoidance_training_writes_crashes_that_the_analysis_counts(tmp_path, small_custom_files):  # noqa: F811

@@ -20,7 +20,7 @@ from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.store import LocalStore
 from tests.system.test_local_run import processes_mentioning, racer_train
 
-pytestmark = [pytest.mark.slow, pytest.mark.serial]  # they time their own processes
+pytestmark = [pytest.mark.slow, pytest.mark.heavy]  # trainers and workers as processes
 
 
 @pytest.fixture

@@ -17,7 +17,7 @@ from racer.shared.store import open_store
 from tests.conftest import write_custom_files
 from tests.system.test_distributed_training import CHECKPOINT_NAME, SystemRun, checkpoint_numbers, iteration_records
 
-pytestmark = [pytest.mark.slow, pytest.mark.serial]  # they time their own processes
+pytestmark = [pytest.mark.slow, pytest.mark.heavy]  # trainers and workers as processes
 
 SAC_METADATA = {
     "action_space": {"steering_angle": {"low": -30, "high": 30}, "speed": {"low": 1, "high": 2}},

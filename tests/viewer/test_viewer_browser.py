@@ -23,7 +23,7 @@ from tests.conftest import write_custom_files
 from tests.short_runs import train_args, train_env
 from tests.viewer.conftest import free_port
 
-pytestmark = [pytest.mark.slow, pytest.mark.serial]  # they time their own processes
+pytestmark = [pytest.mark.slow, pytest.mark.heavy]  # a training run and a browser
 
 MODEL = "viewer-model"
 

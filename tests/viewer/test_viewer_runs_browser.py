@@ -20,7 +20,7 @@ from tests.conftest import write_custom_files
 from tests.short_runs import CENTRE, train_args, train_env
 from tests.viewer.conftest import free_port
 
-pytestmark = [pytest.mark.slow, pytest.mark.serial]  # they time their own processes
+pytestmark = [pytest.mark.slow, pytest.mark.heavy]  # a training run, a browser, the two_short_runs
 
 FINISHED = CENTRE
 """The shared runs' 6-episode run."""
