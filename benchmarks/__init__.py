@@ -2,8 +2,9 @@
 
 A bench here is one a user runs to judge their own model, machine or simulator: one module per bench (`sim`, `ppo`,
 `transfer`, `fidelity`, `sac`, `rollout`, `throughput`, `time_to_lap`, `race_pace`, `viewer`, `race`) and their helpers
-(`race_pace_laps`, `race_pace_picture`: the race-pace bench's lap figures and its picture; `time_shares`: where a
-training run's wall time went, from its iterations log; `workdir`: the work folder a bench's training run writes to;
+(`race_pace_laps`, `race_pace_picture`: the race-pace bench's lap figures and its picture; `throughput_modes`: the
+throughput bench's runs, one per mode and worker count; `time_shares`: where a training run's wall time went, from
+its iterations log; `workdir`: the work folder a bench's training run writes to;
 `deepracer_data`: where a bench finds DeepRacer's own files, `--data` or RACER_DEEPRACER_DATA; `sim_loop`,
 `sim_race_types`: the simulator bench's step loop and its envs with objects; `real_models`, `transfer_drive`,
 `transfer_reverse_check`, `transfer_matrix`, `transfer_robustness`: the transfer bench's models, its drives, its reverse
@@ -53,7 +54,7 @@ BENCHMARKS: dict[str, tuple[str, str]] = {
     ),
     "throughput": (
         "benchmarks.throughput:throughput_bench_command",
-        "The default system's experience steps/s vs one raw env process per core, and the ratio.",
+        "Strict and overlapped training's end-to-end env steps/s and cpu_busy; experience steps/s vs the raw bound.",
     ),
     "viewer": (
         "benchmarks.viewer:viewer_bench_command",

@@ -3,7 +3,8 @@
 `racer.trainer.preflight` (custom files checked before anything starts), `racer.trainer.ppo` (PPOLearner.update,
 DeepRacer's log lines), `racer.trainer.sac` (SACLearner.update) with `racer.trainer.replay_buffer` (its replay memory),
 `racer.trainer.gae`, `racer.trainer.nan_guard`; the process loop is `racer.trainer.training_loop` / `racer.trainer.cli`,
-with the run's files (`racer.trainer.run_files`), the iteration summary (`racer.trainer.iteration_summary`) and the
+with the run's files (`racer.trainer.run_files`), the iteration summary (`racer.trainer.iteration_summary`), the
+iteration's writes (`racer.trainer.iteration_finish`) and their timers (`racer.trainer.iteration_parts`), and the
 stop signals and time limit (`racer.trainer.stopping`) beside it.
 Networks and checkpoints live in `racer.shared.policy`, because the rollout and evaluation workers load them too.
 

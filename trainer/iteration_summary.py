@@ -14,7 +14,6 @@ import numpy as np
 from racer.shared.episode import Episode
 from racer.shared.model_layout import ModelLayout
 from racer.shared.store import ObjectNotFoundError, ObjectStore
-from racer.shared.transport.channels import RunChannel
 from racer.shared.worker_phases import from_episode_info
 
 
@@ -83,12 +82,12 @@ def overlap_summary(iteration: int, episodes: list[Episode], stats: Sequence[obj
     }
 
 
-def record_summary(store: ObjectStore, layout: ModelLayout, channel: RunChannel, summary: dict) -> None:
-    """Append the summary to the store's iterations log, then publish it on the `iterations` stream."""
-    key = layout.iterations_log  # the store first: it is the record, the stream only feeds displays
+def append_to_log(store: ObjectStore, layout: ModelLayout, summary: dict) -> None:
+    """Append the summary to the store's iterations log: the record (the `iterations` stream only feeds displays, and
+    the trainer publishes there after this)."""
+    key = layout.iterations_log
     try:
         existing = store.get_bytes(key)
     except ObjectNotFoundError:
         existing = b""
     store.put_bytes(key, existing + json.dumps(summary).encode() + b"\n")
-    channel.publish("iterations", summary)

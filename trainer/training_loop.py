@@ -9,9 +9,11 @@ One iteration k, top to bottom:
    memory without counting it, and drops older ones), a second copy of an episode number is dropped, and the
    claims of a worker with no heartbeat go back to the queue for a live worker (racer.trainer.collector);
 3. print DeepRacer's `Training>` line per episode, run the learner's update, print `Policy training>` lines;
-4. save checkpoint k+1 to the store (files first, then `.coach_checkpoint`), record the iteration's summary
-   (racer.trainer.iteration_summary), then acknowledge the episodes.
-A trainer killed at any point restarts from the newest checkpoint: unacknowledged episodes are read again.
+4. save checkpoint k+1 to the store (files first, then `.coach_checkpoint`): all the workers wait for;
+5. after announcing k+1, while the workers play: record iteration k's summary (racer.trainer.iteration_summary),
+   acknowledge its episodes, apply the checkpoints' retention (and at the end of the run, before `.finished`).
+A trainer killed at any point restarts from the newest checkpoint: unacknowledged episodes are read again. The time
+of each part is in every summary's `trainer_parts_s` (racer.trainer.iteration_parts).
 
 Under `--overlap` (RunOptions.overlap) step 2 ends by queueing iteration k+1 and announcing it with checkpoint k, so
 the workers play on during the update; checkpoint k+1 is published for them to take up between episodes, and
@@ -46,7 +48,9 @@ from racer.shared.transport.channels import ReceivedEpisode, RunChannel
 from racer.trainer.algorithms import LearnerOptions, build_learner
 from racer.trainer.collector import Collector, CollectTimes, StopRequested
 from racer.trainer.device import describe_device
-from racer.trainer.iteration_summary import iteration_summary, overlap_summary, record_summary
+from racer.trainer.iteration_finish import FinishingIteration, save_checkpoint
+from racer.trainer.iteration_parts import ANNOUNCEMENTS, SUMMARIES, IterationParts
+from racer.trainer.iteration_summary import iteration_summary, overlap_summary
 from racer.trainer.learner import UpdateAbandoned
 from racer.trainer.log_lines import format_training_episode_line
 from racer.trainer.memory_cap import cap_episodes, default_max_memory_steps, global_episode_order
@@ -111,6 +115,9 @@ class Trainer:
         """network.json of the custom files when model_metadata.json names it."""
         self.preset: Preset | None = None
         """preset.json of the custom files, when there is one."""
+        self.parts = IterationParts()
+        self.finishing: FinishingIteration | None = None
+        """The last iteration, its records written once the next one is announced."""
 
     # ---- set-up ----------------------------------------------------------------------------------
     def setup(self) -> int:
@@ -163,6 +170,7 @@ class Trainer:
             publish_run_files(self.store, self.layout, self.options.model_prefix, files)
             iteration = 0
             self._save(iteration)
+            self.checkpoints.apply_retention()
             self.store.put_bytes(self.layout.ready, b"")
         self.iteration = iteration  # what a stop while Redis is gone finishes at
         self.channel.ensure_trainer_group()
@@ -185,7 +193,10 @@ class Trainer:
         print(f"Cloned weights from {source_prefix}/model/{name}", flush=True)
 
     def _save(self, iteration: int) -> str:
-        name = self.checkpoints.save(
+        """Publish checkpoint `iteration`; its retention is left to the caller (_finish_previous)."""
+        name = save_checkpoint(
+            self.checkpoints,
+            self.parts,
             iteration,
             self.env_steps,
             self.network,
@@ -252,17 +263,19 @@ class Trainer:
         for line in self.learner.training_lines(all_stats):
             print(line, flush=True)
         update_s = time.monotonic() - update_started
-        summary = iteration_summary(
-            iteration, episodes, self.env_steps, rollout_wall_s, elapsed_s=time.monotonic() - self.started
-        )
-        summary.update(
-            episodes_dropped=len(capped.dropped),
-            steps_dropped=capped.dropped_steps,
-            rollout_s=round(rollout_wall_s, 3),
-            update_s=round(update_s, 3),
-        )
-        if self.options.run.overlap:
-            summary.update(overlap_summary(iteration, episodes, all_stats))
+        with self.parts.timed(SUMMARIES):
+            summary = iteration_summary(
+                iteration, episodes, self.env_steps, rollout_wall_s, elapsed_s=time.monotonic() - self.started
+            )
+            summary.update(
+                episodes_dropped=len(capped.dropped),
+                steps_dropped=capped.dropped_steps,
+                rollout_s=round(rollout_wall_s, 3),
+                update_s=round(update_s, 3),
+            )
+            if self.options.run.overlap:
+                summary.update(overlap_summary(iteration, episodes, all_stats))
+        summary["trainer_parts_s"] = self.parts.totals()  # up to elapsed_s
         return summary
 
     def _queue_ahead(self) -> bool:
@@ -296,9 +309,11 @@ class Trainer:
             try:
                 self.iteration = self.setup()
                 self._iterate_until_stopped()
+                self._finish_previous()
             except RedisUnavailableError as error:
                 if not self.stop_event.is_set() or self.checkpoints.latest_name() is None:
                     raise
+                self._finish_previous(redis=False)
                 # Stopping with Redis gone: the newest checkpoint is complete in the store; episodes not
                 # acknowledged are of an older policy by now and a resumed trainer drops them.
                 log.warning("stopping without Redis: %s", error)
@@ -337,27 +352,39 @@ class Trainer:
 
     def _iterate(self, iteration: int) -> None:
         """Announce, collect, train and save one iteration (`self.iteration` moves on once its checkpoint is
-        saved)."""
+        saved); the one before is finished while this one's episodes come in."""
         if self.queued_ahead != iteration:
-            self.collector.announce(iteration, self.checkpoints.latest_name())
+            with self.parts.timed(ANNOUNCEMENTS):
+                self.collector.announce(iteration, self.checkpoints.latest_name())
         announced = time.monotonic()
-        received = self.collect(iteration)
-        if self._queue_ahead():  # the workers play k+1 with checkpoint k while k trains
-            self.collector.announce(iteration + 1, self.checkpoints.latest_name(), policy_version=iteration)
-            self.queued_ahead = iteration + 1
-        elif self.queued_ahead == iteration:  # the last one: its own checkpoint, for worker 0 to judge as strict does
-            self.collector.announce(iteration, self.checkpoints.latest_name())
+        with self.parts.collecting():
+            self._finish_previous()
+            received = self.collect(iteration)
+        with self.parts.timed(ANNOUNCEMENTS):
+            if self._queue_ahead():  # the workers play k+1 with checkpoint k while k trains
+                self.collector.announce(iteration + 1, self.checkpoints.latest_name(), policy_version=iteration)
+                self.queued_ahead = iteration + 1
+            elif self.queued_ahead == iteration:  # the last one: its own checkpoint, for worker 0 to judge as strict
+                self.collector.announce(iteration, self.checkpoints.latest_name())
         summary = self.train_iteration(iteration, received, time.monotonic() - announced)
         checkpoint = self._save(iteration + 1)
         if self.options.run.overlap:  # the workers take it up at their next episode
-            self.channel.publish_newest_checkpoint(iteration + 1, checkpoint)
+            with self.parts.timed(ANNOUNCEMENTS):
+                self.channel.publish_newest_checkpoint(iteration + 1, checkpoint)
         self.iteration = iteration + 1
         summary["progress"] = self.pace.after_iteration(
             iteration, time.monotonic() - self.started, self.episodes_consumed
         ).to_dict()
-        record_summary(self.store, self.layout, self.channel, summary)
-        self.channel.ack(*[item.stream_id for item in received.values()])
-        self.channel.forget_iteration(iteration, self.options.run.num_workers)
+        self.finishing = FinishingIteration(summary, tuple(item.stream_id for item in received.values()), iteration)
+
+    def _finish_previous(self, redis: bool = True) -> None:
+        """What no worker waits for, done after the next announcement (or before `.finished`; `redis`: False when a
+        stop found Redis gone): the iteration's log line and retention, then its summary and acks in Redis."""
+        finishing, self.finishing = self.finishing, None
+        if finishing is not None:
+            finishing.finish_in_store(self.store, self.layout, self.checkpoints, self.parts)
+            if redis:
+                finishing.finish_in_redis(self.channel, self.parts, self.options.run.num_workers)
 
 
 def run_trainer(settings: ServiceSettings, options: TrainerOptions) -> None:

@@ -18,7 +18,7 @@ keep the 4 newest checkpoints plus the best one named in deepracer_checkpoints.j
     name = checkpoints.save(N, M, network, optimizer, model_metadata, hyperparameters)   -> "N_Step-M.ckpt"
     checkpoints.latest_name(), .names(), .select("best" | "last" | name)
     number, env_steps = checkpoints.restore(name, network, optimizer=None)
-    checkpoints.load(name), .load_policy(name), .load_inference_policy(name)
+    checkpoints.load(name), .load_policy(name), .load_inference_policy(name); .checkpoint_files() + .publish(): save
     checkpoints.record_evaluation(name, avg_eval_metric, time_stamp)    DeepRacer's best/last rule
 
 Importing this module imports no torch: what the rollout and evaluation workers do (the pointer, manifests,
@@ -74,6 +74,7 @@ __all__ = [
     "NUM_CHECKPOINTS_TO_KEEP",
     "BestAndLast",
     "CheckpointError",
+    "CheckpointFiles",
     "CheckpointInfo",
     "CheckpointRecord",
     "CheckpointStore",
@@ -89,6 +90,15 @@ class LoadedCheckpoint:
     network_state: dict[str, torch.Tensor]
     optimizer_state: dict | None
     """In torch's `Optimizer.state_dict()` form, for `load_optimizer_state`; None if the checkpoint has none."""
+
+
+@dataclass(frozen=True)
+class CheckpointFiles:
+    """One checkpoint's files before they are published: file name -> bytes, and its manifest."""
+
+    name: str
+    files: dict[str, bytes]
+    manifest: bytes
 
 
 class CheckpointStore:
@@ -276,11 +286,25 @@ class CheckpointStore:
         hyperparameters: Hyperparameters | None = None,
         extra: Mapping | None = None,
     ) -> str:
-        """Publish checkpoint `<number>_Step-<env_steps>.ckpt` and return its name.
+        """Publish checkpoint `<number>_Step-<env_steps>.ckpt`, then retention; returns its name. The manifest holds
+        `model_metadata` and `hyperparameters` (DeepRacer's dicts): a checkpoint says what produced it."""
+        files = self.checkpoint_files(number, env_steps, network, optimizer, model_metadata, hyperparameters, extra)
+        self.publish(files)
+        self.apply_retention()
+        return files.name
 
-        `model_metadata` and `hyperparameters` go into the manifest (as DeepRacer's dicts) so a checkpoint says what
-        produced it. Retention runs after the pointer moved.
-        """
+    def checkpoint_files(
+        self,
+        number: int,
+        env_steps: int,
+        network: PolicyNetwork,
+        optimizer: torch.optim.Optimizer | None = None,
+        model_metadata: ModelMetadata | None = None,
+        hyperparameters: Hyperparameters | None = None,
+        extra: Mapping | None = None,
+        onnx: bytes | None = None,
+    ) -> CheckpointFiles:
+        """Every file of the checkpoint, in memory (`onnx`: the network's export when the caller made it already)."""
         from racer.shared.policy.checkpoint_tensors import export_onnx, optimizer_state_to_files, tensors_to_bytes
 
         name = checkpoint_name(number, env_steps)
@@ -290,7 +314,7 @@ class CheckpointStore:
             files[name + OPTIMIZER_TENSORS_SUFFIX] = tensors_to_bytes(tensors)
             files[name + OPTIMIZER_SCALARS_SUFFIX] = json.dumps(scalars, indent=1, sort_keys=True).encode()
         onnx_file = model_layout.inference_model(number, "onnx").removeprefix(model_layout.MODEL_DIR + "/")
-        files[onnx_file] = export_onnx(network)
+        files[onnx_file] = export_onnx(network) if onnx is None else onnx
         info = CheckpointInfo(
             name=name,
             number=number,
@@ -305,16 +329,16 @@ class CheckpointStore:
             files={file: {"sha256": sha256_hex(data), "size_bytes": len(data)} for file, data in files.items()},
             extra=dict(extra or {}),
         )
-        manifest = json.dumps(info.to_dict(), indent=1, sort_keys=True).encode()
+        return CheckpointFiles(name, files, json.dumps(info.to_dict(), indent=1, sort_keys=True).encode())
 
+    def publish(self, checkpoint: CheckpointFiles) -> None:
+        """Write the files, the manifest last, then move the pointer (under `.lock`); no retention."""
         self.store.put_bytes(self.layout.lock, b"")
-        for file_name, data in files.items():
+        for file_name, data in checkpoint.files.items():
             self.store.put_bytes(self.layout.key(model_layout.MODEL_DIR, file_name), data)
-        self.store.put_bytes(self._file(name, MANIFEST_SUFFIX), manifest)  # last: marks the set complete
-        self.store.put_bytes(self.layout.coach_checkpoint, (name + "\n").encode())
+        self.store.put_bytes(self._file(checkpoint.name, MANIFEST_SUFFIX), checkpoint.manifest)  # marks it complete
+        self.store.put_bytes(self.layout.coach_checkpoint, (checkpoint.name + "\n").encode())
         self.store.delete(self.layout.lock)
-        self.apply_retention()
-        return name
 
     def apply_retention(self) -> list[str]:
         """Delete checkpoints other than the `keep` newest, the best and the pointer's. Returns the deleted names."""

@@ -128,6 +128,7 @@ def test_the_trainer_records_its_progress_with_each_iteration(redis_settings, tm
             wire_episode(iteration, number=1, worker_id=1, policy_version=iteration, seed=10 * iteration + 1)
         )
         trainer._iterate(iteration)
+    trainer._finish_previous()  # iteration 1's line: written after the next announcement, or before .finished
     log = LocalStore(tmp_path / "store").get_bytes(ModelLayout(PREFIX).iterations_log).decode().splitlines()
     first, second = (RunProgress.from_dict(json.loads(line)["progress"]) for line in log)
     assert (first.iteration, first.episodes, second.iteration, second.episodes) == (0, 2, 1, 4)
