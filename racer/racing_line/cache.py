@@ -24,14 +24,11 @@ from racer.racing_line.limits import CarLimits, LapTimeBoundError
 from racer.racing_line.line import RacingLine, racing_line
 from racer.racing_line.optimiser import (
     BORDER_MARGIN_M,
-    CONSTRAINED_EVERY_M,
     CONTROL_SPACINGS_M,
     DEFAULT_SPACING_M,
     FTOL_S,
     MAX_ITERATIONS,
-    NEAR_BORDER_M,
     STEERING_PENALTY_S_M2,
-    VIOLATION_M,
     ProgressCallback,
 )
 from racer.shared.sim.car.dynamics import CarDynamics
@@ -42,8 +39,7 @@ CACHE_FORMAT = 2
 """Bumped whenever the model or the entry's layout changes what a key would give."""
 OPTIMISER_SETTINGS = (
     f"SLSQP ftol {FTOL_S} maxiter {MAX_ITERATIONS}, steering penalty {STEERING_PENALTY_S_M2}, border margin "
-    f"{BORDER_MARGIN_M}, stages on the line before, stations constrained every {CONSTRAINED_EVERY_M} m and within "
-    f"{NEAR_BORDER_M} m of a border, then outside by {VIOLATION_M} m"
+    f"{BORDER_MARGIN_M}, each stage's controls on the line before"
 )
 _ARRAYS = ("points_m", "speeds_mps", "curvatures_per_m")
 

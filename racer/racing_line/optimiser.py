@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 import shapely
 from scipy.interpolate import CubicSpline
-from scipy.optimize import minimize
+from scipy.optimize import LinearConstraint, minimize
 
 from racer.racing_line.limits import CarLimits, LapTimeBoundError
 from racer.racing_line.speed_profile import flying_lap, lengths_of, torch_module
@@ -36,14 +36,6 @@ constraint that is not a bound on an offset."""
 BORDER_MARGIN_M = 0.005
 """Kept between the car's side and a border at every station beyond half the car's width: the line between stations
 may bulge a few millimetres further out than the stations themselves."""
-CONSTRAINED_EVERY_M = 0.2
-"""SLSQP's cost per iteration grows with its constraint rows (two per station: 3,570 on penbay_pro), so a stage starts
-with the stations this far apart and those within NEAR_BORDER_M of a border, solves, and solves again from there with
-every station that ended outside the road added, until none does: the line found keeps every station inside."""
-NEAR_BORDER_M = 0.02
-"""A station this close to a border where a stage starts is constrained from the start."""
-VIOLATION_M = 1e-6
-"""A station further outside the road than this (SLSQP's own tolerance is about FTOL_S) is added to the constraints."""
 MAX_ITERATIONS = 1000
 """Per stage: SLSQP's cap."""
 FTOL_S = 1e-6
@@ -202,37 +194,18 @@ def optimise_line(
 
 
 def _solve_stage(model: LineModel, start: np.ndarray, watch: _StageWatch) -> tuple[np.ndarray, str]:
-    """(controls, SLSQP's last message): SLSQP over the controls, stations kept inside the road (a linear constraint
-    per station): first those CONSTRAINED_EVERY_M apart and those near a border, then again from the result with every
-    station it put outside the road added, until none is."""
-    stride = max(1, round(CONSTRAINED_EVERY_M * model.values.shape[0] / _closed_length_m(model)))
-    offsets = model.offset_matrix @ start
-    every = np.zeros(len(offsets), dtype=bool)
-    every[::stride] = True
-    low_rows = every | (offsets - model.offset_low < NEAR_BORDER_M)
-    high_rows = every | (model.offset_high - offsets < NEAR_BORDER_M)
-    controls = start
-    while True:
-        rows = np.vstack((model.offset_matrix[low_rows], -model.offset_matrix[high_rows]))
-        floor = np.concatenate((model.offset_low[low_rows], -model.offset_high[high_rows]))
-        result = minimize(
-            watch.objective,
-            controls,
-            jac=True,
-            method="SLSQP",
-            constraints=[{"type": "ineq", "fun": lambda c, a=rows, b=floor: a @ c - b, "jac": lambda c, a=rows: a}],
-            options={"maxiter": MAX_ITERATIONS, "ftol": FTOL_S},
-            callback=watch.iteration_done,
-        )
-        controls = result.x
-        if not np.all(np.isfinite(controls)):
-            return controls, result.message
-        offsets = model.offset_matrix @ controls
-        outside_low = offsets < model.offset_low - VIOLATION_M
-        outside_high = offsets > model.offset_high + VIOLATION_M
-        if not (outside_low & ~low_rows).any() and not (outside_high & ~high_rows).any():
-            return controls, result.message
-        low_rows, high_rows = low_rows | outside_low, high_rows | outside_high
+    """(controls, SLSQP's message): SLSQP over the controls, every station's offset kept inside the road (a linear
+    constraint per station)."""
+    result = minimize(
+        watch.objective,
+        start,
+        jac=True,
+        method="SLSQP",
+        constraints=[LinearConstraint(model.offset_matrix, model.offset_low, model.offset_high)],
+        options={"maxiter": MAX_ITERATIONS, "ftol": FTOL_S},
+        callback=watch.iteration_done,
+    )
+    return result.x, result.message
 
 
 class _StageWatch:
@@ -284,12 +257,6 @@ def _objective_and_gradient(
 def _per_interval(spacing_m: float, control_spacing_m: float) -> int:
     """Stations between two controls."""
     return max(1, round(control_spacing_m / spacing_m))
-
-
-def _closed_length_m(model: LineModel) -> float:
-    """The length of the model's zero-offset line, station to station round the loop."""
-    stations = model.values @ model.control_points
-    return float(np.linalg.norm(np.roll(stations, -1, axis=0) - stations, axis=1).sum())
 
 
 def _centre_points(track: Track, spacing_m: float) -> tuple[np.ndarray, np.ndarray]:
