@@ -35,11 +35,11 @@ from racer.shared.sim.car.dynamics import CarDynamics
 from racer.shared.sim.tracks.simapp_routes import file_sha256
 from racer.shared.sim.tracks.track import Track
 
-CACHE_FORMAT = 1
+CACHE_FORMAT = 2
 """Bumped whenever the model or the entry's layout changes what a key would give."""
 OPTIMISER_SETTINGS = (
     f"SLSQP ftol {FTOL_S} maxiter {MAX_ITERATIONS}, steering penalty {STEERING_PENALTY_S_M2}, border margin "
-    f"{BORDER_MARGIN_M}"
+    f"{BORDER_MARGIN_M}, each stage's controls on the line before"
 )
 _ARRAYS = ("points_m", "speeds_mps", "curvatures_per_m")
 

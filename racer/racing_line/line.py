@@ -124,7 +124,8 @@ def racing_line(
         with torch.no_grad():
             points, curvature, lengths = model.line(torch, torch.from_numpy(found.controls))
             speeds, lap_time_s = flying_lap(torch, curvature, lengths, limits)
-            centre = model.line(torch, torch.zeros(model.controls, dtype=torch.float64))
+            centre_model = found.centre_model
+            centre = centre_model.line(torch, torch.zeros(centre_model.controls, dtype=torch.float64))
             centre_lap_s = flying_lap(torch, *centre[1:], limits)[1]
             standing = standing_laps(torch, curvature, lengths, limits)
     points_m = points.numpy()

@@ -2,9 +2,9 @@
 
 A periodic cubic spline (scipy) through control points, each offset along the centre line's normal; every station kept
 inside the road shrunk by half the car's width (shapely); the offsets chosen by scipy's SLSQP to minimise the lap time,
-coarse to fine (`CONTROL_SPACINGS_M`). torch's autograd gives the exact gradient of the lap time, so an iteration costs
-one pass. The problem is not convex: the result is the fastest line found, an upper estimate of the true optimum by
-however far the search stopped short.
+coarse to fine (`CONTROL_SPACINGS_M`), each stage's controls on the line the stage before found. torch's autograd gives
+the exact gradient of the lap time, so an iteration costs one pass. The problem is not convex: the result is the fastest
+line found, an upper estimate of the true optimum by however far the search stopped short.
 """
 
 from __future__ import annotations
@@ -24,8 +24,8 @@ from racer.shared.sim.tracks.track import Track
 DEFAULT_SPACING_M = 0.05
 """Distance between the stations along the centre line at which the lap time is computed."""
 CONTROL_SPACINGS_M: tuple[float, ...] = (0.8, 0.4, 0.2)
-"""Distances between the offsets the optimiser chooses, coarse to fine: each stage starts from the line the one before
-found. The problem is not convex; solved at one fine spacing from the centre line, it stops in a local minimum that
+"""Distances between the offsets the optimiser chooses, coarse to fine: each stage's controls sit on the line the one
+before found (`LineModel.refined`), so it starts from that very line. The problem is not convex; solved at one fine spacing from the centre line, it stops in a local minimum that
 depends on the spacing (re:Invent 2018 at 0.5, 0.4, 0.3, 0.25 m: 4.30, 4.32, 4.39, 4.35 s), where a coarse line first
 places the corners and the finer stages only refine them. A spline through the controls gives every station's offset,
 so each variable moves a stretch of line (offsets chosen station by station make curvature, a second difference,
@@ -62,12 +62,13 @@ ProgressCallback = Callable[[OptimiserProgress], None]
 
 @dataclass(frozen=True)
 class LineModel:
-    """One lateral offset per control point on the centre line; the line is the periodic cubic spline through the
-    offset control points, sampled at stations (its curvature is the spline's own, so the route's waypoint noise does
-    not reach it); each station's offset along its normal is linear in the controls and bounded by the road."""
+    """One lateral offset per control point on a reference line (the centre line, or the line a coarser stage found);
+    the line is the periodic cubic spline through the offset control points, sampled at stations (its curvature is the
+    spline's own, so the route's waypoint noise does not reach it); each station's offset along its normal is linear in
+    the controls and bounded by the road."""
 
     control_points: np.ndarray
-    """(M, 2) points on the centre line, evenly spaced from the start line on."""
+    """(M, 2) points on the reference line, evenly spaced in its spline's parameter from the start line on."""
     control_normals: np.ndarray
     """(M, 2) unit normals there, to the left of the driving direction."""
     values: np.ndarray
@@ -85,13 +86,33 @@ class LineModel:
 
     @classmethod
     def of_track(cls, track: Track, half_width_m: float, spacing_m: float, control_spacing_m: float) -> LineModel:
+        """Controls on the centre line, `control_spacing_m` apart."""
         points, normals = _centre_points(track, control_spacing_m)
+        return cls.on_reference(track, points, normals, half_width_m, _per_interval(spacing_m, control_spacing_m))
+
+    def refined(self, track: Track, controls: np.ndarray, half_width_m: float, count: int, per_interval: int):
+        """`count` controls on the line `controls` give: the periodic spline through this line's knots, sampled evenly
+        in its parameter. With `count` a multiple of this model's, the new knots hold the old ones, so at zero controls
+        the new line is this very line (a cubic spline is one on any refinement of its knots)."""
+        knots = self.control_points + controls[:, None] * self.control_normals
+        spline = CubicSpline(np.arange(self.controls + 1), np.vstack((knots, knots[:1])), bc_type="periodic")
+        parameter = np.arange(count) * self.controls / count
+        tangents = spline(parameter, 1)
+        tangents /= np.linalg.norm(tangents, axis=1, keepdims=True)
+        normals = np.column_stack((-tangents[:, 1], tangents[:, 0]))
+        return LineModel.on_reference(track, spline(parameter), normals, half_width_m, per_interval)
+
+    @classmethod
+    def on_reference(
+        cls, track: Track, points: np.ndarray, normals: np.ndarray, half_width_m: float, per_interval: int
+    ) -> LineModel:
+        """The model of controls at `points` moving along `normals`, `per_interval` stations between two of them."""
         count = points.shape[0]
-        per_interval = max(1, round(control_spacing_m / spacing_m))
+        per_interval = max(1, per_interval)
         parameter = np.arange(count * per_interval) / per_interval
         units = CubicSpline(np.arange(count + 1), np.vstack((np.eye(count), np.eye(count)[:1])), bc_type="periodic")
         values, first = units(parameter), units(parameter, 1)
-        stations = values @ points  # the zero-offset line: the centre line smoothed through the control points
+        stations = values @ points  # the zero-offset line: the reference smoothed through the control points
         tangents = first @ points
         tangents /= np.linalg.norm(tangents, axis=1, keepdims=True)
         station_normals = np.column_stack((-tangents[:, 1], tangents[:, 0]))
@@ -107,23 +128,6 @@ class LineModel:
             offset_high=high,
         )
 
-    def offsets_of(self, points: np.ndarray) -> np.ndarray:
-        """The controls that put the line through the closed line `points` at every control point: where each control
-        normal crosses it (shapely), the crossing nearest the control point."""
-        ring = shapely.LinearRing(points)
-        reach = 2.0 * float(np.max(np.abs(np.concatenate((self.offset_low, self.offset_high))))) + 0.1
-        ends = np.stack(
-            (self.control_points - reach * self.control_normals, self.control_points + reach * self.control_normals),
-            axis=1,
-        )
-        offsets = np.zeros(self.controls)
-        for index, crossing in enumerate(shapely.intersection(shapely.linestrings(ends), ring)):
-            found = shapely.get_coordinates(crossing)
-            if len(found):
-                nearest = found[np.argmin(np.linalg.norm(found - self.control_points[index], axis=1))]
-                offsets[index] = (nearest - self.control_points[index]) @ self.control_normals[index]
-        return offsets
-
     def line(self, torch, controls):
         """(stations (K, 2), signed curvature (K,), segment lengths to the next station (K,)) for these offsets."""
         knots = torch.from_numpy(self.control_points) + controls[:, None] * torch.from_numpy(self.control_normals)
@@ -137,11 +141,13 @@ class LineModel:
 
 @dataclass(frozen=True)
 class OptimisedLine:
-    """The fastest stage's model and controls, and the iterations all stages took."""
+    """The fastest stage's model and controls, the iterations all stages took, and the centre line's model at the
+    fastest stage's control spacing (the line at zero offsets, to say what the line is worth)."""
 
     model: LineModel
     controls: np.ndarray
     iterations: int
+    centre_model: LineModel
 
 
 def optimise_line(
@@ -154,34 +160,43 @@ def optimise_line(
     """Run the stages coarse to fine, each from the line the one before found; the fastest stage's line wins. The
     caller holds torch to one thread (`speed_profile.one_torch_thread`)."""
     torch = torch_module()
-    best: tuple[float, np.ndarray, LineModel, np.ndarray] | None = None
+    best: tuple[float, LineModel, np.ndarray, float] | None = None
+    previous: tuple[LineModel, np.ndarray, float] | None = None
     iterations = 0
     stages = len(control_spacings_m)
     for stage, control_spacing_m in enumerate(control_spacings_m, start=1):
-        model = LineModel.of_track(track, limits.half_width_m, spacing_m, control_spacing_m)
-        start = np.zeros(model.controls) if best is None else model.offsets_of(best[1])
+        if previous is None:
+            model = LineModel.of_track(track, limits.half_width_m, spacing_m, control_spacing_m)
+        else:
+            last, controls, last_spacing_m = previous
+            count = max(8, round(last.controls * last_spacing_m / control_spacing_m))
+            per_interval = _per_interval(spacing_m, control_spacing_m)
+            model = last.refined(track, controls, limits.half_width_m, count, per_interval)
         watch = _StageWatch(model, limits, stage, stages, control_spacing_m, on_progress)
-        result = _solve_stage(model, start, watch)
-        if not np.all(np.isfinite(result.x)):
+        controls, message = _solve_stage(model, np.zeros(model.controls), watch)
+        if not np.all(np.isfinite(controls)):
             raise LapTimeBoundError(
                 f"track {track.name}: the line did not converge at control spacing {control_spacing_m} m "
-                f"(stage {stage}/{stages}: {result.message})"
+                f"(stage {stage}/{stages}: {message})"
             )
         iterations += watch.iterations
         with torch.no_grad():
-            line = model.line(torch, torch.from_numpy(result.x))
+            line = model.line(torch, torch.from_numpy(controls))
             lap_time_s = float(flying_lap(torch, *line[1:], limits)[1])
         if on_progress is not None:
             on_progress(OptimiserProgress(stage, stages, control_spacing_m, watch.iterations, lap_time_s, True))
         if best is None or lap_time_s < best[0]:
-            best = (lap_time_s, line[0].numpy(), model, result.x)
+            best = (lap_time_s, model, controls, control_spacing_m)
+        previous = (model, controls, control_spacing_m)
     assert best is not None  # control_spacings_m is not empty: racing_line checks
-    return OptimisedLine(model=best[2], controls=best[3], iterations=iterations)
+    centre = LineModel.of_track(track, limits.half_width_m, spacing_m, best[3])
+    return OptimisedLine(model=best[1], controls=best[2], iterations=iterations, centre_model=centre)
 
 
-def _solve_stage(model: LineModel, start: np.ndarray, watch: _StageWatch):
-    """SLSQP over the controls, every station's offset kept inside the road (a linear constraint per station)."""
-    return minimize(
+def _solve_stage(model: LineModel, start: np.ndarray, watch: _StageWatch) -> tuple[np.ndarray, str]:
+    """(controls, SLSQP's message): SLSQP over the controls, every station's offset kept inside the road (a linear
+    constraint per station)."""
+    result = minimize(
         watch.objective,
         start,
         jac=True,
@@ -190,6 +205,7 @@ def _solve_stage(model: LineModel, start: np.ndarray, watch: _StageWatch):
         options={"maxiter": MAX_ITERATIONS, "ftol": FTOL_S},
         callback=watch.iteration_done,
     )
+    return result.x, result.message
 
 
 class _StageWatch:
@@ -236,6 +252,11 @@ def _objective_and_gradient(
     objective = lap + STEERING_PENALTY_S_M2 * (excess * excess).sum()
     objective.backward()
     return float(objective.detach()), variables.grad.numpy().copy(), float(lap.detach())
+
+
+def _per_interval(spacing_m: float, control_spacing_m: float) -> int:
+    """Stations between two controls."""
+    return max(1, round(control_spacing_m / spacing_m))
 
 
 def _centre_points(track: Track, spacing_m: float) -> tuple[np.ndarray, np.ndarray]:

@@ -19,7 +19,8 @@ from racer.racing_line import (
     racing_line,
     standing_start_laps,
 )
-from racer.racing_line.optimiser import BORDER_MARGIN_M
+from racer.racing_line.optimiser import BORDER_MARGIN_M, LineModel
+from racer.racing_line.speed_profile import torch_module
 from racer.shared.sim.car.dynamics import CAR_DYNAMICS, DEFAULT_CAR_PROFILE
 from racer.shared.sim.car.vehicle import Car
 from racer.shared.sim.scene.worlds import get_world
@@ -138,3 +139,18 @@ def test_an_open_route_or_a_car_too_wide_is_refused_by_name():
         racing_line(Track("straight", straight), LIMITS)
     with pytest.raises(LapTimeBoundError, match="ring: a car 0.800 m wide does not fit"):
         racing_line(ring_track(1.5, 0.76), dataclasses.replace(LIMITS, half_width_m=0.4))
+
+
+def test_a_finer_stage_starts_from_the_very_line_the_coarser_one_found():
+    """Refined to twice the controls, the model at zero offsets is the coarse line (its stations coincide), so no
+    stage throws away what the one before found."""
+    track = Track.load("racer_oval")
+    coarse = LineModel.of_track(track, LIMITS.half_width_m, 0.05, 0.8)
+    controls = np.linspace(-0.05, 0.05, coarse.controls)
+    fine = coarse.refined(track, controls, LIMITS.half_width_m, 2 * coarse.controls, 8)
+    torch = torch_module()
+    with torch.no_grad():
+        old = coarse.line(torch, torch.from_numpy(controls))[0].numpy()
+        new = fine.line(torch, torch.zeros(fine.controls, dtype=torch.float64))[0].numpy()
+    assert fine.controls == 2 * coarse.controls and new.shape == old.shape
+    assert np.abs(new - old).max() < 1e-9
