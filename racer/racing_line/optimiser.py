@@ -41,8 +41,8 @@ MAX_ITERATIONS = 1000
 FTOL_S = 1e-6
 """SLSQP stops when an iteration gains less lap time than this. At 1e-10 the search crept on for hundreds of
 iterations to gain under a millisecond; at 1e-6 it takes half the time and the laps differ by at most 0.6 ms
-(re:Invent 2018 4.8821 -> 4.8822 s flying, 4.999 -> 5.000 s over 3 from rest; racer_oval 3.5280 -> 3.5286 s;
-2022 Championship ccw 9.153 s flying, 9.27 s over 3, as the docs' 9.15 and 9.27 s)."""
+(measured on the stages as they were before each refined its predecessor's line: re:Invent 2018 4.8821 -> 4.8822 s
+flying, racer_oval 3.5280 -> 3.5286 s)."""
 
 
 @dataclass(frozen=True)
