@@ -358,8 +358,8 @@ def tf_proof_command(
 
 
 def prove_examples(matches: tuple[str, ...], processes: int = 1) -> dict:
-    """docs/custom-networks.md's examples, one TensorFlow process per stack size (a process feeds one set of
-    frames to all its models); the figures of all of them."""
+    """docs/custom-networks.md's examples, each stack size's frames fed to its models, all in one TensorFlow process
+    (`processes` > 1: `run_proof`'s processes per stack size); the figures of all of them."""
     from tests.model_io.tf_proof_examples import example_frames, example_specs, make_example
 
     specs = [spec for spec in example_specs() if not matches or any(text in spec.key for text in matches)]
