@@ -23,7 +23,7 @@ from racer.model_io.tensorflow.convert import (
     network_from_tf_checkpoint,
     tensorflow_files,
 )
-from racer.model_io.tensorflow.runner import run_tool
+from racer.model_io.tensorflow.runner import run_tool, run_tools
 from racer.shared.deepracer.model_metadata import parse_model_metadata
 from racer.shared.policy.networks import (
     ActorCritic,
@@ -164,22 +164,16 @@ def test_a_graph_tensorflow_wrote_from_deepracer_names_imports_into_racer(tmp_pa
         "frozen_path": str(tmp_path / "model_3.pb"),
         "checkpoint_prefix": str(tmp_path / "3_Step-30.ckpt"),
     }
-    run_tool("export", {"jobs": [request]}, {f"w|{name}": value for name, value in weights.items()})
     batch = observations(config, seed=4)
     inputs = [input_node(name) for name in batch]
-    _, ran = run_tool(
-        "run",
-        {
-            "models": [
-                {
-                    "key": "w",
-                    "frozen_path": str(tmp_path / "model_3.pb"),
-                    "output": POLICY_OUTPUT_NODE,
-                    "inputs": inputs,
-                }
-            ]
-        },
-        {f"w|{input_node(name)}": value for name, value in batch.items()},
+    run = {
+        "models": [{"key": "w", "frozen_path": request["frozen_path"], "output": POLICY_OUTPUT_NODE, "inputs": inputs}]
+    }
+    _, (_, ran) = run_tools(  # one TensorFlow process writes the graph, then runs it
+        [
+            ("export", {"jobs": [request]}, {f"w|{name}": value for name, value in weights.items()}),
+            ("run", run, {f"w|{input_node(name)}": value for name, value in batch.items()}),
+        ]
     )
     from_checkpoint = network_from_tf_checkpoint(tmp_path / "3_Step-30.ckpt", config).network
     from_graph = network_from_frozen_graph(tmp_path / "model_3.pb", config).network

@@ -26,7 +26,7 @@ from racer.model_io.tensorflow.convert import (
     network_from_tf_checkpoint,
     tensorflow_files,
 )
-from racer.model_io.tensorflow.runner import run_tool
+from racer.model_io.tensorflow.runner import run_tool, run_tools
 from racer.shared.deepracer.model_metadata import parse_model_metadata
 from racer.shared.policy.checkpoints import CheckpointStore
 from racer.shared.policy.factory import build_network_for_metadata
@@ -98,10 +98,6 @@ def test_tensorflow_restores_the_sac_checkpoint_and_its_q_reads_deepracer_action
     TensorFlow's graph fed degrees and m/s equals racer's Q1 of the same actions in [-1, 1]."""
     network, space = sac_export["network"], sac_export["metadata"].continuous_action_space
     prefix = sac_export["folder"] / "4_Step-400.ckpt"
-    listed, _ = run_tool("read_checkpoint", {"checkpoint_prefix": str(prefix), "values": False})
-    ours = {variable.name: variable.shape for variable in sac_coach_variables(network.config)}
-    assert {name: tuple(item["shape"]) for name, item in listed["variables"].items()} == ours
-    assert not any("/target/" in name for name in ours)
     batch = observations(network.config, count=10, seed=4)
     actions = np.random.default_rng(5).uniform(-1, 1, (10, 2)).astype(np.float32)
     low = np.array([space.steering_angle_low_deg, space.speed_low_mps], np.float32)
@@ -109,16 +105,21 @@ def test_tensorflow_restores_the_sac_checkpoint_and_its_q_reads_deepracer_action
     deepracer_actions = low + (actions + 1.0) * 0.5 * (high - low)
     feeds = {f"{SAC_Q_NETWORK}/{name}/{name}": value for name, value in batch.items()}
     feeds[f"{SAC_Q_NETWORK}/q_values_head_0/action"] = deepracer_actions
-    result, tensors = run_tool(
-        "restore_meta",
-        {
-            "meta_path": str(prefix) + ".meta",
-            "checkpoint_prefix": str(prefix),
-            "inputs": list(feeds),
-            "output": f"{SAC_Q_NETWORK}/q_values_head_0/q1_head/q1_output/BiasAdd",
-        },
-        feeds,
+    restore = {
+        "meta_path": str(prefix) + ".meta",
+        "checkpoint_prefix": str(prefix),
+        "inputs": list(feeds),
+        "output": f"{SAC_Q_NETWORK}/q_values_head_0/q1_head/q1_output/BiasAdd",
+    }
+    (listed, _), (result, tensors) = run_tools(  # one TensorFlow process
+        [
+            ("read_checkpoint", {"checkpoint_prefix": str(prefix), "values": False}, None),
+            ("restore_meta", restore, feeds),
+        ]
     )
+    ours = {variable.name: variable.shape for variable in sac_coach_variables(network.config)}
+    assert {name: tuple(item["shape"]) for name, item in listed["variables"].items()} == ours
+    assert not any("/target/" in name for name in ours)
     assert result == {"missing": [], "mismatched": [], "restored": True}
     np.testing.assert_allclose(tensors["policy"][:, 0], q_of(network, batch, actions)[0], rtol=1e-4, atol=1e-4)
 

@@ -28,7 +28,7 @@ import torch
 from safetensors.numpy import save_file
 
 from racer.model_io.tensorflow.convert import ExportJob, coach_graph_spec, coach_tensors, policy_scope
-from racer.model_io.tensorflow.runner import run_tool
+from racer.model_io.tensorflow.runner import run_tool, run_tools
 from racer.shared.deepracer.model_metadata import NEURAL_NETWORKS, parse_model_metadata
 from racer.shared.policy.factory import PolicyNetwork, build_network_for_metadata
 from racer.shared.policy.networks import ActorCritic
@@ -164,20 +164,11 @@ def run_proof(
     goes to process i mod `processes`), one model in memory at a time each: most conversion steps use one core, so 2
     processes on 2 cores take about half the wall time. Model i's weights come from seed `first_seed` + i whatever
     the number of processes."""
-    expected, groups = {}, [[] for _ in range(max(1, min(processes, len(specs))))]
+    groups: list[list[dict]] = [[] for _ in range(max(1, min(processes, len(specs))))]
     with tempfile.TemporaryDirectory(prefix="racer-proof-") as folder:
-        for index, spec in enumerate(specs):
-            model = make(spec, first_seed + index)
-            feeds = {name: torch.from_numpy(frames[name]) for name in model.input_names}
-            with torch.inference_mode():
-                expected[spec.key] = graph_output(model, feeds).numpy()
-            weights = coach_tensors(ExportJob(model, None, 0))
-            path = Path(folder) / f"{index}.safetensors"
-            scope = policy_scope(model.config) + "/"
-            save_file({name: value for name, value in weights.items() if name.startswith(scope)}, str(path))
-            request = {"key": spec.key, "graph": coach_graph_spec(model.config), "weights_path": str(path)}
+        expected, requests = _prepared(specs, frames, Path(folder), first_seed, make)
+        for index, request in enumerate(requests):
             groups[index % len(groups)].append(request)
-            del model, weights
 
         def prove(group: list[dict]) -> tuple[dict, dict[str, np.ndarray]]:
             request = {"models": group, "runtimes": list(runtimes)}
@@ -185,6 +176,48 @@ def run_proof(
 
         with ThreadPoolExecutor(max_workers=len(groups)) as pool:
             answers = list(pool.map(prove, groups))
+    return _proof(expected, answers, runtimes)
+
+
+def _prepared(
+    specs: list, frames: dict[str, np.ndarray], folder: Path, first_seed: int, make: Callable[[Any, int], PolicyNetwork]
+) -> tuple[dict[str, np.ndarray], list[dict]]:
+    """racer's expected outputs per key, and the `prove` request of each model (its weights saved in `folder`)."""
+    expected, requests = {}, []
+    for index, spec in enumerate(specs):
+        model = make(spec, first_seed + index)
+        feeds = {name: torch.from_numpy(frames[name]) for name in model.input_names}
+        with torch.inference_mode():
+            expected[spec.key] = graph_output(model, feeds).numpy()
+        weights = coach_tensors(ExportJob(model, None, 0))
+        path = folder / f"{index}.safetensors"
+        scope = policy_scope(model.config) + "/"
+        save_file({name: value for name, value in weights.items() if name.startswith(scope)}, str(path))
+        requests.append({"key": spec.key, "graph": coach_graph_spec(model.config), "weights_path": str(path)})
+        del model, weights
+    return expected, requests
+
+
+def run_proofs_in_one_process(
+    jobs: list[tuple[list, dict[str, np.ndarray]]],
+    make: Callable[[Any, int], PolicyNetwork] = make_model,
+    runtimes: tuple[str, ...] = RUNTIMES,
+) -> list[dict]:
+    """`run_proof` (one process, first seed 0) of each (specs, frames) job, all in one TensorFlow process, which
+    starts once: frames of different shapes (stack sizes) go to different jobs."""
+    with tempfile.TemporaryDirectory(prefix="racer-proof-") as folder:
+        prepared, steps = [], []
+        for index, (specs, frames) in enumerate(jobs):
+            (Path(folder) / str(index)).mkdir()
+            expected, requests = _prepared(specs, frames, Path(folder) / str(index), 0, make)
+            prepared.append(expected)
+            steps.append(("prove", {"models": requests, "runtimes": list(runtimes)}, frames))
+        timeout_s = PROVE_TIMEOUT_S_PER_MODEL * max(1, sum(len(specs) for specs, _ in jobs))
+        answers = run_tools(steps, timeout_s=timeout_s)
+    return [_proof(expected, [answer], runtimes) for expected, answer in zip(prepared, answers, strict=True)]
+
+
+def _proof(expected: dict[str, np.ndarray], answers: list[tuple[dict, dict]], runtimes: tuple[str, ...]) -> dict:
     outputs: dict[str, np.ndarray] = {}
     cpu_s: dict[str, dict[str, float]] = {}
     for result, produced in answers:
@@ -325,20 +358,25 @@ def tf_proof_command(
 
 
 def prove_examples(matches: tuple[str, ...], processes: int = 1) -> dict:
-    """docs/custom-networks.md's examples, one TensorFlow process per stack size (a process feeds one set of
-    frames to all its models); the figures of all of them."""
+    """docs/custom-networks.md's examples, each stack size's frames fed to its models, all in one TensorFlow process
+    (`processes` > 1: `run_proof`'s processes per stack size); the figures of all of them."""
     from tests.model_io.tf_proof_examples import example_frames, example_specs, make_example
 
     specs = [spec for spec in example_specs() if not matches or any(text in spec.key for text in matches)]
     if not specs:
         raise click.UsageError("no example matches --match")
-    proofs = []
+    jobs = []
     for stack_size in sorted({spec.stack_size for spec in specs}):
         group = [spec for spec in specs if spec.stack_size == stack_size]
         frames = example_frames(stack_size)
         print(f"{len(group)} examples on {len(next(iter(frames.values())))} Gazebo frames ...", file=sys.stderr)
-        proofs.append(run_proof(group, frames, make=make_example, processes=processes))
-        print(json.dumps({"keys": [spec.key for spec in group], **summarize(proofs[-1])}), file=sys.stderr, flush=True)
+        jobs.append((group, frames))
+    if processes == 1:  # one TensorFlow start for every stack size
+        proofs = run_proofs_in_one_process(jobs, make=make_example)
+    else:
+        proofs = [run_proof(group, frames, make=make_example, processes=processes) for group, frames in jobs]
+    for (group, _), proof in zip(jobs, proofs, strict=True):
+        print(json.dumps({"keys": [spec.key for spec in group], **summarize(proof)}), file=sys.stderr, flush=True)
     figures = summarize(merge_proofs(proofs))
     figures["examples"] = [spec.key for spec in specs]
     figures["frames"] = "gazebo_reinvent_episode"

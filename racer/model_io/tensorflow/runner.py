@@ -13,7 +13,7 @@ import os
 import subprocess
 import sys
 import tempfile
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -25,6 +25,7 @@ __all__ = [
     "TensorFlowToolError",
     "require_tensorflow",
     "run_tool",
+    "run_tools",
     "tensorflow_available",
 ]
 
@@ -90,3 +91,28 @@ def run_tool(
         result = json.loads((work / "result.json").read_text())
         tensors = load_file(str(work / "result.safetensors"))
     return result, tensors
+
+
+def run_tools(
+    steps: Sequence[tuple[str, Mapping, Mapping[str, np.ndarray] | None]], timeout_s: float = 1800.0
+) -> list[tuple[dict, dict[str, np.ndarray]]]:
+    """Several (command, request, arrays) steps in order in one TensorFlow process, which starts once: `run_tool`'s
+    answer for each step."""
+    separator = "#"  # tool.STEP_SEPARATOR (tool.py imports TensorFlow: never imported here)
+    arrays = {
+        f"{index}{separator}{name}": value
+        for index, (_, _, given) in enumerate(steps)
+        for name, value in (given or {}).items()
+    }
+    requests = [{**request, "command": command} for command, request, _ in steps]
+    result, tensors = run_tool("steps", {"steps": requests}, arrays, timeout_s)
+    answers = []
+    for index, step_result in enumerate(result["steps"]):
+        prefix = f"{index}{separator}"
+        answers.append(
+            (
+                step_result,
+                {name.removeprefix(prefix): value for name, value in tensors.items() if name.startswith(prefix)},
+            )
+        )
+    return answers

@@ -17,6 +17,8 @@ Commands (request["command"]):
 - `prove`: `run` for many models given as graph spec + weights file each, one model in memory at a time.
 - `restore_meta`: import a `.meta` graph (e.g. the SimApp's own) and restore a checkpoint into it with its saver;
   report missing or mismatched variables and the policy output for the given inputs.
+- `steps`: several of the commands above in this one process, one after another (`runner.run_tools`): each start
+  of this process costs seconds of `import tensorflow`.
 
 The graphs are built by coach_graph.py and run by runtimes.py, both imported only here.
 """
@@ -277,6 +279,20 @@ COMMANDS = {
     "prove": command_prove,
     "restore_meta": command_restore_meta,
 }
+STEP_SEPARATOR = "#"
+"""Arrays of step i travel as "<i>#<name>", both ways."""
+
+
+def command_steps(request: dict, arrays: dict) -> tuple[dict, dict]:
+    """request["steps"]: [{"command", ...its request}], run in order; step i sees the arrays "<i>#<name>"."""
+    results, tensors = [], {}
+    for index, step in enumerate(request["steps"]):
+        prefix = f"{index}{STEP_SEPARATOR}"
+        own = {name.removeprefix(prefix): value for name, value in arrays.items() if name.startswith(prefix)}
+        result, produced = COMMANDS[step["command"]](step, own)
+        results.append(result)
+        tensors.update({f"{prefix}{name}": value for name, value in produced.items()})
+    return {"steps": results}, tensors
 
 
 def main(argv: list[str]) -> int:
@@ -284,7 +300,8 @@ def main(argv: list[str]) -> int:
     request = json.loads((work / "request.json").read_text())
     arrays_path = work / "arrays.safetensors"
     arrays = load_file(str(arrays_path)) if arrays_path.exists() else {}
-    result, tensors = COMMANDS[request["command"]](request, arrays)
+    command = command_steps if request["command"] == "steps" else COMMANDS[request["command"]]
+    result, tensors = command(request, arrays)
     save_file(tensors, str(work / "result.safetensors"))
     (work / "result.json").write_text(json.dumps(result))
     return 0

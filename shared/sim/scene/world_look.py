@@ -229,9 +229,15 @@ def _texture_rgb(rendered: RGB, lighting: Lighting = SIMAPP6_LIGHTING) -> np.nda
     return np.asarray(rendered, dtype=np.float64) / floor_light(lighting=lighting)
 
 
+PNG_COMPRESS_LEVEL = 1
+"""zlib level of the in-memory texture PNGs MuJoCo decodes at every world build: lossless at any level, and level 1
+encodes the grainy textures about 3x faster than PIL's default 6 for 5-15 % more bytes."""
+
+
 def _png(pixels: np.ndarray) -> bytes:
     buffer = io.BytesIO()
-    Image.fromarray(np.clip(np.rint(pixels), 0, 255).astype(np.uint8)).save(buffer, format="PNG")
+    image = Image.fromarray(np.clip(np.rint(pixels), 0, 255).astype(np.uint8))
+    image.save(buffer, format="PNG", compress_level=PNG_COMPRESS_LEVEL)
     return buffer.getvalue()
 
 
