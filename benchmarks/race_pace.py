@@ -28,6 +28,7 @@ from pathlib import Path
 import click
 
 from benchmarks.race_pace_laps import CheckpointLaps, lap_to_draw, pace_figures
+from benchmarks.race_pace_losses import lap_against_line, loss_summary
 from benchmarks.race_pace_picture import draw_pace, drive_lap_again, keep_checkpoint
 from benchmarks.time_shares import time_shares
 from benchmarks.time_to_lap import hyperparameter_overrides
@@ -104,7 +105,8 @@ KEPT_STORE = "kept"
     "--picture",
     type=click.Path(dir_okay=False, writable=True, path_type=Path),
     default=None,
-    help="Draw the bound's racing line and the policy's best lap (driven again from its checkpoint) to this PNG.",
+    help="Draw the bound's racing line and the policy's best lap (driven again from its checkpoint) to this PNG; a "
+    "completed lap's losses to the line per section and corner go into the JSON and a -losses PNG beside it.",
 )
 @click.option("--bound-only", is_flag=True, help="Compute the bound (and --picture: its line) and train nothing.")
 def race_pace_command(
@@ -306,7 +308,8 @@ def _picture(
     seed: int,
 ) -> dict:
     """Draw the bound's line and the best lap (before any lap: the furthest drive), driven again from its checkpoint;
-    say whether the drive matched the evaluation (racer's simulator is deterministic)."""
+    say whether the drive matched the evaluation (racer's simulator is deterministic); a completed lap's losses to
+    the line per section and corner, and their picture beside `path` (-losses)."""
     target = lap_to_draw(evaluations)
     driven = None
     found: dict = {}
@@ -329,6 +332,9 @@ def _picture(
             and _same(driven.progress, target.progress),
         }
     draw_pace(route, bound, driven, _title(result, pace), path)
+    against = lap_against_line(route, bound, driven)
+    if against is not None:
+        found["lap_against_line"] = loss_summary(against, path.with_name(f"{path.stem}-losses{path.suffix}"))
     return {"picture": str(path), **found}
 
 

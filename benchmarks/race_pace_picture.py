@@ -41,6 +41,8 @@ class DrivenLap:
     lap_time_s: float | None
     progress: float
     """Progress (%) when the lap ended: 100 for a completed one."""
+    simtrace_rows: tuple[dict, ...] = ()
+    """The lap's DeepRacer simtrace rows, one per step (benchmarks.race_pace_losses reads them)."""
 
     @property
     def speeds_mps(self) -> np.ndarray:
@@ -100,7 +102,7 @@ def drive_lap_again(
         )
     lap = laps[lap_index]
     points = np.array([(row["X"], row["Y"]) for row in lap.simtrace_rows], dtype=float)
-    return DrivenLap(checkpoint, lap_index, points, lap.lap_time_s, lap.progress)
+    return DrivenLap(checkpoint, lap_index, points, lap.lap_time_s, lap.progress, lap.simtrace_rows)
 
 
 def draw_pace(track: Track, line: RacingLine, lap: DrivenLap | None, title: str, path: Path) -> Path:

@@ -8,6 +8,7 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 
 from selenium import webdriver
+from selenium.common.exceptions import StaleElementReferenceException
 from selenium.webdriver.chrome.service import Service
 
 CHROMIUM = "/usr/bin/chromium"
@@ -46,3 +47,22 @@ def wait_for(what: str, check: Callable[[], object], timeout_s: float, describe:
             return value
         time.sleep(0.5)
     raise AssertionError(f"timed out after {timeout_s:.0f} s waiting for {what}\n{describe()}")
+
+
+def text_of(driver: webdriver.Chrome, element_id: str) -> str | None:
+    """An element's text read in one script call, or None when it is absent. A page that rewrites its HTML every
+    second replaces the element between a find and a read; one call cannot go stale."""
+    return driver.execute_script(
+        "const node = document.getElementById(arguments[0]); return node ? node.textContent : null;", element_id
+    )
+
+
+def click(driver: webdriver.Chrome, css: str, attempts: int = 5) -> None:
+    """Click the element `css` finds, finding it again when the page rebuilt it between the find and the click."""
+    for _ in range(attempts - 1):
+        try:
+            driver.find_element("css selector", css).click()
+            return
+        except StaleElementReferenceException:
+            time.sleep(0.2)
+    driver.find_element("css selector", css).click()

@@ -15,7 +15,7 @@ import urllib.request
 
 import pytest
 
-from tests.browser import wait_for
+from tests.browser import click, text_of, wait_for
 from tests.conftest import write_custom_files
 from tests.short_runs import CENTRE, train_args, train_env
 from tests.viewer.conftest import free_port
@@ -29,6 +29,9 @@ LIVE = "live-run"
 OVERLAY_REWARDS = """const chart = window.racerViewer.charts.reward;
 const set = chart.data.datasets.find(d => d.label === arguments[0]);
 return set ? [set.data.filter(v => v !== null), set.borderDash] : null;"""
+RUN_ROW = """const row = document.querySelector(`#runs tr[data-run="${arguments[0]}"]`);
+return row ? [[...row.querySelectorAll("td")].map(td => td.textContent), row.className] : null;"""
+"""A run's row as its cells' texts and its class, read in one call: the page rebuilds the rows as the live run goes."""
 
 
 def test_the_live_page_overlays_a_finished_run_of_its_store(two_short_runs, tmp_path, browser, request):
@@ -61,17 +64,17 @@ def test_the_live_page_overlays_a_finished_run_of_its_store(two_short_runs, tmp_
     try:
         wait_for("the viewer to answer", page_answers, 120, describe)
         browser.get(url)
-        row = lambda name: browser.find_elements("css selector", f'#runs tr[data-run="{name}"]')  # noqa: E731
+        row = lambda name: browser.execute_script(RUN_ROW, name)  # noqa: E731
         wait_for("the finished run in the list", lambda: row(FINISHED), 60, describe)
         wait_for("the live run in the list", lambda: row(LIVE), 60, describe)
-        finished_row, live_row = row(FINISHED)[0], row(LIVE)[0]
-        cells = [cell.text for cell in finished_row.find_elements("css selector", "td")]
+        (cells, _), (live_cells, live_class) = row(FINISHED), row(LIVE)
         assert cells[2] == "finished" and cells[3] == str(len(logged)), cells
         assert cells[6] == f"{logged[-1]['progress']['episodes']}/6 episodes", cells
-        assert "shown" in live_row.text and "current" in live_row.get_attribute("class")
+        assert live_cells[1] == "shown" and "current" in live_class.split(), (live_cells, live_class)
 
         # Ticked: its curves lie over the live run's, dashed, with its logged rewards.
-        finished_row.find_element("css selector", "input[type=checkbox]").click()
+        checkbox = f'#runs input[type=checkbox][data-run="{FINISHED}"]'
+        click(browser, checkbox)
         curves = lambda: browser.find_element("id", "curves").get_attribute("data-overlays")  # noqa: E731
         wait_for("the overlay", lambda: curves() == FINISHED, 30, describe)
         rewards, dash = browser.execute_script(OVERLAY_REWARDS, FINISHED)
@@ -82,11 +85,11 @@ def test_the_live_page_overlays_a_finished_run_of_its_store(two_short_runs, tmp_
         # The live run's first iteration: the header says how far it is of its 3 minutes and what is left.
         points = lambda: int(browser.find_element("id", "curves").get_attribute("data-points"))  # noqa: E731
         wait_for("the live run's first iteration", points, 240, describe)
-        eta = wait_for("the time left", lambda: browser.find_elements("id", "eta"), 30, describe)[0].text
+        eta = wait_for("the time left", lambda: text_of(browser, "eta"), 30, describe)
         assert re.fullmatch(r"\d+:\d\d of 3:00 · (about \d+:\d\d left|stopping)", eta), eta
         first = eta
         time.sleep(2.5)
-        assert browser.find_element("id", "eta").text != first  # it counts on between iterations
+        assert text_of(browser, "eta") != first  # it counts on between iterations
 
         browser.execute_script("window.scrollTo(0, 0)")
         time.sleep(1.0)
@@ -97,7 +100,7 @@ def test_the_live_page_overlays_a_finished_run_of_its_store(two_short_runs, tmp_
         print(f"screenshot kept at {kept}")
 
         # Unticked: the overlay is gone.
-        row(FINISHED)[0].find_element("css selector", "input[type=checkbox]").click()
+        click(browser, checkbox)
         wait_for("the overlay removed", lambda: curves() == "", 30, describe)
         assert browser.execute_script(OVERLAY_REWARDS, FINISHED) is None
     finally:
