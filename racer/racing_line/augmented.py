@@ -8,9 +8,15 @@ Powell-Hestenes-Rockafellar augmented Lagrangian for two-sided constraints (Noce
     L(x; y, ρ) = f(x) + ρ/2 ‖A x + y/ρ − Π(A x + y/ρ)‖² − ‖y‖² / (2ρ),
 
 Π the projection onto [low, high] row by row, y the multipliers (positive on a high bound, negative on a low one).
-scipy's L-BFGS-B minimises L for fixed y and ρ; then y ← ρ (A x + y/ρ − Π(A x + y/ρ)), and ρ grows tenfold when the
-worst violation did not at least halve. An inner iteration costs one lap-time gradient and two products with A,
-whatever the rows.
+scipy's BFGS (a dense inverse Hessian) minimises L for fixed y and ρ, stopped as SLSQP stops; then
+y ← ρ (A x + y/ρ − Π(A x + y/ρ)), and ρ grows tenfold when the worst violation did not at least halve. An inner
+iteration costs one lap-time gradient, two products with A and O(controls²) for the Hessian, whatever the rows.
+SLSQP without constraints as the inner solver found the same lines but costs O(controls³) an iteration (0.15 s at
+446 controls: penbay_pro took 349 s).
+L-BFGS-B, the usual inner solver, stalled: the lap time's minimum over stations has kinks where its gradient jumps,
+and from racer_oval's last stage's start it stopped at 3.5348 s where SLSQP, with the rows as constraints, went on to
+3.5236 s and BFGS to 3.5238 s (a straight path led down from its point; its gradient, 48 s/m, pointed
+into a kink 1e-7 m away).
 
 The bounds are tightened by the feasibility tolerance first, so a result within it of the tightened bounds has every
 row inside the bounds as given.
@@ -22,7 +28,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import minimize
+from scipy.optimize import OptimizeResult, minimize
 
 Objective = Callable[[np.ndarray], tuple[float, np.ndarray]]
 """Controls -> (value, gradient)."""
@@ -43,18 +49,17 @@ class AugmentedLagrangianSettings:
     initial_penalty_per_objective: float = 10.0
     """ρ₀ = this × max(1, |f(x₀)|) per m²: from a feasible start (each stage starts on the line the one before found)
     ALGENCAN's rule for ρ₀ reduces to this."""
-    memory: int = 10
-    """L-BFGS-B's correction pairs: scipy's default (20 and 50 gave racer_oval's stages no better line)."""
-    max_inner_iterations: int = 15000
-    """Per inner solve: far above the few hundred a stage takes, a cap against a runaway."""
+    max_inner_iterations: int = 1000
+    """Per inner solve: SLSQP's cap for a whole stage (`optimiser.MAX_ITERATIONS`)."""
     max_outer_iterations: int = 40
+    """Against a runaway: ρ would have grown by 10⁴⁰."""
 
 
 @dataclass(frozen=True)
 class AugmentedLagrangianResult:
     controls: np.ndarray
     iterations: int
-    """Inner (L-BFGS-B) iterations over all outer ones."""
+    """Inner iterations over all outer ones."""
     worst_violation_m: float
     """The furthest any row lies outside the bounds as given (≤ 0: all inside)."""
     message: str
@@ -86,19 +91,13 @@ def augmented_lagrangian(
             excess = shifted - np.clip(shifted, inner_low, inner_high)
             return value + 0.5 * rho * (excess @ excess) - (y @ y) / (2 * rho), gradient + matrix.T @ (rho * excess)
 
-        start_value = lagrangian(controls)[0]
         inner = minimize(
             lagrangian,
             controls,
             jac=True,
-            method="L-BFGS-B",
-            options={
-                "maxiter": settings.max_inner_iterations,
-                "maxcor": settings.memory,
-                "ftol": settings.ftol_s / max(1.0, abs(start_value)),
-                "gtol": 0.0,
-            },
-            callback=on_iteration,
+            method="BFGS",
+            options={"maxiter": settings.max_inner_iterations, "gtol": 0.0},
+            callback=_FtolStop(settings.ftol_s, on_iteration),
         )
         iterations += inner.nit
         controls = inner.x
@@ -116,3 +115,19 @@ def augmented_lagrangian(
     rows = matrix @ controls
     worst = float(np.max(np.maximum(low - rows, rows - high)))
     return AugmentedLagrangianResult(controls, iterations, worst, message)
+
+
+class _FtolStop:
+    """scipy's BFGS has no test on the objective's gain: this stops it when an iteration gains less than `ftol_s`, the
+    test SLSQP makes."""
+
+    def __init__(self, ftol_s: float, on_iteration: Callable[[np.ndarray], None] | None) -> None:
+        self.ftol_s, self.on_iteration = ftol_s, on_iteration
+        self.previous = np.inf
+
+    def __call__(self, intermediate_result: OptimizeResult) -> None:
+        if self.on_iteration is not None:
+            self.on_iteration(intermediate_result.x)
+        gain, self.previous = self.previous - intermediate_result.fun, intermediate_result.fun
+        if gain < self.ftol_s:
+            raise StopIteration
