@@ -48,7 +48,7 @@ flying, racer_oval 3.5280 -> 3.5286 s)."""
 SLSQP_MAX_SIZE = 500_000
 """A stage whose controls × constraint rows (two per station) exceed this is solved by the augmented Lagrangian, the
 rest by SLSQP. SLSQP's iteration grows with both (penbay_pro, 89 m, at 112, 223 and 446 controls with ~3,570 rows:
-0.05, 0.15 and 0.53 s, later iterations more; the whole line took far over the 2 minutes a user should wait), the
+0.05, 0.15 and 0.53 s, later iterations more; the line took 213 s, against 57 s with the finer two here), the
 augmented Lagrangian's is one gradient (12 ms at 446 controls) whatever the rows. Where SLSQP is quick it keeps the
 stage: it is the reference the published bounds come from, and on racer_oval it found a line 0.01 % faster (3.5236 s
 against 3.5240 s with the augmented Lagrangian on every stage). With stations 0.05 m apart a stage's size is
