@@ -23,11 +23,13 @@ import numpy as np
 from racer.racing_line.limits import CarLimits, LapTimeBoundError
 from racer.racing_line.line import RacingLine, racing_line
 from racer.racing_line.optimiser import (
+    AUGMENTED_LAGRANGIAN,
     BORDER_MARGIN_M,
     CONTROL_SPACINGS_M,
     DEFAULT_SPACING_M,
     FTOL_S,
     MAX_ITERATIONS,
+    SLSQP_MAX_SIZE,
     STEERING_PENALTY_S_M2,
     ProgressCallback,
 )
@@ -35,11 +37,12 @@ from racer.shared.sim.car.dynamics import CarDynamics
 from racer.shared.sim.tracks.simapp_routes import file_sha256
 from racer.shared.sim.tracks.track import Track
 
-CACHE_FORMAT = 2
+CACHE_FORMAT = 3
 """Bumped whenever the model or the entry's layout changes what a key would give."""
 OPTIMISER_SETTINGS = (
-    f"SLSQP ftol {FTOL_S} maxiter {MAX_ITERATIONS}, steering penalty {STEERING_PENALTY_S_M2}, border margin "
-    f"{BORDER_MARGIN_M}, each stage's controls on the line before"
+    f"SLSQP ftol {FTOL_S} maxiter {MAX_ITERATIONS} up to {SLSQP_MAX_SIZE} controls x rows, beyond it "
+    f"{AUGMENTED_LAGRANGIAN}, steering penalty {STEERING_PENALTY_S_M2}, border margin {BORDER_MARGIN_M}, each "
+    "stage's controls on the line before"
 )
 _ARRAYS = ("points_m", "speeds_mps", "curvatures_per_m")
 
