@@ -332,7 +332,7 @@ def _picture(
             and _same(driven.progress, target.progress),
         }
     draw_pace(route, bound, driven, _title(result, pace), path)
-    against = lap_against_line(route, bound, driven)
+    against = None if driven is None else lap_against_line(route, bound, driven)
     if against is not None:
         found["lap_against_line"] = loss_summary(against, path.with_name(f"{path.stem}-losses{path.suffix}"))
     return {"picture": str(path), **found}
