@@ -65,3 +65,14 @@ def test_a_lap_that_did_not_finish_has_no_losses(oval):
     track, line = oval
     unfinished = DrivenLap("7.ckpt", 0, np.zeros((3, 2)), None, 40.0, ())
     assert lap_against_line(track, line, unfinished) is None
+
+
+def test_a_run_with_no_evaluation_in_time_draws_the_line_alone(oval, tmp_path):
+    """Under load a short run's first evaluation may come after the limit: the picture is the bound alone, no losses."""
+    from benchmarks.race_pace import _picture
+
+    track, line = oval
+    result = {"track": track.name, "generation": "simapp6", "car_profile": "simapp6-fit", "world": "base"}
+    found = _picture(track, line, [], {"best_three_lap_average": None}, result, tmp_path / "pace.png", tmp_path, 0)
+    assert found == {"picture": str(tmp_path / "pace.png")}
+    assert (tmp_path / "pace.png").stat().st_size > 10_000 and not (tmp_path / "pace-losses.png").exists()
