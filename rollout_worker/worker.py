@@ -278,8 +278,8 @@ class RolloutWorker:
             if self._stop.is_set():
                 return None
             number = claim_next_episode(self.channel, iteration, self.worker_id, num_workers, own_in_flight)
-            if number is None:
-                return None
+            if number is None or number in versions:  # in versions: another env plays it (a Redis restart lost the
+                return None  # claim and handed it out again); it is played once
             if self.overlapped and (newer := newer_policy(self.channel, self.checkpoints, self.policy_version)):
                 self.policy_version, self.policy = newer
                 loop.policy = self.policy  # episodes in flight keep their label; each step logs who chose it
