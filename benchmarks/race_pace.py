@@ -49,6 +49,7 @@ from racer.shared.sim.tracks.track import Track, TrackError
 from racer.shared.store import open_store
 from racer.shared.user_errors import user_error_types
 from racer.trainer.device import DeviceError, describe_device, resolve_device
+from racer.trainer.preset import PRESET_FILE
 
 DEFAULT_TRACK = "reinvent_base"
 """re:Invent 2018, the track DeepRacer's console and the community have lap times for."""
@@ -190,6 +191,9 @@ def race_pace_command(
         result["env_steps_trained"] = records[-1]["env_steps_total"] if records else 0
         result["time_shares"] = time_shares(records, trained.cpu_s, trained.wall_s, result["cores"])
         result["hyperparameters"] = json.loads((custom / "hyperparameters.json").read_text())
+        preset = custom / PRESET_FILE
+        result["preset"] = json.loads(preset.read_text()) if preset.is_file() else None
+        result["learning_rate"] = _learning_rates(records)
         if picture is not None:
             result.update(_picture(route, bound, evaluations, pace, result, picture, workdir, seed))
         click.echo(json.dumps(result))
@@ -287,6 +291,14 @@ def _ratios(pace: dict, bound: RacingLine) -> dict:
         "best_three_lap_average": None if average is None else round(average["seconds"] / bound.standing_average_s, 3),
         "best_lap": None if lap is None else round(lap["seconds"] / bound.lap_time_s, 3),
     }
+
+
+def _learning_rates(records: list[dict]) -> dict | None:
+    """The learning rate after the first and the last update, and its range (a preset's desired_kl moves it)."""
+    rates = [record["learning_rate"] for record in records if "learning_rate" in record]
+    if not rates:
+        return None
+    return {"first": rates[0], "last": rates[-1], "lowest": min(rates), "highest": max(rates)}
 
 
 def _title(result: dict, pace: dict | None) -> str:

@@ -59,6 +59,7 @@ from racer.shared.policy.networks import ActionDistribution, ActorCritic
 from racer.trainer.clip_schedule import CONSTANT_ONE, ClipSchedule
 from racer.trainer.device import exact_fp32
 from racer.trainer.gae import GAE_LAMBDA, compute_gae
+from racer.trainer.kl_adaptive_lr import KLAdaptiveRate
 from racer.trainer.learner import ADAM_BETAS, ADAM_EPSILON, UpdateAbandoned, adam, seed_or_fresh
 from racer.trainer.log_lines import format_policy_training_line
 from racer.trainer.nan_guard import (
@@ -129,6 +130,9 @@ class PPOSettings:
     clip_schedule: ClipSchedule = CONSTANT_ONE
     """Multiplies clip_epsilon by environment steps trained on (a preset's `clipping_decay_schedule`; DeepRacer:
     constant 1; racer.trainer.clip_schedule)."""
+    desired_kl: float | None = None
+    """Adapt the learning rate before each step to keep the minibatch's KL near this (a preset's `desired_kl`;
+    racer.trainer.kl_adaptive_lr); None, as DeepRacer, keeps `lr` fixed."""
 
 
 @dataclass(frozen=True)
@@ -305,6 +309,10 @@ class PPOLearner:
                 # Clipped surrogate objective, against the frozen old policy.
                 old = slice_distribution(old_policy, indices)
                 new = self.network.distribution(observations, self.tower_dtype)
+                with torch.no_grad():
+                    kl = float(new.kl_from(old).mean())  # KL(old || the policy before this step)
+                if self.settings.desired_kl is not None:
+                    self.learning_rate = KLAdaptiveRate(self.settings.desired_kl).next_rate(self.learning_rate, kl)
                 actions = batch.actions[indices]
                 ratio = torch.exp(new.log_prob(actions) - old_log_probs(batch, indices, old.log_prob(actions)))
                 advantage = advantages[indices]
@@ -331,7 +339,7 @@ class PPOLearner:
 
                 with torch.no_grad():
                     sums["surrogate"] += float(surrogate)
-                    sums["kl"] += float(new.kl_from(old).mean())
+                    sums["kl"] += kl
                     sums["entropy"] += float(entropy)
                     sums["value"] += float(value_loss)
                     sums["clipped"] += float(((ratio - 1).abs() > clip).float().mean())

@@ -12,6 +12,8 @@ clipped PPO:
   ClipByGlobalNorm); null, as DeepRacer, does not clip.
 - `kl_cutoff` (null, racer's name: RL Coach's clipped PPO has none): stop an update's remaining epochs once an
   epoch's mean KL(old || new) exceeds it.
+- `desired_kl` (null, rsl_rl's name: RL Coach has none): adapt the learning rate before each minibatch's step to
+  keep its KL(old || current) within a factor 2 of this (racer.trainer.kl_adaptive_lr); null keeps `lr` fixed.
 - `clipping_decay_schedule` ({"type": "constant", "value": 1}): multiplies the clip range by environment steps
   trained on; or {"type": "linear", "initial_value", "final_value", "decay_steps"} (racer.trainer.clip_schedule).
 SAC:
@@ -61,6 +63,7 @@ class Preset:
     adam_optimizer_beta2: float = ADAM_BETAS[1]
     clip_gradients: float | None = None
     kl_cutoff: float | None = None
+    desired_kl: float | None = None
     rate_for_copying_weights_to_target: float = 1.0
     clipping_decay_schedule: ClipSchedule = CONSTANT_ONE
     updates_per_transition: float | None = None
@@ -81,6 +84,7 @@ class Preset:
             value_loss_weight=self.value_loss_weight,
             max_gradient_norm=self.clip_gradients,
             kl_cutoff=self.kl_cutoff,
+            desired_kl=self.desired_kl,
             clip_schedule=self.clipping_decay_schedule,
         )
 
@@ -101,6 +105,7 @@ PPO_KEYS = (
     "adam_optimizer_beta2",
     "clip_gradients",
     "kl_cutoff",
+    "desired_kl",
     "clipping_decay_schedule",
 )
 SAC_KEYS = ("rate_for_copying_weights_to_target", "updates_per_transition")
@@ -114,10 +119,11 @@ _RANGES: dict[str, tuple[float, float, bool]] = {
     "adam_optimizer_beta2": (0.0, 1.0, True),
     "clip_gradients": (0.0, math.inf, False),
     "kl_cutoff": (0.0, math.inf, False),
+    "desired_kl": (0.0, math.inf, False),
     "rate_for_copying_weights_to_target": (0.0, 1.0, False),
     "updates_per_transition": (0.0, math.inf, False),
 }
-_NULLABLE = ("clip_gradients", "kl_cutoff")
+_NULLABLE = ("clip_gradients", "kl_cutoff", "desired_kl")
 
 
 def parse_preset(data: object, training_algorithm: str, source: str = PRESET_FILE) -> Preset:

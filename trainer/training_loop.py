@@ -272,6 +272,7 @@ class Trainer:
                 steps_dropped=capped.dropped_steps,
                 rollout_s=round(rollout_wall_s, 3),
                 update_s=round(update_s, 3),
+                learning_rate=self.learner.learning_rate,  # after the update: a preset's desired_kl moves it
             )
             if self.options.run.overlap:
                 summary.update(overlap_summary(iteration, episodes, all_stats))

@@ -196,7 +196,9 @@ def test_the_augmented_lagrangian_keeps_every_station_on_the_road_and_matches_sl
         monkeypatch.setattr(optimiser, "SLSQP_MAX_SIZE", size)
         found = optimiser.optimise_line(track, limits, 0.05, (0.8,))
         offsets = found.model.offset_matrix @ found.controls
-        assert np.all(offsets >= found.model.offset_low) and np.all(offsets <= found.model.offset_high), name
+        slack_m = 1e-12 if name == "slsqp" else 0.0  # SLSQP lands on a bound to the last bit (4e-16 m out, AVX2 EPYC)
+        low, high = found.model.offset_low - slack_m, found.model.offset_high + slack_m
+        assert np.all(offsets >= low) and np.all(offsets <= high), name
         line = found.model.line(torch_module(), torch_module().from_numpy(found.controls))
         laps[name] = float(flying_lap(torch_module(), *line[1:], limits)[1])
     assert laps["augmented"] == pytest.approx(laps["slsqp"], rel=1e-3)

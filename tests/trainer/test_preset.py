@@ -31,6 +31,7 @@ DEFAULTS_SPELLED_OUT = {
     "adam_optimizer_beta2": 0.999,
     "clip_gradients": None,
     "kl_cutoff": None,
+    "desired_kl": None,
     "clipping_decay_schedule": {"type": "constant", "value": 1},
 }
 
@@ -64,6 +65,19 @@ def test_the_kl_cutoff_stops_the_remaining_epochs():
     settings = parse_preset({"kl_cutoff": 1e-12}, "clipped_ppo").ppo_settings(PPOSettings(seed=0))
     stats = PPOLearner(network, replace(HP, num_epochs=5), settings).update(episodes)
     assert len(stats) < 5
+
+
+def test_desired_kl_moves_the_learning_rate_towards_the_kl_it_asks_for():
+    """A target far below what an update's steps give lowers the rate; one far above raises it; both start at lr."""
+    rates = {}
+    for desired_kl in (1e-9, 1e3):
+        network = task_network(3, seed=0)
+        episodes = random_episodes(network, [30, 25, 20], np.random.default_rng(0))
+        settings = parse_preset({"desired_kl": desired_kl}, "clipped_ppo").ppo_settings(PPOSettings(seed=0))
+        learner = PPOLearner(network, HP, settings)
+        learner.update(episodes)
+        rates[desired_kl] = learner.learning_rate
+    assert rates[1e-9] < HP.lr < rates[1e3]
 
 
 @pytest.mark.parametrize(
