@@ -194,6 +194,7 @@ def race_pace_command(
         preset = custom / PRESET_FILE
         result["preset"] = json.loads(preset.read_text()) if preset.is_file() else None
         result["learning_rate"] = _learning_rates(records)
+        result["kl_divergence"] = _kl_divergences(records)
         if picture is not None:
             result.update(_picture(route, bound, evaluations, pace, result, picture, workdir, seed))
         click.echo(json.dumps(result))
@@ -299,6 +300,14 @@ def _learning_rates(records: list[dict]) -> dict | None:
     if not rates:
         return None
     return {"first": rates[0], "last": rates[-1], "lowest": min(rates), "highest": max(rates)}
+
+
+def _kl_divergences(records: list[dict]) -> dict | None:
+    """The updates' KL(old || new), each a mean over its epochs: the median and the largest over the run."""
+    kls = sorted(record["kl_divergence"] for record in records if record.get("kl_divergence") is not None)
+    if not kls:
+        return None
+    return {"median": kls[len(kls) // 2], "highest": kls[-1]}
 
 
 def _title(result: dict, pace: dict | None) -> str:

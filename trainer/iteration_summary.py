@@ -66,20 +66,20 @@ def iteration_summary(
     }
 
 
-def overlap_summary(iteration: int, episodes: list[Episode], stats: Sequence[object]) -> dict:
-    """An overlapped run's iteration: the share of its episodes played by the checkpoint before the network's, and
-    the update's clip fraction and KL (means over its epochs; None for a learner that reports neither, SAC)."""
-    behind = sum(1 for episode in episodes if episode.policy_version < iteration)
+def update_summary(stats: Sequence[object]) -> dict:
+    """The update's clip fraction and KL (means over its epochs; None for a learner that reports neither, SAC)."""
 
     def mean(name: str) -> float | None:
         values = [getattr(entry, name) for entry in stats if hasattr(entry, name)]
         return round(sum(values) / len(values), 6) if values else None
 
-    return {
-        "episodes_one_behind_share": round(behind / len(episodes), 4) if episodes else 0.0,
-        "clip_fraction": mean("clip_fraction"),
-        "kl_divergence": mean("kl_divergence"),
-    }
+    return {"clip_fraction": mean("clip_fraction"), "kl_divergence": mean("kl_divergence")}
+
+
+def overlap_summary(iteration: int, episodes: list[Episode]) -> dict:
+    """An overlapped run's iteration: the share of its episodes played by the checkpoint before the network's."""
+    behind = sum(1 for episode in episodes if episode.policy_version < iteration)
+    return {"episodes_one_behind_share": round(behind / len(episodes), 4) if episodes else 0.0}
 
 
 def append_to_log(store: ObjectStore, layout: ModelLayout, summary: dict) -> None:

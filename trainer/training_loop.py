@@ -50,7 +50,7 @@ from racer.trainer.collector import Collector, CollectTimes, StopRequested
 from racer.trainer.device import describe_device
 from racer.trainer.iteration_finish import FinishingIteration, save_checkpoint
 from racer.trainer.iteration_parts import ANNOUNCEMENTS, SUMMARIES, IterationParts
-from racer.trainer.iteration_summary import iteration_summary, overlap_summary
+from racer.trainer.iteration_summary import iteration_summary, overlap_summary, update_summary
 from racer.trainer.learner import UpdateAbandoned
 from racer.trainer.log_lines import format_training_episode_line
 from racer.trainer.memory_cap import cap_episodes, default_max_memory_steps, global_episode_order
@@ -273,9 +273,10 @@ class Trainer:
                 rollout_s=round(rollout_wall_s, 3),
                 update_s=round(update_s, 3),
                 learning_rate=self.learner.learning_rate,  # after the update: a preset's desired_kl moves it
+                **update_summary(all_stats),
             )
             if self.options.run.overlap:
-                summary.update(overlap_summary(iteration, episodes, all_stats))
+                summary.update(overlap_summary(iteration, episodes))
         summary["trainer_parts_s"] = self.parts.totals()  # up to elapsed_s
         return summary
 
