@@ -174,6 +174,8 @@ class PPOLearner:
         """Autocast dtype of the towers during updates (None: fp32)."""
         self.env_steps = 0
         """Environment steps trained on so far, this update's included: the clip schedule's clock."""
+        self.adaptive_rate = None if settings.desired_kl is None else KLAdaptiveRate(settings.desired_kl)
+        """A preset's desired_kl: the rule that moves the learning rate before each step (None: DeepRacer's fixed lr)."""
 
     @property
     def nan_rollbacks(self) -> int:
@@ -311,8 +313,8 @@ class PPOLearner:
                 new = self.network.distribution(observations, self.tower_dtype)
                 with torch.no_grad():
                     kl = float(new.kl_from(old).mean())  # KL(old || the policy before this step)
-                if self.settings.desired_kl is not None:
-                    self.learning_rate = KLAdaptiveRate(self.settings.desired_kl).next_rate(self.learning_rate, kl)
+                if self.adaptive_rate is not None:
+                    self.learning_rate = self.adaptive_rate.next_rate(self.learning_rate, kl)
                 actions = batch.actions[indices]
                 ratio = torch.exp(new.log_prob(actions) - old_log_probs(batch, indices, old.log_prob(actions)))
                 advantage = advantages[indices]
