@@ -14,6 +14,9 @@ clipped PPO:
   epoch's mean KL(old || new) exceeds it.
 - `desired_kl` (null, rsl_rl's name: RL Coach has none): adapt the learning rate before each minibatch's step to
   keep its KL(old || current) within a factor 2 of this (racer.trainer.kl_adaptive_lr); null keeps `lr` fixed.
+- `anneal_lr` (false, CleanRL's name: RL Coach has none): before each update, `lr` x the share of the run still to
+  go (its time limit or episode limit, whichever stops it sooner), so the rate reaches 0 at the run's end
+  (racer.trainer.lr_anneal); not with `desired_kl`, which moves the rate by another rule.
 - `clipping_decay_schedule` ({"type": "constant", "value": 1}): multiplies the clip range by environment steps
   trained on; or {"type": "linear", "initial_value", "final_value", "decay_steps"} (racer.trainer.clip_schedule).
 SAC:
@@ -64,6 +67,7 @@ class Preset:
     clip_gradients: float | None = None
     kl_cutoff: float | None = None
     desired_kl: float | None = None
+    anneal_lr: bool = False
     rate_for_copying_weights_to_target: float = 1.0
     clipping_decay_schedule: ClipSchedule = CONSTANT_ONE
     updates_per_transition: float | None = None
@@ -106,6 +110,7 @@ PPO_KEYS = (
     "clip_gradients",
     "kl_cutoff",
     "desired_kl",
+    "anneal_lr",
     "clipping_decay_schedule",
 )
 SAC_KEYS = ("rate_for_copying_weights_to_target", "updates_per_transition")
@@ -150,6 +155,11 @@ def parse_preset(data: object, training_algorithm: str, source: str = PRESET_FIL
     for key, value in data.items():
         if key == "clipping_decay_schedule":
             continue  # after the clip range it multiplies
+        if key == "anneal_lr":
+            if not isinstance(value, bool):
+                raise PresetError(f"{source}: anneal_lr: {value!r} is not true or false")
+            values[key] = value
+            continue
         if value is None and key in _NULLABLE:
             values[key] = None
             continue
@@ -160,6 +170,10 @@ def parse_preset(data: object, training_algorithm: str, source: str = PRESET_FIL
             bracket = "[" if low_included else "("
             raise PresetError(f"{source}: {key}: {value} is outside {bracket}{low}, {high}]")
         values[key] = float(value)
+    if values.get("anneal_lr") and values.get("desired_kl") is not None:
+        raise PresetError(
+            f"{source}: anneal_lr and desired_kl: both move the learning rate, by different rules; fix: keep one"
+        )
     if "clipping_decay_schedule" in data:
         clip_epsilon = values.get("clip_likelihood_ratio_using_epsilon", CLIP_EPSILON)
         try:

@@ -53,6 +53,7 @@ from racer.trainer.iteration_parts import ANNOUNCEMENTS, SUMMARIES, IterationPar
 from racer.trainer.iteration_summary import iteration_summary, overlap_summary, update_summary
 from racer.trainer.learner import UpdateAbandoned
 from racer.trainer.log_lines import format_training_episode_line
+from racer.trainer.lr_anneal import annealed_rate, share_of_run_used
 from racer.trainer.memory_cap import cap_episodes, default_max_memory_steps, global_episode_order
 from racer.trainer.precision import DEFAULT_PRECISION, Precision
 from racer.trainer.preflight import PreflightReport, check_clone_source
@@ -237,6 +238,9 @@ class Trainer:
                 capped.dropped_steps,
                 capped.max_steps,
             )
+        if self.preset is not None and self.preset.anneal_lr:  # by the share used before this iteration, as CleanRL
+            used = share_of_run_used(self.pace.condition, time.monotonic() - self.started, self.episodes_consumed)
+            self.learner.learning_rate = annealed_rate(self.hyperparameters.lr, used)
         for episode in episodes:
             self.episodes_consumed += 1
             self.env_steps += episode.steps
@@ -272,7 +276,7 @@ class Trainer:
                 steps_dropped=capped.dropped_steps,
                 rollout_s=round(rollout_wall_s, 3),
                 update_s=round(update_s, 3),
-                learning_rate=self.learner.learning_rate,  # after the update: a preset's desired_kl moves it
+                learning_rate=self.learner.learning_rate,  # after the update: a preset's desired_kl or anneal_lr moves it
                 **update_summary(all_stats),
             )
             if self.options.run.overlap:

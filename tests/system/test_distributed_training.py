@@ -18,6 +18,7 @@ import pytest
 from racer.local.run import service_environment
 from racer.local.services import _die_with_parent
 from racer.shared.config import RedisSettings, ServiceSettings
+from racer.shared.deepracer.hyperparameters import load_hyperparameters
 from racer.shared.deepracer.simtrace import read_simtrace
 from racer.shared.model_layout import ModelLayout
 from racer.shared.redis_connection import RedisLink
@@ -145,6 +146,7 @@ def iteration_records(store, prefix: str) -> list[dict]:
 
 def test_two_workers_two_worlds_two_iterations(system):
     store = open_store(system.settings.store)
+    (system.custom_files / "preset.json").write_text(json.dumps({"anneal_lr": True}))
     system.start_trainer(max_episodes=4)
     system.start_worker(0)
     system.start_worker(1)
@@ -157,6 +159,10 @@ def test_two_workers_two_worlds_two_iterations(system):
     assert match and match.group(1) == "2", pointer
     records = iteration_records(store, prefix)
     assert [r["episodes"] for r in records] == [2, 2]
+    lr = load_hyperparameters(system.custom_files / "hyperparameters.json")[0].lr
+    assert [r["learning_rate"] for r in records] == pytest.approx(
+        [lr, lr / 2]
+    )  # anneal_lr: 0 then 2 of 4 episodes used
     assert int(match.group(2)) == records[-1]["env_steps_total"]  # M in N_Step-M = env steps consumed
     for worker_id in (0, 1):
         for iteration in (0, 1):

@@ -32,6 +32,7 @@ DEFAULTS_SPELLED_OUT = {
     "clip_gradients": None,
     "kl_cutoff": None,
     "desired_kl": None,
+    "anneal_lr": False,
     "clipping_decay_schedule": {"type": "constant", "value": 1},
 }
 
@@ -94,6 +95,8 @@ def test_desired_kl_moves_the_learning_rate_towards_the_kl_it_asks_for():
         ({"optimizer_epsilon": "small"}, r"optimizer_epsilon: 'small' is not a number"),
         ({"gae_lambda": None}, r"gae_lambda: None is not a number"),
         ({"updates_per_transition": 0.5}, r"updates_per_transition: not a clipped_ppo parameter"),
+        ({"anneal_lr": 1}, r"anneal_lr: 1 is not true or false"),
+        ({"anneal_lr": True, "desired_kl": 0.01}, r"anneal_lr and desired_kl: both move the learning rate"),
         ({"clipping_decay_schedule": {"type": "cosine"}}, r"clipping_decay_schedule: type: 'cosine' is not one of"),
         ({"clipping_decay_schedule": 1}, r"clipping_decay_schedule: expected an object with a type"),
         (
