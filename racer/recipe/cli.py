@@ -40,7 +40,7 @@ def recipe_command(
 ) -> None:
     """Write custom files for a fast lap of track NAME (as `racer track show` takes it) with the car of
     --generation / --car-profile: reward_function.py with the racing line pasted in, model_metadata.json with the
-    actions the line needs, hyperparameters.json and workers.json (docs/racing.md). The line is the car's lap-time
+    actions the line needs, hyperparameters.json, workers.json and preset.json (docs/racing.md). The line is the car's lap-time
     bound on the track: computing it takes a minute or two."""
     try:
         check_out(out, force)

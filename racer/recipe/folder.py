@@ -5,7 +5,9 @@
   space the line needs (`action_space`);
 * `hyperparameters.json`: the fast-lap recipe's, unchanged (docs/racing.md gives their reasons);
 * `workers.json`: the route, the car, and the worlds where the line holds: every worker drives a world whose tyre μ
-  is at least the line's world's, the line's own first (worker 0 evaluates there).
+  is at least the line's world's, the line's own first (worker 0 evaluates there);
+* `preset.json`: `anneal_lr`, the learning rate falling to 0 at the run's limit (racer.trainer.lr_anneal), so the
+  run's last checkpoints settle where a race takes the last one.
 """
 
 from __future__ import annotations
@@ -26,7 +28,8 @@ from racer.shared.sim.car.dynamics import CarDynamics
 from racer.shared.sim.scene.worlds import WORLD_NAMES, get_world
 from racer.shared.sim.tracks.track import Track
 
-RECIPE_FILES = ("reward_function.py", "model_metadata.json", "hyperparameters.json", "workers.json")
+RECIPE_FILES = ("reward_function.py", "model_metadata.json", "hyperparameters.json", "workers.json", "preset.json")
+RECIPE_PRESET = {"anneal_lr": True}
 MAX_WORKERS = 32
 """`racer train --workers`' largest: workers.json names a world for each worker a run can have."""
 CLEARANCE_TOLERANCE_M = 0.01
@@ -106,6 +109,7 @@ def recipe_from_line(
         "model_metadata.json": json.dumps(metadata, indent=4) + "\n",
         "hyperparameters.json": (FAST_LAP_CUSTOM_FILES[action_space] / "hyperparameters.json").read_text(),
         "workers.json": json.dumps(_workers(route_name or route.name, car), indent=4) + "\n",
+        "preset.json": json.dumps(RECIPE_PRESET, indent=4) + "\n",
     }
     return Recipe(line, needs, files)
 

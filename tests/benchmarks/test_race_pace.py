@@ -170,9 +170,9 @@ def test_a_short_run_prints_one_json_line_with_every_figure(tmp_path, monkeypatc
     assert all(len(checkpoint["laps_s"]) <= 3 for checkpoint in line["checkpoints"])
     assert all(point["minutes"] <= SHORT_RUN_MINUTES for point in line["curve"])
     assert line["hyperparameters"]["num_episodes_between_training"] == 2
-    assert line["preset"] is None  # racer recipe's folder brings no preset.json
-    lr = line["hyperparameters"]["lr"]
-    assert line["learning_rate"] == {"first": lr, "last": lr, "lowest": lr, "highest": lr}  # fixed without desired_kl
+    assert line["preset"] == {"anneal_lr": True}  # racer recipe's folder: the rate falls to 0 at the time limit
+    rates, lr = line["learning_rate"], line["hyperparameters"]["lr"]
+    assert lr > rates["first"] == rates["highest"] > rates["last"] == rates["lowest"] > 0
     assert 0 < line["kl_divergence"]["median"] <= line["kl_divergence"]["highest"]  # every update moved the policy
     shares = line["time_shares"]
     assert shares["workers"]["workers"] == 1

@@ -52,11 +52,13 @@ def test_the_folder_trains_without_a_warning_and_its_reward_passes_the_reward_te
     route, _, folders = made
     folder = folders[space]
     assert sorted(path.name for path in folder.iterdir()) == sorted(RECIPE_FILES)
+    assert json.loads((folder / "preset.json").read_text()) == {"anneal_lr": True}
     metadata = load_model_metadata(folder / "model_metadata.json")
     report = check_reward_file(folder / "reward_function.py", route, metadata=metadata)
     assert report.errors == [] and report.warnings == [], report.format()
     checked = preflight(folder, RunOptions(num_workers=4, track="racer_circuit"))  # workers.json names the route
     assert checked.warnings == ()
+    assert checked.preset is not None and checked.preset.anneal_lr
     assert {worker.track for worker in checked.workers} == {route.name}
     assert checked.workers[0].world == "base"  # worker 0 evaluates in the line's world
     assert "wood" not in {worker.world for worker in checked.workers}  # less grip than the line's: it would not hold
