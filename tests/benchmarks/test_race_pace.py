@@ -172,7 +172,7 @@ def test_a_short_run_prints_one_json_line_with_every_figure(tmp_path, monkeypatc
     assert line["hyperparameters"]["num_episodes_between_training"] == 2
     assert line["preset"] == {"anneal_lr": True}  # racer recipe's folder: the rate falls to 0 at the time limit
     rates, lr = line["learning_rate"], line["hyperparameters"]["lr"]
-    assert lr > rates["first"] == rates["highest"] > rates["last"] == rates["lowest"] > 0
+    assert lr > rates["first"] == rates["highest"] > rates["last"] == rates["lowest"] >= 0
     assert 0 < line["kl_divergence"]["median"] <= line["kl_divergence"]["highest"]  # every update moved the policy
     shares = line["time_shares"]
     assert shares["workers"]["workers"] == 1
