@@ -160,9 +160,8 @@ def test_two_workers_two_worlds_two_iterations(system):
     records = iteration_records(store, prefix)
     assert [r["episodes"] for r in records] == [2, 2]
     lr = load_hyperparameters(system.custom_files / "hyperparameters.json")[0].lr
-    assert [r["learning_rate"] for r in records] == pytest.approx(
-        [lr, lr / 2]
-    )  # anneal_lr: 0 then 2 of 4 episodes used
+    # anneal_lr: the first update with 0 of the 4 episodes used, the second with 2
+    assert [r["learning_rate"] for r in records] == pytest.approx([lr, lr / 2])
     assert int(match.group(2)) == records[-1]["env_steps_total"]  # M in N_Step-M = env steps consumed
     for worker_id in (0, 1):
         for iteration in (0, 1):
