@@ -58,8 +58,8 @@ SHALLOW, DEEP, DEEPER = NEURAL_NETWORKS
 FRONT = ("FRONT_FACING_CAMERA",)
 FRONT_LIDAR = ("FRONT_FACING_CAMERA", "LIDAR")
 FRONT_NETWORKS = {0: DEEP, 1: DEEP, 2: DEEPER, 3: DEEPER}
-"""SENSOR_SETS' front-camera sets (index: network): the deep and deeper networks meet each PPO head and every lidar
-there, and the 230 MB stereo DEEP networks stay out of the suite."""
+"""SENSOR_SETS' front-camera sets (index: network): the deep and deeper networks each meet both PPO heads and, between
+them, every lidar; the 230 MB stereo DEEP networks stay out of the suite."""
 PPO_SPECS = [
     ModelSpec(FRONT_NETWORKS.get(i, SHALLOW), sensors, continuous=(i + i // 4) % 2 == 1)
     for i, sensors in enumerate(SENSOR_SETS)
@@ -70,7 +70,8 @@ the stereo sets on the shallow network, and the shallow front-camera discrete mo
 SAC_SPECS = [ModelSpec(network, FRONT_LIDAR, True, True) for network in (DEEP, DEEPER)] + [
     ModelSpec(SHALLOW, ("STEREO_CAMERAS", "SECTOR_LIDAR"), True, True)
 ]
-"""SAC differs from PPO in its head only (the embedders are the same code): every network once, and stereo."""
+"""SAC differs from PPO in its head only (the embedders are the same code): every network once, the shallow one with
+stereo cameras."""
 SUITE_SPECS = PPO_SPECS + SAC_SPECS
 
 
